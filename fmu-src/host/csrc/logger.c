@@ -1,0 +1,58 @@
+/* Variadic FMI 2.0 logger callback for the Rust host.
+ * fmi2CallbackLogger is `void (*)(void*, const char*, int, const char*, const char*, ...)`;
+ * the message is a printf format. We format it with vsnprintf and hand the result to Rust. */
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+
+/* The componentEnvironment the host passes to fmi2Instantiate points to this struct (see
+ * src/ffi.rs `LogEnv`): a Rust sink function (never unwinds) and its data pointer. */
+typedef void (*fmi2host_sink_fn)(void *data, const char *instance_name, int status,
+                                 const char *category, const char *message);
+typedef struct {
+    fmi2host_sink_fn sink;
+    void *data;
+} fmi2host_env;
+
+static void fmi2host_log_message(void *env, const char *instance_name, int status,
+                                 const char *category, const char *message) {
+    fmi2host_env *e = (fmi2host_env *)env;
+    if (e == NULL || e->sink == NULL) {
+        return;
+    }
+    e->sink(e->data, instance_name, status, category, message);
+}
+
+void fmi2host_logger(void *env, const char *instance_name, int status, const char *category,
+                     const char *message, ...) {
+    char small[1024];
+    va_list args;
+    if (message == NULL) {
+        fmi2host_log_message(env, instance_name, status, category, "(null message)");
+        return;
+    }
+    va_start(args, message);
+    int n = vsnprintf(small, sizeof small, message, args);
+    va_end(args);
+    if (n < 0) {
+        fmi2host_log_message(env, instance_name, status, category, message);
+        return;
+    }
+    if ((size_t)n < sizeof small) {
+        fmi2host_log_message(env, instance_name, status, category, small);
+        return;
+    }
+    char *big = (char *)malloc((size_t)n + 1);
+    if (big == NULL) {
+        fmi2host_log_message(env, instance_name, status, category, small);
+        return;
+    }
+    va_start(args, message);
+    vsnprintf(big, (size_t)n + 1, message, args);
+    va_end(args);
+    fmi2host_log_message(env, instance_name, status, category, big);
+    free(big);
+}
+
+void *fmi2host_calloc(size_t nobj, size_t size) { return calloc(nobj, size); }
+void fmi2host_free(void *obj) { free(obj); }

@@ -1,0 +1,398 @@
+//! Measured / input CSV files: `time` first, numeric cells, SI units.
+//!
+//! Every error names the file, the 1-based line and the 1-based column (field index), and the
+//! column's header name where there is one.
+
+use crate::md::{Causality, ModelDescription};
+use std::fmt;
+use std::io::Write;
+use std::path::Path;
+
+/// A CSV problem located in the file.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub struct CsvError {
+    /// File as given.
+    pub file: String,
+    /// 1-based line (0 when the file could not be read at all).
+    pub line: usize,
+    /// 1-based column (field index; 0 when not about one column).
+    pub column: usize,
+    /// What is wrong.
+    pub message: String,
+}
+
+impl fmt::Display for CsvError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match (self.line, self.column) {
+            (0, _) => write!(f, "{}: {}", self.file, self.message),
+            (l, 0) => write!(f, "{}:{l}: {}", self.file, self.message),
+            (l, c) => write!(f, "{}:{l}:{c}: {}", self.file, self.message),
+        }
+    }
+}
+
+/// A parsed CSV: the `time` column and the other columns by header name.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Table {
+    /// File name used in messages.
+    pub file: String,
+    /// The `time` column (strictly increasing).
+    pub time: Vec<f64>,
+    /// Header names of the other columns, in file order.
+    pub names: Vec<String>,
+    /// `columns[j][k]`: column `names[j]` at `time[k]`.
+    pub columns: Vec<Vec<f64>>,
+}
+
+impl Table {
+    /// Samples of column `name`.
+    pub fn column(&self, name: &str) -> Option<&[f64]> {
+        self.names
+            .iter()
+            .position(|n| n == name)
+            .map(|j| self.columns[j].as_slice())
+    }
+
+    /// The sample interval: the median of the time differences (None with fewer than 2 rows).
+    pub fn sample_interval(&self) -> Option<f64> {
+        let mut d: Vec<f64> = self.time.windows(2).map(|w| w[1] - w[0]).collect();
+        if d.is_empty() {
+            return None;
+        }
+        d.sort_by(f64::total_cmp);
+        Some(d[d.len() / 2])
+    }
+
+    /// Checks every column against the FMU: each must be an input or an output of it.
+    /// Returns the error for the first unknown column (line 1, its column number).
+    pub fn check_against(&self, md: &ModelDescription) -> Result<(), CsvError> {
+        for (j, name) in self.names.iter().enumerate() {
+            let ok = md
+                .variable(name)
+                .map(|v| matches!(v.causality, Causality::Input | Causality::Output))
+                .unwrap_or(false);
+            if !ok {
+                let what = if md.variable(name).is_some() {
+                    "is neither an input nor an output of the FMU"
+                } else {
+                    "is not a variable of the FMU"
+                };
+                let inputs = md.input_names().join(", ");
+                let outputs = md.output_names().join(", ");
+                return Err(CsvError {
+                    file: self.file.clone(),
+                    line: 1,
+                    column: j + 2,
+                    message: format!(
+                        "column '{name}' {what} (inputs: {}; outputs: {})",
+                        if inputs.is_empty() { "none" } else { &inputs },
+                        if outputs.is_empty() { "none" } else { &outputs }
+                    ),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Names of the columns that are inputs of the FMU.
+    pub fn input_columns(&self, md: &ModelDescription) -> Vec<String> {
+        self.names
+            .iter()
+            .filter(|n| md.variable(n).map(|v| v.causality == Causality::Input).unwrap_or(false))
+            .cloned()
+            .collect()
+    }
+
+    /// Names of the columns that are outputs of the FMU.
+    pub fn output_columns(&self, md: &ModelDescription) -> Vec<String> {
+        self.names
+            .iter()
+            .filter(|n| md.variable(n).map(|v| v.causality == Causality::Output).unwrap_or(false))
+            .cloned()
+            .collect()
+    }
+}
+
+/// Reads and parses the CSV at `path`.
+pub fn read_csv(path: &Path) -> Result<Table, CsvError> {
+    let file = path.display().to_string();
+    let bytes = std::fs::read(path).map_err(|e| CsvError {
+        file: file.clone(),
+        line: 0,
+        column: 0,
+        message: format!("cannot read: {e}"),
+    })?;
+    let text = String::from_utf8(bytes).map_err(|e| CsvError {
+        file: file.clone(),
+        line: 0,
+        column: 0,
+        message: format!("not UTF-8 text: {e}"),
+    })?;
+    parse_csv(&text, &file)
+}
+
+fn unquote(s: &str) -> &str {
+    let t = s.trim();
+    if t.len() >= 2 && t.starts_with('"') && t.ends_with('"') {
+        t[1..t.len() - 1].trim()
+    } else {
+        t
+    }
+}
+
+/// Parses CSV text; `file` names it in errors. Blank lines and lines starting with `#` are
+/// skipped (comments, e.g. the data's source).
+pub fn parse_csv(text: &str, file: &str) -> Result<Table, CsvError> {
+    let err = |line: usize, column: usize, message: String| CsvError {
+        file: file.to_string(),
+        line,
+        column,
+        message,
+    };
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| (i + 1, l.trim_end_matches('\r')))
+        .filter(|(_, l)| !l.trim().is_empty() && !l.trim_start().starts_with('#'));
+    let Some((hline, header)) = lines.next() else {
+        return Err(err(1, 0, "empty file: expected a header line starting with 'time'".into()));
+    };
+    let names: Vec<String> = header.split(',').map(|h| unquote(h).to_string()).collect();
+    match names.iter().position(|n| n == "time") {
+        Some(0) => {}
+        Some(j) => {
+            return Err(err(
+                hline,
+                j + 1,
+                format!("'time' must be the first column, found it in column {}", j + 1),
+            ))
+        }
+        None => {
+            return Err(err(
+                hline,
+                1,
+                format!("no 'time' column: the header must start with 'time' (found '{}')", names[0]),
+            ))
+        }
+    }
+    for (j, n) in names.iter().enumerate() {
+        if n.is_empty() {
+            return Err(err(hline, j + 1, "empty column name in the header".into()));
+        }
+        if let Some(k) = names[..j].iter().position(|m| m == n) {
+            return Err(err(
+                hline,
+                j + 1,
+                format!("column '{n}' appears twice (also column {})", k + 1),
+            ));
+        }
+    }
+    let ncol = names.len();
+    let mut cols: Vec<Vec<f64>> = vec![Vec::new(); ncol];
+    let mut last_time: Option<(f64, usize)> = None;
+    for (lno, line) in lines {
+        let cells: Vec<&str> = line.split(',').collect();
+        if cells.len() != ncol {
+            return Err(err(
+                lno,
+                cells.len().min(ncol) + 1,
+                format!("row has {} cells, the header has {ncol}", cells.len()),
+            ));
+        }
+        for (j, cell) in cells.iter().enumerate() {
+            let c = unquote(cell);
+            let x: f64 = c.parse().map_err(|_| {
+                if c.is_empty() {
+                    err(lno, j + 1, format!("empty cell in column '{}'", names[j]))
+                } else {
+                    err(lno, j + 1, format!("non-numeric cell '{c}' in column '{}'", names[j]))
+                }
+            })?;
+            if x.is_nan() {
+                return Err(err(lno, j + 1, format!("NaN in column '{}'", names[j])));
+            }
+            if !x.is_finite() {
+                return Err(err(lno, j + 1, format!("infinite value '{c}' in column '{}'", names[j])));
+            }
+            if j == 0 {
+                if let Some((prev, pl)) = last_time {
+                    if x <= prev {
+                        return Err(err(
+                            lno,
+                            1,
+                            format!("time {x} is not greater than {prev} on line {pl}: time must increase strictly"),
+                        ));
+                    }
+                }
+                last_time = Some((x, lno));
+            }
+            cols[j].push(x);
+        }
+    }
+    if cols[0].is_empty() {
+        return Err(err(hline + 1, 0, "no data rows after the header".into()));
+    }
+    let time = cols.remove(0);
+    Ok(Table {
+        file: file.to_string(),
+        time,
+        names: names[1..].to_vec(),
+        columns: cols,
+    })
+}
+
+/// Formats a number so that it reads back exactly (shortest round-trip form).
+pub fn format_number(x: f64) -> String {
+    let a = x.abs();
+    if x == 0.0 || (1e-4..1e15).contains(&a) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
+}
+
+/// Writes `time` and `columns` (each as long as `time`) as CSV with header `time,names...`.
+pub fn write_csv_to<W: Write>(mut w: W, time: &[f64], names: &[String], columns: &[Vec<f64>]) -> std::io::Result<()> {
+    let mut line = String::from("time");
+    for n in names {
+        line.push(',');
+        line.push_str(n);
+    }
+    line.push('\n');
+    w.write_all(line.as_bytes())?;
+    for (k, &t) in time.iter().enumerate() {
+        line.clear();
+        line.push_str(&format_number(t));
+        for c in columns {
+            line.push(',');
+            line.push_str(&format_number(c.get(k).copied().unwrap_or(f64::NAN)));
+        }
+        line.push('\n');
+        w.write_all(line.as_bytes())?;
+    }
+    w.flush()
+}
+
+/// Writes a CSV file (see [`write_csv_to`]).
+pub fn write_csv(path: &Path, time: &[f64], names: &[String], columns: &[Vec<f64>]) -> std::io::Result<()> {
+    let f = std::fs::File::create(path)?;
+    write_csv_to(std::io::BufWriter::new(f), time, names, columns)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn e(text: &str) -> CsvError {
+        parse_csv(text, "d.csv").unwrap_err()
+    }
+
+    #[test]
+    fn parses_a_good_file_with_comments_and_quotes() {
+        let t = parse_csv("# source: test\n\"time\", u ,y\r\n0,1,2\n0.5,1.5,-2e-3\n\n1.0,2,3\n", "d.csv").unwrap();
+        assert_eq!(t.time, vec![0.0, 0.5, 1.0]);
+        assert_eq!(t.names, vec!["u", "y"]);
+        assert_eq!(t.column("y").unwrap(), &[2.0, -2e-3, 3.0]);
+        assert_eq!(t.sample_interval(), Some(0.5));
+    }
+
+    #[test]
+    fn empty_file() {
+        let x = e("");
+        assert_eq!((x.line, x.column), (1, 0));
+        assert!(x.message.contains("empty file"));
+        assert_eq!(x.to_string(), "d.csv:1: empty file: expected a header line starting with 'time'");
+        let x = e("time,u\n");
+        assert!(x.message.contains("no data rows"), "{x}");
+        assert_eq!(x.line, 2);
+    }
+
+    #[test]
+    fn missing_or_misplaced_time() {
+        let x = e("t,u\n0,1\n");
+        assert_eq!((x.line, x.column), (1, 1));
+        assert!(x.message.contains("no 'time' column"));
+        let x = e("u,time\n0,1\n");
+        assert_eq!((x.line, x.column), (1, 2));
+        assert!(x.message.contains("must be the first column"));
+    }
+
+    #[test]
+    fn non_increasing_time() {
+        let x = e("time,u\n0,1\n0.1,1\n0.1,2\n");
+        assert_eq!((x.line, x.column), (4, 1));
+        assert!(x.message.contains("not greater than 0.1 on line 3"), "{x}");
+        let x = e("time,u\n0,1\n-1,1\n");
+        assert_eq!((x.line, x.column), (3, 1));
+    }
+
+    #[test]
+    fn nan_and_inf() {
+        let x = e("time,u\n0,1\n1,NaN\n");
+        assert_eq!((x.line, x.column), (3, 2));
+        assert!(x.message.contains("NaN in column 'u'"), "{x}");
+        let x = e("time,u\n0,inf\n");
+        assert_eq!((x.line, x.column), (2, 2));
+        assert!(x.message.contains("infinite"), "{x}");
+        let x = e("time,u\nnan,1\n");
+        assert_eq!((x.line, x.column), (2, 1));
+    }
+
+    #[test]
+    fn non_numeric_and_empty_cells() {
+        let x = e("time,u,y\n0,1,2\n1,abc,2\n");
+        assert_eq!((x.line, x.column), (3, 2));
+        assert!(x.message.contains("non-numeric cell 'abc' in column 'u'"), "{x}");
+        assert_eq!(x.to_string(), "d.csv:3:2: non-numeric cell 'abc' in column 'u'");
+        let x = e("time,u\n0,\n");
+        assert_eq!((x.line, x.column), (2, 2));
+        assert!(x.message.contains("empty cell"));
+    }
+
+    #[test]
+    fn ragged_rows() {
+        let x = e("time,u,y\n0,1,2\n1,2\n");
+        assert_eq!((x.line, x.column), (3, 3));
+        assert!(x.message.contains("row has 2 cells, the header has 3"), "{x}");
+        let x = e("time,u\n0,1,2\n");
+        assert_eq!((x.line, x.column), (2, 3));
+    }
+
+    #[test]
+    fn duplicate_and_empty_header_names() {
+        let x = e("time,u,u\n0,1,2\n");
+        assert_eq!((x.line, x.column), (1, 3));
+        assert!(x.message.contains("appears twice"));
+        let x = e("time,,y\n0,1,2\n");
+        assert_eq!((x.line, x.column), (1, 2));
+    }
+
+    #[test]
+    fn unknown_columns_against_a_model_description() {
+        let md = crate::md::ModelDescription::parse(crate::md::tests::SAMPLE, "md.xml").unwrap();
+        let t = parse_csv("time,u,x\n0,1,2\n", "d.csv").unwrap();
+        t.check_against(&md).unwrap();
+        assert_eq!(t.input_columns(&md), vec!["u"]);
+        assert_eq!(t.output_columns(&md), vec!["x"]);
+        let t = parse_csv("time,u,k\n0,1,2\n", "d.csv").unwrap();
+        let x = t.check_against(&md).unwrap_err();
+        assert_eq!((x.line, x.column), (1, 3));
+        assert!(x.message.contains("'k' is neither an input nor an output"), "{x}");
+        let t = parse_csv("time,zz\n0,1\n", "d.csv").unwrap();
+        let x = t.check_against(&md).unwrap_err();
+        assert!(x.message.contains("'zz' is not a variable of the FMU (inputs: u; outputs: x)"), "{x}");
+    }
+
+    #[test]
+    fn written_numbers_read_back_exactly() {
+        let time = vec![0.0, 0.1, 0.30000000000000004];
+        let cols = vec![vec![1e-300, -2.5, 123456789.123], vec![f64::MIN_POSITIVE, 1e20, -0.0]];
+        let names = vec!["a".to_string(), "b".to_string()];
+        let mut buf = Vec::new();
+        write_csv_to(&mut buf, &time, &names, &cols).unwrap();
+        let t = parse_csv(std::str::from_utf8(&buf).unwrap(), "w.csv").unwrap();
+        assert_eq!(t.time, time);
+        assert_eq!(t.columns, cols);
+    }
+}

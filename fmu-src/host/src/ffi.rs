@@ -1,0 +1,267 @@
+//! Raw FMI 2.0 C types (fmi2FunctionTypes.h) and the function table resolved from a binary.
+
+use crate::error::{LogRecord, Status};
+use libloading::Library;
+use std::ffi::{c_char, c_int, c_void, CStr};
+use std::path::Path;
+use std::sync::Mutex;
+
+/// `fmi2Component`
+pub type Component = *mut c_void;
+/// `fmi2FMUstate`
+pub type FmuState = *mut c_void;
+/// `fmi2ValueReference`
+pub type ValueReference = u32;
+/// `fmi2Boolean` (an int; fmi2True = 1, fmi2False = 0)
+pub type Fmi2Boolean = c_int;
+/// `fmi2Status` as the raw int
+pub type RawStatus = c_int;
+
+/// `fmi2CallbackLogger` (variadic: the message is a printf format).
+pub type Logger =
+    unsafe extern "C" fn(*mut c_void, *const c_char, RawStatus, *const c_char, *const c_char, ...);
+
+/// `fmi2CallbackFunctions`
+#[repr(C)]
+pub struct CallbackFunctions {
+    /// logger
+    pub logger: Logger,
+    /// allocateMemory (calloc semantics)
+    pub allocate_memory: unsafe extern "C" fn(usize, usize) -> *mut c_void,
+    /// freeMemory
+    pub free_memory: unsafe extern "C" fn(*mut c_void),
+    /// stepFinished (NULL: asynchronous steps not used)
+    pub step_finished: Option<unsafe extern "C" fn(*mut c_void, RawStatus)>,
+    /// componentEnvironment: points to the instance's [`LogEnv`].
+    pub component_environment: *mut c_void,
+}
+
+extern "C" {
+    /// csrc/logger.c: formats with vsnprintf, then calls `LogEnv::sink`.
+    pub fn fmi2host_logger(
+        env: *mut c_void,
+        instance: *const c_char,
+        status: RawStatus,
+        category: *const c_char,
+        message: *const c_char,
+        ...
+    );
+    /// csrc/logger.c: calloc
+    pub fn fmi2host_calloc(nobj: usize, size: usize) -> *mut c_void;
+    /// csrc/logger.c: free
+    pub fn fmi2host_free(obj: *mut c_void);
+}
+
+/// Where an instance's log messages go (behind `componentEnvironment`). Layout shared with
+/// `fmi2host_env` in csrc/logger.c.
+#[repr(C)]
+pub struct LogEnv {
+    /// Called by the C shim with the formatted message.
+    pub sink: extern "C" fn(*mut c_void, *const c_char, RawStatus, *const c_char, *const c_char),
+    /// Points to the instance's [`LogSink`].
+    pub data: *mut c_void,
+}
+
+/// Messages collected for one instance.
+#[derive(Default)]
+pub struct LogSink {
+    /// Messages not yet taken.
+    pub records: Mutex<Vec<LogRecord>>,
+    /// Also print each message to stderr.
+    pub echo: bool,
+}
+
+fn cstr_lossy(p: *const c_char) -> String {
+    if p.is_null() {
+        String::new()
+    } else {
+        // SAFETY: the FMU passes NUL-terminated strings (FMI 2.0 section 2.1.5); p is non-null.
+        unsafe { CStr::from_ptr(p) }.to_string_lossy().into_owned()
+    }
+}
+
+/// Sink called from C: stores the record. Never unwinds across the C boundary.
+pub extern "C" fn log_sink(
+    data: *mut c_void,
+    instance: *const c_char,
+    status: RawStatus,
+    category: *const c_char,
+    message: *const c_char,
+) {
+    let _ = std::panic::catch_unwind(|| {
+        if data.is_null() {
+            return;
+        }
+        // SAFETY: data is the `LogSink` boxed by the instance, alive while the instance lives.
+        let sink = unsafe { &*(data as *const LogSink) };
+        let record = LogRecord {
+            instance: cstr_lossy(instance),
+            status: Status::from_raw(status),
+            category: cstr_lossy(category),
+            message: cstr_lossy(message),
+        };
+        if sink.echo {
+            eprintln!("{} {}: {}", record.instance, record.status, record.message);
+        }
+        if let Ok(mut r) = sink.records.lock() {
+            if r.len() < 10_000 {
+                r.push(record);
+            }
+        }
+    });
+}
+
+/// Names of every function an FMI 2.0 Co-Simulation binary must export (FMI 2.0.4, 2.1 and 4.2).
+pub const FMI2_CS_FUNCTIONS: &[&str] = &[
+    "fmi2GetTypesPlatform",
+    "fmi2GetVersion",
+    "fmi2SetDebugLogging",
+    "fmi2Instantiate",
+    "fmi2FreeInstance",
+    "fmi2SetupExperiment",
+    "fmi2EnterInitializationMode",
+    "fmi2ExitInitializationMode",
+    "fmi2Terminate",
+    "fmi2Reset",
+    "fmi2GetReal",
+    "fmi2GetInteger",
+    "fmi2GetBoolean",
+    "fmi2GetString",
+    "fmi2SetReal",
+    "fmi2SetInteger",
+    "fmi2SetBoolean",
+    "fmi2SetString",
+    "fmi2GetFMUstate",
+    "fmi2SetFMUstate",
+    "fmi2FreeFMUstate",
+    "fmi2SerializedFMUstateSize",
+    "fmi2SerializeFMUstate",
+    "fmi2DeSerializeFMUstate",
+    "fmi2GetDirectionalDerivative",
+    "fmi2SetRealInputDerivatives",
+    "fmi2GetRealOutputDerivatives",
+    "fmi2DoStep",
+    "fmi2CancelStep",
+    "fmi2GetStatus",
+    "fmi2GetRealStatus",
+    "fmi2GetIntegerStatus",
+    "fmi2GetBooleanStatus",
+    "fmi2GetStringStatus",
+];
+
+type C = Component;
+type Vr = *const ValueReference;
+
+/// Function pointers of one loaded binary. Required ones are plain, the rest optional (the host
+/// works without them; `validate` reports every missing one).
+#[derive(Clone, Copy)]
+#[allow(missing_docs)]
+pub struct Functions {
+    pub get_types_platform: Option<unsafe extern "C" fn() -> *const c_char>,
+    pub get_version: Option<unsafe extern "C" fn() -> *const c_char>,
+    pub set_debug_logging:
+        Option<unsafe extern "C" fn(C, Fmi2Boolean, usize, *const *const c_char) -> RawStatus>,
+    pub instantiate: unsafe extern "C" fn(
+        *const c_char,
+        c_int,
+        *const c_char,
+        *const c_char,
+        *const CallbackFunctions,
+        Fmi2Boolean,
+        Fmi2Boolean,
+    ) -> C,
+    pub free_instance: unsafe extern "C" fn(C),
+    pub setup_experiment:
+        unsafe extern "C" fn(C, Fmi2Boolean, f64, f64, Fmi2Boolean, f64) -> RawStatus,
+    pub enter_initialization_mode: unsafe extern "C" fn(C) -> RawStatus,
+    pub exit_initialization_mode: unsafe extern "C" fn(C) -> RawStatus,
+    pub terminate: unsafe extern "C" fn(C) -> RawStatus,
+    pub reset: unsafe extern "C" fn(C) -> RawStatus,
+    pub get_real: unsafe extern "C" fn(C, Vr, usize, *mut f64) -> RawStatus,
+    pub get_integer: unsafe extern "C" fn(C, Vr, usize, *mut c_int) -> RawStatus,
+    pub get_boolean: unsafe extern "C" fn(C, Vr, usize, *mut Fmi2Boolean) -> RawStatus,
+    pub get_string: Option<unsafe extern "C" fn(C, Vr, usize, *mut *const c_char) -> RawStatus>,
+    pub set_real: unsafe extern "C" fn(C, Vr, usize, *const f64) -> RawStatus,
+    pub set_integer: unsafe extern "C" fn(C, Vr, usize, *const c_int) -> RawStatus,
+    pub set_boolean: unsafe extern "C" fn(C, Vr, usize, *const Fmi2Boolean) -> RawStatus,
+    pub set_string: Option<unsafe extern "C" fn(C, Vr, usize, *const *const c_char) -> RawStatus>,
+    pub get_fmu_state: Option<unsafe extern "C" fn(C, *mut FmuState) -> RawStatus>,
+    pub set_fmu_state: Option<unsafe extern "C" fn(C, FmuState) -> RawStatus>,
+    pub free_fmu_state: Option<unsafe extern "C" fn(C, *mut FmuState) -> RawStatus>,
+    pub serialized_fmu_state_size: Option<unsafe extern "C" fn(C, FmuState, *mut usize) -> RawStatus>,
+    pub serialize_fmu_state: Option<unsafe extern "C" fn(C, FmuState, *mut c_char, usize) -> RawStatus>,
+    pub deserialize_fmu_state:
+        Option<unsafe extern "C" fn(C, *const c_char, usize, *mut FmuState) -> RawStatus>,
+    pub do_step: unsafe extern "C" fn(C, f64, f64, Fmi2Boolean) -> RawStatus,
+    pub cancel_step: Option<unsafe extern "C" fn(C) -> RawStatus>,
+    pub get_status: Option<unsafe extern "C" fn(C, c_int, *mut RawStatus) -> RawStatus>,
+}
+
+/// Looks up `name` in `lib` as a function pointer of type `T`.
+///
+/// # Safety
+/// `T` must be the correct function pointer type for the symbol.
+unsafe fn sym<T: Copy>(lib: &Library, name: &str) -> Option<T> {
+    let mut n = name.as_bytes().to_vec();
+    n.push(0);
+    lib.get::<T>(&n).ok().map(|s| *s)
+}
+
+/// Names in [`FMI2_CS_FUNCTIONS`] that `lib` does not export.
+pub fn missing_symbols(lib: &Library) -> Vec<&'static str> {
+    FMI2_CS_FUNCTIONS
+        .iter()
+        .copied()
+        // SAFETY: only the address is looked up, never called.
+        .filter(|n| unsafe { sym::<*const c_void>(lib, n) }.is_none())
+        .collect()
+}
+
+/// Loads the shared library at `path`.
+///
+/// # Safety
+/// Loading runs the library's initialisers; the binary must be a trusted FMU.
+pub unsafe fn load_library(path: &Path) -> Result<Library, String> {
+    Library::new(path).map_err(|e| e.to_string())
+}
+
+/// Resolves the function table; Err names the first missing required function.
+///
+/// # Safety
+/// `lib` must be an FMI 2.0 binary whose exports have the standard signatures.
+pub unsafe fn resolve(lib: &Library) -> Result<Functions, String> {
+    macro_rules! req {
+        ($name:literal) => {
+            sym(lib, $name).ok_or_else(|| format!("binary does not export {}", $name))?
+        };
+    }
+    Ok(Functions {
+        get_types_platform: sym(lib, "fmi2GetTypesPlatform"),
+        get_version: sym(lib, "fmi2GetVersion"),
+        set_debug_logging: sym(lib, "fmi2SetDebugLogging"),
+        instantiate: req!("fmi2Instantiate"),
+        free_instance: req!("fmi2FreeInstance"),
+        setup_experiment: req!("fmi2SetupExperiment"),
+        enter_initialization_mode: req!("fmi2EnterInitializationMode"),
+        exit_initialization_mode: req!("fmi2ExitInitializationMode"),
+        terminate: req!("fmi2Terminate"),
+        reset: req!("fmi2Reset"),
+        get_real: req!("fmi2GetReal"),
+        get_integer: req!("fmi2GetInteger"),
+        get_boolean: req!("fmi2GetBoolean"),
+        get_string: sym(lib, "fmi2GetString"),
+        set_real: req!("fmi2SetReal"),
+        set_integer: req!("fmi2SetInteger"),
+        set_boolean: req!("fmi2SetBoolean"),
+        set_string: sym(lib, "fmi2SetString"),
+        get_fmu_state: sym(lib, "fmi2GetFMUstate"),
+        set_fmu_state: sym(lib, "fmi2SetFMUstate"),
+        free_fmu_state: sym(lib, "fmi2FreeFMUstate"),
+        serialized_fmu_state_size: sym(lib, "fmi2SerializedFMUstateSize"),
+        serialize_fmu_state: sym(lib, "fmi2SerializeFMUstate"),
+        deserialize_fmu_state: sym(lib, "fmi2DeSerializeFMUstate"),
+        do_step: req!("fmi2DoStep"),
+        cancel_step: sym(lib, "fmi2CancelStep"),
+        get_status: sym(lib, "fmi2GetStatus"),
+    })
+}

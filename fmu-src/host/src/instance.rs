@@ -1,0 +1,377 @@
+//! One FMI 2.0 Co-Simulation instance (RAII: dropping it calls fmi2FreeInstance).
+
+use crate::error::{HostError, LogRecord, Result, Status};
+use crate::ffi::{self, CallbackFunctions, Component, FmuState, LogEnv, LogSink, RawStatus};
+use crate::fmu::Fmu;
+use std::ffi::{c_char, c_int, c_void, CString};
+
+/// `fmi2CoSimulation` for fmi2Instantiate's fmuType.
+const FMI2_COSIMULATION: c_int = 1;
+
+/// Options of [`Fmu::instantiate_with`].
+#[derive(Clone, Debug)]
+pub struct InstanceOptions {
+    /// `visible`
+    pub visible: bool,
+    /// `loggingOn`
+    pub logging_on: bool,
+    /// Print every logged message to stderr as it arrives.
+    pub echo_log: bool,
+}
+
+impl Default for InstanceOptions {
+    fn default() -> Self {
+        InstanceOptions {
+            visible: false,
+            logging_on: true,
+            echo_log: false,
+        }
+    }
+}
+
+/// A saved FMU state (fmi2FMUstate), freed with the instance that made it.
+pub struct FmuStateHandle {
+    raw: FmuState,
+}
+
+/// A live instance of an [`Fmu`]. Not `Sync`; `Send` so it can move to a worker thread.
+pub struct Instance<'a> {
+    fmu: &'a Fmu,
+    component: Component,
+    // Boxed so their addresses stay fixed while the FMU holds pointers to them.
+    _callbacks: Box<CallbackFunctions>,
+    _env: Box<LogEnv>,
+    log: Box<LogSink>,
+    _name: CString,
+    states: Vec<FmuState>,
+}
+
+// SAFETY: an FMI 2.0 instance may be used from any thread as long as calls are not concurrent;
+// `Instance` is not `Sync` and its methods take `&mut self` for every FMI call.
+unsafe impl Send for Instance<'_> {}
+
+impl Fmu {
+    /// Instantiates a Co-Simulation instance named `name` with default options.
+    pub fn instantiate(&self, name: &str) -> Result<Instance<'_>> {
+        self.instantiate_with(name, &InstanceOptions::default())
+    }
+
+    /// Instantiates with explicit options.
+    pub fn instantiate_with(&self, name: &str, opts: &InstanceOptions) -> Result<Instance<'_>> {
+        let cname = CString::new(name)
+            .map_err(|_| HostError::Request("instance name contains a NUL byte".into()))?;
+        let md = self.model_description();
+        let guid = CString::new(md.guid.clone())
+            .map_err(|_| HostError::Request("GUID contains a NUL byte".into()))?;
+        let uri = CString::new(self.extracted().resource_uri())
+            .map_err(|_| HostError::Request("resource path contains a NUL byte".into()))?;
+        let log = Box::new(LogSink {
+            records: Default::default(),
+            echo: opts.echo_log,
+        });
+        let mut env = Box::new(LogEnv {
+            sink: ffi::log_sink,
+            data: &*log as *const LogSink as *mut c_void,
+        });
+        let callbacks = Box::new(CallbackFunctions {
+            logger: ffi::fmi2host_logger,
+            allocate_memory: ffi::fmi2host_calloc,
+            free_memory: ffi::fmi2host_free,
+            step_finished: None,
+            component_environment: &mut *env as *mut LogEnv as *mut c_void,
+        });
+        // SAFETY: all pointers are valid NUL-terminated strings / boxed structs that outlive
+        // the instance (they are owned by it).
+        let component = unsafe {
+            (self.functions.instantiate)(
+                cname.as_ptr(),
+                FMI2_COSIMULATION,
+                guid.as_ptr(),
+                uri.as_ptr(),
+                &*callbacks,
+                opts.visible as c_int,
+                opts.logging_on as c_int,
+            )
+        };
+        if component.is_null() {
+            let messages = std::mem::take(&mut *log.records.lock().unwrap_or_else(|e| e.into_inner()));
+            return Err(HostError::Instantiate { messages });
+        }
+        Ok(Instance {
+            fmu: self,
+            component,
+            _callbacks: callbacks,
+            _env: env,
+            log,
+            _name: cname,
+            states: Vec::new(),
+        })
+    }
+}
+
+impl<'a> Instance<'a> {
+    /// The FMU this instance belongs to.
+    pub fn fmu(&self) -> &'a Fmu {
+        self.fmu
+    }
+
+    /// Takes (and clears) every message logged so far.
+    pub fn take_log(&mut self) -> Vec<LogRecord> {
+        std::mem::take(&mut *self.log.records.lock().unwrap_or_else(|e| e.into_inner()))
+    }
+
+    /// Converts a raw status: OK/Warning pass (warnings stay in the log), anything else becomes
+    /// [`HostError::Fmi`] carrying the messages logged during the call.
+    fn check(&mut self, function: &'static str, raw: RawStatus) -> Result<Status> {
+        let status = Status::from_raw(raw);
+        if status.is_success() {
+            Ok(status)
+        } else {
+            Err(HostError::Fmi {
+                function,
+                status,
+                messages: self.take_log(),
+            })
+        }
+    }
+
+    /// Calls an FMI function and returns its raw status without interpreting it (for probes).
+    pub fn raw_status(&mut self, f: impl FnOnce(&ffi::Functions, Component) -> RawStatus) -> Status {
+        Status::from_raw(f(&self.fmu.functions, self.component))
+    }
+
+    /// fmi2SetupExperiment
+    pub fn setup_experiment(&mut self, tolerance: Option<f64>, start_time: f64, stop_time: Option<f64>) -> Result<Status> {
+        // SAFETY: component is a live instance of this binary.
+        let raw = unsafe {
+            (self.fmu.functions.setup_experiment)(
+                self.component,
+                tolerance.is_some() as c_int,
+                tolerance.unwrap_or(0.0),
+                start_time,
+                stop_time.is_some() as c_int,
+                stop_time.unwrap_or(0.0),
+            )
+        };
+        self.check("fmi2SetupExperiment", raw)
+    }
+
+    /// fmi2EnterInitializationMode
+    pub fn enter_initialization_mode(&mut self) -> Result<Status> {
+        // SAFETY: component is a live instance of this binary.
+        let raw = unsafe { (self.fmu.functions.enter_initialization_mode)(self.component) };
+        self.check("fmi2EnterInitializationMode", raw)
+    }
+
+    /// fmi2ExitInitializationMode
+    pub fn exit_initialization_mode(&mut self) -> Result<Status> {
+        // SAFETY: component is a live instance of this binary.
+        let raw = unsafe { (self.fmu.functions.exit_initialization_mode)(self.component) };
+        self.check("fmi2ExitInitializationMode", raw)
+    }
+
+    /// fmi2Terminate
+    pub fn terminate(&mut self) -> Result<Status> {
+        // SAFETY: component is a live instance of this binary.
+        let raw = unsafe { (self.fmu.functions.terminate)(self.component) };
+        self.check("fmi2Terminate", raw)
+    }
+
+    /// fmi2Reset: back to the state after fmi2Instantiate (start values restored).
+    pub fn reset(&mut self) -> Result<Status> {
+        // SAFETY: component is a live instance of this binary.
+        let raw = unsafe { (self.fmu.functions.reset)(self.component) };
+        self.check("fmi2Reset", raw)
+    }
+
+    /// fmi2DoStep(currentCommunicationPoint, communicationStepSize, noSetFMUStatePriorToCurrentPoint)
+    pub fn do_step(&mut self, t: f64, h: f64, no_set_prior: bool) -> Result<Status> {
+        // SAFETY: component is a live instance of this binary.
+        let raw = unsafe { (self.fmu.functions.do_step)(self.component, t, h, no_set_prior as c_int) };
+        self.check("fmi2DoStep", raw)
+    }
+
+    /// fmi2GetReal into `out` (same length as `vrs`).
+    pub fn get_real(&mut self, vrs: &[u32], out: &mut [f64]) -> Result<Status> {
+        check_len(vrs.len(), out.len())?;
+        // SAFETY: both slices have vrs.len() elements.
+        let raw = unsafe { (self.fmu.functions.get_real)(self.component, vrs.as_ptr(), vrs.len(), out.as_mut_ptr()) };
+        self.check("fmi2GetReal", raw)
+    }
+
+    /// fmi2SetReal
+    pub fn set_real(&mut self, vrs: &[u32], values: &[f64]) -> Result<Status> {
+        check_len(vrs.len(), values.len())?;
+        // SAFETY: both slices have vrs.len() elements.
+        let raw = unsafe { (self.fmu.functions.set_real)(self.component, vrs.as_ptr(), vrs.len(), values.as_ptr()) };
+        self.check("fmi2SetReal", raw)
+    }
+
+    /// fmi2GetInteger
+    pub fn get_integer(&mut self, vrs: &[u32], out: &mut [i32]) -> Result<Status> {
+        check_len(vrs.len(), out.len())?;
+        // SAFETY: both slices have vrs.len() elements; c_int is i32 on this platform.
+        let raw = unsafe { (self.fmu.functions.get_integer)(self.component, vrs.as_ptr(), vrs.len(), out.as_mut_ptr()) };
+        self.check("fmi2GetInteger", raw)
+    }
+
+    /// fmi2SetInteger
+    pub fn set_integer(&mut self, vrs: &[u32], values: &[i32]) -> Result<Status> {
+        check_len(vrs.len(), values.len())?;
+        // SAFETY: both slices have vrs.len() elements.
+        let raw = unsafe { (self.fmu.functions.set_integer)(self.component, vrs.as_ptr(), vrs.len(), values.as_ptr()) };
+        self.check("fmi2SetInteger", raw)
+    }
+
+    /// fmi2GetBoolean
+    pub fn get_boolean(&mut self, vrs: &[u32], out: &mut [bool]) -> Result<Status> {
+        check_len(vrs.len(), out.len())?;
+        let mut raw_vals = vec![0 as c_int; vrs.len()];
+        // SAFETY: both buffers have vrs.len() elements.
+        let raw = unsafe { (self.fmu.functions.get_boolean)(self.component, vrs.as_ptr(), vrs.len(), raw_vals.as_mut_ptr()) };
+        let st = self.check("fmi2GetBoolean", raw)?;
+        for (o, r) in out.iter_mut().zip(raw_vals) {
+            *o = r != 0;
+        }
+        Ok(st)
+    }
+
+    /// fmi2SetBoolean
+    pub fn set_boolean(&mut self, vrs: &[u32], values: &[bool]) -> Result<Status> {
+        check_len(vrs.len(), values.len())?;
+        let raw_vals: Vec<c_int> = values.iter().map(|&b| b as c_int).collect();
+        // SAFETY: both buffers have vrs.len() elements.
+        let raw = unsafe { (self.fmu.functions.set_boolean)(self.component, vrs.as_ptr(), vrs.len(), raw_vals.as_ptr()) };
+        self.check("fmi2SetBoolean", raw)
+    }
+
+    /// fmi2GetString (copies the strings)
+    pub fn get_string(&mut self, vrs: &[u32]) -> Result<Vec<String>> {
+        let f = self.fmu.functions.get_string.ok_or_else(|| missing("fmi2GetString"))?;
+        let mut ptrs: Vec<*const c_char> = vec![std::ptr::null(); vrs.len()];
+        // SAFETY: both buffers have vrs.len() elements.
+        let raw = unsafe { f(self.component, vrs.as_ptr(), vrs.len(), ptrs.as_mut_ptr()) };
+        self.check("fmi2GetString", raw)?;
+        Ok(ptrs
+            .into_iter()
+            .map(|p| {
+                if p.is_null() {
+                    String::new()
+                } else {
+                    // SAFETY: the FMU returns NUL-terminated strings valid until the next call.
+                    unsafe { std::ffi::CStr::from_ptr(p) }.to_string_lossy().into_owned()
+                }
+            })
+            .collect())
+    }
+
+    /// fmi2GetStatus(fmi2Terminated) for CS: whether the FMU asked to stop.
+    pub fn get_status_raw(&mut self, kind: i32) -> Result<Status> {
+        let f = self.fmu.functions.get_status.ok_or_else(|| missing("fmi2GetStatus"))?;
+        let mut value: RawStatus = 0;
+        // SAFETY: value is a valid out pointer.
+        let raw = unsafe { f(self.component, kind, &mut value) };
+        self.check("fmi2GetStatus", raw)?;
+        Ok(Status::from_raw(value))
+    }
+
+    /// fmi2GetFMUstate: saves the current state; the handle is valid while this instance lives.
+    pub fn get_fmu_state(&mut self) -> Result<FmuStateHandle> {
+        let f = self.fmu.functions.get_fmu_state.ok_or_else(|| missing("fmi2GetFMUstate"))?;
+        let mut state: FmuState = std::ptr::null_mut();
+        // SAFETY: state is a valid out pointer (NULL asks the FMU to allocate).
+        let raw = unsafe { f(self.component, &mut state) };
+        self.check("fmi2GetFMUstate", raw)?;
+        if !state.is_null() {
+            self.states.push(state);
+        }
+        Ok(FmuStateHandle { raw: state })
+    }
+
+    /// fmi2SetFMUstate: restores a state saved by this instance.
+    pub fn set_fmu_state(&mut self, state: &FmuStateHandle) -> Result<Status> {
+        let f = self.fmu.functions.set_fmu_state.ok_or_else(|| missing("fmi2SetFMUstate"))?;
+        if !self.states.contains(&state.raw) {
+            return Err(HostError::Request("FMU state does not belong to this instance".into()));
+        }
+        // SAFETY: the state was produced by this instance and not yet freed.
+        let raw = unsafe { f(self.component, state.raw) };
+        self.check("fmi2SetFMUstate", raw)
+    }
+
+    /// fmi2SerializedFMUstateSize + fmi2SerializeFMUstate
+    pub fn serialize_fmu_state(&mut self, state: &FmuStateHandle) -> Result<Vec<u8>> {
+        let fs = self.fmu.functions.serialized_fmu_state_size.ok_or_else(|| missing("fmi2SerializedFMUstateSize"))?;
+        let f = self.fmu.functions.serialize_fmu_state.ok_or_else(|| missing("fmi2SerializeFMUstate"))?;
+        if !self.states.contains(&state.raw) {
+            return Err(HostError::Request("FMU state does not belong to this instance".into()));
+        }
+        let mut size = 0usize;
+        // SAFETY: valid state of this instance, valid out pointer.
+        let raw = unsafe { fs(self.component, state.raw, &mut size) };
+        self.check("fmi2SerializedFMUstateSize", raw)?;
+        let mut buf = vec![0u8; size];
+        // SAFETY: buf has `size` bytes.
+        let raw = unsafe { f(self.component, state.raw, buf.as_mut_ptr() as *mut c_char, size) };
+        self.check("fmi2SerializeFMUstate", raw)?;
+        Ok(buf)
+    }
+
+    /// fmi2DeSerializeFMUstate: a new state handle from bytes.
+    pub fn deserialize_fmu_state(&mut self, bytes: &[u8]) -> Result<FmuStateHandle> {
+        let f = self.fmu.functions.deserialize_fmu_state.ok_or_else(|| missing("fmi2DeSerializeFMUstate"))?;
+        let mut state: FmuState = std::ptr::null_mut();
+        // SAFETY: bytes is a valid buffer of its length; state is a valid out pointer.
+        let raw = unsafe { f(self.component, bytes.as_ptr() as *const c_char, bytes.len(), &mut state) };
+        self.check("fmi2DeSerializeFMUstate", raw)?;
+        if !state.is_null() {
+            self.states.push(state);
+        }
+        Ok(FmuStateHandle { raw: state })
+    }
+
+    /// fmi2FreeFMUstate for one saved state.
+    pub fn free_fmu_state(&mut self, state: FmuStateHandle) -> Result<Status> {
+        let f = self.fmu.functions.free_fmu_state.ok_or_else(|| missing("fmi2FreeFMUstate"))?;
+        let Some(pos) = self.states.iter().position(|s| *s == state.raw) else {
+            return Err(HostError::Request("FMU state does not belong to this instance".into()));
+        };
+        self.states.swap_remove(pos);
+        let mut raw_state = state.raw;
+        // SAFETY: state produced by this instance, removed from the list so freed once.
+        let raw = unsafe { f(self.component, &mut raw_state) };
+        self.check("fmi2FreeFMUstate", raw)
+    }
+
+    /// The raw component pointer (for probes that must call functions with bad arguments).
+    pub fn component(&self) -> Component {
+        self.component
+    }
+}
+
+impl Drop for Instance<'_> {
+    fn drop(&mut self) {
+        if let Some(f) = self.fmu.functions.free_fmu_state {
+            for mut s in std::mem::take(&mut self.states) {
+                // SAFETY: each state was produced by this instance and is freed once.
+                unsafe { f(self.component, &mut s) };
+            }
+        }
+        // SAFETY: component is live; freed exactly once here.
+        unsafe { (self.fmu.functions.free_instance)(self.component) };
+    }
+}
+
+fn check_len(a: usize, b: usize) -> Result<()> {
+    if a == b {
+        Ok(())
+    } else {
+        Err(HostError::Request(format!(
+            "{a} value references but {b} values"
+        )))
+    }
+}
+
+fn missing(name: &str) -> HostError {
+    HostError::Request(format!("the FMU binary does not export {name}"))
+}

@@ -1,0 +1,28 @@
+//! Host for FMI 2.0 Co-Simulation FMUs (any conforming FMU, not only this project's).
+//!
+//! - [`Fmu::open`] extracts the `.fmu`, parses `modelDescription.xml` ([`md`]) and loads the
+//!   binary, resolving the FMI 2.0 functions.
+//! - [`Fmu::instantiate`] gives an RAII [`Instance`] with typed calls; a failed call is a
+//!   [`HostError::Fmi`] carrying the status and the messages the FMU logged.
+//! - [`simulate`] / [`Simulator`] run a whole simulation from a [`SimulationRequest`].
+//! - [`csv`] reads measured/input CSV files with located errors and writes results.
+//! - [`validate`] checks a model description and probes a binary's state machine.
+#![warn(missing_docs)]
+
+pub mod csv;
+mod error;
+pub mod ffi;
+mod fmu;
+mod instance;
+pub mod md;
+mod simulate;
+pub mod validate;
+
+pub use error::{HostError, LogRecord, Result, Status};
+pub use fmu::{file_uri, Extracted, Fmu, LIB_SUFFIX, PLATFORM};
+pub use instance::{FmuStateHandle, Instance, InstanceOptions};
+pub use md::ModelDescription;
+pub use simulate::{
+    communication_points, interpolate, simulate, InputSeries, SimulationRequest, SimulationResult,
+    Simulator, Value,
+};

@@ -1,0 +1,970 @@
+//! Typed `modelDescription.xml` of FMI 2.0 (FMI 2.0.4 standard, section 2.2) and its parser.
+//!
+//! The parser is strict about syntax (malformed XML, attributes that do not parse as their
+//! schema type) and returns the first such error with its line. Semantic rules (allowed
+//! causality/variability combinations, units declared, model structure complete) are not
+//! enforced here: [`crate::validate`] reports them all as findings.
+
+use crate::error::HostError;
+use quick_xml::events::{BytesStart, Event};
+use quick_xml::Reader;
+use std::str::FromStr;
+
+/// `causality` of a ScalarVariable (default `local`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "camelCase")]
+pub enum Causality {
+    /// parameter
+    Parameter,
+    /// calculatedParameter
+    CalculatedParameter,
+    /// input
+    Input,
+    /// output
+    Output,
+    /// local
+    Local,
+    /// independent
+    Independent,
+}
+
+/// `variability` of a ScalarVariable (default `continuous`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "camelCase")]
+pub enum Variability {
+    /// constant
+    Constant,
+    /// fixed
+    Fixed,
+    /// tunable
+    Tunable,
+    /// discrete
+    Discrete,
+    /// continuous
+    Continuous,
+}
+
+/// `initial` of a ScalarVariable (no default: depends on causality and variability).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "camelCase")]
+pub enum Initial {
+    /// exact
+    Exact,
+    /// approx
+    Approx,
+    /// calculated
+    Calculated,
+}
+
+/// Type element of a ScalarVariable.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub enum VarKind {
+    /// `<Real>`
+    Real,
+    /// `<Integer>`
+    Integer,
+    /// `<Boolean>`
+    Boolean,
+    /// `<String>`
+    String,
+    /// `<Enumeration>`
+    Enumeration,
+}
+
+/// A start value, typed by the variable's type element.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub enum StartValue {
+    /// Real start.
+    Real(f64),
+    /// Integer or Enumeration start.
+    Integer(i64),
+    /// Boolean start.
+    Boolean(bool),
+    /// String start.
+    String(String),
+}
+
+impl StartValue {
+    /// Numeric view (Booleans as 0/1); None for strings.
+    pub fn as_f64(&self) -> Option<f64> {
+        match self {
+            StartValue::Real(v) => Some(*v),
+            StartValue::Integer(v) => Some(*v as f64),
+            StartValue::Boolean(b) => Some(if *b { 1.0 } else { 0.0 }),
+            StartValue::String(_) => None,
+        }
+    }
+}
+
+/// One `<ScalarVariable>`.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct ScalarVariable {
+    /// `name`
+    pub name: String,
+    /// `valueReference`
+    pub value_reference: u32,
+    /// `description`
+    pub description: Option<String>,
+    /// `causality` (default local applied)
+    pub causality: Causality,
+    /// True when `causality` was written.
+    pub causality_given: bool,
+    /// `variability` (default continuous applied)
+    pub variability: Variability,
+    /// True when `variability` was written.
+    pub variability_given: bool,
+    /// `initial` as written (None when absent).
+    pub initial: Option<Initial>,
+    /// `canHandleMultipleSetPerTimeInstant`
+    pub can_handle_multiple_set_per_time_instant: Option<bool>,
+    /// Type element.
+    pub kind: VarKind,
+    /// `declaredType`
+    pub declared_type: Option<String>,
+    /// `start`
+    pub start: Option<StartValue>,
+    /// `min` (Real, Integer, Enumeration)
+    pub min: Option<f64>,
+    /// `max` (Real, Integer, Enumeration)
+    pub max: Option<f64>,
+    /// `nominal` (Real)
+    pub nominal: Option<f64>,
+    /// `unit` (Real)
+    pub unit: Option<String>,
+    /// `displayUnit` (Real)
+    pub display_unit: Option<String>,
+    /// `quantity`
+    pub quantity: Option<String>,
+    /// `derivative` (Real; 1-based index of the state)
+    pub derivative: Option<usize>,
+    /// Line of the `<ScalarVariable>` tag in the file.
+    pub line: usize,
+}
+
+impl ScalarVariable {
+    /// The effective `initial`: as written, else the default of FMI 2.0.4 table 2.2.7
+    /// (exact for constants and parameters, calculated for calculatedParameters, outputs and
+    /// locals, none for inputs and the independent variable).
+    pub fn effective_initial(&self) -> Option<Initial> {
+        if self.initial.is_some() {
+            return self.initial;
+        }
+        match (self.causality, self.variability) {
+            (Causality::Input, _) | (Causality::Independent, _) => None,
+            (_, Variability::Constant) | (Causality::Parameter, _) => Some(Initial::Exact),
+            _ => Some(Initial::Calculated),
+        }
+    }
+}
+
+/// `<DisplayUnit>` of a unit: value_in_display_unit = factor * value + offset.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct DisplayUnit {
+    /// `name`
+    pub name: String,
+    /// `factor` (default 1)
+    pub factor: f64,
+    /// `offset` (default 0)
+    pub offset: f64,
+}
+
+/// `<BaseUnit>`: exponents of the SI base units, value_SI = factor * value + offset.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct BaseUnit {
+    /// Exponents of kg, m, s, A, K, mol, cd, rad.
+    pub exponents: [i32; 8],
+    /// `factor` (default 1)
+    pub factor: f64,
+    /// `offset` (default 0)
+    pub offset: f64,
+}
+
+/// `<Unit>` of `<UnitDefinitions>`.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Unit {
+    /// `name`
+    pub name: String,
+    /// `<BaseUnit>` if given.
+    pub base_unit: Option<BaseUnit>,
+    /// `<DisplayUnit>`s.
+    pub display_units: Vec<DisplayUnit>,
+    /// Line of the tag.
+    pub line: usize,
+}
+
+/// `<SimpleType>` of `<TypeDefinitions>`.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct SimpleType {
+    /// `name`
+    pub name: String,
+    /// Type element.
+    pub kind: Option<VarKind>,
+    /// `unit`
+    pub unit: Option<String>,
+    /// `displayUnit`
+    pub display_unit: Option<String>,
+    /// `min`
+    pub min: Option<f64>,
+    /// `max`
+    pub max: Option<f64>,
+    /// Line of the tag.
+    pub line: usize,
+}
+
+/// `<Category>` of `<LogCategories>`.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct LogCategory {
+    /// `name`
+    pub name: String,
+    /// `description`
+    pub description: Option<String>,
+}
+
+/// `<CoSimulation>` element with its capability flags (all default false).
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct CoSimulation {
+    /// `modelIdentifier`
+    pub model_identifier: String,
+    /// `needsExecutionTool`
+    pub needs_execution_tool: bool,
+    /// `canHandleVariableCommunicationStepSize`
+    pub can_handle_variable_communication_step_size: bool,
+    /// `canInterpolateInputs`
+    pub can_interpolate_inputs: bool,
+    /// `maxOutputDerivativeOrder`
+    pub max_output_derivative_order: u32,
+    /// `canRunAsynchronuously` (sic, as spelled by the standard)
+    pub can_run_asynchronuously: bool,
+    /// `canBeInstantiatedOnlyOncePerProcess`
+    pub can_be_instantiated_only_once_per_process: bool,
+    /// `canNotUseMemoryManagementFunctions`
+    pub can_not_use_memory_management_functions: bool,
+    /// `canGetAndSetFMUstate`
+    pub can_get_and_set_fmu_state: bool,
+    /// `canSerializeFMUstate`
+    pub can_serialize_fmu_state: bool,
+    /// `providesDirectionalDerivative`
+    pub provides_directional_derivative: bool,
+    /// Names of the capability flags written explicitly.
+    pub flags_given: Vec<String>,
+}
+
+/// `<DefaultExperiment>`.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct DefaultExperiment {
+    /// `startTime`
+    pub start_time: Option<f64>,
+    /// `stopTime`
+    pub stop_time: Option<f64>,
+    /// `tolerance`
+    pub tolerance: Option<f64>,
+    /// `stepSize`
+    pub step_size: Option<f64>,
+}
+
+/// `<Unknown>` of `<ModelStructure>`.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Unknown {
+    /// `index`: 1-based index into ModelVariables.
+    pub index: usize,
+    /// `dependencies` (None when absent: depends on everything).
+    pub dependencies: Option<Vec<usize>>,
+    /// `dependenciesKind`
+    pub dependencies_kind: Option<Vec<String>>,
+    /// Line of the tag.
+    pub line: usize,
+}
+
+/// `<ModelStructure>`.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct ModelStructure {
+    /// `<Outputs>`
+    pub outputs: Vec<Unknown>,
+    /// `<Derivatives>`
+    pub derivatives: Vec<Unknown>,
+    /// `<InitialUnknowns>`
+    pub initial_unknowns: Vec<Unknown>,
+    /// True when `<ModelStructure>` was present.
+    pub present: bool,
+}
+
+/// The parsed `modelDescription.xml`.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct ModelDescription {
+    /// `fmiVersion`
+    pub fmi_version: String,
+    /// `modelName`
+    pub model_name: String,
+    /// `guid`
+    pub guid: String,
+    /// `description`
+    pub description: Option<String>,
+    /// `author`
+    pub author: Option<String>,
+    /// `version`
+    pub version: Option<String>,
+    /// `generationTool`
+    pub generation_tool: Option<String>,
+    /// `generationDateAndTime`
+    pub generation_date_and_time: Option<String>,
+    /// `variableNamingConvention`
+    pub variable_naming_convention: Option<String>,
+    /// `numberOfEventIndicators`
+    pub number_of_event_indicators: Option<u32>,
+    /// `<CoSimulation>` if present.
+    pub co_simulation: Option<CoSimulation>,
+    /// `modelIdentifier` of `<ModelExchange>` if present.
+    pub model_exchange: Option<String>,
+    /// `<UnitDefinitions>`
+    pub unit_definitions: Vec<Unit>,
+    /// `<TypeDefinitions>`
+    pub type_definitions: Vec<SimpleType>,
+    /// `<LogCategories>`
+    pub log_categories: Vec<LogCategory>,
+    /// `<DefaultExperiment>`
+    pub default_experiment: Option<DefaultExperiment>,
+    /// `<ModelVariables>` in file order (index i+1 in ModelStructure).
+    pub model_variables: Vec<ScalarVariable>,
+    /// `<ModelStructure>`
+    pub model_structure: ModelStructure,
+}
+
+impl ModelDescription {
+    /// Parses the text of a `modelDescription.xml`; `file` names it in errors.
+    pub fn parse(xml: &str, file: &str) -> Result<Self, HostError> {
+        Parser::new(xml, file).run()
+    }
+
+    /// The variable called `name`.
+    pub fn variable(&self, name: &str) -> Option<&ScalarVariable> {
+        self.model_variables.iter().find(|v| v.name == name)
+    }
+
+    /// Variables with causality `c`, in file order.
+    pub fn with_causality(&self, c: Causality) -> impl Iterator<Item = &ScalarVariable> {
+        self.model_variables.iter().filter(move |v| v.causality == c)
+    }
+
+    /// Names of the outputs in file order.
+    pub fn output_names(&self) -> Vec<String> {
+        self.with_causality(Causality::Output)
+            .map(|v| v.name.clone())
+            .collect()
+    }
+
+    /// Names of the inputs in file order.
+    pub fn input_names(&self) -> Vec<String> {
+        self.with_causality(Causality::Input)
+            .map(|v| v.name.clone())
+            .collect()
+    }
+
+    /// The `<Unit>` called `name`.
+    pub fn unit(&self, name: &str) -> Option<&Unit> {
+        self.unit_definitions.iter().find(|u| u.name == name)
+    }
+
+    /// The `<SimpleType>` called `name`.
+    pub fn simple_type(&self, name: &str) -> Option<&SimpleType> {
+        self.type_definitions.iter().find(|t| t.name == name)
+    }
+
+    /// The unit of a Real variable: its own `unit`, else that of its declared type.
+    pub fn effective_unit<'a>(&'a self, v: &'a ScalarVariable) -> Option<&'a str> {
+        v.unit.as_deref().or_else(|| {
+            v.declared_type
+                .as_deref()
+                .and_then(|t| self.simple_type(t))
+                .and_then(|t| t.unit.as_deref())
+        })
+    }
+}
+
+/// Attributes of one element with the line of its tag.
+struct Attrs {
+    pairs: Vec<(String, String)>,
+    line: usize,
+    element: String,
+}
+
+impl Attrs {
+    fn get(&self, key: &str) -> Option<&str> {
+        self.pairs
+            .iter()
+            .find(|(k, _)| k == key)
+            .map(|(_, v)| v.as_str())
+    }
+}
+
+struct Parser<'a> {
+    xml: &'a str,
+    file: String,
+    md: ModelDescription,
+    /// Kind of the open ScalarVariable's type element is filled when that element is seen.
+    current_var: Option<ScalarVariable>,
+    saw_root: bool,
+}
+
+impl<'a> Parser<'a> {
+    fn new(xml: &'a str, file: &str) -> Self {
+        Parser {
+            xml,
+            file: file.to_string(),
+            md: ModelDescription::default(),
+            current_var: None,
+            saw_root: false,
+        }
+    }
+
+    fn err(&self, line: usize, message: impl Into<String>) -> HostError {
+        HostError::ModelDescription {
+            file: self.file.clone(),
+            line,
+            message: message.into(),
+        }
+    }
+
+    /// Line of the first non-blank character at or after byte `pos` (the tag's `<`).
+    fn line_at(&self, pos: usize) -> usize {
+        let mut pos = pos.min(self.xml.len());
+        let bytes = self.xml.as_bytes();
+        while pos < bytes.len() && bytes[pos].is_ascii_whitespace() {
+            pos += 1;
+        }
+        self.xml.as_bytes()[..pos]
+            .iter()
+            .filter(|&&b| b == b'\n')
+            .count()
+            + 1
+    }
+
+    fn attrs(&self, e: &BytesStart<'_>, line: usize) -> Result<Attrs, HostError> {
+        let element = String::from_utf8_lossy(e.name().as_ref()).into_owned();
+        let mut pairs = Vec::new();
+        for a in e.attributes() {
+            let a = a.map_err(|err| self.err(line, format!("<{element}>: bad attribute: {err}")))?;
+            let key = String::from_utf8_lossy(a.key.as_ref()).into_owned();
+            let value = a
+                .unescape_value()
+                .map_err(|err| self.err(line, format!("<{element}> {key}: {err}")))?
+                .into_owned();
+            pairs.push((key, value));
+        }
+        Ok(Attrs {
+            pairs,
+            line,
+            element,
+        })
+    }
+
+    fn parse_attr<T: FromStr>(&self, a: &Attrs, key: &str, what: &str) -> Result<Option<T>, HostError> {
+        match a.get(key) {
+            None => Ok(None),
+            Some(s) => s.trim().parse::<T>().map(Some).map_err(|_| {
+                self.err(
+                    a.line,
+                    format!("<{}> attribute {key}=\"{s}\" is not {what}", a.element),
+                )
+            }),
+        }
+    }
+
+    fn real(&self, a: &Attrs, key: &str) -> Result<Option<f64>, HostError> {
+        self.parse_attr::<f64>(a, key, "a real number")
+    }
+
+    fn boolean(&self, a: &Attrs, key: &str) -> Result<Option<bool>, HostError> {
+        match a.get(key) {
+            None => Ok(None),
+            Some("true") | Some("1") => Ok(Some(true)),
+            Some("false") | Some("0") => Ok(Some(false)),
+            Some(s) => Err(self.err(
+                a.line,
+                format!("<{}> attribute {key}=\"{s}\" is not a boolean", a.element),
+            )),
+        }
+    }
+
+    fn required(&self, a: &Attrs, key: &str) -> Result<String, HostError> {
+        a.get(key).map(str::to_string).ok_or_else(|| {
+            self.err(
+                a.line,
+                format!("<{}> lacks the required attribute {key}", a.element),
+            )
+        })
+    }
+
+    fn run(mut self) -> Result<ModelDescription, HostError> {
+        let mut reader = Reader::from_str(self.xml);
+        reader.config_mut().trim_text(true);
+        let mut path: Vec<String> = Vec::new();
+        loop {
+            let pos = reader.buffer_position() as usize;
+            let event = reader.read_event().map_err(|e| {
+                let line = self.line_at(reader.error_position() as usize);
+                self.err(line, format!("malformed XML: {e}"))
+            })?;
+            match event {
+                Event::Start(e) => {
+                    let line = self.line_at(pos);
+                    let a = self.attrs(&e, line)?;
+                    self.element(&path, a)?;
+                    path.push(String::from_utf8_lossy(e.name().as_ref()).into_owned());
+                }
+                Event::Empty(e) => {
+                    let line = self.line_at(pos);
+                    let a = self.attrs(&e, line)?;
+                    let name = a.element.clone();
+                    self.element(&path, a)?;
+                    self.end(&path, &name);
+                }
+                Event::End(e) => {
+                    let name = String::from_utf8_lossy(e.name().as_ref()).into_owned();
+                    path.pop();
+                    self.end(&path, &name);
+                }
+                Event::Eof => break,
+                _ => {}
+            }
+        }
+        if !self.saw_root {
+            return Err(self.err(1, "no <fmiModelDescription> root element"));
+        }
+        Ok(self.md)
+    }
+
+    /// Called when the element `name` (child of `path`) closes.
+    fn end(&mut self, path: &[String], name: &str) {
+        if name == "ScalarVariable" && path.last().map(String::as_str) == Some("ModelVariables") {
+            if let Some(v) = self.current_var.take() {
+                self.md.model_variables.push(v);
+            }
+        }
+    }
+
+    fn element(&mut self, path: &[String], a: Attrs) -> Result<(), HostError> {
+        let parent = path.last().map(String::as_str).unwrap_or("");
+        let name = a.element.clone();
+        match (parent, name.as_str()) {
+            ("", "fmiModelDescription") => self.root(&a)?,
+            ("", other) => {
+                return Err(self.err(
+                    a.line,
+                    format!("root element is <{other}>, expected <fmiModelDescription>"),
+                ))
+            }
+            ("fmiModelDescription", "CoSimulation") => self.co_simulation(&a)?,
+            ("fmiModelDescription", "ModelExchange") => {
+                self.md.model_exchange = Some(self.required(&a, "modelIdentifier")?);
+            }
+            ("UnitDefinitions", "Unit") => {
+                let name = self.required(&a, "name")?;
+                self.md.unit_definitions.push(Unit {
+                    name,
+                    base_unit: None,
+                    display_units: Vec::new(),
+                    line: a.line,
+                });
+            }
+            ("Unit", "BaseUnit") => {
+                let mut b = BaseUnit {
+                    factor: self.real(&a, "factor")?.unwrap_or(1.0),
+                    offset: self.real(&a, "offset")?.unwrap_or(0.0),
+                    ..Default::default()
+                };
+                for (i, k) in ["kg", "m", "s", "A", "K", "mol", "cd", "rad"].iter().enumerate() {
+                    b.exponents[i] = self.parse_attr::<i32>(&a, k, "an integer")?.unwrap_or(0);
+                }
+                if let Some(u) = self.md.unit_definitions.last_mut() {
+                    u.base_unit = Some(b);
+                }
+            }
+            ("Unit", "DisplayUnit") => {
+                let d = DisplayUnit {
+                    name: self.required(&a, "name")?,
+                    factor: self.real(&a, "factor")?.unwrap_or(1.0),
+                    offset: self.real(&a, "offset")?.unwrap_or(0.0),
+                };
+                if let Some(u) = self.md.unit_definitions.last_mut() {
+                    u.display_units.push(d);
+                }
+            }
+            ("TypeDefinitions", "SimpleType") => {
+                let name = self.required(&a, "name")?;
+                self.md.type_definitions.push(SimpleType {
+                    name,
+                    kind: None,
+                    unit: None,
+                    display_unit: None,
+                    min: None,
+                    max: None,
+                    line: a.line,
+                });
+            }
+            ("SimpleType", kind) => {
+                let kind = var_kind(kind).ok_or_else(|| {
+                    self.err(a.line, format!("<SimpleType> has unknown type element <{kind}>"))
+                })?;
+                let (min, max) = (self.real(&a, "min")?, self.real(&a, "max")?);
+                if let Some(t) = self.md.type_definitions.last_mut() {
+                    t.kind = Some(kind);
+                    t.unit = a.get("unit").map(str::to_string);
+                    t.display_unit = a.get("displayUnit").map(str::to_string);
+                    t.min = min;
+                    t.max = max;
+                }
+            }
+            ("LogCategories", "Category") => {
+                let name = self.required(&a, "name")?;
+                self.md.log_categories.push(LogCategory {
+                    name,
+                    description: a.get("description").map(str::to_string),
+                });
+            }
+            ("fmiModelDescription", "DefaultExperiment") => {
+                self.md.default_experiment = Some(DefaultExperiment {
+                    start_time: self.real(&a, "startTime")?,
+                    stop_time: self.real(&a, "stopTime")?,
+                    tolerance: self.real(&a, "tolerance")?,
+                    step_size: self.real(&a, "stepSize")?,
+                });
+            }
+            ("ModelVariables", "ScalarVariable") => self.scalar_variable(&a)?,
+            ("ScalarVariable", kind @ ("Real" | "Integer" | "Boolean" | "String" | "Enumeration")) => {
+                self.type_element(kind, &a)?
+            }
+            ("fmiModelDescription", "ModelStructure") => self.md.model_structure.present = true,
+            (list @ ("Outputs" | "Derivatives" | "InitialUnknowns"), "Unknown") => {
+                let u = self.unknown(&a)?;
+                let ms = &mut self.md.model_structure;
+                match list {
+                    "Outputs" => ms.outputs.push(u),
+                    "Derivatives" => ms.derivatives.push(u),
+                    _ => ms.initial_unknowns.push(u),
+                }
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+
+    fn root(&mut self, a: &Attrs) -> Result<(), HostError> {
+        self.saw_root = true;
+        let md = &mut self.md;
+        md.fmi_version = a.get("fmiVersion").unwrap_or("").to_string();
+        md.model_name = a.get("modelName").unwrap_or("").to_string();
+        md.guid = a.get("guid").unwrap_or("").to_string();
+        md.description = a.get("description").map(str::to_string);
+        md.author = a.get("author").map(str::to_string);
+        md.version = a.get("version").map(str::to_string);
+        md.generation_tool = a.get("generationTool").map(str::to_string);
+        md.generation_date_and_time = a.get("generationDateAndTime").map(str::to_string);
+        md.variable_naming_convention = a.get("variableNamingConvention").map(str::to_string);
+        let n = self.parse_attr::<u32>(a, "numberOfEventIndicators", "an unsigned integer")?;
+        self.md.number_of_event_indicators = n;
+        Ok(())
+    }
+
+    fn co_simulation(&mut self, a: &Attrs) -> Result<(), HostError> {
+        let mut cs = CoSimulation {
+            model_identifier: self.required(a, "modelIdentifier")?,
+            ..Default::default()
+        };
+        let flags: [(&str, &mut bool); 9] = [
+            ("needsExecutionTool", &mut cs.needs_execution_tool),
+            (
+                "canHandleVariableCommunicationStepSize",
+                &mut cs.can_handle_variable_communication_step_size,
+            ),
+            ("canInterpolateInputs", &mut cs.can_interpolate_inputs),
+            ("canRunAsynchronuously", &mut cs.can_run_asynchronuously),
+            (
+                "canBeInstantiatedOnlyOncePerProcess",
+                &mut cs.can_be_instantiated_only_once_per_process,
+            ),
+            (
+                "canNotUseMemoryManagementFunctions",
+                &mut cs.can_not_use_memory_management_functions,
+            ),
+            ("canGetAndSetFMUstate", &mut cs.can_get_and_set_fmu_state),
+            ("canSerializeFMUstate", &mut cs.can_serialize_fmu_state),
+            (
+                "providesDirectionalDerivative",
+                &mut cs.provides_directional_derivative,
+            ),
+        ];
+        let mut given = Vec::new();
+        for (key, slot) in flags {
+            if let Some(v) = self.boolean(a, key)? {
+                *slot = v;
+                given.push(key.to_string());
+            }
+        }
+        cs.flags_given = given;
+        cs.max_output_derivative_order = self
+            .parse_attr::<u32>(a, "maxOutputDerivativeOrder", "an unsigned integer")?
+            .unwrap_or(0);
+        self.md.co_simulation = Some(cs);
+        Ok(())
+    }
+
+    fn scalar_variable(&mut self, a: &Attrs) -> Result<(), HostError> {
+        let name = self.required(a, "name")?;
+        let vr = self.required(a, "valueReference")?;
+        let value_reference = vr.trim().parse::<u32>().map_err(|_| {
+            self.err(
+                a.line,
+                format!("variable '{name}': valueReference=\"{vr}\" is not an unsigned 32-bit integer"),
+            )
+        })?;
+        let causality = match a.get("causality") {
+            None | Some("local") => Causality::Local,
+            Some("parameter") => Causality::Parameter,
+            Some("calculatedParameter") => Causality::CalculatedParameter,
+            Some("input") => Causality::Input,
+            Some("output") => Causality::Output,
+            Some("independent") => Causality::Independent,
+            Some(o) => return Err(self.err(a.line, format!("variable '{name}': unknown causality \"{o}\""))),
+        };
+        let variability = match a.get("variability") {
+            None | Some("continuous") => Variability::Continuous,
+            Some("constant") => Variability::Constant,
+            Some("fixed") => Variability::Fixed,
+            Some("tunable") => Variability::Tunable,
+            Some("discrete") => Variability::Discrete,
+            Some(o) => return Err(self.err(a.line, format!("variable '{name}': unknown variability \"{o}\""))),
+        };
+        let initial = match a.get("initial") {
+            None => None,
+            Some("exact") => Some(Initial::Exact),
+            Some("approx") => Some(Initial::Approx),
+            Some("calculated") => Some(Initial::Calculated),
+            Some(o) => return Err(self.err(a.line, format!("variable '{name}': unknown initial \"{o}\""))),
+        };
+        self.current_var = Some(ScalarVariable {
+            name,
+            value_reference,
+            description: a.get("description").map(str::to_string),
+            causality,
+            causality_given: a.get("causality").is_some(),
+            variability,
+            variability_given: a.get("variability").is_some(),
+            initial,
+            can_handle_multiple_set_per_time_instant: self
+                .boolean(a, "canHandleMultipleSetPerTimeInstant")?,
+            kind: VarKind::Real,
+            declared_type: None,
+            start: None,
+            min: None,
+            max: None,
+            nominal: None,
+            unit: None,
+            display_unit: None,
+            quantity: None,
+            derivative: None,
+            line: a.line,
+        });
+        Ok(())
+    }
+
+    fn type_element(&mut self, kind: &str, a: &Attrs) -> Result<(), HostError> {
+        let kind = var_kind(kind).unwrap_or(VarKind::Real);
+        let vname = self
+            .current_var
+            .as_ref()
+            .map(|v| v.name.clone())
+            .unwrap_or_default();
+        let start = match (kind, a.get("start")) {
+            (_, None) => None,
+            (VarKind::Real, Some(s)) => Some(StartValue::Real(parse_real(s).ok_or_else(|| {
+                self.err(a.line, format!("variable '{vname}': start=\"{s}\" is not a real number"))
+            })?)),
+            (VarKind::Integer | VarKind::Enumeration, Some(s)) => {
+                Some(StartValue::Integer(s.trim().parse::<i64>().map_err(|_| {
+                    self.err(a.line, format!("variable '{vname}': start=\"{s}\" is not an integer"))
+                })?))
+            }
+            (VarKind::Boolean, Some(_)) => Some(StartValue::Boolean(
+                self.boolean(a, "start")?.unwrap_or(false),
+            )),
+            (VarKind::String, Some(s)) => Some(StartValue::String(s.to_string())),
+        };
+        let min = self.real(a, "min")?;
+        let max = self.real(a, "max")?;
+        let nominal = self.real(a, "nominal")?;
+        let derivative = self.parse_attr::<usize>(a, "derivative", "an index")?;
+        if let Some(v) = self.current_var.as_mut() {
+            v.kind = kind;
+            v.declared_type = a.get("declaredType").map(str::to_string);
+            v.start = start;
+            v.min = min;
+            v.max = max;
+            v.nominal = nominal;
+            v.unit = a.get("unit").map(str::to_string);
+            v.display_unit = a.get("displayUnit").map(str::to_string);
+            v.quantity = a.get("quantity").map(str::to_string);
+            v.derivative = derivative;
+        }
+        Ok(())
+    }
+
+    fn unknown(&self, a: &Attrs) -> Result<Unknown, HostError> {
+        let index = self
+            .parse_attr::<usize>(a, "index", "an index")?
+            .ok_or_else(|| self.err(a.line, "<Unknown> lacks the required attribute index"))?;
+        let dependencies = match a.get("dependencies") {
+            None => None,
+            Some(s) => Some(
+                s.split_whitespace()
+                    .map(|t| {
+                        t.parse::<usize>().map_err(|_| {
+                            self.err(a.line, format!("<Unknown> dependencies entry \"{t}\" is not an index"))
+                        })
+                    })
+                    .collect::<Result<Vec<_>, _>>()?,
+            ),
+        };
+        let dependencies_kind = a
+            .get("dependenciesKind")
+            .map(|s| s.split_whitespace().map(str::to_string).collect());
+        Ok(Unknown {
+            index,
+            dependencies,
+            dependencies_kind,
+            line: a.line,
+        })
+    }
+}
+
+fn var_kind(name: &str) -> Option<VarKind> {
+    match name {
+        "Real" => Some(VarKind::Real),
+        "Integer" => Some(VarKind::Integer),
+        "Boolean" => Some(VarKind::Boolean),
+        "String" => Some(VarKind::String),
+        "Enumeration" => Some(VarKind::Enumeration),
+        _ => None,
+    }
+}
+
+/// Parses an xs:double (accepts INF, -INF, NaN as XML Schema writes them).
+fn parse_real(s: &str) -> Option<f64> {
+    match s.trim() {
+        "INF" => Some(f64::INFINITY),
+        "-INF" => Some(f64::NEG_INFINITY),
+        "NaN" => Some(f64::NAN),
+        t => t.parse::<f64>().ok(),
+    }
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+
+    pub(crate) const SAMPLE: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
+<fmiModelDescription fmiVersion="2.0" modelName="Osc" guid="{1234}" description="A &amp; B"
+  variableNamingConvention="structured" numberOfEventIndicators="0">
+  <CoSimulation modelIdentifier="Osc" canHandleVariableCommunicationStepSize="true"
+    canGetAndSetFMUstate="true" canSerializeFMUstate="true"/>
+  <UnitDefinitions>
+    <Unit name="rad"><BaseUnit rad="1"/><DisplayUnit name="deg" factor="57.29577951308232"/></Unit>
+    <Unit name="m/s2"><BaseUnit m="1" s="-2"/></Unit>
+  </UnitDefinitions>
+  <LogCategories><Category name="logAll" description="everything"/></LogCategories>
+  <DefaultExperiment startTime="0" stopTime="10" stepSize="0.001"/>
+  <ModelVariables>
+    <ScalarVariable name="time" valueReference="0" causality="independent" variability="continuous"><Real/></ScalarVariable>
+    <ScalarVariable name="x" valueReference="1" causality="output" initial="exact"
+       description="position"><Real start="1" unit="rad" displayUnit="deg"/></ScalarVariable>
+    <ScalarVariable name="k" valueReference="2" causality="parameter" variability="fixed">
+      <Real start="2.5" min="0" max="INF"/></ScalarVariable>
+    <ScalarVariable name="u" valueReference="3" causality="input"><Real start="0" unit="m/s2"/></ScalarVariable>
+    <ScalarVariable name="on" valueReference="4" causality="parameter" variability="fixed"><Boolean start="true"/></ScalarVariable>
+    <ScalarVariable name="n" valueReference="5" causality="parameter" variability="tunable"><Integer start="-3" min="-5" max="5"/></ScalarVariable>
+  </ModelVariables>
+  <ModelStructure>
+    <Outputs><Unknown index="2" dependencies="" /></Outputs>
+    <InitialUnknowns></InitialUnknowns>
+  </ModelStructure>
+</fmiModelDescription>
+"#;
+
+    #[test]
+    fn parses_every_part_of_a_description() {
+        let md = ModelDescription::parse(SAMPLE, "md.xml").unwrap();
+        assert_eq!(md.fmi_version, "2.0");
+        assert_eq!(md.model_name, "Osc");
+        assert_eq!(md.guid, "{1234}");
+        assert_eq!(md.description.as_deref(), Some("A & B"));
+        let cs = md.co_simulation.as_ref().unwrap();
+        assert_eq!(cs.model_identifier, "Osc");
+        assert!(cs.can_handle_variable_communication_step_size);
+        assert!(cs.can_get_and_set_fmu_state && cs.can_serialize_fmu_state);
+        assert!(!cs.can_interpolate_inputs);
+        assert_eq!(md.unit_definitions.len(), 2);
+        let rad = md.unit("rad").unwrap();
+        assert_eq!(rad.base_unit.as_ref().unwrap().exponents[7], 1);
+        assert_eq!(rad.display_units[0].name, "deg");
+        assert!((rad.display_units[0].factor - 57.29577951308232).abs() < 1e-12);
+        assert_eq!(md.unit("m/s2").unwrap().base_unit.as_ref().unwrap().exponents[..3], [0, 1, -2]);
+        assert_eq!(md.log_categories[0].name, "logAll");
+        assert_eq!(md.default_experiment.as_ref().unwrap().step_size, Some(0.001));
+        assert_eq!(md.model_variables.len(), 6);
+        let x = md.variable("x").unwrap();
+        assert_eq!(x.value_reference, 1);
+        assert_eq!(x.causality, Causality::Output);
+        assert_eq!(x.variability, Variability::Continuous);
+        assert!(!x.variability_given);
+        assert_eq!(x.initial, Some(Initial::Exact));
+        assert_eq!(x.start, Some(StartValue::Real(1.0)));
+        assert_eq!(x.unit.as_deref(), Some("rad"));
+        assert_eq!(x.display_unit.as_deref(), Some("deg"));
+        assert_eq!(x.line, 14);
+        let k = md.variable("k").unwrap();
+        assert_eq!(k.max, Some(f64::INFINITY));
+        assert_eq!(k.effective_initial(), Some(Initial::Exact));
+        assert_eq!(md.variable("u").unwrap().effective_initial(), None);
+        assert_eq!(md.variable("on").unwrap().start, Some(StartValue::Boolean(true)));
+        let n = md.variable("n").unwrap();
+        assert_eq!((n.kind, n.start.clone(), n.min, n.max), (VarKind::Integer, Some(StartValue::Integer(-3)), Some(-5.0), Some(5.0)));
+        assert!(md.model_structure.present);
+        assert_eq!(md.model_structure.outputs.len(), 1);
+        assert_eq!(md.model_structure.outputs[0].index, 2);
+        assert_eq!(md.model_structure.outputs[0].dependencies, Some(vec![]));
+        assert_eq!(md.output_names(), vec!["x"]);
+        assert_eq!(md.input_names(), vec!["u"]);
+    }
+
+    fn err_of(xml: &str) -> String {
+        ModelDescription::parse(xml, "md.xml").unwrap_err().to_string()
+    }
+
+    #[test]
+    fn malformed_xml_is_an_error_with_line() {
+        let e = err_of("<fmiModelDescription fmiVersion=\"2.0\">\n<ModelVariables>\n</Oops>\n</fmiModelDescription>");
+        assert!(e.starts_with("md.xml:3:"), "{e}");
+        assert!(e.contains("malformed XML"), "{e}");
+    }
+
+    #[test]
+    fn wrong_root_and_empty_are_errors() {
+        assert!(err_of("<foo/>").contains("root element is <foo>"));
+        assert!(err_of("").contains("no <fmiModelDescription>"));
+    }
+
+    #[test]
+    fn bad_attribute_values_are_errors_naming_them() {
+        let e = err_of("<fmiModelDescription>\n<ModelVariables>\n<ScalarVariable name=\"a\" valueReference=\"-1\"><Real/></ScalarVariable></ModelVariables></fmiModelDescription>");
+        assert!(e.starts_with("md.xml:3:") && e.contains("valueReference"), "{e}");
+        let e = err_of("<fmiModelDescription><ModelVariables><ScalarVariable name=\"a\" valueReference=\"1\" causality=\"outptu\"><Real/></ScalarVariable></ModelVariables></fmiModelDescription>");
+        assert!(e.contains("unknown causality \"outptu\""), "{e}");
+        let e = err_of("<fmiModelDescription><ModelVariables><ScalarVariable name=\"a\" valueReference=\"1\"><Real start=\"x1\"/></ScalarVariable></ModelVariables></fmiModelDescription>");
+        assert!(e.contains("start=\"x1\" is not a real number"), "{e}");
+        let e = err_of("<fmiModelDescription><CoSimulation modelIdentifier=\"a\" canGetAndSetFMUstate=\"yes\"/></fmiModelDescription>");
+        assert!(e.contains("canGetAndSetFMUstate=\"yes\" is not a boolean"), "{e}");
+        let e = err_of("<fmiModelDescription><CoSimulation/></fmiModelDescription>");
+        assert!(e.contains("lacks the required attribute modelIdentifier"), "{e}");
+        let e = err_of("<fmiModelDescription><ModelVariables><ScalarVariable valueReference=\"1\"><Real/></ScalarVariable></ModelVariables></fmiModelDescription>");
+        assert!(e.contains("lacks the required attribute name"), "{e}");
+    }
+}
