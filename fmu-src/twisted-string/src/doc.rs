@@ -1,0 +1,164 @@
+//! HTML documentation of the TwistedString FMU (equations, sources, derivations, choices).
+
+/// The documentation fragment written to `documentation/index.html`.
+pub fn html() -> String {
+    DOC.to_string()
+}
+
+const DOC: &str = r#"
+<h1>TwistedString: linear twisted-string actuator</h1>
+<p>Source: D. Urukalo, M. D. Jovanovic, A. Rodic, <i>Modeling, Development and Control of Linear
+Twisted-String Actuator</i> (the paper; equations and tables are numbered as there). A maxon 20 W DC
+motor with a GP 26 A 19.2:1 planetary gearhead twists four strings of 1 mm diameter; the twisted
+bundle shortens and lifts a vertical load running on four linear guides; a return spring pushes the
+load back. An ESCON module (current and speed PI) and an NI sbRIO (position P with a &plusmn;2&deg;
+hysteresis band) form the cascade of Fig. 11. All quantities inside the model are SI.</p>
+
+<h2>1. Angles, and which angle each equation means</h2>
+<ul>
+<li><code>theta_motor</code> &theta;<sub>m</sub>: motor shaft angle [rad]. <code>theta_twist</code>
+&theta;<sub>t</sub> = &theta;<sub>m</sub>/N (N = <code>gear_ratio</code> = 19.2): gearhead output
+angle = twist angle of the bundle.</li>
+<li>Tables 2 and 3 (eq. 7 and 10) use the <b>motor</b> angle in rad: the paper's experiments
+twist 0&ndash;6000&deg; of the bundle; 6000&deg; = 104.72 rad of twist = 2010.6 rad of motor angle,
+and 1000&deg; gives 335.1 rad, exactly the "motor range 335.1&ndash;2011 rad" of section 6. With the
+motor angle, Table 2 predicts p(335.1) &minus; p(2011) = 29.4 mm, matching the measured changes of
+28.5&ndash;31.5 mm; with degrees the quadratic term alone would exceed L<sub>0</sub>.</li>
+<li>Eq. 9 and 13&ndash;16 use &theta; r with the <b>twist</b> angle and the physical radius r
+(equivalently motor angle times r/N; eq. 16 shows the i&sup2; of that substitution).</li>
+</ul>
+
+<h2>2. String radius: derivation</h2>
+<p>Eq. 9 with eq. 10 and Table 3, p = &radic;((L<sub>0</sub>+a<sub>1</sub>&theta;<sub>M</sub>+a<sub>2</sub>&theta;<sub>M</sub>&sup2;+a<sub>3</sub>F)&sup2; &minus; (&theta;<sub>M</sub> r/N)&sup2;),
+was fitted by least squares to the Table 2 regression p = c<sub>1</sub>+c<sub>2</sub>&theta;<sub>M</sub>+c<sub>3</sub>&theta;<sub>M</sub>&sup2;+c<sub>4</sub>F
+on the grid &theta;<sub>M</sub> &isin; [0, 2010.6] rad (61 points) &times; F &isin; {23, 39, 54, 97, 124} N:
+the optimum is r = 1.2060 mm (motor-referred r/N = 6.281&middot;10<sup>-5</sup> m), RMS difference 0.500 mm.
+The geometric radius of four round 1 mm strings packed in a square, r = (1/&radic;2 + 1/2) d = 1.2071 mm
+(string centres at d/&radic;2 from the axis plus the string radius), is within 0.1 % of the fit
+(RMS 0.508 mm) and is the default <code>string_radius</code>. The remaining difference is mostly at
+zero twist, where Table 2's load slope c<sub>4</sub> = 3.21&middot;10<sup>-5</sup> m/N differs from
+Table 3's a<sub>3</sub> = 1.69&middot;10<sup>-5</sup> m/N (up to 1.9 mm at 124 N).
+With this radius and <code>string_compliance</code> off, full twist (&theta;<sub>t</sub> r = L<sub>0</sub>)
+is reached at &theta;<sub>m</sub> = 1427 rad, well before 2011 rad (issue 10); with
+<code>string_compliance</code> on, the strands lengthen with twist and p(2011 rad) &asymp; 6 cm.</p>
+
+<h2>3. Strings (eq. 9&ndash;19)</h2>
+<p>Twist arc a = &theta;<sub>t</sub> r(&theta;<sub>t</sub>), a' = da/d&theta;<sub>t</sub>
+(r constant unless <code>radius_growth</code>: r = r<sub>0</sub>(1 + g &theta;<sub>t</sub>/2&pi;)).
+State p is the load position (the axial length of the helix, growing downward).</p>
+<ul>
+<li>Strand length of the current configuration (Pythagoras, Fig. 12, eq. 9 read backward):
+L = &radic;(p&sup2; + a&sup2;).</li>
+<li>Unloaded strand length: L<sub>free</sub> = L<sub>0</sub>, or with <code>string_compliance</code>
+L<sub>free</sub> = L<sub>0</sub> + a<sub>1</sub>&theta;<sub>M</sub> + a<sub>2</sub>&theta;<sub>M</sub>&sup2;
+with &theta;<sub>M</sub> = N &theta;<sub>t</sub> (eq. 10, Table 3, motor-referred angle).</li>
+<li>Axial compliance c = a<sub>3</sub> (eq. 10's load term, Table 3) with <code>string_compliance</code>,
+else c = 1/<code>string_stiffness</code> (10<sup>6</sup> N/m: the "ideal inextensible" helix as a stiff
+penalty, 0.12 mm at 124 N). Stretch s = L &minus; L<sub>free</sub>, its rate
+&sdot;s = (p v + a a' &omega;<sub>t</sub>)/L &minus; (dL<sub>free</sub>/d&theta;<sub>t</sub>) &omega;<sub>t</sub>.</li>
+<li>Total strand tension (Kelvin-Voigt, strings cannot push):
+T = pos(s/c + d &sdot;s), d = <code>string_damping</code>, with the smooth positive part
+pos(x) = (x + &radic;(x&sup2;+w&sup2;))/2, w = 0.01 N (slack regularisation; error &le; w/2).</li>
+<li>Eq. 12/19: T = n F<sub>i</sub> = &radic;(F<sub>L</sub>&sup2;+F<sub>&tau;</sub>&sup2;);
+axial force on the load F<sub>L</sub> = T cos&alpha; = T p/L; tangential force
+F<sub>&tau;</sub> = T sin&alpha; = T a/L (eq. 15: F<sub>L</sub>&theta;r/p);
+helix slope &alpha; = atan2(a, p) = acos(F<sub>L</sub>/(n F<sub>i</sub>)).
+Output <code>F_string</code> = T/n (n = <code>string_count</code> = 4).</li>
+<li>Eq. 13&ndash;14: torque on the twisting shaft &tau;<sub>L</sub> = F<sub>&tau;</sub> a' = T a a'/L
+(= F<sub>L</sub>&theta;r&sup2;/p for constant r). Written with T it stays finite at full twist
+(p &rarr; 0); for a given load F<sub>L</sub> it grows without bound as p &rarr; 0, so the motor stalls
+(current limit) with p small but positive. The twist terms of eq. 10 are taken as a kinematic
+lengthening without a torque of their own, as in the paper's eq. 13&ndash;16.</li>
+<li>Outputs: <code>transmission_ratio</code> = dp/d&theta;<sub>t</sub> at constant tension
+= (L dL<sub>free</sub>/d&theta;<sub>t</sub> &minus; a a')/max(p, 0.1 mm) (= &minus;&theta;r&sup2;/p, eq. 13);
+<code>stiffness</code> = &part;F<sub>L</sub>/&part;p at fixed twist = (p/L)&sup2;/c + T a&sup2;/L&sup3;
+(falls with twist as cos&sup2;&alpha;, Fig. 19).</li>
+</ul>
+
+<h2>4. Load, spring, guides</h2>
+<p>m dv/dt = m g + F<sub>load</sub> + F<sub>s</sub> &minus; F<sub>L</sub> &minus; c<sub>g</sub> v,
+dp/dt = v, g = 9.81 m/s&sup2;, m = <code>load_mass</code> (paper loads: m = F/9.81).
+Return spring (Fig. 7 part 6, pushing the load away from the motor toward the untwisted length):
+F<sub>s</sub> = F<sub>0</sub> + k<sub>s</sub>(L<sub>0</sub> &minus; p), defaults k<sub>s</sub> = 100 N/m,
+F<sub>0</sub> = 5 N (the paper gives no values; "powerful enough to overcome friction losses").
+Guides: viscous c<sub>g</sub> = 20 N&middot;s/m (choice; issue 6 asks for a plain viscous term).</p>
+
+<h2>5. Motor and gearhead</h2>
+<p>L di/dt = u &minus; R i &minus; k<sub>e</sub>&omega;<sub>m</sub>;
+J d&omega;<sub>m</sub>/dt = k<sub>t</sub> i &minus; &tau;<sub>in</sub> &minus; &tau;<sub>f</sub>;
+d&theta;<sub>m</sub>/dt = &omega;<sub>m</sub> (N. Mohan, Electrical Drives, ref. [22]).
+Gearhead: &tau;<sub>in</sub> = f (d&theta;<sub>t</sub>/d&theta;<sub>m</sub>) &tau;<sub>out</sub>,
+&tau;<sub>out</sub> = &tau;<sub>L</sub> (+ strand friction), where f = 1/&eta; when the motor drives
+(P = &tau;<sub>out</sub>&omega;<sub>t</sub> &gt; 0) and &eta; when the load drives, blended smoothly:
+f = (1/&eta;+&eta;)/2 + (1/&eta;&minus;&eta;)/2 tanh(P/1 mW).</p>
+<table border="1"><tr><th>parameter</th><th>value</th><th>source / rationale</th></tr>
+<tr><td>motor_resistance</td><td>2.32 &Omega;</td><td rowspan="5">maxon RE 25 &empty;25 mm, graphite brushes, 20 W, 24 V winding (order no. 118752 class), maxon catalogue values as recalled; the paper names only "Maxon DC motor (20 W)" [15]. Not checked against a current datasheet: plausible for this class.</td></tr>
+<tr><td>motor_inductance</td><td>0.238 mH</td></tr>
+<tr><td>torque_constant</td><td>23.4 mN&middot;m/A</td></tr>
+<tr><td>back_emf_constant</td><td>0.0234 V&middot;s/rad (408 rpm/V)</td></tr>
+<tr><td>rotor_inertia</td><td>1.14&middot;10<sup>-6</sup> kg&middot;m&sup2;</td></tr>
+<tr><td>gear_ratio</td><td>19.2</td><td>paper sec. 3, maxon GP 26 A [16]</td></tr>
+<tr><td>gear_efficiency</td><td>0.81</td><td>2-stage planetary gearhead, maxon catalogue class value</td></tr>
+<tr><td>encoder_cpt</td><td>1000 (read 4x)</td><td>paper sec. 6, encoder MR 1000 CPT [17]</td></tr>
+<tr><td>speed_limit</td><td>8000 rpm</td><td>paper sec. 6: maximum permissible gearhead input speed</td></tr>
+<tr><td>supply_voltage / current_limit</td><td>24 V / 3 A</td><td>ESCON module [19] supply for a 24 V winding; current limit a choice (about 2x the nominal current of the winding)</td></tr>
+</table>
+
+<h2>6. Cascade controller (Fig. 11, Table 5)</h2>
+<p>The ESCON runs the current loop at 53.6 kHz and the speed loop at 5.36 kHz. Both are modelled
+<b>continuous</b> (their integrators are ODE states z<sub>i</sub>, z<sub>&omega;</sub>): their sample
+delays (19 &micro;s, 187 &micro;s) are far below the mechanical time scales, and continuous loops keep
+both the FMU and the SciPy reference fast. PI law u = K(e + z/T<sub>i</sub>), dz/dt = e + (u<sub>sat</sub> &minus; u)/K
+(back-calculation anti-windup, tracking time T<sub>i</sub>).</p>
+<ul>
+<li>Speed PI: e<sub>&omega;</sub> = &omega;<sub>ref</sub> &minus; &omega;<sub>m</sub>, i<sub>ref</sub> saturated at &plusmn;<code>current_limit</code>.
+Table 5 "963" read in &micro;A/rpm: K<sub>&omega;</sub> = 9.196&middot;10<sup>-3</sup> A&middot;s/rad, T<sub>i</sub> = 42 ms
+(crossover K<sub>&omega;</sub>k<sub>t</sub>/J &asymp; 189 rad/s, PI zero 24 rad/s).</li>
+<li>Current PI: e<sub>i</sub> = i<sub>ref</sub> &minus; i, u saturated at &plusmn;<code>supply_voltage</code>.
+Table 5 "165" read in mV/A: K<sub>i</sub> = 0.165 V/A, T<sub>i</sub> = 69 &micro;s (closed-loop poles
+&asymp; &minus;1.07&middot;10<sup>3</sup> and &minus;9.4&middot;10<sup>3</sup> rad/s).</li>
+<li>Position P on the sbRIO, <b>sampled</b> every <code>controller_position_period</code> = 1 ms at
+t<sub>k</sub> = t<sub>0</sub> + k T<sub>s</sub> (integer counter) on the encoder angle
+&theta;<sub>meas</sub> = floor(&theta;<sub>m</sub> 4000/2&pi;) 2&pi;/4000. Table 5 "0.0035" read as
+fraction of the 8000 rpm maximum speed per degree of twist error: K<sub>p</sub> = 0.0035 &middot; 837.76 &middot; (180/&pi;)/19.2 = 8.750 s<sup>-1</sup>
+per rad of motor error. Hysteresis of eq. 20&ndash;21: while SP &minus; 2&deg; &lt; PV &lt; SP + 2&deg;
+(motor angle) the output is &omega;<sub>ref</sub> = 0 and the speed loop holds the motor; outside,
+&omega;<sub>ref</sub> = clamp(K<sub>p</sub>(SP &minus; PV), &plusmn;8000 rpm). The motor thus stops at the first
+sample inside the band: steady-state error &lt; 2&deg;, its value depending on the approach.
+&omega;<sub>ref</sub> is held between samples. A sample falling on a communication point is
+taken at the start of the next step (after the new inputs are set); instants within
+10<sup>-6</sup>T<sub>s</sub> of a communication point count as on it.</li>
+<li>Gain units are a reading, not stated by the paper: they give the cascade ordering the paper
+describes (current loop fastest, position loop slowest: &asymp;1000, 190, 9 rad/s).</li>
+</ul>
+<p>With <code>internal_controller</code> = false the armature voltage is the input <code>voltage</code>
+and the controller states are frozen.</p>
+
+<h2>7. Candidate effects (off by default)</h2>
+<ul>
+<li><code>string_compliance</code>: eq. 10 with Table 3 defaults (a1, a2 per motor rad, a3 per N),
+see section 3. Makes the whole paper range 0&ndash;2011 rad reachable.</li>
+<li><code>twist_hysteresis</code>: inter-strand friction torque &mu; T a' tanh(&omega;<sub>t</sub>/0.05 rad/s)
+opposing the twist rate: twisting needs more torque than untwisting under the same load.</li>
+<li><code>motor_friction</code>: &tau;<sub>f</sub> = &tau;<sub>c</sub> tanh(&omega;<sub>m</sub>/1 rad/s) + b &omega;<sub>m</sub> at the motor shaft
+(no-load current of the RE 25 class, 20&ndash;30 mA, is about 0.6 mN&middot;m).</li>
+<li><code>gear_backlash</code>: the strings always twist back toward zero, so the flank in contact is
+the one toward zero and (negligible output inertia) the output angle is the dead zone
+&theta;<sub>t</sub> = dz(&theta;<sub>m</sub>/N, b/2), dz(x) = pos(x&minus;b/2) &minus; pos(&minus;x&minus;b/2),
+width 10<sup>-4</sup> rad; the reflected torque uses d&theta;<sub>t</sub>/d&theta;<sub>m</sub>.
+GP 26 A class backlash is about 1&deg;.</li>
+<li><code>radius_growth</code>: r = r<sub>0</sub>(1 + g &theta;<sub>t</sub>/2&pi;) (the radius varies
+with twist, paper ref. [13]).</li>
+</ul>
+
+<h2>8. Initial state, numerics</h2>
+<p>At rest, untwisted: i = &theta;<sub>m</sub> = &omega;<sub>m</sub> = v = z = 0 and p<sub>0</sub>
+from T(p<sub>0</sub>) = m g + F<sub>load</sub> + F<sub>s</sub>(p<sub>0</sub>), i.e. x = (p<sub>0</sub> &minus; L<sub>0</sub>)/c solving
+pos(x) + k<sub>s</sub> c x = m g + F<sub>load</sub> + F<sub>0</sub> (Newton). Integrator: the
+workspace's Rosenbrock solver (Rodas5P) with rtol = <code>rtol</code> and absolute tolerances
+atol&middot;nominal: i 1 A, &theta;<sub>m</sub> 1 rad, &omega;<sub>m</sub> 10 rad/s, p 1 cm, v 1 cm/s,
+z<sub>i</sub> 10<sup>-3</sup> A&middot;s, z<sub>&omega;</sub> 1 rad. The step-size history is reset when an input or
+the speed set point changes.</p>
+<p>Reference: <code>tests/reference/twisted_string_ref.py</code> writes the same equations again in
+Python and integrates them with SciPy <code>solve_ivp</code> (Radau, rtol 1e-10).</p>
+"#;

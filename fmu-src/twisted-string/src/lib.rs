@@ -1,0 +1,403 @@
+//! TwistedString FMU: linear twisted-string actuator of Urukalo, Jovanovic, Rodic ("Modeling,
+//! Development and Control of Linear Twisted-String Actuator"): maxon 20 W DC motor, GP 26 A
+//! 19.2:1 gearhead, four 1 mm strings twisted into a helix, return spring, vertical load on
+//! linear guides, and the ESCON/sbRIO cascade controller (Fig. 11, Table 5).
+//!
+//! Modules: [`physics`] (pure equations), [`controller`] (cascade laws), [`plant`] (state vector
+//! and `OdeSystem`), [`doc`] (documentation). The FMI layer is `fmi2-export`.
+
+pub mod controller;
+pub mod doc;
+pub mod physics;
+pub mod plant;
+
+use controller::{position_loop, PositionLoop};
+use fmi2_export::{Model, Variable};
+use physics::*;
+use plant::{ix, Inputs, Params, Plant, DIM, NOMINAL, P_MIN_OUTPUT};
+use serde::{Deserialize, Serialize};
+
+/// 8000 rpm in rad/s: maximum permissible input speed of the GP 26 A gearhead (paper sec. 6).
+pub const RPM8000: f64 = 8000.0 * std::f64::consts::PI / 30.0;
+/// Position P gain of Table 5 (0.0035) in SI: read as fraction of the maximum speed (8000 rpm)
+/// per degree of twist error, `K = 0.0035 * 837.758 rad/s * (180/pi) / 19.2` per rad of motor
+/// angle = 8.7501 1/s.
+pub const POSITION_P_SI: f64 = 0.0035 * RPM8000 * (180.0 / std::f64::consts::PI) / 19.2;
+/// Speed P gain of Table 5 (963) read as uA/rpm: 963e-6 A/rpm * 60/(2 pi) = 9.196e-3 A.s/rad.
+pub const SPEED_P_SI: f64 = 963e-6 * 30.0 / std::f64::consts::PI;
+
+fmi2_export::declare_variables! {
+    // ---- interface of issue 6 -------------------------------------------------------------
+    INTERNAL_CONTROLLER => Variable::flag("internal_controller", true,
+        "true: the cascade controller (Fig. 11, Table 5) tracks theta_motor_ref; false: the motor voltage is the input 'voltage'"),
+    THETA_MOTOR_REF => Variable::input("theta_motor_ref", 0.0, "rad",
+        "Motor angle set point of the position loop (motor shaft, before the 19.2:1 gearhead)").display("deg"),
+    VOLTAGE => Variable::input("voltage", 0.0, "V",
+        "Armature voltage when internal_controller = false"),
+    F_LOAD => Variable::input("F_load", 0.0, "N",
+        "Extra force pulling the load down (adds to its weight)"),
+    P => Variable::output("p", "m", "Load position = axial length of the twisted strings (eq. 9), grows downward").display("mm"),
+    THETA_MOTOR => Variable::output("theta_motor", "rad", "Motor shaft angle").display("deg"),
+    OMEGA_MOTOR => Variable::output("omega_motor", "rad/s", "Motor shaft speed").display("rpm"),
+    THETA_TWIST => Variable::output("theta_twist", "rad", "Twist angle of the bundle = gearhead output angle").display("deg"),
+    CURRENT => Variable::output("current", "A", "Armature current"),
+    TAU_MOTOR => Variable::output("tau_motor", "N.m", "Electromagnetic motor torque k_t i"),
+    F_STRING => Variable::output("F_string", "N", "Axial (strand) force of each string F_i = T/n (eq. 12)"),
+    F_TANGENTIAL => Variable::output("F_tangential", "N", "Tangential force of the bundle F_tau = F_L theta r / p (eq. 15)"),
+    ALPHA => Variable::output("alpha", "rad", "Helix slope alpha = acos(F_L / (n F_i)) (eq. 19)").display("deg"),
+    TRANSMISSION_RATIO => Variable::output("transmission_ratio", "m/rad", "dp/dtheta_twist at constant tension (eq. 13), negative: twisting shortens"),
+    STIFFNESS => Variable::output("stiffness", "N/m", "Axial stiffness of the bundle at the load dF_L/dp at fixed twist (Fig. 19)"),
+    F_AXIAL => Variable::output("F_axial", "N", "Axial force of the bundle on the load F_L = T cos(alpha)"),
+    V_LOAD => Variable::output("v_load", "m/s", "Load velocity dp/dt").display("mm/s"),
+    VOLTAGE_MOTOR => Variable::output("voltage_motor", "V", "Armature voltage applied (controller output or input)"),
+    OMEGA_REF => Variable::output("omega_ref", "rad/s", "Speed set point from the position loop (held between samples)").display("rpm"),
+    THETA_MOTOR_MEASURED => Variable::output("theta_motor_measured", "rad", "Encoder angle (1000 CPT read 4x) at the last position-loop sample").display("deg"),
+    // ---- base parameters ---------------------------------------------------------------------
+    LOAD_MASS => Variable::parameter("load_mass", 23.0 / 9.81, "kg",
+        "[calibrate] Hanging load incl. moving bracket; the paper's loads 23/39/54/97/124 N are F/9.81").range(0.1, 20.0),
+    STRING_LENGTH => Variable::parameter("string_length", 0.0897, "m",
+        "Unloaded untwisted string length L0 (Table 2 c1, Table 3)").range(0.03, 0.3).display("mm"),
+    STRING_RADIUS => Variable::parameter("string_radius", 1.207_106_781_186_547_5e-3, "m",
+        "[calibrate] Helix radius r of the bundle for the twist angle: four 1 mm strings, (1/sqrt2 + 1/2) d; the eq. 9-10 fit to Table 2 gives 1.2060 mm").range(0.3e-3, 3e-3).display("mm"),
+    STRING_COUNT => Variable::parameter("string_count", 4.0, "1",
+        "Number of strings n (eq. 19)").range(1.0, 12.0),
+    STRING_STIFFNESS => Variable::parameter("string_stiffness", 1e6, "N/m",
+        "Axial stiffness of the bundle with string_compliance off (nearly inextensible helix)").range(1e4, 1e8),
+    STRING_DAMPING => Variable::parameter("string_damping", 2000.0, "N.s/m",
+        "Axial damping of the bundle (Kelvin-Voigt)").range(0.0, 1e5),
+    SPRING_STIFFNESS => Variable::parameter("spring_stiffness", 100.0, "N/m",
+        "[calibrate] Return spring stiffness (Fig. 7 part 6)").range(0.0, 5000.0),
+    SPRING_PRELOAD => Variable::parameter("spring_preload", 5.0, "N",
+        "Return spring force at the untwisted length L0").range(0.0, 200.0),
+    GUIDE_DAMPING => Variable::parameter("guide_damping", 20.0, "N.s/m",
+        "[calibrate] Viscous friction of the 4 linear guides and bearings").range(0.0, 2000.0),
+    MOTOR_RESISTANCE => Variable::parameter("motor_resistance", 2.32, "Ohm",
+        "Terminal resistance (maxon RE 25, 20 W, 24 V class)").range(0.1, 50.0),
+    MOTOR_INDUCTANCE => Variable::parameter("motor_inductance", 0.238e-3, "H",
+        "Terminal inductance (maxon RE 25, 20 W, 24 V class)").range(1e-5, 1e-2).display("mH"),
+    TORQUE_CONSTANT => Variable::parameter("torque_constant", 0.0234, "N.m/A",
+        "Torque constant k_t (maxon RE 25, 24 V class)").range(1e-3, 0.5).display("mN.m/A"),
+    BACK_EMF_CONSTANT => Variable::parameter("back_emf_constant", 0.0234, "V.s/rad",
+        "Back-EMF constant k_e = 1/speed constant (408 rpm/V)").range(1e-3, 0.5),
+    ROTOR_INERTIA => Variable::parameter("rotor_inertia", 1.14e-6, "kg.m2",
+        "Rotor (10.8 g.cm2) + gearhead input (0.6 g.cm2) inertia at the motor shaft").range(1e-7, 1e-4),
+    GEAR_RATIO => Variable::parameter("gear_ratio", 19.2, "1",
+        "Planetary gearhead GP 26 A reduction N (paper sec. 3)").range(1.0, 200.0),
+    GEAR_EFFICIENCY => Variable::parameter("gear_efficiency", 0.81, "1",
+        "Gearhead efficiency (2-stage GP 26 A), applied in the direction of power flow").range(0.3, 1.0),
+    ENCODER_CPT => Variable::parameter("encoder_cpt", 1000.0, "1",
+        "Encoder counts per turn, read 4x (MR 1000 CPT, paper ref. 17)").range(16.0, 100000.0),
+    SUPPLY_VOLTAGE => Variable::parameter("supply_voltage", 24.0, "V",
+        "ESCON supply = maximum armature voltage").range(1.0, 60.0),
+    CURRENT_LIMIT => Variable::parameter("current_limit", 3.0, "A",
+        "ESCON current limit (saturation of the speed-PI output)").range(0.1, 20.0),
+    SPEED_LIMIT => Variable::parameter("speed_limit", RPM8000, "rad/s",
+        "Speed set-point limit: 8000 rpm maximum gearhead input speed (paper sec. 6)").range(1.0, 2000.0).display("rpm"),
+    CONTROLLER_CURRENT_P => Variable::parameter("controller_current_P", 0.165, "Ohm",
+        "Current PI gain (Table 5: 165, read in mV/A)").range(1e-3, 100.0),
+    CONTROLLER_CURRENT_TI => Variable::parameter("controller_current_Ti", 69e-6, "s",
+        "Current PI integration time (Table 5: 69 us)").range(1e-6, 1.0),
+    CONTROLLER_SPEED_P => Variable::parameter("controller_speed_P", SPEED_P_SI, "A.s/rad",
+        "Speed PI gain (Table 5: 963, read in uA/rpm)").range(1e-5, 1.0),
+    CONTROLLER_SPEED_TI => Variable::parameter("controller_speed_Ti", 0.042, "s",
+        "Speed PI integration time (Table 5: 42 ms)").range(1e-4, 10.0),
+    CONTROLLER_POSITION_P => Variable::parameter("controller_position_P", POSITION_P_SI, "1/s",
+        "Position P gain (Table 5: 0.0035, read as fraction of 8000 rpm per degree of twist error)").range(0.01, 200.0),
+    CONTROLLER_POSITION_BAND => Variable::parameter("controller_position_band", 2.0 * std::f64::consts::PI / 180.0, "rad",
+        "Hysteresis band of the position loop on the motor angle (eq. 20-21: 2 deg)").range(0.0, 1.0).display("deg"),
+    CONTROLLER_POSITION_PERIOD => Variable::parameter("controller_position_period", 1e-3, "s",
+        "Sample period of the position loop (sbRIO; choice: 1 kHz)").range(1e-4, 0.1),
+    RTOL => Variable::parameter("rtol", 1e-6, "1", "Relative tolerance of the ODE solver").range(1e-12, 1e-2),
+    ATOL => Variable::parameter("atol", 1e-6, "1",
+        "Absolute tolerance (dimensionless): state k gets atol*nominal_k, nominals i 1 A, theta 1 rad, omega 10 rad/s, p 1 cm, v 1 cm/s, z_i 1e-3 A.s, z_w 1 rad").range(1e-14, 1e-2),
+    // ---- candidate effects ------------------------------------------------------------------
+    STRING_COMPLIANCE_ENABLED => Variable::flag("string_compliance.enabled", false,
+        "String elongation Delta L = a1 theta_M + a2 theta_M^2 + a3 F_L (eq. 10, Table 3; theta_M motor angle)"),
+    STRING_COMPLIANCE_A1 => Variable::parameter("string_compliance.a1", 8.1153e-6, "m/rad",
+        "Elongation per motor radian of twist (Table 3 a1)").range(2e-6, 2e-5),
+    STRING_COMPLIANCE_A2 => Variable::parameter("string_compliance.a2", 8.4427e-9, "m/rad2",
+        "Quadratic elongation coefficient (Table 3 a2)").range(2e-9, 2e-8),
+    STRING_COMPLIANCE_A3 => Variable::parameter("string_compliance.a3", 1.6914e-5, "m/N",
+        "Axial compliance of the bundle (Table 3 a3)").range(5e-6, 5e-5).display("mm/N"),
+    TWIST_HYSTERESIS_ENABLED => Variable::flag("twist_hysteresis.enabled", false,
+        "Inter-strand friction: a torque mu T r tanh(omega_t/0.05) opposing the twist rate"),
+    TWIST_HYSTERESIS_FRICTION_COEFFICIENT => Variable::parameter("twist_hysteresis.friction_coefficient", 0.1, "1",
+        "Friction coefficient mu between the strands").range(0.02, 0.5),
+    MOTOR_FRICTION_ENABLED => Variable::flag("motor_friction.enabled", false,
+        "Coulomb + viscous friction of motor shaft and gearhead (at the motor shaft)"),
+    MOTOR_FRICTION_COULOMB => Variable::parameter("motor_friction.coulomb", 1e-3, "N.m",
+        "Coulomb friction torque at the motor shaft").range(2e-4, 5e-3).display("mN.m"),
+    MOTOR_FRICTION_VISCOUS => Variable::parameter("motor_friction.viscous", 1e-6, "N.m.s/rad",
+        "Viscous friction at the motor shaft").range(1e-7, 1e-5),
+    GEAR_BACKLASH_ENABLED => Variable::flag("gear_backlash.enabled", false,
+        "Backlash of the gearhead: dead zone in the output (twist) angle"),
+    GEAR_BACKLASH_ANGLE => Variable::parameter("gear_backlash.angle", 1.0 * std::f64::consts::PI / 180.0, "rad",
+        "Total backlash at the gearhead output").range(0.1 * std::f64::consts::PI / 180.0, 3.0 * std::f64::consts::PI / 180.0).display("deg"),
+    RADIUS_GROWTH_ENABLED => Variable::flag("radius_growth.enabled", false,
+        "Effective bundle radius growing with twist r = r0 (1 + g theta_t / 2 pi)"),
+    RADIUS_GROWTH_PER_TURN => Variable::parameter("radius_growth.per_turn", 0.005, "1",
+        "Relative radius growth g per turn of twist").range(0.001, 0.02),
+}
+
+/// Model state serialized by fmi2GetFMUstate (everything needed to continue bit-identically).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct TwistedString {
+    par: Params,
+    y: [f64; DIM],
+    integ: ode::Integrator,
+    pos: PositionLoop,
+    t0: f64,
+    theta_meas: f64,
+    last_inputs: Option<(f64, f64, f64)>,
+}
+
+fn flag(vars: &[f64], v: V) -> bool {
+    vars[v as usize] != 0.0
+}
+
+/// Read every parameter from the variable table into SI [`Params`].
+pub fn read_params(vars: &[f64]) -> Params {
+    let g = |v: V| vars[v as usize];
+    Params {
+        internal_controller: flag(vars, V::INTERNAL_CONTROLLER),
+        load_mass: g(V::LOAD_MASS),
+        string_length: g(V::STRING_LENGTH),
+        string_radius: g(V::STRING_RADIUS),
+        string_count: g(V::STRING_COUNT),
+        string_stiffness: g(V::STRING_STIFFNESS),
+        string_damping: g(V::STRING_DAMPING),
+        spring_stiffness: g(V::SPRING_STIFFNESS),
+        spring_preload: g(V::SPRING_PRELOAD),
+        guide_damping: g(V::GUIDE_DAMPING),
+        motor_resistance: g(V::MOTOR_RESISTANCE),
+        motor_inductance: g(V::MOTOR_INDUCTANCE),
+        torque_constant: g(V::TORQUE_CONSTANT),
+        back_emf_constant: g(V::BACK_EMF_CONSTANT),
+        rotor_inertia: g(V::ROTOR_INERTIA),
+        gear_ratio: g(V::GEAR_RATIO),
+        gear_efficiency: g(V::GEAR_EFFICIENCY),
+        encoder_cpt: g(V::ENCODER_CPT),
+        supply_voltage: g(V::SUPPLY_VOLTAGE),
+        current_limit: g(V::CURRENT_LIMIT),
+        speed_limit: g(V::SPEED_LIMIT),
+        current_p: g(V::CONTROLLER_CURRENT_P),
+        current_ti: g(V::CONTROLLER_CURRENT_TI),
+        speed_p: g(V::CONTROLLER_SPEED_P),
+        speed_ti: g(V::CONTROLLER_SPEED_TI),
+        position_p: g(V::CONTROLLER_POSITION_P),
+        position_band: g(V::CONTROLLER_POSITION_BAND),
+        position_period: g(V::CONTROLLER_POSITION_PERIOD),
+        rtol: g(V::RTOL),
+        atol: g(V::ATOL),
+        compliance: flag(vars, V::STRING_COMPLIANCE_ENABLED).then(|| {
+            (
+                g(V::STRING_COMPLIANCE_A1),
+                g(V::STRING_COMPLIANCE_A2),
+                g(V::STRING_COMPLIANCE_A3),
+            )
+        }),
+        hysteresis: flag(vars, V::TWIST_HYSTERESIS_ENABLED)
+            .then(|| g(V::TWIST_HYSTERESIS_FRICTION_COEFFICIENT)),
+        motor_friction: flag(vars, V::MOTOR_FRICTION_ENABLED)
+            .then(|| (g(V::MOTOR_FRICTION_COULOMB), g(V::MOTOR_FRICTION_VISCOUS))),
+        backlash: flag(vars, V::GEAR_BACKLASH_ENABLED).then(|| g(V::GEAR_BACKLASH_ANGLE)),
+        radius_growth: flag(vars, V::RADIUS_GROWTH_ENABLED).then(|| g(V::RADIUS_GROWTH_PER_TURN)),
+    }
+}
+
+/// Ill-posed combinations the min/max ranges cannot catch. Err names the parameter.
+pub fn validate(q: &Params) -> Result<(), String> {
+    for (name, v) in [
+        ("load_mass", q.load_mass),
+        ("string_length", q.string_length),
+        ("string_radius", q.string_radius),
+        ("rotor_inertia", q.rotor_inertia),
+        ("motor_inductance", q.motor_inductance),
+        ("gear_ratio", q.gear_ratio),
+        ("controller_current_Ti", q.current_ti),
+        ("controller_speed_Ti", q.speed_ti),
+        ("controller_position_period", q.position_period),
+        ("rtol", q.rtol),
+        ("atol", q.atol),
+    ] {
+        if !(v.is_finite() && v > 0.0) {
+            return Err(format!("{name} must be finite and > 0 (got {v})"));
+        }
+    }
+    if q.string_radius >= 0.5 * q.string_length {
+        return Err(format!(
+            "string_radius ({}) must be much smaller than string_length ({})",
+            q.string_radius, q.string_length
+        ));
+    }
+    if q.speed_limit * q.back_emf_constant > 2.0 * q.supply_voltage {
+        return Err(format!(
+            "speed_limit ({} rad/s) needs a back-EMF of {} V, far above supply_voltage ({} V)",
+            q.speed_limit,
+            q.speed_limit * q.back_emf_constant,
+            q.supply_voltage
+        ));
+    }
+    Ok(())
+}
+
+impl TwistedString {
+    fn inputs(vars: &[f64]) -> (f64, f64, f64) {
+        (
+            vars[V::THETA_MOTOR_REF as usize],
+            vars[V::VOLTAGE as usize],
+            vars[V::F_LOAD as usize],
+        )
+    }
+
+    /// Write every output from the current state.
+    fn write_outputs(&self, vars: &mut [f64], inp: Inputs) {
+        let q = &self.par;
+        let plant = Plant { par: q, inp };
+        let y = &self.y;
+        let aux = plant.eval(y);
+        let p = y[ix::P];
+        let c = q.compliance_c();
+        let mut set = |v: V, x: f64| vars[v as usize] = x;
+        set(V::P, p);
+        set(V::THETA_MOTOR, y[ix::THETA]);
+        set(V::OMEGA_MOTOR, y[ix::OMEGA]);
+        set(V::THETA_TWIST, aux.theta_t);
+        set(V::CURRENT, y[ix::I]);
+        set(V::TAU_MOTOR, motor_torque(q.torque_constant, y[ix::I]));
+        set(V::F_STRING, aux.tension / q.string_count);
+        set(V::F_TANGENTIAL, aux.f_tangential);
+        set(V::ALPHA, helix_slope(p, aux.a));
+        set(
+            V::TRANSMISSION_RATIO,
+            transmission_ratio(p, aux.l, aux.a, aux.da, aux.dlfree, P_MIN_OUTPUT),
+        );
+        set(
+            V::STIFFNESS,
+            axial_stiffness(aux.tension, p, aux.a, aux.l, c),
+        );
+        set(V::F_AXIAL, aux.f_axial);
+        set(V::V_LOAD, y[ix::V]);
+        set(V::VOLTAGE_MOTOR, aux.u);
+        set(V::OMEGA_REF, inp.omega_ref);
+        set(V::THETA_MOTOR_MEASURED, self.theta_meas);
+    }
+
+    fn make_inputs(&self, vars: &[f64]) -> Inputs {
+        let (theta_ref, voltage, f_load) = Self::inputs(vars);
+        Inputs {
+            theta_ref,
+            voltage,
+            f_load,
+            omega_ref: if self.par.internal_controller {
+                self.pos.omega_ref
+            } else {
+                0.0
+            },
+        }
+    }
+}
+
+impl Model for TwistedString {
+    const NAME: &'static str = "TwistedString";
+    const DESCRIPTION: &'static str = "Linear twisted-string actuator (Urukalo, Jovanovic, Rodic): maxon 20 W DC motor, 19.2:1 gearhead, four twisted strings, return spring, vertical load, ESCON cascade control";
+
+    fn variables() -> &'static [Variable] {
+        VARIABLES
+    }
+
+    fn documentation_html() -> String {
+        doc::html()
+    }
+
+    fn new() -> Self {
+        TwistedString {
+            par: Params::default(),
+            y: [0.0; DIM],
+            integ: ode::Integrator::new(1e-6, NOMINAL.iter().map(|n| 1e-6 * n).collect()),
+            pos: PositionLoop::default(),
+            t0: 0.0,
+            theta_meas: 0.0,
+            last_inputs: None,
+        }
+    }
+
+    fn initialize(&mut self, vars: &mut [f64], start_time: f64) -> Result<(), String> {
+        let par = read_params(vars);
+        validate(&par)?;
+        let (_, _, f_load) = Self::inputs(vars);
+        let p0 = plant::rest_position(&par, f_load)?;
+        self.y = [0.0; DIM];
+        self.y[ix::P] = p0;
+        self.integ = ode::Integrator::new(
+            par.rtol,
+            NOMINAL.iter().map(|n| par.atol * n).collect(),
+        );
+        self.integ.set_max_steps(200_000);
+        self.pos = PositionLoop::default();
+        self.t0 = start_time;
+        self.theta_meas = 0.0;
+        self.last_inputs = None;
+        self.par = par;
+        let inp = self.make_inputs(vars);
+        self.write_outputs(vars, inp);
+        Ok(())
+    }
+
+    fn do_step(&mut self, vars: &mut [f64], t: f64, h: f64) -> Result<(), String> {
+        let inputs = Self::inputs(vars);
+        if self.last_inputs != Some(inputs) {
+            // inputs jump at the communication point: restart the step-size selection
+            self.integ.reset_step_size();
+            self.last_inputs = Some(inputs);
+        }
+        let t_end = t + h;
+        let ts = self.par.position_period;
+        let eps = 1e-6 * ts;
+        let mut tc = t;
+        loop {
+            if self.par.internal_controller {
+                // process every sample instant reached (k*Ts <= tc within eps)
+                while self.t0 + PositionLoop::sample_time(self.pos.next_sample, ts) <= tc + eps {
+                    self.theta_meas = encoder_quantize(self.y[ix::THETA], self.par.encoder_cpt);
+                    let w = position_loop(
+                        inputs.0,
+                        self.theta_meas,
+                        self.par.position_p,
+                        self.par.position_band,
+                        self.par.speed_limit,
+                    );
+                    if w != self.pos.omega_ref {
+                        self.integ.reset_step_size();
+                    }
+                    self.pos.omega_ref = w;
+                    self.pos.next_sample += 1;
+                }
+            }
+            if tc >= t_end {
+                break;
+            }
+            let mut t_next = t_end;
+            if self.par.internal_controller {
+                let ts_next = self.t0 + PositionLoop::sample_time(self.pos.next_sample, ts);
+                if ts_next < t_end - eps {
+                    t_next = ts_next;
+                }
+            }
+            let inp = self.make_inputs(vars);
+            let plant = Plant {
+                par: &self.par,
+                inp,
+            };
+            self.integ
+                .integrate(&plant, tc, t_next, &mut self.y)
+                .map_err(|e| format!("TwistedString: {e}"))?;
+            tc = t_next;
+        }
+        let inp = self.make_inputs(vars);
+        self.write_outputs(vars, inp);
+        Ok(())
+    }
+}
+
+fmi2_export::export_model!(TwistedString);
