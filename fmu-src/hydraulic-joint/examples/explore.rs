@@ -1,0 +1,100 @@
+//! Quick exploration: runs scenarios through the Model trait and prints key numbers.
+use fmi2_export::Model;
+use hydraulic_joint::vars::{V, VARIABLES};
+use hydraulic_joint::HydraulicJoint;
+
+fn vars0() -> Vec<f64> {
+    VARIABLES.iter().map(|v| v.start).collect()
+}
+
+fn minjerk(t: f64) -> f64 {
+    let s = (t / 1.0).clamp(0.0, 1.0);
+    45f64.to_radians() * (10.0 * s.powi(3) - 15.0 * s.powi(4) + 6.0 * s.powi(5))
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let what = args.get(1).map(|s| s.as_str()).unwrap_or("bench");
+    match what {
+        "bench" => {
+            for u in [
+                -10.0, -6.0, -3.0, -2.0, -1.7, 0.0, 1.4, 1.7, 2.0, 3.0, 6.0, 10.0,
+            ] {
+                let mut v = vars0();
+                v[V::INTERNAL_CONTROLLER as usize] = 0.0;
+                v[V::CABLES_ATTACHED as usize] = 0.0;
+                let mut m = HydraulicJoint::new();
+                m.initialize(&mut v, 0.0).unwrap();
+                v[V::U_LEFT as usize] = u;
+                let mut speeds = vec![];
+                for k in 0..60 {
+                    m.do_step(&mut v, k as f64 * 1e-3, 1e-3).unwrap();
+                    if k + 1 >= 20 {
+                        speeds.push(v[V::V_LEFT as usize]);
+                    }
+                }
+                let mean = speeds.iter().sum::<f64>() / speeds.len() as f64;
+                println!(
+                    "U={u:6.2} v(20-60ms) mean={mean:.5} min={:.5} max={:.5} p1={:.3e} p2={:.3e}",
+                    speeds.iter().cloned().fold(f64::INFINITY, f64::min),
+                    speeds.iter().cloned().fold(f64::NEG_INFINITY, f64::max),
+                    v[V::P1_LEFT as usize],
+                    v[V::P2_LEFT as usize]
+                );
+            }
+        }
+        "catch" => {
+            let mut v = vars0();
+            for a in args.iter().skip(2) {
+                let (n, x) = a.split_once('=').unwrap();
+                let i = VARIABLES.iter().position(|q| q.name == n).unwrap();
+                v[i] = x.parse().unwrap();
+            }
+            let mut m = HydraulicJoint::new();
+            m.initialize(&mut v, 0.0).unwrap();
+            let dt = 1e-3;
+            let n = 2000;
+            let mut th = vec![0.0];
+            let mut rf = vec![0.0];
+            let t0 = std::time::Instant::now();
+            for k in 0..n {
+                let t = k as f64 * dt;
+                v[V::THETA_REF as usize] = minjerk(t);
+                m.do_step(&mut v, t, dt).unwrap();
+                th.push(v[V::THETA as usize]);
+                rf.push(minjerk(t + dt));
+            }
+            let el = t0.elapsed();
+            let mut maxe: f64 = 0.0;
+            for (a, b) in th.iter().zip(&rf) {
+                maxe = maxe.max((a - b).abs());
+            }
+            // lag by best shift
+            let mut best = (0usize, f64::INFINITY);
+            for s in 0..400 {
+                let mut e = 0.0;
+                for k in 0..(1500) {
+                    let d = th[k + s] - rf[k];
+                    e += d * d;
+                }
+                if e < best.1 {
+                    best = (s, e);
+                }
+            }
+            // 50% crossing
+            let half = 22.5f64.to_radians();
+            let tc = |x: &[f64]| x.iter().position(|&q| q >= half).unwrap_or(0) as f64 * dt;
+            println!("peak err {:.2} deg, lag(best shift) {:.3} s, lag(50%) {:.3} s, final {:.3} deg, time {:?}",
+                maxe.to_degrees(), best.0 as f64 * dt, tc(&th) - tc(&rf), th[n].to_degrees(), el);
+            for k in (0..=n).step_by(100) {
+                println!(
+                    "t={:.2} ref={:6.2} th={:6.2}",
+                    k as f64 * dt,
+                    rf[k].to_degrees(),
+                    th[k].to_degrees()
+                );
+            }
+        }
+        _ => {}
+    }
+}

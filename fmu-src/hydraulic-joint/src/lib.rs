@@ -1,0 +1,18 @@
+//! HydraulicJoint FMU: the NEUROexos agonist/antagonist hydraulic shoulder joint
+//! (paper: "Description, Characterization and Assessment of a Bio-Inspired Shoulder Joint-First
+//! Link Robot for Neuro-Robotic Applications"), exported as an FMI 2.0 Co-Simulation FMU.
+//!
+//! Modules: [`physics`] (pure equations), [`controller`] (the 40 Hz position controller),
+//! [`plant`] (state vector and right-hand side), [`vars`] (variable table), [`model`] (the
+//! FMI model), [`docs`] (the HTML documentation with derivations and parameter tables).
+
+pub mod controller;
+pub mod docs;
+pub mod model;
+pub mod physics;
+pub mod plant;
+pub mod vars;
+
+pub use model::HydraulicJoint;
+
+fmi2_export::export_model!(HydraulicJoint);

@@ -1,0 +1,281 @@
+//! The FMI model: parameters from the variable table, consistent initialization at rest,
+//! stepping with the 40 Hz controller samples hit exactly, outputs.
+
+use crate::controller::{controller_update, ControllerParams, U_MAX};
+use crate::plant::*;
+use crate::vars::{V, VARIABLES};
+use fmi2_export::{Model, Variable};
+use ode::Integrator;
+use serde::{Deserialize, Serialize};
+
+/// The HydraulicJoint model state (serialized whole for fmi2GetFMUstate).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct HydraulicJoint {
+    params: Option<(Params, Derived)>,
+    y: Vec<f64>,
+    integrator: Option<Integrator>,
+    /// Voltages held at the valves [V].
+    u_held: [f64; 2],
+    /// External torque of the previous step (a change resets the step size history).
+    tau_held: f64,
+    /// Index of the next controller sample `t0 + k/f`.
+    next_sample: u64,
+    t0: f64,
+}
+
+fn flag(vars: &[f64], v: V) -> bool {
+    vars[v as usize] != 0.0
+}
+
+/// Read every parameter from the variable values.
+pub fn read_params(vars: &[f64]) -> Params {
+    let g = |v: V| vars[v as usize];
+    Params {
+        internal_controller: flag(vars, V::INTERNAL_CONTROLLER),
+        cables_attached: flag(vars, V::CABLES_ATTACHED),
+        valve_use_mean: flag(vars, V::VALVE_USE_MEAN),
+        load_mass: g(V::LOAD_MASS),
+        load_radius: g(V::LOAD_RADIUS),
+        link_inertia: g(V::LINK_INERTIA),
+        link_damping: g(V::LINK_DAMPING),
+        pulley_radius: g(V::PULLEY_RADIUS),
+        piston_area: g(V::PISTON_AREA),
+        annulus_area: g(V::ANNULUS_AREA),
+        stroke: g(V::STROKE),
+        dead_volume_cap: g(V::DEAD_VOLUME_CAP),
+        dead_volume_rod: g(V::DEAD_VOLUME_ROD),
+        piston_mass: g(V::PISTON_MASS),
+        piston_damping: g(V::PISTON_DAMPING),
+        bulk_modulus: g(V::BULK_MODULUS),
+        supply_pressure: g(V::SUPPLY_PRESSURE),
+        return_pressure: g(V::RETURN_PRESSURE),
+        c: [g(V::C1), g(V::C2), g(V::C3), g(V::C4)],
+        valve_flow_scale: g(V::VALVE_FLOW_SCALE),
+        valve_deadband_low: g(V::VALVE_DEADBAND_LOW),
+        valve_deadband_high: g(V::VALVE_DEADBAND_HIGH),
+        spring_stiffness: g(V::SPRING_STIFFNESS),
+        spring_pretension: g(V::SPRING_PRETENSION),
+        ctrl: ControllerParams {
+            rate: g(V::CONTROLLER_RATE),
+            gain: g(V::CONTROLLER_GAIN),
+            radius: g(V::PULLEY_RADIUS),
+            slope_extend: g(V::CONTROLLER_SLOPE_EXTEND),
+            slope_retract: g(V::CONTROLLER_SLOPE_RETRACT),
+            deadband_low: g(V::CONTROLLER_DEADBAND_LOW),
+            deadband_high: g(V::CONTROLLER_DEADBAND_HIGH),
+        },
+        rtol: g(V::RTOL),
+        atol: g(V::ATOL),
+        seal_friction: flag(vars, V::SEAL_FRICTION_ENABLED).then(|| SealFriction {
+            coulomb: g(V::SEAL_FRICTION_COULOMB),
+            breakaway_excess: g(V::SEAL_FRICTION_BREAKAWAY_EXCESS),
+            stribeck_velocity: g(V::SEAL_FRICTION_STRIBECK_VELOCITY),
+            viscous: g(V::SEAL_FRICTION_VISCOUS),
+        }),
+        valve_overlap: flag(vars, V::VALVE_OVERLAP_ENABLED).then(|| g(V::VALVE_OVERLAP_WIDTH)),
+        internal_leakage: flag(vars, V::INTERNAL_LEAKAGE_ENABLED)
+            .then(|| g(V::INTERNAL_LEAKAGE_COEFFICIENT)),
+        cable_friction: flag(vars, V::CABLE_FRICTION_ENABLED).then(|| CableFriction {
+            mu: g(V::CABLE_FRICTION_MU),
+            wrap_angle: g(V::CABLE_FRICTION_WRAP_ANGLE),
+        }),
+        entrained_air: flag(vars, V::ENTRAINED_AIR_ENABLED).then(|| EntrainedAir {
+            fraction: g(V::ENTRAINED_AIR_FRACTION),
+            polytropic_index: g(V::ENTRAINED_AIR_POLYTROPIC_INDEX),
+        }),
+        valve_dynamics: flag(vars, V::VALVE_DYNAMICS_ENABLED).then(|| ValveDynamics {
+            natural_frequency: g(V::VALVE_DYNAMICS_NATURAL_FREQUENCY),
+            damping_ratio: g(V::VALVE_DYNAMICS_DAMPING_RATIO),
+        }),
+    }
+}
+
+impl HydraulicJoint {
+    /// Valve voltages when no controller sample is due: the inputs (open loop) or the held
+    /// controller output.
+    fn open_loop_commands(vars: &[f64]) -> [f64; 2] {
+        [
+            vars[V::U_LEFT as usize].clamp(-U_MAX, U_MAX),
+            vars[V::U_RIGHT as usize].clamp(-U_MAX, U_MAX),
+        ]
+    }
+
+    /// Write every output from the current state and held commands.
+    fn write_outputs(&mut self, vars: &mut [f64]) {
+        let Some((p, d)) = &self.params else { return };
+        let plant = Plant {
+            p,
+            d,
+            u: self.u_held,
+            tau_ext: self.tau_held,
+        };
+        let y = &self.y;
+        let l = plant.piston(0, y);
+        let r = plant.piston(1, y);
+        let set = |vars: &mut [f64], v: V, x: f64| vars[v as usize] = x;
+        set(vars, V::THETA, y[TH]);
+        set(vars, V::OMEGA, y[OM]);
+        for (i, a) in [l, r].iter().enumerate() {
+            let b = piston(i);
+            let (vx, vv, vp1, vp2, vf, vt, vu, vq) = if i == 0 {
+                (
+                    V::X_LEFT,
+                    V::V_LEFT,
+                    V::P1_LEFT,
+                    V::P2_LEFT,
+                    V::F_LEFT,
+                    V::T_LEFT,
+                    V::U_VALVE_LEFT,
+                    V::Q_LEFT,
+                )
+            } else {
+                (
+                    V::X_RIGHT,
+                    V::V_RIGHT,
+                    V::P1_RIGHT,
+                    V::P2_RIGHT,
+                    V::F_RIGHT,
+                    V::T_RIGHT,
+                    V::U_VALVE_RIGHT,
+                    V::Q_RIGHT,
+                )
+            };
+            set(vars, vx, y[b]);
+            set(vars, vv, y[b + 1]);
+            set(vars, vp1, y[b + 2]);
+            set(vars, vp2, y[b + 3]);
+            set(vars, vf, a.force);
+            set(vars, vt, a.t_joint);
+            set(vars, vu, self.u_held[i]);
+            set(vars, vq, a.q_supply);
+        }
+    }
+
+    /// Integrate the plant from `t0` to `t1` with the held commands.
+    fn advance(&mut self, t0: f64, t1: f64) -> Result<(), String> {
+        if t1 <= t0 {
+            return Ok(());
+        }
+        let (Some((p, d)), Some(integ)) = (&self.params, &mut self.integrator) else {
+            return Err("HydraulicJoint: doStep before initialization".into());
+        };
+        let plant = Plant {
+            p,
+            d,
+            u: self.u_held,
+            tau_ext: self.tau_held,
+        };
+        integ
+            .integrate(&plant, t0, t1, &mut self.y)
+            .map_err(|e| format!("HydraulicJoint: integration failed: {e}"))?;
+        if let Some(i) = self.y.iter().position(|v| !v.is_finite()) {
+            return Err(format!(
+                "HydraulicJoint: non-finite state component {i} at t = {t1}"
+            ));
+        }
+        Ok(())
+    }
+
+    /// Set new held commands; forget the step-size history if they changed (discontinuity).
+    fn hold(&mut self, u: [f64; 2], tau: f64) {
+        if u != self.u_held || tau != self.tau_held {
+            self.u_held = u;
+            self.tau_held = tau;
+            if let Some(integ) = &mut self.integrator {
+                integ.reset_step_size();
+            }
+        }
+    }
+}
+
+impl Model for HydraulicJoint {
+    const NAME: &'static str = "HydraulicJoint";
+    const DESCRIPTION: &'static str = "NEUROexos agonist/antagonist hydraulic shoulder joint: two \
+        CHL cylinders with D1FP spool valves, series springs, Bowden cables, pulley and link, \
+        with the paper's 40 Hz position controller";
+    const DEFAULT_STOP_TIME: f64 = 2.0;
+
+    fn variables() -> &'static [Variable] {
+        VARIABLES
+    }
+
+    fn documentation_html() -> String {
+        crate::docs::html()
+    }
+
+    fn new() -> Self {
+        HydraulicJoint {
+            params: None,
+            y: Vec::new(),
+            integrator: None,
+            u_held: [0.0; 2],
+            tau_held: 0.0,
+            next_sample: 0,
+            t0: 0.0,
+        }
+    }
+
+    fn initialize(&mut self, vars: &mut [f64], start_time: f64) -> Result<(), String> {
+        let p = read_params(vars);
+        let d = p.derive()?;
+        let u = if p.internal_controller {
+            let (l, r) = controller_update(vars[V::THETA_REF as usize], 0.0, &p.ctrl);
+            [l, r]
+        } else {
+            Self::open_loop_commands(vars)
+        };
+        self.y = p.rest_state(&d, u);
+        self.integrator = Some(Integrator::new(p.rtol, p.atol_vector(d.dim)));
+        self.u_held = u;
+        self.tau_held = vars[V::TAU_EXT as usize];
+        self.next_sample = 0;
+        self.t0 = start_time;
+        self.params = Some((p, d));
+        self.write_outputs(vars);
+        Ok(())
+    }
+
+    fn do_step(&mut self, vars: &mut [f64], t: f64, h: f64) -> Result<(), String> {
+        let Some((p, _)) = &self.params else {
+            return Err("HydraulicJoint: doStep before initialization".into());
+        };
+        let internal = p.internal_controller;
+        let ctrl = p.ctrl;
+        let tau = vars[V::TAU_EXT as usize];
+        let theta_ref = vars[V::THETA_REF as usize];
+        let t_end = t + h;
+        if !internal {
+            self.hold(Self::open_loop_commands(vars), tau);
+            self.advance(t, t_end)?;
+        } else {
+            let ts = 1.0 / ctrl.rate;
+            let tol = 1e-9 * ts;
+            let t0 = self.t0;
+            let sample_time = |k: u64| t0 + k as f64 * ts;
+            let mut tc = t;
+            let mut u = self.u_held;
+            // samples due at (or before, within rounding) the start of the step
+            while sample_time(self.next_sample) <= t + tol {
+                let (l, r) = controller_update(theta_ref, self.y[TH], &ctrl);
+                u = [l, r];
+                self.next_sample += 1;
+            }
+            self.hold(u, tau);
+            loop {
+                let tk = sample_time(self.next_sample);
+                if tk < t_end - tol {
+                    self.advance(tc, tk)?;
+                    let (l, r) = controller_update(theta_ref, self.y[TH], &ctrl);
+                    self.hold([l, r], tau);
+                    self.next_sample += 1;
+                    tc = tk;
+                } else {
+                    self.advance(tc, t_end)?;
+                    break;
+                }
+            }
+        }
+        self.write_outputs(vars);
+        Ok(())
+    }
+}

@@ -1,0 +1,109 @@
+//! The variable table (value reference = index). Names are a fixed interface (issues 5 and 10).
+
+use fmi2_export::Variable;
+
+/// Table I orifice coefficient with no FMI unit: the SI unit m3 s^-1 V^-1 Pa^-1/2 has a
+/// half-integer exponent, which FMI `BaseUnit` cannot express; it is stated in the description.
+const fn coefficient(name: &'static str, start: f64, description: &'static str) -> Variable {
+    let mut v = Variable::parameter(name, start, "1", description).range(5e-10, 5e-8);
+    v.unit = None;
+    v
+}
+
+fmi2_export::declare_variables! {
+    // ---- mode flags
+    INTERNAL_CONTROLLER => Variable::flag("internal_controller", true,
+        "true: the 40 Hz controller (paper sec. IV) tracks theta_ref; false: valve voltages from u_left, u_right"),
+    CABLES_ATTACHED => Variable::flag("cables_attached", true,
+        "false frees both pistons from their cables (Fig. 6 bench test of a single piston)"),
+    VALVE_USE_MEAN => Variable::flag("valve_use_mean", false,
+        "Use the mean of the four Table I orifice coefficients for all orifices (matched, symmetric valve)"),
+    // ---- inputs
+    THETA_REF => Variable::input("theta_ref", 0.0, "rad", "Desired link angle theta_d (used when internal_controller)").display("deg"),
+    U_LEFT => Variable::input("u_left", 0.0, "V", "Left valve voltage when internal_controller is false (saturated to +-10 V)").range(-10.0, 10.0),
+    U_RIGHT => Variable::input("u_right", 0.0, "V", "Right valve voltage when internal_controller is false (saturated to +-10 V)").range(-10.0, 10.0),
+    TAU_EXT => Variable::input("tau_ext", 0.0, "N.m", "External torque on the link, positive in the direction of theta"),
+    // ---- outputs
+    THETA => Variable::output("theta", "rad", "Link angle, eq. (1); grows when the left piston pulls").display("deg"),
+    OMEGA => Variable::output("omega", "rad/s", "Link angular velocity").display("deg/s"),
+    X_LEFT => Variable::output("x_left", "m", "Left piston position from the retracted end").display("mm"),
+    X_RIGHT => Variable::output("x_right", "m", "Right piston position from the retracted end").display("mm"),
+    V_LEFT => Variable::output("v_left", "m/s", "Left piston velocity, positive extending").display("mm/s"),
+    V_RIGHT => Variable::output("v_right", "m/s", "Right piston velocity, positive extending").display("mm/s"),
+    P1_LEFT => Variable::output("p1_left", "Pa", "Left cap-side (piston-side) chamber pressure, gauge").display("bar"),
+    P2_LEFT => Variable::output("p2_left", "Pa", "Left rod-side chamber pressure, gauge").display("bar"),
+    P1_RIGHT => Variable::output("p1_right", "Pa", "Right cap-side chamber pressure, gauge").display("bar"),
+    P2_RIGHT => Variable::output("p2_right", "Pa", "Right rod-side chamber pressure, gauge").display("bar"),
+    F_LEFT => Variable::output("F_left", "N", "Left piston hydraulic force P1 A1 - P2 A2, eq. (2)"),
+    F_RIGHT => Variable::output("F_right", "N", "Right piston hydraulic force P1 A1 - P2 A2, eq. (3)"),
+    T_LEFT => Variable::output("T_left", "N", "Left cable tension at the joint (load cell)"),
+    T_RIGHT => Variable::output("T_right", "N", "Right cable tension at the joint (load cell)"),
+    U_VALVE_LEFT => Variable::output("u_valve_left", "V", "Voltage at the left valve"),
+    U_VALVE_RIGHT => Variable::output("u_valve_right", "V", "Voltage at the right valve"),
+    Q_LEFT => Variable::output("Q_left", "m3/s", "Flow drawn from the supply by the left valve").display("L/min"),
+    Q_RIGHT => Variable::output("Q_right", "m3/s", "Flow drawn from the supply by the right valve").display("L/min"),
+    // ---- link
+    LOAD_MASS => Variable::parameter("load_mass", 2.0, "kg",
+        "[calibrate] Mass fixed on the link standing for forearm and hand (paper sec. V)").range(0.0, 10.0),
+    LOAD_RADIUS => Variable::parameter("load_radius", 0.30, "m", "Distance of the load mass from the joint axis").range(0.05, 0.6),
+    LINK_INERTIA => Variable::parameter("link_inertia", 0.056, "kg.m2",
+        "Inertia of the bare link about the joint axis (human upper arm, Winter 2009)").range(0.005, 0.5),
+    LINK_DAMPING => Variable::parameter("link_damping", 3.0, "N.m.s/rad",
+        "[calibrate] Joint viscous friction b, eq. (1)").range(0.0, 10.0),
+    PULLEY_RADIUS => Variable::parameter("pulley_radius", 0.03, "m", "Pulley radius R, eq. (1)").range(0.01, 0.1).display("mm"),
+    // ---- cylinders (Parker CHL, 16 mm bore, 10 mm rod, 100 mm stroke)
+    PISTON_AREA => Variable::parameter("piston_area", 2.010_619_298_297_467_7e-4, "m2", "Cap-side area A1, eq. (4)").range(5e-5, 2e-3),
+    ANNULUS_AREA => Variable::parameter("annulus_area", 1.225_221_134_900_318_2e-4, "m2", "Rod-side area A2, eq. (5); must be < piston_area").range(2e-5, 2e-3),
+    STROKE => Variable::parameter("stroke", 0.1, "m", "Stroke s, eq. (12); pistons start mid-stroke").range(0.06, 0.5).display("mm"),
+    DEAD_VOLUME_CAP => Variable::parameter("dead_volume_cap", 2e-6, "m3", "V1(0): cap-side line and port volume, eq. (11)").range(1e-7, 1e-4),
+    DEAD_VOLUME_ROD => Variable::parameter("dead_volume_rod", 2e-6, "m3", "V2(0): rod-side line and port volume at full extension, eq. (12)").range(1e-7, 1e-4),
+    PISTON_MASS => Variable::parameter("piston_mass", 0.3, "kg", "Moving mass M of piston, rod and spring end, eq. (6)").range(0.05, 5.0),
+    PISTON_DAMPING => Variable::parameter("piston_damping", 500.0, "N.s/m", "Viscous part of g(v) in eq. (6) always present").range(0.0, 1e4),
+    // ---- oil and supply
+    BULK_MODULUS => Variable::parameter("bulk_modulus", 1.0e9, "Pa", "[calibrate] Effective bulk modulus beta (oil, hoses), eq. (7)-(10)").range(2e8, 2e9),
+    SUPPLY_PRESSURE => Variable::parameter("supply_pressure", 1.0e7, "Pa", "Supply pressure Ps (100 bar)").range(1e6, 2.1e7).display("bar"),
+    RETURN_PRESSURE => Variable::parameter("return_pressure", 0.0, "Pa", "Return (reservoir) pressure Pr, gauge").range(0.0, 1e6).display("bar"),
+    // ---- valve (Parker D1FP, Table I)
+    C1 => coefficient("c1", 0.3667e-8, "Table I orifice coefficient c1, P->A [m3 s^-1 V^-1 Pa^-1/2], eq. (13)"),
+    C2 => coefficient("c2", 0.3404e-8, "Table I orifice coefficient c2, P->B [m3 s^-1 V^-1 Pa^-1/2], eq. (14)"),
+    C3 => coefficient("c3", 0.3282e-8, "Table I orifice coefficient c3, B->T [m3 s^-1 V^-1 Pa^-1/2], eq. (15)"),
+    C4 => coefficient("c4", 0.3276e-8, "Table I orifice coefficient c4, A->T [m3 s^-1 V^-1 Pa^-1/2], eq. (16)"),
+    VALVE_FLOW_SCALE => Variable::parameter("valve_flow_scale", 1.0, "1",
+        "[calibrate] Common scale on the four orifice coefficients").range(0.2, 5.0),
+    VALVE_DEADBAND_LOW => Variable::parameter("valve_deadband_low", -1.8, "V", "Lower edge of the valve command dead band (Fig. 6)").range(-5.0, 0.0),
+    VALVE_DEADBAND_HIGH => Variable::parameter("valve_deadband_high", 1.5, "V", "Upper edge of the valve command dead band (Fig. 6)").range(0.0, 5.0),
+    // ---- series springs
+    SPRING_STIFFNESS => Variable::parameter("spring_stiffness", 5.0e4, "N/m", "Series spring stiffness between piston and cable").range(1e3, 1e6).display("N/mm"),
+    SPRING_PRETENSION => Variable::parameter("spring_pretension", 150.0, "N", "Cable pretension at rest (co-contraction)").range(0.0, 2000.0),
+    // ---- controller (sec. IV)
+    CONTROLLER_RATE => Variable::parameter("controller_rate", 40.0, "1/s", "Sample rate f of the position controller, eq. (23)").range(1.0, 1000.0).display("Hz"),
+    CONTROLLER_GAIN => Variable::parameter("controller_gain", 0.2, "1", "Gain K of eq. (25)-(26), on the desired piston speed").range(0.0, 5.0),
+    CONTROLLER_SLOPE_EXTEND => Variable::parameter("controller_slope_extend", 0.0509, "m/(s.V)",
+        "Slope of the Fig. 6 curve the controller inverts, extending (above the dead band)").range(1e-3, 1.0),
+    CONTROLLER_SLOPE_RETRACT => Variable::parameter("controller_slope_retract", 0.0366, "m/(s.V)",
+        "Slope of the Fig. 6 curve the controller inverts, retracting (below the dead band)").range(1e-3, 1.0),
+    CONTROLLER_DEADBAND_LOW => Variable::parameter("controller_deadband_low", -1.8, "V", "Dead band lower edge the controller compensates").range(-5.0, 0.0),
+    CONTROLLER_DEADBAND_HIGH => Variable::parameter("controller_deadband_high", 1.5, "V", "Dead band upper edge the controller compensates").range(0.0, 5.0),
+    // ---- solver
+    RTOL => Variable::parameter("rtol", 1e-6, "1", "Relative tolerance of the integrator").range(1e-12, 1e-2),
+    ATOL => Variable::parameter("atol", 1e-6, "1", "Absolute tolerance, times the nominal scale of each state").range(1e-12, 1e-2),
+    // ---- candidate effects (off by default)
+    SEAL_FRICTION_ENABLED => Variable::flag("seal_friction.enabled", false, "Coulomb + Stribeck + viscous piston seal friction with stiction"),
+    SEAL_FRICTION_COULOMB => Variable::parameter("seal_friction.coulomb", 40.0, "N", "Coulomb seal friction force Fc").range(5.0, 200.0),
+    SEAL_FRICTION_BREAKAWAY_EXCESS => Variable::parameter("seal_friction.breakaway_excess", 30.0, "N", "Breakaway (static) force above Coulomb, Fs - Fc").range(0.0, 200.0),
+    SEAL_FRICTION_STRIBECK_VELOCITY => Variable::parameter("seal_friction.stribeck_velocity", 0.01, "m/s", "Stribeck speed vs").range(0.002, 0.05).display("mm/s"),
+    SEAL_FRICTION_VISCOUS => Variable::parameter("seal_friction.viscous", 300.0, "N.s/m", "Viscous seal friction (added to piston_damping)").range(0.0, 3000.0),
+    VALVE_OVERLAP_ENABLED => Variable::flag("valve_overlap.enabled", false, "Spool overlap beyond the measured command dead band"),
+    VALVE_OVERLAP_WIDTH => Variable::parameter("valve_overlap.width", 0.4, "V", "Extra dead zone on each side of the dead band").range(0.1, 1.5),
+    INTERNAL_LEAKAGE_ENABLED => Variable::flag("internal_leakage.enabled", false, "Leakage across the piston, proportional to P1 - P2"),
+    INTERNAL_LEAKAGE_COEFFICIENT => Variable::parameter("internal_leakage.coefficient", 5e-13, "m3/(s.Pa)", "Cross-piston leakage coefficient C_ip").range(1e-14, 5e-12),
+    CABLE_FRICTION_ENABLED => Variable::flag("cable_friction.enabled", false, "Bowden capstan friction T_j = T_p exp(-mu phi sign(v))"),
+    CABLE_FRICTION_MU => Variable::parameter("cable_friction.mu", 0.1, "1", "Friction coefficient core/liner (PTFE liner)").range(0.02, 0.3),
+    CABLE_FRICTION_WRAP_ANGLE => Variable::parameter("cable_friction.wrap_angle", 3.14, "rad", "Total bend angle of the Bowden cable").range(0.5, 6.3).display("deg"),
+    ENTRAINED_AIR_ENABLED => Variable::flag("entrained_air.enabled", false, "Effective bulk modulus falling at low pressure (air in the oil)"),
+    ENTRAINED_AIR_FRACTION => Variable::parameter("entrained_air.fraction", 0.02, "1", "Air-to-oil volume ratio at atmospheric pressure").range(0.005, 0.1),
+    ENTRAINED_AIR_POLYTROPIC_INDEX => Variable::parameter("entrained_air.polytropic_index", 1.2, "1", "Polytropic index of the air (1 isothermal, 1.4 adiabatic)").range(1.0, 1.4),
+    VALVE_DYNAMICS_ENABLED => Variable::flag("valve_dynamics.enabled", false, "Spool second-order lag, eq. (18)"),
+    VALVE_DYNAMICS_NATURAL_FREQUENCY => Variable::parameter("valve_dynamics.natural_frequency", 1300.0, "rad/s", "Spool natural frequency omega").range(600.0, 3000.0),
+    VALVE_DYNAMICS_DAMPING_RATIO => Variable::parameter("valve_dynamics.damping_ratio", 0.7, "1", "Spool damping ratio zeta").range(0.4, 1.2),
+}
