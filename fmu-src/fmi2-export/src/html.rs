@@ -1,0 +1,91 @@
+//! `documentation/index.html` generated from the same variable table as the model description,
+//! with the model's own fragment (equations, sources, derivations).
+
+use crate::xml::fmt_f64;
+use crate::{Causality, Model, VarType};
+use std::fmt::Write;
+
+/// Escape text for HTML.
+pub fn escape(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+fn opt(x: Option<f64>) -> String {
+    x.map(fmt_f64).unwrap_or_default()
+}
+
+/// The whole documentation page.
+pub fn documentation<M: Model>() -> String {
+    let mut h = String::new();
+    let name = escape(M::NAME);
+    let _ = write!(
+        h,
+        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>{name}</title>\n\
+         <style>body{{font-family:sans-serif;max-width:70em;margin:auto;line-height:1.4}}\
+         table{{border-collapse:collapse}}td,th{{border:1px solid #bbb;padding:2px 6px;font-size:90%}}\
+         th{{background:#eee}}code{{background:#f4f4f4}}</style>\n</head>\n<body>\n\
+         <h1>{name}</h1>\n<p>{}</p>\n<p>FMI 2.0 Co-Simulation, GUID <code>{}</code>.</p>\n",
+        escape(M::DESCRIPTION),
+        crate::xml::guid::<M>()
+    );
+    h.push_str(&M::documentation_html());
+    type Keep = fn(&crate::Variable) -> bool;
+    let groups: [(&str, Keep); 5] = [
+        ("Inputs", |v| v.causality == Causality::Input),
+        ("Outputs", |v| v.causality == Causality::Output),
+        ("Parameters", |v| {
+            v.causality == Causality::Parameter && v.effect().is_none()
+        }),
+        ("Candidate effects (off by default)", |v| {
+            v.causality == Causality::Parameter && v.effect().is_some()
+        }),
+        ("Other variables", |v| {
+            !matches!(
+                v.causality,
+                Causality::Input | Causality::Output | Causality::Parameter
+            )
+        }),
+    ];
+    for (title, keep) in groups {
+        let rows: Vec<_> = M::variables()
+            .iter()
+            .enumerate()
+            .filter(|(_, v)| keep(v))
+            .collect();
+        if rows.is_empty() {
+            continue;
+        }
+        let _ = write!(
+            h,
+            "<h2>{title}</h2>\n<table>\n<tr><th>name</th><th>vr</th><th>type</th><th>unit</th>\
+             <th>display</th><th>start</th><th>min</th><th>max</th><th>description</th></tr>\n"
+        );
+        for (vr, v) in rows {
+            let start = if !v.has_start() {
+                String::new()
+            } else if v.vtype == VarType::Boolean {
+                (v.start != 0.0).to_string()
+            } else {
+                fmt_f64(v.start)
+            };
+            let _ = writeln!(
+                h,
+                "<tr><td><code>{}</code></td><td>{vr}</td><td>{:?}</td><td>{}</td><td>{}</td>\
+                 <td>{start}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+                escape(v.name),
+                v.vtype,
+                escape(v.unit.unwrap_or("")),
+                escape(v.display_unit.unwrap_or("")),
+                opt(v.min),
+                opt(v.max),
+                escape(v.description)
+            );
+        }
+        h.push_str("</table>\n");
+    }
+    h.push_str("</body>\n</html>\n");
+    h
+}

@@ -1,0 +1,595 @@
+//! The FMI 2.0 Co-Simulation instance as safe Rust: the state machine, variable access with all
+//! argument checks, stepping and FMU states. The C glue in [`crate::ffi`] only converts pointers.
+//!
+//! Every operation returns a [`Status`] and queues its messages in [`Instance::log`]; the C glue
+//! passes them to the environment's logger. A rejected call (wrong state, bad argument) changes
+//! nothing; a failed step leaves the outputs of the last good communication point and moves the
+//! instance to [`MachineState::Error`], from which `fmi2Reset` or `fmi2SetFMUstate` recover.
+
+use crate::{Causality, Model, VarType, Variability};
+use bincode::Options as _;
+use serde::{Deserialize, Serialize};
+
+/// `fmi2Status`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+#[repr(i32)]
+pub enum Status {
+    Ok = 0,
+    Warning = 1,
+    Discard = 2,
+    Error = 3,
+    Fatal = 4,
+    Pending = 5,
+}
+
+/// States of the FMI 2.0 Co-Simulation state machine (standard section 4.2.4); each is one bit so
+/// a function's allowed states are a mask.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[repr(u32)]
+pub enum MachineState {
+    Instantiated = 1,
+    InitializationMode = 2,
+    StepComplete = 4,
+    StepFailed = 8,
+    StepCanceled = 16,
+    Terminated = 32,
+    Error = 64,
+}
+
+/// Allowed-state masks, one per group of functions (standard figure 8 / table in 4.2.4).
+pub mod allowed {
+    use super::MachineState::*;
+    const fn m(states: &[super::MachineState]) -> u32 {
+        let mut mask = 0;
+        let mut i = 0;
+        while i < states.len() {
+            mask |= states[i] as u32;
+            i += 1;
+        }
+        mask
+    }
+    /// fmi2SetDebugLogging, fmi2Reset, fmi2FreeInstance, FMU-state functions.
+    pub const ANY: u32 = m(&[
+        Instantiated,
+        InitializationMode,
+        StepComplete,
+        StepFailed,
+        StepCanceled,
+        Terminated,
+        Error,
+    ]);
+    pub const SETUP: u32 = m(&[Instantiated]);
+    pub const ENTER_INIT: u32 = m(&[Instantiated]);
+    pub const EXIT_INIT: u32 = m(&[InitializationMode]);
+    pub const TERMINATE: u32 = m(&[StepComplete, StepFailed]);
+    pub const GET: u32 = m(&[
+        InitializationMode,
+        StepComplete,
+        StepFailed,
+        StepCanceled,
+        Terminated,
+        Error,
+    ]);
+    pub const SET: u32 = m(&[Instantiated, InitializationMode, StepComplete]);
+    pub const DO_STEP: u32 = m(&[StepComplete]);
+    pub const STATUS: u32 = m(&[StepComplete, StepFailed, StepCanceled, Terminated]);
+}
+
+/// The log categories declared in `LogCategories`, in this order.
+pub const LOG_CATEGORIES: [(&str, &str); 4] = [
+    (
+        "logStatusError",
+        "Errors: why a call returned fmi2Error (always logged)",
+    ),
+    ("logStatusWarning", "Warnings"),
+    ("logEvents", "Initialization, steps, resets, FMU states"),
+    ("logAll", "Everything, including every call"),
+];
+
+/// A message waiting to be passed to the logger.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LogEntry {
+    pub status: Status,
+    pub category: &'static str,
+    pub message: String,
+}
+
+/// Everything needed to continue a simulation bit-identically: `fmi2GetFMUstate` copies it,
+/// `fmi2SerializeFMUstate` writes it with bincode behind a header naming the model and GUID.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(bound = "")]
+pub struct Snapshot<M: Model> {
+    state: MachineState,
+    time: f64,
+    start_time: f64,
+    stop_time: Option<f64>,
+    vars: Vec<f64>,
+    model: M,
+}
+
+const SERIAL_MAGIC: &[u8; 8] = b"AFMUST01";
+
+/// Fixed-width little-endian encoding: f64 values are written bit for bit.
+fn bincode_options() -> impl bincode::Options {
+    use bincode::Options;
+    bincode::DefaultOptions::new()
+        .with_fixint_encoding()
+        .with_little_endian()
+}
+
+/// One FMU instance.
+pub struct Instance<M: Model> {
+    pub name: String,
+    pub state: MachineState,
+    pub time: f64,
+    pub start_time: f64,
+    pub stop_time: Option<f64>,
+    /// Values of all variables, indexed by value reference (Booleans 0.0/1.0).
+    pub vars: Vec<f64>,
+    pub model: M,
+    /// Outputs of the last good communication point, restored when a step fails.
+    last_good: Vec<f64>,
+    /// In initialization mode: outputs must be recomputed before they are read.
+    init_outputs_stale: bool,
+    /// Enabled flags of [`LOG_CATEGORIES`].
+    log_enabled: [bool; 4],
+    pub log: Vec<LogEntry>,
+    guid: String,
+}
+
+fn start_values<M: Model>() -> Vec<f64> {
+    M::variables()
+        .iter()
+        .map(|v| if v.has_start() { v.start } else { 0.0 })
+        .collect()
+}
+
+impl<M: Model> Instance<M> {
+    /// `fmi2Instantiate` after the C arguments are checked.
+    pub fn new(name: &str, guid: String, logging_on: bool) -> Self {
+        let vars = start_values::<M>();
+        Instance {
+            name: name.to_string(),
+            state: MachineState::Instantiated,
+            time: 0.0,
+            start_time: 0.0,
+            stop_time: None,
+            last_good: vars.clone(),
+            vars,
+            model: M::new(),
+            init_outputs_stale: true,
+            log_enabled: [true, true, logging_on, logging_on],
+            log: Vec::new(),
+            guid,
+        }
+    }
+
+    /// Queue a message; filtered by the enabled categories when the logger is called.
+    pub fn push_log(&mut self, status: Status, category: &'static str, message: String) {
+        self.log.push(LogEntry {
+            status,
+            category,
+            message,
+        });
+    }
+
+    /// Whether a message of `category` reaches the logger. Errors always do.
+    pub fn category_enabled(&self, category: &str) -> bool {
+        match LOG_CATEGORIES.iter().position(|(c, _)| *c == category) {
+            Some(0) => true,
+            Some(i) => self.log_enabled[i],
+            None => false,
+        }
+    }
+
+    /// Log an error and return [`Status::Error`].
+    pub fn error(&mut self, func: &str, message: impl std::fmt::Display) -> Status {
+        self.push_log(
+            Status::Error,
+            "logStatusError",
+            format!("{func}: {message}"),
+        );
+        Status::Error
+    }
+
+    fn event(&mut self, message: String) {
+        if self.log_enabled[2] {
+            self.push_log(Status::Ok, "logEvents", message);
+        }
+    }
+
+    /// Check the current state against `mask`; log an illegal call sequence otherwise.
+    pub fn check_state(&mut self, func: &str, mask: u32) -> Result<(), Status> {
+        if self.state as u32 & mask != 0 {
+            Ok(())
+        } else {
+            let state = self.state;
+            Err(self.error(
+                func,
+                format!("illegal call sequence: not allowed in state {state:?}"),
+            ))
+        }
+    }
+
+    /// `fmi2SetDebugLogging`.
+    pub fn set_debug_logging(&mut self, on: bool, categories: &[&str]) -> Status {
+        const F: &str = "fmi2SetDebugLogging";
+        if let Err(s) = self.check_state(F, allowed::ANY) {
+            return s;
+        }
+        let mut indices = Vec::with_capacity(categories.len());
+        for c in categories {
+            match LOG_CATEGORIES.iter().position(|(name, _)| name == c) {
+                Some(i) => indices.push(i),
+                None => return self.error(F, format!("unknown log category '{c}'")),
+            }
+        }
+        if indices.is_empty() {
+            self.log_enabled = [true, on, on, on];
+        } else {
+            for i in indices {
+                self.log_enabled[i] = on;
+            }
+            self.log_enabled[0] = true;
+        }
+        Status::Ok
+    }
+
+    /// `fmi2SetupExperiment`.
+    pub fn setup_experiment(&mut self, start: f64, stop: Option<f64>) -> Status {
+        const F: &str = "fmi2SetupExperiment";
+        if let Err(s) = self.check_state(F, allowed::SETUP) {
+            return s;
+        }
+        if !start.is_finite() {
+            return self.error(F, format!("startTime {start} is not finite"));
+        }
+        if let Some(stop) = stop {
+            if !stop.is_finite() || stop < start {
+                return self.error(
+                    F,
+                    format!("stopTime {stop} is not finite or before startTime {start}"),
+                );
+            }
+        }
+        self.start_time = start;
+        self.time = start;
+        self.stop_time = stop;
+        self.event(format!("experiment set up: start {start}, stop {stop:?}"));
+        Status::Ok
+    }
+
+    /// `fmi2EnterInitializationMode`.
+    pub fn enter_initialization_mode(&mut self) -> Status {
+        if let Err(s) = self.check_state("fmi2EnterInitializationMode", allowed::ENTER_INIT) {
+            return s;
+        }
+        self.state = MachineState::InitializationMode;
+        self.init_outputs_stale = true;
+        Status::Ok
+    }
+
+    /// Check every Real parameter against its bounds, every value for finiteness.
+    fn check_parameters(&mut self, func: &str) -> Result<(), Status> {
+        for (vr, v) in M::variables().iter().enumerate() {
+            let x = self.vars[vr];
+            if !x.is_finite() {
+                return Err(self.error(func, format!("'{}' = {x} is not finite", v.name)));
+            }
+            if v.causality == Causality::Parameter && v.vtype != VarType::Boolean {
+                let below = v.min.is_some_and(|m| x < m);
+                let above = v.max.is_some_and(|m| x > m);
+                if below || above {
+                    return Err(self.error(
+                        func,
+                        format!(
+                            "parameter '{}' = {x} is outside its range [{}, {}]",
+                            v.name,
+                            v.min.unwrap_or(f64::NEG_INFINITY),
+                            v.max.unwrap_or(f64::INFINITY)
+                        ),
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Run the model's initialization; on failure nothing but the log changes.
+    fn initialize_model(&mut self, func: &str) -> Result<(), Status> {
+        self.check_parameters(func)?;
+        let mut vars = self.vars.clone();
+        let mut model = M::new();
+        match model.initialize(&mut vars, self.start_time) {
+            Ok(()) => {
+                self.vars = vars;
+                self.model = model;
+                self.init_outputs_stale = false;
+                Ok(())
+            }
+            Err(msg) => Err(self.error(func, msg)),
+        }
+    }
+
+    /// `fmi2ExitInitializationMode`: parameters out of range or ill-posed are refused here with a
+    /// message naming them; the instance stays in initialization mode so they can be corrected.
+    pub fn exit_initialization_mode(&mut self) -> Status {
+        const F: &str = "fmi2ExitInitializationMode";
+        if let Err(s) = self.check_state(F, allowed::EXIT_INIT) {
+            return s;
+        }
+        if let Err(s) = self.initialize_model(F) {
+            return s;
+        }
+        self.time = self.start_time;
+        self.last_good.copy_from_slice(&self.vars);
+        self.state = MachineState::StepComplete;
+        self.event(format!("initialized at t = {}", self.time));
+        Status::Ok
+    }
+
+    /// `fmi2Terminate`.
+    pub fn terminate(&mut self) -> Status {
+        if let Err(s) = self.check_state("fmi2Terminate", allowed::TERMINATE) {
+            return s;
+        }
+        self.state = MachineState::Terminated;
+        Status::Ok
+    }
+
+    /// `fmi2Reset`: back to the state right after instantiation, start values restored.
+    pub fn reset(&mut self) -> Status {
+        if let Err(s) = self.check_state("fmi2Reset", allowed::ANY) {
+            return s;
+        }
+        self.vars = start_values::<M>();
+        self.last_good.copy_from_slice(&self.vars);
+        self.model = M::new();
+        self.time = 0.0;
+        self.start_time = 0.0;
+        self.stop_time = None;
+        self.init_outputs_stale = true;
+        self.state = MachineState::Instantiated;
+        self.event("reset".to_string());
+        Status::Ok
+    }
+
+    /// Check a list of value references against the table and the expected type.
+    fn check_refs(&mut self, func: &str, vrs: &[u32], ty: VarType) -> Result<(), Status> {
+        let vars = M::variables();
+        for &vr in vrs {
+            match vars.get(vr as usize) {
+                None => {
+                    return Err(self.error(func, format!("unknown value reference {vr}")));
+                }
+                Some(v) if v.vtype != ty => {
+                    return Err(self.error(
+                        func,
+                        format!(
+                            "value reference {vr} ('{}') is {:?}, not {ty:?}",
+                            v.name, v.vtype
+                        ),
+                    ));
+                }
+                Some(_) => {}
+            }
+        }
+        Ok(())
+    }
+
+    /// Shared part of the getters: state, references, fresh outputs in initialization mode.
+    fn prepare_get(&mut self, func: &str, vrs: &[u32], ty: VarType) -> Result<(), Status> {
+        self.check_state(func, allowed::GET)?;
+        self.check_refs(func, vrs, ty)?;
+        if self.state == MachineState::InitializationMode && self.init_outputs_stale {
+            self.initialize_model(func)?;
+        }
+        Ok(())
+    }
+
+    /// `fmi2GetReal` (also `fmi2GetInteger`/`fmi2GetBoolean` through `ty`): fills `out`.
+    pub fn get_values(&mut self, func: &str, ty: VarType, vrs: &[u32], out: &mut [f64]) -> Status {
+        if let Err(s) = self.prepare_get(func, vrs, ty) {
+            return s;
+        }
+        for (o, &vr) in out.iter_mut().zip(vrs) {
+            *o = self.vars[vr as usize];
+        }
+        Status::Ok
+    }
+
+    /// `fmi2SetReal` (also Integer/Boolean through `ty`). All-or-nothing: every reference and value
+    /// is checked before any is written.
+    pub fn set_values(&mut self, func: &str, ty: VarType, vrs: &[u32], values: &[f64]) -> Status {
+        if let Err(s) = self.check_state(func, allowed::SET) {
+            return s;
+        }
+        if let Err(s) = self.check_refs(func, vrs, ty) {
+            return s;
+        }
+        let table = M::variables();
+        let initialized = self.state == MachineState::StepComplete;
+        let mut status = Status::Ok;
+        for (&vr, &x) in vrs.iter().zip(values) {
+            let v = &table[vr as usize];
+            let settable = if initialized {
+                v.settable_after_init()
+            } else {
+                v.settable_before_init()
+            };
+            if !settable {
+                let why = match (v.causality, v.variability) {
+                    (Causality::Parameter, Variability::Fixed) => {
+                        "is a fixed parameter and cannot be set after initialization"
+                    }
+                    (Causality::Output, _) => "is an output and cannot be set",
+                    (Causality::CalculatedParameter, _) => {
+                        "is a calculated parameter and cannot be set"
+                    }
+                    _ => "cannot be set in this state",
+                };
+                return self.error(func, format!("'{}' (value reference {vr}) {why}", v.name));
+            }
+            if !x.is_finite() {
+                return self.error(
+                    func,
+                    format!(
+                        "'{}' (value reference {vr}): value {x} is not finite",
+                        v.name
+                    ),
+                );
+            }
+            if v.causality == Causality::Input {
+                let out_of_range = v.min.is_some_and(|m| x < m) || v.max.is_some_and(|m| x > m);
+                if out_of_range {
+                    self.push_log(
+                        Status::Warning,
+                        "logStatusWarning",
+                        format!(
+                            "{func}: input '{}' = {x} is outside its range [{}, {}]",
+                            v.name,
+                            v.min.unwrap_or(f64::NEG_INFINITY),
+                            v.max.unwrap_or(f64::INFINITY)
+                        ),
+                    );
+                    status = Status::Warning;
+                }
+            }
+        }
+        for (&vr, &x) in vrs.iter().zip(values) {
+            self.vars[vr as usize] = if ty == VarType::Boolean {
+                (x != 0.0) as i32 as f64
+            } else {
+                x
+            };
+        }
+        if self.state != MachineState::StepComplete {
+            self.init_outputs_stale = true;
+        }
+        status
+    }
+
+    /// `fmi2DoStep`.
+    pub fn do_step(&mut self, current: f64, h: f64) -> Status {
+        const F: &str = "fmi2DoStep";
+        if let Err(s) = self.check_state(F, allowed::DO_STEP) {
+            return s;
+        }
+        if !(h.is_finite() && h > 0.0) {
+            return self.error(
+                F,
+                format!("communicationStepSize {h} must be finite and > 0"),
+            );
+        }
+        let tolerance = 1e-9 * self.time.abs().max(1.0);
+        if !current.is_finite() || (current - self.time).abs() > tolerance {
+            return self.error(
+                F,
+                format!(
+                    "currentCommunicationPoint {current} is not the current time {}",
+                    self.time
+                ),
+            );
+        }
+        if let Some(stop) = self.stop_time {
+            if current + h > stop + 1e-9 * stop.abs().max(1.0) {
+                return self.error(
+                    F,
+                    format!("step to {} goes beyond the stopTime {stop}", current + h),
+                );
+            }
+        }
+        match self.model.do_step(&mut self.vars, current, h) {
+            Ok(()) => {
+                if let Some((vr, v)) = M::variables()
+                    .iter()
+                    .enumerate()
+                    .find(|(vr, _)| !self.vars[*vr].is_finite())
+                {
+                    let value = self.vars[vr];
+                    self.vars.copy_from_slice(&self.last_good);
+                    self.state = MachineState::Error;
+                    return self.error(
+                        F,
+                        format!("'{}' became {value} at t = {current} + {h}", v.name),
+                    );
+                }
+                self.time = current + h;
+                self.last_good.copy_from_slice(&self.vars);
+                if self.log_enabled[3] {
+                    self.push_log(Status::Ok, "logAll", format!("step to t = {}", self.time));
+                }
+                Status::Ok
+            }
+            Err(msg) => {
+                self.vars.copy_from_slice(&self.last_good);
+                self.state = MachineState::Error;
+                self.error(
+                    F,
+                    format!("step from t = {current} with h = {h} failed: {msg}"),
+                )
+            }
+        }
+    }
+
+    /// `fmi2GetFMUstate`.
+    pub fn snapshot(&self) -> Snapshot<M> {
+        Snapshot {
+            state: self.state,
+            time: self.time,
+            start_time: self.start_time,
+            stop_time: self.stop_time,
+            vars: self.vars.clone(),
+            model: self.model.clone(),
+        }
+    }
+
+    /// `fmi2SetFMUstate`.
+    pub fn restore(&mut self, s: &Snapshot<M>) {
+        self.state = s.state;
+        self.time = s.time;
+        self.start_time = s.start_time;
+        self.stop_time = s.stop_time;
+        self.vars.copy_from_slice(&s.vars);
+        self.last_good.copy_from_slice(&s.vars);
+        self.model = s.model.clone();
+        self.init_outputs_stale = true;
+        self.event(format!("FMU state restored at t = {}", s.time));
+    }
+
+    /// Bytes of `fmi2SerializeFMUstate`: magic, GUID, then the bincode snapshot.
+    pub fn serialize(&self, s: &Snapshot<M>) -> Result<Vec<u8>, String> {
+        let mut out = Vec::with_capacity(256);
+        out.extend_from_slice(SERIAL_MAGIC);
+        let guid = self.guid.as_bytes();
+        out.extend_from_slice(&(guid.len() as u32).to_le_bytes());
+        out.extend_from_slice(guid);
+        bincode_options()
+            .serialize_into(&mut out, s)
+            .map_err(|e| e.to_string())?;
+        Ok(out)
+    }
+
+    /// Inverse of [`Instance::serialize`], refusing bytes of another model or a damaged buffer.
+    pub fn deserialize(&self, bytes: &[u8]) -> Result<Snapshot<M>, String> {
+        let rest = bytes
+            .strip_prefix(SERIAL_MAGIC.as_slice())
+            .ok_or("not a serialized FMU state of this FMU (bad header)")?;
+        if rest.len() < 4 {
+            return Err("serialized FMU state is truncated".into());
+        }
+        let n = u32::from_le_bytes([rest[0], rest[1], rest[2], rest[3]]) as usize;
+        let rest = &rest[4..];
+        if rest.len() < n || &rest[..n] != self.guid.as_bytes() {
+            return Err("serialized FMU state belongs to another model (GUID differs)".into());
+        }
+        let s: Snapshot<M> = bincode_options()
+            .with_limit(bytes.len() as u64)
+            .deserialize(&rest[n..])
+            .map_err(|e| format!("serialized FMU state is damaged: {e}"))?;
+        if s.vars.len() != M::variables().len() {
+            return Err("serialized FMU state has the wrong number of variables".into());
+        }
+        Ok(s)
+    }
+}

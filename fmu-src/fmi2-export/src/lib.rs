@@ -1,0 +1,70 @@
+//! Generic FMI 2.0 Co-Simulation export layer.
+//!
+//! A model implements [`Model`] (pure Rust, no C pointers) and declares its variables once with
+//! [`declare_variables!`]; [`export_model!`] emits every `fmi2*` C function over it. From the same
+//! table [`xml::model_description`] writes `modelDescription.xml` and [`html::documentation`]
+//! the HTML documentation. This crate knows no physics.
+
+pub mod ffi;
+pub mod html;
+pub mod instance;
+pub mod units;
+pub mod variables;
+pub mod xml;
+
+pub use instance::{Instance, MachineState, Status};
+pub use variables::{Causality, Initial, VarType, Variability, Variable};
+
+/// A Co-Simulation model. The layer owns the values of all variables (`vars`, indexed by value
+/// reference, Booleans as 0.0/1.0) and the FMI state machine; the model owns its physical state.
+pub trait Model: Clone + Send + serde::Serialize + serde::de::DeserializeOwned + 'static {
+    /// `modelName` and `modelIdentifier`.
+    const NAME: &'static str;
+    /// One-line description for the model description.
+    const DESCRIPTION: &'static str;
+    /// `DefaultExperiment` stop time [s].
+    const DEFAULT_STOP_TIME: f64 = 10.0;
+    /// `DefaultExperiment` step size [s].
+    const DEFAULT_STEP_SIZE: f64 = 1e-3;
+    /// `DefaultExperiment` tolerance.
+    const DEFAULT_TOLERANCE: f64 = 1e-6;
+
+    /// Every variable once; value reference = index.
+    fn variables() -> &'static [Variable];
+    /// HTML fragment for `documentation/index.html`: equations, sources, derivations, choices.
+    fn documentation_html() -> String;
+    /// The state before initialization.
+    fn new() -> Self;
+    /// Validate parameters (min/max are already checked by the layer), build the consistent initial
+    /// state and write every output into `vars`. Idempotent. `Err` names the offending parameter.
+    fn initialize(&mut self, vars: &mut [f64], start_time: f64) -> Result<(), String>;
+    /// Advance from `t` to `t + h` with inputs as in `vars`; write every output into `vars`.
+    fn do_step(&mut self, vars: &mut [f64], t: f64, h: f64) -> Result<(), String>;
+}
+
+/// Entry point of each model's `describe-<crate>` binary: writes `modelDescription.xml` and
+/// `documentation/index.html` into the directory given as the only argument (default `.`).
+pub fn describe_main<M: Model>() {
+    let dir = std::env::args().nth(1).unwrap_or_else(|| ".".to_string());
+    let dir = std::path::Path::new(&dir);
+    let result = (|| -> std::io::Result<()> {
+        std::fs::create_dir_all(dir.join("documentation"))?;
+        std::fs::write(
+            dir.join("modelDescription.xml"),
+            xml::model_description::<M>(),
+        )?;
+        std::fs::write(
+            dir.join("documentation").join("index.html"),
+            html::documentation::<M>(),
+        )?;
+        Ok(())
+    })();
+    if let Err(e) = result {
+        eprintln!(
+            "describe {}: cannot write to {}: {e}",
+            M::NAME,
+            dir.display()
+        );
+        std::process::exit(2);
+    }
+}

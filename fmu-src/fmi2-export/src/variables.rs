@@ -1,0 +1,247 @@
+//! The variable table: every variable of a model declared once, from which the C API,
+//! `modelDescription.xml` and the HTML documentation are all derived.
+
+/// FMI 2.0 base type of a scalar variable.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum VarType {
+    Real,
+    Integer,
+    Boolean,
+}
+
+/// FMI 2.0 causality (standard section 2.2.7).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Causality {
+    Parameter,
+    CalculatedParameter,
+    Input,
+    Output,
+    Local,
+    Independent,
+}
+
+/// FMI 2.0 variability.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Variability {
+    Constant,
+    Fixed,
+    Tunable,
+    Discrete,
+    Continuous,
+}
+
+/// FMI 2.0 `initial` attribute.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Initial {
+    Exact,
+    Approx,
+    Calculated,
+}
+
+/// One scalar variable. Its value reference is its index in the model's table.
+#[derive(Clone, Copy, Debug)]
+pub struct Variable {
+    pub name: &'static str,
+    pub vtype: VarType,
+    pub causality: Causality,
+    pub variability: Variability,
+    pub initial: Option<Initial>,
+    /// Start value; Booleans as 0.0/1.0. Ignored (not written) when `initial` is calculated.
+    pub start: f64,
+    pub min: Option<f64>,
+    pub max: Option<f64>,
+    pub unit: Option<&'static str>,
+    pub display_unit: Option<&'static str>,
+    pub description: &'static str,
+}
+
+impl Variable {
+    #[allow(clippy::too_many_arguments)]
+    const fn base(
+        name: &'static str,
+        vtype: VarType,
+        causality: Causality,
+        variability: Variability,
+        initial: Option<Initial>,
+        start: f64,
+        unit: Option<&'static str>,
+        description: &'static str,
+    ) -> Self {
+        Variable {
+            name,
+            vtype,
+            causality,
+            variability,
+            initial,
+            start,
+            min: None,
+            max: None,
+            unit,
+            display_unit: None,
+            description,
+        }
+    }
+
+    /// A Real parameter, fixed after initialization, with an exact start value.
+    pub const fn parameter(
+        name: &'static str,
+        start: f64,
+        unit: &'static str,
+        description: &'static str,
+    ) -> Self {
+        Self::base(
+            name,
+            VarType::Real,
+            Causality::Parameter,
+            Variability::Fixed,
+            Some(Initial::Exact),
+            start,
+            Some(unit),
+            description,
+        )
+    }
+
+    /// A Boolean parameter, fixed after initialization.
+    pub const fn flag(name: &'static str, start: bool, description: &'static str) -> Self {
+        Self::base(
+            name,
+            VarType::Boolean,
+            Causality::Parameter,
+            Variability::Fixed,
+            Some(Initial::Exact),
+            if start { 1.0 } else { 0.0 },
+            None,
+            description,
+        )
+    }
+
+    /// An Integer parameter, fixed after initialization.
+    pub const fn integer_parameter(
+        name: &'static str,
+        start: i32,
+        description: &'static str,
+    ) -> Self {
+        Self::base(
+            name,
+            VarType::Integer,
+            Causality::Parameter,
+            Variability::Fixed,
+            Some(Initial::Exact),
+            start as f64,
+            None,
+            description,
+        )
+    }
+
+    /// A continuous Real input (held constant over each communication step).
+    pub const fn input(
+        name: &'static str,
+        start: f64,
+        unit: &'static str,
+        description: &'static str,
+    ) -> Self {
+        Self::base(
+            name,
+            VarType::Real,
+            Causality::Input,
+            Variability::Continuous,
+            None,
+            start,
+            Some(unit),
+            description,
+        )
+    }
+
+    /// A continuous Real output computed by the model.
+    pub const fn output(name: &'static str, unit: &'static str, description: &'static str) -> Self {
+        Self::base(
+            name,
+            VarType::Real,
+            Causality::Output,
+            Variability::Continuous,
+            Some(Initial::Calculated),
+            0.0,
+            Some(unit),
+            description,
+        )
+    }
+
+    /// A continuous Real local variable computed by the model (visible, not settable).
+    pub const fn local(name: &'static str, unit: &'static str, description: &'static str) -> Self {
+        Self::base(
+            name,
+            VarType::Real,
+            Causality::Local,
+            Variability::Continuous,
+            Some(Initial::Calculated),
+            0.0,
+            Some(unit),
+            description,
+        )
+    }
+
+    /// Bounds `[min, max]` (inclusive).
+    pub const fn range(mut self, min: f64, max: f64) -> Self {
+        self.min = Some(min);
+        self.max = Some(max);
+        self
+    }
+
+    /// The display unit (must be one defined for `unit` in [`crate::units::KNOWN`]).
+    pub const fn display(mut self, display_unit: &'static str) -> Self {
+        self.display_unit = Some(display_unit);
+        self
+    }
+
+    /// True when the start value is written to the model description and used as initial value.
+    pub fn has_start(&self) -> bool {
+        !matches!(self.initial, Some(Initial::Calculated))
+    }
+
+    /// Whether `fmi2Set*` may change this variable before `fmi2ExitInitializationMode`.
+    pub fn settable_before_init(&self) -> bool {
+        match self.causality {
+            Causality::Input => true,
+            Causality::Parameter => self.variability != Variability::Constant,
+            _ => {
+                matches!(self.initial, Some(Initial::Exact) | Some(Initial::Approx))
+                    && self.variability != Variability::Constant
+            }
+        }
+    }
+
+    /// Whether `fmi2Set*` may change this variable after initialization (step mode).
+    pub fn settable_after_init(&self) -> bool {
+        match self.causality {
+            Causality::Input => true,
+            Causality::Parameter => self.variability == Variability::Tunable,
+            _ => false,
+        }
+    }
+
+    /// The candidate effect this variable belongs to, if its name is `<effect>.<name>`.
+    pub fn effect(&self) -> Option<&'static str> {
+        self.name.split_once('.').map(|(effect, _)| effect)
+    }
+}
+
+/// Declare a model's variables once. Generates `pub enum V` whose discriminants are the value
+/// references, and `pub static VARIABLES: &[Variable]` in the same order.
+///
+/// ```ignore
+/// fmi2_export::declare_variables! {
+///     THETA => Variable::output("theta", "rad", "Link angle").display("deg"),
+/// }
+/// ```
+#[macro_export]
+macro_rules! declare_variables {
+    ($($id:ident => $spec:expr),* $(,)?) => {
+        /// Value references of the model's variables (index into [`VARIABLES`]).
+        #[allow(non_camel_case_types, clippy::upper_case_acronyms, dead_code)]
+        #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+        #[repr(usize)]
+        pub enum V { $($id),* }
+        /// The model's variable table, indexed by value reference.
+        pub static VARIABLES: &[$crate::Variable] = &[$($spec),*];
+    };
+}

@@ -1,0 +1,339 @@
+//! `modelDescription.xml` generated from a model's variable table (FMI 2.0 schema,
+//! `fmi2ModelDescription.xsd`), and consistency checks of the table itself.
+//!
+//! The GUID is derived from the content (SHA-256 of the description written with a zero GUID),
+//! so the same table always gives the same file and any change gives a new GUID.
+
+use crate::instance::LOG_CATEGORIES;
+use crate::units;
+use crate::{Causality, Initial, Model, VarType, Variability, Variable};
+use quick_xml::events::{BytesDecl, BytesEnd, BytesStart, Event};
+use quick_xml::Writer;
+use sha2::{Digest, Sha256};
+use std::collections::BTreeSet;
+
+const ZERO_GUID: &str = "{00000000-0000-0000-0000-000000000000}";
+
+/// Format a double so it reads back to the same bits, without locale or trailing noise.
+pub fn fmt_f64(x: f64) -> String {
+    if x == 0.0 {
+        return "0".into();
+    }
+    let a = x.abs();
+    if (1e-4..1e15).contains(&a) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
+}
+
+fn causality(c: Causality) -> &'static str {
+    match c {
+        Causality::Parameter => "parameter",
+        Causality::CalculatedParameter => "calculatedParameter",
+        Causality::Input => "input",
+        Causality::Output => "output",
+        Causality::Local => "local",
+        Causality::Independent => "independent",
+    }
+}
+
+fn variability(v: Variability) -> &'static str {
+    match v {
+        Variability::Constant => "constant",
+        Variability::Fixed => "fixed",
+        Variability::Tunable => "tunable",
+        Variability::Discrete => "discrete",
+        Variability::Continuous => "continuous",
+    }
+}
+
+fn initial(i: Initial) -> &'static str {
+    match i {
+        Initial::Exact => "exact",
+        Initial::Approx => "approx",
+        Initial::Calculated => "calculated",
+    }
+}
+
+/// Units named by the table, sorted, each with its definition.
+fn used_units(vars: &[Variable]) -> Vec<&'static units::UnitDef> {
+    let names: BTreeSet<&str> = vars.iter().filter_map(|v| v.unit).collect();
+    names.into_iter().filter_map(units::lookup).collect()
+}
+
+fn write_description<M: Model>(guid: &str) -> String {
+    let mut w = Writer::new_with_indent(Vec::new(), b' ', 2);
+    let vars = M::variables();
+    let mut ev = |e: Event| w.write_event(e).expect("writing to a Vec cannot fail");
+    ev(Event::Decl(BytesDecl::new("1.0", Some("UTF-8"), None)));
+
+    let mut root = BytesStart::new("fmiModelDescription");
+    root.push_attribute(("fmiVersion", "2.0"));
+    root.push_attribute(("modelName", M::NAME));
+    root.push_attribute(("guid", guid));
+    root.push_attribute(("description", M::DESCRIPTION));
+    root.push_attribute(("generationTool", "actuator-fmu fmi2-export"));
+    root.push_attribute(("variableNamingConvention", "structured"));
+    root.push_attribute(("numberOfEventIndicators", "0"));
+    ev(Event::Start(root));
+
+    let mut cs = BytesStart::new("CoSimulation");
+    for (k, v) in [
+        ("modelIdentifier", M::NAME),
+        ("needsExecutionTool", "false"),
+        ("canHandleVariableCommunicationStepSize", "true"),
+        ("canInterpolateInputs", "false"),
+        ("maxOutputDerivativeOrder", "0"),
+        ("canRunAsynchronuously", "false"),
+        ("canBeInstantiatedOnlyOncePerProcess", "false"),
+        ("canNotUseMemoryManagementFunctions", "true"),
+        ("canGetAndSetFMUstate", "true"),
+        ("canSerializeFMUstate", "true"),
+        ("providesDirectionalDerivative", "false"),
+    ] {
+        cs.push_attribute((k, v));
+    }
+    ev(Event::Empty(cs));
+
+    let units = used_units(vars);
+    if !units.is_empty() {
+        ev(Event::Start(BytesStart::new("UnitDefinitions")));
+        for u in units {
+            let mut e = BytesStart::new("Unit");
+            e.push_attribute(("name", u.name));
+            ev(Event::Start(e));
+            let mut b = BytesStart::new("BaseUnit");
+            let exps = [
+                ("kg", u.base.kg),
+                ("m", u.base.m),
+                ("s", u.base.s),
+                ("A", u.base.a),
+                ("K", u.base.k),
+                ("mol", u.base.mol),
+                ("cd", u.base.cd),
+                ("rad", u.base.rad),
+            ];
+            for (k, x) in exps {
+                if x != 0 {
+                    b.push_attribute((k, x.to_string().as_str()));
+                }
+            }
+            if u.base.factor != 1.0 {
+                b.push_attribute(("factor", fmt_f64(u.base.factor).as_str()));
+            }
+            ev(Event::Empty(b));
+            for d in u.display {
+                let mut e = BytesStart::new("DisplayUnit");
+                e.push_attribute(("name", d.name));
+                e.push_attribute(("factor", fmt_f64(d.factor).as_str()));
+                if d.offset != 0.0 {
+                    e.push_attribute(("offset", fmt_f64(d.offset).as_str()));
+                }
+                ev(Event::Empty(e));
+            }
+            ev(Event::End(BytesEnd::new("Unit")));
+        }
+        ev(Event::End(BytesEnd::new("UnitDefinitions")));
+    }
+
+    ev(Event::Start(BytesStart::new("LogCategories")));
+    for (name, description) in LOG_CATEGORIES {
+        let mut e = BytesStart::new("Category");
+        e.push_attribute(("name", name));
+        e.push_attribute(("description", description));
+        ev(Event::Empty(e));
+    }
+    ev(Event::End(BytesEnd::new("LogCategories")));
+
+    let mut de = BytesStart::new("DefaultExperiment");
+    de.push_attribute(("startTime", "0"));
+    de.push_attribute(("stopTime", fmt_f64(M::DEFAULT_STOP_TIME).as_str()));
+    de.push_attribute(("tolerance", fmt_f64(M::DEFAULT_TOLERANCE).as_str()));
+    de.push_attribute(("stepSize", fmt_f64(M::DEFAULT_STEP_SIZE).as_str()));
+    ev(Event::Empty(de));
+
+    ev(Event::Start(BytesStart::new("ModelVariables")));
+    for (vr, v) in vars.iter().enumerate() {
+        ev(Event::Comment(quick_xml::events::BytesText::new(&format!(
+            " index {} ",
+            vr + 1
+        ))));
+        let mut sv = BytesStart::new("ScalarVariable");
+        sv.push_attribute(("name", v.name));
+        sv.push_attribute(("valueReference", vr.to_string().as_str()));
+        if !v.description.is_empty() {
+            sv.push_attribute(("description", v.description));
+        }
+        sv.push_attribute(("causality", causality(v.causality)));
+        sv.push_attribute(("variability", variability(v.variability)));
+        if let Some(i) = v.initial {
+            sv.push_attribute(("initial", initial(i)));
+        }
+        ev(Event::Start(sv));
+        let tag = match v.vtype {
+            VarType::Real => "Real",
+            VarType::Integer => "Integer",
+            VarType::Boolean => "Boolean",
+        };
+        let mut t = BytesStart::new(tag);
+        if v.vtype == VarType::Real {
+            if let Some(u) = v.unit {
+                t.push_attribute(("unit", u));
+            }
+            if let Some(d) = v.display_unit {
+                t.push_attribute(("displayUnit", d));
+            }
+        }
+        if v.vtype != VarType::Boolean {
+            if let Some(m) = v.min {
+                t.push_attribute(("min", fmt_f64(m).as_str()));
+            }
+            if let Some(m) = v.max {
+                t.push_attribute(("max", fmt_f64(m).as_str()));
+            }
+        }
+        if v.has_start() {
+            let s = match v.vtype {
+                VarType::Boolean => (if v.start != 0.0 { "true" } else { "false" }).to_string(),
+                VarType::Integer => (v.start as i64).to_string(),
+                VarType::Real => fmt_f64(v.start),
+            };
+            t.push_attribute(("start", s.as_str()));
+        }
+        ev(Event::Empty(t));
+        ev(Event::End(BytesEnd::new("ScalarVariable")));
+    }
+    ev(Event::End(BytesEnd::new("ModelVariables")));
+
+    ev(Event::Start(BytesStart::new("ModelStructure")));
+    let outputs: Vec<usize> = (0..vars.len())
+        .filter(|&i| vars[i].causality == Causality::Output)
+        .collect();
+    let initial_unknowns: Vec<usize> = (0..vars.len())
+        .filter(|&i| {
+            let v = &vars[i];
+            (v.causality == Causality::Output
+                && matches!(v.initial, Some(Initial::Calculated) | Some(Initial::Approx)))
+                || v.causality == Causality::CalculatedParameter
+        })
+        .collect();
+    for (tag, list) in [
+        ("Outputs", &outputs),
+        ("InitialUnknowns", &initial_unknowns),
+    ] {
+        if list.is_empty() {
+            continue;
+        }
+        ev(Event::Start(BytesStart::new(tag)));
+        for &i in list {
+            let mut u = BytesStart::new("Unknown");
+            u.push_attribute(("index", (i + 1).to_string().as_str()));
+            ev(Event::Empty(u));
+        }
+        ev(Event::End(BytesEnd::new(tag)));
+    }
+    ev(Event::End(BytesEnd::new("ModelStructure")));
+    ev(Event::End(BytesEnd::new("fmiModelDescription")));
+    let mut s = String::from_utf8(w.into_inner()).expect("the writer writes UTF-8");
+    s.push('\n');
+    s
+}
+
+/// The content-derived GUID: SHA-256 of the description written with a zero GUID, as a UUID.
+pub fn guid<M: Model>() -> String {
+    let digest = Sha256::digest(write_description::<M>(ZERO_GUID).as_bytes());
+    let h: String = digest[..16].iter().map(|b| format!("{b:02x}")).collect();
+    format!(
+        "{{{}-{}-{}-{}-{}}}",
+        &h[0..8],
+        &h[8..12],
+        &h[12..16],
+        &h[16..20],
+        &h[20..32]
+    )
+}
+
+/// The complete `modelDescription.xml`.
+pub fn model_description<M: Model>() -> String {
+    write_description::<M>(&guid::<M>())
+}
+
+/// Problems in a variable table, one sentence each (empty when consistent): names, units,
+/// ranges, FMI 2.0 causality/variability/initial combinations, and the effect convention.
+pub fn check_table(vars: &[Variable]) -> Vec<String> {
+    let mut problems = Vec::new();
+    let mut names = BTreeSet::new();
+    for v in vars {
+        let n = v.name;
+        if n.is_empty() || !names.insert(n) {
+            problems.push(format!("'{n}': empty or duplicate name"));
+        }
+        if v.description.is_empty() {
+            problems.push(format!("'{n}': no description"));
+        }
+        if v.vtype == VarType::Real {
+            match v.unit.map(|u| (u, units::lookup(u))) {
+                None => problems.push(format!("'{n}': Real variable without a unit")),
+                Some((u, None)) => problems.push(format!("'{n}': unit '{u}' not in units::KNOWN")),
+                Some((u, Some(def))) => {
+                    if let Some(d) = v.display_unit {
+                        if !def.display.iter().any(|x| x.name == d) {
+                            problems
+                                .push(format!("'{n}': display unit '{d}' not defined for '{u}'"));
+                        }
+                    }
+                }
+            }
+        }
+        if let (Some(lo), Some(hi)) = (v.min, v.max) {
+            if lo.is_nan() || hi.is_nan() || lo > hi {
+                problems.push(format!("'{n}': min {lo} > max {hi}"));
+            }
+        }
+        if v.has_start() {
+            if !v.start.is_finite() {
+                problems.push(format!("'{n}': start is not finite"));
+            }
+            if v.min.is_some_and(|m| v.start < m) || v.max.is_some_and(|m| v.start > m) {
+                problems.push(format!("'{n}': start {} outside [min, max]", v.start));
+            }
+        }
+        let ok_combination = match (v.causality, v.variability) {
+            (Causality::Parameter, Variability::Fixed | Variability::Tunable) => {
+                v.initial == Some(Initial::Exact)
+            }
+            (Causality::Input, Variability::Continuous | Variability::Discrete) => {
+                v.initial.is_none()
+            }
+            (
+                Causality::Output | Causality::Local,
+                Variability::Continuous | Variability::Discrete,
+            ) => true,
+            (Causality::CalculatedParameter, Variability::Fixed | Variability::Tunable) => true,
+            (Causality::Independent, Variability::Continuous) => v.initial.is_none(),
+            _ => false,
+        };
+        if !ok_combination {
+            problems.push(format!(
+                "'{n}': causality {:?} with variability {:?} and initial {:?} is not allowed by FMI 2.0",
+                v.causality, v.variability, v.initial
+            ));
+        }
+        if let Some(effect) = v.effect() {
+            let flag = format!("{effect}.enabled");
+            let has_flag = vars
+                .iter()
+                .any(|f| f.name == flag && f.vtype == VarType::Boolean && f.start == 0.0);
+            if !has_flag {
+                problems.push(format!(
+                    "'{n}': effect '{effect}' has no Boolean '{flag}' defaulting to false"
+                ));
+            }
+            if v.vtype == VarType::Real && (v.min.is_none() || v.max.is_none()) {
+                problems.push(format!("'{n}': effect parameter without min and max"));
+            }
+        }
+    }
+    problems
+}

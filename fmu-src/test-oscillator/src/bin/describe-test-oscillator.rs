@@ -1,0 +1,3 @@
+fn main() {
+    fmi2_export::describe_main::<test_oscillator::Oscillator>()
+}
