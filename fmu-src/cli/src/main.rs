@@ -1,1 +1,46 @@
-fn main() {}
+//! `actuator-fmu`: simulate and validate FMI 2.0 Co-Simulation FMUs.
+//!
+//! Exit status: 0 success (validate: no finding), 1 failure (validate: findings; simulate: the
+//! FMU failed during the run), 2 usage error, unreadable/bad data or an FMU that cannot be opened.
+//! `main` only parses arguments and dispatches: one module per subcommand.
+
+mod common;
+mod probe;
+mod simulate;
+mod validate;
+
+use clap::{Parser, Subcommand};
+
+#[derive(Parser)]
+#[command(name = "actuator-fmu", version, about = "Simulate and validate FMI 2.0 Co-Simulation FMUs")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Simulate an FMU with inputs from a CSV file and write every output to a CSV file.
+    Simulate(simulate::Args),
+    /// Check FMUs against the FMI 2.0 standard (model description and a state-machine probe).
+    Validate(validate::Args),
+    /// Internal: the state-machine probe of `validate`, run in a child process.
+    #[command(name = "__probe", hide = true)]
+    Probe(probe::Args),
+}
+
+fn main() {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Simulate(a) => simulate::run(a),
+        Command::Validate(a) => validate::run(a),
+        Command::Probe(a) => probe::run(a),
+    };
+    match result {
+        Ok(code) => std::process::exit(code),
+        Err(e) => {
+            eprintln!("actuator-fmu: error: {}", e.message);
+            std::process::exit(e.code);
+        }
+    }
+}

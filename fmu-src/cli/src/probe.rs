@@ -1,0 +1,59 @@
+//! Hidden `__probe FMU`: the part of `validate` that loads the binary, run in a child process
+//! so that a crash of the FMU cannot take the validator down. Prints each probe step on stderr
+//! (`@@STEP@@ name`) before running it and the findings as one JSON line on stdout
+//! (`@@FINDINGS@@ [...]`).
+
+use crate::common::CliResult;
+use host::validate::{check_symbols, probe, Finding};
+use host::{Extracted, Fmu};
+use std::io::Write;
+use std::path::PathBuf;
+
+/// Marker of the progress lines on stderr.
+pub const STEP_MARK: &str = "@@STEP@@ ";
+/// Marker of the findings line on stdout.
+pub const FINDINGS_MARK: &str = "@@FINDINGS@@ ";
+
+/// Arguments of `__probe`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// The FMU.
+    pub fmu: PathBuf,
+}
+
+fn step(name: &str) {
+    let mut e = std::io::stderr().lock();
+    let _ = writeln!(e, "{STEP_MARK}{name}");
+    let _ = e.flush();
+}
+
+/// Runs the probe and prints the findings.
+pub fn run(a: Args) -> CliResult {
+    let mut findings: Vec<Finding> = Vec::new();
+    step("load");
+    match Extracted::open(&a.fmu) {
+        Err(e) => findings.push(Finding {
+            check: "open".into(),
+            location: a.fmu.display().to_string(),
+            message: e.to_string(),
+        }),
+        Ok(ex) => {
+            findings.extend(check_symbols(&ex));
+            drop(ex);
+            match Fmu::open(&a.fmu) {
+                Err(e) => findings.push(Finding {
+                    check: "binary".into(),
+                    location: a.fmu.display().to_string(),
+                    message: e.to_string(),
+                }),
+                Ok(fmu) => findings.extend(probe(&fmu, &mut step)),
+            }
+        }
+    }
+    step("done");
+    let json = serde_json::to_string(&findings).unwrap_or_else(|_| "[]".into());
+    let mut out = std::io::stdout().lock();
+    let _ = writeln!(out, "\n{FINDINGS_MARK}{json}");
+    let _ = out.flush();
+    Ok(0)
+}

@@ -1,0 +1,161 @@
+//! `actuator-fmu validate FMU... [--json]`: model-description checks in this process, the
+//! binary checks and state-machine probe in a child process (`__probe`).
+
+use crate::common::{CliError, CliResult};
+use crate::probe::{FINDINGS_MARK, STEP_MARK};
+use host::validate::{check_files, check_model_description, Finding};
+use host::{Extracted, HostError};
+use std::io::Read;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// Arguments of `validate`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// FMUs to check.
+    #[arg(required = true)]
+    pub fmus: Vec<PathBuf>,
+    /// Print the findings as JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+    /// Seconds the state-machine probe of one FMU may take.
+    #[arg(long, default_value_t = 120)]
+    pub timeout: u64,
+}
+
+#[derive(serde::Serialize)]
+struct Report {
+    fmu: String,
+    findings: Vec<Finding>,
+}
+
+/// Runs `validate`: exit 0 without findings, 1 with any, 2 when an FMU file cannot be read.
+pub fn run(a: Args) -> CliResult {
+    let mut reports = Vec::new();
+    for path in &a.fmus {
+        if !path.exists() {
+            return Err(CliError::input(format!("{}: no such file", path.display())));
+        }
+        let findings = validate_one(path, Duration::from_secs(a.timeout))?;
+        reports.push(Report { fmu: path.display().to_string(), findings });
+    }
+    let total: usize = reports.iter().map(|r| r.findings.len()).sum();
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&reports).unwrap_or_default());
+    } else {
+        for r in &reports {
+            for f in &r.findings {
+                println!("{}: {f}", r.fmu);
+            }
+            if r.findings.is_empty() {
+                println!("{}: OK (no findings)", r.fmu);
+            } else {
+                println!("{}: {} finding(s)", r.fmu, r.findings.len());
+            }
+        }
+    }
+    Ok(if total == 0 { 0 } else { 1 })
+}
+
+fn validate_one(path: &Path, timeout: Duration) -> Result<Vec<Finding>, CliError> {
+    let ex = match Extracted::open(path) {
+        Ok(ex) => ex,
+        Err(HostError::Io { path, source }) => {
+            return Err(CliError::input(format!("{}: {source}", path.display())))
+        }
+        Err(e) => {
+            let check = match e {
+                HostError::ModelDescription { .. } => "model-description-xml",
+                _ => "archive",
+            };
+            return Ok(vec![Finding { check: check.into(), location: path.display().to_string(), message: e.to_string() }]);
+        }
+    };
+    let mut findings = check_model_description(&ex.model_description);
+    findings.extend(check_files(&ex));
+    let binary_present = ex.binary_path().map(|b| b.is_file()).unwrap_or(false);
+    drop(ex);
+    if binary_present {
+        findings.extend(run_probe(path, timeout)?);
+    }
+    Ok(findings)
+}
+
+fn signal_name(sig: i32) -> &'static str {
+    match sig {
+        4 => "SIGILL",
+        6 => "SIGABRT",
+        7 => "SIGBUS",
+        8 => "SIGFPE",
+        9 => "SIGKILL",
+        11 => "SIGSEGV",
+        _ => "signal",
+    }
+}
+
+/// Runs `__probe` in a child process and turns its output, crash or hang into findings.
+fn run_probe(path: &Path, timeout: Duration) -> Result<Vec<Finding>, CliError> {
+    let exe = std::env::current_exe().map_err(|e| CliError::input(format!("cannot find own executable: {e}")))?;
+    let mut child = Command::new(exe)
+        .arg("__probe")
+        .arg(path)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .map_err(|e| CliError::input(format!("cannot start the probe process: {e}")))?;
+    let mut so = child.stdout.take().expect("piped stdout");
+    let mut se = child.stderr.take().expect("piped stderr");
+    let out_t = std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = so.read_to_string(&mut s);
+        s
+    });
+    let err_t = std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = se.read_to_string(&mut s);
+        s
+    });
+    let started = Instant::now();
+    let status = loop {
+        match child.try_wait() {
+            Ok(Some(st)) => break Some(st),
+            Ok(None) if started.elapsed() > timeout => {
+                let _ = child.kill();
+                let _ = child.wait();
+                break None;
+            }
+            Ok(None) => std::thread::sleep(Duration::from_millis(20)),
+            Err(e) => return Err(CliError::input(format!("waiting for the probe process: {e}"))),
+        }
+    };
+    let stdout = out_t.join().unwrap_or_default();
+    let stderr = err_t.join().unwrap_or_default();
+    let last_step = stderr
+        .lines()
+        .filter_map(|l| l.strip_prefix(STEP_MARK))
+        .last()
+        .unwrap_or("start")
+        .to_string();
+    let loc = format!("probe {last_step}");
+    let Some(status) = status else {
+        return Ok(vec![Finding {
+            check: "probe-timeout".into(),
+            location: loc,
+            message: format!("the FMU did not return within {} s", timeout.as_secs()),
+        }]);
+    };
+    if let Some(json) = stdout.lines().find_map(|l| l.strip_prefix(FINDINGS_MARK)) {
+        if status.success() {
+            return serde_json::from_str(json)
+                .map_err(|e| CliError::input(format!("probe output unreadable: {e}")));
+        }
+    }
+    use std::os::unix::process::ExitStatusExt;
+    let message = match status.signal() {
+        Some(sig) => format!("the FMU crashed ({} {sig}) during this probe step", signal_name(sig)),
+        None => format!("the probe process ended with {status} during this probe step"),
+    };
+    Ok(vec![Finding { check: "probe-crash".into(), location: loc, message }])
+}
