@@ -104,6 +104,6 @@ fmi2_export::declare_variables! {
     ENTRAINED_AIR_FRACTION => Variable::parameter("entrained_air.fraction", 0.02, "1", "Air-to-oil volume ratio at atmospheric pressure").range(0.005, 0.1),
     ENTRAINED_AIR_POLYTROPIC_INDEX => Variable::parameter("entrained_air.polytropic_index", 1.2, "1", "Polytropic index of the air (1 isothermal, 1.4 adiabatic)").range(1.0, 1.4),
     VALVE_DYNAMICS_ENABLED => Variable::flag("valve_dynamics.enabled", false, "Spool second-order lag, eq. (18)"),
-    VALVE_DYNAMICS_NATURAL_FREQUENCY => Variable::parameter("valve_dynamics.natural_frequency", 1300.0, "rad/s", "Spool natural frequency omega").range(600.0, 3000.0),
+    VALVE_DYNAMICS_NATURAL_FREQUENCY => Variable::parameter("valve_dynamics.natural_frequency", 1300.0, "rad/s", "Spool natural frequency omega").range(400.0, 2000.0),
     VALVE_DYNAMICS_DAMPING_RATIO => Variable::parameter("valve_dynamics.damping_ratio", 0.7, "1", "Spool damping ratio zeta").range(0.4, 1.2),
 }
