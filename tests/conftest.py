@@ -1,0 +1,34 @@
+"""Shared helpers for the pytest suite: where the packaged FMUs are, building them when missing.
+
+Import as `from conftest import fmu_path, REPO` (pytest puts tests/ on sys.path).
+"""
+import os
+import subprocess
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parent.parent
+DIST = REPO / "dist"
+TEST_FMUS = REPO / "target" / "fmus"
+CLI = REPO / "target" / "release" / "actuator-fmu"
+TEST_MODELS = {"Oscillator"}
+
+
+def fmu_path(name: str) -> str:
+    """Path of the packaged FMU `name` (dist/ for products, target/fmus/ for test models);
+    runs scripts/build once when it is missing."""
+    path = (TEST_FMUS if name in TEST_MODELS else DIST) / f"{name}.fmu"
+    if not path.exists():
+        subprocess.run([str(REPO / "scripts" / "build")], check=True)
+    if not path.exists():
+        raise FileNotFoundError(f"{path} was not built by scripts/build")
+    return str(path)
+
+
+def cli_path() -> str:
+    """Path of the release `actuator-fmu` binary (built by scripts/build)."""
+    if not CLI.exists():
+        subprocess.run([str(REPO / "scripts" / "build")], check=True)
+    return str(CLI)
+
+
+os.environ.setdefault("ACTUATOR_FMU_REPO", str(REPO))
