@@ -146,7 +146,7 @@ opposing the twist rate: twisting needs more torque than untwisting under the sa
 the one toward zero and (negligible output inertia) the output angle is the dead zone
 &theta;<sub>t</sub> = dz(&theta;<sub>m</sub>/N, b/2), dz(x) = pos(x&minus;b/2) &minus; pos(&minus;x&minus;b/2),
 width 10<sup>-4</sup> rad; the reflected torque uses d&theta;<sub>t</sub>/d&theta;<sub>m</sub>.
-GP 26 A class backlash is about 1&deg;.</li>
+GP 26 A class backlash is about 1GP 26 A class backlash is about 1&deg;.deg;; range 0.5GP 26 A class backlash is about 1&deg;.ndash;3GP 26 A class backlash is about 1&deg;.deg;.</li>
 <li><code>radius_growth</code>: r = r<sub>0</sub>(1 + g &theta;<sub>t</sub>/2&pi;) (the radius varies
 with twist, paper ref. [13]).</li>
 </ul>

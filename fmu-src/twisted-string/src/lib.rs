@@ -132,7 +132,7 @@ fmi2_export::declare_variables! {
     GEAR_BACKLASH_ENABLED => Variable::flag("gear_backlash.enabled", false,
         "Backlash of the gearhead: dead zone in the output (twist) angle"),
     GEAR_BACKLASH_ANGLE => Variable::parameter("gear_backlash.angle", 1.0 * std::f64::consts::PI / 180.0, "rad",
-        "Total backlash at the gearhead output").range(0.1 * std::f64::consts::PI / 180.0, 3.0 * std::f64::consts::PI / 180.0).display("deg"),
+        "Total backlash at the gearhead output").range(0.5 * std::f64::consts::PI / 180.0, 3.0 * std::f64::consts::PI / 180.0).display("deg"),
     RADIUS_GROWTH_ENABLED => Variable::flag("radius_growth.enabled", false,
         "Effective bundle radius growing with twist r = r0 (1 + g theta_t / 2 pi)"),
     RADIUS_GROWTH_PER_TURN => Variable::parameter("radius_growth.per_turn", 0.005, "1",
@@ -242,6 +242,11 @@ pub fn validate(q: &Params) -> Result<(), String> {
 }
 
 impl TwistedString {
+    /// Work counters of the ODE integrator (steps, rejections, rhs and Jacobian evaluations).
+    pub fn solver_stats(&self) -> &ode::Stats {
+        self.integ.stats()
+    }
+
     fn inputs(vars: &[f64]) -> (f64, f64, f64) {
         (
             vars[V::THETA_MOTOR_REF as usize],

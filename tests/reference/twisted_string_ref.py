@@ -1,0 +1,361 @@
+"""Independent reference of the TwistedString FMU.
+
+The equations are written again from the model documentation (fmu-src/twisted-string/src/doc.rs,
+i.e. documentation/index.html of the FMU) and the paper (Urukalo, Jovanovic, Rodic, "Modeling,
+Development and Control of Linear Twisted-String Actuator", eq. 9-21, Tables 2-5); they are not a
+transliteration of the Rust code. Integration: SciPy ``solve_ivp(method="Radau", rtol=1e-10)`` with
+tight absolute tolerances, piecewise between the position-loop sample instants ``t0 + k*Ts`` and the
+communication points; inputs are held constant over each communication step (FMI Co-Simulation
+semantics, inputs evaluated at the communication point as FMPy does: linear interpolation,
+right-hand value at a repeated time).
+
+Usage:
+    from twisted_string_ref import simulate, DEFAULTS
+    out = simulate({"load_mass": 5.0}, {"theta_motor_ref": ([0, 1], [0, 500])}, t_end=1.0, dt=1e-3)
+    python tests/reference/twisted_string_ref.py   # regenerates tests/reference/twisted_string_*.csv
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import sys
+import time
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+G = 9.81
+RPM8000 = 8000.0 * 2.0 * math.pi / 60.0
+
+# Defaults as listed in the model documentation (sections 2-7).
+DEFAULTS = {
+    "internal_controller": True,
+    "load_mass": 23.0 / G,
+    "string_length": 0.0897,
+    "string_radius": (1.0 / math.sqrt(2.0) + 0.5) * 1e-3,
+    "string_count": 4.0,
+    "string_stiffness": 1e6,
+    "string_damping": 2000.0,
+    "spring_stiffness": 100.0,
+    "spring_preload": 5.0,
+    "guide_damping": 20.0,
+    "motor_resistance": 2.32,
+    "motor_inductance": 0.238e-3,
+    "torque_constant": 0.0234,
+    "back_emf_constant": 0.0234,
+    "rotor_inertia": 1.14e-6,
+    "gear_ratio": 19.2,
+    "gear_efficiency": 0.81,
+    "encoder_cpt": 1000.0,
+    "supply_voltage": 24.0,
+    "current_limit": 3.0,
+    "speed_limit": RPM8000,
+    "controller_current_P": 0.165,           # 165 mV/A
+    "controller_current_Ti": 69e-6,
+    "controller_speed_P": 963e-6 * 60.0 / (2.0 * math.pi),  # 963 uA/rpm
+    "controller_speed_Ti": 0.042,
+    "controller_position_P": 0.0035 * RPM8000 * math.degrees(1.0) / 19.2,
+    "controller_position_band": math.radians(2.0),
+    "controller_position_period": 1e-3,
+    "string_compliance.enabled": False,
+    "string_compliance.a1": 8.1153e-6,
+    "string_compliance.a2": 8.4427e-9,
+    "string_compliance.a3": 1.6914e-5,
+    "twist_hysteresis.enabled": False,
+    "twist_hysteresis.friction_coefficient": 0.1,
+    "motor_friction.enabled": False,
+    "motor_friction.coulomb": 1e-3,
+    "motor_friction.viscous": 1e-6,
+    "gear_backlash.enabled": False,
+    "gear_backlash.angle": math.radians(1.0),
+    "radius_growth.enabled": False,
+    "radius_growth.per_turn": 0.005,
+}
+
+INPUT_STARTS = {"theta_motor_ref": 0.0, "voltage": 0.0, "F_load": 0.0}
+
+OUTPUTS = [
+    "p", "theta_motor", "omega_motor", "theta_twist", "current", "tau_motor", "F_string",
+    "F_tangential", "alpha", "transmission_ratio", "stiffness", "F_axial", "v_load",
+    "voltage_motor", "omega_ref",
+]
+
+# regularisation widths stated in the documentation
+W_TENSION = 0.01          # N
+W_BACKLASH = 1e-4         # rad (twist)
+P_EFF = 1e-3              # W
+W_COULOMB = 1.0           # rad/s (motor)
+W_HYST = 0.05             # rad/s (twist)
+
+
+def pos(x, w):
+    """Smooth positive part (x + sqrt(x^2 + w^2)) / 2."""
+    return 0.5 * (x + math.sqrt(x * x + w * w))
+
+
+class Model:
+    """The documented equations. State y = [i, theta_m, omega_m, p, v, z_i, z_w]."""
+
+    def __init__(self, prm: dict):
+        self.q = dict(DEFAULTS)
+        unknown = set(prm) - set(DEFAULTS)
+        if unknown:
+            raise KeyError(f"unknown parameters {unknown}")
+        self.q.update(prm)
+        q = self.q
+        self.N = q["gear_ratio"]
+        self.compl = bool(q["string_compliance.enabled"])
+        self.c = q["string_compliance.a3"] if self.compl else 1.0 / q["string_stiffness"]
+
+    # --- kinematics of the gearhead output ---------------------------------------------
+    def twist(self, th_m):
+        """(theta_t, d theta_t / d theta_m): theta_m / N, or its backlash dead zone."""
+        x = th_m / self.N
+        if not self.q["gear_backlash.enabled"]:
+            return x, 1.0 / self.N
+        h = 0.5 * self.q["gear_backlash.angle"]
+        up, dn = x - h, -x - h
+        su, sd = math.sqrt(up * up + W_BACKLASH ** 2), math.sqrt(dn * dn + W_BACKLASH ** 2)
+        val = 0.5 * (up + su) - 0.5 * (dn + sd)
+        slope = 0.5 * (1 + up / su) + 0.5 * (1 + dn / sd)
+        return val, slope / self.N
+
+    def arc(self, th_t):
+        """Twist arc a = theta_t r(theta_t) and a' with r = r0 (1 + g theta_t / 2pi)."""
+        r0 = self.q["string_radius"]
+        g = self.q["radius_growth.per_turn"] if self.q["radius_growth.enabled"] else 0.0
+        r = r0 * (1.0 + g * th_t / (2 * math.pi))
+        return th_t * r, r + th_t * r0 * g / (2 * math.pi)
+
+    def lfree(self, th_t):
+        """Unloaded strand length and its derivative w.r.t. the twist angle (eq. 10)."""
+        L0 = self.q["string_length"]
+        if not self.compl:
+            return L0, 0.0
+        thM = self.N * th_t
+        a1, a2 = self.q["string_compliance.a1"], self.q["string_compliance.a2"]
+        return L0 + a1 * thM + a2 * thM ** 2, (a1 + 2 * a2 * thM) * self.N
+
+    def strings(self, y):
+        """Tension and forces of the helix for state y."""
+        th_t, dth = self.twist(y[1])
+        w_t = dth * y[2]
+        a, ad = self.arc(th_t)
+        p, v = y[3], y[4]
+        L = math.hypot(p, a)
+        Lf, dLf = self.lfree(th_t)
+        stretch = L - Lf
+        stretch_rate = (p * v + a * ad * w_t) / L - dLf * w_t
+        T = pos(stretch / self.c + self.q["string_damping"] * stretch_rate, W_TENSION)
+        return dict(th_t=th_t, dth=dth, w_t=w_t, a=a, ad=ad, L=L, dLf=dLf, T=T,
+                    FL=T * p / L, Ftau=T * a / L, tauL=T * a * ad / L)
+
+    def controller(self, y, w_ref, volt):
+        """Continuous ESCON speed and current PI with back-calculation anti-windup."""
+        q = self.q
+        if not q["internal_controller"]:
+            return volt, 0.0, 0.0
+        Kw, Tw = q["controller_speed_P"], q["controller_speed_Ti"]
+        Ki, Ti = q["controller_current_P"], q["controller_current_Ti"]
+        ew = w_ref - y[2]
+        iref_raw = Kw * (ew + y[6] / Tw)
+        iref = min(max(iref_raw, -q["current_limit"]), q["current_limit"])
+        ei = iref - y[0]
+        u_raw = Ki * (ei + y[5] / Ti)
+        u = min(max(u_raw, -q["supply_voltage"]), q["supply_voltage"])
+        return u, ei + (u - u_raw) / Ki, ew + (iref - iref_raw) / Kw
+
+    def deriv(self, y, w_ref, volt, fload):
+        q = self.q
+        s = self.strings(y)
+        tau_out = s["tauL"]
+        if q["twist_hysteresis.enabled"]:
+            tau_out += (q["twist_hysteresis.friction_coefficient"] * s["T"] * s["ad"]
+                        * math.tanh(s["w_t"] / W_HYST))
+        eta = q["gear_efficiency"]
+        P = tau_out * s["w_t"]
+        f = 0.5 * (1 / eta + eta) + 0.5 * (1 / eta - eta) * math.tanh(P / P_EFF)
+        tau_in = f * s["dth"] * tau_out
+        fric = 0.0
+        if q["motor_friction.enabled"]:
+            fric = (q["motor_friction.coulomb"] * math.tanh(y[2] / W_COULOMB)
+                    + q["motor_friction.viscous"] * y[2])
+        u, dzi, dzw = self.controller(y, w_ref, volt)
+        di = (u - q["motor_resistance"] * y[0] - q["back_emf_constant"] * y[2]) / q["motor_inductance"]
+        dw = (q["torque_constant"] * y[0] - tau_in - fric) / q["rotor_inertia"]
+        Fs = q["spring_preload"] + q["spring_stiffness"] * (q["string_length"] - y[3])
+        m = q["load_mass"]
+        dv = (m * G + fload + Fs - s["FL"] - q["guide_damping"] * y[4]) / m
+        return [di, y[2], dw, y[4], dv, dzi, dzw]
+
+    def outputs(self, y, w_ref, volt):
+        q = self.q
+        s = self.strings(y)
+        u, _, _ = self.controller(y, w_ref, volt)
+        p, a, L = y[3], s["a"], s["L"]
+        cos = p / L
+        return {
+            "p": p, "theta_motor": y[1], "omega_motor": y[2], "theta_twist": s["th_t"],
+            "current": y[0], "tau_motor": q["torque_constant"] * y[0],
+            "F_string": s["T"] / q["string_count"], "F_tangential": s["Ftau"],
+            "alpha": math.atan2(a, p),
+            "transmission_ratio": (L * s["dLf"] - a * s["ad"]) / max(p, 1e-4),
+            "stiffness": cos * cos / self.c + s["T"] * a * a / L ** 3,
+            "F_axial": s["FL"], "v_load": y[4], "voltage_motor": u, "omega_ref": w_ref,
+        }
+
+    def rest_state(self, fload):
+        """Untwisted equilibrium: pos(x) + k_s c x = m g + F_load + F_0, p0 = L0 + c x."""
+        q = self.q
+        b = q["load_mass"] * G + fload + q["spring_preload"]
+        k = q["spring_stiffness"] * self.c
+        # bisection (monotone), independent of the Rust Newton iteration
+        lo, hi = -1e6, max(b, 1.0) * 2 + 1.0
+        for _ in range(300):
+            mid = 0.5 * (lo + hi)
+            if pos(mid, W_TENSION) + k * mid - b > 0:
+                hi = mid
+            else:
+                lo = mid
+        x = 0.5 * (lo + hi)
+        return np.array([0.0, 0.0, 0.0, q["string_length"] + self.c * x, 0.0, 0.0, 0.0])
+
+
+def input_at(tv, t):
+    """Input value at communication point t as FMPy applies it (after_event=True)."""
+    times, vals = np.asarray(tv[0], float), np.asarray(tv[1], float)
+    if times.size == 1:
+        return float(vals[0])
+    if t <= times[0] and not math.isclose(t, times[0]):
+        return float(vals[0])
+    if t >= times[-1] or math.isclose(t, times[-1]):
+        return float(vals[-1])
+    idx = np.flatnonzero(np.isclose(times, t, rtol=1e-9, atol=0.0))
+    if idx.size:
+        return float(vals[idx[-1]])
+    return float(np.interp(t, times, vals))
+
+
+NOMINAL = np.array([1.0, 1.0, 10.0, 0.01, 0.01, 1e-3, 1.0])
+
+
+def simulate(params: dict | None = None, inputs: dict | None = None, t_end: float = 1.0,
+             dt: float = 1e-3, rtol: float = 1e-10, atol_scale: float = 1e-9):
+    """Simulate the reference; returns dict of arrays at the communication points 0, dt, ..."""
+    params = dict(params or {})
+    inputs = dict(inputs or {})
+    model = Model(params)
+    q = model.q
+    n = int(round(t_end / dt))
+    tgrid = np.arange(n + 1) * dt
+    def u_at(name, t):
+        return input_at(inputs[name], t) if name in inputs else INPUT_STARTS[name]
+    y = model.rest_state(u_at("F_load", 0.0))
+    out = {k: np.empty(n + 1) for k in OUTPUTS}
+    out["time"] = tgrid
+    Ts = q["controller_position_period"]
+    eps = 1e-6 * Ts
+    k_next = 0
+    w_ref = 0.0
+    internal = bool(q["internal_controller"])
+    quantum = 2 * math.pi / (4 * q["encoder_cpt"])
+    atol = atol_scale * NOMINAL
+
+    def record(j, th_ref, volt):
+        for key, val in model.outputs(y, w_ref if internal else 0.0, volt).items():
+            out[key][j] = val
+
+    record(0, u_at("theta_motor_ref", 0.0), u_at("voltage", 0.0))
+    band, Kp, wmax = q["controller_position_band"], q["controller_position_P"], q["speed_limit"]
+    for j in range(n):
+        t = tgrid[j]
+        t_stop = tgrid[j + 1]
+        th_ref, volt, fload = (u_at("theta_motor_ref", t), u_at("voltage", t), u_at("F_load", t))
+        tc = t
+        while True:
+            if internal:
+                while k_next * Ts <= tc + eps:
+                    meas = math.floor(y[1] / quantum) * quantum
+                    err = th_ref - meas
+                    w_ref = 0.0 if -band < err < band else min(max(Kp * err, -wmax), wmax)
+                    k_next += 1
+            if tc >= t_stop:
+                break
+            tn = t_stop
+            if internal and k_next * Ts < t_stop - eps:
+                tn = k_next * Ts
+            wr = w_ref if internal else 0.0
+            sol = solve_ivp(lambda _t, yy: model.deriv(yy, wr, volt, fload), (tc, tn), y,
+                            method="Radau", rtol=rtol, atol=atol)
+            if not sol.success:
+                raise RuntimeError(f"reference failed at t={tc}: {sol.message}")
+            y = sol.y[:, -1].copy()
+            tc = tn
+        record(j + 1, th_ref, volt)
+    return out
+
+
+# ---- reference traces ---------------------------------------------------------------------
+def step(t0, v0, v1):
+    """A step from v0 to v1 at time t0 (repeated time point: FMPy takes the right value)."""
+    return ([0.0, t0, t0], [v0, v0, v1])
+
+
+def cases():
+    """The reference traces: name -> (params, inputs, t_end, dt)."""
+    c = {}
+    c["voltage_steps"] = ({"internal_controller": False},
+                          {"voltage": ([0, 0.05, 0.05, 0.4, 0.4, 0.8], [0, 0, 12, 12, -6, -6])},
+                          0.8, 1e-3)
+    for F in (23, 39, 54, 97, 124):
+        c[f"position_step_{F}N"] = ({"load_mass": F / G, "string_compliance.enabled": True},
+                                    {"theta_motor_ref": step(0.01, 0.0, 335.1)}, 1.0, 1e-3)
+    c["twist_untwist"] = ({"string_compliance.enabled": True, "load_mass": 54 / G},
+                          {"theta_motor_ref": ([0, 0.05, 1.05, 1.55, 2.55], [0, 0, 600, 600, 0])},
+                          2.8, 1e-3)
+    eff = {
+        "string_compliance": {"string_compliance.enabled": True},
+        "twist_hysteresis": {"twist_hysteresis.enabled": True},
+        "motor_friction": {"motor_friction.enabled": True},
+        "gear_backlash": {"gear_backlash.enabled": True},
+        "radius_growth": {"radius_growth.enabled": True},
+    }
+    for name, prm in eff.items():
+        c[f"effect_{name}"] = (dict(prm, load_mass=39 / G),
+                               {"theta_motor_ref": ([0, 0.02, 0.62, 0.82, 1.42], [0, 0, 500, 500, 100])},
+                               1.6, 1e-3)
+    return c
+
+
+HEADER = ("# Reference trace of the TwistedString FMU, case {name}.\n"
+          "# Source: tests/reference/twisted_string_ref.py, an independent Python implementation of the\n"
+          "# equations in the FMU documentation (paper: Urukalo, Jovanovic, Rodic, eq. 9-21, Tables 2-5),\n"
+          "# integrated with scipy.integrate.solve_ivp(method='Radau', rtol=1e-10, atol=1e-9*nominal),\n"
+          "# position loop sampled every controller_position_period, inputs held over each step.\n"
+          "# parameters: {params}\n# inputs: {inputs}\n# t_end={t_end} dt={dt}\n")
+
+
+def write_csv(path, name, prm, inp, t_end, dt, out):
+    cols = ["time"] + OUTPUTS
+    with open(path, "w") as fh:
+        fh.write(HEADER.format(name=name, params=repr(prm), inputs=repr(inp), t_end=t_end, dt=dt))
+        fh.write(",".join(cols) + "\n")
+        data = np.column_stack([out[c] for c in cols])
+        np.savetxt(fh, data, delimiter=",", fmt="%.12g")
+
+
+def main(argv):
+    here = os.path.dirname(os.path.abspath(__file__))
+    only = set(argv[1:])
+    for name, (prm, inp, t_end, dt) in cases().items():
+        if only and name not in only:
+            continue
+        t0 = time.time()
+        out = simulate(prm, inp, t_end, dt)
+        write_csv(os.path.join(here, f"twisted_string_{name}.csv"), name, prm, inp, t_end, dt, out)
+        print(f"{name}: {time.time() - t0:.1f} s", flush=True)
+
+
+if __name__ == "__main__":
+    main(sys.argv)
