@@ -2,5 +2,8 @@
 //! (`vsnprintf`), which Rust cannot do on stable.
 fn main() {
     println!("cargo:rerun-if-changed=csrc/logger.c");
-    cc::Build::new().file("csrc/logger.c").warnings(true).compile("fmi2hostshim");
+    cc::Build::new()
+        .file("csrc/logger.c")
+        .warnings(true)
+        .compile("fmi2hostshim");
 }

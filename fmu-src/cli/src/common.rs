@@ -15,12 +15,18 @@ pub struct CliError {
 impl CliError {
     /// Bad usage, bad data, an FMU that cannot be opened: exit status 2.
     pub fn input(message: impl std::fmt::Display) -> Self {
-        CliError { code: 2, message: message.to_string() }
+        CliError {
+            code: 2,
+            message: message.to_string(),
+        }
     }
 
     /// A failure while running: exit status 1.
     pub fn failure(message: impl std::fmt::Display) -> Self {
-        CliError { code: 1, message: message.to_string() }
+        CliError {
+            code: 1,
+            message: message.to_string(),
+        }
     }
 }
 
@@ -29,7 +35,10 @@ pub type CliResult = Result<i32, CliError>;
 
 /// Parses `--set NAME=VALUE` arguments against the model description (`true`/`false` for
 /// Booleans, numbers otherwise). Errors name the offending argument.
-pub fn parse_sets(md: &ModelDescription, sets: &[String]) -> Result<Vec<(String, Value)>, CliError> {
+pub fn parse_sets(
+    md: &ModelDescription,
+    sets: &[String],
+) -> Result<Vec<(String, Value)>, CliError> {
     sets.iter()
         .map(|s| {
             let (name, value) = s
@@ -39,7 +48,8 @@ pub fn parse_sets(md: &ModelDescription, sets: &[String]) -> Result<Vec<(String,
             let var = md.variable(name).ok_or_else(|| {
                 CliError::input(format!("--set '{s}': the FMU has no variable '{name}'"))
             })?;
-            let v = Value::parse_for(var, value).map_err(|e| CliError::input(format!("--set '{s}': {e}")))?;
+            let v = Value::parse_for(var, value)
+                .map_err(|e| CliError::input(format!("--set '{s}': {e}")))?;
             Ok((name.to_string(), v))
         })
         .collect()

@@ -12,7 +12,11 @@ mod validate;
 use clap::{Parser, Subcommand};
 
 #[derive(Parser)]
-#[command(name = "actuator-fmu", version, about = "Simulate and validate FMI 2.0 Co-Simulation FMUs")]
+#[command(
+    name = "actuator-fmu",
+    version,
+    about = "Simulate and validate FMI 2.0 Co-Simulation FMUs"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,

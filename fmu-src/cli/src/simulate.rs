@@ -42,7 +42,12 @@ pub fn run(a: Args) -> CliResult {
             let stop = a.stop.unwrap_or(*table.time.last().unwrap_or(&start));
             let step = match a.step.or(table.sample_interval()) {
                 Some(h) => h,
-                None => return Err(CliError::input(format!("{}: a single row has no sample interval: give --step", path.display()))),
+                None => {
+                    return Err(CliError::input(format!(
+                        "{}: a single row has no sample interval: give --step",
+                        path.display()
+                    )))
+                }
             };
             let columns = table
                 .input_columns(md)
@@ -52,23 +57,46 @@ pub fn run(a: Args) -> CliResult {
                     (n, c)
                 })
                 .collect();
-            (start, stop, step, InputSeries { time: table.time.clone(), columns })
+            (
+                start,
+                stop,
+                step,
+                InputSeries {
+                    time: table.time.clone(),
+                    columns,
+                },
+            )
         }
         None => {
             let start = de.start_time.unwrap_or(0.0);
-            let stop = a.stop.or(de.stop_time).ok_or_else(|| CliError::input("no --data: give --stop"))?;
-            let step = a.step.or(de.step_size).ok_or_else(|| CliError::input("no --data: give --step"))?;
+            let stop = a
+                .stop
+                .or(de.stop_time)
+                .ok_or_else(|| CliError::input("no --data: give --stop"))?;
+            let step = a
+                .step
+                .or(de.step_size)
+                .ok_or_else(|| CliError::input("no --data: give --step"))?;
             (start, stop, step, InputSeries::default())
         }
     };
     if !(step > 0.0 && step.is_finite()) {
-        return Err(CliError::input(format!("--step must be a positive number, got {step}")));
+        return Err(CliError::input(format!(
+            "--step must be a positive number, got {step}"
+        )));
     }
     if !(stop >= start && stop.is_finite()) {
-        return Err(CliError::input(format!("--stop {stop} is before the start time {start}")));
+        return Err(CliError::input(format!(
+            "--stop {stop} is before the start time {start}"
+        )));
     }
-    let req = SimulationRequest { start_values, inputs, ..SimulationRequest::new(start, stop, step) };
-    let res = simulate(&fmu, &req).map_err(|e| CliError::failure(format!("{}: simulation failed: {e}", a.fmu.display())))?;
+    let req = SimulationRequest {
+        start_values,
+        inputs,
+        ..SimulationRequest::new(start, stop, step)
+    };
+    let res = simulate(&fmu, &req)
+        .map_err(|e| CliError::failure(format!("{}: simulation failed: {e}", a.fmu.display())))?;
     write_csv(&a.out, &res.time, &res.names, &res.columns)
         .map_err(|e| CliError::input(format!("{}: cannot write: {e}", a.out.display())))?;
     Ok(0)

@@ -38,11 +38,17 @@ pub fn run(a: Args) -> CliResult {
             return Err(CliError::input(format!("{}: no such file", path.display())));
         }
         let findings = validate_one(path, Duration::from_secs(a.timeout))?;
-        reports.push(Report { fmu: path.display().to_string(), findings });
+        reports.push(Report {
+            fmu: path.display().to_string(),
+            findings,
+        });
     }
     let total: usize = reports.iter().map(|r| r.findings.len()).sum();
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&reports).unwrap_or_default());
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&reports).unwrap_or_default()
+        );
     } else {
         for r in &reports {
             for f in &r.findings {
@@ -69,7 +75,11 @@ fn validate_one(path: &Path, timeout: Duration) -> Result<Vec<Finding>, CliError
                 HostError::ModelDescription { .. } => "model-description-xml",
                 _ => "archive",
             };
-            return Ok(vec![Finding { check: check.into(), location: path.display().to_string(), message: e.to_string() }]);
+            return Ok(vec![Finding {
+                check: check.into(),
+                location: path.display().to_string(),
+                message: e.to_string(),
+            }]);
         }
     };
     let mut findings = check_model_description(&ex.model_description);
@@ -94,12 +104,47 @@ fn signal_name(sig: i32) -> &'static str {
     }
 }
 
-/// Runs `__probe` in a child process and turns its output, crash or hang into findings.
+/// Runs the probe in child processes: a case that crashes becomes a finding and the probe is
+/// run again without it, so every case is reported.
 fn run_probe(path: &Path, timeout: Duration) -> Result<Vec<Finding>, CliError> {
-    let exe = std::env::current_exe().map_err(|e| CliError::input(format!("cannot find own executable: {e}")))?;
+    let mut crashed: Vec<String> = Vec::new();
+    let mut findings = Vec::new();
+    loop {
+        match run_probe_once(path, timeout, &crashed)? {
+            ProbeOutcome::Done(f) => {
+                findings.extend(f);
+                return Ok(findings);
+            }
+            ProbeOutcome::Crashed { step, finding } => {
+                findings.push(finding);
+                let is_case =
+                    host::validate::PROBE_CASES.contains(&step.as_str()) && step != "normal-run";
+                if !is_case || crashed.contains(&step) {
+                    return Ok(findings);
+                }
+                crashed.push(step);
+            }
+        }
+    }
+}
+
+enum ProbeOutcome {
+    Done(Vec<Finding>),
+    Crashed { step: String, finding: Finding },
+}
+
+/// Runs `__probe` once in a child process and turns its output, crash or hang into findings.
+fn run_probe_once(
+    path: &Path,
+    timeout: Duration,
+    skip: &[String],
+) -> Result<ProbeOutcome, CliError> {
+    let exe = std::env::current_exe()
+        .map_err(|e| CliError::input(format!("cannot find own executable: {e}")))?;
     let mut child = Command::new(exe)
         .arg("__probe")
         .arg(path)
+        .args(skip.iter().flat_map(|s| ["--skip", s.as_str()]))
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -127,35 +172,55 @@ fn run_probe(path: &Path, timeout: Duration) -> Result<Vec<Finding>, CliError> {
                 break None;
             }
             Ok(None) => std::thread::sleep(Duration::from_millis(20)),
-            Err(e) => return Err(CliError::input(format!("waiting for the probe process: {e}"))),
+            Err(e) => {
+                return Err(CliError::input(format!(
+                    "waiting for the probe process: {e}"
+                )))
+            }
         }
     };
     let stdout = out_t.join().unwrap_or_default();
     let stderr = err_t.join().unwrap_or_default();
     let last_step = stderr
         .lines()
-        .filter_map(|l| l.strip_prefix(STEP_MARK))
-        .last()
+        .rev()
+        .find_map(|l| l.strip_prefix(STEP_MARK))
         .unwrap_or("start")
         .to_string();
     let loc = format!("probe {last_step}");
     let Some(status) = status else {
-        return Ok(vec![Finding {
+        let finding = Finding {
             check: "probe-timeout".into(),
             location: loc,
             message: format!("the FMU did not return within {} s", timeout.as_secs()),
-        }]);
+        };
+        return Ok(ProbeOutcome::Crashed {
+            step: last_step,
+            finding,
+        });
     };
     if let Some(json) = stdout.lines().find_map(|l| l.strip_prefix(FINDINGS_MARK)) {
         if status.success() {
             return serde_json::from_str(json)
+                .map(ProbeOutcome::Done)
                 .map_err(|e| CliError::input(format!("probe output unreadable: {e}")));
         }
     }
     use std::os::unix::process::ExitStatusExt;
     let message = match status.signal() {
-        Some(sig) => format!("the FMU crashed ({} {sig}) during this probe step", signal_name(sig)),
+        Some(sig) => format!(
+            "the FMU crashed ({} {sig}) during this probe step",
+            signal_name(sig)
+        ),
         None => format!("the probe process ended with {status} during this probe step"),
     };
-    Ok(vec![Finding { check: "probe-crash".into(), location: loc, message }])
+    let finding = Finding {
+        check: "probe-crash".into(),
+        location: loc,
+        message,
+    };
+    Ok(ProbeOutcome::Crashed {
+        step: last_step,
+        finding,
+    })
 }

@@ -98,7 +98,11 @@ impl Table {
     pub fn input_columns(&self, md: &ModelDescription) -> Vec<String> {
         self.names
             .iter()
-            .filter(|n| md.variable(n).map(|v| v.causality == Causality::Input).unwrap_or(false))
+            .filter(|n| {
+                md.variable(n)
+                    .map(|v| v.causality == Causality::Input)
+                    .unwrap_or(false)
+            })
             .cloned()
             .collect()
     }
@@ -107,7 +111,11 @@ impl Table {
     pub fn output_columns(&self, md: &ModelDescription) -> Vec<String> {
         self.names
             .iter()
-            .filter(|n| md.variable(n).map(|v| v.causality == Causality::Output).unwrap_or(false))
+            .filter(|n| {
+                md.variable(n)
+                    .map(|v| v.causality == Causality::Output)
+                    .unwrap_or(false)
+            })
             .cloned()
             .collect()
     }
@@ -156,7 +164,11 @@ pub fn parse_csv(text: &str, file: &str) -> Result<Table, CsvError> {
         .map(|(i, l)| (i + 1, l.trim_end_matches('\r')))
         .filter(|(_, l)| !l.trim().is_empty() && !l.trim_start().starts_with('#'));
     let Some((hline, header)) = lines.next() else {
-        return Err(err(1, 0, "empty file: expected a header line starting with 'time'".into()));
+        return Err(err(
+            1,
+            0,
+            "empty file: expected a header line starting with 'time'".into(),
+        ));
     };
     let names: Vec<String> = header.split(',').map(|h| unquote(h).to_string()).collect();
     match names.iter().position(|n| n == "time") {
@@ -165,14 +177,20 @@ pub fn parse_csv(text: &str, file: &str) -> Result<Table, CsvError> {
             return Err(err(
                 hline,
                 j + 1,
-                format!("'time' must be the first column, found it in column {}", j + 1),
+                format!(
+                    "'time' must be the first column, found it in column {}",
+                    j + 1
+                ),
             ))
         }
         None => {
             return Err(err(
                 hline,
                 1,
-                format!("no 'time' column: the header must start with 'time' (found '{}')", names[0]),
+                format!(
+                    "no 'time' column: the header must start with 'time' (found '{}')",
+                    names[0]
+                ),
             ))
         }
     }
@@ -206,14 +224,22 @@ pub fn parse_csv(text: &str, file: &str) -> Result<Table, CsvError> {
                 if c.is_empty() {
                     err(lno, j + 1, format!("empty cell in column '{}'", names[j]))
                 } else {
-                    err(lno, j + 1, format!("non-numeric cell '{c}' in column '{}'", names[j]))
+                    err(
+                        lno,
+                        j + 1,
+                        format!("non-numeric cell '{c}' in column '{}'", names[j]),
+                    )
                 }
             })?;
             if x.is_nan() {
                 return Err(err(lno, j + 1, format!("NaN in column '{}'", names[j])));
             }
             if !x.is_finite() {
-                return Err(err(lno, j + 1, format!("infinite value '{c}' in column '{}'", names[j])));
+                return Err(err(
+                    lno,
+                    j + 1,
+                    format!("infinite value '{c}' in column '{}'", names[j]),
+                ));
             }
             if j == 0 {
                 if let Some((prev, pl)) = last_time {
@@ -253,7 +279,12 @@ pub fn format_number(x: f64) -> String {
 }
 
 /// Writes `time` and `columns` (each as long as `time`) as CSV with header `time,names...`.
-pub fn write_csv_to<W: Write>(mut w: W, time: &[f64], names: &[String], columns: &[Vec<f64>]) -> std::io::Result<()> {
+pub fn write_csv_to<W: Write>(
+    mut w: W,
+    time: &[f64],
+    names: &[String],
+    columns: &[Vec<f64>],
+) -> std::io::Result<()> {
     let mut line = String::from("time");
     for n in names {
         line.push(',');
@@ -275,7 +306,12 @@ pub fn write_csv_to<W: Write>(mut w: W, time: &[f64], names: &[String], columns:
 }
 
 /// Writes a CSV file (see [`write_csv_to`]).
-pub fn write_csv(path: &Path, time: &[f64], names: &[String], columns: &[Vec<f64>]) -> std::io::Result<()> {
+pub fn write_csv(
+    path: &Path,
+    time: &[f64],
+    names: &[String],
+    columns: &[Vec<f64>],
+) -> std::io::Result<()> {
     let f = std::fs::File::create(path)?;
     write_csv_to(std::io::BufWriter::new(f), time, names, columns)
 }
@@ -290,7 +326,11 @@ mod tests {
 
     #[test]
     fn parses_a_good_file_with_comments_and_quotes() {
-        let t = parse_csv("# source: test\n\"time\", u ,y\r\n0,1,2\n0.5,1.5,-2e-3\n\n1.0,2,3\n", "d.csv").unwrap();
+        let t = parse_csv(
+            "# source: test\n\"time\", u ,y\r\n0,1,2\n0.5,1.5,-2e-3\n\n1.0,2,3\n",
+            "d.csv",
+        )
+        .unwrap();
         assert_eq!(t.time, vec![0.0, 0.5, 1.0]);
         assert_eq!(t.names, vec!["u", "y"]);
         assert_eq!(t.column("y").unwrap(), &[2.0, -2e-3, 3.0]);
@@ -302,7 +342,10 @@ mod tests {
         let x = e("");
         assert_eq!((x.line, x.column), (1, 0));
         assert!(x.message.contains("empty file"));
-        assert_eq!(x.to_string(), "d.csv:1: empty file: expected a header line starting with 'time'");
+        assert_eq!(
+            x.to_string(),
+            "d.csv:1: empty file: expected a header line starting with 'time'"
+        );
         let x = e("time,u\n");
         assert!(x.message.contains("no data rows"), "{x}");
         assert_eq!(x.line, 2);
@@ -343,8 +386,14 @@ mod tests {
     fn non_numeric_and_empty_cells() {
         let x = e("time,u,y\n0,1,2\n1,abc,2\n");
         assert_eq!((x.line, x.column), (3, 2));
-        assert!(x.message.contains("non-numeric cell 'abc' in column 'u'"), "{x}");
-        assert_eq!(x.to_string(), "d.csv:3:2: non-numeric cell 'abc' in column 'u'");
+        assert!(
+            x.message.contains("non-numeric cell 'abc' in column 'u'"),
+            "{x}"
+        );
+        assert_eq!(
+            x.to_string(),
+            "d.csv:3:2: non-numeric cell 'abc' in column 'u'"
+        );
         let x = e("time,u\n0,\n");
         assert_eq!((x.line, x.column), (2, 2));
         assert!(x.message.contains("empty cell"));
@@ -354,7 +403,10 @@ mod tests {
     fn ragged_rows() {
         let x = e("time,u,y\n0,1,2\n1,2\n");
         assert_eq!((x.line, x.column), (3, 3));
-        assert!(x.message.contains("row has 2 cells, the header has 3"), "{x}");
+        assert!(
+            x.message.contains("row has 2 cells, the header has 3"),
+            "{x}"
+        );
         let x = e("time,u\n0,1,2\n");
         assert_eq!((x.line, x.column), (2, 3));
     }
@@ -378,16 +430,26 @@ mod tests {
         let t = parse_csv("time,u,k\n0,1,2\n", "d.csv").unwrap();
         let x = t.check_against(&md).unwrap_err();
         assert_eq!((x.line, x.column), (1, 3));
-        assert!(x.message.contains("'k' is neither an input nor an output"), "{x}");
+        assert!(
+            x.message.contains("'k' is neither an input nor an output"),
+            "{x}"
+        );
         let t = parse_csv("time,zz\n0,1\n", "d.csv").unwrap();
         let x = t.check_against(&md).unwrap_err();
-        assert!(x.message.contains("'zz' is not a variable of the FMU (inputs: u; outputs: x)"), "{x}");
+        assert!(
+            x.message
+                .contains("'zz' is not a variable of the FMU (inputs: u; outputs: x)"),
+            "{x}"
+        );
     }
 
     #[test]
     fn written_numbers_read_back_exactly() {
         let time = vec![0.0, 0.1, 0.30000000000000004];
-        let cols = vec![vec![1e-300, -2.5, 123456789.123], vec![f64::MIN_POSITIVE, 1e20, -0.0]];
+        let cols = vec![
+            vec![1e-300, -2.5, 123456789.123],
+            vec![f64::MIN_POSITIVE, 1e20, -0.0],
+        ];
         let names = vec!["a".to_string(), "b".to_string()];
         let mut buf = Vec::new();
         write_csv_to(&mut buf, &time, &names, &cols).unwrap();

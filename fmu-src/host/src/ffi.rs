@@ -188,8 +188,10 @@ pub struct Functions {
     pub get_fmu_state: Option<unsafe extern "C" fn(C, *mut FmuState) -> RawStatus>,
     pub set_fmu_state: Option<unsafe extern "C" fn(C, FmuState) -> RawStatus>,
     pub free_fmu_state: Option<unsafe extern "C" fn(C, *mut FmuState) -> RawStatus>,
-    pub serialized_fmu_state_size: Option<unsafe extern "C" fn(C, FmuState, *mut usize) -> RawStatus>,
-    pub serialize_fmu_state: Option<unsafe extern "C" fn(C, FmuState, *mut c_char, usize) -> RawStatus>,
+    pub serialized_fmu_state_size:
+        Option<unsafe extern "C" fn(C, FmuState, *mut usize) -> RawStatus>,
+    pub serialize_fmu_state:
+        Option<unsafe extern "C" fn(C, FmuState, *mut c_char, usize) -> RawStatus>,
     pub deserialize_fmu_state:
         Option<unsafe extern "C" fn(C, *const c_char, usize, *mut FmuState) -> RawStatus>,
     pub do_step: unsafe extern "C" fn(C, f64, f64, Fmi2Boolean) -> RawStatus,

@@ -72,8 +72,9 @@ impl Extracted {
             .map(|c| c.model_identifier.as_str())
             .ok_or_else(|| HostError::Archive {
                 path: self.path.clone(),
-                message: "modelDescription.xml has no <CoSimulation> element (not a Co-Simulation FMU)"
-                    .into(),
+                message:
+                    "modelDescription.xml has no <CoSimulation> element (not a Co-Simulation FMU)"
+                        .into(),
             })
     }
 
@@ -124,7 +125,8 @@ fn extract(archive: &Path, dest: &Path) -> Result<()> {
             std::fs::create_dir_all(parent).map_err(io)?;
         }
         let mut f = std::fs::File::create(&out).map_err(io)?;
-        std::io::copy(&mut entry, &mut f).map_err(|e| bad(format!("entry '{}': {e}", entry.name())))?;
+        std::io::copy(&mut entry, &mut f)
+            .map_err(|e| bad(format!("entry '{}': {e}", entry.name())))?;
     }
     Ok(())
 }

@@ -94,7 +94,8 @@ impl Fmu {
             )
         };
         if component.is_null() {
-            let messages = std::mem::take(&mut *log.records.lock().unwrap_or_else(|e| e.into_inner()));
+            let messages =
+                std::mem::take(&mut *log.records.lock().unwrap_or_else(|e| e.into_inner()));
             return Err(HostError::Instantiate { messages });
         }
         Ok(Instance {
@@ -136,12 +137,20 @@ impl<'a> Instance<'a> {
     }
 
     /// Calls an FMI function and returns its raw status without interpreting it (for probes).
-    pub fn raw_status(&mut self, f: impl FnOnce(&ffi::Functions, Component) -> RawStatus) -> Status {
+    pub fn raw_status(
+        &mut self,
+        f: impl FnOnce(&ffi::Functions, Component) -> RawStatus,
+    ) -> Status {
         Status::from_raw(f(&self.fmu.functions, self.component))
     }
 
     /// fmi2SetupExperiment
-    pub fn setup_experiment(&mut self, tolerance: Option<f64>, start_time: f64, stop_time: Option<f64>) -> Result<Status> {
+    pub fn setup_experiment(
+        &mut self,
+        tolerance: Option<f64>,
+        start_time: f64,
+        stop_time: Option<f64>,
+    ) -> Result<Status> {
         // SAFETY: component is a live instance of this binary.
         let raw = unsafe {
             (self.fmu.functions.setup_experiment)(
@@ -187,7 +196,8 @@ impl<'a> Instance<'a> {
     /// fmi2DoStep(currentCommunicationPoint, communicationStepSize, noSetFMUStatePriorToCurrentPoint)
     pub fn do_step(&mut self, t: f64, h: f64, no_set_prior: bool) -> Result<Status> {
         // SAFETY: component is a live instance of this binary.
-        let raw = unsafe { (self.fmu.functions.do_step)(self.component, t, h, no_set_prior as c_int) };
+        let raw =
+            unsafe { (self.fmu.functions.do_step)(self.component, t, h, no_set_prior as c_int) };
         self.check("fmi2DoStep", raw)
     }
 
@@ -195,7 +205,9 @@ impl<'a> Instance<'a> {
     pub fn get_real(&mut self, vrs: &[u32], out: &mut [f64]) -> Result<Status> {
         check_len(vrs.len(), out.len())?;
         // SAFETY: both slices have vrs.len() elements.
-        let raw = unsafe { (self.fmu.functions.get_real)(self.component, vrs.as_ptr(), vrs.len(), out.as_mut_ptr()) };
+        let raw = unsafe {
+            (self.fmu.functions.get_real)(self.component, vrs.as_ptr(), vrs.len(), out.as_mut_ptr())
+        };
         self.check("fmi2GetReal", raw)
     }
 
@@ -203,7 +215,9 @@ impl<'a> Instance<'a> {
     pub fn set_real(&mut self, vrs: &[u32], values: &[f64]) -> Result<Status> {
         check_len(vrs.len(), values.len())?;
         // SAFETY: both slices have vrs.len() elements.
-        let raw = unsafe { (self.fmu.functions.set_real)(self.component, vrs.as_ptr(), vrs.len(), values.as_ptr()) };
+        let raw = unsafe {
+            (self.fmu.functions.set_real)(self.component, vrs.as_ptr(), vrs.len(), values.as_ptr())
+        };
         self.check("fmi2SetReal", raw)
     }
 
@@ -211,7 +225,14 @@ impl<'a> Instance<'a> {
     pub fn get_integer(&mut self, vrs: &[u32], out: &mut [i32]) -> Result<Status> {
         check_len(vrs.len(), out.len())?;
         // SAFETY: both slices have vrs.len() elements; c_int is i32 on this platform.
-        let raw = unsafe { (self.fmu.functions.get_integer)(self.component, vrs.as_ptr(), vrs.len(), out.as_mut_ptr()) };
+        let raw = unsafe {
+            (self.fmu.functions.get_integer)(
+                self.component,
+                vrs.as_ptr(),
+                vrs.len(),
+                out.as_mut_ptr(),
+            )
+        };
         self.check("fmi2GetInteger", raw)
     }
 
@@ -219,7 +240,14 @@ impl<'a> Instance<'a> {
     pub fn set_integer(&mut self, vrs: &[u32], values: &[i32]) -> Result<Status> {
         check_len(vrs.len(), values.len())?;
         // SAFETY: both slices have vrs.len() elements.
-        let raw = unsafe { (self.fmu.functions.set_integer)(self.component, vrs.as_ptr(), vrs.len(), values.as_ptr()) };
+        let raw = unsafe {
+            (self.fmu.functions.set_integer)(
+                self.component,
+                vrs.as_ptr(),
+                vrs.len(),
+                values.as_ptr(),
+            )
+        };
         self.check("fmi2SetInteger", raw)
     }
 
@@ -228,7 +256,14 @@ impl<'a> Instance<'a> {
         check_len(vrs.len(), out.len())?;
         let mut raw_vals = vec![0 as c_int; vrs.len()];
         // SAFETY: both buffers have vrs.len() elements.
-        let raw = unsafe { (self.fmu.functions.get_boolean)(self.component, vrs.as_ptr(), vrs.len(), raw_vals.as_mut_ptr()) };
+        let raw = unsafe {
+            (self.fmu.functions.get_boolean)(
+                self.component,
+                vrs.as_ptr(),
+                vrs.len(),
+                raw_vals.as_mut_ptr(),
+            )
+        };
         let st = self.check("fmi2GetBoolean", raw)?;
         for (o, r) in out.iter_mut().zip(raw_vals) {
             *o = r != 0;
@@ -241,13 +276,24 @@ impl<'a> Instance<'a> {
         check_len(vrs.len(), values.len())?;
         let raw_vals: Vec<c_int> = values.iter().map(|&b| b as c_int).collect();
         // SAFETY: both buffers have vrs.len() elements.
-        let raw = unsafe { (self.fmu.functions.set_boolean)(self.component, vrs.as_ptr(), vrs.len(), raw_vals.as_ptr()) };
+        let raw = unsafe {
+            (self.fmu.functions.set_boolean)(
+                self.component,
+                vrs.as_ptr(),
+                vrs.len(),
+                raw_vals.as_ptr(),
+            )
+        };
         self.check("fmi2SetBoolean", raw)
     }
 
     /// fmi2GetString (copies the strings)
     pub fn get_string(&mut self, vrs: &[u32]) -> Result<Vec<String>> {
-        let f = self.fmu.functions.get_string.ok_or_else(|| missing("fmi2GetString"))?;
+        let f = self
+            .fmu
+            .functions
+            .get_string
+            .ok_or_else(|| missing("fmi2GetString"))?;
         let mut ptrs: Vec<*const c_char> = vec![std::ptr::null(); vrs.len()];
         // SAFETY: both buffers have vrs.len() elements.
         let raw = unsafe { f(self.component, vrs.as_ptr(), vrs.len(), ptrs.as_mut_ptr()) };
@@ -259,7 +305,9 @@ impl<'a> Instance<'a> {
                     String::new()
                 } else {
                     // SAFETY: the FMU returns NUL-terminated strings valid until the next call.
-                    unsafe { std::ffi::CStr::from_ptr(p) }.to_string_lossy().into_owned()
+                    unsafe { std::ffi::CStr::from_ptr(p) }
+                        .to_string_lossy()
+                        .into_owned()
                 }
             })
             .collect())
@@ -267,7 +315,11 @@ impl<'a> Instance<'a> {
 
     /// fmi2GetStatus(fmi2Terminated) for CS: whether the FMU asked to stop.
     pub fn get_status_raw(&mut self, kind: i32) -> Result<Status> {
-        let f = self.fmu.functions.get_status.ok_or_else(|| missing("fmi2GetStatus"))?;
+        let f = self
+            .fmu
+            .functions
+            .get_status
+            .ok_or_else(|| missing("fmi2GetStatus"))?;
         let mut value: RawStatus = 0;
         // SAFETY: value is a valid out pointer.
         let raw = unsafe { f(self.component, kind, &mut value) };
@@ -277,7 +329,11 @@ impl<'a> Instance<'a> {
 
     /// fmi2GetFMUstate: saves the current state; the handle is valid while this instance lives.
     pub fn get_fmu_state(&mut self) -> Result<FmuStateHandle> {
-        let f = self.fmu.functions.get_fmu_state.ok_or_else(|| missing("fmi2GetFMUstate"))?;
+        let f = self
+            .fmu
+            .functions
+            .get_fmu_state
+            .ok_or_else(|| missing("fmi2GetFMUstate"))?;
         let mut state: FmuState = std::ptr::null_mut();
         // SAFETY: state is a valid out pointer (NULL asks the FMU to allocate).
         let raw = unsafe { f(self.component, &mut state) };
@@ -290,9 +346,15 @@ impl<'a> Instance<'a> {
 
     /// fmi2SetFMUstate: restores a state saved by this instance.
     pub fn set_fmu_state(&mut self, state: &FmuStateHandle) -> Result<Status> {
-        let f = self.fmu.functions.set_fmu_state.ok_or_else(|| missing("fmi2SetFMUstate"))?;
+        let f = self
+            .fmu
+            .functions
+            .set_fmu_state
+            .ok_or_else(|| missing("fmi2SetFMUstate"))?;
         if !self.states.contains(&state.raw) {
-            return Err(HostError::Request("FMU state does not belong to this instance".into()));
+            return Err(HostError::Request(
+                "FMU state does not belong to this instance".into(),
+            ));
         }
         // SAFETY: the state was produced by this instance and not yet freed.
         let raw = unsafe { f(self.component, state.raw) };
@@ -301,10 +363,20 @@ impl<'a> Instance<'a> {
 
     /// fmi2SerializedFMUstateSize + fmi2SerializeFMUstate
     pub fn serialize_fmu_state(&mut self, state: &FmuStateHandle) -> Result<Vec<u8>> {
-        let fs = self.fmu.functions.serialized_fmu_state_size.ok_or_else(|| missing("fmi2SerializedFMUstateSize"))?;
-        let f = self.fmu.functions.serialize_fmu_state.ok_or_else(|| missing("fmi2SerializeFMUstate"))?;
+        let fs = self
+            .fmu
+            .functions
+            .serialized_fmu_state_size
+            .ok_or_else(|| missing("fmi2SerializedFMUstateSize"))?;
+        let f = self
+            .fmu
+            .functions
+            .serialize_fmu_state
+            .ok_or_else(|| missing("fmi2SerializeFMUstate"))?;
         if !self.states.contains(&state.raw) {
-            return Err(HostError::Request("FMU state does not belong to this instance".into()));
+            return Err(HostError::Request(
+                "FMU state does not belong to this instance".into(),
+            ));
         }
         let mut size = 0usize;
         // SAFETY: valid state of this instance, valid out pointer.
@@ -312,17 +384,35 @@ impl<'a> Instance<'a> {
         self.check("fmi2SerializedFMUstateSize", raw)?;
         let mut buf = vec![0u8; size];
         // SAFETY: buf has `size` bytes.
-        let raw = unsafe { f(self.component, state.raw, buf.as_mut_ptr() as *mut c_char, size) };
+        let raw = unsafe {
+            f(
+                self.component,
+                state.raw,
+                buf.as_mut_ptr() as *mut c_char,
+                size,
+            )
+        };
         self.check("fmi2SerializeFMUstate", raw)?;
         Ok(buf)
     }
 
     /// fmi2DeSerializeFMUstate: a new state handle from bytes.
     pub fn deserialize_fmu_state(&mut self, bytes: &[u8]) -> Result<FmuStateHandle> {
-        let f = self.fmu.functions.deserialize_fmu_state.ok_or_else(|| missing("fmi2DeSerializeFMUstate"))?;
+        let f = self
+            .fmu
+            .functions
+            .deserialize_fmu_state
+            .ok_or_else(|| missing("fmi2DeSerializeFMUstate"))?;
         let mut state: FmuState = std::ptr::null_mut();
         // SAFETY: bytes is a valid buffer of its length; state is a valid out pointer.
-        let raw = unsafe { f(self.component, bytes.as_ptr() as *const c_char, bytes.len(), &mut state) };
+        let raw = unsafe {
+            f(
+                self.component,
+                bytes.as_ptr() as *const c_char,
+                bytes.len(),
+                &mut state,
+            )
+        };
         self.check("fmi2DeSerializeFMUstate", raw)?;
         if !state.is_null() {
             self.states.push(state);
@@ -332,9 +422,15 @@ impl<'a> Instance<'a> {
 
     /// fmi2FreeFMUstate for one saved state.
     pub fn free_fmu_state(&mut self, state: FmuStateHandle) -> Result<Status> {
-        let f = self.fmu.functions.free_fmu_state.ok_or_else(|| missing("fmi2FreeFMUstate"))?;
+        let f = self
+            .fmu
+            .functions
+            .free_fmu_state
+            .ok_or_else(|| missing("fmi2FreeFMUstate"))?;
         let Some(pos) = self.states.iter().position(|s| *s == state.raw) else {
-            return Err(HostError::Request("FMU state does not belong to this instance".into()));
+            return Err(HostError::Request(
+                "FMU state does not belong to this instance".into(),
+            ));
         };
         self.states.swap_remove(pos);
         let mut raw_state = state.raw;

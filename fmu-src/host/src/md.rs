@@ -342,7 +342,9 @@ impl ModelDescription {
 
     /// Variables with causality `c`, in file order.
     pub fn with_causality(&self, c: Causality) -> impl Iterator<Item = &ScalarVariable> {
-        self.model_variables.iter().filter(move |v| v.causality == c)
+        self.model_variables
+            .iter()
+            .filter(move |v| v.causality == c)
     }
 
     /// Names of the outputs in file order.
@@ -442,7 +444,8 @@ impl<'a> Parser<'a> {
         let element = String::from_utf8_lossy(e.name().as_ref()).into_owned();
         let mut pairs = Vec::new();
         for a in e.attributes() {
-            let a = a.map_err(|err| self.err(line, format!("<{element}>: bad attribute: {err}")))?;
+            let a =
+                a.map_err(|err| self.err(line, format!("<{element}>: bad attribute: {err}")))?;
             let key = String::from_utf8_lossy(a.key.as_ref()).into_owned();
             let value = a
                 .unescape_value()
@@ -457,7 +460,12 @@ impl<'a> Parser<'a> {
         })
     }
 
-    fn parse_attr<T: FromStr>(&self, a: &Attrs, key: &str, what: &str) -> Result<Option<T>, HostError> {
+    fn parse_attr<T: FromStr>(
+        &self,
+        a: &Attrs,
+        key: &str,
+        what: &str,
+    ) -> Result<Option<T>, HostError> {
         match a.get(key) {
             None => Ok(None),
             Some(s) => s.trim().parse::<T>().map(Some).map_err(|_| {
@@ -572,7 +580,10 @@ impl<'a> Parser<'a> {
                     offset: self.real(&a, "offset")?.unwrap_or(0.0),
                     ..Default::default()
                 };
-                for (i, k) in ["kg", "m", "s", "A", "K", "mol", "cd", "rad"].iter().enumerate() {
+                for (i, k) in ["kg", "m", "s", "A", "K", "mol", "cd", "rad"]
+                    .iter()
+                    .enumerate()
+                {
                     b.exponents[i] = self.parse_attr::<i32>(&a, k, "an integer")?.unwrap_or(0);
                 }
                 if let Some(u) = self.md.unit_definitions.last_mut() {
@@ -603,7 +614,10 @@ impl<'a> Parser<'a> {
             }
             ("SimpleType", kind) => {
                 let kind = var_kind(kind).ok_or_else(|| {
-                    self.err(a.line, format!("<SimpleType> has unknown type element <{kind}>"))
+                    self.err(
+                        a.line,
+                        format!("<SimpleType> has unknown type element <{kind}>"),
+                    )
                 })?;
                 let (min, max) = (self.real(&a, "min")?, self.real(&a, "max")?);
                 if let Some(t) = self.md.type_definitions.last_mut() {
@@ -630,9 +644,10 @@ impl<'a> Parser<'a> {
                 });
             }
             ("ModelVariables", "ScalarVariable") => self.scalar_variable(&a)?,
-            ("ScalarVariable", kind @ ("Real" | "Integer" | "Boolean" | "String" | "Enumeration")) => {
-                self.type_element(kind, &a)?
-            }
+            (
+                "ScalarVariable",
+                kind @ ("Real" | "Integer" | "Boolean" | "String" | "Enumeration"),
+            ) => self.type_element(kind, &a)?,
             ("fmiModelDescription", "ModelStructure") => self.md.model_structure.present = true,
             (list @ ("Outputs" | "Derivatives" | "InitialUnknowns"), "Unknown") => {
                 let u = self.unknown(&a)?;
@@ -714,7 +729,9 @@ impl<'a> Parser<'a> {
         let value_reference = vr.trim().parse::<u32>().map_err(|_| {
             self.err(
                 a.line,
-                format!("variable '{name}': valueReference=\"{vr}\" is not an unsigned 32-bit integer"),
+                format!(
+                    "variable '{name}': valueReference=\"{vr}\" is not an unsigned 32-bit integer"
+                ),
             )
         })?;
         let causality = match a.get("causality") {
@@ -724,7 +741,12 @@ impl<'a> Parser<'a> {
             Some("input") => Causality::Input,
             Some("output") => Causality::Output,
             Some("independent") => Causality::Independent,
-            Some(o) => return Err(self.err(a.line, format!("variable '{name}': unknown causality \"{o}\""))),
+            Some(o) => {
+                return Err(self.err(
+                    a.line,
+                    format!("variable '{name}': unknown causality \"{o}\""),
+                ))
+            }
         };
         let variability = match a.get("variability") {
             None | Some("continuous") => Variability::Continuous,
@@ -732,14 +754,24 @@ impl<'a> Parser<'a> {
             Some("fixed") => Variability::Fixed,
             Some("tunable") => Variability::Tunable,
             Some("discrete") => Variability::Discrete,
-            Some(o) => return Err(self.err(a.line, format!("variable '{name}': unknown variability \"{o}\""))),
+            Some(o) => {
+                return Err(self.err(
+                    a.line,
+                    format!("variable '{name}': unknown variability \"{o}\""),
+                ))
+            }
         };
         let initial = match a.get("initial") {
             None => None,
             Some("exact") => Some(Initial::Exact),
             Some("approx") => Some(Initial::Approx),
             Some("calculated") => Some(Initial::Calculated),
-            Some(o) => return Err(self.err(a.line, format!("variable '{name}': unknown initial \"{o}\""))),
+            Some(o) => {
+                return Err(self.err(
+                    a.line,
+                    format!("variable '{name}': unknown initial \"{o}\""),
+                ))
+            }
         };
         self.current_var = Some(ScalarVariable {
             name,
@@ -777,13 +809,19 @@ impl<'a> Parser<'a> {
         let start = match (kind, a.get("start")) {
             (_, None) => None,
             (VarKind::Real, Some(s)) => Some(StartValue::Real(parse_real(s).ok_or_else(|| {
-                self.err(a.line, format!("variable '{vname}': start=\"{s}\" is not a real number"))
+                self.err(
+                    a.line,
+                    format!("variable '{vname}': start=\"{s}\" is not a real number"),
+                )
             })?)),
-            (VarKind::Integer | VarKind::Enumeration, Some(s)) => {
-                Some(StartValue::Integer(s.trim().parse::<i64>().map_err(|_| {
-                    self.err(a.line, format!("variable '{vname}': start=\"{s}\" is not an integer"))
-                })?))
-            }
+            (VarKind::Integer | VarKind::Enumeration, Some(s)) => Some(StartValue::Integer(
+                s.trim().parse::<i64>().map_err(|_| {
+                    self.err(
+                        a.line,
+                        format!("variable '{vname}': start=\"{s}\" is not an integer"),
+                    )
+                })?,
+            )),
             (VarKind::Boolean, Some(_)) => Some(StartValue::Boolean(
                 self.boolean(a, "start")?.unwrap_or(false),
             )),
@@ -818,7 +856,10 @@ impl<'a> Parser<'a> {
                 s.split_whitespace()
                     .map(|t| {
                         t.parse::<usize>().map_err(|_| {
-                            self.err(a.line, format!("<Unknown> dependencies entry \"{t}\" is not an index"))
+                            self.err(
+                                a.line,
+                                format!("<Unknown> dependencies entry \"{t}\" is not an index"),
+                            )
                         })
                     })
                     .collect::<Result<Vec<_>, _>>()?,
@@ -906,9 +947,20 @@ pub(crate) mod tests {
         assert_eq!(rad.base_unit.as_ref().unwrap().exponents[7], 1);
         assert_eq!(rad.display_units[0].name, "deg");
         assert!((rad.display_units[0].factor - 57.29577951308232).abs() < 1e-12);
-        assert_eq!(md.unit("m/s2").unwrap().base_unit.as_ref().unwrap().exponents[..3], [0, 1, -2]);
+        assert_eq!(
+            md.unit("m/s2")
+                .unwrap()
+                .base_unit
+                .as_ref()
+                .unwrap()
+                .exponents[..3],
+            [0, 1, -2]
+        );
         assert_eq!(md.log_categories[0].name, "logAll");
-        assert_eq!(md.default_experiment.as_ref().unwrap().step_size, Some(0.001));
+        assert_eq!(
+            md.default_experiment.as_ref().unwrap().step_size,
+            Some(0.001)
+        );
         assert_eq!(md.model_variables.len(), 6);
         let x = md.variable("x").unwrap();
         assert_eq!(x.value_reference, 1);
@@ -924,9 +976,20 @@ pub(crate) mod tests {
         assert_eq!(k.max, Some(f64::INFINITY));
         assert_eq!(k.effective_initial(), Some(Initial::Exact));
         assert_eq!(md.variable("u").unwrap().effective_initial(), None);
-        assert_eq!(md.variable("on").unwrap().start, Some(StartValue::Boolean(true)));
+        assert_eq!(
+            md.variable("on").unwrap().start,
+            Some(StartValue::Boolean(true))
+        );
         let n = md.variable("n").unwrap();
-        assert_eq!((n.kind, n.start.clone(), n.min, n.max), (VarKind::Integer, Some(StartValue::Integer(-3)), Some(-5.0), Some(5.0)));
+        assert_eq!(
+            (n.kind, n.start.clone(), n.min, n.max),
+            (
+                VarKind::Integer,
+                Some(StartValue::Integer(-3)),
+                Some(-5.0),
+                Some(5.0)
+            )
+        );
         assert!(md.model_structure.present);
         assert_eq!(md.model_structure.outputs.len(), 1);
         assert_eq!(md.model_structure.outputs[0].index, 2);
@@ -936,7 +999,9 @@ pub(crate) mod tests {
     }
 
     fn err_of(xml: &str) -> String {
-        ModelDescription::parse(xml, "md.xml").unwrap_err().to_string()
+        ModelDescription::parse(xml, "md.xml")
+            .unwrap_err()
+            .to_string()
     }
 
     #[test]
@@ -955,15 +1020,24 @@ pub(crate) mod tests {
     #[test]
     fn bad_attribute_values_are_errors_naming_them() {
         let e = err_of("<fmiModelDescription>\n<ModelVariables>\n<ScalarVariable name=\"a\" valueReference=\"-1\"><Real/></ScalarVariable></ModelVariables></fmiModelDescription>");
-        assert!(e.starts_with("md.xml:3:") && e.contains("valueReference"), "{e}");
+        assert!(
+            e.starts_with("md.xml:3:") && e.contains("valueReference"),
+            "{e}"
+        );
         let e = err_of("<fmiModelDescription><ModelVariables><ScalarVariable name=\"a\" valueReference=\"1\" causality=\"outptu\"><Real/></ScalarVariable></ModelVariables></fmiModelDescription>");
         assert!(e.contains("unknown causality \"outptu\""), "{e}");
         let e = err_of("<fmiModelDescription><ModelVariables><ScalarVariable name=\"a\" valueReference=\"1\"><Real start=\"x1\"/></ScalarVariable></ModelVariables></fmiModelDescription>");
         assert!(e.contains("start=\"x1\" is not a real number"), "{e}");
         let e = err_of("<fmiModelDescription><CoSimulation modelIdentifier=\"a\" canGetAndSetFMUstate=\"yes\"/></fmiModelDescription>");
-        assert!(e.contains("canGetAndSetFMUstate=\"yes\" is not a boolean"), "{e}");
+        assert!(
+            e.contains("canGetAndSetFMUstate=\"yes\" is not a boolean"),
+            "{e}"
+        );
         let e = err_of("<fmiModelDescription><CoSimulation/></fmiModelDescription>");
-        assert!(e.contains("lacks the required attribute modelIdentifier"), "{e}");
+        assert!(
+            e.contains("lacks the required attribute modelIdentifier"),
+            "{e}"
+        );
         let e = err_of("<fmiModelDescription><ModelVariables><ScalarVariable valueReference=\"1\"><Real/></ScalarVariable></ModelVariables></fmiModelDescription>");
         assert!(e.contains("lacks the required attribute name"), "{e}");
     }

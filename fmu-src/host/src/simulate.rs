@@ -33,7 +33,10 @@ impl Value {
                     HostError::Request(format!("'{}': '{text}' is not a number", v.name))
                 })?;
                 if !x.is_finite() {
-                    return Err(HostError::Request(format!("'{}': value must be finite, got '{text}'", v.name)));
+                    return Err(HostError::Request(format!(
+                        "'{}': value must be finite, got '{text}'",
+                        v.name
+                    )));
                 }
                 Ok(Value::Real(x))
             }
@@ -114,17 +117,23 @@ impl SimulationResult {
 /// k (no accumulated rounding), the last one exactly `stop`.
 pub fn communication_points(start: f64, stop: f64, h: f64) -> Result<Vec<f64>> {
     if !(start.is_finite() && stop.is_finite() && h.is_finite()) {
-        return Err(HostError::Request("start, stop and step must be finite".into()));
+        return Err(HostError::Request(
+            "start, stop and step must be finite".into(),
+        ));
     }
     if h <= 0.0 {
         return Err(HostError::Request(format!("step must be > 0, got {h}")));
     }
     if stop < start {
-        return Err(HostError::Request(format!("stop time {stop} is before start time {start}")));
+        return Err(HostError::Request(format!(
+            "stop time {stop} is before start time {start}"
+        )));
     }
     let ratio = (stop - start) / h;
     if ratio > 1e8 {
-        return Err(HostError::Request(format!("{ratio:.0} steps: step too small for the interval")));
+        return Err(HostError::Request(format!(
+            "{ratio:.0} steps: step too small for the interval"
+        )));
     }
     let n_round = ratio.round();
     let n = if (ratio - n_round).abs() <= 1e-9 * n_round.max(1.0) {
@@ -229,11 +238,16 @@ fn run_on(inst: &mut Instance<'_>, req: &SimulationRequest) -> Result<Simulation
     for (name, value) in &req.start_values {
         let v = lookup(md, name)?;
         if v.causality == Causality::Independent || v.causality == Causality::CalculatedParameter {
-            return Err(HostError::Request(format!("'{name}' is {:?}: cannot be set", v.causality)));
+            return Err(HostError::Request(format!(
+                "'{name}' is {:?}: cannot be set",
+                v.causality
+            )));
         }
         match (v.kind, value) {
             (VarKind::Real, Value::Real(x)) => start_reals.push((v.value_reference, *x)),
-            (VarKind::Integer | VarKind::Enumeration, Value::Real(x)) if x.fract() == 0.0 && x.abs() < 2.1e9 => {
+            (VarKind::Integer | VarKind::Enumeration, Value::Real(x))
+                if x.fract() == 0.0 && x.abs() < 2.1e9 =>
+            {
                 start_ints.push((v.value_reference, *x as i32))
             }
             (VarKind::Boolean, Value::Boolean(b)) => start_bools.push((v.value_reference, *b)),
@@ -249,7 +263,9 @@ fn run_on(inst: &mut Instance<'_>, req: &SimulationRequest) -> Result<Simulation
     for (col, (name, values)) in series.columns.iter().enumerate() {
         let v = lookup(md, name)?;
         if v.causality != Causality::Input {
-            return Err(HostError::Request(format!("'{name}' is not an input of the FMU")));
+            return Err(HostError::Request(format!(
+                "'{name}' is not an input of the FMU"
+            )));
         }
         if values.len() != series.time.len() {
             return Err(HostError::Request(format!(
@@ -276,7 +292,9 @@ fn run_on(inst: &mut Instance<'_>, req: &SimulationRequest) -> Result<Simulation
             VarKind::Integer | VarKind::Enumeration => outs.integer.push((j, v.value_reference)),
             VarKind::Boolean => outs.boolean.push((j, v.value_reference)),
             VarKind::String => {
-                return Err(HostError::Request(format!("'{name}' is a String: cannot be recorded")))
+                return Err(HostError::Request(format!(
+                    "'{name}' is a String: cannot be recorded"
+                )))
             }
         }
     }
@@ -317,7 +335,9 @@ fn run_on(inst: &mut Instance<'_>, req: &SimulationRequest) -> Result<Simulation
     inst.exit_initialization_mode()?;
 
     let n_out = out_names.len();
-    let mut columns: Vec<Vec<f64>> = (0..n_out).map(|_| Vec::with_capacity(times.len())).collect();
+    let mut columns: Vec<Vec<f64>> = (0..n_out)
+        .map(|_| Vec::with_capacity(times.len()))
+        .collect();
     let rvrs: Vec<u32> = outs.real.iter().map(|&(_, vr)| vr).collect();
     let ivrs: Vec<u32> = outs.integer.iter().map(|&(_, vr)| vr).collect();
     let bvrs: Vec<u32> = outs.boolean.iter().map(|&(_, vr)| vr).collect();

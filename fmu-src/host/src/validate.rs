@@ -13,7 +13,9 @@
 use crate::error::{HostError, Status};
 use crate::fmu::{Extracted, Fmu, PLATFORM};
 use crate::instance::Instance;
-use crate::md::{Causality, Initial, ModelDescription, ScalarVariable, StartValue, VarKind, Variability};
+use crate::md::{
+    Causality, Initial, ModelDescription, ScalarVariable, StartValue, VarKind, Variability,
+};
 use std::collections::{BTreeSet, HashMap};
 use std::fmt;
 
@@ -59,14 +61,14 @@ fn is_c_identifier(s: &str) -> bool {
 pub fn combination_allowed(c: Causality, v: Variability) -> bool {
     use Causality as C;
     use Variability as V;
-    match (c, v) {
-        (C::Parameter | C::CalculatedParameter, V::Fixed | V::Tunable) => true,
-        (C::Input, V::Discrete | V::Continuous) => true,
-        (C::Output, V::Constant | V::Discrete | V::Continuous) => true,
-        (C::Local, _) => true,
-        (C::Independent, V::Continuous) => true,
-        _ => false,
-    }
+    matches!(
+        (c, v),
+        (C::Parameter | C::CalculatedParameter, V::Fixed | V::Tunable)
+            | (C::Input, V::Discrete | V::Continuous)
+            | (C::Output, V::Constant | V::Discrete | V::Continuous)
+            | (C::Local, _)
+            | (C::Independent, V::Continuous)
+    )
 }
 
 /// Allowed values of `initial` for an allowed combination (None in the list = attribute
@@ -94,27 +96,46 @@ pub fn check_model_description(md: &ModelDescription) -> Vec<Finding> {
     let mut f = Vec::new();
     let root = "modelDescription.xml:<fmiModelDescription>";
     if md.fmi_version != "2.0" {
-        f.push(Finding::new("fmi-version", root, format!("fmiVersion is \"{}\", expected \"2.0\"", md.fmi_version)));
+        f.push(Finding::new(
+            "fmi-version",
+            root,
+            format!("fmiVersion is \"{}\", expected \"2.0\"", md.fmi_version),
+        ));
     }
     if md.model_name.trim().is_empty() {
-        f.push(Finding::new("model-name", root, "modelName is missing or empty"));
+        f.push(Finding::new(
+            "model-name",
+            root,
+            "modelName is missing or empty",
+        ));
     }
     if md.guid.trim().is_empty() {
         f.push(Finding::new("guid", root, "guid is missing or empty"));
     }
     if let Some(c) = &md.variable_naming_convention {
         if c != "flat" && c != "structured" {
-            f.push(Finding::new("naming-convention", root, format!("variableNamingConvention \"{c}\" is neither flat nor structured")));
+            f.push(Finding::new(
+                "naming-convention",
+                root,
+                format!("variableNamingConvention \"{c}\" is neither flat nor structured"),
+            ));
         }
     }
     match &md.co_simulation {
-        None => f.push(Finding::new("co-simulation", root, "no <CoSimulation> element: not a Co-Simulation FMU")),
+        None => f.push(Finding::new(
+            "co-simulation",
+            root,
+            "no <CoSimulation> element: not a Co-Simulation FMU",
+        )),
         Some(cs) => {
             if !is_c_identifier(&cs.model_identifier) {
                 f.push(Finding::new(
                     "model-identifier",
                     "modelDescription.xml:<CoSimulation>",
-                    format!("modelIdentifier \"{}\" is not a valid C identifier", cs.model_identifier),
+                    format!(
+                        "modelIdentifier \"{}\" is not a valid C identifier",
+                        cs.model_identifier
+                    ),
                 ));
             }
             if cs.can_serialize_fmu_state && !cs.can_get_and_set_fmu_state {
@@ -130,14 +151,26 @@ pub fn check_model_description(md: &ModelDescription) -> Vec<Finding> {
         let loc = "modelDescription.xml:<DefaultExperiment>";
         if let (Some(a), Some(b)) = (de.start_time, de.stop_time) {
             if b < a {
-                f.push(Finding::new("default-experiment", loc, format!("stopTime {b} is before startTime {a}")));
+                f.push(Finding::new(
+                    "default-experiment",
+                    loc,
+                    format!("stopTime {b} is before startTime {a}"),
+                ));
             }
         }
-        if matches!(de.step_size, Some(h) if !(h > 0.0)) {
-            f.push(Finding::new("default-experiment", loc, "stepSize must be > 0"));
+        if matches!(de.step_size, Some(h) if h.is_nan() || h <= 0.0) {
+            f.push(Finding::new(
+                "default-experiment",
+                loc,
+                "stepSize must be > 0",
+            ));
         }
-        if matches!(de.tolerance, Some(t) if !(t > 0.0)) {
-            f.push(Finding::new("default-experiment", loc, "tolerance must be > 0"));
+        if matches!(de.tolerance, Some(t) if t.is_nan() || t <= 0.0) {
+            f.push(Finding::new(
+                "default-experiment",
+                loc,
+                "tolerance must be > 0",
+            ));
         }
     }
     check_units(md, &mut f);
@@ -151,15 +184,27 @@ fn check_units(md: &ModelDescription, f: &mut Vec<Finding>) {
     for u in &md.unit_definitions {
         let loc = format!("modelDescription.xml:{} (unit '{}')", u.line, u.name);
         if let Some(first) = seen.insert(u.name.as_str(), u.line) {
-            f.push(Finding::new("unique-units", &loc, format!("unit '{}' is already defined on line {first}", u.name)));
+            f.push(Finding::new(
+                "unique-units",
+                &loc,
+                format!("unit '{}' is already defined on line {first}", u.name),
+            ));
         }
         let mut names = BTreeSet::new();
         for d in &u.display_units {
             if !names.insert(d.name.as_str()) {
-                f.push(Finding::new("unique-units", &loc, format!("display unit '{}' defined twice", d.name)));
+                f.push(Finding::new(
+                    "unique-units",
+                    &loc,
+                    format!("display unit '{}' defined twice", d.name),
+                ));
             }
             if d.factor == 0.0 || !d.factor.is_finite() {
-                f.push(Finding::new("display-unit", &loc, format!("display unit '{}' has factor {}", d.name, d.factor)));
+                f.push(Finding::new(
+                    "display-unit",
+                    &loc,
+                    format!("display unit '{}' has factor {}", d.name, d.factor),
+                ));
             }
         }
     }
@@ -173,20 +218,40 @@ fn check_units(md: &ModelDescription, f: &mut Vec<Finding>) {
             ));
         }
         if let Some(u) = &t.unit {
-            check_unit_ref(md, u, t.display_unit.as_deref(), &format!("modelDescription.xml:{} (type '{}')", t.line, t.name), f);
+            check_unit_ref(
+                md,
+                u,
+                t.display_unit.as_deref(),
+                &format!("modelDescription.xml:{} (type '{}')", t.line, t.name),
+                f,
+            );
         }
     }
     let mut cats = BTreeSet::new();
     for c in &md.log_categories {
         if !cats.insert(c.name.as_str()) {
-            f.push(Finding::new("log-categories", "modelDescription.xml:<LogCategories>", format!("category '{}' defined twice", c.name)));
+            f.push(Finding::new(
+                "log-categories",
+                "modelDescription.xml:<LogCategories>",
+                format!("category '{}' defined twice", c.name),
+            ));
         }
     }
 }
 
-fn check_unit_ref(md: &ModelDescription, unit: &str, display: Option<&str>, loc: &str, f: &mut Vec<Finding>) {
+fn check_unit_ref(
+    md: &ModelDescription,
+    unit: &str,
+    display: Option<&str>,
+    loc: &str,
+    f: &mut Vec<Finding>,
+) {
     match md.unit(unit) {
-        None => f.push(Finding::new("unit-declared", loc, format!("unit '{unit}' is not defined in <UnitDefinitions>"))),
+        None => f.push(Finding::new(
+            "unit-declared",
+            loc,
+            format!("unit '{unit}' is not defined in <UnitDefinitions>"),
+        )),
         Some(u) => {
             if let Some(d) = display {
                 if !u.display_units.iter().any(|x| x.name == d) {
@@ -211,7 +276,11 @@ fn check_variables(md: &ModelDescription, f: &mut Vec<Finding>) {
             f.push(Finding::new("variable-name", &loc, "empty variable name"));
         }
         if let Some(first) = names.insert(v.name.as_str(), v.line) {
-            f.push(Finding::new("unique-names", &loc, format!("name '{}' is already used on line {first}", v.name)));
+            f.push(Finding::new(
+                "unique-names",
+                &loc,
+                format!("name '{}' is already used on line {first}", v.name),
+            ));
         }
         let base = match v.kind {
             VarKind::Real => 0,
@@ -225,9 +294,12 @@ fn check_variables(md: &ModelDescription, f: &mut Vec<Finding>) {
             f.push(Finding::new(
                 "causality-variability",
                 &loc,
-                format!("causality {:?} with variability {:?} is not allowed by FMI 2.0", v.causality, v.variability)
-                    .to_lowercase()
-                    .replace("fmi 2.0", "FMI 2.0"),
+                format!(
+                    "causality {:?} with variability {:?} is not allowed by FMI 2.0",
+                    v.causality, v.variability
+                )
+                .to_lowercase()
+                .replace("fmi 2.0", "FMI 2.0"),
             ));
         } else if !initial_allowed(v.causality, v.variability).contains(&v.initial) {
             f.push(Finding::new(
@@ -255,7 +327,11 @@ fn check_variables(md: &ModelDescription, f: &mut Vec<Finding>) {
         if v.causality == Causality::Independent {
             independents += 1;
             if v.kind != VarKind::Real {
-                f.push(Finding::new("independent", &loc, "the independent variable must be Real"));
+                f.push(Finding::new(
+                    "independent",
+                    &loc,
+                    "the independent variable must be Real",
+                ));
             }
         }
         // start required / forbidden (FMI 2.0.4 section 2.2.7, attribute start)
@@ -263,12 +339,29 @@ fn check_variables(md: &ModelDescription, f: &mut Vec<Finding>) {
         let required = v.causality == Causality::Input
             || v.variability == Variability::Constant
             || matches!(initial, Some(Initial::Exact | Initial::Approx));
-        let forbidden = v.causality == Causality::Independent || initial == Some(Initial::Calculated);
+        let forbidden =
+            v.causality == Causality::Independent || initial == Some(Initial::Calculated);
         if required && v.start.is_none() {
-            f.push(Finding::new("start", &loc, format!("start is required (causality {:?}, initial {:?})", v.causality, initial).to_lowercase()));
+            f.push(Finding::new(
+                "start",
+                &loc,
+                format!(
+                    "start is required (causality {:?}, initial {:?})",
+                    v.causality, initial
+                )
+                .to_lowercase(),
+            ));
         }
         if forbidden && v.start.is_some() {
-            f.push(Finding::new("start", &loc, format!("start is not allowed (causality {:?}, initial {:?})", v.causality, initial).to_lowercase()));
+            f.push(Finding::new(
+                "start",
+                &loc,
+                format!(
+                    "start is not allowed (causality {:?}, initial {:?})",
+                    v.causality, initial
+                )
+                .to_lowercase(),
+            ));
         }
         // ranges
         let (min, max) = effective_range(md, v);
@@ -287,19 +380,38 @@ fn check_variables(md: &ModelDescription, f: &mut Vec<Finding>) {
                     ));
                 }
                 if !s.is_finite() {
-                    f.push(Finding::new("start-range", &loc, format!("start {s} is not finite")));
+                    f.push(Finding::new(
+                        "start-range",
+                        &loc,
+                        format!("start {s} is not finite"),
+                    ));
                 }
             }
         }
         if matches!(v.nominal, Some(n) if !(n > 0.0 && n.is_finite())) {
-            f.push(Finding::new("nominal", &loc, format!("nominal {} must be > 0", v.nominal.unwrap())));
+            f.push(Finding::new(
+                "nominal",
+                &loc,
+                format!("nominal {} must be > 0", v.nominal.unwrap()),
+            ));
         }
         if let Some(t) = &v.declared_type {
             match md.simple_type(t) {
-                None => f.push(Finding::new("declared-type", &loc, format!("declaredType '{t}' is not defined in <TypeDefinitions>"))),
+                None => f.push(Finding::new(
+                    "declared-type",
+                    &loc,
+                    format!("declaredType '{t}' is not defined in <TypeDefinitions>"),
+                )),
                 Some(st) => {
-                    if st.kind.is_some() && st.kind != Some(v.kind) {
-                        f.push(Finding::new("declared-type", &loc, format!("declaredType '{t}' is {:?}, the variable is {:?}", st.kind.unwrap(), v.kind)));
+                    if let Some(kind) = st.kind.filter(|k| *k != v.kind) {
+                        f.push(Finding::new(
+                            "declared-type",
+                            &loc,
+                            format!(
+                                "declaredType '{t}' is {kind:?}, the variable is {:?}",
+                                v.kind
+                            ),
+                        ));
                     }
                 }
             }
@@ -310,18 +422,30 @@ fn check_variables(md: &ModelDescription, f: &mut Vec<Finding>) {
             } else if let Some(d) = &v.display_unit {
                 match md.effective_unit(v) {
                     Some(u) => check_unit_ref(md, u, Some(d), &loc, f),
-                    None => f.push(Finding::new("display-unit-declared", &loc, format!("displayUnit '{d}' given without a unit"))),
+                    None => f.push(Finding::new(
+                        "display-unit-declared",
+                        &loc,
+                        format!("displayUnit '{d}' given without a unit"),
+                    )),
                 }
             }
         }
         if let Some(d) = v.derivative {
             if d == 0 || d > md.model_variables.len() {
-                f.push(Finding::new("derivative", &loc, format!("derivative index {d} is out of range")));
+                f.push(Finding::new(
+                    "derivative",
+                    &loc,
+                    format!("derivative index {d} is out of range"),
+                ));
             }
         }
     }
     if independents > 1 {
-        f.push(Finding::new("independent", "modelDescription.xml:<ModelVariables>", format!("{independents} independent variables, at most one is allowed")));
+        f.push(Finding::new(
+            "independent",
+            "modelDescription.xml:<ModelVariables>",
+            format!("{independents} independent variables, at most one is allowed"),
+        ));
     }
     // Value references: variables of one base type that share a reference form an alias set;
     // at most one non-constant member may have a start value, and inputs/parameters may not be aliased.
@@ -333,14 +457,28 @@ fn check_variables(md: &ModelDescription, f: &mut Vec<Finding>) {
             continue;
         }
         let names: Vec<&str> = set.iter().map(|v| v.name.as_str()).collect();
-        let with_start = set.iter().filter(|v| v.start.is_some() && v.variability != Variability::Constant).count();
-        let settable = set.iter().filter(|v| matches!(v.causality, Causality::Input | Causality::Parameter)).count();
+        let with_start = set
+            .iter()
+            .filter(|v| v.start.is_some() && v.variability != Variability::Constant)
+            .count();
+        let settable = set
+            .iter()
+            .filter(|v| matches!(v.causality, Causality::Input | Causality::Parameter))
+            .count();
         if with_start > 1 || settable > 0 {
             f.push(Finding::new(
                 "unique-value-references",
                 var_loc(set[1]),
-                format!("valueReference {} is shared by {} ({})", key.1, names.join(", "),
-                    if settable > 0 { "an input or parameter cannot be an alias" } else { "more than one alias has a start value" }),
+                format!(
+                    "valueReference {} is shared by {} ({})",
+                    key.1,
+                    names.join(", "),
+                    if settable > 0 {
+                        "an input or parameter cannot be an alias"
+                    } else {
+                        "more than one alias has a start value"
+                    }
+                ),
             ));
         }
     }
@@ -348,46 +486,90 @@ fn check_variables(md: &ModelDescription, f: &mut Vec<Finding>) {
 
 fn effective_range(md: &ModelDescription, v: &ScalarVariable) -> (Option<f64>, Option<f64>) {
     let t = v.declared_type.as_deref().and_then(|t| md.simple_type(t));
-    (v.min.or(t.and_then(|t| t.min)), v.max.or(t.and_then(|t| t.max)))
+    (
+        v.min.or(t.and_then(|t| t.min)),
+        v.max.or(t.and_then(|t| t.max)),
+    )
 }
 
 fn fmt_opt(x: Option<f64>) -> String {
-    x.map(|x| x.to_string()).unwrap_or_else(|| "-inf/inf".into())
+    x.map(|x| x.to_string())
+        .unwrap_or_else(|| "-inf/inf".into())
 }
 
 fn check_model_structure(md: &ModelDescription, f: &mut Vec<Finding>) {
     let ms = &md.model_structure;
     let n = md.model_variables.len();
     if !ms.present {
-        f.push(Finding::new("model-structure", "modelDescription.xml", "no <ModelStructure> element"));
+        f.push(Finding::new(
+            "model-structure",
+            "modelDescription.xml",
+            "no <ModelStructure> element",
+        ));
         return;
     }
-    let var = |i: usize| if i >= 1 && i <= n { Some(&md.model_variables[i - 1]) } else { None };
-    let lists = [("Outputs", &ms.outputs), ("Derivatives", &ms.derivatives), ("InitialUnknowns", &ms.initial_unknowns)];
+    let var = |i: usize| {
+        if i >= 1 && i <= n {
+            Some(&md.model_variables[i - 1])
+        } else {
+            None
+        }
+    };
+    let lists = [
+        ("Outputs", &ms.outputs),
+        ("Derivatives", &ms.derivatives),
+        ("InitialUnknowns", &ms.initial_unknowns),
+    ];
     for (list, unknowns) in lists {
         let mut prev = 0;
         for u in unknowns {
-            let loc = format!("modelDescription.xml:{} (<{list}> <Unknown index=\"{}\">)", u.line, u.index);
+            let loc = format!(
+                "modelDescription.xml:{} (<{list}> <Unknown index=\"{}\">)",
+                u.line, u.index
+            );
             if var(u.index).is_none() {
-                f.push(Finding::new("model-structure", &loc, format!("index {} is not a variable (1..{n})", u.index)));
+                f.push(Finding::new(
+                    "model-structure",
+                    &loc,
+                    format!("index {} is not a variable (1..{n})", u.index),
+                ));
             }
             if u.index <= prev {
-                f.push(Finding::new("model-structure", &loc, format!("<{list}> must be ordered by index without repeats ({} after {prev})", u.index)));
+                f.push(Finding::new(
+                    "model-structure",
+                    &loc,
+                    format!(
+                        "<{list}> must be ordered by index without repeats ({} after {prev})",
+                        u.index
+                    ),
+                ));
             }
             prev = u.index;
             if let Some(deps) = &u.dependencies {
                 for &d in deps {
                     if var(d).is_none() {
-                        f.push(Finding::new("model-structure", &loc, format!("dependency {d} is not a variable (1..{n})")));
+                        f.push(Finding::new(
+                            "model-structure",
+                            &loc,
+                            format!("dependency {d} is not a variable (1..{n})"),
+                        ));
                     }
                 }
                 if let Some(kinds) = &u.dependencies_kind {
                     if kinds.len() != deps.len() {
-                        f.push(Finding::new("model-structure", &loc, "dependenciesKind and dependencies differ in length"));
+                        f.push(Finding::new(
+                            "model-structure",
+                            &loc,
+                            "dependenciesKind and dependencies differ in length",
+                        ));
                     }
                 }
             } else if u.dependencies_kind.is_some() {
-                f.push(Finding::new("model-structure", &loc, "dependenciesKind without dependencies"));
+                f.push(Finding::new(
+                    "model-structure",
+                    &loc,
+                    "dependenciesKind without dependencies",
+                ));
             }
         }
     }
@@ -395,7 +577,15 @@ fn check_model_structure(md: &ModelDescription, f: &mut Vec<Finding>) {
     let listed: BTreeSet<usize> = ms.outputs.iter().map(|u| u.index).collect();
     for (i, v) in md.model_variables.iter().enumerate() {
         if v.causality == Causality::Output && !listed.contains(&(i + 1)) {
-            f.push(Finding::new("outputs-listed", var_loc(v), format!("output '{}' (index {}) is missing from <ModelStructure><Outputs>", v.name, i + 1)));
+            f.push(Finding::new(
+                "outputs-listed",
+                var_loc(v),
+                format!(
+                    "output '{}' (index {}) is missing from <ModelStructure><Outputs>",
+                    v.name,
+                    i + 1
+                ),
+            ));
         }
     }
     for u in &ms.outputs {
@@ -403,8 +593,15 @@ fn check_model_structure(md: &ModelDescription, f: &mut Vec<Finding>) {
             if v.causality != Causality::Output {
                 f.push(Finding::new(
                     "outputs-listed",
-                    format!("modelDescription.xml:{} (<Outputs> <Unknown index=\"{}\">)", u.line, u.index),
-                    format!("'{}' is listed in <Outputs> but its causality is {:?}", v.name, v.causality).replace("Parameter", "parameter"),
+                    format!(
+                        "modelDescription.xml:{} (<Outputs> <Unknown index=\"{}\">)",
+                        u.line, u.index
+                    ),
+                    format!(
+                        "'{}' is listed in <Outputs> but its causality is {:?}",
+                        v.name, v.causality
+                    )
+                    .replace("Parameter", "parameter"),
                 ));
             }
         }
@@ -423,8 +620,17 @@ fn check_model_structure(md: &ModelDescription, f: &mut Vec<Finding>) {
     // InitialUnknowns (FMI 2.0.4 section 2.2.8): outputs with initial approx/calculated,
     // calculated parameters, and derivatives/states with initial approx/calculated; no others.
     let derivs: BTreeSet<usize> = ms.derivatives.iter().map(|u| u.index).collect();
-    let states: BTreeSet<usize> = md.model_variables.iter().filter_map(|v| v.derivative).collect();
-    let approx_or_calc = |v: &ScalarVariable| matches!(v.effective_initial(), Some(Initial::Approx | Initial::Calculated));
+    let states: BTreeSet<usize> = md
+        .model_variables
+        .iter()
+        .filter_map(|v| v.derivative)
+        .collect();
+    let approx_or_calc = |v: &ScalarVariable| {
+        matches!(
+            v.effective_initial(),
+            Some(Initial::Approx | Initial::Calculated)
+        )
+    };
     let mut required = BTreeSet::new();
     for (i, v) in md.model_variables.iter().enumerate() {
         let idx = i + 1;
@@ -438,7 +644,14 @@ fn check_model_structure(md: &ModelDescription, f: &mut Vec<Finding>) {
     let listed: BTreeSet<usize> = ms.initial_unknowns.iter().map(|u| u.index).collect();
     for idx in required.difference(&listed) {
         let v = &md.model_variables[idx - 1];
-        f.push(Finding::new("initial-unknowns", var_loc(v), format!("'{}' (index {idx}) must be listed in <InitialUnknowns>", v.name)));
+        f.push(Finding::new(
+            "initial-unknowns",
+            var_loc(v),
+            format!(
+                "'{}' (index {idx}) must be listed in <InitialUnknowns>",
+                v.name
+            ),
+        ));
     }
     for u in &ms.initial_unknowns {
         if var(u.index).is_some() && !required.contains(&u.index) {
@@ -458,7 +671,11 @@ pub fn check_files(fmu: &Extracted) -> Vec<Finding> {
     if let Ok(bin) = fmu.binary_path() {
         if !bin.is_file() {
             let others: Vec<String> = std::fs::read_dir(fmu.dir.join("binaries"))
-                .map(|rd| rd.filter_map(|e| e.ok()).map(|e| e.file_name().to_string_lossy().into_owned()).collect())
+                .map(|rd| {
+                    rd.filter_map(|e| e.ok())
+                        .map(|e| e.file_name().to_string_lossy().into_owned())
+                        .collect()
+                })
                 .unwrap_or_default();
             f.push(Finding::new(
                 "binary",
@@ -466,7 +683,11 @@ pub fn check_files(fmu: &Extracted) -> Vec<Finding> {
                 format!(
                     "no binary {} (platforms present: {})",
                     bin.file_name().unwrap_or_default().to_string_lossy(),
-                    if others.is_empty() { "none".into() } else { others.join(", ") }
+                    if others.is_empty() {
+                        "none".into()
+                    } else {
+                        others.join(", ")
+                    }
                 ),
             ));
         }
@@ -477,14 +698,23 @@ pub fn check_files(fmu: &Extracted) -> Vec<Finding> {
 /// Loads the binary and reports every FMI 2.0 CS function it does not export.
 /// Loading runs the library's initialisers: call it in a child process for untrusted FMUs.
 pub fn check_symbols(fmu: &Extracted) -> Vec<Finding> {
-    let Ok(bin) = fmu.binary_path() else { return Vec::new() };
+    let Ok(bin) = fmu.binary_path() else {
+        return Vec::new();
+    };
     if !bin.is_file() {
         return Vec::new();
     }
-    let loc = format!("binaries/{PLATFORM}/{}", bin.file_name().unwrap_or_default().to_string_lossy());
+    let loc = format!(
+        "binaries/{PLATFORM}/{}",
+        bin.file_name().unwrap_or_default().to_string_lossy()
+    );
     // SAFETY: the validator's purpose is to load the FMU (in a child process).
     match unsafe { crate::ffi::load_library(&bin) } {
-        Err(e) => vec![Finding::new("binary", loc, format!("cannot be loaded: {e}"))],
+        Err(e) => vec![Finding::new(
+            "binary",
+            loc,
+            format!("cannot be loaded: {e}"),
+        )],
         Ok(lib) => crate::ffi::missing_symbols(&lib)
             .into_iter()
             .map(|s| Finding::new("symbols", &loc, format!("does not export {s}")))
@@ -492,14 +722,32 @@ pub fn check_symbols(fmu: &Extracted) -> Vec<Finding> {
     }
 }
 
-/// The state-machine probe. `step` is called with the name of each case before it runs (the
-/// CLI prints it so a crash can be attributed). Each case uses a fresh instance.
-pub fn probe(fmu: &Fmu, step: &mut dyn FnMut(&str)) -> Vec<Finding> {
+/// Names of the probe cases in the order [`probe`] runs them.
+pub const PROBE_CASES: &[&str] = &[
+    "normal-run",
+    "do-step-before-init",
+    "negative-step",
+    "wrong-communication-point",
+    "unknown-value-reference",
+    "nan-input",
+    "nan-parameter",
+    "fixed-parameter-after-init",
+];
+
+/// The state-machine probe. `step` is called with the name of each case (see [`PROBE_CASES`])
+/// before it runs and returns whether to run it (the CLI prints the name so that a crash can
+/// be attributed, and skips cases that crashed in an earlier attempt). Each case uses a fresh
+/// instance.
+pub fn probe(fmu: &Fmu, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding> {
     let md = fmu.model_description();
     let mut f = Vec::new();
     let de = md.default_experiment.clone().unwrap_or_default();
     let t0 = de.start_time.unwrap_or(0.0);
-    let h = de.step_size.filter(|h| *h > 0.0 && h.is_finite()).unwrap_or(1e-3).min(1e-2);
+    let h = de
+        .step_size
+        .filter(|h| *h > 0.0 && h.is_finite())
+        .unwrap_or(1e-3)
+        .min(1e-2);
     let loc = |case: &str| format!("probe {case}");
 
     let init = |inst: &mut Instance<'_>| -> Result<(), HostError> {
@@ -510,7 +758,9 @@ pub fn probe(fmu: &Fmu, step: &mut dyn FnMut(&str)) -> Vec<Finding> {
     };
 
     // Normal run: must succeed.
-    step("normal-run");
+    if !step("normal-run") {
+        return f;
+    }
     let normal = (|| -> Result<(), String> {
         let mut inst = fmu.instantiate("probe").map_err(|e| e.to_string())?;
         init(&mut inst).map_err(|e| e.to_string())?;
@@ -521,16 +771,21 @@ pub fn probe(fmu: &Fmu, step: &mut dyn FnMut(&str)) -> Vec<Finding> {
             .collect();
         let mut buf = vec![0.0; outs.len()];
         for k in 0..10 {
-            inst.do_step(t0 + k as f64 * h, h, true).map_err(|e| format!("step {k}: {e}"))?;
+            inst.do_step(t0 + k as f64 * h, h, true)
+                .map_err(|e| format!("step {k}: {e}"))?;
             inst.get_real(&outs, &mut buf).map_err(|e| e.to_string())?;
             if let Some(i) = buf.iter().position(|x| !x.is_finite()) {
-                return Err(format!("output vr {} is {} after step {k}", outs[i], buf[i]));
+                return Err(format!(
+                    "output vr {} is {} after step {k}",
+                    outs[i], buf[i]
+                ));
             }
         }
         inst.terminate().map_err(|e| e.to_string())?;
         inst.reset().map_err(|e| format!("after terminate: {e}"))?;
         init(&mut inst).map_err(|e| format!("after reset: {e}"))?;
-        inst.do_step(t0, h, true).map_err(|e| format!("after reset: {e}"))?;
+        inst.do_step(t0, h, true)
+            .map_err(|e| format!("after reset: {e}"))?;
         Ok(())
     })();
     if let Err(e) = normal {
@@ -538,40 +793,81 @@ pub fn probe(fmu: &Fmu, step: &mut dyn FnMut(&str)) -> Vec<Finding> {
         return f; // the wrong-call cases below assume a working FMU
     }
 
-    let mut case = |name: &str, what: &str, before_init: bool, call: &mut dyn FnMut(&mut Instance<'_>) -> Result<Status, HostError>| {
-        step(name);
-        let mut inst = match fmu.instantiate("probe") {
-            Ok(i) => i,
-            Err(e) => {
-                f.push(Finding::new("probe", loc(name), format!("fmi2Instantiate failed: {e}")));
+    let mut case =
+        |name: &str,
+         what: &str,
+         before_init: bool,
+         call: &mut dyn FnMut(&mut Instance<'_>) -> Result<Status, HostError>| {
+            if !step(name) {
                 return;
             }
-        };
-        if !before_init {
-            if let Err(e) = init(&mut inst) {
-                f.push(Finding::new("probe", loc(name), format!("initialization failed: {e}")));
-                return;
-            }
-        }
-        match call(&mut inst) {
-            Ok(st) => f.push(Finding::new("probe", loc(name), format!("{what} returned {st}, expected fmi2Error"))),
-            Err(HostError::Fmi { status: Status::Error, messages, .. }) => {
-                if messages.is_empty() {
-                    f.push(Finding::new("probe-log", loc(name), format!("{what} returned fmi2Error but logged no message")));
+            let mut inst = match fmu.instantiate("probe") {
+                Ok(i) => i,
+                Err(e) => {
+                    f.push(Finding::new(
+                        "probe",
+                        loc(name),
+                        format!("fmi2Instantiate failed: {e}"),
+                    ));
+                    return;
+                }
+            };
+            if !before_init {
+                if let Err(e) = init(&mut inst) {
+                    f.push(Finding::new(
+                        "probe",
+                        loc(name),
+                        format!("initialization failed: {e}"),
+                    ));
+                    return;
                 }
             }
-            Err(HostError::Fmi { status, .. }) => {
-                f.push(Finding::new("probe", loc(name), format!("{what} returned {status}, expected fmi2Error")))
+            match call(&mut inst) {
+                Ok(st) => f.push(Finding::new(
+                    "probe",
+                    loc(name),
+                    format!("{what} returned {st}, expected fmi2Error"),
+                )),
+                Err(HostError::Fmi {
+                    status: Status::Error,
+                    messages,
+                    ..
+                }) => {
+                    if messages.is_empty() {
+                        f.push(Finding::new(
+                            "probe-log",
+                            loc(name),
+                            format!("{what} returned fmi2Error but logged no message"),
+                        ));
+                    }
+                }
+                Err(HostError::Fmi { status, .. }) => f.push(Finding::new(
+                    "probe",
+                    loc(name),
+                    format!("{what} returned {status}, expected fmi2Error"),
+                )),
+                Err(e) => f.push(Finding::new("probe", loc(name), format!("{what}: {e}"))),
             }
-            Err(e) => f.push(Finding::new("probe", loc(name), format!("{what}: {e}"))),
-        }
-    };
+        };
 
-    case("do-step-before-init", "fmi2DoStep before initialization", true, &mut |i| i.do_step(t0, h, true));
-    case("negative-step", "fmi2DoStep with a negative step size", false, &mut |i| i.do_step(t0, -h, true));
-    case("wrong-communication-point", "fmi2DoStep with currentCommunicationPoint != current time", false, &mut |i| {
-        i.do_step(t0 + 100.0 * h + 1.0, h, true)
-    });
+    case(
+        "do-step-before-init",
+        "fmi2DoStep before initialization",
+        true,
+        &mut |i| i.do_step(t0, h, true),
+    );
+    case(
+        "negative-step",
+        "fmi2DoStep with a negative step size",
+        false,
+        &mut |i| i.do_step(t0, -h, true),
+    );
+    case(
+        "wrong-communication-point",
+        "fmi2DoStep with currentCommunicationPoint != current time",
+        false,
+        &mut |i| i.do_step(t0 + 100.0 * h + 1.0, h, true),
+    );
     let unknown_vr = md
         .model_variables
         .iter()
@@ -579,36 +875,61 @@ pub fn probe(fmu: &Fmu, step: &mut dyn FnMut(&str)) -> Vec<Finding> {
         .max()
         .unwrap_or(0)
         .saturating_add(1000);
-    case("unknown-value-reference", &format!("fmi2GetReal of unknown valueReference {unknown_vr}"), false, &mut |i| {
-        let mut out = [0.0];
-        i.get_real(&[unknown_vr], &mut out)
-    });
-    let real_input = md.model_variables.iter().find(|v| v.causality == Causality::Input && v.kind == VarKind::Real);
-    let real_param = md
+    case(
+        "unknown-value-reference",
+        &format!("fmi2GetReal of unknown valueReference {unknown_vr}"),
+        false,
+        &mut |i| {
+            let mut out = [0.0];
+            i.get_real(&[unknown_vr], &mut out)
+        },
+    );
+    let real_input = md
         .model_variables
         .iter()
-        .find(|v| v.causality == Causality::Parameter && v.kind == VarKind::Real && v.variability != Variability::Constant);
+        .find(|v| v.causality == Causality::Input && v.kind == VarKind::Real);
+    let real_param = md.model_variables.iter().find(|v| {
+        v.causality == Causality::Parameter
+            && v.kind == VarKind::Real
+            && v.variability != Variability::Constant
+    });
     if let Some(v) = real_input {
         let vr = v.value_reference;
-        case("nan-input", &format!("fmi2SetReal NaN on input '{}'", v.name), false, &mut |i| i.set_real(&[vr], &[f64::NAN]));
+        case(
+            "nan-input",
+            &format!("fmi2SetReal NaN on input '{}'", v.name),
+            false,
+            &mut |i| i.set_real(&[vr], &[f64::NAN]),
+        );
     } else if let Some(v) = real_param {
         let vr = v.value_reference;
-        case("nan-parameter", &format!("fmi2SetReal NaN on parameter '{}'", v.name), true, &mut |i| i.set_real(&[vr], &[f64::NAN]));
+        case(
+            "nan-parameter",
+            &format!("fmi2SetReal NaN on parameter '{}'", v.name),
+            true,
+            &mut |i| i.set_real(&[vr], &[f64::NAN]),
+        );
     }
-    let fixed = md
-        .model_variables
-        .iter()
-        .find(|v| v.causality == Causality::Parameter && v.variability == Variability::Fixed && v.kind != VarKind::String);
+    let fixed = md.model_variables.iter().find(|v| {
+        v.causality == Causality::Parameter
+            && v.variability == Variability::Fixed
+            && v.kind != VarKind::String
+    });
     if let Some(v) = fixed {
         let vr = v.value_reference;
         let what = format!("setting fixed parameter '{}' after initialization", v.name);
         let start = v.start.as_ref().and_then(StartValue::as_f64).unwrap_or(0.0);
         let kind = v.kind;
-        case("fixed-parameter-after-init", &what, false, &mut |i| match kind {
-            VarKind::Real => i.set_real(&[vr], &[start]),
-            VarKind::Boolean => i.set_boolean(&[vr], &[start != 0.0]),
-            _ => i.set_integer(&[vr], &[start as i32]),
-        });
+        case(
+            "fixed-parameter-after-init",
+            &what,
+            false,
+            &mut |i| match kind {
+                VarKind::Real => i.set_real(&[vr], &[start]),
+                VarKind::Boolean => i.set_boolean(&[vr], &[start != 0.0]),
+                _ => i.set_integer(&[vr], &[start as i32]),
+            },
+        );
     }
     f
 }
@@ -637,7 +958,10 @@ mod tests {
     const GOOD_STRUCT: &str = r#"<Outputs><Unknown index="1"/></Outputs><InitialUnknowns><Unknown index="1"/></InitialUnknowns>"#;
 
     fn checks(md: &ModelDescription) -> Vec<String> {
-        check_model_description(md).iter().map(|f| f.check.clone()).collect()
+        check_model_description(md)
+            .iter()
+            .map(|f| f.check.clone())
+            .collect()
     }
 
     fn only(md: &ModelDescription, check: &str) -> Finding {
@@ -649,7 +973,10 @@ mod tests {
 
     #[test]
     fn a_correct_description_has_no_findings() {
-        assert_eq!(checks(&md_with_vars(GOOD_VARS, GOOD_STRUCT)), Vec::<String>::new());
+        assert_eq!(
+            checks(&md_with_vars(GOOD_VARS, GOOD_STRUCT)),
+            Vec::<String>::new()
+        );
     }
 
     #[test]
@@ -683,7 +1010,11 @@ mod tests {
         md.variable_naming_convention = Some("dotted".into());
         only(&md, "naming-convention");
         let mut md = md_with_vars(GOOD_VARS, GOOD_STRUCT);
-        md.default_experiment = Some(crate::md::DefaultExperiment { start_time: Some(1.0), stop_time: Some(0.0), ..Default::default() });
+        md.default_experiment = Some(crate::md::DefaultExperiment {
+            start_time: Some(1.0),
+            stop_time: Some(0.0),
+            ..Default::default()
+        });
         only(&md, "default-experiment");
     }
 
@@ -694,22 +1025,43 @@ mod tests {
         assert!(f.message.contains("already used on line"), "{f}");
         let vars = format!("{GOOD_VARS}\n<ScalarVariable name=\"q\" valueReference=\"1\" causality=\"parameter\" variability=\"fixed\"><Real start=\"3\"/></ScalarVariable>");
         let f = only(&md_with_vars(&vars, GOOD_STRUCT), "unique-value-references");
-        assert!(f.message.contains("valueReference 1 is shared by p, q"), "{f}");
+        assert!(
+            f.message.contains("valueReference 1 is shared by p, q"),
+            "{f}"
+        );
         // A Real and a Boolean may share a number (value references are per base type),
         // and a local may alias an output.
         let vars = format!("{GOOD_VARS}\n<ScalarVariable name=\"b\" valueReference=\"1\" causality=\"local\" variability=\"discrete\"><Boolean/></ScalarVariable>\n<ScalarVariable name=\"y_alias\" valueReference=\"0\"><Real/></ScalarVariable>");
-        assert_eq!(checks(&md_with_vars(&vars, GOOD_STRUCT)), Vec::<String>::new());
+        assert_eq!(
+            checks(&md_with_vars(&vars, GOOD_STRUCT)),
+            Vec::<String>::new()
+        );
     }
 
     #[test]
     fn causality_variability_combinations() {
-        for (c, v) in [("parameter", "continuous"), ("input", "fixed"), ("output", "tunable"), ("independent", "discrete"), ("calculatedParameter", "constant")] {
+        for (c, v) in [
+            ("parameter", "continuous"),
+            ("input", "fixed"),
+            ("output", "tunable"),
+            ("independent", "discrete"),
+            ("calculatedParameter", "constant"),
+        ] {
             let vars = format!("{GOOD_VARS}\n<ScalarVariable name=\"z\" valueReference=\"9\" causality=\"{c}\" variability=\"{v}\"><Real start=\"0\"/></ScalarVariable>");
             let all = check_model_description(&md_with_vars(&vars, GOOD_STRUCT));
-            assert!(all.iter().any(|f| f.check == "causality-variability"), "{c}/{v}: {all:#?}");
+            assert!(
+                all.iter().any(|f| f.check == "causality-variability"),
+                "{c}/{v}: {all:#?}"
+            );
         }
-        assert!(combination_allowed(Causality::Output, Variability::Constant));
-        assert!(!combination_allowed(Causality::Input, Variability::Constant));
+        assert!(combination_allowed(
+            Causality::Output,
+            Variability::Constant
+        ));
+        assert!(!combination_allowed(
+            Causality::Input,
+            Variability::Constant
+        ));
     }
 
     #[test]
@@ -727,7 +1079,10 @@ mod tests {
         let f = only(&md_with_vars(&vars, GOOD_STRUCT), "start");
         assert!(f.message.contains("required"), "{f}");
         assert!(f.location.contains("variable 'u'"), "{f}");
-        let vars = GOOD_VARS.replace("<Real unit=\"m\" displayUnit=\"mm\"/>", "<Real unit=\"m\" start=\"2\"/>");
+        let vars = GOOD_VARS.replace(
+            "<Real unit=\"m\" displayUnit=\"mm\"/>",
+            "<Real unit=\"m\" start=\"2\"/>",
+        );
         let f = only(&md_with_vars(&vars, GOOD_STRUCT), "start");
         assert!(f.message.contains("not allowed"), "{f}");
     }
@@ -736,19 +1091,31 @@ mod tests {
     fn continuous_non_real_and_independent() {
         let vars = format!("{GOOD_VARS}\n<ScalarVariable name=\"b\" valueReference=\"9\" causality=\"local\"><Boolean/></ScalarVariable>");
         let f = only(&md_with_vars(&vars, GOOD_STRUCT), "variability-type");
-        assert!(f.message.contains("variability defaults to continuous"), "{f}");
+        assert!(
+            f.message.contains("variability defaults to continuous"),
+            "{f}"
+        );
         let vars = format!("{GOOD_VARS}\n<ScalarVariable name=\"t\" valueReference=\"9\" causality=\"independent\"><Real/></ScalarVariable>\n<ScalarVariable name=\"t2\" valueReference=\"10\" causality=\"independent\"><Real/></ScalarVariable>");
         only(&md_with_vars(&vars, GOOD_STRUCT), "independent");
     }
 
     #[test]
     fn ranges() {
-        let vars = GOOD_VARS.replace("start=\"1\" min=\"0\" max=\"2\"", "start=\"3\" min=\"0\" max=\"2\"");
+        let vars = GOOD_VARS.replace(
+            "start=\"1\" min=\"0\" max=\"2\"",
+            "start=\"3\" min=\"0\" max=\"2\"",
+        );
         let f = only(&md_with_vars(&vars, GOOD_STRUCT), "start-range");
         assert_eq!(f.message, "start 3 is outside [0, 2]");
-        let vars = GOOD_VARS.replace("start=\"1\" min=\"0\" max=\"2\"", "start=\"1\" min=\"2\" max=\"0\"");
+        let vars = GOOD_VARS.replace(
+            "start=\"1\" min=\"0\" max=\"2\"",
+            "start=\"1\" min=\"2\" max=\"0\"",
+        );
         assert!(checks(&md_with_vars(&vars, GOOD_STRUCT)).contains(&"min-max".to_string()));
-        let vars = GOOD_VARS.replace("start=\"1\" min=\"0\" max=\"2\"", "start=\"1\" nominal=\"0\"");
+        let vars = GOOD_VARS.replace(
+            "start=\"1\" min=\"0\" max=\"2\"",
+            "start=\"1\" nominal=\"0\"",
+        );
         only(&md_with_vars(&vars, GOOD_STRUCT), "nominal");
     }
 
@@ -759,21 +1126,54 @@ mod tests {
         assert!(f.message.contains("unit 'rad' is not defined"), "{f}");
         let vars = GOOD_VARS.replace("displayUnit=\"mm\"", "displayUnit=\"km\"");
         let f = only(&md_with_vars(&vars, GOOD_STRUCT), "display-unit-declared");
-        assert!(f.message.contains("'km' is not a <DisplayUnit> of unit 'm'"), "{f}");
-        let vars = GOOD_VARS.replace("<Real start=\"0\"/>", "<Real start=\"0\" declaredType=\"Angle\"/>");
+        assert!(
+            f.message
+                .contains("'km' is not a <DisplayUnit> of unit 'm'"),
+            "{f}"
+        );
+        let vars = GOOD_VARS.replace(
+            "<Real start=\"0\"/>",
+            "<Real start=\"0\" declaredType=\"Angle\"/>",
+        );
         only(&md_with_vars(&vars, GOOD_STRUCT), "declared-type");
     }
 
     #[test]
     fn outputs_must_match_model_structure() {
-        let f = only(&md_with_vars(GOOD_VARS, r#"<Outputs></Outputs><InitialUnknowns><Unknown index="1"/></InitialUnknowns>"#), "outputs-listed");
+        let f = only(
+            &md_with_vars(
+                GOOD_VARS,
+                r#"<Outputs></Outputs><InitialUnknowns><Unknown index="1"/></InitialUnknowns>"#,
+            ),
+            "outputs-listed",
+        );
         assert!(f.message.contains("output 'y' (index 1) is missing"), "{f}");
-        let all = check_model_description(&md_with_vars(GOOD_VARS, r#"<Outputs><Unknown index="1"/><Unknown index="2"/></Outputs><InitialUnknowns><Unknown index="1"/></InitialUnknowns>"#));
-        assert!(all.iter().any(|f| f.check == "outputs-listed" && f.message.contains("'p' is listed in <Outputs>")), "{all:#?}");
-        let f = only(&md_with_vars(GOOD_VARS, r#"<Outputs><Unknown index="1" dependencies="7"/></Outputs><InitialUnknowns><Unknown index="1"/></InitialUnknowns>"#), "model-structure");
+        let all = check_model_description(&md_with_vars(
+            GOOD_VARS,
+            r#"<Outputs><Unknown index="1"/><Unknown index="2"/></Outputs><InitialUnknowns><Unknown index="1"/></InitialUnknowns>"#,
+        ));
+        assert!(
+            all.iter()
+                .any(|f| f.check == "outputs-listed"
+                    && f.message.contains("'p' is listed in <Outputs>")),
+            "{all:#?}"
+        );
+        let f = only(
+            &md_with_vars(
+                GOOD_VARS,
+                r#"<Outputs><Unknown index="1" dependencies="7"/></Outputs><InitialUnknowns><Unknown index="1"/></InitialUnknowns>"#,
+            ),
+            "model-structure",
+        );
         assert!(f.message.contains("dependency 7"), "{f}");
-        let all = check_model_description(&md_with_vars(GOOD_VARS, r#"<Outputs><Unknown index="1"/><Unknown index="1"/></Outputs><InitialUnknowns><Unknown index="1"/></InitialUnknowns>"#));
-        assert!(all.iter().any(|f| f.message.contains("ordered")), "{all:#?}");
+        let all = check_model_description(&md_with_vars(
+            GOOD_VARS,
+            r#"<Outputs><Unknown index="1"/><Unknown index="1"/></Outputs><InitialUnknowns><Unknown index="1"/></InitialUnknowns>"#,
+        ));
+        assert!(
+            all.iter().any(|f| f.message.contains("ordered")),
+            "{all:#?}"
+        );
         let md = md_with_vars(GOOD_VARS, GOOD_STRUCT);
         let mut md2 = md.clone();
         md2.model_structure.present = false;
@@ -782,9 +1182,18 @@ mod tests {
 
     #[test]
     fn initial_unknowns_required_and_allowed() {
-        let f = only(&md_with_vars(GOOD_VARS, r#"<Outputs><Unknown index="1"/></Outputs>"#), "initial-unknowns");
+        let f = only(
+            &md_with_vars(GOOD_VARS, r#"<Outputs><Unknown index="1"/></Outputs>"#),
+            "initial-unknowns",
+        );
         assert!(f.message.contains("'y' (index 1) must be listed"), "{f}");
-        let f = only(&md_with_vars(GOOD_VARS, r#"<Outputs><Unknown index="1"/></Outputs><InitialUnknowns><Unknown index="1"/><Unknown index="3"/></InitialUnknowns>"#), "initial-unknowns");
+        let f = only(
+            &md_with_vars(
+                GOOD_VARS,
+                r#"<Outputs><Unknown index="1"/></Outputs><InitialUnknowns><Unknown index="1"/><Unknown index="3"/></InitialUnknowns>"#,
+            ),
+            "initial-unknowns",
+        );
         assert!(f.message.contains("'u' may not be listed"), "{f}");
     }
 }

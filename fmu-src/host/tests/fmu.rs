@@ -48,7 +48,11 @@ fn free_oscillation_matches_the_closed_form() {
     let res = simulate(&fmu, &SimulationRequest::new(0.0, 2.0, 0.01)).unwrap();
     assert_eq!(res.time.len(), 201);
     assert_eq!(res.names, vec!["x", "v", "steps"]);
-    assert!(max_err(&res, 4.0, 0.0, 0.0, 1.0) < 1e-9, "{}", max_err(&res, 4.0, 0.0, 0.0, 1.0));
+    assert!(
+        max_err(&res, 4.0, 0.0, 0.0, 1.0) < 1e-9,
+        "{}",
+        max_err(&res, 4.0, 0.0, 0.0, 1.0)
+    );
     assert_eq!(res.column("steps").unwrap()[200], 200.0);
 }
 
@@ -92,21 +96,31 @@ fn bad_requests_are_typed_errors() {
     req.start_values = vec![("damping.enabled".into(), Value::Real(1.0))];
     assert!(matches!(simulate(&fmu, &req), Err(HostError::Request(_))));
     let mut req = SimulationRequest::new(0.0, 1.0, 0.1);
-    req.inputs = InputSeries { time: vec![0.0], columns: vec![("x".into(), vec![1.0])] };
+    req.inputs = InputSeries {
+        time: vec![0.0],
+        columns: vec![("x".into(), vec![1.0])],
+    };
     let e = simulate(&fmu, &req).unwrap_err().to_string();
     assert!(e.contains("'x' is not an input"), "{e}");
     // k = 0 is refused by the FMU at fmi2ExitInitializationMode: the error carries its message
     let mut req = SimulationRequest::new(0.0, 1.0, 0.1);
     req.start_values = vec![("k".into(), Value::Real(0.0))];
     match simulate(&fmu, &req) {
-        Err(HostError::Fmi { function, status, messages }) => {
+        Err(HostError::Fmi {
+            function,
+            status,
+            messages,
+        }) => {
             assert_eq!(function, "fmi2ExitInitializationMode");
             assert_eq!(status, Status::Error);
             assert_eq!(messages.len(), 1);
             assert_eq!(messages[0].message, "k must be > 0");
             assert_eq!(messages[0].instance, "host");
         }
-        other => panic!("expected an Fmi error, got {other:?}", other = other.map(|_| ())),
+        other => panic!(
+            "expected an Fmi error, got {other:?}",
+            other = other.map(|_| ())
+        ),
     }
 }
 
@@ -116,7 +130,11 @@ fn instance_calls_in_the_wrong_state_return_fmi_errors_with_the_log() {
     let mut inst = fmu.instantiate("probe").unwrap();
     let e = inst.do_step(0.0, 0.1, true).unwrap_err();
     assert_eq!(e.status(), Some(Status::Error));
-    assert!(e.to_string().contains("fmi2DoStep: not allowed in the current state"), "{e}");
+    assert!(
+        e.to_string()
+            .contains("fmi2DoStep: not allowed in the current state"),
+        "{e}"
+    );
     inst.setup_experiment(None, 0.0, None).unwrap();
     inst.enter_initialization_mode().unwrap();
     inst.exit_initialization_mode().unwrap();
@@ -146,7 +164,10 @@ fn wrong_guid_makes_instantiate_fail_with_the_logged_message() {
     let fmu = Fmu::open(&path).unwrap();
     let e = fmu.instantiate("x").err().unwrap();
     assert!(matches!(e, HostError::Instantiate { .. }));
-    assert_eq!(e.to_string(), "fmi2Instantiate returned NULL (FMU log: wrong fmuType or GUID)");
+    assert_eq!(
+        e.to_string(),
+        "fmi2Instantiate returned NULL (FMU log: wrong fmuType or GUID)"
+    );
 }
 
 #[test]
@@ -204,7 +225,10 @@ fn one_fmu_serves_several_threads_each_with_its_own_instance() {
         .collect();
     let serial: Vec<_> = reqs.iter().map(|r| simulate(&fmu, r).unwrap()).collect();
     let parallel: Vec<_> = std::thread::scope(|s| {
-        let handles: Vec<_> = reqs.iter().map(|r| s.spawn(|| simulate(&fmu, r).unwrap())).collect();
+        let handles: Vec<_> = reqs
+            .iter()
+            .map(|r| s.spawn(|| simulate(&fmu, r).unwrap()))
+            .collect();
         handles.into_iter().map(|h| h.join().unwrap()).collect()
     });
     assert_eq!(serial, parallel);
@@ -213,7 +237,10 @@ fn one_fmu_serves_several_threads_each_with_its_own_instance() {
 #[test]
 fn opening_bad_files_gives_clear_errors() {
     let dir = tempfile::tempdir().unwrap();
-    let e = Fmu::open(dir.path().join("missing.fmu")).err().unwrap().to_string();
+    let e = Fmu::open(dir.path().join("missing.fmu"))
+        .err()
+        .unwrap()
+        .to_string();
     assert!(e.contains("missing.fmu"), "{e}");
     let junk = dir.path().join("junk.fmu");
     std::fs::write(&junk, b"not a zip").unwrap();
@@ -222,5 +249,95 @@ fn opening_bad_files_gives_clear_errors() {
     let md = common::fixture_md().replace("<ModelVariables>", "<ModelVariables><Oops>");
     let p = common::build_fmu(dir.path(), "Bad", &[], &md);
     let e = Fmu::open(&p).err().unwrap().to_string();
-    assert!(e.contains("Bad.fmu!modelDescription.xml:") && e.contains("malformed XML"), "{e}");
+    assert!(
+        e.contains("Bad.fmu!modelDescription.xml:") && e.contains("malformed XML"),
+        "{e}"
+    );
+}
+
+#[test]
+fn probe_finds_nothing_in_a_conforming_fmu() {
+    let (_d, fmu) = dummy();
+    let mut steps = Vec::new();
+    let f = host::validate::probe(&fmu, &mut |s| {
+        steps.push(s.to_string());
+        true
+    });
+    assert_eq!(f, vec![]);
+    assert_eq!(
+        steps,
+        vec![
+            "normal-run",
+            "do-step-before-init",
+            "negative-step",
+            "wrong-communication-point",
+            "unknown-value-reference",
+            "nan-input",
+            "fixed-parameter-after-init"
+        ]
+    );
+    let ex = host::Extracted::open(fmu.path()).unwrap();
+    assert_eq!(host::validate::check_symbols(&ex), vec![]);
+    assert_eq!(host::validate::check_files(&ex), vec![]);
+}
+
+#[test]
+fn probe_reports_every_wrong_call_a_lax_fmu_accepts() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = common::build_fmu(
+        dir.path(),
+        "Lax",
+        &["-DLAX", "-DMISSING_SYMBOL"],
+        &common::fixture_md(),
+    );
+    let fmu = Fmu::open(&path).unwrap();
+    assert_eq!(fmu.missing_functions(), vec!["fmi2GetStringStatus"]);
+    let f = host::validate::probe(&fmu, &mut |_| true);
+    let locs: Vec<&str> = f.iter().map(|x| x.location.as_str()).collect();
+    assert_eq!(
+        locs,
+        vec![
+            "probe do-step-before-init",
+            "probe negative-step",
+            "probe wrong-communication-point",
+            "probe unknown-value-reference",
+            "probe nan-input",
+            "probe fixed-parameter-after-init"
+        ]
+    );
+    assert!(
+        f.iter()
+            .all(|x| x.message.ends_with("returned fmi2OK, expected fmi2Error")),
+        "{f:#?}"
+    );
+    let ex = host::Extracted::open(&path).unwrap();
+    let s = host::validate::check_symbols(&ex);
+    assert_eq!(s.len(), 1);
+    assert_eq!(s[0].message, "does not export fmi2GetStringStatus");
+    // skipping a case through the callback
+    let f = host::validate::probe(&fmu, &mut |s| s != "negative-step");
+    assert_eq!(f.len(), 5);
+}
+
+#[test]
+fn check_files_reports_a_missing_binary() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("modelDescription.xml"),
+        common::fixture_md(),
+    )
+    .unwrap();
+    std::fs::create_dir_all(dir.path().join("binaries/win64")).unwrap();
+    let ex = host::Extracted::open(dir.path()).unwrap();
+    let f = host::validate::check_files(&ex);
+    assert_eq!(f.len(), 1);
+    assert_eq!(
+        f[0].message,
+        "no binary Dummy.so (platforms present: win64)"
+    );
+    assert!(Fmu::open(dir.path())
+        .err()
+        .unwrap()
+        .to_string()
+        .contains("no binary for this platform"));
 }

@@ -4,16 +4,20 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
+/// The fixtures folder (this module is also included by the cli crate's tests).
+pub fn fixtures() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../host/tests/fixtures")
+}
+
 /// The fixture's modelDescription.xml text.
 pub fn fixture_md() -> String {
-    std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/modelDescription.xml"))
-        .unwrap()
+    std::fs::read_to_string(fixtures().join("modelDescription.xml")).unwrap()
 }
 
 /// Compiles `tests/fixtures/testfmu.c` with `defines` (e.g. `["-DLAX"]`) and zips it with
 /// `md_xml` into `dir/<name>.fmu`.
 pub fn build_fmu(dir: &Path, name: &str, defines: &[&str], md_xml: &str) -> PathBuf {
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/testfmu.c");
+    let src = fixtures().join("testfmu.c");
     let so = dir.join(format!("{name}.so"));
     let status = std::process::Command::new("cc")
         .args(["-shared", "-fPIC", "-O1"])
