@@ -1,0 +1,73 @@
+//! The simulator the workflow drives, and a wrapper that counts simulations and measures the wall
+//! time during which at least one simulation runs (the "simulate" share of the timing split).
+
+use crate::spec::ParamSpec;
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::Mutex;
+use std::time::Instant;
+
+/// A model that can be simulated on the measured time grid. Implementations hold the measured
+/// inputs and the time grid; `simulate` must be callable from several threads at once.
+pub trait Simulator: Sync {
+    /// Every parameter that can be set before initialization.
+    fn params(&self) -> &[ParamSpec];
+    /// Names of every model output, in the order `simulate` returns them.
+    fn output_names(&self) -> &[String];
+    /// Simulate the first `n` samples of the time grid (the communication step is the sample
+    /// interval) with the given parameters set (index into `params()`, value; Booleans 0/1), all
+    /// others at their start values. Returns `out[k][i]`, output `k` at sample `i < n`.
+    fn simulate(&self, set: &[(usize, f64)], n: usize) -> Result<Vec<Vec<f64>>, String>;
+}
+
+/// Counts simulations and the wall time during which any is running.
+pub struct Counted<'a, S: Simulator + ?Sized> {
+    pub inner: &'a S,
+    active: AtomicUsize,
+    count: AtomicUsize,
+    busy_ns: AtomicU64,
+    since: Mutex<Option<Instant>>,
+}
+
+impl<'a, S: Simulator + ?Sized> Counted<'a, S> {
+    pub fn new(inner: &'a S) -> Self {
+        Counted {
+            inner,
+            active: AtomicUsize::new(0),
+            count: AtomicUsize::new(0),
+            busy_ns: AtomicU64::new(0),
+            since: Mutex::new(None),
+        }
+    }
+
+    /// Simulate through the wrapped simulator, accounting for the time.
+    pub fn simulate(&self, set: &[(usize, f64)], n: usize) -> Result<Vec<Vec<f64>>, String> {
+        {
+            let mut g = self.since.lock().unwrap_or_else(|e| e.into_inner());
+            if self.active.fetch_add(1, Ordering::SeqCst) == 0 {
+                *g = Some(Instant::now());
+            }
+        }
+        let out = self.inner.simulate(set, n);
+        {
+            let mut g = self.since.lock().unwrap_or_else(|e| e.into_inner());
+            if self.active.fetch_sub(1, Ordering::SeqCst) == 1 {
+                if let Some(t0) = g.take() {
+                    self.busy_ns
+                        .fetch_add(t0.elapsed().as_nanos() as u64, Ordering::SeqCst);
+                }
+            }
+        }
+        self.count.fetch_add(1, Ordering::SeqCst);
+        out
+    }
+
+    /// Number of simulations run.
+    pub fn count(&self) -> usize {
+        self.count.load(Ordering::SeqCst)
+    }
+
+    /// Wall seconds during which at least one simulation was running.
+    pub fn busy_s(&self) -> f64 {
+        self.busy_ns.load(Ordering::SeqCst) as f64 * 1e-9
+    }
+}

@@ -1,0 +1,1223 @@
+//! The gap workflow (issue 7, step 3): calibrate, locate, screen, refit, name, repeat, report.
+//!
+//! Notation: `K` measured outputs, `N` samples, weighted residual `r = (y_model − y_meas) / σ_k`
+//! stacked output by output (row `k N + i`). `σ_k` is the noise level of output `k` estimated from
+//! the data (`stats::noise_sigma`). Fits use the first `(1 − holdout)` of the trace; the last part
+//! is held out to check that a named effect generalises.
+//!
+//! Model comparison uses the profile likelihood with one unknown noise variance per output and an
+//! effective sample size per output that accounts for residual autocorrelation:
+//! `BIC = Σ_k N_eff,k ln(RSS_k / N) + p ln(Σ_k N_eff,k)`, `N_eff,k = N (1 − ρ_k)/(1 + ρ_k)` with `ρ_k`
+//! the lag-1 autocorrelation of the larger model's residual (Schwarz 1978; AR(1) variance
+//! inflation). Parameter covariances use the Jacobian with the same per-output scaling:
+//! rows of output `k` are multiplied by `(σ_k / s_k) √(N_eff,k / N)` where `s_k` is the residual RMS,
+//! so `Cov(z) = (J̃ᵀ J̃)⁻¹` and 95 % Wald intervals follow by the delta method.
+
+use crate::lm::{self, Bounded, LmOptions, Problem};
+use crate::sim::{Counted, Simulator};
+use crate::spec::{self, EffectSpec, ParamKind, ParamSpec};
+use crate::stats;
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::time::Instant;
+
+/// z value of a two-sided 95 % interval.
+pub const Z95: f64 = 1.959_963_984_540_054;
+
+/// Measured data on one time grid (SI units).
+#[derive(Clone, Debug, Default)]
+pub struct Data {
+    pub time: Vec<f64>,
+    pub inputs: Vec<(String, Vec<f64>)>,
+    pub outputs: Vec<(String, Vec<f64>)>,
+}
+
+/// Options of the workflow.
+#[derive(Clone, Debug)]
+pub struct Config {
+    /// Base parameters to calibrate (names); `None` = those tagged `[calibrate]`.
+    pub fit: Option<Vec<String>>,
+    /// Candidate effects to consider (names); `None` = every effect of the model.
+    pub effects: Option<Vec<String>>,
+    /// Maximum number of effects to add.
+    pub rounds: usize,
+    /// Known settings applied to every simulation and never fitted (`--set`).
+    pub fixed: Vec<(String, f64)>,
+    /// Fraction of the trace held out at its end.
+    pub holdout: f64,
+    /// How many screened candidates are refitted per round.
+    pub max_refit: usize,
+    /// Minimum BIC improvement to name an effect.
+    pub min_delta_bic: f64,
+    /// Show progress on stderr.
+    pub progress: bool,
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Config {
+            fit: None,
+            effects: None,
+            rounds: 2,
+            fixed: Vec::new(),
+            holdout: 0.3,
+            max_refit: 3,
+            min_delta_bic: 10.0,
+            progress: false,
+        }
+    }
+}
+
+/// Value with a 95 % interval.
+#[derive(Clone, Debug, Serialize)]
+pub struct Estimate {
+    pub value: f64,
+    pub ci_low: f64,
+    pub ci_high: f64,
+    pub unit: String,
+    pub start: f64,
+}
+
+/// One candidate effect in one round.
+#[derive(Clone, Debug, Serialize)]
+pub struct Candidate {
+    pub effect: String,
+    /// BIC(current model) − BIC(current model + effect) after the nonlinear refit; for a candidate
+    /// that was only screened, the linearised estimate (equal to `score`).
+    pub delta_bic: f64,
+    /// Screening statistic: linearised ΔBIC of regressing the residual on the base Jacobian plus
+    /// the effect's sensitivities.
+    pub score: f64,
+    pub refit: bool,
+    /// Fitted effect parameters (refitted candidates only).
+    pub parameters: BTreeMap<String, Estimate>,
+    /// Scale `a` of the effect's contribution `y_off + a (y_on − y_off)` with its interval
+    /// (fitted value 1 by construction); the interval must exclude 0 to name the effect.
+    pub magnitude: Option<Estimate>,
+    /// Weighted sum of squares on the held-out part: current model and with this effect.
+    pub holdout_sse_without: Option<f64>,
+    pub holdout_sse_with: Option<f64>,
+    pub named: bool,
+    /// Why it was or was not named.
+    pub verdict: String,
+}
+
+/// Where the model and the measurement disagree, per output.
+#[derive(Clone, Debug, Serialize)]
+pub struct OutputDiagnosis {
+    pub output: String,
+    pub noise_sigma: f64,
+    /// Residual RMS / noise level.
+    pub rmse_over_noise: f64,
+    /// Window [t0, t1] with the largest RMS residual and its RMS / noise level.
+    pub worst_window: (f64, f64, f64),
+    pub window_rmse_over_noise: Vec<f64>,
+    pub ljung_box_p: f64,
+    pub lag1_autocorr: f64,
+    /// Input with the largest cross-correlation: (name, lag in samples, correlation).
+    pub input_xcorr: Option<(String, usize, f64)>,
+    /// Variable whose operating region best explains the residual: (name, η²).
+    pub region_variable: Option<(String, f64)>,
+    pub region_bins: Vec<stats::RegionBin>,
+    pub text: String,
+}
+
+/// Diagnosis of one round.
+#[derive(Clone, Debug, Serialize)]
+pub struct Diagnosis {
+    pub consistent_with_noise: bool,
+    pub outputs: Vec<OutputDiagnosis>,
+    pub text: String,
+}
+
+/// Errors per measured output.
+#[derive(Clone, Debug, Serialize)]
+pub struct OutputErrors {
+    /// Model as given (start values, `--set` applied, effects off).
+    pub rmse_before: f64,
+    pub max_before: f64,
+    /// Model after the final fit with the named effects.
+    pub rmse_after: f64,
+    pub max_after: f64,
+    /// Base model (effects off) after calibration.
+    pub rmse_base_fit: f64,
+    pub max_base_fit: f64,
+    pub noise_sigma: f64,
+}
+
+/// Timing split.
+#[derive(Clone, Debug, Serialize)]
+pub struct Timing {
+    pub total_s: f64,
+    /// Wall time during which at least one simulation was running.
+    pub simulate_s: f64,
+    /// Wall time of the estimation not spent simulating (linear algebra, statistics).
+    pub fit_s: f64,
+    pub simulations: usize,
+    pub threads: usize,
+}
+
+/// Everything the report needs.
+#[derive(Clone, Debug, Serialize)]
+pub struct GapResult {
+    pub named: Vec<String>,
+    pub unexplained: Option<String>,
+    pub verdict: String,
+    pub candidates: Vec<Vec<Candidate>>,
+    pub parameters: BTreeMap<String, Estimate>,
+    pub outputs: BTreeMap<String, OutputErrors>,
+    pub fixed: BTreeMap<String, f64>,
+    pub diagnosis: Vec<Diagnosis>,
+    pub timing: Timing,
+    pub holdout_fraction: f64,
+    pub samples: usize,
+    pub train_samples: usize,
+    #[serde(skip)]
+    pub traces: Traces,
+}
+
+/// (name, measured, nominal model, base fit, final) of one output.
+pub type OutputTrace = (String, Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>);
+
+/// Time series kept for the plots.
+#[derive(Clone, Debug, Default)]
+pub struct Traces {
+    pub time: Vec<f64>,
+    /// (name, measured, nominal model, base fit, final)
+    pub outputs: Vec<OutputTrace>,
+    /// (output index, variable name, variable values at the base fit)
+    pub revealing: Option<(usize, String, Vec<f64>)>,
+}
+
+/// Errors of the workflow.
+#[derive(Debug, thiserror::Error)]
+pub enum GapError {
+    #[error("{0}")]
+    Usage(String),
+    #[error("simulation failed: {0}")]
+    Simulation(String),
+}
+
+/// A model configuration: parameter values that are set for a simulation.
+#[derive(Clone, Debug)]
+struct ModelState {
+    /// Named effects (indices into the effect list).
+    named: Vec<usize>,
+    /// Fitted parameter indices and their current values.
+    idx: Vec<usize>,
+    val: Vec<f64>,
+}
+
+struct Ctx<'a, S: Simulator + ?Sized> {
+    sim: Counted<'a, S>,
+    params: Vec<ParamSpec>,
+    effects: Vec<EffectSpec>,
+    fixed: Vec<(usize, f64)>,
+    out_idx: Vec<usize>,
+    meas: Vec<Vec<f64>>,
+    sigma: Vec<f64>,
+    n: usize,
+    n_train: usize,
+    pb: ProgressBar,
+}
+
+impl<S: Simulator + ?Sized> Ctx<'_, S> {
+    fn settings(
+        &self,
+        st: &ModelState,
+        extra_on: Option<usize>,
+        extra: &[(usize, f64)],
+    ) -> Vec<(usize, f64)> {
+        let mut s = self.fixed.clone();
+        for &e in st.named.iter().chain(extra_on.iter()) {
+            s.push((self.effects[e].enabled, 1.0));
+        }
+        s.extend(st.idx.iter().copied().zip(st.val.iter().copied()));
+        s.extend_from_slice(extra);
+        s
+    }
+
+    /// Simulate and return the measured outputs only, first `n` samples.
+    fn measured_outputs(&self, set: &[(usize, f64)], n: usize) -> Result<Vec<Vec<f64>>, String> {
+        let all = self.sim.simulate(set, n)?;
+        self.out_idx
+            .iter()
+            .map(|&k| {
+                let v = all.get(k).ok_or("simulator returned too few outputs")?;
+                if v.len() < n {
+                    return Err("simulator returned too few samples".to_string());
+                }
+                if v[..n].iter().any(|x| !x.is_finite()) {
+                    return Err("non-finite model output".to_string());
+                }
+                Ok(v[..n].to_vec())
+            })
+            .collect()
+    }
+
+    /// Weighted residual stacked by output over samples `0..n`.
+    fn residual(&self, y: &[Vec<f64>], n: usize) -> Vec<f64> {
+        let mut r = Vec::with_capacity(n * y.len());
+        for (k, yk) in y.iter().enumerate() {
+            r.extend((0..n).map(|i| (yk[i] - self.meas[k][i]) / self.sigma[k]));
+        }
+        r
+    }
+}
+
+struct FitProblem<'c, 'a, S: Simulator + ?Sized> {
+    ctx: &'c Ctx<'a, S>,
+    /// Settings that stay constant in this fit.
+    base: Vec<(usize, f64)>,
+    idx: Vec<usize>,
+    n: usize,
+}
+
+impl<S: Simulator + ?Sized> Problem for FitProblem<'_, '_, S> {
+    fn residuals(&self, p: &[f64]) -> Result<Vec<f64>, String> {
+        let mut set = self.base.clone();
+        set.extend(self.idx.iter().copied().zip(p.iter().copied()));
+        let y = self.ctx.measured_outputs(&set, self.n)?;
+        Ok(self.ctx.residual(&y, self.n))
+    }
+}
+
+/// Per-output (RSS, N_eff) of a stacked weighted residual.
+fn rss_neff(r: &[f64], k: usize) -> Vec<(f64, f64)> {
+    let n = r.len() / k.max(1);
+    (0..k)
+        .map(|j| {
+            let rk = &r[j * n..(j + 1) * n];
+            let rss: f64 = rk.iter().map(|v| v * v).sum();
+            (rss.max(1e-300), stats::n_eff(n, stats::autocorr(rk, 1)))
+        })
+        .collect()
+}
+
+/// ΔBIC = BIC(small) − BIC(large) with the large model's effective sample sizes.
+fn delta_bic(r_small: &[f64], r_large: &[f64], k: usize, extra_params: usize) -> f64 {
+    let small = rss_neff(r_small, k);
+    let large = rss_neff(r_large, k);
+    let ne_total: f64 = large.iter().map(|x| x.1).sum();
+    let gain: f64 = small
+        .iter()
+        .zip(&large)
+        .map(|(s, l)| l.1 * (s.0 / l.0).ln())
+        .sum();
+    gain - extra_params as f64 * ne_total.ln()
+}
+
+/// Row scaling that turns the weighted Jacobian into one whose (J̃ᵀJ̃)⁻¹ is the parameter
+/// covariance: per output, `(1 / s_k) √(N_eff,k / N)` with `s_k` the RMS of the weighted residual.
+fn row_scale(r: &[f64], k: usize) -> Vec<f64> {
+    let n = r.len() / k.max(1);
+    (0..k)
+        .map(|j| {
+            let rk = &r[j * n..(j + 1) * n];
+            let s = stats::rms(rk).max(1e-12);
+            let ne = stats::n_eff(n, stats::autocorr(rk, 1));
+            (ne / n as f64).sqrt() / s
+        })
+        .collect()
+}
+
+/// Covariance (J̃ᵀJ̃)⁻¹ of the columns of `x` with the per-output row scaling; `None` if singular.
+fn covariance(x: &DMatrix<f64>, scale: &[f64], n: usize) -> Option<DMatrix<f64>> {
+    let mut xs = x.clone();
+    for (row, mut xr) in xs.row_iter_mut().enumerate() {
+        xr *= scale[(row / n).min(scale.len() - 1)];
+    }
+    let a = xs.transpose() * xs;
+    let p = a.nrows();
+    // Scale to unit diagonal for a well-conditioned inversion.
+    let d: Vec<f64> = (0..p).map(|i| a[(i, i)].max(1e-300).sqrt()).collect();
+    let an = DMatrix::from_fn(p, p, |i, j| a[(i, j)] / (d[i] * d[j]));
+    let inv = an.try_inverse()?;
+    Some(DMatrix::from_fn(p, p, |i, j| inv[(i, j)] / (d[i] * d[j])))
+}
+
+/// Least-squares fit of `y` on the columns of `x` (column-normalised normal equations with a tiny
+/// ridge); returns the residual `y − X β` and β.
+fn regress(x: &DMatrix<f64>, y: &[f64]) -> (Vec<f64>, DVector<f64>) {
+    let p = x.ncols();
+    let yv = DVector::from_column_slice(y);
+    if p == 0 {
+        return (y.to_vec(), DVector::zeros(0));
+    }
+    let norms: Vec<f64> = (0..p).map(|j| x.column(j).norm().max(1e-300)).collect();
+    let xn = DMatrix::from_fn(x.nrows(), p, |i, j| x[(i, j)] / norms[j]);
+    let mut a = xn.transpose() * &xn;
+    for j in 0..p {
+        a[(j, j)] += 1e-9;
+    }
+    let b = xn.transpose() * &yv;
+    let beta_n = a
+        .cholesky()
+        .map(|c| c.solve(&b))
+        .unwrap_or_else(|| DVector::zeros(p));
+    let res = &yv - &xn * &beta_n;
+    let beta = DVector::from_fn(p, |j, _| beta_n[j] / norms[j]);
+    (res.as_slice().to_vec(), beta)
+}
+
+fn estimates(
+    ctx_params: &[ParamSpec],
+    idx: &[usize],
+    fit: &lm::LmFit,
+    bounds: &[Bounded],
+    scale: &[f64],
+    n: usize,
+) -> BTreeMap<String, Estimate> {
+    let cov = if idx.is_empty() {
+        None
+    } else {
+        covariance(&fit.jac, scale, n)
+    };
+    idx.iter()
+        .enumerate()
+        .map(|(j, &pi)| {
+            let v = fit.p[j];
+            let sd = cov
+                .as_ref()
+                .map(|c| c[(j, j)].max(0.0).sqrt() * bounds[j].dp_dz(fit.z[j]))
+                .filter(|s| s.is_finite())
+                .unwrap_or(f64::INFINITY);
+            (
+                ctx_params[pi].name.clone(),
+                Estimate {
+                    value: v,
+                    ci_low: v - Z95 * sd,
+                    ci_high: v + Z95 * sd,
+                    unit: ctx_params[pi].unit.clone(),
+                    start: ctx_params[pi].start,
+                },
+            )
+        })
+        .collect()
+}
+
+fn bounds_of(params: &[ParamSpec], idx: &[usize]) -> Vec<Bounded> {
+    idx.iter()
+        .map(|&i| Bounded::new(params[i].start, params[i].min, params[i].max))
+        .collect()
+}
+
+fn find_param(params: &[ParamSpec], name: &str) -> Result<usize, GapError> {
+    params
+        .iter()
+        .position(|p| p.name == name)
+        .ok_or_else(|| GapError::Usage(format!("the model has no parameter named '{name}'")))
+}
+
+struct FitOut {
+    state: ModelState,
+    fit: lm::LmFit,
+    bounds: Vec<Bounded>,
+}
+
+fn fit_state<S: Simulator + ?Sized>(
+    ctx: &Ctx<'_, S>,
+    st: &ModelState,
+    extra_on: Option<usize>,
+    extra_idx: &[usize],
+    n: usize,
+    max_iter: usize,
+) -> Result<FitOut, String> {
+    let mut idx = st.idx.clone();
+    let mut p0 = st.val.clone();
+    for &i in extra_idx {
+        idx.push(i);
+        p0.push(ctx.params[i].start);
+    }
+    let empty = ModelState {
+        named: st.named.clone(),
+        idx: Vec::new(),
+        val: Vec::new(),
+    };
+    let problem = FitProblem {
+        ctx,
+        base: ctx.settings(&empty, extra_on, &[]),
+        idx: idx.clone(),
+        n,
+    };
+    let bounds = bounds_of(&ctx.params, &idx);
+    let opts = LmOptions {
+        max_iter,
+        ..Default::default()
+    };
+    let fit = lm::levenberg_marquardt(&problem, &bounds, &p0, opts, &|| ctx.pb.tick())?;
+    let mut named = st.named.clone();
+    if let Some(e) = extra_on {
+        named.push(e);
+    }
+    Ok(FitOut {
+        state: ModelState {
+            named,
+            idx,
+            val: fit.p.clone(),
+        },
+        fit,
+        bounds,
+    })
+}
+
+fn errors(meas: &[f64], model: &[f64]) -> (f64, f64) {
+    let e: Vec<f64> = model.iter().zip(meas).map(|(a, b)| a - b).collect();
+    (stats::rms(&e), stats::max_abs(&e))
+}
+
+/// Diagnose the residual of the current model over the whole trace.
+fn diagnose<S: Simulator + ?Sized>(
+    ctx: &Ctx<'_, S>,
+    data: &Data,
+    all_out: &[Vec<f64>],
+    names: &[String],
+) -> Diagnosis {
+    let n = ctx.n;
+    let mut vars: Vec<(String, &[f64])> = data
+        .inputs
+        .iter()
+        .map(|(s, v)| (s.clone(), &v[..n]))
+        .collect();
+    for (k, name) in names.iter().enumerate() {
+        if let Some(v) = all_out.get(k) {
+            if v.len() >= n && stats::range(&v[..n]) > 0.0 {
+                vars.push((name.clone(), &v[..n]));
+            }
+        }
+    }
+    let mut outs = Vec::new();
+    let mut consistent = true;
+    for (k, &oi) in ctx.out_idx.iter().enumerate() {
+        let oname = names[oi].clone();
+        let r: Vec<f64> = (0..n)
+            .map(|i| (all_out[oi][i] - ctx.meas[k][i]) / ctx.sigma[k])
+            .collect();
+        let ratio = stats::rms(&r);
+        let nw = 10.min(n / 20).max(1);
+        let win: Vec<f64> = (0..nw)
+            .map(|w| stats::rms(&r[w * n / nw..(w + 1) * n / nw]))
+            .collect();
+        let (wi, wr) = win
+            .iter()
+            .enumerate()
+            .fold((0, 0.0), |b, (i, &v)| if v > b.1 { (i, v) } else { b });
+        let t0 = data.time[wi * n / nw];
+        let t1 = data.time[((wi + 1) * n / nw).min(n) - 1];
+        let (_, lb_p) = stats::ljung_box(&r, 20);
+        let rho1 = stats::autocorr(&r, 1);
+        let max_lag = (n / 20).clamp(1, 200);
+        let input_xcorr = data
+            .inputs
+            .iter()
+            .filter(|(_, u)| stats::range(&u[..n]) > 0.0)
+            .map(|(name, u)| {
+                let (lag, c) = stats::max_cross_corr(&r, &u[..n], max_lag);
+                (name.clone(), lag, c)
+            })
+            .max_by(|a, b| {
+                a.2.abs()
+                    .partial_cmp(&b.2.abs())
+                    .unwrap_or(std::cmp::Ordering::Equal)
+            });
+        let region = vars
+            .par_iter()
+            .map(|(name, v)| {
+                let (bins, eta2) = stats::region_bins(&r, v, 8);
+                (name.clone(), bins, eta2)
+            })
+            .collect::<Vec<_>>()
+            .into_iter()
+            .max_by(|a, b| a.2.partial_cmp(&b.2).unwrap_or(std::cmp::Ordering::Equal));
+        let white = lb_p > 0.01;
+        let ok = ratio <= 1.2 && white;
+        consistent &= ok;
+        let mut text = format!(
+            "{oname}: residual RMS {:.2}× its noise level (σ = {:.3e}); worst over t = {:.2}–{:.2} s ({:.2}×)",
+            ratio, ctx.sigma[k], t0, t1, wr
+        );
+        text += &if white {
+            format!("; residual white (Ljung–Box p = {lb_p:.2})")
+        } else {
+            format!(
+                "; residual not white (Ljung–Box p = {lb_p:.1e}, lag-1 autocorrelation {rho1:.2})"
+            )
+        };
+        if let Some((u, lag, c)) = &input_xcorr {
+            text += &format!("; cross-correlation with input {u}: {c:.2} at lag {lag} samples");
+        }
+        let mut region_variable = None;
+        let mut region_bins = Vec::new();
+        if let Some((name, bins, eta2)) = region {
+            if let Some(b) = bins.iter().max_by(|a, b| {
+                a.mean
+                    .abs()
+                    .partial_cmp(&b.mean.abs())
+                    .unwrap_or(std::cmp::Ordering::Equal)
+            }) {
+                text += &format!(
+                    "; by operating region the residual depends most on {name} (η² = {eta2:.2}): mean {:+.2}σ for {name} in [{:.3e}, {:.3e}]",
+                    b.mean, b.lo, b.hi
+                );
+            }
+            region_variable = Some((name, eta2));
+            region_bins = bins;
+        }
+        outs.push(OutputDiagnosis {
+            output: oname,
+            noise_sigma: ctx.sigma[k],
+            rmse_over_noise: ratio,
+            worst_window: (t0, t1, wr),
+            window_rmse_over_noise: win,
+            ljung_box_p: lb_p,
+            lag1_autocorr: rho1,
+            input_xcorr,
+            region_variable,
+            region_bins,
+            text,
+        });
+    }
+    let text = if consistent {
+        "Residuals are consistent with noise: every output within 1.2× its noise level and white."
+            .to_string()
+    } else {
+        let worst = outs.iter().max_by(|a, b| {
+            a.rmse_over_noise
+                .partial_cmp(&b.rmse_over_noise)
+                .unwrap_or(std::cmp::Ordering::Equal)
+        });
+        match worst {
+            Some(w) => format!(
+                "The model disagrees most on {} ({:.2}× noise), worst over t = {:.2}–{:.2} s{}.",
+                w.output,
+                w.rmse_over_noise,
+                w.worst_window.0,
+                w.worst_window.1,
+                w.region_variable
+                    .as_ref()
+                    .map(|(v, e)| format!(", organised by {v} (η² = {e:.2})"))
+                    .unwrap_or_default()
+            ),
+            None => String::new(),
+        }
+    };
+    Diagnosis {
+        consistent_with_noise: consistent,
+        outputs: outs,
+        text,
+    }
+}
+
+/// Run the workflow on `data` with the simulator `sim`.
+pub fn run<S: Simulator + ?Sized>(
+    sim: &S,
+    data: &Data,
+    cfg: &Config,
+) -> Result<GapResult, GapError> {
+    let t_start = Instant::now();
+    let params = sim.params().to_vec();
+    let names = sim.output_names().to_vec();
+    let n = data.time.len();
+    if n < 20 {
+        return Err(GapError::Usage(format!(
+            "need at least 20 samples, got {n}"
+        )));
+    }
+    if data.outputs.is_empty() {
+        return Err(GapError::Usage(
+            "the data hold no output column to compare with".into(),
+        ));
+    }
+    let mut out_idx = Vec::new();
+    for (name, v) in &data.outputs {
+        let k = names
+            .iter()
+            .position(|s| s == name)
+            .ok_or_else(|| GapError::Usage(format!("the model has no output named '{name}'")))?;
+        if v.len() != n {
+            return Err(GapError::Usage(format!(
+                "column '{name}' has {} values for {n} times",
+                v.len()
+            )));
+        }
+        out_idx.push(k);
+    }
+    let mut fixed = Vec::new();
+    for (name, v) in &cfg.fixed {
+        fixed.push((find_param(&params, name)?, *v));
+    }
+    let all_effects = spec::find_effects(&params);
+    let fixed_has = |i: usize| fixed.iter().any(|(j, _)| *j == i);
+    let effects: Vec<EffectSpec> = match &cfg.effects {
+        Some(list) => {
+            let mut v = Vec::new();
+            for name in list {
+                let e = all_effects
+                    .iter()
+                    .find(|e| &e.name == name)
+                    .ok_or_else(|| {
+                        GapError::Usage(format!("the model has no effect named '{name}'"))
+                    })?;
+                v.push(e.clone());
+            }
+            v
+        }
+        None => all_effects.clone(),
+    };
+    // Effects switched by --set are part of the given model, not candidates; their parameters
+    // set by --set are fixed.
+    let effects: Vec<EffectSpec> = effects
+        .into_iter()
+        .filter(|e| !fixed_has(e.enabled))
+        .map(|mut e| {
+            e.params.retain(|&i| !fixed_has(i));
+            e
+        })
+        .collect();
+    let fit_idx: Vec<usize> = match &cfg.fit {
+        Some(list) => {
+            let mut v = Vec::new();
+            for name in list {
+                let i = find_param(&params, name)?;
+                if params[i].kind != ParamKind::Real {
+                    return Err(GapError::Usage(format!(
+                        "'{name}' is not a Real parameter and cannot be fitted"
+                    )));
+                }
+                v.push(i);
+            }
+            v
+        }
+        None => spec::default_calibration(&params, &all_effects),
+    };
+    let fit_idx: Vec<usize> = fit_idx.into_iter().filter(|&i| !fixed_has(i)).collect();
+    let mut fit_start = Vec::new();
+    for &i in &fit_idx {
+        fit_start.push(params[i].start);
+    }
+
+    let meas: Vec<Vec<f64>> = data.outputs.iter().map(|(_, v)| v.clone()).collect();
+    let sigma: Vec<f64> = meas
+        .iter()
+        .map(|y| {
+            let r = stats::range(y);
+            stats::noise_sigma(y).max(1e-4 * r).max(1e-12)
+        })
+        .collect();
+    let holdout = cfg.holdout.clamp(0.0, 0.9);
+    let n_train = ((n as f64) * (1.0 - holdout)).round().clamp(10.0, n as f64) as usize;
+
+    let pb = if cfg.progress {
+        let pb = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr());
+        pb.set_style(
+            ProgressStyle::with_template("{spinner} [{elapsed_precise}] {msg}")
+                .unwrap_or(ProgressStyle::default_spinner()),
+        );
+        pb
+    } else {
+        ProgressBar::hidden()
+    };
+    let ctx = Ctx {
+        sim: Counted::new(sim),
+        params: params.clone(),
+        effects: effects.clone(),
+        fixed: fixed.clone(),
+        out_idx,
+        meas,
+        sigma,
+        n,
+        n_train,
+        pb,
+    };
+    let kout = ctx.out_idx.len();
+    let t_est = Instant::now();
+
+    // --- The model as given.
+    ctx.pb.set_message("simulating the model as given");
+    let st0 = ModelState {
+        named: Vec::new(),
+        idx: fit_idx.clone(),
+        val: fit_start,
+    };
+    let nominal_all = ctx
+        .sim
+        .simulate(&ctx.settings(&st0, None, &[]), n)
+        .map_err(GapError::Simulation)?;
+    let nominal: Vec<Vec<f64>> = ctx
+        .out_idx
+        .iter()
+        .map(|&k| nominal_all[k][..n].to_vec())
+        .collect();
+
+    // --- 1. Calibrate the base model on the training part.
+    ctx.pb
+        .set_message(format!("calibrating {} base parameter(s)", fit_idx.len()));
+    let base = fit_state(&ctx, &st0, None, &[], n_train, 30).map_err(GapError::Simulation)?;
+    let mut cur = base;
+    let base_all = ctx
+        .sim
+        .simulate(&ctx.settings(&cur.state, None, &[]), n)
+        .map_err(GapError::Simulation)?;
+    let base_fit: Vec<Vec<f64>> = ctx
+        .out_idx
+        .iter()
+        .map(|&k| base_all[k][..n].to_vec())
+        .collect();
+    let mut cur_full_r = ctx.residual(&base_fit, n);
+
+    // --- 2. Locate the disagreement.
+    let mut diagnosis = vec![diagnose(&ctx, data, &base_all, &names)];
+    let revealing = diagnosis[0]
+        .outputs
+        .iter()
+        .enumerate()
+        .max_by(|a, b| {
+            a.1.rmse_over_noise
+                .partial_cmp(&b.1.rmse_over_noise)
+                .unwrap_or(std::cmp::Ordering::Equal)
+        })
+        .and_then(|(k, d)| {
+            let (name, _) = d.region_variable.as_ref()?;
+            let v = data
+                .inputs
+                .iter()
+                .find(|(s, _)| s == name)
+                .map(|(_, v)| v[..n].to_vec())
+                .or_else(|| {
+                    names
+                        .iter()
+                        .position(|s| s == name)
+                        .map(|j| base_all[j][..n].to_vec())
+                })?;
+            Some((k, name.clone(), v))
+        });
+
+    // --- 3./4. Screen, refit, name; repeat.
+    let mut named_names = Vec::new();
+    let mut unexplained = None;
+    let mut rounds: Vec<Vec<Candidate>> = Vec::new();
+    let mut verdict;
+    if diagnosis[0].consistent_with_noise {
+        verdict = "no missing effect found: the calibrated base model's residuals are consistent with noise".to_string();
+    } else {
+        verdict = String::new();
+    }
+    let mut round = 0;
+    while verdict.is_empty() && round < cfg.rounds {
+        round += 1;
+        let remaining: Vec<usize> = (0..effects.len())
+            .filter(|e| !cur.state.named.contains(e))
+            .collect();
+        if remaining.is_empty() {
+            break;
+        }
+        ctx.pb.set_message(format!(
+            "round {round}: screening {} candidate effect(s)",
+            remaining.len()
+        ));
+        let screened = screen(&ctx, &cur, &remaining);
+        let mut order: Vec<(usize, f64)> = remaining.iter().copied().zip(screened).collect();
+        order.sort_by(|a, b| b.1.partial_cmp(&a.1).unwrap_or(std::cmp::Ordering::Equal));
+        let top: Vec<(usize, f64)> = order.iter().take(cfg.max_refit.max(1)).copied().collect();
+        ctx.pb.set_message(format!(
+            "round {round}: refitting {}",
+            top.iter()
+                .map(|(e, _)| effects[*e].name.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
+        type Refit = Result<(Candidate, FitOut, Vec<f64>), String>;
+        let refits: Vec<(usize, f64, Refit)> = top
+            .par_iter()
+            .map(|&(e, score)| (e, score, refit(&ctx, &cur, e, score, &cur_full_r)))
+            .collect();
+        let mut ranked: Vec<Candidate> = Vec::new();
+        let mut fits: Vec<(String, FitOut, Vec<f64>)> = Vec::new();
+        for (e, score, res) in refits {
+            match res {
+                Ok((c, f, r)) => {
+                    fits.push((c.effect.clone(), f, r));
+                    ranked.push(c)
+                }
+                Err(m) => ranked.push(Candidate {
+                    effect: effects[e].name.clone(),
+                    delta_bic: f64::NEG_INFINITY,
+                    score,
+                    refit: true,
+                    parameters: BTreeMap::new(),
+                    magnitude: None,
+                    holdout_sse_without: None,
+                    holdout_sse_with: None,
+                    named: false,
+                    verdict: format!("refit failed: {m}"),
+                }),
+            }
+        }
+        ranked.sort_by(|a, b| {
+            b.delta_bic
+                .partial_cmp(&a.delta_bic)
+                .unwrap_or(std::cmp::Ordering::Equal)
+        });
+        for &(e, score) in order.iter().skip(top.len()) {
+            ranked.push(Candidate {
+                effect: effects[e].name.clone(),
+                delta_bic: score,
+                score,
+                refit: false,
+                parameters: BTreeMap::new(),
+                magnitude: None,
+                holdout_sse_without: None,
+                holdout_sse_with: None,
+                named: false,
+                verdict: "screened only (linearised ΔBIC)".into(),
+            });
+        }
+        if ranked.is_empty() {
+            break;
+        }
+        // Check every refitted candidate in ΔBIC order; the first passing all three criteria is
+        // named (a candidate that absorbs part of a different missing effect may top the BIC
+        // ranking yet fail on the held-out part).
+        let mut chosen = None;
+        for (i, c) in ranked.iter_mut().enumerate() {
+            if !c.refit {
+                continue;
+            }
+            let why = reasons(c, cfg.min_delta_bic, n_train >= n);
+            if why.is_empty() {
+                c.named = true;
+                c.verdict = format!(
+                    "named: ΔBIC = {:.1} ≥ {}, magnitude interval excludes 0, held-out error lower",
+                    c.delta_bic, cfg.min_delta_bic
+                );
+                chosen = Some(i);
+                break;
+            }
+            c.verdict = format!("not named: {}", why.join("; "));
+        }
+        if let Some(i) = chosen {
+            let name = ranked[i].effect.clone();
+            let (_, f, r) = fits
+                .into_iter()
+                .find(|(s, _, _)| *s == name)
+                .expect("fit of the named candidate");
+            cur = f;
+            cur_full_r = r;
+            named_names.push(name);
+            rounds.push(ranked);
+            // Diagnose what remains.
+            let all = ctx
+                .sim
+                .simulate(&ctx.settings(&cur.state, None, &[]), n)
+                .map_err(GapError::Simulation)?;
+            let d = diagnose(&ctx, data, &all, &names);
+            let stop = d.consistent_with_noise;
+            diagnosis.push(d);
+            if stop {
+                break;
+            }
+        } else {
+            let closest = ranked[0].effect.clone();
+            let why = reasons(&ranked[0], cfg.min_delta_bic, n_train >= n).join("; ");
+            verdict = if named_names.is_empty() {
+                format!("no missing effect found; the closest candidate, {closest}, is left unexplained ({why})")
+            } else {
+                format!(
+                    "named {}; no further effect found; the closest remaining candidate, {closest}, is left unexplained ({why})",
+                    named_names.join(", ")
+                )
+            };
+            unexplained = Some(closest);
+            rounds.push(ranked);
+        }
+    }
+    if verdict.is_empty() {
+        verdict = if named_names.is_empty() {
+            "no missing effect found".to_string()
+        } else {
+            format!("named {}", named_names.join(", "))
+        };
+    }
+
+    // --- 5. Final fit on the whole trace and the errors before/after.
+    ctx.pb.set_message("final fit on the whole trace");
+    let fin = fit_state(&ctx, &cur.state, None, &[], n, 10).map_err(GapError::Simulation)?;
+    let final_all = ctx
+        .sim
+        .simulate(&ctx.settings(&fin.state, None, &[]), n)
+        .map_err(GapError::Simulation)?;
+    let final_y: Vec<Vec<f64>> = ctx
+        .out_idx
+        .iter()
+        .map(|&k| final_all[k][..n].to_vec())
+        .collect();
+    let scale = row_scale(&fin.fit.residuals, kout);
+    let parameters = estimates(&params, &fin.state.idx, &fin.fit, &fin.bounds, &scale, n);
+    let mut outputs = BTreeMap::new();
+    let mut traces = Traces {
+        time: data.time.clone(),
+        outputs: Vec::new(),
+        revealing,
+    };
+    for (k, (name, y)) in data.outputs.iter().enumerate() {
+        let (rb, mb) = errors(y, &nominal[k]);
+        let (ra, ma) = errors(y, &final_y[k]);
+        let (rf, mf) = errors(y, &base_fit[k]);
+        outputs.insert(
+            name.clone(),
+            OutputErrors {
+                rmse_before: rb,
+                max_before: mb,
+                rmse_after: ra,
+                max_after: ma,
+                rmse_base_fit: rf,
+                max_base_fit: mf,
+                noise_sigma: ctx.sigma[k],
+            },
+        );
+        traces.outputs.push((
+            name.clone(),
+            y.clone(),
+            nominal[k].clone(),
+            base_fit[k].clone(),
+            final_y[k].clone(),
+        ));
+    }
+    ctx.pb.finish_and_clear();
+    let est_s = t_est.elapsed().as_secs_f64();
+    let sim_s = ctx.sim.busy_s();
+    Ok(GapResult {
+        named: named_names,
+        unexplained,
+        verdict,
+        candidates: rounds,
+        parameters,
+        outputs,
+        fixed: cfg.fixed.iter().cloned().collect(),
+        diagnosis,
+        timing: Timing {
+            total_s: t_start.elapsed().as_secs_f64(),
+            simulate_s: sim_s,
+            fit_s: (est_s - sim_s).max(0.0),
+            simulations: ctx.sim.count(),
+            threads: rayon::current_num_threads(),
+        },
+        holdout_fraction: holdout,
+        samples: n,
+        train_samples: n_train,
+        traces,
+    })
+}
+
+/// Why a refitted candidate may not be named (empty: it may).
+fn reasons(c: &Candidate, min_delta_bic: f64, no_holdout: bool) -> Vec<String> {
+    let mut why = Vec::new();
+    if c.delta_bic == f64::NEG_INFINITY {
+        why.push("refit failed".to_string());
+    } else if c.delta_bic < min_delta_bic {
+        why.push(format!("ΔBIC = {:.1} < {}", c.delta_bic, min_delta_bic));
+    }
+    if !c
+        .magnitude
+        .as_ref()
+        .map(|m| m.ci_low > 0.0)
+        .unwrap_or(false)
+    {
+        why.push("magnitude interval includes 0".to_string());
+    }
+    let hold_ok = match (c.holdout_sse_with, c.holdout_sse_without) {
+        (Some(w), Some(wo)) => w < wo,
+        _ => no_holdout,
+    };
+    if !hold_ok {
+        why.push("does not lower the held-out error".to_string());
+    }
+    why
+}
+
+/// Screening (score test): regress the current weighted residual on the current Jacobian plus, per
+/// candidate, the change the effect makes at its start values and the sensitivities to each of its
+/// parameters there; the statistic is the linearised ΔBIC of the augmented regression.
+fn screen<S: Simulator + ?Sized>(ctx: &Ctx<'_, S>, cur: &FitOut, cand: &[usize]) -> Vec<f64> {
+    let n = ctx.n_train;
+    let k = ctx.out_idx.len();
+    let r0 = &cur.fit.residuals;
+    let y_cur: Vec<Vec<f64>> = (0..k)
+        .map(|j| {
+            (0..n)
+                .map(|i| ctx.meas[j][i] + r0[j * n + i] * ctx.sigma[j])
+                .collect()
+        })
+        .collect();
+    // Jobs: (candidate, None = switch on at start, Some(p) = perturb parameter p).
+    let h = 0.05;
+    let jobs: Vec<(usize, Option<usize>)> = cand
+        .iter()
+        .flat_map(|&e| {
+            std::iter::once((e, None))
+                .chain(ctx.effects[e].params.iter().map(move |&p| (e, Some(p))))
+        })
+        .collect();
+    let sims: Vec<Option<Vec<Vec<f64>>>> = jobs
+        .par_iter()
+        .map(|&(e, p)| {
+            let extra: Vec<(usize, f64)> = match p {
+                None => Vec::new(),
+                Some(pi) => {
+                    let ps = &ctx.params[pi];
+                    let b = Bounded::new(ps.start, ps.min, ps.max);
+                    let z = b.to_z(ps.start);
+                    let up = b.to_p(z + h);
+                    let v = if up != ps.start { up } else { b.to_p(z - h) };
+                    vec![(pi, v)]
+                }
+            };
+            // Effect parameters at their start values, then the perturbation.
+            let mut set = ctx.settings(&cur.state, Some(e), &[]);
+            for &pi in &ctx.effects[e].params {
+                set.push((pi, ctx.params[pi].start));
+            }
+            set.extend(extra);
+            let out = ctx.measured_outputs(&set, n).ok();
+            ctx.pb.tick();
+            out
+        })
+        .collect();
+    cand.iter()
+        .map(|&e| {
+            let mut cols: Vec<Vec<f64>> = Vec::new();
+            let on_pos = jobs.iter().position(|j| *j == (e, None));
+            let Some(y_on) = on_pos.and_then(|i| sims[i].as_ref()) else {
+                return f64::NEG_INFINITY;
+            };
+            let mut d0 = Vec::with_capacity(n * k);
+            for j in 0..k {
+                d0.extend((0..n).map(|i| (y_on[j][i] - y_cur[j][i]) / ctx.sigma[j]));
+            }
+            cols.push(d0);
+            for &p in &ctx.effects[e].params {
+                let pos = jobs.iter().position(|jb| *jb == (e, Some(p)));
+                if let Some(y_p) = pos.and_then(|i| sims[i].as_ref()) {
+                    let mut s = Vec::with_capacity(n * k);
+                    for j in 0..k {
+                        s.extend((0..n).map(|i| (y_p[j][i] - y_on[j][i]) / ctx.sigma[j]));
+                    }
+                    cols.push(s);
+                }
+            }
+            let cols: Vec<Vec<f64>> = cols
+                .into_iter()
+                .filter(|c| c.iter().any(|v| *v != 0.0))
+                .collect();
+            if cols.is_empty() {
+                return f64::NEG_INFINITY;
+            }
+            let pb = cur.fit.jac.ncols();
+            let x = DMatrix::from_fn(n * k, pb + cols.len(), |i, j| {
+                if j < pb {
+                    cur.fit.jac[(i, j)]
+                } else {
+                    cols[j - pb][i]
+                }
+            });
+            // r ≈ X β: the residual explained by readjusted base parameters plus the effect.
+            let (res, _) = regress(&x, r0);
+            let (res0, _) = regress(&cur.fit.jac, r0);
+            delta_bic(&res0, &res, k, cols.len())
+        })
+        .collect()
+}
+
+/// Refit the current model plus effect `e` on the training part; compute its ΔBIC, parameter and
+/// magnitude intervals and held-out error. Returns the candidate, its fit and its full-trace
+/// weighted residual.
+fn refit<S: Simulator + ?Sized>(
+    ctx: &Ctx<'_, S>,
+    cur: &FitOut,
+    e: usize,
+    score: f64,
+    cur_full_r: &[f64],
+) -> Result<(Candidate, FitOut, Vec<f64>), String> {
+    let n = ctx.n_train;
+    let k = ctx.out_idx.len();
+    let eff = &ctx.effects[e];
+    let f = fit_state(ctx, &cur.state, Some(e), &eff.params, n, 25)?;
+    let dbic = delta_bic(&cur.fit.residuals, &f.fit.residuals, k, eff.params.len());
+    let scale = row_scale(&f.fit.residuals, k);
+    let all_est = estimates(&ctx.params, &f.state.idx, &f.fit, &f.bounds, &scale, n);
+    let parameters: BTreeMap<String, Estimate> = eff
+        .params
+        .iter()
+        .filter_map(|&i| {
+            all_est
+                .get(&ctx.params[i].name)
+                .map(|v| (ctx.params[i].name.clone(), v.clone()))
+        })
+        .collect();
+    // Magnitude: y(a) = y_off + a (y_on − y_off), a = 1 at the fit; interval with the base
+    // parameters free.
+    let mut off_state = f.state.clone();
+    off_state.named.retain(|&x| x != e);
+    off_state.idx.truncate(cur.state.idx.len());
+    off_state.val.truncate(cur.state.idx.len());
+    let y_off = ctx.measured_outputs(&ctx.settings(&off_state, None, &[]), n)?;
+    let r_on = &f.fit.residuals;
+    let mut d = Vec::with_capacity(n * k);
+    for j in 0..k {
+        d.extend((0..n).map(|i| r_on[j * n + i] - (y_off[j][i] - ctx.meas[j][i]) / ctx.sigma[j]));
+    }
+    let pb = cur.state.idx.len();
+    let x = DMatrix::from_fn(
+        n * k,
+        pb + 1,
+        |i, j| if j < pb { f.fit.jac[(i, j)] } else { d[i] },
+    );
+    let magnitude = covariance(&x, &scale, n).map(|c| {
+        let sd = c[(pb, pb)].max(0.0).sqrt();
+        Estimate {
+            value: 1.0,
+            ci_low: 1.0 - Z95 * sd,
+            ci_high: 1.0 + Z95 * sd,
+            unit: "1".into(),
+            start: 0.0,
+        }
+    });
+    // Held-out part.
+    let full = ctx.measured_outputs(&ctx.settings(&f.state, None, &[]), ctx.n)?;
+    let r_full = ctx.residual(&full, ctx.n);
+    let nn = ctx.n;
+    let hold = |r: &[f64]| -> f64 {
+        (0..k)
+            .map(|j| {
+                r[j * nn + ctx.n_train..(j + 1) * nn]
+                    .iter()
+                    .map(|v| v * v)
+                    .sum::<f64>()
+            })
+            .sum()
+    };
+    let (hw, hwo) = if ctx.n_train < nn {
+        (Some(hold(&r_full)), Some(hold(cur_full_r)))
+    } else {
+        (None, None)
+    };
+    Ok((
+        Candidate {
+            effect: eff.name.clone(),
+            delta_bic: dbic,
+            score,
+            refit: true,
+            parameters,
+            magnitude,
+            holdout_sse_without: hwo,
+            holdout_sse_with: hw,
+            named: false,
+            verdict: String::new(),
+        },
+        f,
+        r_full,
+    ))
+}
