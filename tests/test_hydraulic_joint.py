@@ -246,7 +246,7 @@ def test_calibration_tags(md):
     assert tagged == ["bulk_modulus", "link_damping", "load_mass", "valve_flow_scale"]
 
 
-VIS_T, VIS_DT = 1.2, 5e-3
+VIS_T, VIS_DT = 1.2, 1e-3
 
 
 @pytest.fixture(scope="module")

@@ -75,7 +75,7 @@ DEFAULTS = {
     "internal_leakage.coefficient": 5e-13,
     "cable_friction.enabled": False,
     "cable_friction.mu": 0.1,
-    "cable_friction.wrap_angle": 3.14,
+    "cable_friction.wrap_angle": 3.0,
     "entrained_air.enabled": False,
     "entrained_air.fraction": 0.02,
     "entrained_air.polytropic_index": 1.2,

@@ -73,7 +73,7 @@ fn main() {
             let mut best = (0usize, f64::INFINITY);
             for s in 0..400 {
                 let mut e = 0.0;
-                for k in 0..(1500) {
+                for k in 0..1500 {
                     let d = th[k + s] - rf[k];
                     e += d * d;
                 }

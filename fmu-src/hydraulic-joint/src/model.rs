@@ -279,3 +279,103 @@ impl Model for HydraulicJoint {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::physics::free_piston_slopes;
+
+    fn defaults() -> Vec<f64> {
+        VARIABLES.iter().map(|v| v.start).collect()
+    }
+
+    #[test]
+    fn controller_slopes_are_the_closed_form_fig6_slopes() {
+        let p = read_params(&defaults());
+        let (ke, kr) =
+            free_piston_slopes(p.piston_area, p.annulus_area, p.supply_pressure, 0.0, &p.c);
+        assert!((p.ctrl.slope_extend / ke - 1.0).abs() < 2e-3, "{ke}");
+        assert!((p.ctrl.slope_retract / kr - 1.0).abs() < 2e-3, "{kr}");
+    }
+
+    #[test]
+    fn rest_is_an_exact_equilibrium() {
+        let p = read_params(&defaults());
+        let d = p.derive().unwrap();
+        let y = p.rest_state(&d, [0.0; 2]);
+        let plant = Plant {
+            p: &p,
+            d: &d,
+            u: [0.0; 2],
+            tau_ext: 0.0,
+        };
+        let mut dy = vec![0.0; d.dim];
+        plant.eval(&y, &mut dy);
+        for (i, v) in dy.iter().enumerate() {
+            assert!(v.abs() < 1e-9, "component {i}: {v}");
+        }
+    }
+
+    #[test]
+    fn serialized_state_continues_bit_identically() {
+        let mut vars = defaults();
+        let mut m = HydraulicJoint::new();
+        m.initialize(&mut vars, 0.0).unwrap();
+        let mut t = 0.0;
+        for k in 0..300 {
+            vars[V::THETA_REF as usize] = 0.5 * (k as f64 * 1e-3).min(0.2);
+            m.do_step(&mut vars, t, 1e-3).unwrap();
+            t += 1e-3;
+        }
+        let bytes = bincode::serialize(&m).unwrap();
+        let mut copy: HydraulicJoint = bincode::deserialize(&bytes).unwrap();
+        let mut vars2 = vars.clone();
+        for _ in 0..200 {
+            m.do_step(&mut vars, t, 1e-3).unwrap();
+            copy.do_step(&mut vars2, t, 1e-3).unwrap();
+            t += 1e-3;
+        }
+        assert_eq!(vars, vars2);
+        assert!(vars[V::THETA as usize] > 0.05);
+    }
+
+    #[test]
+    fn ill_posed_parameters_are_named() {
+        for (v, x, name) in [
+            (V::ANNULUS_AREA, 3e-4, "annulus_area"),
+            (V::RETURN_PRESSURE, 2e7, "return_pressure"),
+        ] {
+            let mut vars = defaults();
+            vars[v as usize] = x;
+            let err = HydraulicJoint::new()
+                .initialize(&mut vars, 0.0)
+                .unwrap_err();
+            assert!(err.contains(name), "{err}");
+        }
+        let mut vars = defaults();
+        vars[V::SUPPLY_PRESSURE as usize] = 1e6;
+        vars[V::SPRING_PRETENSION as usize] = 1000.0;
+        let err = HydraulicJoint::new()
+            .initialize(&mut vars, 0.0)
+            .unwrap_err();
+        assert!(err.contains("spring_pretension"), "{err}");
+    }
+
+    #[test]
+    fn samples_hit_exactly_whatever_the_communication_step() {
+        // a sample at 1/40 s must see the state there: 7 ms steps vs 1 ms steps agree closely
+        let run = |h: f64, n: usize| {
+            let mut vars = defaults();
+            vars[V::THETA_REF as usize] = 0.2;
+            let mut m = HydraulicJoint::new();
+            m.initialize(&mut vars, 0.0).unwrap();
+            for k in 0..n {
+                m.do_step(&mut vars, k as f64 * h, h).unwrap();
+            }
+            vars[V::THETA as usize]
+        };
+        let a = run(1e-3, 280);
+        let b = run(7e-3, 40);
+        assert!((a - b).abs() < 1e-6 * a.abs().max(1e-3), "{a} {b}");
+    }
+}

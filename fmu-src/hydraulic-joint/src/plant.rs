@@ -213,11 +213,13 @@ impl Params {
         y
     }
 
-    /// Absolute tolerance per state: `atol * nominal_i` with nominal scales theta 1 rad,
-    /// omega 1 rad/s, x 0.01 m, v 0.1 m/s, pressures 1e6 Pa, spool 1 V and 1e3 V/s.
+    /// Absolute tolerance per state: `atol * nominal_i` with nominal scales theta 0.01 rad,
+    /// omega 0.01 rad/s, x 1 mm, v 1 mm/s, pressures 1e5 Pa, spool 0.01 V and 10 V/s: the
+    /// resolution at which the outputs are compared (speeds near zero during stiction need a
+    /// tight absolute tolerance).
     pub fn atol_vector(&self, dim: usize) -> Vec<f64> {
         let nominal = [
-            1.0, 1.0, 0.01, 0.1, 1e6, 1e6, 0.01, 0.1, 1e6, 1e6, 1.0, 1e3, 1.0, 1e3,
+            0.01, 0.01, 1e-3, 1e-3, 1e5, 1e5, 1e-3, 1e-3, 1e5, 1e5, 0.01, 10.0, 0.01, 10.0,
         ];
         nominal[..dim].iter().map(|n| n * self.atol).collect()
     }
