@@ -1,0 +1,107 @@
+"""Driver of scripts/bench (see there). Prints one line per model:
+`<Model> speedup <N>x (...)`, then the gap workflow lines."""
+import json
+import math
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(REPO / "tests" / "reference"))
+QUICK = "--quick" in sys.argv
+T_END = 2.0 if QUICK else 10.0
+DT = 1e-3
+
+
+def min_jerk(t, amplitude, t0, duration):
+    s = np.clip((t - t0) / duration, 0.0, 1.0)
+    return amplitude * (10 * s**3 - 15 * s**4 + 6 * s**5)
+
+
+def scenario(model):
+    """Inputs (name -> (times, values)) of the benchmark run: a realistic closed-loop task."""
+    t = np.arange(0.0, T_END + DT / 2, DT)
+    if model == "HydraulicJoint":
+        ref = min_jerk(t, math.radians(45), 0.0, 1.0) - min_jerk(t, math.radians(45), T_END / 2, 1.0)
+        return {"theta_ref": (t, ref)}
+    ref = min_jerk(t, 1500.0, 0.0, 1.0) - min_jerk(t, 1000.0, T_END / 2, 1.0)
+    return {"theta_motor_ref": (t, ref)}
+
+
+def run_fmu(model, inputs, out_csv, repeat, rtol):
+    with tempfile.NamedTemporaryFile("w", suffix=".csv", delete=False) as f:
+        names = list(inputs)
+        f.write(",".join(["time"] + names) + "\n")
+        t = inputs[names[0]][0]
+        for k in range(len(t)):
+            f.write(",".join(repr(float(x)) for x in [t[k]] + [inputs[n][1][k] for n in names]) + "\n")
+    cmd = [str(REPO / "target/release/fmu-bench"), str(REPO / f"dist/{model}.fmu"), "--inputs", f.name,
+           "--stop", str(T_END), "--step", str(DT), "--repeat", str(repeat), "--out", str(out_csv),
+           "--set", f"rtol={rtol}"]
+    timing = json.loads(subprocess.run(cmd, check=True, capture_output=True, text=True).stdout)
+    data = np.genfromtxt(out_csv, delimiter=",", names=True)
+    return timing["median_s"], {n: data[n] for n in data.dtype.names if n != "time"}
+
+
+def run_scipy(model, inputs, rtol):
+    if model == "HydraulicJoint":
+        import hydraulic_joint_ref as ref
+        kwargs = {"rtol": rtol, "atol": rtol}
+    else:
+        import twisted_string_ref as ref
+        kwargs = {"rtol": rtol, "atol_scale": rtol}
+    t0 = time.perf_counter()
+    out = ref.simulate({}, inputs, T_END, DT, **kwargs)
+    return time.perf_counter() - t0, out
+
+
+def max_rel_error(result, truth):
+    """Largest |error| over all outputs, relative to each output's range in the truth."""
+    worst, where = 0.0, ""
+    for name, x in truth.items():
+        if name not in result:
+            continue
+        x = np.asarray(x)
+        span = float(np.ptp(x)) or max(1e-12, float(np.max(np.abs(x))))
+        e = float(np.max(np.abs(np.asarray(result[name])[: len(x)] - x))) / span
+        if e > worst:
+            worst, where = e, name
+    return worst, where
+
+
+def bench_model(model):
+    """The FMU's rtol is tightened (1e-6, 1e-7, 1e-8) until its error is no larger than the
+    SciPy peer's, so the speedup is always at equal or better accuracy."""
+    inputs = scenario(model)
+    t_py, out_py = run_scipy(model, inputs, rtol=1e-6)
+    _, truth = run_scipy(model, inputs, rtol=1e-10)
+    e_py, w_py = max_rel_error(out_py, truth)
+    for rtol in (1e-6, 1e-7, 1e-8):
+        with tempfile.TemporaryDirectory() as d:
+            t_fmu, out_fmu = run_fmu(model, inputs, Path(d) / "fmu.csv", 3 if QUICK else 5, rtol)
+        e_fmu, w_fmu = max_rel_error(out_fmu, truth)
+        if e_fmu <= e_py:
+            break
+    verdict = "equal or better accuracy" if e_fmu <= e_py else "LOWER accuracy even at rtol 1e-8"
+    print(f"{model} speedup {t_py / t_fmu:.0f}x (FMU from Rust at rtol {rtol:g}: {t_fmu * 1e3:.1f} ms; "
+          f"SciPy Radau rtol 1e-6: {t_py:.2f} s; {T_END:g} s simulated at {DT * 1e3:g} ms steps; "
+          f"max error vs SciPy rtol 1e-10 relative to range: FMU {e_fmu:.1e} ({w_fmu}), "
+          f"SciPy {e_py:.1e} ({w_py}): {verdict})", flush=True)
+
+
+def bench_gap():
+    script = REPO / "scripts" / "bench_gap.py"
+    if script.exists():
+        subprocess.run([sys.executable, str(script)] + sys.argv[1:], check=True)
+    else:
+        print("gap: scripts/bench_gap.py not present, gap benchmark skipped")
+
+
+if __name__ == "__main__":
+    for m in ("HydraulicJoint", "TwistedString"):
+        bench_model(m)
+    bench_gap()
