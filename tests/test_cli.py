@@ -117,9 +117,10 @@ def test_validate_survives_a_binary_that_crashes_on_a_wrong_call_order(tmp_path)
     r = run("validate", "--json", fmu)
     assert r.returncode == 1, r.stdout + r.stderr
     findings = json.loads(r.stdout)[0]["findings"]
-    assert [f["check"] for f in findings] == ["probe-crash"], findings
-    assert findings[0]["location"] == "probe do-step-before-init"
-    assert "SIGSEGV" in findings[0]["message"]
+    # re-run past each crashing case: both wrong-order calls are reported, nothing else
+    assert [f["check"] for f in findings] == ["probe-crash", "probe-crash"], findings
+    assert [f["location"] for f in findings] == ["probe do-step-before-init", "probe do-step-after-terminate"]
+    assert all("SIGSEGV" in f["message"] for f in findings)
 
 
 def test_validate_usage_errors_exit_2(tmp_path):

@@ -5,6 +5,7 @@
 //! `main` only parses arguments and dispatches: one module per subcommand.
 
 mod common;
+mod gap_cmd;
 mod probe;
 mod simulate;
 mod validate;
@@ -28,6 +29,8 @@ enum Command {
     Simulate(simulate::Args),
     /// Check FMUs against the FMI 2.0 standard (model description and a state-machine probe).
     Validate(validate::Args),
+    /// The gap workflow: calibrate, locate the disagreement, name the missing effect, report.
+    Gap(gap_cmd::Args),
     /// Internal: the state-machine probe of `validate`, run in a child process.
     #[command(name = "__probe", hide = true)]
     Probe(probe::Args),
@@ -38,6 +41,7 @@ fn main() {
     let result = match cli.command {
         Command::Simulate(a) => simulate::run(a),
         Command::Validate(a) => validate::run(a),
+        Command::Gap(a) => gap_cmd::run(a),
         Command::Probe(a) => probe::run(a),
     };
     match result {

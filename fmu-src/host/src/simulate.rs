@@ -15,8 +15,8 @@ pub enum Value {
 }
 
 impl Value {
-    /// Parses `text` for the variable `v`: `true`/`false` (or 1/0) for Booleans, a number
-    /// otherwise.
+    /// Parses `text` for the variable `v`: `true`/`false` (or 1/0) for Booleans, a finite
+    /// number within the variable's min/max otherwise.
     pub fn parse_for(v: &ScalarVariable, text: &str) -> Result<Value> {
         let t = text.trim();
         match v.kind {
@@ -36,6 +36,14 @@ impl Value {
                     return Err(HostError::Request(format!(
                         "'{}': value must be finite, got '{text}'",
                         v.name
+                    )));
+                }
+                if matches!(v.min, Some(lo) if x < lo) || matches!(v.max, Some(hi) if x > hi) {
+                    return Err(HostError::Request(format!(
+                        "'{}' = {x} is outside its range [{}, {}]",
+                        v.name,
+                        v.min.unwrap_or(f64::NEG_INFINITY),
+                        v.max.unwrap_or(f64::INFINITY)
                     )));
                 }
                 Ok(Value::Real(x))
@@ -313,17 +321,35 @@ fn run_on(inst: &mut Instance<'_>, req: &SimulationRequest) -> Result<Simulation
     }
 
     let mut cursor = 0usize;
+    // Real inputs go to the FMU in one fmi2SetReal call per communication point.
+    let real_in_vrs: Vec<u32> = inputs
+        .iter()
+        .filter(|(k, _, _)| *k == VarKind::Real)
+        .map(|&(_, vr, _)| vr)
+        .collect();
+    let mut real_in_buf = vec![0.0; real_in_vrs.len()];
     // All columns share one time axis, so one cursor serves them all.
-    let set_inputs = |inst: &mut Instance<'_>, t: f64, cursor: &mut usize| -> Result<()> {
+    let mut set_inputs = |inst: &mut Instance<'_>, t: f64, cursor: &mut usize| -> Result<()> {
         let mut next = *cursor;
+        let mut ri = 0;
         for &(kind, vr, col) in &inputs {
             next = *cursor;
             let x = interpolate(&series.time, &series.columns[col].1, t, &mut next);
             match kind {
-                VarKind::Real => inst.set_real(&[vr], &[x])?,
-                VarKind::Boolean => inst.set_boolean(&[vr], &[x >= 0.5])?,
-                _ => inst.set_integer(&[vr], &[x.round() as i32])?,
-            };
+                VarKind::Real => {
+                    real_in_buf[ri] = x;
+                    ri += 1;
+                }
+                VarKind::Boolean => {
+                    inst.set_boolean(&[vr], &[x >= 0.5])?;
+                }
+                _ => {
+                    inst.set_integer(&[vr], &[x.round() as i32])?;
+                }
+            }
+        }
+        if !real_in_vrs.is_empty() {
+            inst.set_real(&real_in_vrs, &real_in_buf)?;
         }
         *cursor = next;
         Ok(())

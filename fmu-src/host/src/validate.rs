@@ -732,6 +732,8 @@ pub const PROBE_CASES: &[&str] = &[
     "nan-input",
     "nan-parameter",
     "fixed-parameter-after-init",
+    "wrong-type",
+    "do-step-after-terminate",
 ];
 
 /// The state-machine probe. `step` is called with the name of each case (see [`PROBE_CASES`])
@@ -931,6 +933,36 @@ pub fn probe(fmu: &Fmu, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding> {
             },
         );
     }
+    // fmi2SetBoolean on a Real variable (value references are per type: only when no Boolean
+    // variable uses the same number).
+    let bool_vrs: BTreeSet<u32> = md
+        .model_variables
+        .iter()
+        .filter(|v| v.kind == VarKind::Boolean)
+        .map(|v| v.value_reference)
+        .collect();
+    let untyped = |v: &&ScalarVariable| !bool_vrs.contains(&v.value_reference);
+    let target = real_input
+        .filter(untyped)
+        .map(|v| (v, false))
+        .or_else(|| real_param.filter(untyped).map(|v| (v, true)));
+    if let Some((v, before_init)) = target {
+        let vr = v.value_reference;
+        let what = format!("fmi2SetBoolean on Real variable '{}'", v.name);
+        case("wrong-type", &what, before_init, &mut |i| {
+            i.set_boolean(&[vr], &[true])
+        });
+    }
+    case(
+        "do-step-after-terminate",
+        "fmi2DoStep after fmi2Terminate",
+        false,
+        &mut |i| {
+            i.terminate()
+                .map_err(|e| HostError::Request(format!("fmi2Terminate failed: {e}")))?;
+            i.do_step(t0, h, true)
+        },
+    );
     f
 }
 

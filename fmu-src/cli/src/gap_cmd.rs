@@ -1,0 +1,140 @@
+//! `actuator-fmu gap FMU --data measured.csv --out DIR [--fit NAME,...] [--effects a,b]
+//! [--rounds N] [--set NAME=VALUE ...]`: the gap workflow of issue 7 (crate `gap`).
+
+use crate::common::{parse_sets, CliError, CliResult};
+use gap::fmu::FmuSimulator;
+use gap::{Config, Data, GapError};
+use host::csv::{read_csv, CsvError};
+use host::{Fmu, Value};
+use std::path::PathBuf;
+
+/// Arguments of `gap`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// The FMU (.fmu file or extracted directory).
+    pub fmu: PathBuf,
+    /// Measured CSV: `time` first, input columns named as FMU inputs (missing inputs keep their
+    /// start value), output columns named as FMU outputs (any subset), SI units.
+    #[arg(long)]
+    pub data: PathBuf,
+    /// Directory for report.json, report.md and the PNG plots.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Base parameters to calibrate (default: those whose description starts with [calibrate]).
+    #[arg(long, value_delimiter = ',')]
+    pub fit: Option<Vec<String>>,
+    /// Candidate effects to consider (default: every `<effect>.enabled` of the FMU).
+    #[arg(long, value_delimiter = ',')]
+    pub effects: Option<Vec<String>>,
+    /// Maximum number of effects to add.
+    #[arg(long, default_value_t = 2)]
+    pub rounds: usize,
+    /// Known setting applied before initialization and never fitted, e.g. `load_mass=2.4` or
+    /// `internal_controller=false`.
+    #[arg(long = "set", value_name = "NAME=VALUE")]
+    pub set: Vec<String>,
+    /// Fraction of the trace held out at its end to check a named effect.
+    #[arg(long, default_value_t = 0.3)]
+    pub holdout: f64,
+    /// No progress display on stderr.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// Runs `gap`.
+pub fn run(a: Args) -> CliResult {
+    let fmu = Fmu::open(&a.fmu).map_err(CliError::input)?;
+    let md = fmu.model_description();
+    let sets = parse_sets(md, &a.set)?;
+    let table = read_csv(&a.data).map_err(CliError::input)?;
+    table.check_against(md).map_err(CliError::input)?;
+    let col = |n: &String| (n.clone(), table.column(n).unwrap_or_default().to_vec());
+    let outputs: Vec<(String, Vec<f64>)> = table.output_columns(md).iter().map(col).collect();
+    if outputs.is_empty() {
+        return Err(CliError::input(CsvError {
+            file: a.data.display().to_string(),
+            line: 1,
+            column: 0,
+            message: format!(
+                "no column is an output of the FMU: nothing to compare (outputs: {})",
+                md.output_names().join(", ")
+            ),
+        }));
+    }
+    if table.time.len() < 20 {
+        return Err(CliError::input(CsvError {
+            file: a.data.display().to_string(),
+            line: table.time.len() + 1,
+            column: 1,
+            message: format!(
+                "{} rows: the gap workflow needs at least 20",
+                table.time.len()
+            ),
+        }));
+    }
+    if !(0.0..0.9).contains(&a.holdout) {
+        return Err(CliError::input(format!(
+            "--holdout {}: must be in [0, 0.9)",
+            a.holdout
+        )));
+    }
+    let data = Data {
+        time: table.time.clone(),
+        inputs: table.input_columns(md).iter().map(col).collect(),
+        outputs,
+    };
+    let fixed = sets
+        .into_iter()
+        .map(|(n, v)| {
+            let x = match v {
+                Value::Real(x) => x,
+                Value::Boolean(b) => f64::from(u8::from(b)),
+            };
+            (n, x)
+        })
+        .collect();
+    let cfg = Config {
+        fit: a.fit.clone(),
+        effects: a.effects.clone(),
+        rounds: a.rounds,
+        fixed,
+        holdout: a.holdout,
+        progress: !a.quiet,
+        ..Config::default()
+    };
+    let sim = FmuSimulator::new(&fmu, &data).map_err(CliError::input)?;
+    let res = gap::run(&sim, &data, &cfg).map_err(|e| match e {
+        GapError::Usage(m) => CliError::input(m),
+        GapError::Simulation(m) => CliError::failure(format!("simulation failed: {m}")),
+    })?;
+    std::fs::create_dir_all(&a.out)
+        .map_err(|e| CliError::failure(format!("{}: {e}", a.out.display())))?;
+    let plots = gap::plots::write(&res, &a.out);
+    let (fmu_s, data_s) = (a.fmu.display().to_string(), a.data.display().to_string());
+    gap::report::write(&res, &a.out, &fmu_s, &data_s, &plots)
+        .map_err(|e| CliError::failure(format!("{}: {e}", a.out.display())))?;
+    println!("{}: {}", a.data.display(), res.verdict);
+    println!(
+        "named: [{}]",
+        res.named
+            .iter()
+            .map(|s| format!("\"{s}\""))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    for (name, o) in &res.outputs {
+        println!(
+            "  {name}: RMSE {:.4e} -> {:.4e} (noise {:.3e}), max {:.4e} -> {:.4e}",
+            o.rmse_before, o.rmse_after, o.noise_sigma, o.max_before, o.max_after
+        );
+    }
+    println!(
+        "time {:.1} s (simulation {:.1} s, fitting {:.1} s, {} simulations); report: {}",
+        res.timing.total_s,
+        res.timing.simulate_s,
+        res.timing.fit_s,
+        res.timing.simulations,
+        a.out.join("report.md").display()
+    );
+    Ok(0)
+}
