@@ -31,6 +31,7 @@ LOADS = (23, 39, 54, 97, 124)
 C1, C2, C3, C4 = 0.0897, 4.7922e-06, -9.5170e-09, 3.2083e-05
 DEG6000 = math.radians(6000.0) * 19.2  # 2010.6 rad of motor angle
 DEG1000 = math.radians(1000.0) * 19.2  # 335.1 rad
+ENCODER_DEG = 360.0 / 4000.0  # one quadrature count of the 1000 CPT encoder
 
 
 def fmpy_input(inputs):
@@ -119,18 +120,25 @@ def test_table2_regression_within_1mm_rms(staircases):
 def test_position_loop_settles_within_band(staircases):
     levels = np.array([0.0] + [DEG1000 * k for k in range(1, 7)])
     for F, rows in staircases.items():
+        e_meas = np.degrees(rows["theta_motor_measured"] - levels)
+        assert np.all(np.abs(e_meas) < 2.0), f"{F} N: errors {e_meas} deg"
         e = np.degrees(rows["theta_motor"] - levels)
-        assert np.all(np.abs(e) < 2.0), f"{F} N: errors {e} deg"
+        assert np.all(np.abs(e) < 2.0 + ENCODER_DEG), f"{F} N: errors {e} deg"
 
 
 def test_position_step_settles_and_stays_in_band():
+    """A twist step of 800 rad and an untwist step back to 400 rad under 97 N: after the move
+    (max speed, then the P tail of time constant 1/8.75 s) the motor stays inside the band."""
     res = sim({"load_mass": 97 / G, "string_compliance.enabled": True},
-              {"theta_motor_ref": ([0, 0.01, 0.01, 1.6, 1.6], [0, 0, 800, 800, 400])}, 3.0)
+              {"theta_motor_ref": ([0, 0.01, 0.01, 2.5, 2.5], [0, 0, 800, 800, 400])}, 4.5)
     t = res["time"]
-    for t0, t1, sp in ((1.3, 1.6, 800.0), (2.7, 3.0, 400.0)):
+    for t0, t1, sp in ((2.2, 2.5, 800.0), (4.2, 4.5, 400.0)):
         m = (t > t0) & (t <= t1)
+        # eq. 20-21 hold for the process variable, the encoder angle (0.09 deg per count)
+        e_meas = np.degrees(res["theta_motor_measured"][m] - sp)
+        assert np.all(np.abs(e_meas) < 2.0), e_meas
         e = np.degrees(res["theta_motor"][m] - sp)
-        assert np.all(np.abs(e) < 2.0), e
+        assert np.all(np.abs(e) < 2.0 + ENCODER_DEG), e
 
 
 def test_average_speed_at_8000rpm():
@@ -146,7 +154,10 @@ def test_average_speed_at_8000rpm():
         k0 = int(np.argmax((t >= 1.5) & (th > DEG1000 + 0.5)))
         k1 = int(np.argmax(th >= DEG6000))
         assert k1 > k0 > 0
-        assert np.max(res["omega_motor"]) <= ref.RPM8000 * 1.01
+        # the speed set point is clamped at 8000 rpm; the speed loop overshoots it briefly
+        assert np.max(res["omega_motor"]) <= ref.RPM8000 * 1.05
+        mean_w = (th[k1] - th[k0]) / (t[k1] - t[k0])
+        assert 0.97 * ref.RPM8000 < mean_w < 1.01 * ref.RPM8000
         v = (p[k0] - p[k1]) / (t[k1] - t[k0]) * 100.0
         speeds.append(v)
         assert 1.35 <= v <= 1.65, f"{F} N: {v:.3f} cm/s"
@@ -233,7 +244,7 @@ def test_stall_beyond_full_twist_is_finite():
         assert np.all(np.isfinite(res[name])), name
     th = res["theta_motor"]
     assert full < th[-1] < 1.1 * full
-    assert 0 < res["p"][-1] < 5e-3
+    assert 0 < res["p"][-1] < 0.25 * 0.0897
     assert abs(res["omega_motor"][-1]) < 1.0
     assert abs(res["current"][-1] - float(VARS["current_limit"].start)) < 0.05
     assert cpu < 2.0, f"stall took {cpu:.2f} s CPU: step size collapsed?"

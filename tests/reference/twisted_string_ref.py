@@ -84,14 +84,23 @@ OUTPUTS = [
 # regularisation widths stated in the documentation
 W_TENSION = 0.01          # N
 W_BACKLASH = 1e-4         # rad (twist)
-P_EFF = 1e-3              # W
+P_EFF = 0.1               # W
 W_COULOMB = 1.0           # rad/s (motor)
 W_HYST = 0.05             # rad/s (twist)
+P_EPS = 1e-3              # m, p regularisation of the string_compliance load law
 
 
 def pos(x, w):
     """Smooth positive part (x + sqrt(x^2 + w^2)) / 2."""
     return 0.5 * (x + math.sqrt(x * x + w * w))
+
+
+def clamp_rate(e, u_raw, limit):
+    """Integrator rate: e, faded to 0 over 1 % beyond the limit when e pushes u further out."""
+    if e * u_raw <= 0:
+        return e
+    frac = (abs(u_raw) - limit) / (0.01 * limit)
+    return e * (1.0 - min(1.0, max(0.0, frac)))
 
 
 class Model:
@@ -147,12 +156,19 @@ class Model:
         Lf, dLf = self.lfree(th_t)
         stretch = L - Lf
         stretch_rate = (p * v + a * ad * w_t) / L - dLf * w_t
-        T = pos(stretch / self.c + self.q["string_damping"] * stretch_rate, W_TENSION)
-        return dict(th_t=th_t, dth=dth, w_t=w_t, a=a, ad=ad, L=L, dLf=dLf, T=T,
-                    FL=T * p / L, Ftau=T * a / L, tauL=T * a * ad / L)
+        x = pos(stretch / self.c + self.q["string_damping"] * stretch_rate, W_TENSION)
+        if self.compl:
+            # eq. 10: elongation a3 * F_L (the load), p regularised with P_EPS near zero
+            qp = math.sqrt(p * p + P_EPS ** 2)
+            FL, T = x * p / qp, x * L / qp
+        else:
+            T = x                      # strand tension from strand stretch
+            FL = T * p / L             # eq. 12/19: F_L = T cos(alpha)
+        return dict(th_t=th_t, dth=dth, w_t=w_t, a=a, ad=ad, L=L, dLf=dLf, T=T, stretch=stretch,
+                    FL=FL, Ftau=T * a / L, tauL=T * a * ad / L)
 
     def controller(self, y, w_ref, volt):
-        """Continuous ESCON speed and current PI with back-calculation anti-windup."""
+        """Continuous ESCON speed and current PI, conditional-integration anti-windup."""
         q = self.q
         if not q["internal_controller"]:
             return volt, 0.0, 0.0
@@ -164,7 +180,7 @@ class Model:
         ei = iref - y[0]
         u_raw = Ki * (ei + y[5] / Ti)
         u = min(max(u_raw, -q["supply_voltage"]), q["supply_voltage"])
-        return u, ei + (u - u_raw) / Ki, ew + (iref - iref_raw) / Kw
+        return u, clamp_rate(ei, u_raw, q["supply_voltage"]), clamp_rate(ew, iref_raw, q["current_limit"])
 
     def deriv(self, y, w_ref, volt, fload):
         q = self.q
@@ -195,26 +211,37 @@ class Model:
         u, _, _ = self.controller(y, w_ref, volt)
         p, a, L = y[3], s["a"], s["L"]
         cos = p / L
+        if self.compl:
+            a3, qp = self.c, math.sqrt(p * p + P_EPS ** 2)
+            # d/dp of F_L = (stretch / a3) p / qp at fixed twist
+            stiff = cos * (p / qp) / a3 + s["stretch"] / a3 * P_EPS ** 2 / qp ** 3
+        else:
+            # d/dp of F_L = (stretch / c) p / L
+            stiff = cos * cos / self.c + s["T"] * a * a / L ** 3
         return {
             "p": p, "theta_motor": y[1], "omega_motor": y[2], "theta_twist": s["th_t"],
             "current": y[0], "tau_motor": q["torque_constant"] * y[0],
             "F_string": s["T"] / q["string_count"], "F_tangential": s["Ftau"],
             "alpha": math.atan2(a, p),
             "transmission_ratio": (L * s["dLf"] - a * s["ad"]) / max(p, 1e-4),
-            "stiffness": cos * cos / self.c + s["T"] * a * a / L ** 3,
+            "stiffness": stiff,
             "F_axial": s["FL"], "v_load": y[4], "voltage_motor": u, "omega_ref": w_ref,
         }
 
     def rest_state(self, fload):
-        """Untwisted equilibrium: pos(x) + k_s c x = m g + F_load + F_0, p0 = L0 + c x."""
+        """Untwisted equilibrium of the load: F_L(p0) = m g + F_load + F_s(p0), p0 = L0 + c x."""
         q = self.q
         b = q["load_mass"] * G + fload + q["spring_preload"]
-        k = q["spring_stiffness"] * self.c
+        def residual(x):
+            p0 = q["string_length"] + self.c * x
+            y = np.array([0.0, 0.0, 0.0, p0, 0.0, 0.0, 0.0])
+            Fs = q["spring_preload"] + q["spring_stiffness"] * (q["string_length"] - p0)
+            return self.strings(y)["FL"] - (q["load_mass"] * G + fload + Fs)
         # bisection (monotone), independent of the Rust Newton iteration
-        lo, hi = -1e6, max(b, 1.0) * 2 + 1.0
+        lo, hi = min(-1.0, 2.0 * b - 1.0), max(b, 1.0) * 2 + 1.0
         for _ in range(300):
             mid = 0.5 * (lo + hi)
-            if pos(mid, W_TENSION) + k * mid - b > 0:
+            if residual(mid) > 0:
                 hi = mid
             else:
                 lo = mid

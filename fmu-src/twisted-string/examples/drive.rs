@@ -9,8 +9,15 @@ fn main() {
     let mut vars: Vec<f64> = VARIABLES.iter().map(|v| v.start).collect();
     for a in args.iter().skip(3) {
         let (k, v) = a.split_once('=').expect("name=value");
-        let idx = VARIABLES.iter().position(|x| x.name == k).expect("unknown variable");
-        vars[idx] = match v { "true" => 1.0, "false" => 0.0, _ => v.parse().unwrap() };
+        let idx = VARIABLES
+            .iter()
+            .position(|x| x.name == k)
+            .expect("unknown variable");
+        vars[idx] = match v {
+            "true" => 1.0,
+            "false" => 0.0,
+            _ => v.parse().unwrap(),
+        };
     }
     let mut m = TwistedString::new();
     m.initialize(&mut vars, 0.0).unwrap();

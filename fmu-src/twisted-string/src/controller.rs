@@ -3,7 +3,7 @@
 //!
 //! Modelling choice (documented in the FMU documentation): the ESCON runs its current loop at
 //! 53.6 kHz and its speed loop at 5.36 kHz, two decades above the mechanical bandwidth; both are
-//! modelled as continuous PI controllers (their integrators are ODE states), with back-calculation
+//! modelled as continuous PI controllers (their integrators are ODE states), with clamping
 //! anti-windup. The position loop runs on the sbRIO and is sampled at `controller_position_period`
 //! (default 1 ms) from the 4x-decoded encoder angle; its output (the speed set point) is held
 //! between samples.
@@ -18,11 +18,21 @@ pub fn pi_output(k: f64, ti: f64, e: f64, z: f64, u_max: f64) -> (f64, f64) {
     (u.clamp(-u_max, u_max), u)
 }
 
-/// Integrator rate with back-calculation anti-windup (tracking time constant = Ti, Astrom &
-/// Hagglund, "Advanced PID control", sec. 3.5): `dz/dt = e + (u_sat - u) / K`.
+/// Width of the fade-out of integration beyond the output limit, relative to the limit.
+pub const CLAMP_FADE: f64 = 0.01;
+
+/// Integrator rate with conditional-integration (clamping) anti-windup: `dz/dt = e (1 - s)`, where
+/// `s` = 0 unless the unsaturated output `u` exceeds the limit and `e` drives it further out
+/// (`e u > 0`); then `s` rises linearly from 0 at `|u| = u_max` to 1 at `|u| = (1 + 0.01) u_max`
+/// (Astrom & Hagglund, "Advanced PID control", sec. 3.5, conditional integration; the linear fade
+/// keeps the right-hand side continuous for the error-controlled solver).
 #[inline]
-pub fn pi_integrator_rate(k: f64, e: f64, u_sat: f64, u: f64) -> f64 {
-    e + (u_sat - u) / k
+pub fn pi_integrator_rate(e: f64, u: f64, u_max: f64) -> f64 {
+    if e * u <= 0.0 {
+        return e;
+    }
+    let s = ((u.abs() - u_max) / (CLAMP_FADE * u_max)).clamp(0.0, 1.0);
+    e * (1.0 - s)
 }
 
 /// Position P controller of the sbRIO with the hysteresis band of eq. 20-21.
@@ -71,17 +81,28 @@ mod tests {
         assert_eq!(u, 3.0);
         assert_eq!(uu, 20.0);
         // unsaturated: plain integral of e
-        assert_eq!(pi_integrator_rate(2.0, 1.5, 3.0, 3.0), 1.5);
-        // saturated: pulled back toward the limit
-        assert!(pi_integrator_rate(2.0, 10.0, 3.0, 20.0) < 10.0);
-        assert!((pi_integrator_rate(2.0, 10.0, 3.0, 20.0) - 1.5).abs() < 1e-15);
+        assert_eq!(pi_integrator_rate(1.5, 2.9, 3.0), 1.5);
+        // saturated and pushing further: stopped
+        assert_eq!(pi_integrator_rate(10.0, 20.0, 3.0), 0.0);
+        // saturated but the error pulls back: integrates
+        assert_eq!(pi_integrator_rate(-1.0, 20.0, 3.0), -1.0);
+        // halfway through the fade
+        assert!((pi_integrator_rate(2.0, 3.015, 3.0) - 1.0).abs() < 1e-12);
+        // continuous at e = 0
+        assert_eq!(pi_integrator_rate(0.0, 20.0, 3.0), 0.0);
     }
 
     #[test]
     fn position_band_and_limit() {
         let band = 2f64.to_radians();
-        assert_eq!(position_loop(10.0, 10.0 - 0.9 * band, 8.75, band, 837.0), 0.0);
-        assert_eq!(position_loop(10.0, 10.0 + 0.9 * band, 8.75, band, 837.0), 0.0);
+        assert_eq!(
+            position_loop(10.0, 10.0 - 0.9 * band, 8.75, band, 837.0),
+            0.0
+        );
+        assert_eq!(
+            position_loop(10.0, 10.0 + 0.9 * band, 8.75, band, 837.0),
+            0.0
+        );
         let w = position_loop(10.0, 10.0 - 1.5 * band, 8.75, band, 837.0);
         assert!((w - 8.75 * 1.5 * band).abs() < 1e-12);
         assert_eq!(position_loop(2011.0, 0.0, 8.75, band, 837.0), 837.0);

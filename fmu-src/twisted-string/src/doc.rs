@@ -52,18 +52,25 @@ L = &radic;(p&sup2; + a&sup2;).</li>
 <li>Unloaded strand length: L<sub>free</sub> = L<sub>0</sub>, or with <code>string_compliance</code>
 L<sub>free</sub> = L<sub>0</sub> + a<sub>1</sub>&theta;<sub>M</sub> + a<sub>2</sub>&theta;<sub>M</sub>&sup2;
 with &theta;<sub>M</sub> = N &theta;<sub>t</sub> (eq. 10, Table 3, motor-referred angle).</li>
-<li>Axial compliance c = a<sub>3</sub> (eq. 10's load term, Table 3) with <code>string_compliance</code>,
-else c = 1/<code>string_stiffness</code> (10<sup>6</sup> N/m: the "ideal inextensible" helix as a stiff
-penalty, 0.12 mm at 124 N). Stretch s = L &minus; L<sub>free</sub>, its rate
-&sdot;s = (p v + a a' &omega;<sub>t</sub>)/L &minus; (dL<sub>free</sub>/d&theta;<sub>t</sub>) &omega;<sub>t</sub>.</li>
-<li>Total strand tension (Kelvin-Voigt, strings cannot push):
-T = pos(s/c + d &sdot;s), d = <code>string_damping</code>, with the smooth positive part
-pos(x) = (x + &radic;(x&sup2;+w&sup2;))/2, w = 0.01 N (slack regularisation; error &le; w/2).</li>
-<li>Eq. 12/19: T = n F<sub>i</sub> = &radic;(F<sub>L</sub>&sup2;+F<sub>&tau;</sub>&sup2;);
-axial force on the load F<sub>L</sub> = T cos&alpha; = T p/L; tangential force
+<li>Stretch s = L &minus; L<sub>free</sub>, its rate
+&sdot;s = (p v + a a' &omega;<sub>t</sub>)/L &minus; (dL<sub>free</sub>/d&theta;<sub>t</sub>) &omega;<sub>t</sub>;
+x = pos(s/c + d &sdot;s) (Kelvin-Voigt, d = <code>string_damping</code>, strings cannot push), with the
+smooth positive part pos(x) = (x + &radic;(x&sup2;+w&sup2;))/2, w = 0.01 N (slack regularisation; error &le; w/2).</li>
+<li><code>string_compliance</code> off (default): x is the total strand tension T of the nearly
+inextensible bundle, c = 1/<code>string_stiffness</code> (10<sup>6</sup> N/m: the "ideal inextensible"
+helix as a stiff penalty, 0.12 mm at 124 N); the load force is F<sub>L</sub> = T cos&alpha; = T p/L.</li>
+<li><code>string_compliance</code> on: eq. 10 makes the elongation a<sub>3</sub> F<sub>L</sub>, proportional to the
+axial <b>load</b> (that is how the paper fitted Table 3), so c = a<sub>3</sub> and x is the load:
+F<sub>L</sub> = x p/q, T = x L/q with q = &radic;(p&sup2; + p<sub>&epsilon;</sub>&sup2;), p<sub>&epsilon;</sub> = 1 mm. For
+p &gg; p<sub>&epsilon;</sub> (the paper's whole range has p &gt; 5 cm: relative effect &lt; 2&middot;10<sup>-4</sup>) this is
+F<sub>L</sub> = (L &minus; L<sub>free</sub>)/a<sub>3</sub>, i.e. exactly eq. 9&ndash;10 at equilibrium; near p = 0 the load
+force fades out as in the strand law, so a stalled motor cannot pull the load through the motor.
+(Applying a<sub>3</sub> to the strand tension T = F<sub>L</sub>/cos&alpha; instead was tried first: it stretches the
+strings 2.2 times more at 6000&deg; and misses Table 2 by 1.65 mm RMS.)</li>
+<li>Eq. 12/19: T = n F<sub>i</sub> = &radic;(F<sub>L</sub>&sup2;+F<sub>&tau;</sub>&sup2;); tangential force
 F<sub>&tau;</sub> = T sin&alpha; = T a/L (eq. 15: F<sub>L</sub>&theta;r/p);
 helix slope &alpha; = atan2(a, p) = acos(F<sub>L</sub>/(n F<sub>i</sub>)).
-Output <code>F_string</code> = T/n (n = <code>string_count</code> = 4).</li>
+Output <code>F_string</code> = T/n (n = <code>string_count</code> = 4), <code>F_axial</code> = F<sub>L</sub>.</li>
 <li>Eq. 13&ndash;14: torque on the twisting shaft &tau;<sub>L</sub> = F<sub>&tau;</sub> a' = T a a'/L
 (= F<sub>L</sub>&theta;r&sup2;/p for constant r). Written with T it stays finite at full twist
 (p &rarr; 0); for a given load F<sub>L</sub> it grows without bound as p &rarr; 0, so the motor stalls
@@ -71,8 +78,9 @@ Output <code>F_string</code> = T/n (n = <code>string_count</code> = 4).</li>
 lengthening without a torque of their own, as in the paper's eq. 13&ndash;16.</li>
 <li>Outputs: <code>transmission_ratio</code> = dp/d&theta;<sub>t</sub> at constant tension
 = (L dL<sub>free</sub>/d&theta;<sub>t</sub> &minus; a a')/max(p, 0.1 mm) (= &minus;&theta;r&sup2;/p, eq. 13);
-<code>stiffness</code> = &part;F<sub>L</sub>/&part;p at fixed twist = (p/L)&sup2;/c + T a&sup2;/L&sup3;
-(falls with twist as cos&sup2;&alpha;, Fig. 19).</li>
+<code>stiffness</code> = &part;F<sub>L</sub>/&part;p at fixed twist (static part): strand law
+(p/L)&sup2;/c + T a&sup2;/L&sup3; (falls as cos&sup2;&alpha;); <code>string_compliance</code> law
+(p/L)(p/q)/a<sub>3</sub> + (s/a<sub>3</sub>) p<sub>&epsilon;</sub>&sup2;/q&sup3; (falls as cos&alpha;). Fig. 19's decrease with twist.</li>
 </ul>
 
 <h2>4. Load, spring, guides</h2>
@@ -90,7 +98,7 @@ d&theta;<sub>m</sub>/dt = &omega;<sub>m</sub> (N. Mohan, Electrical Drives, ref.
 Gearhead: &tau;<sub>in</sub> = f (d&theta;<sub>t</sub>/d&theta;<sub>m</sub>) &tau;<sub>out</sub>,
 &tau;<sub>out</sub> = &tau;<sub>L</sub> (+ strand friction), where f = 1/&eta; when the motor drives
 (P = &tau;<sub>out</sub>&omega;<sub>t</sub> &gt; 0) and &eta; when the load drives, blended smoothly:
-f = (1/&eta;+&eta;)/2 + (1/&eta;&minus;&eta;)/2 tanh(P/1 mW).</p>
+f = (1/&eta;+&eta;)/2 + (1/&eta;&minus;&eta;)/2 tanh(P/0.1 W). The blend width 0.1 W (about 60 rpm of motor speed at the highest loads) is a choice: a sharper switch acts near standstill as a huge damper that, against the slow speed-PI integrator, made the held motor creep for seconds out of the 2&deg; band.</p>
 <table border="1"><tr><th>parameter</th><th>value</th><th>source / rationale</th></tr>
 <tr><td>motor_resistance</td><td>2.32 &Omega;</td><td rowspan="5">maxon RE 25 &empty;25 mm, graphite brushes, 20 W, 24 V winding (order no. 118752 class), maxon catalogue values as recalled; the paper names only "Maxon DC motor (20 W)" [15]. Not checked against a current datasheet: plausible for this class.</td></tr>
 <tr><td>motor_inductance</td><td>0.238 mH</td></tr>
@@ -108,8 +116,11 @@ f = (1/&eta;+&eta;)/2 + (1/&eta;&minus;&eta;)/2 tanh(P/1 mW).</p>
 <p>The ESCON runs the current loop at 53.6 kHz and the speed loop at 5.36 kHz. Both are modelled
 <b>continuous</b> (their integrators are ODE states z<sub>i</sub>, z<sub>&omega;</sub>): their sample
 delays (19 &micro;s, 187 &micro;s) are far below the mechanical time scales, and continuous loops keep
-both the FMU and the SciPy reference fast. PI law u = K(e + z/T<sub>i</sub>), dz/dt = e + (u<sub>sat</sub> &minus; u)/K
-(back-calculation anti-windup, tracking time T<sub>i</sub>).</p>
+both the FMU and the SciPy reference fast. PI law u = K(e + z/T<sub>i</sub>), output clamped to its limit; anti-windup by conditional
+integration (clamping): dz/dt = e(1 &minus; s), s = 0 unless e&middot;u &gt; 0 (the error drives the
+output further out), then s = clamp((|u| &minus; u<sub>max</sub>)/(0.01 u<sub>max</sub>), 0, 1): integration fades
+out over the first 1 % beyond the limit (continuous right-hand side). Back-calculation was tried first
+and let the speed overshoot 8000 rpm by 10 % after a current-limited acceleration.</p>
 <ul>
 <li>Speed PI: e<sub>&omega;</sub> = &omega;<sub>ref</sub> &minus; &omega;<sub>m</sub>, i<sub>ref</sub> saturated at &plusmn;<code>current_limit</code>.
 Table 5 "963" read in &micro;A/rpm: K<sub>&omega;</sub> = 9.196&middot;10<sup>-3</sup> A&middot;s/rad, T<sub>i</sub> = 42 ms
@@ -153,8 +164,8 @@ with twist, paper ref. [13]).</li>
 
 <h2>8. Initial state, numerics</h2>
 <p>At rest, untwisted: i = &theta;<sub>m</sub> = &omega;<sub>m</sub> = v = z = 0 and p<sub>0</sub>
-from T(p<sub>0</sub>) = m g + F<sub>load</sub> + F<sub>s</sub>(p<sub>0</sub>), i.e. x = (p<sub>0</sub> &minus; L<sub>0</sub>)/c solving
-pos(x) + k<sub>s</sub> c x = m g + F<sub>load</sub> + F<sub>0</sub> (Newton). Integrator: the
+from F<sub>L</sub>(p<sub>0</sub>) = m g + F<sub>load</sub> + F<sub>s</sub>(p<sub>0</sub>) at zero twist (a = 0, L = p),
+solved for x = (p<sub>0</sub> &minus; L<sub>0</sub>)/c by Newton. Integrator: the
 workspace's Rosenbrock solver (Rodas5P) with rtol = <code>rtol</code> and absolute tolerances
 atol&middot;nominal: i 1 A, &theta;<sub>m</sub> 1 rad, &omega;<sub>m</sub> 10 rad/s, p 1 cm, v 1 cm/s,
 z<sub>i</sub> 10<sup>-3</sup> A&middot;s, z<sub>&omega;</sub> 1 rad. The step-size history is reset when an input or

@@ -128,7 +128,7 @@ fmi2_export::declare_variables! {
     MOTOR_FRICTION_COULOMB => Variable::parameter("motor_friction.coulomb", 1e-3, "N.m",
         "Coulomb friction torque at the motor shaft").range(2e-4, 5e-3).display("mN.m"),
     MOTOR_FRICTION_VISCOUS => Variable::parameter("motor_friction.viscous", 1e-6, "N.m.s/rad",
-        "Viscous friction at the motor shaft").range(1e-7, 1e-5),
+        "Viscous friction at the motor shaft").range(2e-7, 1e-5),
     GEAR_BACKLASH_ENABLED => Variable::flag("gear_backlash.enabled", false,
         "Backlash of the gearhead: dead zone in the output (twist) angle"),
     GEAR_BACKLASH_ANGLE => Variable::parameter("gear_backlash.angle", 1.0 * std::f64::consts::PI / 180.0, "rad",
@@ -277,10 +277,11 @@ impl TwistedString {
             V::TRANSMISSION_RATIO,
             transmission_ratio(p, aux.l, aux.a, aux.da, aux.dlfree, P_MIN_OUTPUT),
         );
-        set(
-            V::STIFFNESS,
-            axial_stiffness(aux.tension, p, aux.a, aux.l, c),
-        );
+        let k = match q.compliance {
+            Some((_, _, a3)) => axial_stiffness_load_form(aux.stretch, p, aux.l, a3, plant::P_EPS),
+            None => axial_stiffness(aux.tension, p, aux.a, aux.l, c),
+        };
+        set(V::STIFFNESS, k);
         set(V::F_AXIAL, aux.f_axial);
         set(V::V_LOAD, y[ix::V]);
         set(V::VOLTAGE_MOTOR, aux.u);
@@ -334,10 +335,7 @@ impl Model for TwistedString {
         let p0 = plant::rest_position(&par, f_load)?;
         self.y = [0.0; DIM];
         self.y[ix::P] = p0;
-        self.integ = ode::Integrator::new(
-            par.rtol,
-            NOMINAL.iter().map(|n| par.atol * n).collect(),
-        );
+        self.integ = ode::Integrator::new(par.rtol, NOMINAL.iter().map(|n| par.atol * n).collect());
         self.integ.set_max_steps(200_000);
         self.pos = PositionLoop::default();
         self.t0 = start_time;

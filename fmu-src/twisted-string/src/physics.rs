@@ -107,6 +107,28 @@ pub fn string_tension(s: f64, s_dot: f64, c: f64, d: f64, w: f64) -> (f64, f64) 
     smooth_pos(s / c + d * s_dot, w)
 }
 
+/// `string_compliance` (eq. 9-10 as the paper fits them): the elongation is `a3 F_L`, proportional
+/// to the axial LOAD, not to the strand tension. With `x = pos(s / a3 + d s_dot)` the load is
+/// `F_L = x p / q` and the strand tension `T = x L / q` (so `F_L = T p / L`, eq. 12/19), where
+/// `q = sqrt(p^2 + p_eps^2)` regularises p: for p >> p_eps (all of the paper's range, p > 5 cm with
+/// p_eps = 1 mm: relative effect < 2e-4) `F_L = x` exactly as eq. 10, while at p -> 0 the load
+/// force fades out like the strand model's, so a stalled motor cannot pull the load through the
+/// motor and T stays finite. Returns `(T, F_L)`.
+#[inline]
+pub fn load_form_forces(x: f64, p: f64, l: f64, p_eps: f64) -> (f64, f64) {
+    let q = (p * p + p_eps * p_eps).sqrt();
+    (x * l / q, x * p / q)
+}
+
+/// Axial stiffness `dF_L/dp` at fixed twist of the `string_compliance` law
+/// `F_L = (s / a3) p / q` (s = L - L_free, dL/dp = p/L, q = sqrt(p^2 + p_eps^2)):
+/// `k = (p/L)(p/q) / a3 + (s / a3) p_eps^2 / q^3` (falls with twist as cos(alpha) / a3).
+#[inline]
+pub fn axial_stiffness_load_form(s: f64, p: f64, l: f64, a3: f64, p_eps: f64) -> f64 {
+    let q = (p * p + p_eps * p_eps).sqrt();
+    (p / l) * (p / q) / a3 + s / a3 * p_eps * p_eps / (q * q * q)
+}
+
 /// Eq. 12/19: axial force on the load `F_L = T cos(alpha) = T p / L` (T = n F_i).
 #[inline]
 pub fn axial_force(t: f64, p: f64, l: f64) -> f64 {
@@ -137,7 +159,14 @@ pub fn helix_slope(p: f64, a: f64) -> f64 {
 /// `L = L_free(theta) + c T`: `dp/dtheta_t = (L dL_free/dtheta_t - a a') / p` (= -theta r^2 / p
 /// for the inextensible helix). `p` is floored at `p_min` to stay finite at full twist.
 #[inline]
-pub fn transmission_ratio(p: f64, l: f64, a: f64, da: f64, dlfree_dtheta_t: f64, p_min: f64) -> f64 {
+pub fn transmission_ratio(
+    p: f64,
+    l: f64,
+    a: f64,
+    da: f64,
+    dlfree_dtheta_t: f64,
+    p_min: f64,
+) -> f64 {
     (l * dlfree_dtheta_t - a * da) / p.max(p_min)
 }
 
@@ -407,5 +436,28 @@ mod tests {
         assert!((dh_dt - 0.1 * 1.2e-3).abs() < 1e-9);
         let (hn, _, _) = strand_friction(100.0, 1.2e-3, -10.0, 0.1, 0.05);
         assert!((hn + h).abs() < 1e-15);
+    }
+
+    #[test]
+    fn load_form_reproduces_eq10_and_is_finite_at_p0() {
+        // p >> p_eps: F_L = x and T = x L / p (eq. 12: T = F_L / cos(alpha))
+        let (t, fl) = load_form_forces(100.0, 0.065, 0.14, 1e-3);
+        assert!((fl - 100.0).abs() < 0.02);
+        assert!((t - 100.0 * 0.14 / 0.065).abs() < 0.1);
+        assert!((fl / t - 0.065 / 0.14).abs() < 1e-12);
+        let (t0, fl0) = load_form_forces(100.0, 0.0, 0.12, 1e-3);
+        assert_eq!(fl0, 0.0);
+        assert!(t0.is_finite());
+        // stiffness = numerical derivative of F_L(p) = ((L(p) - Lf)/a3) p/q
+        let (a, lf, a3, pe) = (0.1, 0.13, 1.6914e-5, 1e-3);
+        let f = |p: f64| {
+            let l = strand_length(p, a);
+            load_form_forces((l - lf) / a3, p, l, pe).1
+        };
+        let p = 0.08;
+        let l = strand_length(p, a);
+        let fd = (f(p + 1e-8) - f(p - 1e-8)) / 2e-8;
+        let k = axial_stiffness_load_form(l - lf, p, l, a3, pe);
+        assert!((k - fd).abs() < 1e-5 * k, "{k} vs {fd}");
     }
 }

@@ -18,11 +18,13 @@ pub const TENSION_WIDTH: f64 = 1e-2;
 /// Smoothing width of the backlash dead-zone edges [rad of twist].
 pub const BACKLASH_WIDTH: f64 = 1e-4;
 /// Power scale of the gearhead efficiency direction switch [W].
-pub const EFFICIENCY_POWER_WIDTH: f64 = 1e-3;
+pub const EFFICIENCY_POWER_WIDTH: f64 = 0.1;
 /// Speed scale of the Coulomb motor friction [rad/s] (motor shaft).
 pub const FRICTION_SPEED_WIDTH: f64 = 1.0;
 /// Speed scale of the inter-strand friction [rad/s] (twist).
 pub const HYSTERESIS_SPEED_WIDTH: f64 = 0.05;
+/// Regularisation length of p in the `string_compliance` load law [m].
+pub const P_EPS: f64 = 1e-3;
 /// Floor of p in the transmission-ratio output [m].
 pub const P_MIN_OUTPUT: f64 = 1e-4;
 
@@ -111,6 +113,7 @@ pub struct Aux {
     pub da: f64,
     pub l: f64,
     pub dlfree: f64,
+    pub stretch: f64,
     pub tension: f64,
     pub f_axial: f64,
     pub f_tangential: f64,
@@ -150,8 +153,11 @@ impl Plant<'_> {
         let c = q.compliance_c();
         let s = l - lfree;
         let s_dot = (p * v + a * da * omega_t) / l - dlfree * omega_t;
-        let (tension, _) = string_tension(s, s_dot, c, q.string_damping, TENSION_WIDTH);
-        let f_axial = axial_force(tension, p, l);
+        let (x, _) = string_tension(s, s_dot, c, q.string_damping, TENSION_WIDTH);
+        let (tension, f_axial) = match q.compliance {
+            Some(_) => load_form_forces(x, p, l, P_EPS),
+            None => (x, axial_force(x, p, l)),
+        };
         let f_tangential = tangential_force(tension, a, l);
         let mut tau_out = twist_torque(tension, a, da, l);
         if let Some(mu) = q.hysteresis {
@@ -174,8 +180,8 @@ impl Plant<'_> {
             (
                 u,
                 i_ref,
-                pi_integrator_rate(q.current_p, e_i, u, u_u),
-                pi_integrator_rate(q.speed_p, e_w, i_ref, i_ref_u),
+                pi_integrator_rate(e_i, u_u, q.supply_voltage),
+                pi_integrator_rate(e_w, i_ref_u, q.current_limit),
             )
         } else {
             (self.inp.voltage, 0.0, 0.0, 0.0)
@@ -205,6 +211,7 @@ impl Plant<'_> {
             da,
             l,
             dlfree,
+            stretch: s,
             tension,
             f_axial,
             f_tangential,
@@ -230,18 +237,28 @@ impl ode::OdeSystem for Plant<'_> {
 }
 
 /// Consistent initial state at rest, untwisted (issue 10): theta_m = omega = i = 0, controller
-/// integrators 0, and the load hanging in equilibrium `T(p0) = m g + F_ext + F_s(p0)` with
-/// `T = pos((p0 - L0)/c)`; solved in the variable x = (p0 - L0)/c by Newton on the monotone
-/// function `pos(x) + k_s c x - (m g + F_ext + F_0)`. Returns p0.
+/// integrators 0, and the load hanging in equilibrium `F_L(p0) = m g + F_ext + F_s(p0)`. With
+/// x = (p0 - L0)/c the load force is `pos(x) phi(p0)` (phi = 1 for the strand law, p/q for the
+/// `string_compliance` law at zero twist); Newton on the monotone
+/// `g(x) = pos(x) phi(L0 + c x) + k_s c x - (m g + F_ext + F_0)`. Returns p0.
 pub fn rest_position(q: &Params, f_load: f64) -> Result<f64, String> {
     let c = q.compliance_c();
     let b = q.load_mass * GRAVITY + f_load + q.spring_preload;
     let ksc = q.spring_stiffness * c;
+    let phi = |p: f64| -> (f64, f64) {
+        if q.compliance.is_some() {
+            let r = (p * p + P_EPS * P_EPS).sqrt();
+            (p / r, P_EPS * P_EPS / (r * r * r))
+        } else {
+            (1.0, 0.0)
+        }
+    };
     let mut x = b.max(TENSION_WIDTH);
     for _ in 0..200 {
         let (t, dt) = smooth_pos(x, TENSION_WIDTH);
-        let g = t + ksc * x - b;
-        let step = g / (dt + ksc);
+        let (f, df) = phi(q.string_length + c * x);
+        let g = t * f + ksc * x - b;
+        let step = g / (dt * f + t * df * c + ksc);
         x -= step;
         if step.abs() <= 1e-14 * x.abs().max(1.0) {
             break;
@@ -311,7 +328,7 @@ mod tests {
             for (k, d) in aux.dy.iter().enumerate() {
                 assert!(d.abs() < 1e-9, "state {k}: {d}");
             }
-            assert!((aux.tension - (23.0 + 5.0 + 100.0 * (0.0897 - p0))).abs() < 1e-9);
+            assert!((aux.f_axial - (23.0 + 5.0 + 100.0 * (0.0897 - p0))).abs() < 1e-9);
         }
     }
 
