@@ -53,12 +53,30 @@ impl Table {
             .map(|j| self.columns[j].as_slice())
     }
 
-    /// The sample interval: the median of the time differences (None with fewer than 2 rows).
+    /// The sample interval. For a uniform grid (every interval within 1e-6 of the mean) it is
+    /// `(t_last - t_first) / (n - 1)`, snapped to 12 significant digits when that changes it by
+    /// less than 1e-9 relative (so a grid written as `k * 0.001` gives exactly `0.001`, not the
+    /// rounding noise of one difference); otherwise the median interval. None with fewer than
+    /// 2 rows.
     pub fn sample_interval(&self) -> Option<f64> {
-        let mut d: Vec<f64> = self.time.windows(2).map(|w| w[1] - w[0]).collect();
-        if d.is_empty() {
+        let n = self.time.len();
+        if n < 2 {
             return None;
         }
+        let mean = (self.time[n - 1] - self.time[0]) / (n - 1) as f64;
+        let uniform = self
+            .time
+            .windows(2)
+            .all(|w| ((w[1] - w[0]) - mean).abs() <= 1e-6 * mean);
+        if uniform {
+            let snapped: f64 = format!("{mean:.11e}").parse().unwrap_or(mean);
+            return Some(if ((snapped - mean) / mean).abs() < 1e-9 {
+                snapped
+            } else {
+                mean
+            });
+        }
+        let mut d: Vec<f64> = self.time.windows(2).map(|w| w[1] - w[0]).collect();
         d.sort_by(f64::total_cmp);
         Some(d[d.len() / 2])
     }
@@ -335,6 +353,22 @@ mod tests {
         assert_eq!(t.names, vec!["u", "y"]);
         assert_eq!(t.column("y").unwrap(), &[2.0, -2e-3, 3.0]);
         assert_eq!(t.sample_interval(), Some(0.5));
+    }
+
+    #[test]
+    fn sample_interval_of_uniform_and_non_uniform_grids() {
+        // 0.1 * k is not exactly representable: single differences are off by an ulp or so
+        let mut text = String::from("time,u\n");
+        for k in 0..=1000 {
+            text.push_str(&format!("{},0\n", k as f64 * 0.001 + 0.3));
+        }
+        let t = parse_csv(&text, "d.csv").unwrap();
+        assert_ne!(t.time[2] - t.time[1], 0.001);
+        assert_eq!(t.sample_interval(), Some(0.001));
+        let t = parse_csv("time,u\n0,0\n1,0\n3,0\n4,0\n", "d.csv").unwrap();
+        assert_eq!(t.sample_interval(), Some(1.0));
+        let t = parse_csv("time,u\n0,0\n", "d.csv").unwrap();
+        assert_eq!(t.sample_interval(), None);
     }
 
     #[test]

@@ -158,6 +158,10 @@ pub fn communication_points(start: f64, stop: f64, h: f64) -> Result<Vec<f64>> {
 
 /// Linear interpolation of `(xs, ys)` at `x`, holding the end values; `cursor` speeds up
 /// monotone queries (start it at 0).
+///
+/// For `xs[i] < x <= xs[i+1]`: `w0 = (xs[i+1] - x) / (xs[i+1] - xs[i])`,
+/// `y = w0 ys[i] + (1 - w0) ys[i+1]`: the formula of FMPy's `Input.interpolate`, so inputs
+/// reach the FMU bit-identical to an FMPy run on the same table.
 pub fn interpolate(xs: &[f64], ys: &[f64], x: f64, cursor: &mut usize) -> f64 {
     let n = xs.len();
     if n == 0 {
@@ -166,18 +170,20 @@ pub fn interpolate(xs: &[f64], ys: &[f64], x: f64, cursor: &mut usize) -> f64 {
     if x <= xs[0] {
         return ys[0];
     }
-    if x >= xs[n - 1] {
+    if x > xs[n - 1] {
         return ys[n - 1];
     }
-    if *cursor >= n - 1 || xs[*cursor] > x {
+    // Find i with xs[i] < x <= xs[i + 1].
+    if *cursor >= n - 1 || xs[*cursor] >= x {
         *cursor = 0;
     }
-    while *cursor + 1 < n - 1 && xs[*cursor + 1] <= x {
+    while xs[*cursor + 1] < x {
         *cursor += 1;
     }
     let (i, j) = (*cursor, *cursor + 1);
-    let w = (x - xs[i]) / (xs[j] - xs[i]);
-    ys[i] + w * (ys[j] - ys[i])
+    let w0 = (xs[j] - x) / (xs[j] - xs[i]);
+    let w1 = 1.0 - w0;
+    w0 * ys[i] + w1 * ys[j]
 }
 
 /// Variable lookup split by type for one get/set call per type.
