@@ -14,6 +14,7 @@ fn minjerk(t: f64) -> f64 {
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
+    let args = &args;
     let what = args.get(1).map(|s| s.as_str()).unwrap_or("bench");
     match what {
         "bench" => {
@@ -94,6 +95,71 @@ fn main() {
                     th[k].to_degrees()
                 );
             }
+        }
+        "perf" => {
+            for (label, extra) in [
+                ("catch", vec![]),
+                ("catch+seal", vec![(V::SEAL_FRICTION_ENABLED, 1.0)]),
+                ("catch+spool", vec![(V::VALVE_DYNAMICS_ENABLED, 1.0)]),
+                ("open", vec![(V::INTERNAL_CONTROLLER, 0.0)]),
+            ] {
+                if let Some(only) = args.get(2) {
+                    if only != label {
+                        continue;
+                    }
+                }
+                if let Some(only) = args.get(2) {
+                    if only != label {
+                        continue;
+                    }
+                }
+                let mut v = vars0();
+                for (k, x) in &extra {
+                    v[*k as usize] = *x;
+                }
+                let open = v[V::INTERNAL_CONTROLLER as usize] == 0.0;
+                let mut m = HydraulicJoint::new();
+                m.initialize(&mut v, 0.0).unwrap();
+                let t0 = std::time::Instant::now();
+                for k in 0..10_000 {
+                    let t = k as f64 * 1e-3;
+                    if open {
+                        let ph = (t * 2.0) as i64 % 4;
+                        v[V::U_LEFT as usize] = [0.0, 3.0, 0.0, -4.0][ph as usize];
+                        v[V::U_RIGHT as usize] = [0.0, -3.0, 0.0, 4.0][ph as usize];
+                    } else {
+                        v[V::THETA_REF as usize] =
+                            minjerk(t % 5.0) * if t >= 5.0 { -1.0 } else { 1.0 };
+                    }
+                    m.do_step(&mut v, t, 1e-3).unwrap();
+                }
+                println!(
+                    "{label}: 10 s in {:?}, theta {:.3} {:?}",
+                    t0.elapsed(),
+                    v[V::THETA as usize],
+                    m.solver_stats()
+                );
+            }
+        }
+        "rhs" => {
+            use hydraulic_joint::plant::Plant;
+            let v = vars0();
+            let p = hydraulic_joint::model::read_params(&v);
+            let d = p.derive().unwrap();
+            let mut y = p.rest_state(&d, [0.0; 2]);
+            let plant = Plant {
+                p: &p,
+                d: &d,
+                u: [2.0, -2.5],
+                tau_ext: 0.0,
+            };
+            let mut dy = vec![0.0; d.dim];
+            let t0 = std::time::Instant::now();
+            for k in 0..1_000_000 {
+                y[0] = k as f64 * 1e-9;
+                plant.eval(&y, &mut dy);
+            }
+            println!("rhs: {:?} per eval, {}", t0.elapsed() / 1_000_000, dy[1]);
         }
         _ => {}
     }

@@ -194,7 +194,9 @@ atmospheric pressure 101325 Pa. Each keeps the right-hand side continuously diff
 absolute tolerance <code>atol</code> times each state's nominal scale: theta 0.01 rad, omega
 0.01 rad/s, x 1 mm, v 1 mm/s, pressures 1e5 Pa, spool 0.01 V and 10 V/s (tight enough that
 speeds passing through zero under stiction are resolved at the default tolerances). The step-size history is
-forgotten when the held valve commands or the external torque change.</p>
+forgotten when the held valve commands or the external torque change. The Jacobian is analytic
+(chain rule through the laws above; unit-tested against central differences). Cost at defaults:
+about 0.06 s of CPU for 10 s of closed-loop motion at 1 ms communication steps.</p>
 
 <h2>Validation</h2>
 <p><code>tests/reference/hydraulic_joint_ref.py</code> re-implements these equations with SciPy

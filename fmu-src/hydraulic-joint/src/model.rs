@@ -91,6 +91,11 @@ pub fn read_params(vars: &[f64]) -> Params {
 }
 
 impl HydraulicJoint {
+    /// Integrator work counters (None before initialization).
+    pub fn solver_stats(&self) -> Option<&ode::Stats> {
+        self.integrator.as_ref().map(|i| i.stats())
+    }
+
     /// Valve voltages when no controller sample is due: the inputs (open loop) or the held
     /// controller output.
     fn open_loop_commands(vars: &[f64]) -> [f64; 2] {

@@ -45,6 +45,25 @@ pub fn signed_sqrt_reg(dp: f64, p_tr: f64) -> f64 {
     }
 }
 
+/// Derivative of [`signed_sqrt_reg`] with respect to `dp`: `1/(2 sqrt|dp|)` outside,
+/// `(5/4 - 3/4 r^2)/sqrt(p_tr)` inside.
+pub fn signed_sqrt_reg_slope(dp: f64, p_tr: f64) -> f64 {
+    let a = dp.abs();
+    if a >= p_tr {
+        0.5 / a.sqrt()
+    } else {
+        let r = dp / p_tr;
+        (1.25 - 0.75 * r * r) / p_tr.sqrt()
+    }
+}
+
+/// Central difference `(f(x + h) - f(x - h)) / 2h` with `h = 1e-6 max(|x|, scale)`: the slope of
+/// a smooth scalar law for the analytic Jacobian's chain rule.
+pub fn central_slope(f: impl Fn(f64) -> f64, x: f64, scale: f64) -> f64 {
+    let h = 1e-6 * x.abs().max(scale);
+    (f(x + h) - f(x - h)) / (2.0 * h)
+}
+
 /// Orifice flow, paper eq. (13)-(16) with the opening as a magnitude:
 /// `Q = c * a * ssqrt(dp)` [m3/s], `c` [m3 s^-1 V^-1 Pa^-1/2] (Table I), `a >= 0` [V] the
 /// effective spool opening, `dp` [Pa] the pressure drop in the flow direction.
@@ -261,6 +280,15 @@ mod tests {
         assert!(close(s0, 1.25 / p.sqrt(), 1e-9));
         // odd function
         assert_eq!(signed_sqrt_reg(-3e3, p), -signed_sqrt_reg(3e3, p));
+    }
+
+    #[test]
+    fn signed_sqrt_slope_matches_difference() {
+        for dp in [-5e6f64, -2e4, -5e3, -10.0, 0.0, 3e3, 9.99e3, 1e4, 4e6] {
+            let h = 1e-3 * (1.0 + dp.abs() * 1e-6);
+            let fd = (signed_sqrt_reg(dp + h, 1e4) - signed_sqrt_reg(dp - h, 1e4)) / (2.0 * h);
+            assert!(close(signed_sqrt_reg_slope(dp, 1e4), fd, 1e-5), "{dp}");
+        }
     }
 
     #[test]

@@ -374,11 +374,301 @@ impl Plant<'_> {
     }
 }
 
+/// Partial derivatives of one piston's rows and its contribution to the link row.
+#[derive(Clone, Copy, Debug, Default)]
+struct PistonJac {
+    /// d(accel)/d(theta, x, v, p1, p2)
+    a_th: f64,
+    a_x: f64,
+    a_v: f64,
+    a_p1: f64,
+    a_p2: f64,
+    /// d(dp1)/d(x, v, p1, p2, xv) and d(dp2)/d(...)
+    p1_x: f64,
+    p1_v: f64,
+    p1_p1: f64,
+    p1_p2: f64,
+    p1_xv: f64,
+    p2_x: f64,
+    p2_v: f64,
+    p2_p1: f64,
+    p2_p2: f64,
+    p2_xv: f64,
+    /// d(T_joint)/d(theta, omega, x)
+    t_th: f64,
+    t_om: f64,
+    t_x: f64,
+}
+
+impl Plant<'_> {
+    /// Analytic partial derivatives of piston `i` (chain rule through the laws of
+    /// [`crate::physics`]; the slopes of the smooth scalar laws for bulk modulus, seal friction,
+    /// end stops and capstan by central differences).
+    fn piston_jac(&self, i: usize, y: &[f64]) -> PistonJac {
+        let (p, d) = (self.p, self.d);
+        let b = piston(i);
+        let (x, v, p1, p2) = (y[b], y[b + 1], y[b + 2], y[b + 3]);
+        let (theta, omega) = (y[TH], y[OM]);
+        let xv = if d.dim == 14 { y[spool(i)] } else { self.u[i] };
+        let u_eff = dead_band(xv, d.db_low, d.db_high, DEAD_BAND_BLEND);
+        let du = dead_band_slope(xv, d.db_low, d.db_high, DEAD_BAND_BLEND);
+        let (ps, pr, c) = (p.supply_pressure, p.return_pressure, &d.c_eff);
+        let (q1, q2, _) = valve_flows(u_eff, p1, p2, ps, pr, c, P_TRANSITION);
+        // flow partials: (dq1/dp1, dq1/dp2, dq2/dp1, dq2/dp2, dq1/du, dq2/du)
+        let (mut q1p1, mut q1p2, mut q2p1, mut q2p2, q1u, q2u);
+        if u_eff >= 0.0 {
+            q1p1 = -c[0] * u_eff * signed_sqrt_reg_slope(ps - p1, P_TRANSITION);
+            q2p2 = -c[2] * u_eff * signed_sqrt_reg_slope(p2 - pr, P_TRANSITION);
+            q1u = c[0] * signed_sqrt_reg(ps - p1, P_TRANSITION);
+            q2u = -c[2] * signed_sqrt_reg(p2 - pr, P_TRANSITION);
+        } else {
+            let a = -u_eff;
+            q2p2 = -c[1] * a * signed_sqrt_reg_slope(ps - p2, P_TRANSITION);
+            q1p1 = -c[3] * a * signed_sqrt_reg_slope(p1 - pr, P_TRANSITION);
+            q2u = -c[1] * signed_sqrt_reg(ps - p2, P_TRANSITION);
+            q1u = c[3] * signed_sqrt_reg(p1 - pr, P_TRANSITION);
+        }
+        q1p2 = 0.0;
+        q2p1 = 0.0;
+        let (mut q1, mut q2) = (q1, q2);
+        if let Some(c_ip) = p.internal_leakage {
+            let ql = leakage_flow(c_ip, p1, p2);
+            q1 -= ql;
+            q2 += ql;
+            q1p1 -= c_ip;
+            q1p2 += c_ip;
+            q2p1 += c_ip;
+            q2p2 -= c_ip;
+        }
+        let (a1, a2) = (p.piston_area, p.annulus_area);
+        let (v1, v2) = chamber_volumes(x, p.stroke, a1, a2, p.dead_volume_cap, p.dead_volume_rod);
+        let (beta1, beta2, dbeta1, dbeta2) = match p.entrained_air {
+            Some(a) => {
+                let f = |pg: f64| {
+                    effective_bulk_modulus(
+                        p.bulk_modulus,
+                        pg,
+                        a.fraction,
+                        P_ATM,
+                        a.polytropic_index,
+                    )
+                };
+                (
+                    f(p1),
+                    f(p2),
+                    central_slope(f, p1, P_ATM),
+                    central_slope(f, p2, P_ATM),
+                )
+            }
+            None => (p.bulk_modulus, p.bulk_modulus, 0.0, 0.0),
+        };
+        let r1 = q1 - a1 * v;
+        let r2 = q2 + a2 * v;
+        let mut j = PistonJac {
+            p1_p1: dbeta1 / v1 * r1 + beta1 / v1 * q1p1,
+            p1_p2: beta1 / v1 * q1p2,
+            p1_x: -beta1 * r1 * a1 / (v1 * v1),
+            p1_v: -beta1 * a1 / v1,
+            p1_xv: beta1 / v1 * q1u * du,
+            p2_p2: dbeta2 / v2 * r2 + beta2 / v2 * q2p2,
+            p2_p1: beta2 / v2 * q2p1,
+            p2_x: beta2 * r2 * a2 / (v2 * v2),
+            p2_v: beta2 * a2 / v2,
+            p2_xv: beta2 / v2 * q2u * du,
+            a_p1: a1 / p.piston_mass,
+            a_p2: -a2 / p.piston_mass,
+            ..Default::default()
+        };
+        // cable
+        let sgn = if i == 0 { -1.0 } else { 1.0 };
+        let rr = p.pulley_radius;
+        let mut ts_e = 0.0;
+        if p.cables_attached {
+            let e = d.e0 + (x - d.x0) + sgn * rr * theta;
+            let ts = cable_tension(e, p.spring_stiffness, SLACK_BLEND);
+            ts_e = p.spring_stiffness * smooth_pos_slope(e, SLACK_BLEND);
+            let (gain, t_om) = match p.cable_friction {
+                Some(cf) => {
+                    let mp = cf.mu * cf.wrap_angle;
+                    let vs = -sgn * rr * omega;
+                    let g = |v: f64| capstan_joint_tension(1.0, mp, v, CAPSTAN_V_EPS);
+                    (
+                        g(vs),
+                        ts * central_slope(g, vs, CAPSTAN_V_EPS) * (-sgn * rr),
+                    )
+                }
+                None => (1.0, 0.0),
+            };
+            j.t_x = gain * ts_e;
+            j.t_th = gain * ts_e * sgn * rr;
+            j.t_om = t_om;
+        }
+        // piston accel
+        let mut g_v = p.piston_damping;
+        if let Some(sf) = p.seal_friction {
+            let f = |v: f64| {
+                seal_friction(
+                    v,
+                    sf.coulomb,
+                    sf.breakaway_excess,
+                    sf.stribeck_velocity,
+                    sf.viscous,
+                    SEAL_V_EPS,
+                )
+            };
+            g_v += central_slope(f, v, 1e-3 * SEAL_V_EPS);
+        }
+        let (mut stop_x, mut stop_v) = (0.0, 0.0);
+        if x < 0.0 || x > p.stroke {
+            let fx =
+                |xx: f64| end_stop_force(xx, v, p.stroke, STOP_STIFFNESS, STOP_DAMPING, STOP_BLEND);
+            let fv =
+                |vv: f64| end_stop_force(x, vv, p.stroke, STOP_STIFFNESS, STOP_DAMPING, STOP_BLEND);
+            stop_x = central_slope(fx, x, 1e-3 * STOP_BLEND);
+            stop_v = central_slope(fv, v, 1e-3);
+        }
+        let m = p.piston_mass;
+        j.a_x = (-ts_e + stop_x) / m;
+        j.a_th = -ts_e * sgn * rr / m;
+        j.a_v = (-g_v + stop_v) / m;
+        j
+    }
+}
+
 impl ode::OdeSystem for Plant<'_> {
     fn dim(&self) -> usize {
         self.d.dim
     }
     fn rhs(&self, _t: f64, y: &[f64], dydt: &mut [f64]) {
         self.eval(y, dydt);
+    }
+    fn autonomous(&self) -> bool {
+        true
+    }
+    fn jacobian(&self, _t: f64, y: &[f64], jac: &mut nalgebra::DMatrix<f64>) -> bool {
+        jac.fill(0.0);
+        let r = self.p.pulley_radius;
+        let inv_i = 1.0 / self.d.inertia;
+        jac[(TH, OM)] = 1.0;
+        jac[(OM, OM)] = -self.p.link_damping * inv_i;
+        for i in 0..2 {
+            let j = self.piston_jac(i, y);
+            let b = piston(i);
+            // link row: +T_L R - T_R R
+            let s = if i == 0 { r * inv_i } else { -r * inv_i };
+            jac[(OM, TH)] += s * j.t_th;
+            jac[(OM, OM)] += s * j.t_om;
+            jac[(OM, b)] += s * j.t_x;
+            jac[(b, b + 1)] = 1.0;
+            jac[(b + 1, TH)] = j.a_th;
+            jac[(b + 1, b)] = j.a_x;
+            jac[(b + 1, b + 1)] = j.a_v;
+            jac[(b + 1, b + 2)] = j.a_p1;
+            jac[(b + 1, b + 3)] = j.a_p2;
+            jac[(b + 2, b)] = j.p1_x;
+            jac[(b + 2, b + 1)] = j.p1_v;
+            jac[(b + 2, b + 2)] = j.p1_p1;
+            jac[(b + 2, b + 3)] = j.p1_p2;
+            jac[(b + 3, b)] = j.p2_x;
+            jac[(b + 3, b + 1)] = j.p2_v;
+            jac[(b + 3, b + 2)] = j.p2_p1;
+            jac[(b + 3, b + 3)] = j.p2_p2;
+            if let Some(vd) = self.p.valve_dynamics {
+                let sp = spool(i);
+                jac[(b + 2, sp)] = j.p1_xv;
+                jac[(b + 3, sp)] = j.p2_xv;
+                let w = vd.natural_frequency;
+                jac[(sp, sp + 1)] = 1.0;
+                jac[(sp + 1, sp)] = -w * w;
+                jac[(sp + 1, sp + 1)] = -2.0 * vd.damping_ratio * w;
+            }
+        }
+        true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::vars::VARIABLES;
+    use ode::OdeSystem;
+
+    /// The analytic Jacobian against central differences of the right-hand side, at a moving
+    /// state with every effect on (and with all off).
+    #[test]
+    fn analytic_jacobian_matches_differences() {
+        for effects in [false, true] {
+            let vars: Vec<f64> = VARIABLES.iter().map(|v| v.start).collect();
+            let mut p = crate::model::read_params(&vars);
+            if effects {
+                p.seal_friction = Some(SealFriction {
+                    coulomb: 40.0,
+                    breakaway_excess: 30.0,
+                    stribeck_velocity: 0.01,
+                    viscous: 300.0,
+                });
+                p.internal_leakage = Some(5e-13);
+                p.cable_friction = Some(CableFriction {
+                    mu: 0.1,
+                    wrap_angle: 3.0,
+                });
+                p.entrained_air = Some(EntrainedAir {
+                    fraction: 0.02,
+                    polytropic_index: 1.2,
+                });
+                p.valve_dynamics = Some(ValveDynamics {
+                    natural_frequency: 1300.0,
+                    damping_ratio: 0.7,
+                });
+                p.valve_overlap = Some(0.3);
+            }
+            let d = p.derive().unwrap();
+            for (u, yy) in [
+                (
+                    [3.0, -3.5],
+                    [0.1, 0.4, 0.055, 0.02, 6e6, 2e6, 0.045, -0.015, 1e6, 7e6],
+                ),
+                (
+                    [-2.5, 2.2],
+                    [-0.2, -0.3, 0.04, -0.01, 1e6, 8e6, 0.06, 0.012, 5e6, 1e6],
+                ),
+            ] {
+                let mut y: Vec<f64> = yy.to_vec();
+                if d.dim == 14 {
+                    y.extend_from_slice(&[u[0] * 0.9, 50.0, u[1] * 0.8, -40.0]);
+                }
+                let plant = Plant {
+                    p: &p,
+                    d: &d,
+                    u,
+                    tau_ext: 0.5,
+                };
+                let n = d.dim;
+                let mut jac = nalgebra::DMatrix::zeros(n, n);
+                assert!(plant.jacobian(0.0, &y, &mut jac));
+                let nominal = [
+                    1.0, 1.0, 0.01, 0.1, 1e6, 1e6, 0.01, 0.1, 1e6, 1e6, 1.0, 10.0, 1.0, 10.0,
+                ];
+                let (mut fp, mut fm) = (vec![0.0; n], vec![0.0; n]);
+                for j in 0..n {
+                    let h = 1e-7 * nominal[j];
+                    let mut yp = y.clone();
+                    yp[j] += h;
+                    let mut ym = y.clone();
+                    ym[j] -= h;
+                    plant.rhs(0.0, &yp, &mut fp);
+                    plant.rhs(0.0, &ym, &mut fm);
+                    for i in 0..n {
+                        let fd = (fp[i] - fm[i]) / (2.0 * h);
+                        let scale = jac[(i, j)].abs().max(fd.abs()).max(1e-6);
+                        assert!(
+                            (jac[(i, j)] - fd).abs() <= 1e-4 * scale,
+                            "effects {effects} d f{i}/d y{j}: analytic {} fd {fd}",
+                            jac[(i, j)]
+                        );
+                    }
+                }
+            }
+        }
     }
 }
