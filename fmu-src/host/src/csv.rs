@@ -53,32 +53,9 @@ impl Table {
             .map(|j| self.columns[j].as_slice())
     }
 
-    /// The sample interval. For a uniform grid (every interval within 1e-6 of the mean) it is
-    /// `(t_last - t_first) / (n - 1)`, snapped to 12 significant digits when that changes it by
-    /// less than 1e-9 relative (so a grid written as `k * 0.001` gives exactly `0.001`, not the
-    /// rounding noise of one difference); otherwise the median interval. None with fewer than
-    /// 2 rows.
+    /// The sample interval of the `time` column: see [`sample_interval`].
     pub fn sample_interval(&self) -> Option<f64> {
-        let n = self.time.len();
-        if n < 2 {
-            return None;
-        }
-        let mean = (self.time[n - 1] - self.time[0]) / (n - 1) as f64;
-        let uniform = self
-            .time
-            .windows(2)
-            .all(|w| ((w[1] - w[0]) - mean).abs() <= 1e-6 * mean);
-        if uniform {
-            let snapped: f64 = format!("{mean:.11e}").parse().unwrap_or(mean);
-            return Some(if ((snapped - mean) / mean).abs() < 1e-9 {
-                snapped
-            } else {
-                mean
-            });
-        }
-        let mut d: Vec<f64> = self.time.windows(2).map(|w| w[1] - w[0]).collect();
-        d.sort_by(f64::total_cmp);
-        Some(d[d.len() / 2])
+        sample_interval(&self.time)
     }
 
     /// Checks every column against the FMU: each must be an input or an output of it.
@@ -137,6 +114,33 @@ impl Table {
             .cloned()
             .collect()
     }
+}
+
+/// The sample interval of a time grid. For a uniform grid (every interval within 1e-6 of the
+/// mean) it is `(t_last - t_first) / (n - 1)`, snapped to 12 significant digits when that changes it by
+/// less than 1e-9 relative (so a grid written as `k * 0.001` gives exactly `0.001`, not the
+/// rounding noise of one difference); otherwise the median interval. None with fewer than
+/// 2 rows.
+pub fn sample_interval(time: &[f64]) -> Option<f64> {
+    let n = time.len();
+    if n < 2 {
+        return None;
+    }
+    let mean = (time[n - 1] - time[0]) / (n - 1) as f64;
+    let uniform = time
+        .windows(2)
+        .all(|w| ((w[1] - w[0]) - mean).abs() <= 1e-6 * mean);
+    if uniform {
+        let snapped: f64 = format!("{mean:.11e}").parse().unwrap_or(mean);
+        return Some(if ((snapped - mean) / mean).abs() < 1e-9 {
+            snapped
+        } else {
+            mean
+        });
+    }
+    let mut d: Vec<f64> = time.windows(2).map(|w| w[1] - w[0]).collect();
+    d.sort_by(f64::total_cmp);
+    Some(d[d.len() / 2])
 }
 
 /// Reads and parses the CSV at `path`.
