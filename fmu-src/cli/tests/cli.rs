@@ -83,6 +83,32 @@ fn validate_survives_a_binary_that_crashes_on_a_wrong_call_order() {
 }
 
 #[test]
+fn validate_reports_a_binary_that_hangs_as_a_timeout() {
+    let dir = tempfile::tempdir().unwrap();
+    let fmu = common::build_fmu(
+        dir.path(),
+        "Hang",
+        &["-DHANG_ON_WRONG_ORDER"],
+        &common::fixture_md(),
+    );
+    let o = cli(&["validate", "--timeout", "2", s(&fmu)]);
+    let (out, err) = text(&o);
+    assert_eq!(o.status.code(), Some(1), "{out}{err}");
+    let lines: Vec<&str> = out.lines().collect();
+    assert_eq!(lines.len(), 3, "{out}");
+    assert!(
+        lines[0].contains(
+            "[probe-timeout] probe do-step-before-init: the FMU did not return within 2 s"
+        ),
+        "{out}"
+    );
+    assert!(
+        lines[1].contains("[probe-timeout] probe do-step-after-terminate"),
+        "{out}"
+    );
+}
+
+#[test]
 fn validate_lists_every_finding_of_a_lax_fmu_and_usage_errors_exit_2() {
     let dir = tempfile::tempdir().unwrap();
     let fmu = common::build_fmu(
