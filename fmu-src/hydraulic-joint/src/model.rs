@@ -249,6 +249,11 @@ impl Model for HydraulicJoint {
         let tau = vars[V::TAU_EXT as usize];
         let theta_ref = vars[V::THETA_REF as usize];
         let t_end = t + h;
+        if !(h.is_finite() && h >= 0.0 && t.is_finite() && t_end.is_finite()) {
+            return Err(format!(
+                "HydraulicJoint: invalid communication step t = {t}, h = {h}"
+            ));
+        }
         if !internal {
             self.hold(Self::open_loop_commands(vars), tau);
             self.advance(t, t_end)?;
@@ -259,11 +264,20 @@ impl Model for HydraulicJoint {
             let sample_time = |k: u64| t0 + k as f64 * ts;
             let mut tc = t;
             let mut u = self.u_held;
-            // samples due at (or before, within rounding) the start of the step
-            while sample_time(self.next_sample) <= t + tol {
+            if h * ctrl.rate > 1e6 {
+                return Err(format!(
+                    "HydraulicJoint: communication step {h} s spans more than 1e6 samples of the \
+                     {} Hz controller; use smaller steps",
+                    ctrl.rate
+                ));
+            }
+            // samples due at (or before, within rounding) the start of the step: one update at
+            // t uses the state there, however many sample instants lie at or before t
+            if sample_time(self.next_sample) <= t + tol {
                 let (l, r) = controller_update(theta_ref, self.y[TH], &ctrl);
                 u = [l, r];
-                self.next_sample += 1;
+                let due = ((t + tol - t0) / ts).floor().max(0.0) as u64;
+                self.next_sample = due.max(self.next_sample) + 1;
             }
             self.hold(u, tau);
             loop {
