@@ -23,6 +23,9 @@ pub const RPM8000: f64 = 8000.0 * std::f64::consts::PI / 30.0;
 /// per degree of twist error, `K = 0.0035 * 837.758 rad/s * (180/pi) / 19.2` per rad of motor
 /// angle = 8.7501 1/s.
 pub const POSITION_P_SI: f64 = 0.0035 * RPM8000 * (180.0 / std::f64::consts::PI) / 19.2;
+/// Largest number of position-loop samples one `fmi2DoStep` may span (keeps a huge step from
+/// hanging the importer: it is refused with a message instead).
+pub const MAX_SAMPLES_PER_STEP: f64 = 2e5;
 /// Speed P gain of Table 5 (963) read as uA/rpm: 963e-6 A/rpm * 60/(2 pi) = 9.196e-3 A.s/rad.
 pub const SPEED_P_SI: f64 = 963e-6 * 30.0 / std::f64::consts::PI;
 
@@ -356,6 +359,13 @@ impl Model for TwistedString {
         }
         let t_end = t + h;
         let ts = self.par.position_period;
+        if self.par.internal_controller && !(h / ts <= MAX_SAMPLES_PER_STEP) {
+            return Err(format!(
+                "communication step {h} s spans {:.3e} samples of the position loop \
+                 (controller_position_period = {ts} s); at most {MAX_SAMPLES_PER_STEP:e} per step",
+                h / ts
+            ));
+        }
         let eps = 1e-6 * ts;
         let mut tc = t;
         loop {
