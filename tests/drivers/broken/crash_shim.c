@@ -1,0 +1,121 @@
+/* A deliberately broken FMU binary for tests/test_conformance_validate.py (issue 8 item 8): it
+ * forwards every FMI 2.0 call to the real binary of the FMU (renamed to real_<id>.so next to it)
+ * but dereferences NULL when fmi2DoStep is called on an instance that is not initialized (before
+ * fmi2ExitInitializationMode, or after fmi2Terminate/fmi2Reset): a crash on a wrong call order.
+ * Build: gcc -shared -fPIC -DMODEL_ID=\"Oscillator\" -o Oscillator.so crash_shim.c -ldl */
+#define _GNU_SOURCE
+#include <dlfcn.h>
+#include <libgen.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#ifndef MODEL_ID
+#error "define MODEL_ID"
+#endif
+
+typedef void *C;
+typedef unsigned int VR;
+typedef int S;
+
+static void *real(void) {
+    static void *lib;
+    if (!lib) {
+        Dl_info info;
+        char path[4096], dir[4096];
+        dladdr((void *)&real, &info);
+        snprintf(dir, sizeof dir, "%s", info.dli_fname);
+        snprintf(path, sizeof path, "%s/real_" MODEL_ID ".so", dirname(dir));
+        lib = dlopen(path, RTLD_NOW | RTLD_LOCAL);
+        if (!lib) abort();
+    }
+    return lib;
+}
+
+#define FWD(ret, name, params, args)                         \
+    ret name params {                                        \
+        static ret(*fp_) params;                             \
+        if (!fp_) *(void **)&fp_ = dlsym(real(), #name);       \
+        return fp_ args;                                     \
+    }
+
+/* instances that are initialized (may step) */
+static C ready[256];
+static void mark(C c, int on) {
+    for (int i = 0; i < 256; i++) {
+        if (on && ready[i] == NULL) { ready[i] = c; return; }
+        if (!on && ready[i] == c) ready[i] = NULL;
+    }
+}
+static int is_ready(C c) {
+    for (int i = 0; i < 256; i++) if (c && ready[i] == c) return 1;
+    return 0;
+}
+
+FWD(const char *, fmi2GetTypesPlatform, (void), ())
+FWD(const char *, fmi2GetVersion, (void), ())
+FWD(S, fmi2SetDebugLogging, (C c, int on, size_t n, const char *const *cat), (c, on, n, cat))
+FWD(C, fmi2Instantiate, (const char *a, int b, const char *d, const char *e, const void *f, int g, int h), (a, b, d, e, f, g, h))
+FWD(S, fmi2SetupExperiment, (C c, int a, double b, double d, int e, double f), (c, a, b, d, e, f))
+FWD(S, fmi2EnterInitializationMode, (C c), (c))
+FWD(S, fmi2GetReal, (C c, const VR *v, size_t n, double *x), (c, v, n, x))
+FWD(S, fmi2GetInteger, (C c, const VR *v, size_t n, int *x), (c, v, n, x))
+FWD(S, fmi2GetBoolean, (C c, const VR *v, size_t n, int *x), (c, v, n, x))
+FWD(S, fmi2GetString, (C c, const VR *v, size_t n, const char **x), (c, v, n, x))
+FWD(S, fmi2SetReal, (C c, const VR *v, size_t n, const double *x), (c, v, n, x))
+FWD(S, fmi2SetInteger, (C c, const VR *v, size_t n, const int *x), (c, v, n, x))
+FWD(S, fmi2SetBoolean, (C c, const VR *v, size_t n, const int *x), (c, v, n, x))
+FWD(S, fmi2SetString, (C c, const VR *v, size_t n, const char *const *x), (c, v, n, x))
+FWD(S, fmi2GetFMUstate, (C c, void **s), (c, s))
+FWD(S, fmi2FreeFMUstate, (C c, void **s), (c, s))
+FWD(S, fmi2SerializedFMUstateSize, (C c, void *s, size_t *n), (c, s, n))
+FWD(S, fmi2SerializeFMUstate, (C c, void *s, char *b, size_t n), (c, s, b, n))
+FWD(S, fmi2DeSerializeFMUstate, (C c, const char *b, size_t n, void **s), (c, b, n, s))
+FWD(S, fmi2GetDirectionalDerivative, (C c, const VR *a, size_t b, const VR *d, size_t e, const double *f, double *g), (c, a, b, d, e, f, g))
+FWD(S, fmi2SetRealInputDerivatives, (C c, const VR *v, size_t n, const int *o, const double *x), (c, v, n, o, x))
+FWD(S, fmi2GetRealOutputDerivatives, (C c, const VR *v, size_t n, const int *o, double *x), (c, v, n, o, x))
+FWD(S, fmi2CancelStep, (C c), (c))
+FWD(S, fmi2GetStatus, (C c, int k, int *x), (c, k, x))
+FWD(S, fmi2GetRealStatus, (C c, int k, double *x), (c, k, x))
+FWD(S, fmi2GetIntegerStatus, (C c, int k, int *x), (c, k, x))
+FWD(S, fmi2GetBooleanStatus, (C c, int k, int *x), (c, k, x))
+FWD(S, fmi2GetStringStatus, (C c, int k, const char **x), (c, k, x))
+
+static S (*real_exit)(C), (*real_terminate)(C), (*real_reset)(C), (*real_set_state)(C, void *);
+static S (*real_do_step)(C, double, double, int);
+static void (*real_free)(C);
+#define LOAD(var, name) if (!var) *(void **)&var = dlsym(real(), name)
+
+S fmi2ExitInitializationMode(C c) {
+    LOAD(real_exit, "fmi2ExitInitializationMode");
+    S s = real_exit(c);
+    if (s <= 1) mark(c, 1);
+    return s;
+}
+S fmi2Terminate(C c) {
+    LOAD(real_terminate, "fmi2Terminate");
+    mark(c, 0);
+    return real_terminate(c);
+}
+S fmi2Reset(C c) {
+    LOAD(real_reset, "fmi2Reset");
+    mark(c, 0);
+    return real_reset(c);
+}
+S fmi2SetFMUstate(C c, void *s) {
+    LOAD(real_set_state, "fmi2SetFMUstate");
+    return real_set_state(c, s);
+}
+void fmi2FreeInstance(C c) {
+    LOAD(real_free, "fmi2FreeInstance");
+    mark(c, 0);
+    real_free(c);
+}
+S fmi2DoStep(C c, double t, double h, int no_prior) {
+    LOAD(real_do_step, "fmi2DoStep");
+    if (!is_ready(c)) {
+        volatile int *null = NULL;
+        *null = 42; /* the deliberate bug: crash on a wrong call order */
+    }
+    return real_do_step(c, t, h, no_prior);
+}

@@ -1,0 +1,122 @@
+"""Issue 8, item 8: `actuator-fmu validate` catches deliberately broken copies of our FMUs and
+passes the clean ones.
+
+Broken copies are made in a temporary directory:
+- an output removed from <ModelStructure><Outputs> of modelDescription.xml;
+- the binary replaced by tests/drivers/broken/crash_shim.c (compiled here with gcc), which
+  forwards every call to the real binary but dereferences NULL in fmi2DoStep on an instance that
+  is not initialized: correct call sequences still simulate, a wrong call order crashes.
+Each must give exit status 1 with the finding on its own line and in --json; clean FMUs exit 0.
+"""
+import json
+import re
+import shutil
+import subprocess
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+from fmpy import simulate_fmu
+
+from conftest import REPO, cli_path, fmu_path
+
+ALL = ["HydraulicJoint", "TwistedString", "Oscillator"]
+
+
+def validate(*fmus, json_out=False):
+    args = [cli_path(), "validate", *(["--json"] if json_out else []), *map(str, fmus)]
+    return subprocess.run(args, capture_output=True, text=True, timeout=300)
+
+
+def rewrite_fmu(src, dst, replace):
+    """Copy the FMU `src` to `dst`, passing each member's bytes through replace(name, data)
+    (return None to drop the member, or a list of (name, data) to add several)."""
+    with zipfile.ZipFile(src) as zin, zipfile.ZipFile(dst, "w", zipfile.ZIP_DEFLATED) as zout:
+        for info in zin.infolist():
+            out = replace(info.filename, zin.read(info.filename))
+            if out is None:
+                continue
+            if isinstance(out, bytes):
+                out = [(info.filename, out)]
+            for name, data in out:
+                zout.writestr(name, data)
+    return dst
+
+
+def test_clean_fmus_pass_with_exit_0():
+    fmus = [fmu_path(n) for n in ALL]
+    r = validate(*fmus)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert r.stdout.count("OK (no findings)") == 3, r.stdout
+    r = validate(*fmus, json_out=True)
+    assert r.returncode == 0
+    report = json.loads(r.stdout)
+    assert len(report) == 3 and all(entry["findings"] == [] for entry in report), report
+
+
+@pytest.mark.parametrize("name", ALL)
+def test_missing_output_in_model_structure_is_found(name, tmp_path):
+    with zipfile.ZipFile(fmu_path(name)) as z:
+        xml = z.read("modelDescription.xml").decode()
+    names = re.findall(r'<ScalarVariable name="([^"]+)"', xml)
+    outputs = re.search(r"<Outputs>(.*?)</Outputs>", xml, re.S).group(1)
+    indices = re.findall(r'<Unknown index="(\d+)"', outputs)
+    assert len(indices) >= 2
+    victim_index = indices[len(indices) // 2]
+    victim = names[int(victim_index) - 1]
+    pattern = re.compile(rf'\s*<Unknown index="{victim_index}"[^>]*/>')
+    new_outputs, n = pattern.subn("", outputs, count=1)
+    assert n == 1
+    broken_xml = xml.replace(outputs, new_outputs)
+
+    def replace(member, data):
+        return broken_xml.encode() if member == "modelDescription.xml" else data
+
+    broken = rewrite_fmu(fmu_path(name), tmp_path / f"{name}.fmu", replace)
+    r = validate(broken)
+    assert r.returncode == 1, r.stdout + r.stderr
+    lines = [line for line in r.stdout.splitlines() if victim in line]
+    assert lines, f"no finding line names the output '{victim}':\n{r.stdout}"
+    r = validate(broken, json_out=True)
+    assert r.returncode == 1
+    findings = json.loads(r.stdout)[0]["findings"]
+    assert any(victim in f["message"] for f in findings), findings
+
+
+def _crashing_copy(name, tmp_path):
+    if shutil.which("gcc") is None:
+        pytest.skip("gcc not installed")
+    so = tmp_path / f"{name}.so"
+    subprocess.run(["gcc", "-shared", "-fPIC", "-O1", f'-DMODEL_ID="{name}"', "-o", str(so),
+                    str(REPO / "tests" / "drivers" / "broken" / "crash_shim.c"), "-ldl"], check=True)
+    binary = f"binaries/linux64/{name}.so"
+
+    def replace(member, data):
+        if member == binary:
+            return [(binary, so.read_bytes()), (f"binaries/linux64/real_{name}.so", data)]
+        return data
+
+    return rewrite_fmu(fmu_path(name), tmp_path / f"{name}.fmu", replace)
+
+
+@pytest.mark.parametrize("name", ["HydraulicJoint", "Oscillator"])
+def test_binary_crashing_on_wrong_call_order_is_found(name, tmp_path):
+    broken = _crashing_copy(name, tmp_path)
+    # the copy is otherwise sound: a correct call sequence simulates exactly like the original
+    a = simulate_fmu(fmu_path(name), stop_time=0.05, output_interval=1e-3)
+    b = simulate_fmu(str(broken), stop_time=0.05, output_interval=1e-3)
+    for col in a.dtype.names:
+        assert np.array_equal(a[col], b[col]), col
+    r = validate(broken, json_out=True)
+    assert r.returncode == 1, r.stdout + r.stderr
+    findings = json.loads(r.stdout)[0]["findings"]
+    crashes = [f for f in findings if f["check"] == "probe-crash"]
+    assert crashes, findings
+    assert any("do-step" in f["location"] and "SIGSEGV" in f["message"] for f in crashes), crashes
+    r = validate(broken)
+    assert r.returncode == 1
+    assert any("SIGSEGV" in line for line in r.stdout.splitlines()), r.stdout
+    # a clean FMU given alongside is still reported clean
+    r = validate(fmu_path("Oscillator"), broken)
+    assert r.returncode == 1 and "OK (no findings)" in r.stdout
