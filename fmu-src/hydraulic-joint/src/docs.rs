@@ -180,6 +180,10 @@ matched zero-lapped valve, <code>P2 = (Ps + Pr)/2</code>, and <code>P1 = (T0 + P
 <tr><td>link_damping</td><td>3 N m s/rad</td><td>see the tuning section</td></tr>
 <tr><td>spring_stiffness, spring_pretension</td><td>5e4 N/m, 150 N</td><td>a 50 N/mm safety spring; 150 N co-contraction keeps the cables taut up to about 9 N m of torque imbalance</td></tr>
 <tr><td>controller_gain</td><td>0.2</td><td>see the tuning section</td></tr>
+<tr><td>c1..c4, valve_use_mean, valve_flow_scale</td><td>Table I, false, 1</td><td>from the paper (SI reading derived above); the mean is the paper's merged coefficient; the scale is the calibration handle</td></tr>
+<tr><td>valve_deadband_low/high, controller_deadband_low/high</td><td>-1.8 V, 1.5 V</td><td>Fig. 6 (paper text); not calibrated by default</td></tr>
+<tr><td>controller_rate</td><td>40 Hz</td><td>paper sec. V</td></tr>
+<tr><td>rtol, atol</td><td>1e-6, 1e-6</td><td>agree with the Radau reference within 1e-3 of each output's range</td></tr>
 <tr><td>controller_slope_extend / _retract</td><td>0.0509 / 0.0366 m/(s V)</td><td>the closed-form Fig. 6 slopes above, i.e. the curve the controller would have measured on the bench</td></tr>
 </table>
 
