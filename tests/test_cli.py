@@ -63,6 +63,15 @@ def test_validate_passes_every_project_fmu():
     assert r.stdout.count("OK (no findings)") == 3, r.stdout
 
 
+def test_validate_effects_convention_holds_for_both_actuators():
+    """Issue 10: effect switches off by default, effect parameters with unit and min/max, a
+    [calibrate] default set; the test oscillator (no effects, no calibration tags) is caught."""
+    r = run("validate", "--effects", fmu_path("HydraulicJoint"), fmu_path("TwistedString"))
+    assert r.returncode == 0, r.stdout + r.stderr
+    r = run("validate", "--effects", fmu_path("Oscillator"))
+    assert r.returncode == 1 and "[effect-convention]" in r.stdout, r.stdout
+
+
 def test_validate_json_lists_each_fmu():
     r = run("validate", "--json", fmu_path("Oscillator"))
     assert r.returncode == 0, r.stdout + r.stderr

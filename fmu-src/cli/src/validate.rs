@@ -3,7 +3,7 @@
 
 use crate::common::{CliError, CliResult};
 use crate::probe::{FINDINGS_MARK, STEP_MARK};
-use host::validate::{check_files, check_model_description, Finding};
+use host::validate::{check_effect_convention, check_files, check_model_description, Finding};
 use host::{Extracted, HostError};
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -19,6 +19,10 @@ pub struct Args {
     /// Print the findings as JSON on stdout.
     #[arg(long)]
     pub json: bool,
+    /// Also check the candidate-effect convention of the gap workflow (`<effect>.enabled`
+    /// switches, effect parameters with unit and min/max, a `[calibrate]` default set).
+    #[arg(long)]
+    pub effects: bool,
     /// Seconds the state-machine probe of one FMU may take.
     #[arg(long, default_value_t = 120)]
     pub timeout: u64,
@@ -37,7 +41,7 @@ pub fn run(a: Args) -> CliResult {
         if !path.exists() {
             return Err(CliError::input(format!("{}: no such file", path.display())));
         }
-        let findings = validate_one(path, Duration::from_secs(a.timeout))?;
+        let findings = validate_one(path, Duration::from_secs(a.timeout), a.effects)?;
         reports.push(Report {
             fmu: path.display().to_string(),
             findings,
@@ -64,7 +68,7 @@ pub fn run(a: Args) -> CliResult {
     Ok(if total == 0 { 0 } else { 1 })
 }
 
-fn validate_one(path: &Path, timeout: Duration) -> Result<Vec<Finding>, CliError> {
+fn validate_one(path: &Path, timeout: Duration, effects: bool) -> Result<Vec<Finding>, CliError> {
     let ex = match Extracted::open(path) {
         Ok(ex) => ex,
         Err(HostError::Io { path, source }) => {
@@ -83,6 +87,9 @@ fn validate_one(path: &Path, timeout: Duration) -> Result<Vec<Finding>, CliError
         }
     };
     let mut findings = check_model_description(&ex.model_description);
+    if effects {
+        findings.extend(check_effect_convention(&ex.model_description));
+    }
     findings.extend(check_files(&ex));
     let binary_present = ex.binary_path().map(|b| b.is_file()).unwrap_or(false);
     drop(ex);

@@ -665,6 +665,111 @@ fn check_model_structure(md: &ModelDescription, f: &mut Vec<Finding>) {
     }
 }
 
+/// The candidate-effect convention of this project (issues 7 and 10), for FMUs meant for the
+/// gap workflow: each Boolean parameter `<effect>.enabled` is fixed with start false and has at
+/// least one Real parameter `<effect>.<name>`; every such Real parameter is fixed, has a unit,
+/// finite `min < max` and a start inside them; at least one parameter's description starts
+/// with the tag `[calibrate]`.
+pub fn check_effect_convention(md: &ModelDescription) -> Vec<Finding> {
+    let mut f = Vec::new();
+    let params: Vec<&ScalarVariable> = md
+        .model_variables
+        .iter()
+        .filter(|v| v.causality == Causality::Parameter)
+        .collect();
+    let effects: Vec<&ScalarVariable> = params
+        .iter()
+        .copied()
+        .filter(|v| v.name.ends_with(".enabled"))
+        .collect();
+    for e in &effects {
+        let loc = var_loc(e);
+        let prefix = &e.name[..e.name.len() - "enabled".len()];
+        if e.kind != VarKind::Boolean || e.variability != Variability::Fixed {
+            f.push(Finding::new(
+                "effect-convention",
+                &loc,
+                "an effect switch must be a fixed Boolean parameter",
+            ));
+        }
+        if e.start != Some(StartValue::Boolean(false)) {
+            f.push(Finding::new(
+                "effect-convention",
+                &loc,
+                "an effect switch must start false (effect off)",
+            ));
+        }
+        let members: Vec<&&ScalarVariable> = params
+            .iter()
+            .filter(|v| v.name.starts_with(prefix) && v.name != e.name)
+            .collect();
+        if members.is_empty() {
+            f.push(Finding::new(
+                "effect-convention",
+                &loc,
+                format!("no parameter '{prefix}<name>' belongs to this effect"),
+            ));
+        }
+        for v in members {
+            let loc = var_loc(v);
+            if v.kind != VarKind::Real {
+                f.push(Finding::new(
+                    "effect-convention",
+                    &loc,
+                    "an effect parameter must be Real",
+                ));
+                continue;
+            }
+            if v.variability != Variability::Fixed {
+                f.push(Finding::new(
+                    "effect-convention",
+                    &loc,
+                    "an effect parameter must be fixed",
+                ));
+            }
+            if md.effective_unit(v).is_none() {
+                f.push(Finding::new(
+                    "effect-convention",
+                    &loc,
+                    "an effect parameter needs a unit",
+                ));
+            }
+            let (min, max) = effective_range(md, v);
+            match (min, max) {
+                (Some(a), Some(b)) if a.is_finite() && b.is_finite() && a < b => {
+                    if let Some(s) = v.start.as_ref().and_then(StartValue::as_f64) {
+                        if s < a || s > b {
+                            f.push(Finding::new(
+                                "effect-convention",
+                                &loc,
+                                format!("start {s} is outside [{a}, {b}]"),
+                            ));
+                        }
+                    }
+                }
+                _ => f.push(Finding::new(
+                    "effect-convention",
+                    &loc,
+                    "an effect parameter needs finite min < max (the plausible hardware range)",
+                )),
+            }
+        }
+    }
+    let tagged = params.iter().any(|v| {
+        v.description
+            .as_deref()
+            .is_some_and(|d| d.trim_start().starts_with("[calibrate]"))
+    });
+    if !tagged {
+        f.push(Finding::new(
+            "effect-convention",
+            "modelDescription.xml:<ModelVariables>",
+            "no parameter description starts with [calibrate] (the default calibration set)",
+        ));
+    }
+    f
+}
+
 /// File-level checks: the binary for this platform exists under `binaries/linux64/`.
 pub fn check_files(fmu: &Extracted) -> Vec<Finding> {
     let mut f = Vec::new();
@@ -1210,6 +1315,44 @@ mod tests {
         let mut md2 = md.clone();
         md2.model_structure.present = false;
         only(&md2, "model-structure");
+    }
+
+    #[test]
+    fn effect_convention() {
+        let md = ModelDescription::parse(
+            include_str!("../tests/fixtures/modelDescription.xml"),
+            "md.xml",
+        )
+        .unwrap();
+        assert_eq!(check_effect_convention(&md), vec![]);
+        let bad = |from: &str, to: &str| {
+            let xml = include_str!("../tests/fixtures/modelDescription.xml").replace(from, to);
+            assert_ne!(xml, include_str!("../tests/fixtures/modelDescription.xml"));
+            check_effect_convention(&ModelDescription::parse(&xml, "md.xml").unwrap())
+        };
+        let f = bad(
+            r#"<Real start="0.5" min="0.01" max="5" unit="N.s/m"/>"#,
+            r#"<Real start="0.5" min="0.01" unit="N.s/m"/>"#,
+        );
+        assert_eq!(f.len(), 1);
+        assert!(f[0].message.contains("finite min < max"), "{f:?}");
+        let f = bad(
+            r#"<Real start="0.5" min="0.01" max="5" unit="N.s/m"/>"#,
+            r#"<Real start="0.5" min="0.01" max="5"/>"#,
+        );
+        assert_eq!(f[0].message, "an effect parameter needs a unit");
+        let f = bad(r#"<Boolean start="false"/>"#, r#"<Boolean start="true"/>"#);
+        assert_eq!(
+            f[0].message,
+            "an effect switch must start false (effect off)"
+        );
+        let f = bad("[calibrate] spring stiffness", "spring stiffness");
+        assert!(f[0].message.contains("[calibrate]"));
+        let f = bad(r#"name="damping.d""#, r#"name="dampingd""#);
+        assert!(
+            f[0].message.contains("no parameter 'damping.<name>'"),
+            "{f:?}"
+        );
     }
 
     #[test]
