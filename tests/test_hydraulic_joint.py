@@ -313,3 +313,35 @@ def test_reference_defaults_match_model_description(md):
             assert (s in ("true", True, 1, "1")) == v, k
         else:
             assert float(s) == pytest.approx(v, rel=1e-12), k
+
+
+@pytest.mark.parametrize("effect", EFFECTS)
+def test_rest_with_each_effect_on(fmu, effect):
+    """Initialization solves the static equilibrium with the effect on too: nothing moves."""
+    res = run(fmu, {f"{effect}.enabled": True}, None, t_end=1.0, dt=1e-3)
+    assert np.max(np.abs(np.degrees(res["theta"]))) < 0.01
+    for side in ("left", "right"):
+        assert np.max(np.abs(res[f"v_{side}"])) < 1e-6
+
+
+def test_reference_bench_speed_matches_closed_form():
+    """Check of the reference itself against a closed form: a free, undamped piston settles to
+    v = k (u - 1.5 - w/2) with k_ext = sqrt(Ps / (A1^2/c1^2 + alpha A2^2/c3^2)) (documentation,
+    'Why extension is faster'), and k_ret likewise for retraction."""
+    d = ref.DEFAULTS
+    a1, a2 = d["piston_area"], d["annulus_area"]
+    alpha = a2 / a1
+    c1, c2, c3, c4 = d["c1"], d["c2"], d["c3"], d["c4"]
+    ps = d["supply_pressure"]
+    k_ext = math.sqrt(ps / (a1**2 / c1**2 + alpha * a2**2 / c3**2))
+    k_ret = math.sqrt(ps / (a2**2 / c2**2 + a1**3 / (a2 * c4**2)))
+    assert d["controller_slope_extend"] == pytest.approx(k_ext, rel=2e-3)
+    assert d["controller_slope_retract"] == pytest.approx(k_ret, rel=2e-3)
+    w = ref.W_DEADBAND
+    for u, want in ((4.0, k_ext * (4.0 - 1.5 - w / 2)), (-4.0, -k_ret * (4.0 - 1.8 - w / 2))):
+        n = 150  # the undamped free piston rings for about 0.1 s before it settles
+        t = np.arange(n + 1) * 1e-3
+        out = ref.simulate({"internal_controller": False, "cables_attached": False,
+                            "piston_damping": 0.0},
+                           {"u_left": (t, np.full(n + 1, u))}, n * 1e-3, 1e-3, rtol=1e-8, atol=1e-8)
+        assert out["v_left"][-1] == pytest.approx(want, rel=1e-4)
