@@ -152,6 +152,8 @@ pub fn file_uri(path: &Path) -> String {
 /// `canBeInstantiatedOnlyOncePerProcess`).
 pub struct Fmu {
     pub(crate) functions: Functions,
+    /// Instances alive now (for `canBeInstantiatedOnlyOncePerProcess`).
+    pub(crate) live_instances: std::sync::atomic::AtomicUsize,
     // Field order matters: the library is unloaded before the extracted files are removed.
     _library: Library,
     extracted: Extracted,
@@ -184,6 +186,7 @@ impl Fmu {
         })?;
         Ok(Fmu {
             functions,
+            live_instances: std::sync::atomic::AtomicUsize::new(0),
             _library: library,
             extracted,
         })

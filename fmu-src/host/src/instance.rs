@@ -4,6 +4,7 @@ use crate::error::{HostError, LogRecord, Result, Status};
 use crate::ffi::{self, CallbackFunctions, Component, FmuState, LogEnv, LogSink, RawStatus};
 use crate::fmu::Fmu;
 use std::ffi::{c_char, c_int, c_void, CString};
+use std::sync::atomic::Ordering;
 
 /// `fmi2CoSimulation` for fmi2Instantiate's fmuType.
 const FMI2_COSIMULATION: c_int = 1;
@@ -58,6 +59,28 @@ impl Fmu {
 
     /// Instantiates with explicit options.
     pub fn instantiate_with(&self, name: &str, opts: &InstanceOptions) -> Result<Instance<'_>> {
+        let once = self
+            .model_description()
+            .co_simulation
+            .as_ref()
+            .is_some_and(|c| c.can_be_instantiated_only_once_per_process);
+        // Reserve the slot first so that two threads cannot both pass the check.
+        let before = self.live_instances.fetch_add(1, Ordering::SeqCst);
+        let result = if once && before > 0 {
+            Err(HostError::Request(
+                "the FMU declares canBeInstantiatedOnlyOncePerProcess and an instance is alive"
+                    .into(),
+            ))
+        } else {
+            self.instantiate_inner(name, opts)
+        };
+        if result.is_err() {
+            self.live_instances.fetch_sub(1, Ordering::SeqCst);
+        }
+        result
+    }
+
+    fn instantiate_inner(&self, name: &str, opts: &InstanceOptions) -> Result<Instance<'_>> {
         let cname = CString::new(name)
             .map_err(|_| HostError::Request("instance name contains a NUL byte".into()))?;
         let md = self.model_description();
@@ -455,6 +478,7 @@ impl Drop for Instance<'_> {
         }
         // SAFETY: component is live; freed exactly once here.
         unsafe { (self.fmu.functions.free_instance)(self.component) };
+        self.fmu.live_instances.fetch_sub(1, Ordering::SeqCst);
     }
 }
 

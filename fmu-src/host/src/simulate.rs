@@ -200,9 +200,11 @@ fn lookup<'m>(md: &'m ModelDescription, name: &str) -> Result<&'m ScalarVariable
 }
 
 /// Reusable simulation driver: one instance, reset between runs (fmi2Reset), so repeated
-/// simulations (calibration) do not pay for instantiation.
+/// simulations (calibration) do not pay for instantiation. If a reset fails, the instance is
+/// freed and a new one made.
 pub struct Simulator<'a> {
-    instance: Instance<'a>,
+    fmu: &'a Fmu,
+    instance: Option<Instance<'a>>,
     used: bool,
 }
 
@@ -210,28 +212,37 @@ impl<'a> Simulator<'a> {
     /// Instantiates the FMU once.
     pub fn new(fmu: &'a Fmu) -> Result<Self> {
         Ok(Simulator {
-            instance: fmu.instantiate("host")?,
+            fmu,
+            instance: Some(fmu.instantiate("host")?),
             used: false,
         })
     }
 
-    /// The instance (for direct calls between runs).
-    pub fn instance(&mut self) -> &mut Instance<'a> {
-        &mut self.instance
+    /// The instance (for direct calls between runs); None only after a failed re-instantiation.
+    pub fn instance(&mut self) -> Option<&mut Instance<'a>> {
+        self.instance.as_mut()
     }
 
-    /// Runs one simulation. On error the instance is reset before the next run.
+    /// Runs one simulation. After any run the instance is reset before the next.
     pub fn run(&mut self, req: &SimulationRequest) -> Result<SimulationResult> {
         if self.used {
-            if let Err(e) = self.instance.reset() {
-                // A failed reset leaves the instance unusable: make a new one.
-                let fmu = self.instance.fmu();
-                self.instance = fmu.instantiate("host").map_err(|_| e)?;
+            let reset = match self.instance.as_mut() {
+                Some(inst) => inst.reset().map(|_| ()),
+                None => Err(HostError::Request("no instance".into())),
+            };
+            if let Err(e) = reset {
+                // A failed reset leaves the instance unusable: free it, then make a new one.
+                self.instance = None;
+                self.instance = Some(self.fmu.instantiate("host").map_err(|_| e)?);
             }
         }
         self.used = true;
-        let _ = self.instance.take_log();
-        run_on(&mut self.instance, req)
+        let inst = match self.instance.as_mut() {
+            Some(i) => i,
+            None => return Err(HostError::Request("no instance".into())),
+        };
+        let _ = inst.take_log();
+        run_on(inst, req)
     }
 }
 

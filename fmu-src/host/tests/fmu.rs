@@ -345,3 +345,43 @@ fn check_files_reports_a_missing_binary() {
         .to_string()
         .contains("no binary for this platform"));
 }
+
+#[test]
+fn only_once_per_process_is_enforced() {
+    let dir = tempfile::tempdir().unwrap();
+    let md = common::fixture_md().replace(
+        "canNotUseMemoryManagementFunctions=\"true\"",
+        "canNotUseMemoryManagementFunctions=\"true\" canBeInstantiatedOnlyOncePerProcess=\"true\"",
+    );
+    let path = common::build_fmu(dir.path(), "Once", &[], &md);
+    let fmu = Fmu::open(&path).unwrap();
+    let a = fmu.instantiate("a").unwrap();
+    let e = fmu.instantiate("b").err().unwrap().to_string();
+    assert!(e.contains("canBeInstantiatedOnlyOncePerProcess"), "{e}");
+    drop(a);
+    fmu.instantiate("c").unwrap();
+    // the default FMU allows many
+    let (_d, fmu) = dummy();
+    let _x = fmu.instantiate("x").unwrap();
+    let _y = fmu.instantiate("y").unwrap();
+}
+
+#[test]
+fn fmu_is_send_and_sync_and_instance_is_send() {
+    fn send_sync<T: Send + Sync>() {}
+    fn send<T: Send>() {}
+    send_sync::<Fmu>();
+    send::<host::Instance<'static>>();
+}
+
+#[test]
+fn simulator_recovers_after_a_failed_run() {
+    let (_d, fmu) = dummy();
+    let mut sim = Simulator::new(&fmu).unwrap();
+    let mut bad = SimulationRequest::new(0.0, 1.0, 0.01);
+    bad.start_values = vec![("k".into(), Value::Real(0.0))];
+    let e = sim.run(&bad).unwrap_err();
+    assert_eq!(e.status(), Some(Status::Error));
+    let good = SimulationRequest::new(0.0, 1.0, 0.01);
+    assert_eq!(sim.run(&good).unwrap(), simulate(&fmu, &good).unwrap());
+}
