@@ -41,22 +41,27 @@ pub fn run(a: Args) -> CliResult {
             message: e.to_string(),
         }),
         Ok(ex) => {
-            findings.extend(check_symbols(&ex));
+            let symbols = check_symbols(&ex);
+            // A binary that does not load is reported once; there is nothing to probe.
+            let loadable = !symbols.iter().any(|f| f.check == "binary");
+            findings.extend(symbols);
             drop(ex);
-            match Fmu::open(&a.fmu) {
-                Err(e) => findings.push(Finding {
-                    check: "binary".into(),
-                    location: a.fmu.display().to_string(),
-                    message: e.to_string(),
-                }),
-                Ok(fmu) => findings.extend(probe(&fmu, &mut |name| {
-                    if a.skip.iter().any(|s| s == name) {
-                        false
-                    } else {
-                        announce(name);
-                        true
-                    }
-                })),
+            if loadable {
+                match Fmu::open(&a.fmu) {
+                    Err(e) => findings.push(Finding {
+                        check: "binary".into(),
+                        location: a.fmu.display().to_string(),
+                        message: e.to_string(),
+                    }),
+                    Ok(fmu) => findings.extend(probe(&fmu, &mut |name| {
+                        if a.skip.iter().any(|s| s == name) {
+                            false
+                        } else {
+                            announce(name);
+                            true
+                        }
+                    })),
+                }
             }
         }
     }

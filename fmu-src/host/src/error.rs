@@ -130,7 +130,7 @@ pub enum HostError {
     /// The shared library could not be loaded or lacks a required function.
     #[error("{}: {message}", path.display())]
     Binary {
-        /// The shared library.
+        /// The FMU.
         path: PathBuf,
         /// What is wrong.
         message: String,

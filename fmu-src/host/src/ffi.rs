@@ -224,7 +224,15 @@ pub fn missing_symbols(lib: &Library) -> Vec<&'static str> {
 /// # Safety
 /// Loading runs the library's initialisers; the binary must be a trusted FMU.
 pub unsafe fn load_library(path: &Path) -> Result<Library, String> {
-    Library::new(path).map_err(|e| e.to_string())
+    Library::new(path).map_err(|e| {
+        // dlerror() repeats the path: keep only what follows it.
+        let msg = e.to_string();
+        let prefix = format!("{}: ", path.display());
+        match msg.strip_prefix(&prefix) {
+            Some(rest) => format!("cannot be loaded: {rest}"),
+            None => format!("cannot be loaded: {msg}"),
+        }
+    })
 }
 
 /// Resolves the function table; Err names the first missing required function.
@@ -234,7 +242,7 @@ pub unsafe fn load_library(path: &Path) -> Result<Library, String> {
 pub unsafe fn resolve(lib: &Library) -> Result<Functions, String> {
     macro_rules! req {
         ($name:literal) => {
-            sym(lib, $name).ok_or_else(|| format!("binary does not export {}", $name))?
+            sym(lib, $name).ok_or_else(|| format!("does not export {}", $name))?
         };
     }
     Ok(Functions {

@@ -174,16 +174,18 @@ impl Fmu {
                 ),
             });
         }
+        let rel = format!(
+            "binaries/{PLATFORM}/{}",
+            bin.file_name().unwrap_or_default().to_string_lossy()
+        );
+        let bad = |message: String| HostError::Binary {
+            path: extracted.path.clone(),
+            message: format!("{rel} {message}"),
+        };
         // SAFETY: loading an FMU's binary is the purpose of the host; the FMU is trusted.
-        let library = unsafe { ffi::load_library(&bin) }.map_err(|message| HostError::Binary {
-            path: bin.clone(),
-            message,
-        })?;
+        let library = unsafe { ffi::load_library(&bin) }.map_err(bad)?;
         // SAFETY: the symbols are FMI 2.0 functions with the standard signatures.
-        let functions = unsafe { ffi::resolve(&library) }.map_err(|message| HostError::Binary {
-            path: bin.clone(),
-            message,
-        })?;
+        let functions = unsafe { ffi::resolve(&library) }.map_err(bad)?;
         Ok(Fmu {
             functions,
             live_instances: std::sync::atomic::AtomicUsize::new(0),
