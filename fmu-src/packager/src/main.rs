@@ -55,7 +55,8 @@ fn package(args: &Args) -> Result<(), String> {
             args.identifier
         ));
     }
-    let mut entries: Vec<(String, Vec<u8>, u32)> = vec![("modelDescription.xml".into(), description, 0o644)];
+    let mut entries: Vec<(String, Vec<u8>, u32)> =
+        vec![("modelDescription.xml".into(), description, 0o644)];
     let doc_dir = args.model_dir.join("documentation");
     if doc_dir.is_dir() {
         for rel in files_below(&doc_dir).map_err(|e| format!("{}: {e}", doc_dir.display()))? {
@@ -70,18 +71,22 @@ fn package(args: &Args) -> Result<(), String> {
     ));
 
     if let Some(parent) = args.out.parent() {
-        fs::create_dir_all(parent).map_err(|e| format!("cannot create {}: {e}", parent.display()))?;
+        fs::create_dir_all(parent)
+            .map_err(|e| format!("cannot create {}: {e}", parent.display()))?;
     }
     let tmp = args.out.with_extension("fmu.partial");
-    let file = fs::File::create(&tmp).map_err(|e| format!("cannot create {}: {e}", tmp.display()))?;
+    let file =
+        fs::File::create(&tmp).map_err(|e| format!("cannot create {}: {e}", tmp.display()))?;
     let mut zip = ZipWriter::new(file);
     let options = SimpleFileOptions::default()
         .compression_method(CompressionMethod::Deflated)
         .last_modified_time(DateTime::default());
     let zerr = |e: zip::result::ZipError| format!("writing {}: {e}", tmp.display());
     for (name, data, mode) in entries {
-        zip.start_file(name, options.unix_permissions(mode)).map_err(zerr)?;
-        zip.write_all(&data).map_err(|e| format!("writing {}: {e}", tmp.display()))?;
+        zip.start_file(name, options.unix_permissions(mode))
+            .map_err(zerr)?;
+        zip.write_all(&data)
+            .map_err(|e| format!("writing {}: {e}", tmp.display()))?;
     }
     zip.finish().map_err(zerr)?;
     fs::rename(&tmp, &args.out).map_err(|e| format!("cannot write {}: {e}", args.out.display()))?;
