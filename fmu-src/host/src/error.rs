@@ -118,12 +118,14 @@ pub enum HostError {
         message: String,
     },
     /// `modelDescription.xml` is malformed or violates the schema.
-    #[error("{file}:{line}: {message}")]
+    #[error("{file}:{line}:{}{message}", if *column > 0 { format!("{column}: ") } else { " ".to_string() })]
     ModelDescription {
         /// File named in the message.
         file: String,
         /// 1-based line.
         line: usize,
+        /// 1-based column (bytes) of XML syntax errors; 0 when not known.
+        column: usize,
         /// What is wrong.
         message: String,
     },

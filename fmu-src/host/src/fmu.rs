@@ -52,6 +52,7 @@ impl Extracted {
         let xml = String::from_utf8(xml).map_err(|e| HostError::ModelDescription {
             file: format!("{}!modelDescription.xml", path.display()),
             line: 1,
+            column: 0,
             message: format!("not UTF-8: {e}"),
         })?;
         let model_description =

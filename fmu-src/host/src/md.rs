@@ -405,6 +405,8 @@ struct Parser<'a> {
     /// Kind of the open ScalarVariable's type element is filled when that element is seen.
     current_var: Option<ScalarVariable>,
     saw_root: bool,
+    /// Byte offsets of every `\n`.
+    newlines: Vec<usize>,
 }
 
 impl<'a> Parser<'a> {
@@ -415,6 +417,12 @@ impl<'a> Parser<'a> {
             md: ModelDescription::default(),
             current_var: None,
             saw_root: false,
+            newlines: xml
+                .bytes()
+                .enumerate()
+                .filter(|(_, b)| *b == b'\n')
+                .map(|(i, _)| i)
+                .collect(),
         }
     }
 
@@ -422,6 +430,7 @@ impl<'a> Parser<'a> {
         HostError::ModelDescription {
             file: self.file.clone(),
             line,
+            column: 0,
             message: message.into(),
         }
     }
@@ -433,11 +442,15 @@ impl<'a> Parser<'a> {
         while pos < bytes.len() && bytes[pos].is_ascii_whitespace() {
             pos += 1;
         }
-        self.xml.as_bytes()[..pos]
-            .iter()
-            .filter(|&&b| b == b'\n')
-            .count()
-            + 1
+        self.line_col(pos).0
+    }
+
+    /// 1-based (line, column) of byte `pos` (binary search in the newline offsets).
+    fn line_col(&self, pos: usize) -> (usize, usize) {
+        let pos = pos.min(self.xml.len());
+        let k = self.newlines.partition_point(|&p| p < pos);
+        let line_start = if k == 0 { 0 } else { self.newlines[k - 1] + 1 };
+        (k + 1, pos - line_start + 1)
     }
 
     fn attrs(&self, e: &BytesStart<'_>, line: usize) -> Result<Attrs, HostError> {
@@ -509,8 +522,13 @@ impl<'a> Parser<'a> {
         loop {
             let pos = reader.buffer_position() as usize;
             let event = reader.read_event().map_err(|e| {
-                let line = self.line_at(reader.error_position() as usize);
-                self.err(line, format!("malformed XML: {e}"))
+                let (line, column) = self.line_col(reader.error_position() as usize);
+                HostError::ModelDescription {
+                    file: self.file.clone(),
+                    line,
+                    column,
+                    message: format!("malformed XML: {e}"),
+                }
             })?;
             match event {
                 Event::Start(e) => {
@@ -1007,8 +1025,7 @@ pub(crate) mod tests {
     #[test]
     fn malformed_xml_is_an_error_with_line() {
         let e = err_of("<fmiModelDescription fmiVersion=\"2.0\">\n<ModelVariables>\n</Oops>\n</fmiModelDescription>");
-        assert!(e.starts_with("md.xml:3:"), "{e}");
-        assert!(e.contains("malformed XML"), "{e}");
+        assert!(e.starts_with("md.xml:3:1: malformed XML"), "{e}");
     }
 
     #[test]
