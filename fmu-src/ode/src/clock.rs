@@ -65,7 +65,7 @@ impl SampleClock {
             t: t0,
             t1,
             k: self.next_sample_after(t0),
-            done: !(t1 > t0),
+            done: t0.is_nan() || t1.is_nan() || t1 <= t0,
         }
     }
 }

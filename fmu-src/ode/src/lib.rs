@@ -269,12 +269,11 @@ impl Integrator {
 
         loop {
             let remaining = t1 - t;
-            let hmin = 16.0 * f64::EPSILON * t.abs().max(t1.abs());
+            // Smallest meaningful step: the resolution of t (a step below it cannot advance t).
+            let hmin = (16.0 * f64::EPSILON * t.abs()).max(f64::MIN_POSITIVE);
             if remaining <= hmin {
                 // Span below the resolution of t: one explicit Euler step is exact to rounding.
-                for i in 0..n {
-                    y[i] += remaining * w.f0[i];
-                }
+                axpy(remaining, &w.f0, y);
                 if !all_finite(y) {
                     return Err(OdeError::NonFinite { t });
                 }
@@ -414,8 +413,7 @@ impl Integrator {
             self.stats.fd_jacobians += 1;
             w.ytmp.copy_from_slice(y);
             let sqrt_eps = f64::EPSILON.sqrt();
-            for j in 0..n {
-                let yj = y[j];
+            for (j, &yj) in y.iter().enumerate() {
                 let typ = if self.rtol > 0.0 {
                     self.atol[j] / self.rtol
                 } else {
@@ -477,10 +475,7 @@ impl Integrator {
                 w.u.copy_from_slice(y);
                 for (j, &a) in tab.a[s].iter().enumerate() {
                     if a != 0.0 {
-                        let kj = &w.k[j * n..(j + 1) * n];
-                        for i in 0..n {
-                            w.u[i] += a * kj[i];
-                        }
+                        axpy(a, &w.k[j * n..(j + 1) * n], &mut w.u);
                     }
                 }
                 sys.rhs(t + tab.c[s] * h, &w.u, w.b.as_mut_slice());
@@ -490,16 +485,10 @@ impl Integrator {
             let dh = tab.d[s] * h;
             let b = w.b.as_mut_slice();
             if dh != 0.0 {
-                for i in 0..n {
-                    b[i] += dh * w.dfdt[i];
-                }
+                axpy(dh, &w.dfdt, b);
             }
             for (j, &c) in tab.cc[s].iter().enumerate() {
-                let cj = c * inv_h;
-                let kj = &w.k[j * n..(j + 1) * n];
-                for i in 0..n {
-                    b[i] += cj * kj[i];
-                }
+                axpy(c * inv_h, &w.k[j * n..(j + 1) * n], b);
             }
             if !all_finite(b) {
                 return false;
@@ -512,10 +501,7 @@ impl Integrator {
         }
         w.ynew.copy_from_slice(y);
         for (j, &bj) in tab.b.iter().enumerate() {
-            let kj = &w.k[j * n..(j + 1) * n];
-            for i in 0..n {
-                w.ynew[i] += bj * kj[i];
-            }
+            axpy(bj, &w.k[j * n..(j + 1) * n], &mut w.ynew);
         }
         all_finite(&w.ynew)
     }
@@ -568,6 +554,13 @@ impl Work {
             piv: vec![0; n],
             b: DVector::zeros(n),
         };
+    }
+}
+
+/// `y += a * x` (equal lengths).
+fn axpy(a: f64, x: &[f64], y: &mut [f64]) {
+    for (yi, xi) in y.iter_mut().zip(x) {
+        *yi += a * xi;
     }
 }
 

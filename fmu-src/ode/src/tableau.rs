@@ -57,7 +57,12 @@ pub(crate) static RODAS4: Tableau = Tableau {
         &[-5.6688],
         &[-2.430093356833875, -0.2063599157091915],
         &[-0.1073529058151375, -9.594562251023355, -20.47028614809616],
-        &[7.496443313967647, -10.24680431464352, -33.99990352819905, 11.7089089320616],
+        &[
+            7.496443313967647,
+            -10.24680431464352,
+            -33.99990352819905,
+            11.7089089320616,
+        ],
         &[
             8.083246795921522,
             -7.981132988064893,
@@ -191,16 +196,30 @@ mod tests {
             let ones = DVector::<f64>::from_element(s, 1.0);
             let row_sums = &gamma * &ones;
             for i in 0..s {
-                assert!((row_sums[i] - tab.d[i]).abs() < 1e-9, "d_{i}: {} vs {}", row_sums[i], tab.d[i]);
+                assert!(
+                    (row_sums[i] - tab.d[i]).abs() < 1e-9,
+                    "d_{i}: {} vs {}",
+                    row_sums[i],
+                    tab.d[i]
+                );
             }
             let alpha = &a * &gamma;
             let c = &alpha * &ones;
             for i in 0..s {
-                assert!((c[i] - tab.c[i]).abs() < 1e-9, "c_{i}: {} vs {}", c[i], tab.c[i]);
+                assert!(
+                    (c[i] - tab.c[i]).abs() < 1e-9,
+                    "c_{i}: {} vs {}",
+                    c[i],
+                    tab.c[i]
+                );
             }
             let b = DVector::from_column_slice(tab.b);
             let orig_b = gamma.transpose() * b;
-            assert!((orig_b.sum() - 1.0).abs() < 1e-9, "sum b = {}", orig_b.sum());
+            assert!(
+                (orig_b.sum() - 1.0).abs() < 1e-9,
+                "sum b = {}",
+                orig_b.sum()
+            );
         }
     }
 }

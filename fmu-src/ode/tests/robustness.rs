@@ -32,7 +32,10 @@ fn hyd_atol(tol: f64) -> Vec<f64> {
 #[test]
 fn square_wave_and_end_stops_one_call() {
     let reference = reference("hydraulic_square_f0.8_t2.2");
-    let sys = Hydraulic { square: true, freq: 0.8 };
+    let sys = Hydraulic {
+        square: true,
+        freq: 0.8,
+    };
     for m in METHODS {
         let mut y = HYD_Y0;
         let mut ig = Integrator::new(1e-6, hyd_atol(1e-6)).with_method(m);
@@ -46,7 +49,10 @@ fn square_wave_and_end_stops_one_call() {
             x_max = x_max.max(y[0]);
         }
         // Both end stops were hit (penetration of the penalty contact).
-        assert!(x_min < 0.0 && x_max > HYD_L, "{m:?}: stroke {x_min}..{x_max}");
+        assert!(
+            x_min < 0.0 && x_max > HYD_L,
+            "{m:?}: stroke {x_min}..{x_max}"
+        );
         let s = ig.stats();
         assert!(s.steps < 20_000, "{m:?}: {s:?}");
         assert!(s.rejected * 4 < s.steps, "{m:?}: too many rejections {s:?}");
@@ -65,12 +71,17 @@ fn held_input_with_resets_stays_bounded() {
         let mut u_prev = f64::NAN;
         for k in 0..500u32 {
             let (t0, t1) = (k as f64 * 5e-3, (k + 1) as f64 * 5e-3);
-            let u = Hydraulic { square: true, freq: 0.8 }.spool(0.5 * (t0 + t1));
+            let u = Hydraulic {
+                square: true,
+                freq: 0.8,
+            }
+            .spool(0.5 * (t0 + t1));
             if u != u_prev {
                 ig.reset_step_size();
                 u_prev = u;
             }
-            ig.integrate(&HydraulicHeld { u }, t0, t1, &mut y).expect("integrates");
+            ig.integrate(&HydraulicHeld { u }, t0, t1, &mut y)
+                .expect("integrates");
         }
         let s = ig.stats();
         assert!(s.steps < 20_000 && s.rejected * 4 < s.steps, "{m:?}: {s:?}");
@@ -99,8 +110,13 @@ fn abs_kink_does_not_collapse_step_size() {
         // 9 kinks in [0, 3]; smooth parts need O(100) steps.
         assert!(s.steps < 3_000, "{m:?}: {s:?}");
         // Quasi-static solution y ~ |sin(10 t)| - 10 cos(10 t) sign(..)/1e4.
-        let expected = (30.0f64).sin().abs() - 10.0 * (30.0f64).cos() * (30.0f64).sin().signum() / 1e4;
-        assert!((y[0] - expected).abs() < 1e-5, "{m:?}: {} vs {expected}", y[0]);
+        let expected =
+            (30.0f64).sin().abs() - 10.0 * (30.0f64).cos() * (30.0f64).sin().signum() / 1e4;
+        assert!(
+            (y[0] - expected).abs() < 1e-5,
+            "{m:?}: {} vs {expected}",
+            y[0]
+        );
     }
 }
 
@@ -145,7 +161,12 @@ fn sampled_controller_hits_samples_whatever_the_step() {
             let mut ta = t;
             for (tb, k) in clock.segments(t, t_end) {
                 if tb > ta {
-                    let sys = DcMotor { amp: 0.0, freq: 0.0, held: Some(volt), analytic: true };
+                    let sys = DcMotor {
+                        amp: 0.0,
+                        freq: 0.0,
+                        held: Some(volt),
+                        analytic: true,
+                    };
                     ig.integrate(&sys, ta, tb, &mut y).unwrap();
                     ta = tb;
                 }
@@ -177,7 +198,12 @@ fn sampled_controller_hits_samples_whatever_the_step() {
         let common = u.len().min(u_ref.len());
         assert!(common >= 39);
         for i in 0..common {
-            assert_eq!(u[i], clock.time(i as u64 + 1), "h={h}: update {i} at {}", u[i]);
+            assert_eq!(
+                u[i],
+                clock.time(i as u64 + 1),
+                "h={h}: update {i} at {}",
+                u[i]
+            );
             assert_eq!(u[i], u_ref[i]);
         }
         if n as f64 * h > 0.999_999 && n as f64 * h < 1.000_001 {
@@ -196,11 +222,15 @@ fn sampled_controller_hits_samples_whatever_the_step() {
 #[test]
 fn clone_and_bincode_roundtrip_continue_bit_identically() {
     for m in METHODS {
-        let sys = Hydraulic { square: true, freq: 1.0 };
+        let sys = Hydraulic {
+            square: true,
+            freq: 1.0,
+        };
         let mut ig = Integrator::new(1e-6, hyd_atol(1e-6)).with_method(m);
         let mut y = HYD_Y0;
         for k in 0..700u32 {
-            ig.integrate(&sys, k as f64 * 1e-3, (k + 1) as f64 * 1e-3, &mut y).unwrap();
+            ig.integrate(&sys, k as f64 * 1e-3, (k + 1) as f64 * 1e-3, &mut y)
+                .unwrap();
         }
         let mut cloned = ig.clone();
         let bytes = bincode::serialize(&ig).unwrap();
@@ -211,11 +241,22 @@ fn clone_and_bincode_roundtrip_continue_bit_identically() {
             ig.integrate(&sys, t0, t1, &mut y1).unwrap();
             cloned.integrate(&sys, t0, t1, &mut y2).unwrap();
             restored.integrate(&sys, t0, t1, &mut y3).unwrap();
-            assert_eq!(y1.map(f64::to_bits), y2.map(f64::to_bits), "{m:?} clone at {k}");
-            assert_eq!(y1.map(f64::to_bits), y3.map(f64::to_bits), "{m:?} bincode at {k}");
+            assert_eq!(
+                y1.map(f64::to_bits),
+                y2.map(f64::to_bits),
+                "{m:?} clone at {k}"
+            );
+            assert_eq!(
+                y1.map(f64::to_bits),
+                y3.map(f64::to_bits),
+                "{m:?} bincode at {k}"
+            );
         }
         assert_eq!(ig.stats(), restored.stats());
-        assert_eq!(ig.next_step_size().map(f64::to_bits), restored.next_step_size().map(f64::to_bits));
+        assert_eq!(
+            ig.next_step_size().map(f64::to_bits),
+            restored.next_step_size().map(f64::to_bits)
+        );
     }
 }
 
@@ -225,18 +266,35 @@ fn clone_and_bincode_roundtrip_continue_bit_identically() {
 
 #[test]
 fn nan_or_inf_start_is_nonfinite() {
-    let sys = VanDerPol { mu: 10.0, analytic: true };
+    let sys = VanDerPol {
+        mu: 10.0,
+        analytic: true,
+    };
     let mut ig = Integrator::new(1e-6, vec![1e-6; 2]);
     for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
         let mut y = [bad, 0.0];
-        assert!(matches!(ig.integrate(&sys, 0.0, 1.0, &mut y), Err(OdeError::NonFinite { t }) if t == 0.0));
+        assert!(
+            matches!(ig.integrate(&sys, 0.0, 1.0, &mut y), Err(OdeError::NonFinite { t }) if t == 0.0)
+        );
     }
     let mut y = [2.0, 0.0];
-    assert!(matches!(ig.integrate(&sys, 0.0, f64::NAN, &mut y), Err(OdeError::NonFinite { .. })));
-    assert!(matches!(ig.integrate(&sys, f64::INFINITY, 1.0, &mut y), Err(OdeError::NonFinite { .. })));
-    assert!(matches!(ig.integrate(&sys, 1.0, 0.0, &mut y), Err(OdeError::InvalidInput(_))));
+    assert!(matches!(
+        ig.integrate(&sys, 0.0, f64::NAN, &mut y),
+        Err(OdeError::NonFinite { .. })
+    ));
+    assert!(matches!(
+        ig.integrate(&sys, f64::INFINITY, 1.0, &mut y),
+        Err(OdeError::NonFinite { .. })
+    ));
+    assert!(matches!(
+        ig.integrate(&sys, 1.0, 0.0, &mut y),
+        Err(OdeError::InvalidInput(_))
+    ));
     let mut short = [1.0];
-    assert!(matches!(ig.integrate(&sys, 0.0, 1.0, &mut short), Err(OdeError::InvalidInput(_))));
+    assert!(matches!(
+        ig.integrate(&sys, 0.0, 1.0, &mut short),
+        Err(OdeError::InvalidInput(_))
+    ));
     // Zero-length interval: nothing to do, y untouched.
     let mut y = [2.0, 0.0];
     ig.integrate(&sys, 1.0, 1.0, &mut y).unwrap();
@@ -247,25 +305,42 @@ fn nan_or_inf_start_is_nonfinite() {
 fn bad_tolerances_are_rejected() {
     let sys = Dahlquist { k: 1.0 };
     let mut y = [1.0];
-    for (rtol, atol) in [(-1.0, 1e-6), (f64::NAN, 1e-6), (1e-6, -1.0), (1e-6, f64::INFINITY)] {
+    for (rtol, atol) in [
+        (-1.0, 1e-6),
+        (f64::NAN, 1e-6),
+        (1e-6, -1.0),
+        (1e-6, f64::INFINITY),
+    ] {
         let mut ig = Integrator::new(rtol, vec![atol]);
-        assert!(matches!(ig.integrate(&sys, 0.0, 1.0, &mut y), Err(OdeError::InvalidInput(_))));
+        assert!(matches!(
+            ig.integrate(&sys, 0.0, 1.0, &mut y),
+            Err(OdeError::InvalidInput(_))
+        ));
     }
     let mut ig = Integrator::new(1e-6, vec![1e-6, 1e-6]);
-    assert!(matches!(ig.integrate(&sys, 0.0, 1.0, &mut y), Err(OdeError::InvalidInput(_))));
+    assert!(matches!(
+        ig.integrate(&sys, 0.0, 1.0, &mut y),
+        Err(OdeError::InvalidInput(_))
+    ));
 }
 
 #[test]
 fn impossible_tolerance_fails_fast() {
     for m in METHODS {
         for (rtol, atol) in [(0.0, 0.0), (1e-30, 1e-300), (0.0, 1e-300)] {
-            let sys = VanDerPol { mu: 1000.0, analytic: true };
+            let sys = VanDerPol {
+                mu: 1000.0,
+                analytic: true,
+            };
             let mut ig = Integrator::new(rtol, vec![atol; 2]).with_method(m);
             let mut y = [2.0, 0.0];
             let start = Instant::now();
             let r = ig.integrate(&sys, 0.0, 2000.0, &mut y);
             assert!(
-                matches!(r, Err(OdeError::StepSizeTooSmall { .. }) | Err(OdeError::TooManySteps { .. })),
+                matches!(
+                    r,
+                    Err(OdeError::StepSizeTooSmall { .. }) | Err(OdeError::TooManySteps { .. })
+                ),
                 "{m:?} rtol={rtol} atol={atol}: {r:?}"
             );
             assert!(start.elapsed() < Duration::from_secs(10));
@@ -276,12 +351,18 @@ fn impossible_tolerance_fails_fast() {
 
 #[test]
 fn step_limit_gives_too_many_steps() {
-    let sys = VanDerPol { mu: 1000.0, analytic: true };
+    let sys = VanDerPol {
+        mu: 1000.0,
+        analytic: true,
+    };
     let mut ig = Integrator::new(1e-10, vec![1e-10; 2]);
     ig.set_max_steps(50);
     let mut y = [2.0, 0.0];
     let r = ig.integrate(&sys, 0.0, 2000.0, &mut y);
-    assert!(matches!(r, Err(OdeError::TooManySteps { t }) if t > 0.0 && t < 2000.0), "{r:?}");
+    assert!(
+        matches!(r, Err(OdeError::TooManySteps { t }) if t > 0.0 && t < 2000.0),
+        "{r:?}"
+    );
     // y is the last accepted state, still usable.
     assert!(y.iter().all(|v| v.is_finite()));
 }
@@ -353,7 +434,10 @@ impl OdeSystem for BadJac {
 fn nonfinite_jacobian_is_an_error() {
     let mut ig = Integrator::new(1e-6, vec![1e-6]);
     let mut y = [1.0];
-    assert!(matches!(ig.integrate(&BadJac, 0.0, 1.0, &mut y), Err(OdeError::NonFinite { .. })));
+    assert!(matches!(
+        ig.integrate(&BadJac, 0.0, 1.0, &mut y),
+        Err(OdeError::NonFinite { .. })
+    ));
 }
 
 /// Random garbage inputs (deterministic LCG): every call returns (Ok or Err) without panicking.
@@ -361,10 +445,24 @@ fn nonfinite_jacobian_is_an_error() {
 fn garbage_inputs_never_panic() {
     let mut s: u64 = 0x9E37_79B9_7F4A_7C15;
     let mut next = || {
-        s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        s = s
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         s
     };
-    let specials = [0.0, -0.0, 1.0, -1.0, 1e-300, 1e300, f64::NAN, f64::INFINITY, -f64::INFINITY, 1e-6, 5e-324];
+    let specials = [
+        0.0,
+        -0.0,
+        1.0,
+        -1.0,
+        1e-300,
+        1e300,
+        f64::NAN,
+        f64::INFINITY,
+        -f64::INFINITY,
+        1e-6,
+        5e-324,
+    ];
     let pick = |r: u64| specials[(r % specials.len() as u64) as usize];
     for _ in 0..2000 {
         let rtol = pick(next());
@@ -374,6 +472,14 @@ fn garbage_inputs_never_panic() {
         let mut y = [pick(next()), pick(next())];
         let mut ig = Integrator::new(rtol, atol);
         ig.set_max_steps(2000);
-        let _ = ig.integrate(&VanDerPol { mu: 1000.0, analytic: next() % 2 == 0 }, t0, t1, &mut y);
+        let _ = ig.integrate(
+            &VanDerPol {
+                mu: 1000.0,
+                analytic: next() % 2 == 0,
+            },
+            t0,
+            t1,
+            &mut y,
+        );
     }
 }
