@@ -336,6 +336,48 @@ impl<'a> Instance<'a> {
             .collect())
     }
 
+    /// fmi2SetString
+    pub fn set_string(&mut self, vrs: &[u32], values: &[&str]) -> Result<Status> {
+        check_len(vrs.len(), values.len())?;
+        let f = self
+            .fmu
+            .functions
+            .set_string
+            .ok_or_else(|| missing("fmi2SetString"))?;
+        let owned: Vec<CString> = values
+            .iter()
+            .map(|v| CString::new(*v))
+            .collect::<std::result::Result<_, _>>()
+            .map_err(|_| HostError::Request("string value contains a NUL byte".into()))?;
+        let ptrs: Vec<*const c_char> = owned.iter().map(|c| c.as_ptr()).collect();
+        // SAFETY: both buffers have vrs.len() elements; the strings outlive the call.
+        let raw = unsafe { f(self.component, vrs.as_ptr(), vrs.len(), ptrs.as_ptr()) };
+        self.check("fmi2SetString", raw)
+    }
+
+    /// fmi2SetDebugLogging: `categories` empty means all categories.
+    pub fn set_debug_logging(&mut self, on: bool, categories: &[&str]) -> Result<Status> {
+        let f = self
+            .fmu
+            .functions
+            .set_debug_logging
+            .ok_or_else(|| missing("fmi2SetDebugLogging"))?;
+        let owned: Vec<CString> = categories
+            .iter()
+            .map(|v| CString::new(*v))
+            .collect::<std::result::Result<_, _>>()
+            .map_err(|_| HostError::Request("category contains a NUL byte".into()))?;
+        let ptrs: Vec<*const c_char> = owned.iter().map(|c| c.as_ptr()).collect();
+        let cats = if ptrs.is_empty() {
+            std::ptr::null()
+        } else {
+            ptrs.as_ptr()
+        };
+        // SAFETY: ptrs has ptrs.len() valid C strings (or NULL with 0).
+        let raw = unsafe { f(self.component, on as c_int, ptrs.len(), cats) };
+        self.check("fmi2SetDebugLogging", raw)
+    }
+
     /// fmi2GetStatus(fmi2Terminated) for CS: whether the FMU asked to stop.
     pub fn get_status_raw(&mut self, kind: i32) -> Result<Status> {
         let f = self

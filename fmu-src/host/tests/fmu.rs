@@ -154,6 +154,11 @@ fn instance_calls_in_the_wrong_state_return_fmi_errors_with_the_log() {
     let mut i = [5];
     inst.get_integer(&[7], &mut i).unwrap();
     assert_eq!(i[0], 0);
+    inst.set_debug_logging(true, &["logStatusError"]).unwrap();
+    inst.set_debug_logging(false, &[]).unwrap();
+    assert!(inst.get_string(&[]).unwrap().is_empty());
+    let e = inst.set_string(&[0], &["x"]).unwrap_err();
+    assert!(e.to_string().contains("no String variables"), "{e}");
 }
 
 #[test]
