@@ -338,6 +338,9 @@ def cases():
     for F in (23, 39, 54, 97, 124):
         c[f"position_step_{F}N"] = ({"load_mass": F / G, "string_compliance.enabled": True},
                                     {"theta_motor_ref": step(0.01, 0.0, 335.1)}, 1.0, 1e-3)
+    # communication step 2.5 ms: position-loop samples fall inside steps (split at k*Ts)
+    c["position_step_54N_dt2p5ms"] = ({"load_mass": 54 / G, "string_compliance.enabled": True},
+                                      {"theta_motor_ref": step(0.01, 0.0, 335.1)}, 1.0, 2.5e-3)
     c["twist_untwist"] = ({"string_compliance.enabled": True, "load_mass": 54 / G},
                           {"theta_motor_ref": ([0, 0.05, 1.05, 1.55, 2.55], [0, 0, 600, 600, 0])},
                           2.8, 1e-3)

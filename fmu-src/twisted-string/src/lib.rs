@@ -414,3 +414,76 @@ impl Model for TwistedString {
 }
 
 fmi2_export::export_model!(TwistedString);
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn start_vars() -> Vec<f64> {
+        VARIABLES.iter().map(|v| v.start).collect()
+    }
+
+    fn run(m: &mut TwistedString, vars: &mut [f64], t0: f64, t1: f64, h: f64) {
+        let n = ((t1 - t0) / h).round() as usize;
+        for k in 0..n {
+            m.do_step(vars, t0 + k as f64 * h, h).unwrap();
+        }
+    }
+
+    #[test]
+    fn serde_roundtrip_continues_bit_identically() {
+        let mut vars = start_vars();
+        vars[V::STRING_COMPLIANCE_ENABLED as usize] = 1.0;
+        let mut m = TwistedString::new();
+        m.initialize(&mut vars, 0.0).unwrap();
+        vars[V::THETA_MOTOR_REF as usize] = 600.0;
+        run(&mut m, &mut vars, 0.0, 0.3, 1e-3);
+        let bytes = bincode::serialize(&m).unwrap();
+        let mut vars2 = vars.clone();
+        run(&mut m, &mut vars, 0.3, 0.5, 1e-3);
+        let mut m2: TwistedString = bincode::deserialize(&bytes).unwrap();
+        run(&mut m2, &mut vars2, 0.3, 0.5, 1e-3);
+        for (a, b) in vars.iter().zip(&vars2) {
+            assert_eq!(a.to_bits(), b.to_bits());
+        }
+    }
+
+    #[test]
+    fn samples_independent_of_communication_step() {
+        // same trajectory with 1 ms and 0.25 ms steps (sample instants k*Ts either way)
+        let mut out = vec![];
+        for h in [1e-3, 2.5e-4] {
+            let mut vars = start_vars();
+            let mut m = TwistedString::new();
+            m.initialize(&mut vars, 0.0).unwrap();
+            vars[V::THETA_MOTOR_REF as usize] = 300.0;
+            run(&mut m, &mut vars, 0.0, 0.8, h);
+            out.push((vars[V::THETA_MOTOR as usize], vars[V::P as usize]));
+        }
+        assert!((out[0].0 - out[1].0).abs() < 1e-4, "{out:?}");
+        assert!((out[0].1 - out[1].1).abs() < 1e-8, "{out:?}");
+    }
+
+    #[test]
+    fn rest_stays_at_rest_and_ill_posed_is_refused() {
+        let mut vars = start_vars();
+        let mut m = TwistedString::new();
+        m.initialize(&mut vars, 0.0).unwrap();
+        let p0 = vars[V::P as usize];
+        run(&mut m, &mut vars, 0.0, 1.0, 1e-3);
+        assert_eq!(vars[V::THETA_MOTOR as usize], 0.0);
+        assert!((vars[V::P as usize] - p0).abs() < 1e-12);
+        let mut vars = start_vars();
+        vars[V::SUPPLY_VOLTAGE as usize] = 5.0;
+        let err = TwistedString::new().initialize(&mut vars, 0.0).unwrap_err();
+        assert!(err.contains("speed_limit"), "{err}");
+    }
+
+    #[test]
+    fn gain_conversions() {
+        // Table 5 readings: 0.0035 of 8000 rpm per degree of twist; 963 uA/rpm
+        assert!((POSITION_P_SI - 8.750_06).abs() < 1e-4);
+        assert!((SPEED_P_SI - 9.196e-3).abs() < 1e-6);
+        assert!((RPM8000 - 837.758).abs() < 1e-3);
+    }
+}
