@@ -826,6 +826,7 @@ pub fn check_symbols(fmu: &Extracted) -> Vec<Finding> {
 /// Names of the probe cases in the order [`probe`] runs them.
 pub const PROBE_CASES: &[&str] = &[
     "normal-run",
+    "fmu-state",
     "do-step-before-init",
     "negative-step",
     "wrong-communication-point",
@@ -894,6 +895,14 @@ pub fn probe(fmu: &Fmu, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding> {
     if let Err(e) = normal {
         f.push(Finding::new("probe", loc("normal-run"), format!("instantiate, initialize, 10 steps, terminate, reset, re-initialize, step failed: {e}")));
         return f; // the wrong-call cases below assume a working FMU
+    }
+
+    // Capability flags kept: a restored (and a deserialized) FMU state continues bit-identically.
+    let cs = md.co_simulation.clone().unwrap_or_default();
+    if cs.can_get_and_set_fmu_state && step("fmu-state") {
+        if let Err(e) = check_fmu_state(fmu, &init, t0, h, cs.can_serialize_fmu_state) {
+            f.push(Finding::new("probe", loc("fmu-state"), e));
+        }
     }
 
     let mut case =
@@ -1065,6 +1074,75 @@ pub fn probe(fmu: &Fmu, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding> {
         },
     );
     f
+}
+
+/// Steps 5 times, saves the state, steps 5 more and records the Real outputs; restores the
+/// state (and, if `serialize`, a serialized-then-deserialized copy) and repeats the 5 steps:
+/// the outputs must be bit-identical (the capabilities canGetAndSetFMUstate /
+/// canSerializeFMUstate the description declares).
+fn check_fmu_state(
+    fmu: &Fmu,
+    init: &dyn Fn(&mut Instance<'_>) -> Result<(), HostError>,
+    t0: f64,
+    h: f64,
+    serialize: bool,
+) -> Result<(), String> {
+    let md = fmu.model_description();
+    let outs: Vec<u32> = md
+        .with_causality(Causality::Output)
+        .filter(|v| v.kind == VarKind::Real)
+        .map(|v| v.value_reference)
+        .collect();
+    let mut inst = fmu.instantiate("probe").map_err(|e| e.to_string())?;
+    init(&mut inst).map_err(|e| e.to_string())?;
+    let t = |k: usize| t0 + k as f64 * h;
+    for k in 0..5 {
+        inst.do_step(t(k), h, false).map_err(|e| e.to_string())?;
+    }
+    let saved = inst.get_fmu_state().map_err(|e| e.to_string())?;
+    let bytes = if serialize {
+        Some(
+            inst.serialize_fmu_state(&saved)
+                .map_err(|e| e.to_string())?,
+        )
+    } else {
+        None
+    };
+    let run5 = |inst: &mut Instance<'_>| -> Result<Vec<f64>, String> {
+        let mut all = Vec::new();
+        let mut buf = vec![0.0; outs.len()];
+        for k in 5..10 {
+            inst.do_step(t(k), h, false).map_err(|e| e.to_string())?;
+            inst.get_real(&outs, &mut buf).map_err(|e| e.to_string())?;
+            all.extend_from_slice(&buf);
+        }
+        Ok(all)
+    };
+    let first = run5(&mut inst)?;
+    inst.set_fmu_state(&saved).map_err(|e| e.to_string())?;
+    let again = run5(&mut inst).map_err(|e| format!("after fmi2SetFMUstate: {e}"))?;
+    if again
+        .iter()
+        .map(|x| x.to_bits())
+        .ne(first.iter().map(|x| x.to_bits()))
+    {
+        return Err("after fmi2SetFMUstate the outputs differ from the first run (state not fully restored)".into());
+    }
+    if let Some(bytes) = bytes {
+        let restored = inst
+            .deserialize_fmu_state(&bytes)
+            .map_err(|e| e.to_string())?;
+        inst.set_fmu_state(&restored).map_err(|e| e.to_string())?;
+        let third = run5(&mut inst).map_err(|e| format!("after fmi2DeSerializeFMUstate: {e}"))?;
+        if third
+            .iter()
+            .map(|x| x.to_bits())
+            .ne(first.iter().map(|x| x.to_bits()))
+        {
+            return Err("after fmi2DeSerializeFMUstate + fmi2SetFMUstate the outputs differ from the first run".into());
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -273,6 +273,7 @@ fn probe_finds_nothing_in_a_conforming_fmu() {
         steps,
         vec![
             "normal-run",
+            "fmu-state",
             "do-step-before-init",
             "negative-step",
             "wrong-communication-point",
@@ -389,4 +390,24 @@ fn simulator_recovers_after_a_failed_run() {
     assert_eq!(e.status(), Some(Status::Error));
     let good = SimulationRequest::new(0.0, 1.0, 0.01);
     assert_eq!(sim.run(&good).unwrap(), simulate(&fmu, &good).unwrap());
+}
+
+#[test]
+fn probe_catches_a_state_that_is_not_fully_restored() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = common::build_fmu(
+        dir.path(),
+        "BrokenState",
+        &["-DBROKEN_STATE"],
+        &common::fixture_md(),
+    );
+    let fmu = Fmu::open(&path).unwrap();
+    let f = host::validate::probe(&fmu, &mut |_| true);
+    assert_eq!(f.len(), 1, "{f:#?}");
+    assert_eq!(f[0].location, "probe fmu-state");
+    assert!(
+        f[0].message
+            .contains("after fmi2SetFMUstate the outputs differ"),
+        "{f:#?}"
+    );
 }
