@@ -359,7 +359,8 @@ impl Model for TwistedString {
         }
         let t_end = t + h;
         let ts = self.par.position_period;
-        if self.par.internal_controller && !(h / ts <= MAX_SAMPLES_PER_STEP) {
+        let samples = h / ts;
+        if self.par.internal_controller && (samples.is_nan() || samples > MAX_SAMPLES_PER_STEP) {
             return Err(format!(
                 "communication step {h} s spans {:.3e} samples of the position loop \
                  (controller_position_period = {ts} s); at most {MAX_SAMPLES_PER_STEP:e} per step",
