@@ -197,6 +197,16 @@ pub struct Functions {
     pub do_step: unsafe extern "C" fn(C, f64, f64, Fmi2Boolean) -> RawStatus,
     pub cancel_step: Option<unsafe extern "C" fn(C) -> RawStatus>,
     pub get_status: Option<unsafe extern "C" fn(C, c_int, *mut RawStatus) -> RawStatus>,
+    pub get_real_status: Option<unsafe extern "C" fn(C, c_int, *mut f64) -> RawStatus>,
+    pub get_integer_status: Option<unsafe extern "C" fn(C, c_int, *mut c_int) -> RawStatus>,
+    pub get_boolean_status: Option<unsafe extern "C" fn(C, c_int, *mut Fmi2Boolean) -> RawStatus>,
+    pub get_string_status: Option<unsafe extern "C" fn(C, c_int, *mut *const c_char) -> RawStatus>,
+    pub get_directional_derivative:
+        Option<unsafe extern "C" fn(C, Vr, usize, Vr, usize, *const f64, *mut f64) -> RawStatus>,
+    pub set_real_input_derivatives:
+        Option<unsafe extern "C" fn(C, Vr, usize, *const c_int, *const f64) -> RawStatus>,
+    pub get_real_output_derivatives:
+        Option<unsafe extern "C" fn(C, Vr, usize, *const c_int, *mut f64) -> RawStatus>,
 }
 
 /// Looks up `name` in `lib` as a function pointer of type `T`.
@@ -273,5 +283,12 @@ pub unsafe fn resolve(lib: &Library) -> Result<Functions, String> {
         do_step: req!("fmi2DoStep"),
         cancel_step: sym(lib, "fmi2CancelStep"),
         get_status: sym(lib, "fmi2GetStatus"),
+        get_real_status: sym(lib, "fmi2GetRealStatus"),
+        get_integer_status: sym(lib, "fmi2GetIntegerStatus"),
+        get_boolean_status: sym(lib, "fmi2GetBooleanStatus"),
+        get_string_status: sym(lib, "fmi2GetStringStatus"),
+        get_directional_derivative: sym(lib, "fmi2GetDirectionalDerivative"),
+        set_real_input_derivatives: sym(lib, "fmi2SetRealInputDerivatives"),
+        get_real_output_derivatives: sym(lib, "fmi2GetRealOutputDerivatives"),
     })
 }

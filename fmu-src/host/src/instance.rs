@@ -392,6 +392,20 @@ impl<'a> Instance<'a> {
         Ok(Status::from_raw(value))
     }
 
+    /// fmi2GetRealStatus(fmi2LastSuccessfulTime = 2): the time of the last successful step.
+    pub fn last_successful_time(&mut self) -> Result<f64> {
+        let f = self
+            .fmu
+            .functions
+            .get_real_status
+            .ok_or_else(|| missing("fmi2GetRealStatus"))?;
+        let mut value = 0.0;
+        // SAFETY: value is a valid out pointer.
+        let raw = unsafe { f(self.component, 2, &mut value) };
+        self.check("fmi2GetRealStatus", raw)?;
+        Ok(value)
+    }
+
     /// fmi2GetFMUstate: saves the current state; the handle is valid while this instance lives.
     pub fn get_fmu_state(&mut self) -> Result<FmuStateHandle> {
         let f = self

@@ -202,6 +202,7 @@ fn fmu_state_get_set_and_serialize_continue_identically() {
     let saved = inst.get_fmu_state().unwrap();
     let bytes = inst.serialize_fmu_state(&saved).unwrap();
     inst.do_step(0.3, 0.2, true).unwrap();
+    assert_eq!(inst.last_successful_time().unwrap(), 0.3 + 0.2);
     let mut first = [0.0; 2];
     inst.get_real(&[0, 1], &mut first).unwrap();
     inst.set_fmu_state(&saved).unwrap();
