@@ -233,7 +233,7 @@ pub fn validate(q: &Params) -> Result<(), String> {
             q.string_radius, q.string_length
         ));
     }
-    if q.speed_limit * q.back_emf_constant > 2.0 * q.supply_voltage {
+    if q.internal_controller && q.speed_limit * q.back_emf_constant > 2.0 * q.supply_voltage {
         return Err(format!(
             "speed_limit ({} rad/s) needs a back-EMF of {} V, far above supply_voltage ({} V)",
             q.speed_limit,
