@@ -95,7 +95,9 @@ impl<'a> Run<'a> {
         let u: Vec<f64> = (0..vrs.len()).map(|j| self.s.input(j, t)).collect();
         self.inst.set_real(&vrs, &u).map_err(e)?;
         self.inst.do_step(t, H, true).map_err(e)?;
-        self.inst.get_real(&self.s.outputs, &mut self.buf).map_err(e)?;
+        self.inst
+            .get_real(&self.s.outputs, &mut self.buf)
+            .map_err(e)?;
         self.bits.extend(self.buf.iter().map(|x| x.to_bits()));
         Ok(())
     }
