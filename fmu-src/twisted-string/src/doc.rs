@@ -100,7 +100,7 @@ Gearhead: &tau;<sub>in</sub> = f (d&theta;<sub>t</sub>/d&theta;<sub>m</sub>) &ta
 (P = &tau;<sub>out</sub>&omega;<sub>t</sub> &gt; 0) and &eta; when the load drives, blended smoothly:
 f = (1/&eta;+&eta;)/2 + (1/&eta;&minus;&eta;)/2 tanh(P/0.1 W). The blend width 0.1 W (about 60 rpm of motor speed at the highest loads) is a choice: a sharper switch acts near standstill as a huge damper that, against the slow speed-PI integrator, made the held motor creep for seconds out of the 2&deg; band.</p>
 <table border="1"><tr><th>parameter</th><th>value</th><th>source / rationale</th></tr>
-<tr><td>motor_resistance</td><td>2.32 &Omega;</td><td rowspan="5">maxon RE 25 &empty;25 mm, graphite brushes, 20 W, 24 V winding (order no. 118752 class), maxon catalogue values as recalled; the paper names only "Maxon DC motor (20 W)" [15]. Not checked against a current datasheet: plausible for this class.</td></tr>
+<tr><td>motor_resistance</td><td>2.32 &Omega;</td><td rowspan="5">Values typical of a maxon RE 25 (&empty;25 mm, graphite brushes, 20 W) with a 24 V winding, as recalled from the maxon catalogue; the paper names only "Maxon DC motor (20 W)" [15]. Not checked against a current datasheet: plausible for this class, and R, L, k<sub>t</sub>, k<sub>e</sub> are mutually consistent (no-load speed 24 V/k<sub>e</sub> &asymp; 9800 rpm, stall torque k<sub>t</sub>&middot;24 V/R &asymp; 0.24 N&middot;m). rotor_inertia = rotor 10.8 g&middot;cm&sup2; + an estimated 0.6 g&middot;cm&sup2; for the gearhead input stage.</td></tr>
 <tr><td>motor_inductance</td><td>0.238 mH</td></tr>
 <tr><td>torque_constant</td><td>23.4 mN&middot;m/A</td></tr>
 <tr><td>back_emf_constant</td><td>0.0234 V&middot;s/rad (408 rpm/V)</td></tr>

@@ -54,7 +54,7 @@ fmi2_export::declare_variables! {
     V_LOAD => Variable::output("v_load", "m/s", "Load velocity dp/dt").display("mm/s"),
     VOLTAGE_MOTOR => Variable::output("voltage_motor", "V", "Armature voltage applied (controller output or input)"),
     OMEGA_REF => Variable::output("omega_ref", "rad/s", "Speed set point from the position loop (held between samples)").display("rpm"),
-    THETA_MOTOR_MEASURED => Variable::output("theta_motor_measured", "rad", "Encoder angle (1000 CPT read 4x) at the last position-loop sample").display("deg"),
+    THETA_MOTOR_MEASURED => Variable::output("theta_motor_measured", "rad", "Encoder angle (1000 CPT read 4x) at the last position-loop sample (internal_controller only, else 0)").display("deg"),
     // ---- base parameters ---------------------------------------------------------------------
     LOAD_MASS => Variable::parameter("load_mass", 23.0 / 9.81, "kg",
         "[calibrate] Hanging load incl. moving bracket; the paper's loads 23/39/54/97/124 N are F/9.81").range(0.1, 20.0),
