@@ -114,7 +114,8 @@ pub struct Integrator {
     atol: Vec<f64>,
     method: Method,
     max_steps: u64,
-    max_step: f64,
+    /// Upper bound on h (None: unbounded; kept finite so JSON serialization works too).
+    max_step: Option<f64>,
     /// Step size proposed for the next step (None: estimate one).
     h_next: Option<f64>,
     /// Predictive controller memory: last accepted step size and its error (0: none).
@@ -133,7 +134,7 @@ impl Integrator {
             atol,
             method: Method::default(),
             max_steps: 100_000,
-            max_step: f64::INFINITY,
+            max_step: None,
             h_next: None,
             h_acc: 0.0,
             err_acc: 0.0,
@@ -158,9 +159,14 @@ impl Integrator {
         self.max_steps = n;
     }
 
-    /// Upper bound on the internal step size (default: unbounded).
+    fn h_max(&self) -> f64 {
+        self.max_step.unwrap_or(f64::INFINITY)
+    }
+
+    /// Upper bound on the internal step size (default: unbounded; a value <= 0, NaN or infinite
+    /// removes the bound).
     pub fn set_max_step(&mut self, h: f64) {
-        self.max_step = if h > 0.0 { h } else { f64::INFINITY };
+        self.max_step = (h > 0.0 && h.is_finite()).then_some(h);
     }
 
     /// Change the tolerances (keeps the step-size history).
@@ -260,7 +266,7 @@ impl Integrator {
             Some(h) if h > 0.0 && h.is_finite() => h,
             _ => self.initial_step(y, &w.f0),
         };
-        h = h.min(self.max_step);
+        h = h.min(self.h_max());
         let mut need_jac = true;
         let mut attempts: u64 = 0;
         let mut last_rejected = false;
@@ -364,7 +370,7 @@ impl Integrator {
                     if h < h_proposed {
                         h_new = h_new.max(h_proposed);
                     }
-                    self.h_next = Some(h_new.min(self.max_step));
+                    self.h_next = Some(h_new.min(self.h_max()));
                     return Ok(());
                 }
                 sys.rhs(t, y, &mut w.f0);
@@ -373,7 +379,7 @@ impl Integrator {
                     return Err(OdeError::NonFinite { t });
                 }
                 need_jac = true;
-                h = h_new.min(self.max_step);
+                h = h_new.min(self.h_max());
                 self.h_next = Some(h);
             } else {
                 // Rejected: same point, keep J, f0, df/dt.

@@ -264,6 +264,10 @@ fn clone_and_bincode_roundtrip_continue_bit_identically() {
             );
         }
         assert_eq!(ig.stats(), restored.stats());
+        // JSON works too (no infinities in the state).
+        let json = serde_json::to_string(&ig).unwrap();
+        let from_json: Integrator = serde_json::from_str(&json).unwrap();
+        assert_eq!(from_json.stats(), ig.stats());
         assert_eq!(
             ig.next_step_size().map(f64::to_bits),
             restored.next_step_size().map(f64::to_bits)
@@ -494,4 +498,23 @@ fn garbage_inputs_never_panic() {
             &mut y,
         );
     }
+}
+
+#[test]
+fn max_step_bounds_the_step_size() {
+    let mut ig = Integrator::new(1e-3, vec![1e-3]);
+    ig.set_max_step(1e-2);
+    let mut y = [1.0];
+    ig.integrate(&Dahlquist { k: 1.0 }, 0.0, 1.0, &mut y)
+        .unwrap();
+    assert!(ig.stats().steps >= 100, "{:?}", ig.stats());
+    assert!(ig.next_step_size().unwrap() <= 1e-2);
+    assert!((y[0] - (-1.0f64).exp()).abs() < 1e-3);
+    // Removing the bound: far fewer steps.
+    ig.set_max_step(f64::INFINITY);
+    let before = ig.stats().steps;
+    let mut y = [1.0];
+    ig.integrate(&Dahlquist { k: 1.0 }, 0.0, 1.0, &mut y)
+        .unwrap();
+    assert!(ig.stats().steps - before < 50, "{:?}", ig.stats());
 }
