@@ -341,6 +341,11 @@ def cases():
     # communication step 2.5 ms: position-loop samples fall inside steps (split at k*Ts)
     c["position_step_54N_dt2p5ms"] = ({"load_mass": 54 / G, "string_compliance.enabled": True},
                                       {"theta_motor_ref": step(0.01, 0.0, 335.1)}, 1.0, 2.5e-3)
+    # external force input under closed-loop hold at 300 rad: +60 N pull, then -20 N relief
+    tf = [0, 0.6, 0.6, 1.0, 1.0, 1.4]
+    c["force_steps"] = ({"string_compliance.enabled": True, "load_mass": 39 / G},
+                        {"theta_motor_ref": (tf, [300.0] * 6),
+                         "F_load": (tf, [0, 0, 60, 60, -20, -20])}, 1.4, 1e-3)
     c["twist_untwist"] = ({"string_compliance.enabled": True, "load_mass": 54 / G},
                           {"theta_motor_ref": ([0, 0.05, 1.05, 1.55, 2.55], [0, 0, 600, 600, 0])},
                           2.8, 1e-3)
