@@ -15,10 +15,20 @@ fuzz_target!(|data: &[u8]| {
     };
     assert!(!table.time.is_empty(), "table without rows");
     assert_eq!(table.names.len(), table.columns.len());
-    assert!(table.time.windows(2).all(|w| w[1] > w[0]), "time not increasing");
+    assert!(
+        table.time.windows(2).all(|w| w[1] > w[0]),
+        "time not increasing"
+    );
     for (name, col) in table.names.iter().zip(&table.columns) {
-        assert_eq!(col.len(), table.time.len(), "column {name} is not as long as time");
-        assert!(col.iter().all(|x| x.is_finite()), "non-finite value in {name}");
+        assert_eq!(
+            col.len(),
+            table.time.len(),
+            "column {name} is not as long as time"
+        );
+        assert!(
+            col.iter().all(|x| x.is_finite()),
+            "non-finite value in {name}"
+        );
         assert_eq!(table.column(name).map(|c| c.len()), Some(col.len()));
     }
     if let Some(dt) = table.sample_interval() {
@@ -32,7 +42,12 @@ fuzz_target!(|data: &[u8]| {
     let mut out = Vec::new();
     host::csv::write_csv_to(&mut out, &table.time, &table.names, &table.columns).unwrap();
     let again = host::csv::parse_csv(std::str::from_utf8(&out).unwrap(), "again.csv")
-        .unwrap_or_else(|e| panic!("written table does not read back: {e}\n{}", String::from_utf8_lossy(&out)));
+        .unwrap_or_else(|e| {
+            panic!(
+                "written table does not read back: {e}\n{}",
+                String::from_utf8_lossy(&out)
+            )
+        });
     let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
     assert_eq!(bits(&again.time), bits(&table.time));
     for (a, b) in again.columns.iter().zip(&table.columns) {

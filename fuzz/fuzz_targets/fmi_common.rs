@@ -1,23 +1,23 @@
-//! Random FMI 2.0 call sequences with random and hostile arguments through the generic C entry
-//! points of `fmi2_export::ffi` (exactly what each model's exported `fmi2*` symbol calls), for
-//! every model (HydraulicJoint, TwistedString, the Oscillator test model).
+//! Shared part of the `fmi_api_*` targets: random FMI 2.0 call sequences with random and hostile
+//! arguments through the generic C entry points of `fmi2_export::ffi` (exactly what each model's
+//! exported `fmi2*` symbol calls). One target per model (HydraulicJoint, TwistedString, the
+//! Oscillator test model), because each model rlib exports the same `fmi2*` symbols and they
+//! cannot be linked into one binary.
 //!
 //! Besides "no crash, no panic across the ABI, no sanitizer finding", each call checks what the
 //! standard and the layer promise:
 //! - a call that returns fmi2Error on a live instance has logged a message (logStatusError);
 //! - fmi2OK/fmi2Warning from a getter gives finite values;
 //! - a serialized FMU state deserializes into a state that serializes to the same bytes.
-#![no_main]
 
 use fmi2_export::ffi::{self, *};
 use fmi2_export::Model;
 use libfuzzer_sys::arbitrary::{self, Arbitrary};
-use libfuzzer_sys::fuzz_target;
 use std::cell::RefCell;
 use std::ffi::{c_char, c_int, c_void, CStr};
 
 #[derive(Arbitrary, Debug, Clone, Copy)]
-enum F {
+pub enum F {
     Zero,
     Neg,
     Small(u16),
@@ -47,21 +47,21 @@ impl F {
 
 /// A value reference: mostly valid ones (index into the table), sometimes unknown.
 #[derive(Arbitrary, Debug, Clone, Copy)]
-enum Vr {
+pub enum Vr {
     Valid(u8),
     Unknown(u32),
 }
 
 /// A value for a variable: a value scaled into its [min, max] (when it has one), or anything.
 #[derive(Arbitrary, Debug, Clone, Copy)]
-enum Val {
+pub enum Val {
     InRange(u8),
     Start,
     Any(F),
 }
 
 #[derive(Arbitrary, Debug, Clone, Copy)]
-enum Step {
+pub enum Step {
     /// communicationStepSize in (0, 0.05]
     Normal(u8),
     /// currentCommunicationPoint off by this amount
@@ -70,36 +70,87 @@ enum Step {
 }
 
 #[derive(Arbitrary, Debug)]
-enum Op {
-    Instantiate { bad: u8, logging: bool },
+pub enum Op {
+    Instantiate {
+        bad: u8,
+        logging: bool,
+    },
     Free,
-    SetDebugLogging { on: bool, cats: Vec<u8>, null: bool },
-    Setup { start: F, stop_defined: bool, stop: F },
+    SetDebugLogging {
+        on: bool,
+        cats: Vec<u8>,
+        null: bool,
+    },
+    Setup {
+        start: F,
+        stop_defined: bool,
+        stop: F,
+    },
     EnterInit,
     ExitInit,
     Terminate,
     Reset,
-    SetReal { vrs: Vec<Vr>, vals: Vec<Val>, null: bool },
-    SetInteger { vrs: Vec<Vr>, vals: Vec<i32> },
-    SetBoolean { vrs: Vec<Vr>, vals: Vec<i32> },
-    GetReal { vrs: Vec<Vr>, null: bool },
-    GetInteger { vrs: Vec<Vr> },
-    GetBoolean { vrs: Vec<Vr> },
-    Strings { get: bool, vrs: Vec<Vr> },
+    SetReal {
+        vrs: Vec<Vr>,
+        vals: Vec<Val>,
+        null: bool,
+    },
+    SetInteger {
+        vrs: Vec<Vr>,
+        vals: Vec<i32>,
+    },
+    SetBoolean {
+        vrs: Vec<Vr>,
+        vals: Vec<i32>,
+    },
+    GetReal {
+        vrs: Vec<Vr>,
+        null: bool,
+    },
+    GetInteger {
+        vrs: Vec<Vr>,
+    },
+    GetBoolean {
+        vrs: Vec<Vr>,
+    },
+    Strings {
+        get: bool,
+        vrs: Vec<Vr>,
+    },
     DoStep(Step),
-    GetState { slot: u8, reuse: bool, null: bool },
-    SetState { slot: u8, foreign: bool },
-    FreeState { slot: u8 },
-    Serialize { slot: u8, short: bool },
-    Deserialize { slot: u8, flip: Option<(u16, u8)>, truncate: Option<u16> },
-    Status { which: u8, kind: i32, null: bool },
+    GetState {
+        slot: u8,
+        reuse: bool,
+        null: bool,
+    },
+    SetState {
+        slot: u8,
+        foreign: bool,
+    },
+    FreeState {
+        slot: u8,
+    },
+    Serialize {
+        slot: u8,
+        short: bool,
+    },
+    Deserialize {
+        slot: u8,
+        flip: Option<(u16, u8)>,
+        truncate: Option<u16>,
+    },
+    Status {
+        which: u8,
+        kind: i32,
+        null: bool,
+    },
     Unsupported(u8),
     NullComponent(u8),
 }
 
+/// One fuzz input: a sequence of calls.
 #[derive(Arbitrary, Debug)]
-struct Input {
-    model: u8,
+pub struct Input {
     ops: Vec<Op>,
 }
 
@@ -117,7 +168,11 @@ unsafe extern "C" fn logger(
     format: *const c_char,
     message: *const c_char,
 ) {
-    assert_eq!(CStr::from_ptr(format).to_bytes(), b"%s", "logger format must be \"%s\"");
+    assert_eq!(
+        CStr::from_ptr(format).to_bytes(),
+        b"%s",
+        "logger format must be \"%s\""
+    );
     let cat = CStr::from_ptr(category).to_string_lossy().into_owned();
     let msg = CStr::from_ptr(message).to_string_lossy().into_owned();
     LOG.with(|l| l.borrow_mut().push((status, cat, msg)));
@@ -152,11 +207,15 @@ fn check_logged(status: c_int, what: &str) {
     let log = take_log();
     if status == FMI2_ERROR {
         assert!(
-            log.iter().any(|(s, _, m)| *s == FMI2_ERROR && !m.is_empty()),
+            log.iter()
+                .any(|(s, _, m)| *s == FMI2_ERROR && !m.is_empty()),
             "{what} returned fmi2Error without a logged message"
         );
     }
-    assert!((0..=4).contains(&status), "{what}: status {status} out of range");
+    assert!(
+        (0..=4).contains(&status),
+        "{what}: status {status} out of range"
+    );
 }
 
 struct Driver<M: Model> {
@@ -185,7 +244,8 @@ impl<M: Model> Driver<M> {
                 lo + (hi - lo) * k as f64 / 255.0
             }
             (Val::Start, Some(var)) => var.start,
-            (Val::Any(f), _) | (Val::InRange(_) | Val::Start, None) => f.get(),
+            (Val::Any(f), _) => f.get(),
+            (Val::InRange(_) | Val::Start, None) => 0.5,
         }
     }
 
@@ -205,10 +265,17 @@ impl<M: Model> Driver<M> {
         self.c = ffi::instantiate::<M>(n, ty, g, c"file:///tmp".as_ptr(), f, 0, logging as c_int);
         let log = take_log();
         if bad % 8 < 5 {
-            assert!(self.c.is_null(), "bad instantiate argument {} accepted", bad % 8);
+            assert!(
+                self.c.is_null(),
+                "bad instantiate argument {} accepted",
+                bad % 8
+            );
             assert!(!log.is_empty(), "refused fmi2Instantiate logged nothing");
         } else if bad % 8 == 5 {
-            assert!(self.c.is_null(), "fmi2Instantiate without callbacks accepted");
+            assert!(
+                self.c.is_null(),
+                "fmi2Instantiate without callbacks accepted"
+            );
         } else {
             assert!(!self.c.is_null(), "valid fmi2Instantiate refused: {log:?}");
         }
@@ -254,12 +321,21 @@ impl<M: Model> Driver<M> {
                     std::ptr::null(),
                 ];
                 let list: Vec<Fmi2String> = cats.iter().map(|&k| names[k as usize % 6]).collect();
-                let p = if *null { std::ptr::null() } else { list.as_ptr() };
+                let p = if *null {
+                    std::ptr::null()
+                } else {
+                    list.as_ptr()
+                };
                 ffi::set_debug_logging::<M>(c, *on as c_int, list.len(), p)
             }
-            Op::Setup { start, stop_defined, stop } => {
+            Op::Setup {
+                start,
+                stop_defined,
+                stop,
+            } => {
                 let st = start.get();
-                let s = ffi::setup_experiment::<M>(c, 0, 0.0, st, *stop_defined as c_int, stop.get());
+                let s =
+                    ffi::setup_experiment::<M>(c, 0, 0.0, st, *stop_defined as c_int, stop.get());
                 if s == FMI2_OK {
                     self.time = st;
                 }
@@ -282,26 +358,41 @@ impl<M: Model> Driver<M> {
                     .zip(vals.iter().chain(std::iter::repeat(&Val::Start)))
                     .map(|(&vr, &v)| self.value(vr, v))
                     .collect();
-                let p = if *null { std::ptr::null() } else { vals.as_ptr() };
+                let p = if *null {
+                    std::ptr::null()
+                } else {
+                    vals.as_ptr()
+                };
                 ffi::set_real::<M>(c, vrs.as_ptr(), vrs.len(), p)
             }
             Op::SetInteger { vrs, vals } => {
                 let vrs: Vec<u32> = vrs.iter().map(|&v| self.vr(v)).collect();
-                let vals: Vec<i32> = (0..vrs.len()).map(|i| vals.get(i).copied().unwrap_or(0)).collect();
+                let vals: Vec<i32> = (0..vrs.len())
+                    .map(|i| vals.get(i).copied().unwrap_or(0))
+                    .collect();
                 ffi::set_integer::<M>(c, vrs.as_ptr(), vrs.len(), vals.as_ptr())
             }
             Op::SetBoolean { vrs, vals } => {
                 let vrs: Vec<u32> = vrs.iter().map(|&v| self.vr(v)).collect();
-                let vals: Vec<i32> = (0..vrs.len()).map(|i| vals.get(i).copied().unwrap_or(1)).collect();
+                let vals: Vec<i32> = (0..vrs.len())
+                    .map(|i| vals.get(i).copied().unwrap_or(1))
+                    .collect();
                 ffi::set_boolean::<M>(c, vrs.as_ptr(), vrs.len(), vals.as_ptr())
             }
             Op::GetReal { vrs, null } => {
                 let vrs: Vec<u32> = vrs.iter().map(|&v| self.vr(v)).collect();
                 let mut out = vec![0.0; vrs.len()];
-                let p = if *null { std::ptr::null_mut() } else { out.as_mut_ptr() };
+                let p = if *null {
+                    std::ptr::null_mut()
+                } else {
+                    out.as_mut_ptr()
+                };
                 let s = ffi::get_real::<M>(c, vrs.as_ptr(), vrs.len(), p);
                 if s <= 1 {
-                    assert!(out.iter().all(|x| x.is_finite()), "fmi2GetReal gave non-finite values");
+                    assert!(
+                        out.iter().all(|x| x.is_finite()),
+                        "fmi2GetReal gave non-finite values"
+                    );
                 }
                 s
             }
@@ -315,7 +406,10 @@ impl<M: Model> Driver<M> {
                 let mut out = vec![7; vrs.len()];
                 let s = ffi::get_boolean::<M>(c, vrs.as_ptr(), vrs.len(), out.as_mut_ptr());
                 if s <= 1 {
-                    assert!(out.iter().all(|&b| b == 0 || b == 1), "fmi2GetBoolean gave {out:?}");
+                    assert!(
+                        out.iter().all(|&b| b == 0 || b == 1),
+                        "fmi2GetBoolean gave {out:?}"
+                    );
                 }
                 s
             }
@@ -343,8 +437,16 @@ impl<M: Model> Driver<M> {
                         .filter(|&i| M::variables()[i as usize].vtype == fmi2_export::VarType::Real)
                         .collect();
                     let s2 = ffi::get_real::<M>(c, vrs.as_ptr(), vrs.len(), out.as_mut_ptr());
-                    assert_eq!(s2, FMI2_OK, "fmi2GetReal after a good step failed: {:?}", take_log());
-                    assert!(out.iter().all(|x| x.is_finite()), "non-finite value after fmi2OK step");
+                    assert_eq!(
+                        s2,
+                        FMI2_OK,
+                        "fmi2GetReal after a good step failed: {:?}",
+                        take_log()
+                    );
+                    assert!(
+                        out.iter().all(|x| x.is_finite()),
+                        "non-finite value after fmi2OK step"
+                    );
                 }
                 s
             }
@@ -353,7 +455,11 @@ impl<M: Model> Driver<M> {
                 if *reuse && !self.states.is_empty() {
                     st = self.states[*slot as usize % self.states.len()];
                 }
-                let p = if *null { std::ptr::null_mut() } else { &mut st as *mut _ };
+                let p = if *null {
+                    std::ptr::null_mut()
+                } else {
+                    &mut st as *mut _
+                };
                 let s = ffi::get_fmu_state::<M>(c, p);
                 if s == FMI2_OK && !self.states.contains(&st) {
                     self.states.push(st);
@@ -405,17 +511,36 @@ impl<M: Model> Driver<M> {
                     // round trip: deserialize, serialize again, same bytes
                     let mut st2: Fmi2FmuState = std::ptr::null_mut();
                     let s2 = ffi::deserialize_fmu_state::<M>(c, buf.as_ptr(), n, &mut st2);
-                    assert_eq!(s2, FMI2_OK, "own serialized state refused: {:?}", take_log());
+                    assert_eq!(
+                        s2,
+                        FMI2_OK,
+                        "own serialized state refused: {:?}",
+                        take_log()
+                    );
                     self.states.push(st2);
                     let mut size2 = 0usize;
-                    assert_eq!(ffi::serialized_fmu_state_size::<M>(c, st2, &mut size2), FMI2_OK);
+                    assert_eq!(
+                        ffi::serialized_fmu_state_size::<M>(c, st2, &mut size2),
+                        FMI2_OK
+                    );
                     let mut buf2 = vec![0 as c_char; size2];
-                    assert_eq!(ffi::serialize_fmu_state::<M>(c, st2, buf2.as_mut_ptr(), size2), FMI2_OK);
-                    assert_eq!(buf[..n], buf2[..], "serialize/deserialize round trip differs");
+                    assert_eq!(
+                        ffi::serialize_fmu_state::<M>(c, st2, buf2.as_mut_ptr(), size2),
+                        FMI2_OK
+                    );
+                    assert_eq!(
+                        buf[..n],
+                        buf2[..],
+                        "serialize/deserialize round trip differs"
+                    );
                 }
                 s
             }
-            Op::Deserialize { slot, flip, truncate } => {
+            Op::Deserialize {
+                slot,
+                flip,
+                truncate,
+            } => {
                 // start from a real serialized state (or garbage) and damage it
                 let mut bytes: Vec<u8> = b"AFMUST01garbage".to_vec();
                 if !self.states.is_empty() {
@@ -423,7 +548,12 @@ impl<M: Model> Driver<M> {
                     let mut size = 0usize;
                     if ffi::serialized_fmu_state_size::<M>(c, st, &mut size) == FMI2_OK {
                         let mut buf = vec![0u8; size];
-                        let s = ffi::serialize_fmu_state::<M>(c, st, buf.as_mut_ptr() as *mut c_char, size);
+                        let s = ffi::serialize_fmu_state::<M>(
+                            c,
+                            st,
+                            buf.as_mut_ptr() as *mut c_char,
+                            size,
+                        );
                         assert_eq!(s, FMI2_OK);
                         bytes = buf;
                     }
@@ -456,15 +586,29 @@ impl<M: Model> Driver<M> {
                 let mut sp: Fmi2String = std::ptr::null();
                 macro_rules! p {
                     ($x:expr) => {
-                        if *null { std::ptr::null_mut() } else { $x }
+                        if *null {
+                            std::ptr::null_mut()
+                        } else {
+                            $x
+                        }
                     };
                 }
                 let f = match which % 5 {
                     0 => "fmi2GetStatus",
                     1 => "fmi2GetIntegerStatus",
                     2 => "fmi2GetStringStatus",
-                    3 => return check_logged(ffi::get_real_status::<M>(c, *kind, p!(&mut r)), "fmi2GetRealStatus"),
-                    _ => return check_logged(ffi::get_boolean_status::<M>(c, *kind, p!(&mut i)), "fmi2GetBooleanStatus"),
+                    3 => {
+                        return check_logged(
+                            ffi::get_real_status::<M>(c, *kind, p!(&mut r)),
+                            "fmi2GetRealStatus",
+                        )
+                    }
+                    _ => {
+                        return check_logged(
+                            ffi::get_boolean_status::<M>(c, *kind, p!(&mut i)),
+                            "fmi2GetBooleanStatus",
+                        )
+                    }
                 };
                 let is_null = *null || (which % 5 == 2 && p!(&mut sp).is_null());
                 ffi::get_status::<M>(c, f, *kind, is_null)
@@ -491,7 +635,10 @@ impl<M: Model> Driver<M> {
                         FMI2_ERROR
                     }
                 };
-                assert_eq!(s, FMI2_ERROR, "call on a NULL component did not return fmi2Error");
+                assert_eq!(
+                    s, FMI2_ERROR,
+                    "call on a NULL component did not return fmi2Error"
+                );
                 take_log();
                 return;
             }
@@ -514,14 +661,9 @@ unsafe fn drive<M: Model>(ops: &[Op]) {
     d.free();
 }
 
-fuzz_target!(|input: Input| {
+/// Run one input on model `M`.
+pub fn run<M: Model>(input: &Input) {
     take_log();
     // SAFETY: every pointer passed is valid or deliberately NULL/foreign (which the layer checks).
-    unsafe {
-        match input.model % 3 {
-            0 => drive::<hydraulic_joint::HydraulicJoint>(&input.ops),
-            1 => drive::<twisted_string::TwistedString>(&input.ops),
-            _ => drive::<test_oscillator::Oscillator>(&input.ops),
-        }
-    }
-});
+    unsafe { drive::<M>(&input.ops) }
+}
