@@ -234,6 +234,236 @@ impl ode::OdeSystem for Plant<'_> {
     fn autonomous(&self) -> bool {
         true
     }
+    fn jacobian(&self, _t: f64, y: &[f64], jac: &mut nalgebra::DMatrix<f64>) -> bool {
+        let j = self.jacobian_rows(y);
+        for (r, row) in j.iter().enumerate() {
+            for (c, v) in row.iter().enumerate() {
+                jac[(r, c)] = *v;
+            }
+        }
+        true
+    }
+}
+
+/// Gradient of a scalar with respect to the 7 states.
+type Grad = [f64; DIM];
+
+#[inline]
+fn unit(k: usize) -> Grad {
+    let mut g = [0.0; DIM];
+    g[k] = 1.0;
+    g
+}
+
+/// `a * x + b * y` componentwise.
+#[inline]
+fn lin(a: f64, x: &Grad, b: f64, y: &Grad) -> Grad {
+    let mut g = [0.0; DIM];
+    for k in 0..DIM {
+        g[k] = a * x[k] + b * y[k];
+    }
+    g
+}
+
+#[inline]
+fn scale(a: f64, x: &Grad) -> Grad {
+    lin(a, x, 0.0, x)
+}
+
+/// Second derivative of [`smooth_pos`]: `w^2 / (2 (x^2 + w^2)^(3/2))`.
+#[inline]
+fn smooth_pos_dd(x: f64, w: f64) -> f64 {
+    let q = x * x + w * w;
+    0.5 * w * w / (q * q.sqrt())
+}
+
+/// Derivative of the clamping anti-windup integrator rate `e (1 - s)` (see
+/// [`crate::controller::pi_integrator_rate`]) from the gradients of `e` and of the unsaturated
+/// output `u`.
+fn clamp_rate_grad(e: f64, u: f64, u_max: f64, de: &Grad, du: &Grad) -> Grad {
+    if e * u <= 0.0 {
+        return *de;
+    }
+    let width = crate::controller::CLAMP_FADE * u_max;
+    let raw = (u.abs() - u_max) / width;
+    let s = raw.clamp(0.0, 1.0);
+    if raw > 0.0 && raw < 1.0 {
+        lin(1.0 - s, de, -e * u.signum() / width, du)
+    } else {
+        scale(1.0 - s, de)
+    }
+}
+
+impl Plant<'_> {
+    /// Analytic Jacobian d(rhs)/dy (rows = equations), the chain rule through [`Plant::eval`]
+    /// (tested against central differences).
+    pub fn jacobian_rows(&self, y: &[f64]) -> [Grad; DIM] {
+        let q = self.par;
+        let (i, th_m, om, p, v, zi, zw) = (y[0], y[1], y[2], y[3], y[4], y[5], y[6]);
+        let n = q.gear_ratio;
+        let (e_i, e_th, e_om, e_p, e_v, e_zi, e_zw) = (
+            unit(0),
+            unit(1),
+            unit(2),
+            unit(3),
+            unit(4),
+            unit(5),
+            unit(6),
+        );
+        let zero = [0.0; DIM];
+        // gearhead output: theta_t, g = dtheta_t/dtheta_m, g_th = dg/dtheta_m
+        let x = th_m / n;
+        let (theta_t, g, g_th) = match q.backlash {
+            None => (x, 1.0 / n, 0.0),
+            Some(b) => {
+                let h = 0.5 * b;
+                let (y1, d1) = smooth_pos(x - h, BACKLASH_WIDTH);
+                let (y2, d2) = smooth_pos(-x - h, BACKLASH_WIDTH);
+                let dd =
+                    smooth_pos_dd(x - h, BACKLASH_WIDTH) - smooth_pos_dd(-x - h, BACKLASH_WIDTH);
+                (y1 - y2, (d1 + d2) / n, dd / (n * n))
+            }
+        };
+        let omega_t = g * om;
+        let d_omega_t = lin(g_th * om, &e_th, g, &e_om);
+        // arc a = theta_t r(theta_t), a' and a''
+        let k = q.radius_growth.unwrap_or(0.0) / (2.0 * std::f64::consts::PI);
+        let r0 = q.string_radius;
+        let (a, da) = twist_arc(theta_t, r0, q.radius_growth.unwrap_or(0.0));
+        let dda = 2.0 * r0 * k;
+        let d_a = scale(da * g, &e_th);
+        let d_da = scale(dda * g, &e_th);
+        let l = strand_length(p, a);
+        let d_l = lin(p / l, &e_p, a / l, &d_a);
+        let (lf_p, lf_pp) = match q.compliance {
+            Some((a1, a2, _)) => {
+                let (_, d) = free_length(n * theta_t, q.string_length, a1, a2);
+                (d * n, 2.0 * a2 * n * n)
+            }
+            None => (0.0, 0.0),
+        };
+        let lfree = match q.compliance {
+            Some((a1, a2, _)) => free_length(n * theta_t, q.string_length, a1, a2).0,
+            None => q.string_length,
+        };
+        let d_lf = scale(lf_p * g, &e_th);
+        let d_lf_p = scale(lf_pp * g, &e_th);
+        let c = q.compliance_c();
+        let s = l - lfree;
+        let d_s = lin(1.0, &d_l, -1.0, &d_lf);
+        let qn = p * v + a * da * omega_t;
+        let mut d_qn = lin(v, &e_p, p, &e_v);
+        for kk in 0..DIM {
+            d_qn[kk] += (d_a[kk] * da + a * d_da[kk]) * omega_t + a * da * d_omega_t[kk];
+        }
+        let s_dot = qn / l - lf_p * omega_t;
+        let mut d_sdot = [0.0; DIM];
+        for kk in 0..DIM {
+            d_sdot[kk] =
+                d_qn[kk] / l - qn / (l * l) * d_l[kk] - d_lf_p[kk] * omega_t - lf_p * d_omega_t[kk];
+        }
+        let (xt, dxt) = string_tension(s, s_dot, c, q.string_damping, TENSION_WIDTH);
+        let d_x = lin(dxt / c, &d_s, dxt * q.string_damping, &d_sdot);
+        let (tension, _f_axial, d_t, d_fl) = match q.compliance {
+            Some(_) => {
+                let qp = (p * p + P_EPS * P_EPS).sqrt();
+                let d_q = scale(p / qp, &e_p);
+                let t = xt * l / qp;
+                let fl = xt * p / qp;
+                let mut dt = [0.0; DIM];
+                let mut dfl = [0.0; DIM];
+                for kk in 0..DIM {
+                    dt[kk] = d_x[kk] * l / qp + xt * d_l[kk] / qp - xt * l / (qp * qp) * d_q[kk];
+                    dfl[kk] = d_x[kk] * p / qp + xt * e_p[kk] / qp - xt * p / (qp * qp) * d_q[kk];
+                }
+                (t, fl, dt, dfl)
+            }
+            None => {
+                let fl = xt * p / l;
+                let mut dfl = [0.0; DIM];
+                for kk in 0..DIM {
+                    dfl[kk] = d_x[kk] * p / l + xt * (e_p[kk] / l - p / (l * l) * d_l[kk]);
+                }
+                (xt, fl, d_x, dfl)
+            }
+        };
+        // twist torque tau_L = T a a' / L
+        let tau_l = tension * a * da / l;
+        let mut d_tau = [0.0; DIM];
+        for kk in 0..DIM {
+            d_tau[kk] = d_t[kk] * a * da / l + tension * (d_a[kk] * da + a * d_da[kk]) / l
+                - tau_l / l * d_l[kk];
+        }
+        let mut tau_out = tau_l;
+        if let Some(mu) = q.hysteresis {
+            let th = (omega_t / HYSTERESIS_SPEED_WIDTH).tanh();
+            tau_out += mu * tension * da * th;
+            for kk in 0..DIM {
+                d_tau[kk] += mu
+                    * (d_t[kk] * da * th
+                        + tension * d_da[kk] * th
+                        + tension * da * (1.0 - th * th) / HYSTERESIS_SPEED_WIDTH * d_omega_t[kk]);
+            }
+        }
+        let power = tau_out * omega_t;
+        let d_power = lin(omega_t, &d_tau, tau_out, &d_omega_t);
+        let (f_eta, df_dp) =
+            gear_efficiency_factor(power, q.gear_efficiency, EFFICIENCY_POWER_WIDTH);
+        let mut d_tau_in = [0.0; DIM];
+        for kk in 0..DIM {
+            d_tau_in[kk] = df_dp * d_power[kk] * g * tau_out
+                + f_eta * g_th * e_th[kk] * tau_out
+                + f_eta * g * d_tau[kk];
+        }
+        let d_fric = match q.motor_friction {
+            Some((tc, b)) => scale(motor_friction(om, tc, b, FRICTION_SPEED_WIDTH).1, &e_om),
+            None => zero,
+        };
+        // controller
+        let (d_u, d_dzi, d_dzw) = if q.internal_controller {
+            let e_w = self.inp.omega_ref - om;
+            let d_ew = scale(-1.0, &e_om);
+            let iref_u = q.speed_p * (e_w + zw / q.speed_ti);
+            let d_iref_u = lin(q.speed_p, &d_ew, q.speed_p / q.speed_ti, &e_zw);
+            let d_iref = if iref_u.abs() < q.current_limit {
+                d_iref_u
+            } else {
+                zero
+            };
+            let iref = iref_u.clamp(-q.current_limit, q.current_limit);
+            let ei = iref - i;
+            let d_ei = lin(1.0, &d_iref, -1.0, &e_i);
+            let u_u = q.current_p * (ei + zi / q.current_ti);
+            let d_uu = lin(q.current_p, &d_ei, q.current_p / q.current_ti, &e_zi);
+            let d_u = if u_u.abs() < q.supply_voltage {
+                d_uu
+            } else {
+                zero
+            };
+            (
+                d_u,
+                clamp_rate_grad(ei, u_u, q.supply_voltage, &d_ei, &d_uu),
+                clamp_rate_grad(e_w, iref_u, q.current_limit, &d_ew, &d_iref_u),
+            )
+        } else {
+            (zero, zero, zero)
+        };
+        let mut jr = [[0.0; DIM]; DIM];
+        for kk in 0..DIM {
+            jr[ix::I][kk] =
+                (d_u[kk] - q.motor_resistance * e_i[kk] - q.back_emf_constant * e_om[kk])
+                    / q.motor_inductance;
+            jr[ix::OMEGA][kk] =
+                (q.torque_constant * e_i[kk] - d_tau_in[kk] - d_fric[kk]) / q.rotor_inertia;
+            jr[ix::V][kk] = (-q.spring_stiffness * e_p[kk] - d_fl[kk] - q.guide_damping * e_v[kk])
+                / q.load_mass;
+        }
+        jr[ix::THETA] = e_om;
+        jr[ix::P] = e_v;
+        jr[ix::ZI] = d_dzi;
+        jr[ix::ZW] = d_dzw;
+        jr
+    }
 }
 
 /// Consistent initial state at rest, untwisted (issue 10): theta_m = omega = i = 0, controller
@@ -345,5 +575,75 @@ mod tests {
         let aux = plant.eval(&y);
         assert!(aux.tension > 1e3 && aux.tension.is_finite());
         assert!(aux.dy.iter().all(|d| d.is_finite()));
+    }
+
+    #[test]
+    fn analytic_jacobian_matches_differences() {
+        let base = defaults();
+        let mut cases = vec![];
+        for internal in [true, false] {
+            for effect in 0..6 {
+                let mut q = base.clone();
+                q.internal_controller = internal;
+                match effect {
+                    1 => q.compliance = Some((8.1153e-06, 8.4427e-09, 1.6914e-5)),
+                    2 => q.hysteresis = Some(0.1),
+                    3 => q.motor_friction = Some((1e-3, 1e-6)),
+                    4 => q.backlash = Some(1f64.to_radians()),
+                    5 => q.radius_growth = Some(0.005),
+                    _ => {}
+                }
+                cases.push(q);
+            }
+        }
+        let states = [
+            [0.4, 600.0, 300.0, 0.08, -0.004, 2e-4, 3.0],
+            [1.2, 1200.0, -50.0, 0.05, 0.01, -1e-3, 40.0],
+            [0.05, 0.01, 0.3, 0.0898, 0.0, 1e-5, 0.1],
+        ];
+        for q in &cases {
+            let plant = Plant {
+                par: q,
+                inp: Inputs {
+                    theta_ref: 0.0,
+                    voltage: 5.0,
+                    f_load: 10.0,
+                    omega_ref: 200.0,
+                },
+            };
+            for y0 in &states {
+                // place the load so that the strings carry about 100 N (taut), as in operation
+                let mut y = *y0;
+                let th_t = y[1] / q.gear_ratio;
+                let (a, _) = twist_arc(th_t, q.string_radius, q.radius_growth.unwrap_or(0.0));
+                let lf = match q.compliance {
+                    Some((a1, a2, _)) => free_length(y[1], q.string_length, a1, a2).0,
+                    None => q.string_length,
+                };
+                y[3] = helix_position(lf + 100.0 * q.compliance_c(), a);
+                let y = &y;
+                let jr = plant.jacobian_rows(y);
+                for c in 0..DIM {
+                    let h = 1e-6 * NOMINAL[c].max(y[c].abs() * 1e-2);
+                    let mut yp = *y;
+                    let mut ym = *y;
+                    yp[c] += h;
+                    ym[c] -= h;
+                    let fp = plant.eval(&yp).dy;
+                    let fm = plant.eval(&ym).dy;
+                    let f0 = plant.eval(y).dy;
+                    for r in 0..DIM {
+                        let fd = (fp[r] - fm[r]) / (2.0 * h);
+                        let an = jr[r][c];
+                        // relative agreement, above the roundoff floor of the differences
+                        let noise = 1e3 * f64::EPSILON * f0[r].abs().max(fp[r].abs()) / h;
+                        assert!(
+                            (fd - an).abs() <= 1e-4 * fd.abs().max(an.abs()) + noise,
+                            "d f{r}/d y{c}: analytic {an} vs differences {fd} (effects {q:?}, y {y:?})"
+                        );
+                    }
+                }
+            }
+        }
     }
 }
