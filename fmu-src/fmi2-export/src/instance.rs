@@ -478,7 +478,7 @@ impl<M: Model> Instance<M> {
         if !(h.is_finite() && h > 0.0) {
             return self.error(
                 F,
-                format!("communicationStepSize {h} must be finite and > 0"),
+                format!("communicationStepSize {h:?} must be finite and > 0"),
             );
         }
         let tolerance = 1e-9 * self.time.abs().max(1.0);
@@ -486,16 +486,29 @@ impl<M: Model> Instance<M> {
             return self.error(
                 F,
                 format!(
-                    "currentCommunicationPoint {current} is not the current time {}",
+                    "currentCommunicationPoint {current:?} is not the current time {:?}",
                     self.time
                 ),
             );
         }
+        // The end of the step must be a finite time after the current one: a step lost in the
+        // rounding of a large time (t + h == t) would report fmi2OK without advancing, and a
+        // model's sample clock could never reach it.
+        let end = current + h;
+        if !(end.is_finite() && end > current) {
+            return self.error(
+                F,
+                format!(
+                    "communicationStepSize {h:?} does not advance time at t = {current:?} \
+                     (t + h = {end:?})"
+                ),
+            );
+        }
         if let Some(stop) = self.stop_time {
-            if current + h > stop + 1e-9 * stop.abs().max(1.0) {
+            if end > stop + 1e-9 * stop.abs().max(1.0) {
                 return self.error(
                     F,
-                    format!("step to {} goes beyond the stopTime {stop}", current + h),
+                    format!("step to {end:?} goes beyond the stopTime {stop:?}"),
                 );
             }
         }
@@ -511,7 +524,7 @@ impl<M: Model> Instance<M> {
                     self.state = MachineState::Error;
                     return self.error(
                         F,
-                        format!("'{}' became {value} at t = {current} + {h}", v.name),
+                        format!("'{}' became {value} at t = {current:?} + {h:?}", v.name),
                     );
                 }
                 self.time = current + h;
@@ -526,7 +539,7 @@ impl<M: Model> Instance<M> {
                 self.state = MachineState::Error;
                 self.error(
                     F,
-                    format!("step from t = {current} with h = {h} failed: {msg}"),
+                    format!("step from t = {current:?} with h = {h:?} failed: {msg}"),
                 )
             }
         }
