@@ -480,3 +480,31 @@ def test_step_beyond_stop_time_is_refused():
         assert "stopTime" in h.last_error()
         assert h.do_step(0.0, 0.01) == OK
         h.free()
+
+
+LATE_START = """
+import sys
+sys.path.insert(0, {tests!r})
+from fmi_harness import Harness
+h = Harness({fmu!r})
+assert h.instantiate()
+assert h.initialize(start={start!r}) == 0, h.last_error()
+status = h.do_step({start!r}, {step!r})
+print("status", status, h.last_error())
+assert status == 3, status
+assert "does not advance time" in h.last_error(), h.last_error()
+"""
+
+
+@pytest.mark.parametrize("start,step", [(1e300, 1e-3), (1.7e308, 1.7e308)])
+@pytest.mark.parametrize("name", ALL)
+def test_step_that_cannot_advance_time_is_refused(name, start, step):
+    """At a huge start time a small step is lost in rounding (t + h == t) and a huge one
+    overflows: fmi2Error with a message, promptly, never fmi2OK without progress (or a hang in a
+    sample clock that cannot reach t + h)."""
+    code = LATE_START.format(tests=str(REPO / "tests"), fmu=fmu_path(name), start=start, step=step)
+    try:
+        r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=10)
+    except subprocess.TimeoutExpired:
+        pytest.fail(f"fmi2DoStep({start}, {step}) on {name} did not return within 10 s")
+    assert r.returncode == 0, r.stdout + r.stderr[-2000:]
