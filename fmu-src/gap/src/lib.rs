@@ -5,6 +5,7 @@
 //! The method is written against the [`Simulator`] trait so it can be tested on synthetic models;
 //! the CLI adapts the FMU host to it.
 
+pub mod fmu;
 pub mod lm;
 pub mod plots;
 pub mod report;

@@ -1,5 +1,6 @@
 //! Bounded Levenberg–Marquardt on a transformed parameter vector with a forward-difference
-//! Jacobian whose columns are evaluated in parallel (rayon): one simulation per parameter.
+//! Jacobian whose columns are evaluated in parallel (rayon): one simulation per parameter; between
+//! finite-difference Jacobians, Broyden rank-one updates save simulations.
 //!
 //! Each physical parameter `p` is mapped to an unbounded-looking coordinate `z`: `z = ln p` when
 //! the parameter is positive and its range spans at least a decade (multiplicative uncertainty),
@@ -94,6 +95,8 @@ pub struct LmOptions {
     pub rel_tol: f64,
     /// Forward-difference step in z.
     pub fd_step: f64,
+    /// Accepted steps with Broyden-updated Jacobians between finite-difference ones.
+    pub broyden_steps: usize,
 }
 
 impl Default for LmOptions {
@@ -102,12 +105,12 @@ impl Default for LmOptions {
             max_iter: 25,
             rel_tol: 1e-4,
             fd_step: 1e-3,
+            broyden_steps: 3,
         }
     }
 }
 
-/// Result of a fit. `jac` is d(residual)/dz at the last point where it was evaluated (the
-/// optimum, or the iterate before the final, negligibly small step).
+/// Result of a fit. `jac` is the finite-difference d(residual)/dz at the optimum.
 #[derive(Clone, Debug)]
 pub struct LmFit {
     pub p: Vec<f64>,
@@ -186,13 +189,17 @@ pub fn levenberg_marquardt<P: Problem>(
     };
     let mut lambda = 1e-3;
     let mut iterations = 0;
+    // `fresh`: `jac` is a finite-difference Jacobian at `z` (else a Broyden update of one).
+    let mut fresh = true;
+    let mut since_fd = 0;
     while m > 0 && iterations < opts.max_iter {
         iterations += 1;
         tick();
         let a = jac.transpose() * &jac;
         let g = jac.transpose() * DVector::from_column_slice(&r);
         let mut accepted = None;
-        for _ in 0..12 {
+        let tries = if fresh { 12 } else { 3 };
+        for _ in 0..tries {
             let mut mm = a.clone();
             for k in 0..m {
                 mm[(k, k)] += lambda * a[(k, k)].max(1e-12) + 1e-12;
@@ -228,14 +235,43 @@ pub fn levenberg_marquardt<P: Problem>(
                 break;
             }
         }
-        let Some((zn, rn, sn)) = accepted else { break };
+        let Some((zn, rn, sn)) = accepted else {
+            if fresh {
+                break;
+            }
+            // The updated Jacobian led nowhere: take a finite-difference one and retry.
+            evaluations += m;
+            jac = jacobian(problem, b, &z, &r, opts.fd_step);
+            fresh = true;
+            since_fd = 0;
+            continue;
+        };
         let rel = (s - sn) / s.max(1e-300);
+        // Broyden's rank-one update J += (Δr − J Δz) Δzᵀ / (Δzᵀ Δz) (Broyden 1965).
+        let dz = DVector::from_iterator(m, zn.iter().zip(&z).map(|(a, b)| a - b));
+        let dr = DVector::from_iterator(r.len(), rn.iter().zip(&r).map(|(a, b)| a - b));
+        let den = dz.dot(&dz);
+        if den > 0.0 {
+            let u = (dr - &jac * &dz) / den;
+            jac += u * dz.transpose();
+        }
+        fresh = false;
+        since_fd += 1;
         z = zn;
         r = rn;
         s = sn;
         if rel < opts.rel_tol {
             break;
         }
+        if since_fd >= opts.broyden_steps {
+            evaluations += m;
+            jac = jacobian(problem, b, &z, &r, opts.fd_step);
+            fresh = true;
+            since_fd = 0;
+        }
+    }
+    if m > 0 && !fresh {
+        // Intervals and screening need the Jacobian at the optimum.
         evaluations += m;
         jac = jacobian(problem, b, &z, &r, opts.fd_step);
     }

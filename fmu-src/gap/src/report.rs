@@ -121,7 +121,7 @@ pub fn to_markdown(res: &GapResult, fmu: &str, data: &str, plots: &[String]) -> 
             g(o.max_after)
         );
     }
-    let _ = writeln!(s, "\n\"before\" is the model as given (start values, `--set` applied, effects off); \"base fit\" the calibrated model without effects; \"after\" the final model with the named effects, calibrated on the whole trace.\n");
+    let _ = writeln!(s, "\n\"before\" is the model as given (start values, `--set` applied, effects off); \"base fit\" the calibrated model without effects; \"after\" the final model with the named effects (parameters fitted on the training part, errors over the whole trace).\n");
     let t = &res.timing;
     let _ = writeln!(s, "## Timing\n\ntotal {:.2} s: simulation {:.2} s, fitting {:.2} s; {} simulations on {} threads.\n", t.total_s, t.simulate_s, t.fit_s, t.simulations, t.threads);
     if !plots.is_empty() {

@@ -755,7 +755,7 @@ pub fn run<S: Simulator + ?Sized>(
     // --- 1. Calibrate the base model on the training part.
     ctx.pb
         .set_message(format!("calibrating {} base parameter(s)", fit_idx.len()));
-    let base = fit_state(&ctx, &st0, None, &[], n_train, 30).map_err(GapError::Simulation)?;
+    let base = fit_state(&ctx, &st0, None, &[], n_train, 20).map_err(GapError::Simulation)?;
     let mut cur = base;
     let base_all = ctx
         .sim
@@ -943,8 +943,9 @@ pub fn run<S: Simulator + ?Sized>(
     }
 
     // --- 5. Final fit on the whole trace and the errors before/after.
-    ctx.pb.set_message("final fit on the whole trace");
-    let fin = fit_state(&ctx, &cur.state, None, &[], n, 10).map_err(GapError::Simulation)?;
+    // The reported model is the one fitted on the training part (its intervals from that fit's
+    // Jacobian); its errors are over the whole trace.
+    let fin = cur;
     let final_all = ctx
         .sim
         .simulate(&ctx.settings(&fin.state, None, &[]), n)
@@ -955,7 +956,7 @@ pub fn run<S: Simulator + ?Sized>(
         .map(|&k| final_all[k][..n].to_vec())
         .collect();
     let scale = row_scale(&fin.fit.residuals, kout);
-    let parameters = estimates(&params, &fin.state.idx, &fin.fit, &fin.bounds, &scale, n);
+    let parameters = estimates(&params, &fin.state.idx, &fin.fit, &fin.bounds, &scale, n_train);
     let mut outputs = BTreeMap::new();
     let mut traces = Traces {
         time: data.time.clone(),
@@ -1144,7 +1145,7 @@ fn refit<S: Simulator + ?Sized>(
     let n = ctx.n_train;
     let k = ctx.out_idx.len();
     let eff = &ctx.effects[e];
-    let f = fit_state(ctx, &cur.state, Some(e), &eff.params, n, 25)?;
+    let f = fit_state(ctx, &cur.state, Some(e), &eff.params, n, 15)?;
     let dbic = delta_bic(&cur.fit.residuals, &f.fit.residuals, k, eff.params.len());
     let scale = row_scale(&f.fit.residuals, k);
     let all_est = estimates(&ctx.params, &f.state.idx, &f.fit, &f.bounds, &scale, n);

@@ -1,0 +1,237 @@
+"""Generator of measured-style data for the gap workflow (issue 7).
+
+A dataset is made by simulating the packaged FMU with FMPy (an implementation independent of
+the Rust host that `actuator-fmu gap` uses) with
+  - our own random inputs (minimum-jerk reaches of the set point, steps of the disturbance),
+  - our own random draws of the base parameters the model calibrates by default,
+  - zero, one or two candidate effects switched on, each parameter drawn in its [min, max]
+    range (log-uniform where min > 0),
+and adding Gaussian noise of `noise` times each output's range (white, or AR(1) with the given
+coefficient and the same marginal standard deviation).
+
+Used by examples/README.md (the bundled examples), tests/test_gap.py and scripts/gap-eval.
+Command line:  python examples/gapgen.py MODEL OUT.csv [--effect E ...] [--seed S] [--noise F]
+               [--ar RHO] [--duration T] [--rate HZ] [--no-draw] [--set NAME=VALUE ...]
+"""
+import argparse
+import json
+import math
+import os
+import sys
+from pathlib import Path
+import xml.etree.ElementTree as ET
+import zipfile
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parent.parent
+
+# Outputs "measured" on the bench, per model (what sensors such a rig has).
+MEASURED = {
+    "HydraulicJoint": ["theta", "x_left", "x_right", "p1_left", "p2_left", "p1_right",
+                       "p2_right", "T_left", "T_right"],
+    "TwistedString": ["p", "theta_motor", "omega_motor", "current"],
+}
+
+
+def fmu_file(model):
+    return str(REPO / "dist" / f"{model}.fmu")
+
+
+def variables(model):
+    """Parameter table of the FMU: name -> dict(type, start, min, max, description)."""
+    with zipfile.ZipFile(fmu_file(model)) as z:
+        root = ET.fromstring(z.read("modelDescription.xml"))
+    out = {}
+    for v in root.iter("ScalarVariable"):
+        t = list(v)[0]
+        def num(key):
+            x = t.get(key)
+            return None if x is None else float(x)
+        start = t.get("start")
+        if t.tag == "Boolean":
+            start = start == "true"
+        elif start is not None:
+            start = float(start)
+        out[v.get("name")] = dict(type=t.tag, causality=v.get("causality"), start=start,
+                                  min=num("min"), max=num("max"),
+                                  description=v.get("description") or "")
+    return out
+
+
+def effects(model):
+    """Candidate effects: name -> list of their Real parameters."""
+    vs = variables(model)
+    eff = {}
+    for name, v in vs.items():
+        if v["type"] == "Boolean" and name.endswith(".enabled"):
+            prefix = name[: -len(".enabled")]
+            eff[prefix] = [n for n, w in vs.items()
+                           if n.startswith(prefix + ".") and w["type"] == "Real"]
+    return eff
+
+
+def calibrated(model):
+    vs = variables(model)
+    return [n for n, v in vs.items()
+            if v["type"] == "Real" and v["description"].lstrip().startswith("[calibrate]")
+            and "." not in n]
+
+
+def draw_in_range(rng, v):
+    lo, hi = v["min"], v["max"]
+    if lo is not None and hi is not None and lo > 0 and hi / lo >= 3:
+        return float(math.exp(rng.uniform(math.log(lo), math.log(hi))))
+    if lo is not None and hi is not None:
+        return float(rng.uniform(lo, hi))
+    return float(v["start"])
+
+
+def min_jerk(t, t0, t1, a, b):
+    s = np.clip((t - t0) / (t1 - t0), 0.0, 1.0)
+    return a + (b - a) * (10 * s**3 - 15 * s**4 + 6 * s**5)
+
+
+def reaches(rng, t, lo, hi, dur, hold, start=0.0):
+    """Piecewise minimum-jerk moves between random targets in [lo, hi]."""
+    y = np.full_like(t, start)
+    cur, tc = start, t[0] + rng.uniform(0.1, 0.4)
+    while tc < t[-1]:
+        d = rng.uniform(*dur)
+        tgt = rng.uniform(lo, hi)
+        m = t >= tc
+        y[m] = min_jerk(t[m], tc, tc + d, cur, tgt)
+        cur, tc = tgt, tc + d + rng.uniform(*hold)
+    return y
+
+
+def steps(rng, t, lo, hi, period):
+    y = np.zeros_like(t)
+    tc = t[0] + rng.uniform(*period)
+    level = 0.0
+    while tc < t[-1]:
+        level = rng.uniform(lo, hi)
+        y[t >= tc] = level
+        tc += rng.uniform(*period)
+    return y
+
+
+def inputs(model, rng, t):
+    """Random input columns for `model` on the time grid t."""
+    if model == "HydraulicJoint":
+        ref = reaches(rng, t, math.radians(-30), math.radians(60), (0.5, 1.0), (0.3, 0.9))
+        tau = steps(rng, t, -3.0, 3.0, (0.8, 2.0))
+        return {"theta_ref": ref, "tau_ext": tau}
+    if model == "TwistedString":
+        ref = reaches(rng, t, 100.0, 1100.0, (1.0, 2.0), (0.3, 0.8))
+        f = steps(rng, t, 0.0, 40.0, (1.0, 2.5))
+        return {"theta_motor_ref": ref, "F_load": f}
+    raise ValueError(model)
+
+
+def simulate(model, t, cols, start_values, outputs=None):
+    """Simulate the FMU with FMPy at the grid's sample interval; returns a structured array."""
+    from fmpy import simulate_fmu
+    names = list(cols)
+    sig = np.zeros(len(t), dtype=[("time", np.float64)] + [(n, np.float64) for n in names])
+    sig["time"] = t
+    for n in names:
+        sig[n] = cols[n]
+    dt = float(t[1] - t[0])
+    return simulate_fmu(fmu_file(model), start_time=float(t[0]), stop_time=float(t[-1]),
+                        output_interval=dt, step_size=dt, start_values=dict(start_values),
+                        input=sig, output=outputs or MEASURED[model], validate=False)
+
+
+def noisy(rng, y, frac, ar):
+    s = frac * (np.max(y) - np.min(y))
+    w = rng.standard_normal(len(y))
+    if ar > 0:
+        e = np.empty_like(w)
+        e[0] = w[0]
+        c = math.sqrt(1 - ar * ar)
+        for i in range(1, len(w)):
+            e[i] = ar * e[i - 1] + c * w[i]
+        w = e
+    return y + s * w, s
+
+
+def make(model, seed, hidden=(), noise=0.01, ar=0.0, duration=10.0, rate=1000.0,
+         draw_base=True, base_overrides=None, sets=None, keep_inputs=None):
+    """One dataset. Returns dict(time, inputs, outputs, truth, noise_sigma)."""
+    rng = np.random.default_rng(seed)
+    t = np.round(np.arange(0, int(round(duration * rate)) + 1) / rate, 12)
+    vs = variables(model)
+    truth = {}
+    if draw_base:
+        for n in calibrated(model):
+            f = math.exp(rng.uniform(math.log(0.75), math.log(1.33)))
+            v = vs[n]
+            truth[n] = float(np.clip(v["start"] * f, v["min"], v["max"]))
+    for n, x in (base_overrides or {}).items():
+        truth[n] = x
+    eff = effects(model)
+    for e in hidden:
+        truth[e + ".enabled"] = True
+        for p in eff[e]:
+            truth[p] = draw_in_range(rng, vs[p])
+    for n, x in (sets or {}).items():
+        truth[n] = x
+    cols = inputs(model, rng, t)
+    if keep_inputs is not None:
+        cols = {k: v for k, v in cols.items() if k in keep_inputs}
+    res = simulate(model, t, cols, truth)
+    outs, sig = {}, {}
+    for n in MEASURED[model]:
+        outs[n], sig[n] = noisy(rng, np.asarray(res[n], dtype=float), noise, ar)
+    return dict(time=t, inputs=cols, outputs=outs, truth=truth, noise_sigma=sig,
+                clean={n: np.asarray(res[n], dtype=float) for n in MEASURED[model]})
+
+
+def write_csv(ds, path, comment=None):
+    names = list(ds["inputs"]) + list(ds["outputs"])
+    cols = [ds["time"]] + [ds["inputs"][n] for n in ds["inputs"]] + \
+           [ds["outputs"][n] for n in ds["outputs"]]
+    with open(path, "w") as f:
+        if comment:
+            for line in comment.splitlines():
+                f.write(f"# {line}\n")
+        f.write(",".join(["time"] + names) + "\n")
+        for row in zip(*cols):
+            f.write(",".join(repr(float(x)) for x in row) + "\n")
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("model")
+    ap.add_argument("out")
+    ap.add_argument("--effect", action="append", default=[])
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--noise", type=float, default=0.01)
+    ap.add_argument("--ar", type=float, default=0.0)
+    ap.add_argument("--duration", type=float, default=10.0)
+    ap.add_argument("--rate", type=float, default=1000.0)
+    ap.add_argument("--no-draw", action="store_true", help="base parameters at their defaults")
+    ap.add_argument("--set", action="append", default=[], help="NAME=VALUE applied to the truth")
+    a = ap.parse_args(argv)
+    sets = {}
+    for s in a.set:
+        k, v = s.split("=", 1)
+        sets[k] = v == "true" if v in ("true", "false") else float(v)
+    ds = make(a.model, a.seed, a.effect, a.noise, a.ar, a.duration, a.rate,
+              draw_base=not a.no_draw, sets=sets)
+    comment = (f"Generated by examples/gapgen.py {' '.join(sys.argv[1:] if argv is None else argv)}\n"
+               f"FMPy simulation of dist/{a.model}.fmu; Gaussian noise {a.noise:g} x range"
+               f"{'' if a.ar == 0 else f', AR(1) {a.ar:g}'}\n"
+               f"truth: {json.dumps(ds['truth'])}")
+    write_csv(ds, a.out, comment)
+    truth_path = os.path.splitext(a.out)[0] + ".truth.json"
+    with open(truth_path, "w") as f:
+        json.dump(dict(model=a.model, hidden=a.effect, truth=ds["truth"], seed=a.seed,
+                       noise=a.noise, ar=a.ar,
+                       noise_sigma={k: float(v) for k, v in ds["noise_sigma"].items()}), f,
+                  indent=1)
+
+
+if __name__ == "__main__":
+    main()
