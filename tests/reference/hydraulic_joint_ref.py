@@ -156,16 +156,34 @@ class Joint:
             return -ramp_c1(lo - u, W_DEADBAND)
         return 0.0
 
+    def mixture(self, pg):
+        """Documentation, entrained_air: specific volume v(P) = exp(-P/beta) + x0 (p_atm/p_a)^(1/n)
+        of the oil-air mixture and dv/dP (p_a the smoothly positive absolute pressure)."""
+        p = self.p
+        B = p["bulk_modulus"]
+        q = pg + P_ATM
+        root = math.sqrt(q * q + (0.1 * P_ATM) ** 2)
+        pabs = 0.5 * (q + root)
+        dpabs = 0.5 * (1 + q / root)
+        n = p["entrained_air.polytropic_index"]
+        air = p["entrained_air.fraction"] * (P_ATM / pabs) ** (1 / n)
+        oil = math.exp(-pg / B)
+        return oil + air, -oil / B - air / (n * pabs) * dpabs
+
     def beta(self, pg):
+        """Effective bulk modulus: beta, or -v/(dv/dP) with entrained air."""
         p = self.p
         if not p["entrained_air.enabled"]:
             return p["bulk_modulus"]
-        q = pg + P_ATM
-        pabs = 0.5 * (q + math.sqrt(q * q + (0.1 * P_ATM) ** 2))
-        n = p["entrained_air.polytropic_index"]
-        X = p["entrained_air.fraction"] * (P_ATM / pabs) ** (1 / n)
-        B = p["bulk_modulus"]
-        return B * (1 + X) / (1 + X * B / (n * pabs))
+        v, dv = self.mixture(pg)
+        return -v / dv
+
+    def density_ratio(self, pg):
+        """r(P) = rho(P)/rho(0): exp(P/beta), or v(0)/v(P) with entrained air."""
+        p = self.p
+        if not p["entrained_air.enabled"]:
+            return math.exp(pg / p["bulk_modulus"])
+        return self.mixture(0.0)[0] / self.mixture(pg)[0]
 
     def chamber_flows(self, a, p1, p2):
         """Net flows into cap and rod chambers and the supply flow."""
@@ -179,8 +197,9 @@ class Joint:
             qa = -c[3] * (-a) * sqrt_flow(p1 - Pr)  # A -> T
             qs = qb
         if self.p["internal_leakage.enabled"]:
+            # out of the cap chamber as ql, into the rod chamber as the same mass: ql r(P1)/r(P2)
             ql = self.p["internal_leakage.coefficient"] * (p1 - p2)
-            qa, qb = qa - ql, qb + ql
+            qa, qb = qa - ql, qb + ql * self.density_ratio(p1) / self.density_ratio(p2)
         return qa, qb, qs
 
     def seal(self, v):

@@ -141,6 +141,83 @@ fn main() {
                 );
             }
         }
+        "steps" => {
+            // where the solver spends its steps: per 1 ms step, accepted steps and v_left
+            let mut v = vars0();
+            for a in args.iter().skip(2) {
+                let (n, x) = a.split_once('=').unwrap();
+                let i = VARIABLES.iter().position(|q| q.name == n).unwrap();
+                v[i] = x.parse().unwrap();
+            }
+            let mut m = HydraulicJoint::new();
+            m.initialize(&mut v, 0.0).unwrap();
+            let mut last = 0;
+            for k in 0..3000 {
+                let t = k as f64 * 1e-3;
+                v[V::THETA_REF as usize] = minjerk(t);
+                m.do_step(&mut v, t, 1e-3).unwrap();
+                let s = m.solver_stats().unwrap().steps;
+                println!(
+                    "{:.3} {} {:.6e} {:.6e} {:.4e} {:.4e} {:.3}",
+                    t + 1e-3,
+                    s - last,
+                    v[V::V_LEFT as usize],
+                    v[V::V_RIGHT as usize],
+                    v[V::P1_LEFT as usize],
+                    v[V::P2_LEFT as usize],
+                    v[V::U_VALVE_LEFT as usize]
+                );
+                last = s;
+            }
+        }
+        "oil" => {
+            // oil balance over 10 s of pseudo-random closed/open-loop input
+            let mut v = vars0();
+            for a in args.iter().skip(2) {
+                let (n, x) = a.split_once('=').unwrap();
+                let i = VARIABLES.iter().position(|q| q.name == n).unwrap();
+                v[i] = x.parse().unwrap();
+            }
+            let open = v[V::INTERNAL_CONTROLLER as usize] == 0.0;
+            let mut m = HydraulicJoint::new();
+            m.initialize(&mut v, 0.0).unwrap();
+            let s0 = v[V::V_STORED as usize];
+            let mut seed = 12345u64;
+            let mut rnd = || {
+                seed = seed
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                (seed >> 11) as f64 / (1u64 << 53) as f64
+            };
+            let t0 = std::time::Instant::now();
+            let (mut a, mut b, mut c) = (0.0, 0.0, 0.0);
+            for k in 0..10_000 {
+                let t = k as f64 * 1e-3;
+                if k % 200 == 0 {
+                    a = rnd() * 2.0 - 1.0;
+                    b = rnd() * 20.0 - 10.0;
+                    c = rnd() * 20.0 - 10.0;
+                }
+                v[V::THETA_REF as usize] = a;
+                v[V::U_LEFT as usize] = b;
+                v[V::U_RIGHT as usize] = c;
+                v[V::TAU_EXT as usize] = if open { 0.0 } else { 2.0 * a };
+                m.do_step(&mut v, t, 1e-3).unwrap();
+            }
+            let (vs, vr, st) = (
+                v[V::V_SUPPLIED as usize],
+                v[V::V_RETURNED as usize],
+                v[V::V_STORED as usize],
+            );
+            let res = vs - vr - (st - s0);
+            println!(
+                "{:?}: Vs {vs:.6e} Vr {vr:.6e} dS {:.6e} residual {res:.3e} rel {:.3e} steps {:?}",
+                t0.elapsed(),
+                st - s0,
+                res / (vs + vr),
+                m.solver_stats().map(|s| s.steps)
+            );
+        }
         "rhs" => {
             use hydraulic_joint::plant::Plant;
             let v = vars0();

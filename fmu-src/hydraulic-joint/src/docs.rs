@@ -49,6 +49,32 @@ that effect is on). End stops at 0 and s: <code>F_stop</code> is a stiff penalty
 <h3>Chambers, eq. (7)-(12)</h3>
 <p><code>V1 = V1(0) + x A1</code>, <code>V2 = V2(0) + (s - x) A2</code>,
 <code>P1' = beta/V1 (Q1 - A1 v)</code>, <code>P2' = beta/V2 (Q2 + A2 v)</code>.</p>
+<h3>Oil balance (diagnostic outputs <code>V_supplied</code>, <code>V_returned</code>, <code>V_stored</code>)</h3>
+<p>What eq. (7)-(10) conserve: the bulk modulus is <code>beta = rho dP/drho</code> (Merritt eq. 2-3),
+so the density ratio <code>r(P) = rho(P)/rho(0)</code> solves <code>dr/dP = r/beta</code>,
+<code>r(P) = exp(integral_0^P dp/beta(p))</code>. With <code>dP/dt = beta/V (Q - dV/dt)</code>,
+<code>d(r V)/dt = r dV/dt + V r/beta dP/dt = r Q</code>: the conserved quantity is the oil mass
+<code>rho V</code>, here expressed as the volume <code>r(P) V</code> the chamber's oil would occupy at
+0 gauge, and <code>Q</code> is a volume flow at the chamber's pressure. The linear form
+<code>V (1 + P/beta)</code> is not conserved (its rate leaves <code>P/beta dV/dt</code>, up to 1 % of the
+piston's displacement flow at 100 bar). Constant beta: <code>r = exp(P/beta)</code>; with
+<code>entrained_air</code>: <code>r = v(0)/v(P)</code> with the mixture's specific volume
+<code>v</code> below. Summed over the four chambers:</p>
+<p><code>V_stored = sum_k V_k r(P_k)</code>,
+<code>V_supplied = integral sum_valves r(P_fed) Q_supply dt</code> (the chamber the P edge feeds:
+chamber 1 for <code>u_eff &gt;= 0</code>, chamber 2 otherwise),
+<code>V_returned = integral sum_valves r(P_drained) Q_tank dt</code>, and exactly
+<code>V_supplied - V_returned = V_stored(t) - V_stored(0)</code>. Internal leakage is written
+mass-conserving (it leaves chamber 1 as <code>Q_leak</code> and enters chamber 2 as
+<code>Q_leak r(P1)/r(P2)</code>), so it cancels from the balance. The two integrals are ODE states
+under the same error control as the others (nominal 1e-8 m3; they restart at 0 in each
+integration call and are summed in the model, so their relative tolerance applies to the
+increment rather than to the growing total); the residual of the balance is therefore the
+solver's error, of order <code>rtol</code> times the oil moved, and shrinks with <code>rtol</code>
+(<code>tests/test_hydraulic_joint.py::test_oil_balance</code>). These outputs are diagnostics
+for soak tests (issue 8); the SciPy reference does not compute them. Pressures are gauge, so
+<code>r</code> is taken relative to atmospheric pressure; <code>beta</code> lumps the hose
+compliance, so <code>V_stored</code> is the model's oil content, not a measurable tank level.</p>
 <h3>Valve, eq. (13)-(17)</h3>
 <p>With <code>a = u_eff &gt;= 0</code>: <code>Q1 = c1 a ssqrt(Ps - P1)</code> into chamber 1
 (P&rarr;A), <code>Q2 = -c3 a ssqrt(P2 - Pr)</code> out of chamber 2 (B&rarr;T). With
@@ -142,9 +168,9 @@ are the unknowns tuned; b is tagged for calibration.</p>
 <tr><th>effect</th><th>equation</th><th>source</th></tr>
 <tr><td><code>seal_friction</code></td><td><code>g += (Fc + Fex exp(-(v/vs)^2)) tanh(v/1e-4 m/s) + sigma v</code></td><td>Stribeck curve, Armstrong-Helouvry 1994; Manring 2005 sec. 6</td></tr>
 <tr><td><code>valve_overlap</code></td><td>dead band edges moved to <code>-1.8 - width</code>, <code>1.5 + width</code></td><td>Merritt sec. 5.2 (overlapped spool)</td></tr>
-<tr><td><code>internal_leakage</code></td><td><code>Q_leak = C_ip (P1 - P2)</code> from chamber 1 to 2</td><td>Merritt eq. 5-32</td></tr>
+<tr><td><code>internal_leakage</code></td><td><code>Q_leak = C_ip (P1 - P2)</code> out of chamber 1, <code>Q_leak r(P1)/r(P2)</code> into chamber 2 (same mass; see the oil balance)</td><td>Merritt eq. 5-32</td></tr>
 <tr><td><code>cable_friction</code></td><td><code>T_joint = T_spring exp(-mu phi tanh(v_slide/1e-3 m/s))</code>, <code>v_slide = +-R theta'</code> toward the piston</td><td>capstan equation; Kaneko et al. IEEE TRA 1991</td></tr>
-<tr><td><code>entrained_air</code></td><td><code>beta_e = beta (1+X)/(1 + X beta/(n p))</code>, <code>X = x0 (p_atm/p)^(1/n)</code>, p absolute (smoothly kept &gt; 0)</td><td>Merritt sec. 2.6; Manring eq. 1.29</td></tr>
+<tr><td><code>entrained_air</code></td><td>mixture specific volume per unit gas-free oil at 0 gauge <code>v(P) = exp(-P/beta) + x0 (p_atm/p_a)^(1/n)</code>, <code>beta_e = -v/(dv/dP)</code>, <code>r = v(0)/v(P)</code>; <code>p_a = 0.5 (q + sqrt(q^2 + (0.1 p_atm)^2))</code>, <code>q = P + p_atm</code> (absolute pressure smoothly kept &gt; 0). Equal to the textbook <code>beta_e = beta (1+X)/(1 + X beta/(n p_a))</code>, <code>X = x0 (p_atm/p_a)^(1/n)</code>, except that the oil's own compression (<code>P/beta</code>, &lt; 2 %) is kept in X and the smooth max's slope in dv/dP; this exact form has the closed-form density ratio the oil balance needs</td><td>Merritt sec. 2.6; Manring eq. 1.29</td></tr>
 <tr><td><code>valve_dynamics</code></td><td><code>xv'' + 2 zeta omega xv' + omega^2 xv = omega^2 u</code>, <code>u_eff = deadband(xv)</code></td><td>paper eq. (18); omega = 1300 rad/s, zeta = 0.7 reach 95 % in about 3.3 ms (paper: 3.5 ms step response)</td></tr>
 </table>
 <p>Ranges: Coulomb 5-200 N and breakaway excess 0-200 N (1-10 % of the 2 kN a 16 mm bore gives at

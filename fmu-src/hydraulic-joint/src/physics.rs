@@ -206,17 +206,69 @@ pub fn capstan_joint_tension(t_piston: f64, mu_phi: f64, v_slide: f64, v_eps: f6
     t_piston * (-mu_phi * (v_slide / v_eps).tanh()).exp()
 }
 
-/// Effective bulk modulus of oil with entrained air (Merritt sec. 2.6; Manring eq. 1.29):
-/// `beta_e = beta (1 + X) / (1 + X beta/(kappa p))`, `X = x0 (p_atm/p)^(1/kappa)` the air-to-oil
-/// volume ratio at absolute pressure `p`, `x0` at atmospheric pressure, polytropic index `kappa`.
-/// `p = smooth max(p_gauge + p_atm, ...)` stays positive: `0.5 (q + sqrt(q^2 + eps^2))`,
-/// `eps = 0.1 p_atm`.
-pub fn effective_bulk_modulus(beta: f64, p_gauge: f64, x0: f64, p_atm: f64, kappa: f64) -> f64 {
-    let q = p_gauge + p_atm;
+/// Compressibility of the oil in a chamber at gauge pressure `p` [Pa]: effective bulk modulus
+/// `beta_e` [Pa], its slope `d beta_e / dp` [1] and the density ratio `r = rho(p)/rho(0)` [1]
+/// (oil mass per chamber volume relative to 0 gauge), with `d r / dp = r / beta_e`, i.e.
+/// `beta_e = rho dp/drho` (definition of the bulk modulus, Merritt eq. 2-3).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OilState {
+    pub beta: f64,
+    pub dbeta: f64,
+    pub r: f64,
+}
+
+/// Pure oil of constant bulk modulus `beta`: `beta_e = beta`, `r = exp(p/beta)` (the exact
+/// solution of `dr/r = dp/beta`).
+pub fn oil_state(p: f64, beta: f64) -> OilState {
+    OilState {
+        beta,
+        dbeta: 0.0,
+        r: (p / beta).exp(),
+    }
+}
+
+/// Specific volume of oil with entrained air and its first two derivatives with respect to the
+/// gauge pressure `p` [Pa], per unit volume of gas-free oil at 0 gauge:
+/// `v(p) = exp(-p/beta) + x0 (p_atm/p_a)^(1/kappa)`: the oil compressed with bulk modulus `beta`
+/// plus the air, a polytropic gas (index `kappa`) whose volume is `x0` times the oil's at
+/// atmospheric pressure (Merritt sec. 2.6; Manring sec. 1.4). `p_a` is the absolute pressure
+/// kept positive by the smooth max `p_a = 0.5 (q + sqrt(q^2 + eps^2))`, `q = p + p_atm`,
+/// `eps = 0.1 p_atm` (the gas cannot expand without bound under vacuum).
+pub fn mixture_volume(p: f64, beta: f64, x0: f64, p_atm: f64, kappa: f64) -> [f64; 3] {
     let eps = 0.1 * p_atm;
-    let p = 0.5 * (q + (q * q + eps * eps).sqrt());
-    let x = x0 * (p_atm / p).powf(1.0 / kappa);
-    beta * (1.0 + x) / (1.0 + x * beta / (kappa * p))
+    let q = p + p_atm;
+    let s = (q * q + eps * eps).sqrt();
+    let pa = 0.5 * (q + s);
+    let pa1 = 0.5 * (1.0 + q / s);
+    let pa2 = 0.5 * eps * eps / (s * s * s);
+    let e = (-p / beta).exp();
+    let n = 1.0 / kappa;
+    let x = x0 * (p_atm / pa).powf(n);
+    // d/dp of x(pa(p)) = -n x / pa * pa1
+    let x1 = -n * x / pa * pa1;
+    let x2 = n * (n + 1.0) * x / (pa * pa) * pa1 * pa1 - n * x / pa * pa2;
+    [e + x, -e / beta + x1, e / (beta * beta) + x2]
+}
+
+/// Oil with entrained air: from [`mixture_volume`] `v`, `beta_e = -v/v'`,
+/// `d beta_e/dp = -1 + v v''/v'^2`, `r = v(0)/v(p)` (mass conservation of the mixture).
+/// For `x0 = 0` this is [`oil_state`]. Merritt's and Manring's
+/// `beta_e = beta (1 + X)/(1 + X beta/(kappa p_a))`, `X = x0 (p_atm/p_a)^(1/kappa)`, is the same law
+/// with the oil's own compression neglected in `X` (they differ by `p/beta` < 2 % relative in
+/// `X`); the exact form is used because it has the closed-form density ratio the oil balance needs.
+pub fn air_oil_state(p: f64, beta: f64, x0: f64, p_atm: f64, kappa: f64, v_ref: f64) -> OilState {
+    let [v, v1, v2] = mixture_volume(p, beta, x0, p_atm, kappa);
+    OilState {
+        beta: -v / v1,
+        dbeta: -1.0 + v * v2 / (v1 * v1),
+        r: v_ref / v,
+    }
+}
+
+/// Effective bulk modulus of oil with entrained air [Pa] (see [`air_oil_state`]).
+pub fn effective_bulk_modulus(beta: f64, p_gauge: f64, x0: f64, p_atm: f64, kappa: f64) -> f64 {
+    let [v, v1, _] = mixture_volume(p_gauge, beta, x0, p_atm, kappa);
+    -v / v1
 }
 
 /// Internal leakage across the piston from chamber 1 to chamber 2 (Merritt eq. 5-32, laminar):
@@ -427,6 +479,52 @@ mod tests {
         // stays finite and positive under vacuum
         let v = effective_bulk_modulus(b, -2e5, 0.01, 101325.0, 1.4);
         assert!(v.is_finite() && v > 0.0);
+    }
+
+    #[test]
+    fn oil_state_density_ratio_integrates_inverse_modulus() {
+        // d ln r / dp = 1/beta_e and d beta_e/dp, by differences, with and without air
+        let (b, pa) = (1e9, 101325.0);
+        let v_ref = mixture_volume(0.0, b, 0.02, pa, 1.2)[0];
+        for p in [-5e4, 0.0, 3e5, 2e6, 9e6] {
+            let st = air_oil_state(p, b, 0.02, pa, 1.2, v_ref);
+            let h = 1.0 + 1e-6 * p.abs();
+            let sp = air_oil_state(p + h, b, 0.02, pa, 1.2, v_ref);
+            let sm = air_oil_state(p - h, b, 0.02, pa, 1.2, v_ref);
+            let dlnr = (sp.r.ln() - sm.r.ln()) / (2.0 * h);
+            assert!(
+                close(dlnr, 1.0 / st.beta, 1e-6),
+                "{p}: {dlnr} {}",
+                1.0 / st.beta
+            );
+            let db = (sp.beta - sm.beta) / (2.0 * h);
+            assert!(
+                (db - st.dbeta).abs() < 1e-5 * (1.0 + db.abs()),
+                "{p}: {db} {}",
+                st.dbeta
+            );
+            assert!(close(
+                st.beta,
+                effective_bulk_modulus(b, p, 0.02, pa, 1.2),
+                1e-14
+            ));
+        }
+        assert_eq!(air_oil_state(0.0, b, 0.02, pa, 1.2, v_ref).r, 1.0);
+        let o = oil_state(5e6, b);
+        assert!(close(o.r, (5e-3f64).exp(), 1e-15));
+        assert_eq!((o.beta, o.dbeta), (b, 0.0));
+        // Merritt's approximate form agrees to within the neglected oil compression p/beta
+        for p in [2e5, 3e6, 1e7] {
+            let q = p + pa;
+            let pabs = 0.5 * (q + (q * q + (0.1 * pa) * (0.1 * pa)).sqrt());
+            let x = 0.02 * (pa / pabs).powf(1.0 / 1.2);
+            let merritt = b * (1.0 + x) / (1.0 + x * b / (1.2 * pabs));
+            let exact = effective_bulk_modulus(b, p, 0.02, pa, 1.2);
+            assert!(
+                (exact / merritt - 1.0).abs() < 0.03,
+                "{p}: {exact} {merritt}"
+            );
+        }
     }
 
     #[test]

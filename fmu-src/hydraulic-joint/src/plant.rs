@@ -1,7 +1,9 @@
 //! The continuous plant: parameters, state vector, right-hand side and outputs.
 //!
-//! State `y` (SI): `[theta, omega, x_L, v_L, p1_L, p2_L, x_R, v_R, p1_R, p2_R]` and, with
-//! `valve_dynamics` on, the spools `[xv_L, vv_L, xv_R, vv_R]` (positions in volts of command).
+//! State `y` (SI): `[theta, omega, x_L, v_L, p1_L, p2_L, x_R, v_R, p1_R, p2_R, Vs, Vr]` and,
+//! with `valve_dynamics` on, the spools `[xv_L, vv_L, xv_R, vv_R]` (positions in volts of
+//! command). `Vs`, `Vr` are the oil-balance integrals (supplied and returned oil as volume at
+//! 0 gauge) over the current integration call; the model accumulates them.
 
 use crate::controller::{ControllerParams, DEAD_BAND_BLEND};
 use crate::physics::*;
@@ -13,9 +15,13 @@ pub const OM: usize = 1;
 pub const fn piston(i: usize) -> usize {
     2 + 4 * i
 }
+/// Oil supplied by both valves since the start of the integration call [m3 at 0 gauge].
+pub const VSUP: usize = 10;
+/// Oil returned to tank by both valves since the start of the integration call [m3 at 0 gauge].
+pub const VRET: usize = 11;
 /// First index of spool `i`: `xv, vv`.
 pub const fn spool(i: usize) -> usize {
-    10 + 2 * i
+    12 + 2 * i
 }
 
 /// Laminar transition pressure drop of the orifices [Pa] (0.1 bar).
@@ -111,6 +117,10 @@ pub struct Derived {
     /// Dead band edges including the valve overlap [V].
     pub db_low: f64,
     pub db_high: f64,
+    /// Specific volume of the air-oil mixture at 0 gauge (1 without entrained air).
+    pub v_ref: f64,
+    /// Spool states present (`valve_dynamics`).
+    pub spool: bool,
     pub dim: usize,
 }
 
@@ -153,10 +163,21 @@ impl Params {
             e0,
             db_low,
             db_high,
+            v_ref: match self.entrained_air {
+                Some(a) => mixture_volume(
+                    0.0,
+                    self.bulk_modulus,
+                    a.fraction,
+                    P_ATM,
+                    a.polytropic_index,
+                )[0],
+                None => 1.0,
+            },
+            spool: self.valve_dynamics.is_some(),
             dim: if self.valve_dynamics.is_some() {
-                14
+                16
             } else {
-                10
+                12
             },
         };
         let (p1, p2) = self.rest_pressures();
@@ -206,7 +227,7 @@ impl Params {
             y[b + 2] = p1;
             y[b + 3] = p2;
         }
-        if d.dim == 14 {
+        if d.spool {
             y[spool(0)] = u[0];
             y[spool(1)] = u[1];
         }
@@ -214,12 +235,13 @@ impl Params {
     }
 
     /// Absolute tolerance per state: `atol * nominal_i` with nominal scales theta 0.01 rad,
-    /// omega 0.01 rad/s, x 1 mm, v 1 mm/s, pressures 1e5 Pa, spool 0.01 V and 10 V/s: the
-    /// resolution at which the outputs are compared (speeds near zero during stiction need a
-    /// tight absolute tolerance).
+    /// omega 0.01 rad/s, x 1 mm, v 1 mm/s, pressures 1e5 Pa, oil integrals 1e-8 m3 (the oil
+    /// moved in 1 ms at 0.6 L/min), spool 0.01 V and 10 V/s: the resolution at which the
+    /// outputs are compared (speeds near zero during stiction need a tight absolute tolerance).
     pub fn atol_vector(&self, dim: usize) -> Vec<f64> {
         let nominal = [
-            0.01, 0.01, 1e-3, 1e-3, 1e5, 1e5, 1e-3, 1e-3, 1e5, 1e5, 0.01, 10.0, 0.01, 10.0,
+            0.01, 0.01, 1e-3, 1e-3, 1e5, 1e5, 1e-3, 1e-3, 1e5, 1e5, 1e-8, 1e-8, 0.01, 10.0, 0.01,
+            10.0,
         ];
         nominal[..dim].iter().map(|n| n * self.atol).collect()
     }
@@ -238,6 +260,12 @@ pub struct PistonAux {
     pub dp1: f64,
     pub dp2: f64,
     pub accel: f64,
+    /// Oil drawn from the supply and returned to tank, as volume at 0 gauge per second
+    /// (`r(P_fed) Q_supply`, `r(P_drained) Q_tank`) [m3/s].
+    pub oil_in: f64,
+    pub oil_out: f64,
+    /// Oil in the two chambers as volume at 0 gauge, `V1 r(P1) + V2 r(P2)` [m3].
+    pub stored: f64,
 }
 
 /// The plant as an ODE system with the valve commands and external torque held constant.
@@ -256,10 +284,10 @@ impl Plant<'_> {
         let b = piston(i);
         let (x, v, p1, p2) = (y[b], y[b + 1], y[b + 2], y[b + 3]);
         let (theta, omega) = (y[TH], y[OM]);
-        let xv = if d.dim == 14 { y[spool(i)] } else { self.u[i] };
+        let xv = if d.spool { y[spool(i)] } else { self.u[i] };
         // valve: dead band (+ overlap) then orifices, eq. (13)-(16)
         let u_eff = dead_band(xv, d.db_low, d.db_high, DEAD_BAND_BLEND);
-        let (mut q1, mut q2, q_supply) = valve_flows(
+        let (q1v, q2v, q_supply) = valve_flows(
             u_eff,
             p1,
             p2,
@@ -268,10 +296,19 @@ impl Plant<'_> {
             &d.c_eff,
             P_TRANSITION,
         );
+        let q_tank = q_supply - q1v - q2v;
+        let (o1, o2) = self.oil(p1, p2);
+        let (r_fed, r_drained) = if u_eff >= 0.0 {
+            (o1.r, o2.r)
+        } else {
+            (o2.r, o1.r)
+        };
+        let (mut q1, mut q2) = (q1v, q2v);
         if let Some(c_ip) = p.internal_leakage {
+            // mass-conserving: leaves chamber 1 as Q_leak, enters chamber 2 as Q_leak r1/r2
             let ql = leakage_flow(c_ip, p1, p2);
             q1 -= ql;
-            q2 += ql;
+            q2 += ql * (o1.r / o2.r);
         }
         // chambers, eq. (7)-(12)
         let (v1, v2) = chamber_volumes(
@@ -282,15 +319,8 @@ impl Plant<'_> {
             p.dead_volume_cap,
             p.dead_volume_rod,
         );
-        let (beta1, beta2) = match p.entrained_air {
-            Some(a) => (
-                effective_bulk_modulus(p.bulk_modulus, p1, a.fraction, P_ATM, a.polytropic_index),
-                effective_bulk_modulus(p.bulk_modulus, p2, a.fraction, P_ATM, a.polytropic_index),
-            ),
-            None => (p.bulk_modulus, p.bulk_modulus),
-        };
-        let dp1 = pressure_rate(beta1, v1, p.piston_area * v, q1);
-        let dp2 = pressure_rate(beta2, v2, -p.annulus_area * v, q2);
+        let dp1 = pressure_rate(o1.beta, v1, p.piston_area * v, q1);
+        let dp2 = pressure_rate(o2.beta, v2, -p.annulus_area * v, q2);
         // cable through the series spring: the left pull makes theta grow
         let sgn = if i == 0 { -1.0 } else { 1.0 };
         let (t_spring, t_joint) = if p.cables_attached {
@@ -335,6 +365,30 @@ impl Plant<'_> {
             dp1,
             dp2,
             accel,
+            oil_in: r_fed * q_supply,
+            oil_out: r_drained * q_tank,
+            stored: v1 * o1.r + v2 * o2.r,
+        }
+    }
+
+    /// Compressibility of the oil in both chambers (bulk modulus, slope, density ratio).
+    pub fn oil(&self, p1: f64, p2: f64) -> (OilState, OilState) {
+        let p = self.p;
+        match p.entrained_air {
+            Some(a) => {
+                let f = |pg: f64| {
+                    air_oil_state(
+                        pg,
+                        p.bulk_modulus,
+                        a.fraction,
+                        P_ATM,
+                        a.polytropic_index,
+                        self.d.v_ref,
+                    )
+                };
+                (f(p1), f(p2))
+            }
+            None => (oil_state(p1, p.bulk_modulus), oil_state(p2, p.bulk_modulus)),
         }
     }
 
@@ -358,6 +412,8 @@ impl Plant<'_> {
             dydt[b + 2] = a.dp1;
             dydt[b + 3] = a.dp2;
         }
+        dydt[VSUP] = l.oil_in + r.oil_in;
+        dydt[VRET] = l.oil_out + r.oil_out;
         if let Some(vd) = self.p.valve_dynamics {
             for i in 0..2 {
                 let s = spool(i);
@@ -398,6 +454,13 @@ struct PistonJac {
     t_th: f64,
     t_om: f64,
     t_x: f64,
+    /// d(oil_in)/d(p1, p2, xv) and d(oil_out)/d(p1, p2, xv)
+    s_p1: f64,
+    s_p2: f64,
+    s_xv: f64,
+    r_p1: f64,
+    r_p2: f64,
+    r_xv: f64,
 }
 
 impl Plant<'_> {
@@ -409,11 +472,14 @@ impl Plant<'_> {
         let b = piston(i);
         let (x, v, p1, p2) = (y[b], y[b + 1], y[b + 2], y[b + 3]);
         let (theta, omega) = (y[TH], y[OM]);
-        let xv = if d.dim == 14 { y[spool(i)] } else { self.u[i] };
+        let xv = if d.spool { y[spool(i)] } else { self.u[i] };
         let u_eff = dead_band(xv, d.db_low, d.db_high, DEAD_BAND_BLEND);
         let du = dead_band_slope(xv, d.db_low, d.db_high, DEAD_BAND_BLEND);
         let (ps, pr, c) = (p.supply_pressure, p.return_pressure, &d.c_eff);
-        let (q1, q2, _) = valve_flows(u_eff, p1, p2, ps, pr, c, P_TRANSITION);
+        let (q1, q2, q_supply) = valve_flows(u_eff, p1, p2, ps, pr, c, P_TRANSITION);
+        let q_tank = q_supply - q1 - q2;
+        let (o1, o2) = self.oil(p1, p2);
+        let (beta1, beta2, dbeta1, dbeta2) = (o1.beta, o2.beta, o1.dbeta, o2.dbeta);
         // flow partials: (dq1/dp1, dq1/dp2, dq2/dp1, dq2/dp2, dq1/du, dq2/du)
         let (mut q1p1, mut q1p2, mut q2p1, mut q2p2, q1u, q2u);
         if u_eff >= 0.0 {
@@ -428,40 +494,44 @@ impl Plant<'_> {
             q2u = -c[1] * signed_sqrt_reg(ps - p2, P_TRANSITION);
             q1u = c[3] * signed_sqrt_reg(p1 - pr, P_TRANSITION);
         }
+        // oil balance rates r(P_fed) Q_supply, r(P_drained) Q_tank with dr/dP = r/beta
+        let (s_p1, s_p2, s_xv, r_p1, r_p2, r_xv) = if u_eff >= 0.0 {
+            // fed: chamber 1 (Q_supply = q1), drained: chamber 2 (Q_tank = -q2)
+            (
+                o1.r * (q_supply / beta1 + q1p1),
+                0.0,
+                o1.r * q1u * du,
+                0.0,
+                o2.r * (q_tank / beta2 - q2p2),
+                -o2.r * q2u * du,
+            )
+        } else {
+            // fed: chamber 2 (Q_supply = q2), drained: chamber 1 (Q_tank = -q1)
+            (
+                0.0,
+                o2.r * (q_supply / beta2 + q2p2),
+                o2.r * q2u * du,
+                o1.r * (q_tank / beta1 - q1p1),
+                0.0,
+                -o1.r * q1u * du,
+            )
+        };
         q1p2 = 0.0;
         q2p1 = 0.0;
         let (mut q1, mut q2) = (q1, q2);
         if let Some(c_ip) = p.internal_leakage {
             let ql = leakage_flow(c_ip, p1, p2);
+            let ratio = o1.r / o2.r;
             q1 -= ql;
-            q2 += ql;
+            q2 += ql * ratio;
             q1p1 -= c_ip;
             q1p2 += c_ip;
-            q2p1 += c_ip;
-            q2p2 -= c_ip;
+            // d(ql r1/r2)/dp1 = (c + ql/beta1) r1/r2, d/dp2 = -(c + ql/beta2) r1/r2
+            q2p1 += (c_ip + ql / beta1) * ratio;
+            q2p2 -= (c_ip + ql / beta2) * ratio;
         }
         let (a1, a2) = (p.piston_area, p.annulus_area);
         let (v1, v2) = chamber_volumes(x, p.stroke, a1, a2, p.dead_volume_cap, p.dead_volume_rod);
-        let (beta1, beta2, dbeta1, dbeta2) = match p.entrained_air {
-            Some(a) => {
-                let f = |pg: f64| {
-                    effective_bulk_modulus(
-                        p.bulk_modulus,
-                        pg,
-                        a.fraction,
-                        P_ATM,
-                        a.polytropic_index,
-                    )
-                };
-                (
-                    f(p1),
-                    f(p2),
-                    central_slope(f, p1, P_ATM),
-                    central_slope(f, p2, P_ATM),
-                )
-            }
-            None => (p.bulk_modulus, p.bulk_modulus, 0.0, 0.0),
-        };
         let r1 = q1 - a1 * v;
         let r2 = q2 + a2 * v;
         let mut j = PistonJac {
@@ -477,6 +547,12 @@ impl Plant<'_> {
             p2_xv: beta2 / v2 * q2u * du,
             a_p1: a1 / p.piston_mass,
             a_p2: -a2 / p.piston_mass,
+            s_p1,
+            s_p2,
+            s_xv,
+            r_p1,
+            r_p2,
+            r_xv,
             ..Default::default()
         };
         // cable
@@ -573,10 +649,16 @@ impl ode::OdeSystem for Plant<'_> {
             jac[(b + 3, b + 1)] = j.p2_v;
             jac[(b + 3, b + 2)] = j.p2_p1;
             jac[(b + 3, b + 3)] = j.p2_p2;
+            jac[(VSUP, b + 2)] = j.s_p1;
+            jac[(VSUP, b + 3)] = j.s_p2;
+            jac[(VRET, b + 2)] = j.r_p1;
+            jac[(VRET, b + 3)] = j.r_p2;
             if let Some(vd) = self.p.valve_dynamics {
                 let sp = spool(i);
                 jac[(b + 2, sp)] = j.p1_xv;
                 jac[(b + 3, sp)] = j.p2_xv;
+                jac[(VSUP, sp)] = j.s_xv;
+                jac[(VRET, sp)] = j.r_xv;
                 let w = vd.natural_frequency;
                 jac[(sp, sp + 1)] = 1.0;
                 jac[(sp + 1, sp)] = -w * w;
@@ -634,7 +716,8 @@ mod tests {
                 ),
             ] {
                 let mut y: Vec<f64> = yy.to_vec();
-                if d.dim == 14 {
+                y.extend_from_slice(&[3e-6, 1e-6]);
+                if d.spool {
                     y.extend_from_slice(&[u[0] * 0.9, 50.0, u[1] * 0.8, -40.0]);
                 }
                 let plant = Plant {
@@ -647,7 +730,8 @@ mod tests {
                 let mut jac = nalgebra::DMatrix::zeros(n, n);
                 assert!(plant.jacobian(0.0, &y, &mut jac));
                 let nominal = [
-                    1.0, 1.0, 0.01, 0.1, 1e6, 1e6, 0.01, 0.1, 1e6, 1e6, 1.0, 10.0, 1.0, 10.0,
+                    1.0, 1.0, 0.01, 0.1, 1e6, 1e6, 0.01, 0.1, 1e6, 1e6, 1e-6, 1e-6, 1.0, 10.0, 1.0,
+                    10.0,
                 ];
                 let (mut fp, mut fm) = (vec![0.0; n], vec![0.0; n]);
                 for j in 0..n {
