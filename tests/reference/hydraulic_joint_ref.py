@@ -69,6 +69,7 @@ DEFAULTS = {
     "seal_friction.breakaway_excess": 30.0,
     "seal_friction.stribeck_velocity": 0.01,
     "seal_friction.viscous": 300.0,
+    "seal_friction.memory_time": 5e-3,
     "valve_overlap.enabled": False,
     "valve_overlap.width": 0.4,
     "internal_leakage.enabled": False,
@@ -144,8 +145,17 @@ class Joint:
         extra = p["valve_overlap.width"] if p["valve_overlap.enabled"] else 0.0
         self.band = (p["valve_deadband_low"] - extra, p["valve_deadband_high"] + extra)
         self.spool = bool(p["valve_dynamics.enabled"])
-        self.n = 14 if self.spool else 10
-        self.nominal = np.array([1, 1, .01, .1, 1e6, 1e6, .01, .1, 1e6, 1e6, 1, 1e3, 1, 1e3])[: self.n]
+        self.memory = bool(p["seal_friction.enabled"])
+        # state: theta, omega, (x, v, P1, P2) left and right, spools (xv, vv) left and right when
+        # valve_dynamics, remembered speeds left and right when seal_friction
+        nominal = [1, 1, .01, .1, 1e6, 1e6, .01, .1, 1e6, 1e6]
+        if self.spool:
+            nominal += [1, 1e3, 1, 1e3]
+        self.i_mem = len(nominal)
+        if self.memory:
+            nominal += [.1, .1]
+        self.n = len(nominal)
+        self.nominal = np.array(nominal, dtype=float)
 
     # --- pieces of the documentation -----------------------------------------------------
     def opening(self, u):
@@ -202,13 +212,15 @@ class Joint:
             qa, qb = qa - ql, qb + ql * self.density_ratio(p1) / self.density_ratio(p2)
         return qa, qb, qs
 
-    def seal(self, v):
+    def seal(self, v, vm):
+        """Stribeck seal friction with frictional memory: the Stribeck term sees the remembered
+        speed vm (first-order lag of v, documentation 'seal_friction')."""
         p = self.p
         if not p["seal_friction.enabled"]:
             return 0.0
         Fc, Fx = p["seal_friction.coulomb"], p["seal_friction.breakaway_excess"]
         vs, sv = p["seal_friction.stribeck_velocity"], p["seal_friction.viscous"]
-        return (Fc + Fx * math.exp(-((v / vs) ** 2))) * math.tanh(v / V_STICTION) + sv * v
+        return (Fc + Fx * math.exp(-((vm / vs) ** 2))) * math.tanh(v / V_STICTION) + sv * v
 
     def stop(self, x, v):
         s = self.p["stroke"]
@@ -250,7 +262,8 @@ class Joint:
         else:
             Tp = Tj = 0.0
         F = p1 * A1 - p2 * A2
-        acc = (F - Tp - p["piston_damping"] * v - self.seal(v) + self.stop(x, v)) / p["piston_mass"]
+        vm = y[self.i_mem + (0 if side > 0 else 1)] if self.memory else v
+        acc = (F - Tp - p["piston_damping"] * v - self.seal(v, vm) + self.stop(x, v)) / p["piston_mass"]
         return dict(F=F, Tj=Tj, qs=qs, dx=v, dv=acc, dp1=dp1, dp2=dp2)
 
     def f(self, t, y, uL, uR, tau):
@@ -262,6 +275,10 @@ class Joint:
         dy[1] = ((L["Tj"] - Rr["Tj"]) * p["pulley_radius"] - p["link_damping"] * y[1] + tau) / self.I
         dy[2:6] = L["dx"], L["dv"], L["dp1"], L["dp2"]
         dy[6:10] = Rr["dx"], Rr["dv"], Rr["dp1"], Rr["dp2"]
+        if self.memory:
+            tau = p["seal_friction.memory_time"]
+            dy[self.i_mem] = (y[3] - y[self.i_mem]) / tau
+            dy[self.i_mem + 1] = (y[7] - y[self.i_mem + 1]) / tau
         if self.spool:
             wn = p["valve_dynamics.natural_frequency"]
             z = p["valve_dynamics.damping_ratio"]

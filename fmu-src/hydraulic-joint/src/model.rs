@@ -75,6 +75,7 @@ pub fn read_params(vars: &[f64]) -> Params {
             breakaway_excess: g(V::SEAL_FRICTION_BREAKAWAY_EXCESS),
             stribeck_velocity: g(V::SEAL_FRICTION_STRIBECK_VELOCITY),
             viscous: g(V::SEAL_FRICTION_VISCOUS),
+            memory_time: g(V::SEAL_FRICTION_MEMORY_TIME),
         }),
         valve_overlap: flag(vars, V::VALVE_OVERLAP_ENABLED).then(|| g(V::VALVE_OVERLAP_WIDTH)),
         internal_leakage: flag(vars, V::INTERNAL_LEAKAGE_ENABLED)
@@ -242,7 +243,7 @@ impl Model for HydraulicJoint {
             Self::open_loop_commands(vars)
         };
         self.y = p.rest_state(&d, u);
-        self.integrator = Some(Integrator::new(p.rtol, p.atol_vector(d.dim)));
+        self.integrator = Some(Integrator::new(p.rtol, p.atol_vector(&d)));
         self.u_held = u;
         self.tau_held = vars[V::TAU_EXT as usize];
         self.next_sample = 0;

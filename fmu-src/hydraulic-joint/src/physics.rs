@@ -113,14 +113,40 @@ pub fn piston_force(p1: f64, p2: f64, a1: f64, a2: f64) -> f64 {
     p1 * a1 - p2 * a2
 }
 
-/// Seal friction `g(v)` of paper eq. (6) as a Stribeck curve (Armstrong-Helouvry 1994;
-/// Manring 2005 sec. 6): `g = (Fc + Fex exp(-(v/vs)^2)) tanh(v/v_eps) + sigma v` [N] with
-/// Coulomb force `Fc`, breakaway excess `Fex = Fs - Fc`, Stribeck speed `vs`, viscous
-/// coefficient `sigma`; `tanh(v/v_eps)` is the smooth sign (stiction regularisation, `v_eps`
-/// well below any speed of interest).
-pub fn seal_friction(v: f64, fc: f64, fex: f64, vs: f64, sigma: f64, v_eps: f64) -> f64 {
-    let r = v / vs;
-    (fc + fex * (-r * r).exp()) * (v / v_eps).tanh() + sigma * v
+/// Seal friction `g(v)` of paper eq. (6) as a Stribeck curve with frictional memory
+/// (Armstrong-Helouvry, Dupont, Canudas de Wit 1994, the "seven-parameter" model; Hess & Soom
+/// 1990): `g = (Fc + Fex exp(-(v_m/vs)^2)) tanh(v/v_eps) + sigma v` [N] with Coulomb force `Fc`,
+/// breakaway excess `Fex = Fs - Fc`, Stribeck speed `vs`, viscous coefficient `sigma`; `v_m` is
+/// the velocity as the contact "remembers" it (see [`friction_memory_rate`]; `v_m = v` in steady
+/// sliding gives the static Stribeck curve); `tanh(v/v_eps)` is the smooth sign (stiction
+/// regularisation: below the breakaway force the seal creeps at `v_eps atanh(F/Fs)`).
+/// Returns `(g, dg/dv, dg/dv_m)`.
+pub fn seal_friction(
+    v: f64,
+    v_m: f64,
+    fc: f64,
+    fex: f64,
+    vs: f64,
+    sigma: f64,
+    v_eps: f64,
+) -> (f64, f64, f64) {
+    let r = v_m / vs;
+    let e = (-r * r).exp();
+    let level = fc + fex * e;
+    let th = (v / v_eps).tanh();
+    (
+        level * th + sigma * v,
+        level * (1.0 - th * th) / v_eps + sigma,
+        -2.0 * fex * e * r / vs * th,
+    )
+}
+
+/// Frictional memory: the Stribeck part of the friction follows the sliding velocity with a
+/// lag `tau` [s] (Hess & Soom 1990 measured lags of milliseconds in lubricated contacts; the
+/// seven-parameter model of Armstrong-Helouvry et al. 1994 uses `v(t - tau_L)`; a first-order
+/// lag is its smooth stand-in): `dv_m/dt = (v - v_m)/tau` [m/s2].
+pub fn friction_memory_rate(v: f64, v_m: f64, tau: f64) -> f64 {
+    (v - v_m) / tau
 }
 
 /// Cable tension through the series spring with slack, the cable cannot push:
@@ -378,17 +404,32 @@ mod tests {
     #[test]
     fn seal_friction_stribeck_shape() {
         let (fc, fex, vs, sig, eps) = (50.0, 30.0, 0.01, 200.0, 1e-4);
-        assert_eq!(seal_friction(0.0, fc, fex, vs, sig, eps), 0.0);
+        // steady sliding: v_m = v
+        let g = |v: f64| seal_friction(v, v, fc, fex, vs, sig, eps).0;
+        assert_eq!(g(0.0), 0.0);
         // just above the regularisation the breakaway force Fc + Fex is reached
-        let f_break = seal_friction(5e-4, fc, fex, vs, sig, eps);
+        let f_break = g(5e-4);
         assert!(f_break > 0.99 * (fc + fex) - 1.0 && f_break < fc + fex + 1.0);
         // far above vs: Coulomb + viscous
-        let f = seal_friction(0.2, fc, fex, vs, sig, eps);
-        assert!(close(f, fc + sig * 0.2, 1e-9));
-        assert_eq!(
-            seal_friction(-0.05, fc, fex, vs, sig, eps),
-            -seal_friction(0.05, fc, fex, vs, sig, eps)
-        );
+        assert!(close(g(0.2), fc + sig * 0.2, 1e-9));
+        assert_eq!(g(-0.05), -g(0.05));
+        // just after breakaway the remembered speed is still 0: the full breakaway level
+        let (f, _, _) = seal_friction(0.05, 0.0, fc, fex, vs, sig, eps);
+        assert!(close(f, fc + fex + sig * 0.05, 1e-9));
+        // partial derivatives
+        for (v, vm) in [(3e-5, 0.0), (2e-3, 5e-3), (-0.02, -0.01), (0.1, 0.12)] {
+            let (_, dv, dvm) = seal_friction(v, vm, fc, fex, vs, sig, eps);
+            let h = 1e-9;
+            let fd_v = (seal_friction(v + h, vm, fc, fex, vs, sig, eps).0
+                - seal_friction(v - h, vm, fc, fex, vs, sig, eps).0)
+                / (2.0 * h);
+            let fd_m = (seal_friction(v, vm + h, fc, fex, vs, sig, eps).0
+                - seal_friction(v, vm - h, fc, fex, vs, sig, eps).0)
+                / (2.0 * h);
+            assert!(close(dv, fd_v, 1e-5), "{v} {vm}: {dv} {fd_v}");
+            assert!((dvm - fd_m).abs() < 1e-5 * (1.0 + fd_m.abs()), "{v} {vm}");
+        }
+        assert_eq!(friction_memory_rate(0.01, 0.0, 5e-3), 2.0);
     }
 
     #[test]

@@ -2,7 +2,8 @@
 //!
 //! State `y` (SI): `[theta, omega, x_L, v_L, p1_L, p2_L, x_R, v_R, p1_R, p2_R, Vs, Vr]` and,
 //! with `valve_dynamics` on, the spools `[xv_L, vv_L, xv_R, vv_R]` (positions in volts of
-//! command). `Vs`, `Vr` are the oil-balance integrals (supplied and returned oil as volume at
+//! command), and with `seal_friction` on the remembered piston speeds `[vm_L, vm_R]` (frictional
+//! memory). `Vs`, `Vr` are the oil-balance integrals (supplied and returned oil as volume at
 //! 0 gauge) over the current integration call; the model accumulates them.
 
 use crate::controller::{ControllerParams, DEAD_BAND_BLEND};
@@ -83,6 +84,7 @@ pub struct SealFriction {
     pub breakaway_excess: f64,
     pub stribeck_velocity: f64,
     pub viscous: f64,
+    pub memory_time: f64,
 }
 
 #[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
@@ -121,6 +123,8 @@ pub struct Derived {
     pub v_ref: f64,
     /// Spool states present (`valve_dynamics`).
     pub spool: bool,
+    /// Index of the first frictional-memory state (`seal_friction`), one per piston.
+    pub mem: Option<usize>,
     pub dim: usize,
 }
 
@@ -156,6 +160,7 @@ impl Params {
             Some(w) => (self.valve_deadband_low - w, self.valve_deadband_high + w),
             None => (self.valve_deadband_low, self.valve_deadband_high),
         };
+        let spool_states = if self.valve_dynamics.is_some() { 4 } else { 0 };
         let d = Derived {
             c_eff,
             inertia: self.link_inertia + self.load_mass * self.load_radius * self.load_radius,
@@ -174,11 +179,8 @@ impl Params {
                 None => 1.0,
             },
             spool: self.valve_dynamics.is_some(),
-            dim: if self.valve_dynamics.is_some() {
-                16
-            } else {
-                12
-            },
+            mem: self.seal_friction.map(|_| spool(0) + spool_states),
+            dim: spool(0) + spool_states + if self.seal_friction.is_some() { 2 } else { 0 },
         };
         let (p1, p2) = self.rest_pressures();
         if self.cables_attached && (p1 > self.supply_pressure || p2 > self.supply_pressure) {
@@ -236,14 +238,21 @@ impl Params {
 
     /// Absolute tolerance per state: `atol * nominal_i` with nominal scales theta 0.01 rad,
     /// omega 0.01 rad/s, x 1 mm, v 1 mm/s, pressures 1e5 Pa, oil integrals 1e-8 m3 (the oil
-    /// moved in 1 ms at 0.6 L/min), spool 0.01 V and 10 V/s: the resolution at which the
-    /// outputs are compared (speeds near zero during stiction need a tight absolute tolerance).
-    pub fn atol_vector(&self, dim: usize) -> Vec<f64> {
-        let nominal = [
-            0.01, 0.01, 1e-3, 1e-3, 1e5, 1e5, 1e-3, 1e-3, 1e5, 1e5, 1e-8, 1e-8, 0.01, 10.0, 0.01,
-            10.0,
+    /// moved in 1 ms at 0.6 L/min), spool 0.01 V and 10 V/s, remembered speed 1 mm/s: the
+    /// resolution at which the outputs are compared (speeds near zero during stiction need a
+    /// tight absolute tolerance).
+    pub fn atol_vector(&self, d: &Derived) -> Vec<f64> {
+        let mut nominal = vec![
+            0.01, 0.01, 1e-3, 1e-3, 1e5, 1e5, 1e-3, 1e-3, 1e5, 1e5, 1e-8, 1e-8,
         ];
-        nominal[..dim].iter().map(|n| n * self.atol).collect()
+        if d.spool {
+            nominal.extend_from_slice(&[0.01, 10.0, 0.01, 10.0]);
+        }
+        if d.mem.is_some() {
+            nominal.extend_from_slice(&[1e-3, 1e-3]);
+        }
+        debug_assert_eq!(nominal.len(), d.dim);
+        nominal.iter().map(|n| n * self.atol).collect()
     }
 }
 
@@ -342,15 +351,17 @@ impl Plant<'_> {
         // piston, eq. (6)
         let force = piston_force(p1, p2, p.piston_area, p.annulus_area);
         let mut g = p.piston_damping * v;
-        if let Some(sf) = p.seal_friction {
+        if let (Some(sf), Some(m)) = (p.seal_friction, d.mem) {
             g += seal_friction(
                 v,
+                y[m + i],
                 sf.coulomb,
                 sf.breakaway_excess,
                 sf.stribeck_velocity,
                 sf.viscous,
                 SEAL_V_EPS,
-            );
+            )
+            .0;
         }
         let f_stop = end_stop_force(x, v, p.stroke, STOP_STIFFNESS, STOP_DAMPING, STOP_BLEND);
         let accel = (force - t_spring - g + f_stop) / p.piston_mass;
@@ -414,6 +425,11 @@ impl Plant<'_> {
         }
         dydt[VSUP] = l.oil_in + r.oil_in;
         dydt[VRET] = l.oil_out + r.oil_out;
+        if let (Some(sf), Some(m)) = (self.p.seal_friction, self.d.mem) {
+            for i in 0..2 {
+                dydt[m + i] = friction_memory_rate(y[piston(i) + 1], y[m + i], sf.memory_time);
+            }
+        }
         if let Some(vd) = self.p.valve_dynamics {
             for i in 0..2 {
                 let s = spool(i);
@@ -433,8 +449,9 @@ impl Plant<'_> {
 /// Partial derivatives of one piston's rows and its contribution to the link row.
 #[derive(Clone, Copy, Debug, Default)]
 struct PistonJac {
-    /// d(accel)/d(theta, x, v, p1, p2)
+    /// d(accel)/d(theta, x, v, p1, p2, v_m)
     a_th: f64,
+    a_vm: f64,
     a_x: f64,
     a_v: f64,
     a_p1: f64,
@@ -581,18 +598,18 @@ impl Plant<'_> {
         }
         // piston accel
         let mut g_v = p.piston_damping;
-        if let Some(sf) = p.seal_friction {
-            let f = |v: f64| {
-                seal_friction(
-                    v,
-                    sf.coulomb,
-                    sf.breakaway_excess,
-                    sf.stribeck_velocity,
-                    sf.viscous,
-                    SEAL_V_EPS,
-                )
-            };
-            g_v += central_slope(f, v, 1e-3 * SEAL_V_EPS);
+        if let (Some(sf), Some(mi)) = (p.seal_friction, d.mem) {
+            let (_, dv, dvm) = seal_friction(
+                v,
+                y[mi + i],
+                sf.coulomb,
+                sf.breakaway_excess,
+                sf.stribeck_velocity,
+                sf.viscous,
+                SEAL_V_EPS,
+            );
+            g_v += dv;
+            j.a_vm = -dvm / p.piston_mass;
         }
         let (mut stop_x, mut stop_v) = (0.0, 0.0);
         if x < 0.0 || x > p.stroke {
@@ -653,6 +670,11 @@ impl ode::OdeSystem for Plant<'_> {
             jac[(VSUP, b + 3)] = j.s_p2;
             jac[(VRET, b + 2)] = j.r_p1;
             jac[(VRET, b + 3)] = j.r_p2;
+            if let (Some(sf), Some(m)) = (self.p.seal_friction, self.d.mem) {
+                jac[(b + 1, m + i)] = j.a_vm;
+                jac[(m + i, b + 1)] = 1.0 / sf.memory_time;
+                jac[(m + i, m + i)] = -1.0 / sf.memory_time;
+            }
             if let Some(vd) = self.p.valve_dynamics {
                 let sp = spool(i);
                 jac[(b + 2, sp)] = j.p1_xv;
@@ -688,6 +710,7 @@ mod tests {
                     breakaway_excess: 30.0,
                     stribeck_velocity: 0.01,
                     viscous: 300.0,
+                    memory_time: 5e-3,
                 });
                 p.internal_leakage = Some(5e-13);
                 p.cable_friction = Some(CableFriction {
@@ -720,6 +743,9 @@ mod tests {
                 if d.spool {
                     y.extend_from_slice(&[u[0] * 0.9, 50.0, u[1] * 0.8, -40.0]);
                 }
+                if d.mem.is_some() {
+                    y.extend_from_slice(&[0.012, -0.004]);
+                }
                 let plant = Plant {
                     p: &p,
                     d: &d,
@@ -731,7 +757,7 @@ mod tests {
                 assert!(plant.jacobian(0.0, &y, &mut jac));
                 let nominal = [
                     1.0, 1.0, 0.01, 0.1, 1e6, 1e6, 0.01, 0.1, 1e6, 1e6, 1e-6, 1e-6, 1.0, 10.0, 1.0,
-                    10.0,
+                    10.0, 0.01, 0.01,
                 ];
                 let (mut fp, mut fm) = (vec![0.0; n], vec![0.0; n]);
                 for j in 0..n {

@@ -113,4 +113,7 @@ fmi2_export::declare_variables! {
         "Oil returned to tank by both valves since initialization, as volume at 0 gauge; diagnostic").display("cm3"),
     V_STORED => Variable::output("V_stored", "m3",
         "Oil in the four chambers as volume at 0 gauge, sum V_i rho(P_i)/rho(0); V_supplied - V_returned = V_stored - V_stored(0) up to solver error").display("cm3"),
+    // ---- appended effect parameters
+    SEAL_FRICTION_MEMORY_TIME => Variable::parameter("seal_friction.memory_time", 5e-3, "s",
+        "Frictional memory: lag of the Stribeck part behind the sliding speed (Hess & Soom 1990)").range(1e-3, 5e-2).display("ms"),
 }
