@@ -14,7 +14,10 @@
 //! - TwistedString: no balance; its outputs lack the load-side spring and guide forces of the
 //!   momentum equation and the motor's electrical energy needs the current at a finer grid.
 //!
-//! usage: soak-driver [--steps N] [--h H] [--seed S] FMU
+//! `--bool NAME=0|1` sets a Boolean parameter before initialization (e.g. internal_controller=0
+//! drives the valves/motor open loop with the random inputs: end stops, cavitation, saturation).
+//!
+//! usage: soak-driver [--steps N] [--h H] [--seed S] [--bool NAME=0|1]... FMU
 
 use host::md::{Causality, VarKind};
 use host::Fmu;
@@ -53,6 +56,7 @@ fn main() {
     let mut h = 1e-3;
     let mut seed = 0x9E37_79B9_7F4A_7C15u64;
     let mut path = None;
+    let mut bools: Vec<(String, bool)> = Vec::new();
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         let mut val = || {
@@ -63,6 +67,13 @@ fn main() {
             "--steps" => steps = val().parse().unwrap_or_else(|_| fail("bad --steps".into())),
             "--h" => h = val().parse().unwrap_or_else(|_| fail("bad --h".into())),
             "--seed" => seed = val().parse().unwrap_or_else(|_| fail("bad --seed".into())),
+            "--bool" => {
+                let v = val();
+                let (n, b) = v
+                    .split_once('=')
+                    .unwrap_or_else(|| fail(format!("--bool {v}: expected NAME=0|1")));
+                bools.push((n.to_string(), b == "1" || b == "true"));
+            }
             _ => path = Some(a),
         }
     }
@@ -108,6 +119,10 @@ fn main() {
     };
     e("setup", inst.setup_experiment(None, 0.0, None));
     e("enter init", inst.enter_initialization_mode());
+    for (name, b) in &bools {
+        let v = vr(name).unwrap_or_else(|| fail(format!("no variable {name}")));
+        e(&format!("set {name}"), inst.set_boolean(&[v], &[*b]));
+    }
     if model == "Oscillator" {
         let d = vr("damping").unwrap();
         e("damping = 0", inst.set_real(&[d], &[0.0]));
