@@ -79,6 +79,7 @@ OUTPUTS = [
     "p", "theta_motor", "omega_motor", "theta_twist", "current", "tau_motor", "F_string",
     "F_tangential", "alpha", "transmission_ratio", "stiffness", "F_axial", "v_load",
     "voltage_motor", "omega_ref",
+    "E_electrical", "W_external", "E_dissipated", "E_stored", "E_string_kinematic",
 ]
 
 # regularisation widths stated in the documentation
@@ -103,8 +104,14 @@ def clamp_rate(e, u_raw, limit):
     return e * (1.0 - min(1.0, max(0.0, frac)))
 
 
+def pos_integral(x, w):
+    """Int_0^x pos(z) dz (elastic energy of a spring with force pos(s/c) is c * this at s/c)."""
+    return 0.25 * (x * x + x * math.sqrt(x * x + w * w) + w * w * math.asinh(x / w))
+
+
 class Model:
-    """The documented equations. State y = [i, theta_m, omega_m, p, v, z_i, z_w]."""
+    """The documented equations. State y = [i, theta_m, omega_m, p, v, z_i, z_w, E_el, E_loss,
+    E_kin] (the last three: energy integrals of documentation section 9)."""
 
     def __init__(self, prm: dict):
         self.q = dict(DEFAULTS)
@@ -157,15 +164,22 @@ class Model:
         stretch = L - Lf
         stretch_rate = (p * v + a * ad * w_t) / L - dLf * w_t
         x = pos(stretch / self.c + self.q["string_damping"] * stretch_rate, W_TENSION)
+        # power into the strings from shaft and load, split (doc. section 9) into the rate of the
+        # elastic energy c Phi(s/c), the damping part and (string_compliance) the kinematic part
+        elastic = pos(stretch / self.c, W_TENSION)
         if self.compl:
             # eq. 10: elongation a3 * F_L (the load), p regularised with P_EPS near zero
             qp = math.sqrt(p * p + P_EPS ** 2)
             FL, T = x * p / qp, x * L / qp
+            L_rate = (p * v + a * ad * w_t) / L
+            P_kin = x * (L / qp) * L_rate - x * stretch_rate
         else:
             T = x                      # strand tension from strand stretch
             FL = T * p / L             # eq. 12/19: F_L = T cos(alpha)
+            P_kin = 0.0
         return dict(th_t=th_t, dth=dth, w_t=w_t, a=a, ad=ad, L=L, dLf=dLf, T=T, stretch=stretch,
-                    FL=FL, Ftau=T * a / L, tauL=T * a * ad / L)
+                    FL=FL, Ftau=T * a / L, tauL=T * a * ad / L,
+                    P_damp=(x - elastic) * stretch_rate, P_kin=P_kin)
 
     def controller(self, y, w_ref, volt):
         """Continuous ESCON speed and current PI, conditional-integration anti-windup."""
@@ -186,9 +200,11 @@ class Model:
         q = self.q
         s = self.strings(y)
         tau_out = s["tauL"]
+        tau_h = 0.0
         if q["twist_hysteresis.enabled"]:
-            tau_out += (q["twist_hysteresis.friction_coefficient"] * s["T"] * s["ad"]
-                        * math.tanh(s["w_t"] / W_HYST))
+            tau_h = (q["twist_hysteresis.friction_coefficient"] * s["T"] * s["ad"]
+                     * math.tanh(s["w_t"] / W_HYST))
+            tau_out += tau_h
         eta = q["gear_efficiency"]
         P = tau_out * s["w_t"]
         f = 0.5 * (1 / eta + eta) + 0.5 * (1 / eta - eta) * math.tanh(P / P_EFF)
@@ -203,7 +219,23 @@ class Model:
         Fs = q["spring_preload"] + q["spring_stiffness"] * (q["string_length"] - y[3])
         m = q["load_mass"]
         dv = (m * G + fload + Fs - s["FL"] - q["guide_damping"] * y[4]) / m
-        return [di, y[2], dw, y[4], dv, dzi, dzw]
+        # dissipated power (doc. section 9): copper, k_e/k_t mismatch, gearhead, motor friction,
+        # strand friction, guides, string damping
+        P_loss = (q["motor_resistance"] * y[0] ** 2
+                  + (q["back_emf_constant"] - q["torque_constant"]) * y[0] * y[2]
+                  + (f - 1.0) * P + fric * y[2] + tau_h * s["w_t"]
+                  + q["guide_damping"] * y[4] ** 2 + s["P_damp"])
+        return [di, y[2], dw, y[4], dv, dzi, dzw, u * y[0], P_loss, s["P_kin"]]
+
+    def stored(self, y):
+        """E_stored: L i^2/2 + J w^2/2 + m v^2/2 + (m g + F0)(L0 - p) + k (L0 - p)^2/2 + c Phi(s/c)."""
+        q = self.q
+        d = q["string_length"] - y[3]
+        s = self.strings(y)
+        return (0.5 * q["motor_inductance"] * y[0] ** 2 + 0.5 * q["rotor_inertia"] * y[2] ** 2
+                + 0.5 * q["load_mass"] * y[4] ** 2
+                + (q["load_mass"] * G + q["spring_preload"]) * d + 0.5 * q["spring_stiffness"] * d * d
+                + self.c * pos_integral(s["stretch"] / self.c, W_TENSION))
 
     def outputs(self, y, w_ref, volt):
         q = self.q
@@ -226,6 +258,8 @@ class Model:
             "transmission_ratio": (L * s["dLf"] - a * s["ad"]) / max(p, 1e-4),
             "stiffness": stiff,
             "F_axial": s["FL"], "v_load": y[4], "voltage_motor": u, "omega_ref": w_ref,
+            "E_electrical": y[7], "E_dissipated": y[8] + y[9], "E_stored": self.stored(y),
+            "E_string_kinematic": y[9],
         }
 
     def rest_state(self, fload):
@@ -234,7 +268,7 @@ class Model:
         b = q["load_mass"] * G + fload + q["spring_preload"]
         def residual(x):
             p0 = q["string_length"] + self.c * x
-            y = np.array([0.0, 0.0, 0.0, p0, 0.0, 0.0, 0.0])
+            y = np.array([0.0, 0.0, 0.0, p0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
             Fs = q["spring_preload"] + q["spring_stiffness"] * (q["string_length"] - p0)
             return self.strings(y)["FL"] - (q["load_mass"] * G + fload + Fs)
         # bisection (monotone), independent of the Rust Newton iteration
@@ -246,7 +280,8 @@ class Model:
             else:
                 lo = mid
         x = 0.5 * (lo + hi)
-        return np.array([0.0, 0.0, 0.0, q["string_length"] + self.c * x, 0.0, 0.0, 0.0])
+        return np.array([0.0, 0.0, 0.0, q["string_length"] + self.c * x, 0.0, 0.0, 0.0,
+                         0.0, 0.0, 0.0])
 
 
 def input_at(tv, t):
@@ -264,7 +299,7 @@ def input_at(tv, t):
     return float(np.interp(t, times, vals))
 
 
-NOMINAL = np.array([1.0, 1.0, 10.0, 0.01, 0.01, 1e-3, 1.0])
+NOMINAL = np.array([1.0, 1.0, 10.0, 0.01, 0.01, 1e-3, 1.0, 1.0, 1.0, 1.0])
 
 
 def simulate(params: dict | None = None, inputs: dict | None = None, t_end: float = 1.0,
@@ -289,9 +324,12 @@ def simulate(params: dict | None = None, inputs: dict | None = None, t_end: floa
     quantum = 2 * math.pi / (4 * q["encoder_cpt"])
     atol = atol_scale * NOMINAL
 
+    w_ext = 0.0  # work of F_load: held over each step, so F_load * (change of p) exactly
+
     def record(j, th_ref, volt):
         for key, val in model.outputs(y, w_ref if internal else 0.0, volt).items():
             out[key][j] = val
+        out["W_external"][j] = w_ext
 
     record(0, u_at("theta_motor_ref", 0.0), u_at("voltage", 0.0))
     band, Kp, wmax = q["controller_position_band"], q["controller_position_P"], q["speed_limit"]
@@ -300,6 +338,7 @@ def simulate(params: dict | None = None, inputs: dict | None = None, t_end: floa
         t_stop = tgrid[j + 1]
         th_ref, volt, fload = (u_at("theta_motor_ref", t), u_at("voltage", t), u_at("F_load", t))
         tc = t
+        p_start = y[3]
         while True:
             if internal:
                 while k_next * Ts <= tc + eps:
@@ -319,6 +358,7 @@ def simulate(params: dict | None = None, inputs: dict | None = None, t_end: floa
                 raise RuntimeError(f"reference failed at t={tc}: {sol.message}")
             y = sol.y[:, -1].copy()
             tc = tn
+        w_ext += fload * (y[3] - p_start)
         record(j + 1, th_ref, volt)
     return out
 

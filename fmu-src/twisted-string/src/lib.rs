@@ -140,6 +140,19 @@ fmi2_export::declare_variables! {
         "Effective bundle radius growing with twist r = r0 (1 + g theta_t / 2 pi)"),
     RADIUS_GROWTH_PER_TURN => Variable::parameter("radius_growth.per_turn", 0.005, "1",
         "Relative radius growth g per turn of twist").range(0.001, 0.02),
+    // ---- energy balance (issue 8 item 6; appended so earlier value references stay) --------
+    // E_electrical + W_external = E_dissipated + E_stored - E_stored(start) within the solver
+    // tolerance (documentation section "Energy balance").
+    E_ELECTRICAL => Variable::output("E_electrical", "J",
+        "Electrical energy into the armature since the start, integral of voltage_motor * current (ODE state)"),
+    W_EXTERNAL => Variable::output("W_external", "J",
+        "Work of the input F_load on the load since the start, sum of F_load * (change of p) over the steps (F_load held over each step)"),
+    E_DISSIPATED => Variable::output("E_dissipated", "J",
+        "Energy dissipated since the start (ODE states): copper, gearhead, motor and strand friction, guides, string damping, plus E_string_kinematic"),
+    E_STORED => Variable::output("E_stored", "J",
+        "Stored energy: L i^2/2 + J omega^2/2 + m v^2/2 + gravity and spring potential (0 at p = L0) + elastic string energy"),
+    E_STRING_KINEMATIC => Variable::output("E_string_kinematic", "J",
+        "Part of E_dissipated: work absorbed (>0) or released (<0) by the non-conservative string_compliance law (eq. 10 twist lengthening, elongation by the load); 0 with string_compliance off"),
 }
 
 /// Model state serialized by fmi2GetFMUstate (everything needed to continue bit-identically).
@@ -152,6 +165,8 @@ pub struct TwistedString {
     t0: f64,
     theta_meas: f64,
     last_inputs: Option<(f64, f64, f64)>,
+    /// Work of F_load since the start [J] (exact per step: F_load is held, W += F_load dp).
+    w_external: f64,
 }
 
 fn flag(vars: &[f64], v: V) -> bool {
@@ -290,6 +305,11 @@ impl TwistedString {
         set(V::VOLTAGE_MOTOR, aux.u);
         set(V::OMEGA_REF, inp.omega_ref);
         set(V::THETA_MOTOR_MEASURED, self.theta_meas);
+        set(V::E_ELECTRICAL, y[ix::E_EL]);
+        set(V::W_EXTERNAL, self.w_external);
+        set(V::E_DISSIPATED, y[ix::E_LOSS] + y[ix::E_KIN]);
+        set(V::E_STORED, plant::stored_energy(q, y));
+        set(V::E_STRING_KINEMATIC, y[ix::E_KIN]);
     }
 
     fn make_inputs(&self, vars: &[f64]) -> Inputs {
@@ -328,6 +348,7 @@ impl Model for TwistedString {
             t0: 0.0,
             theta_meas: 0.0,
             last_inputs: None,
+            w_external: 0.0,
         }
     }
 
@@ -344,6 +365,7 @@ impl Model for TwistedString {
         self.t0 = start_time;
         self.theta_meas = 0.0;
         self.last_inputs = None;
+        self.w_external = 0.0;
         self.par = par;
         let inp = self.make_inputs(vars);
         self.write_outputs(vars, inp);
@@ -368,6 +390,7 @@ impl Model for TwistedString {
             ));
         }
         let eps = 1e-6 * ts;
+        let p_start = self.y[ix::P];
         let mut tc = t;
         loop {
             if self.par.internal_controller {
@@ -408,6 +431,7 @@ impl Model for TwistedString {
                 .map_err(|e| format!("TwistedString: {e}"))?;
             tc = t_next;
         }
+        self.w_external += inputs.2 * (self.y[ix::P] - p_start);
         let inp = self.make_inputs(vars);
         self.write_outputs(vars, inp);
         Ok(())
@@ -478,6 +502,57 @@ mod tests {
         vars[V::SUPPLY_VOLTAGE as usize] = 5.0;
         let err = TwistedString::new().initialize(&mut vars, 0.0).unwrap_err();
         assert!(err.contains("speed_limit"), "{err}");
+    }
+
+    /// Balance residual `E_el + W_ext - E_diss - (E_stored - E_stored0)` relative to the
+    /// throughput `E_el + |W_ext| + E_diss` over a varied 6 s run with every effect on.
+    fn balance_run(internal: bool, rtol: f64) -> (f64, f64) {
+        let mut vars = start_vars();
+        for e in [
+            V::STRING_COMPLIANCE_ENABLED,
+            V::TWIST_HYSTERESIS_ENABLED,
+            V::MOTOR_FRICTION_ENABLED,
+            V::GEAR_BACKLASH_ENABLED,
+            V::RADIUS_GROWTH_ENABLED,
+        ] {
+            vars[e as usize] = 1.0;
+        }
+        vars[V::INTERNAL_CONTROLLER as usize] = if internal { 1.0 } else { 0.0 };
+        vars[V::LOAD_MASS as usize] = 97.0 / GRAVITY;
+        vars[V::RTOL as usize] = rtol;
+        vars[V::ATOL as usize] = rtol;
+        let mut m = TwistedString::new();
+        m.initialize(&mut vars, 0.0).unwrap();
+        let e0 = vars[V::E_STORED as usize];
+        let h = 1e-3;
+        let mut worst: f64 = 0.0;
+        for k in 0..6000 {
+            let t = k as f64 * h;
+            let seg = (t / 0.5) as usize;
+            vars[V::THETA_MOTOR_REF as usize] =
+                [300.0, 1800.0, 900.0, 1500.0, 200.0, 1200.0][seg % 6];
+            vars[V::VOLTAGE as usize] = [12.0, 24.0, -10.0, 20.0, 0.0, -24.0][seg % 6];
+            vars[V::F_LOAD as usize] = 30.0 * (2.0 * t).sin();
+            m.do_step(&mut vars, t, h).unwrap();
+            let g = |v: V| vars[v as usize];
+            let res =
+                g(V::E_ELECTRICAL) + g(V::W_EXTERNAL) - g(V::E_DISSIPATED) - (g(V::E_STORED) - e0);
+            worst = worst.max(res.abs());
+        }
+        let g = |v: V| vars[v as usize];
+        let thr = g(V::E_ELECTRICAL).abs() + g(V::W_EXTERNAL).abs() + g(V::E_DISSIPATED).abs();
+        (worst / thr, thr)
+    }
+
+    #[test]
+    fn energy_balance_closes_within_tolerance() {
+        for internal in [true, false] {
+            for rtol in [1e-6, 1e-8] {
+                let (rel, thr) = balance_run(internal, rtol);
+                eprintln!("internal {internal} rtol {rtol:e}: residual/throughput {rel:.3e} (throughput {thr:.2} J)");
+                assert!(rel < rtol, "{rel}");
+            }
+        }
     }
 
     #[test]

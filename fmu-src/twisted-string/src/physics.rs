@@ -257,6 +257,29 @@ pub fn load_acceleration(mass: f64, f_ext: f64, f_spring: f64, f_axial: f64, f_f
     (mass * GRAVITY + f_ext + f_spring - f_axial - f_fric) / mass
 }
 
+/// Primitive of the smooth positive part, `Phi(x) = int_0^x pos(z) dz
+/// = (x^2 + x sqrt(x^2 + w^2) + w^2 asinh(x / w)) / 4` (dPhi/dx = pos(x)). The elastic energy of a
+/// spring whose force is `pos(s / c)` is `c Phi(s / c)` (zero at s = 0, slightly negative when slack).
+#[inline]
+pub fn smooth_pos_primitive(x: f64, w: f64) -> f64 {
+    0.25 * (x * x + x * (x * x + w * w).sqrt() + w * w * (x / w).asinh())
+}
+
+/// Kinetic energy `J omega^2 / 2` (rotor) or `m v^2 / 2` (load), and magnetic energy `L i^2 / 2`.
+#[inline]
+pub fn quadratic_energy(k: f64, x: f64) -> f64 {
+    0.5 * k * x * x
+}
+
+/// Potential energy of the load above the untwisted length (p grows downward, gravity pulls toward
+/// +p) plus that of the return spring `F_s = F_0 + k (L0 - p)` (`-dV/dp = m g + F_s`):
+/// `V = (m g + F_0)(L0 - p) + k (L0 - p)^2 / 2`.
+#[inline]
+pub fn load_potential(mass: f64, p: f64, l0: f64, k: f64, preload: f64) -> f64 {
+    let d = l0 - p;
+    (mass * GRAVITY + preload) * d + 0.5 * k * d * d
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -459,5 +482,27 @@ mod tests {
         let fd = (f(p + 1e-8) - f(p - 1e-8)) / 2e-8;
         let k = axial_stiffness_load_form(l - lf, p, l, a3, pe);
         assert!((k - fd).abs() < 1e-5 * k, "{k} vs {fd}");
+    }
+    #[test]
+    fn energy_functions_are_potentials() {
+        let w = 0.01;
+        for x in [-3.0f64, -0.02, 0.0, 0.004, 1.0, 250.0] {
+            let h = 1e-6 * (1.0f64).max(x.abs());
+            let fd = (smooth_pos_primitive(x + h, w) - smooth_pos_primitive(x - h, w)) / (2.0 * h);
+            assert!(
+                (fd - smooth_pos(x, w).0).abs() < 1e-7 * (1.0 + x.abs()),
+                "{x}"
+            );
+        }
+        assert_eq!(smooth_pos_primitive(0.0, w), 0.0);
+        // far from the kink: x^2/2 (taut), about 0 (slack)
+        assert!((smooth_pos_primitive(100.0, w) - 5000.0).abs() < 1e-3);
+        assert!(smooth_pos_primitive(-100.0, w).abs() < 1e-3);
+        let (m, l0, k, f0) = (2.0, 0.09, 100.0, 5.0);
+        let p = 0.07;
+        let fd = -(load_potential(m, p + 1e-7, l0, k, f0) - load_potential(m, p - 1e-7, l0, k, f0))
+            / 2e-7;
+        assert!((fd - (m * GRAVITY + spring_force(p, l0, k, f0))).abs() < 1e-6);
+        assert_eq!(quadratic_energy(2.0, 3.0), 9.0);
     }
 }

@@ -3,16 +3,22 @@
 //! States `y`: 0 armature current i [A], 1 motor angle theta_m [rad], 2 motor speed omega_m
 //! [rad/s], 3 load position p [m] (twisted length, grows downward), 4 load velocity v = dp/dt
 //! [m/s], 5 current-PI integrator z_i = int(i_ref - i) dt [A.s], 6 speed-PI integrator
-//! z_w = int(omega_ref - omega_m) dt [rad].
+//! z_w = int(omega_ref - omega_m) dt [rad]; energy integrals (issue 8 item 6, see the
+//! documentation section "Energy balance"): 7 E_electrical = int u i dt [J], 8 E_loss = int of
+//! the dissipated powers [J], 9 E_kinematic = int of the non-conservative exchange of the
+//! `string_compliance` law [J]. The energy states feed nothing back (quadratures).
 
 use crate::controller::{pi_integrator_rate, pi_output};
 use crate::physics::*;
 use serde::{Deserialize, Serialize};
 
 /// Number of states.
-pub const DIM: usize = 7;
-/// Nominal magnitude of each state: the absolute tolerance of state k is `atol * NOMINAL[k]`.
-pub const NOMINAL: [f64; DIM] = [1.0, 1.0, 10.0, 0.01, 0.01, 1e-3, 1.0];
+pub const DIM: usize = 10;
+/// Number of physical and controller states (the rest are energy quadratures).
+pub const DIM_DYN: usize = 7;
+/// Nominal magnitude of each state: the absolute tolerance of state k is `atol * NOMINAL[k]`
+/// (energies 1 J).
+pub const NOMINAL: [f64; DIM] = [1.0, 1.0, 10.0, 0.01, 0.01, 1e-3, 1.0, 1.0, 1.0, 1.0];
 /// Smoothing width of the slack regularisation of the strand tension [N].
 pub const TENSION_WIDTH: f64 = 1e-2;
 /// Smoothing width of the backlash dead-zone edges [rad of twist].
@@ -37,6 +43,9 @@ pub mod ix {
     pub const V: usize = 4;
     pub const ZI: usize = 5;
     pub const ZW: usize = 6;
+    pub const E_EL: usize = 7;
+    pub const E_LOSS: usize = 8;
+    pub const E_KIN: usize = 9;
 }
 
 /// Every parameter in SI units (read from the variable table at initialization).
@@ -121,6 +130,13 @@ pub struct Aux {
     pub tau_in: f64,
     pub u: f64,
     pub i_ref: f64,
+    /// Electrical input power `u i` [W].
+    pub p_el: f64,
+    /// Dissipated power (copper, conversion mismatch, gearhead, motor friction, strand
+    /// friction, guides, string damping) [W].
+    pub p_loss: f64,
+    /// Non-conservative exchange power of the `string_compliance` law [W] (0 without it).
+    pub p_kin: f64,
     pub dy: [f64; DIM],
 }
 
@@ -136,6 +152,7 @@ impl Plant<'_> {
         let q = self.par;
         let (i, th_m, om, p, v, zi, zw) = (y[0], y[1], y[2], y[3], y[4], y[5], y[6]);
         let n = q.gear_ratio;
+        let q_p = (p * p + P_EPS * P_EPS).sqrt();
         // gearhead output = twist angle (with optional backlash dead zone)
         let (theta_t, dtheta_t) = twist_angle(th_m, n, q.backlash.map(|b| (b, BACKLASH_WIDTH)));
         let omega_t = dtheta_t * om;
@@ -159,10 +176,12 @@ impl Plant<'_> {
             None => (x, axial_force(x, p, l)),
         };
         let f_tangential = tangential_force(tension, a, l);
-        let mut tau_out = twist_torque(tension, a, da, l);
-        if let Some(mu) = q.hysteresis {
-            tau_out += strand_friction(tension, da, omega_t, mu, HYSTERESIS_SPEED_WIDTH).0;
-        }
+        let tau_l = twist_torque(tension, a, da, l);
+        let tau_h = match q.hysteresis {
+            Some(mu) => strand_friction(tension, da, omega_t, mu, HYSTERESIS_SPEED_WIDTH).0,
+            None => 0.0,
+        };
+        let tau_out = tau_l + tau_h;
         // gearhead: reflect to the motor with the efficiency in the direction of power flow
         let (f_eta, _) =
             gear_efficiency_factor(tau_out * omega_t, q.gear_efficiency, EFFICIENCY_POWER_WIDTH);
@@ -196,13 +215,22 @@ impl Plant<'_> {
         );
         let dom = (motor_torque(q.torque_constant, i) - tau_in - tau_fric) / q.rotor_inertia;
         let f_s = spring_force(p, q.string_length, q.spring_stiffness, q.spring_preload);
-        let dv = load_acceleration(
-            q.load_mass,
-            self.inp.f_load,
-            f_s,
-            f_axial,
-            guide_friction(v, q.guide_damping),
-        );
+        let f_guide = guide_friction(v, q.guide_damping);
+        let dv = load_acceleration(q.load_mass, self.inp.f_load, f_s, f_axial, f_guide);
+        // power balance (documentation, "Energy balance"): elastic part of the string law
+        let t_el = smooth_pos(s / c, TENSION_WIDTH).0;
+        let p_el = u * i;
+        let p_loss = q.motor_resistance * i * i
+            + (q.back_emf_constant - q.torque_constant) * i * om
+            + (f_eta - 1.0) * tau_out * omega_t
+            + tau_fric * om
+            + tau_h * omega_t
+            + f_guide * v
+            + (x - t_el) * s_dot;
+        let p_kin = match q.compliance {
+            Some(_) => x * ((l / q_p) * (s_dot + dlfree * omega_t) - s_dot),
+            None => 0.0,
+        };
         Aux {
             theta_t,
             dtheta_t,
@@ -219,7 +247,10 @@ impl Plant<'_> {
             tau_in,
             u,
             i_ref,
-            dy: [di, om, dom, v, dv, dzi, dzw],
+            p_el,
+            p_loss,
+            p_kin,
+            dy: [di, om, dom, v, dv, dzi, dzw, p_el, p_loss, p_kin],
         }
     }
 }
@@ -395,14 +426,18 @@ impl Plant<'_> {
                 - tau_l / l * d_l[kk];
         }
         let mut tau_out = tau_l;
+        let mut tau_h = 0.0;
+        let mut d_tau_h = zero;
         if let Some(mu) = q.hysteresis {
             let th = (omega_t / HYSTERESIS_SPEED_WIDTH).tanh();
-            tau_out += mu * tension * da * th;
+            tau_h = mu * tension * da * th;
+            tau_out += tau_h;
             for kk in 0..DIM {
-                d_tau[kk] += mu
+                d_tau_h[kk] = mu
                     * (d_t[kk] * da * th
                         + tension * d_da[kk] * th
                         + tension * da * (1.0 - th * th) / HYSTERESIS_SPEED_WIDTH * d_omega_t[kk]);
+                d_tau[kk] += d_tau_h[kk];
             }
         }
         let power = tau_out * omega_t;
@@ -415,12 +450,15 @@ impl Plant<'_> {
                 + f_eta * g_th * e_th[kk] * tau_out
                 + f_eta * g * d_tau[kk];
         }
-        let d_fric = match q.motor_friction {
-            Some((tc, b)) => scale(motor_friction(om, tc, b, FRICTION_SPEED_WIDTH).1, &e_om),
-            None => zero,
+        let (fric, d_fric) = match q.motor_friction {
+            Some((tc, b)) => {
+                let (f, df) = motor_friction(om, tc, b, FRICTION_SPEED_WIDTH);
+                (f, scale(df, &e_om))
+            }
+            None => (0.0, zero),
         };
         // controller
-        let (d_u, d_dzi, d_dzw) = if q.internal_controller {
+        let (u, d_u, d_dzi, d_dzw) = if q.internal_controller {
             let e_w = self.inp.omega_ref - om;
             let d_ew = scale(-1.0, &e_om);
             let iref_u = q.speed_p * (e_w + zw / q.speed_ti);
@@ -441,12 +479,13 @@ impl Plant<'_> {
                 zero
             };
             (
+                u_u.clamp(-q.supply_voltage, q.supply_voltage),
                 d_u,
                 clamp_rate_grad(ei, u_u, q.supply_voltage, &d_ei, &d_uu),
                 clamp_rate_grad(e_w, iref_u, q.current_limit, &d_ew, &d_iref_u),
             )
         } else {
-            (zero, zero, zero)
+            (self.inp.voltage, zero, zero, zero)
         };
         let mut jr = [[0.0; DIM]; DIM];
         for kk in 0..DIM {
@@ -462,8 +501,62 @@ impl Plant<'_> {
         jr[ix::P] = e_v;
         jr[ix::ZI] = d_dzi;
         jr[ix::ZW] = d_dzw;
+        // energy quadratures: gradients of the powers of Plant::eval
+        let (r, kdiff) = (q.motor_resistance, q.back_emf_constant - q.torque_constant);
+        let (t_el, dt_el) = smooth_pos(s / c, TENSION_WIDTH);
+        let d_tel = scale(dt_el / c, &d_s);
+        let gear = f_eta - 1.0;
+        for kk in 0..DIM {
+            jr[ix::E_EL][kk] = d_u[kk] * i + u * e_i[kk];
+            jr[ix::E_LOSS][kk] = 2.0 * r * i * e_i[kk]
+                + kdiff * (om * e_i[kk] + i * e_om[kk])
+                + (df_dp * power + gear) * d_power[kk]
+                + d_fric[kk] * om
+                + fric * e_om[kk]
+                + d_tau_h[kk] * omega_t
+                + tau_h * d_omega_t[kk]
+                + 2.0 * q.guide_damping * v * e_v[kk]
+                + (d_x[kk] - d_tel[kk]) * s_dot
+                + (xt - t_el) * d_sdot[kk];
+        }
+        if q.compliance.is_some() {
+            let qp = (p * p + P_EPS * P_EPS).sqrt();
+            let lfd = lf_p * omega_t;
+            let bracket = (l / qp) * (s_dot + lfd) - s_dot;
+            for kk in 0..DIM {
+                let d_ratio = d_l[kk] / qp - l / (qp * qp) * (p / qp) * e_p[kk];
+                let d_lfd = d_lf_p[kk] * omega_t + lf_p * d_omega_t[kk];
+                let d_bracket =
+                    d_ratio * (s_dot + lfd) + (l / qp) * (d_sdot[kk] + d_lfd) - d_sdot[kk];
+                jr[ix::E_KIN][kk] = d_x[kk] * bracket + xt * d_bracket;
+            }
+        }
         jr
     }
+}
+
+/// Stored energy [J] (documentation, "Energy balance"): magnetic `L i^2/2`, rotor `J omega^2/2`,
+/// load `m v^2/2`, gravity and return spring [`load_potential`] (zero at p = L0), and the elastic
+/// energy of the string law `c Phi(s/c)` ([`smooth_pos_primitive`], s = L - L_free, c = a3 or
+/// 1/string_stiffness). Along any solution `d/dt E_stored = u i + F_load v - P_loss - P_kin`.
+pub fn stored_energy(q: &Params, y: &[f64]) -> f64 {
+    let aux = Plant {
+        par: q,
+        inp: Inputs::default(),
+    }
+    .eval(y);
+    let c = q.compliance_c();
+    quadratic_energy(q.motor_inductance, y[ix::I])
+        + quadratic_energy(q.rotor_inertia, y[ix::OMEGA])
+        + quadratic_energy(q.load_mass, y[ix::V])
+        + load_potential(
+            q.load_mass,
+            y[ix::P],
+            q.string_length,
+            q.spring_stiffness,
+            q.spring_preload,
+        )
+        + c * smooth_pos_primitive(aux.stretch / c, TENSION_WIDTH)
 }
 
 /// Consistent initial state at rest, untwisted (issue 10): theta_m = omega = i = 0, controller
@@ -553,7 +646,7 @@ mod tests {
                 par: &q,
                 inp: Inputs::default(),
             };
-            let y = [0.0, 0.0, 0.0, p0, 0.0, 0.0, 0.0];
+            let y = [0.0, 0.0, 0.0, p0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
             let aux = plant.eval(&y);
             for (k, d) in aux.dy.iter().enumerate() {
                 assert!(d.abs() < 1e-9, "state {k}: {d}");
@@ -571,14 +664,14 @@ mod tests {
             inp: Inputs::default(),
         };
         let th_m = 1.05 * q.string_length / q.string_radius * q.gear_ratio;
-        let y = [0.0, th_m, 0.0, 1e-3, 0.0, 0.0, 0.0];
+        let y = [0.0, th_m, 0.0, 1e-3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
         let aux = plant.eval(&y);
         assert!(aux.tension > 1e3 && aux.tension.is_finite());
         assert!(aux.dy.iter().all(|d| d.is_finite()));
     }
 
-    #[test]
-    fn analytic_jacobian_matches_differences() {
+    /// Every effect alone, in both controller modes.
+    fn effect_cases() -> Vec<Params> {
         let base = defaults();
         let mut cases = vec![];
         for internal in [true, false] {
@@ -596,10 +689,101 @@ mod tests {
                 cases.push(q);
             }
         }
+        cases
+    }
+
+    /// A state with the strings carrying about 100 N (taut, as in operation).
+    fn taut(q: &Params, y0: &[f64; DIM]) -> [f64; DIM] {
+        let mut y = *y0;
+        let th_t = y[1] / q.gear_ratio;
+        let (a, _) = twist_arc(th_t, q.string_radius, q.radius_growth.unwrap_or(0.0));
+        let lf = match q.compliance {
+            Some((a1, a2, _)) => free_length(y[1], q.string_length, a1, a2).0,
+            None => q.string_length,
+        };
+        y[3] = helix_position(lf + 100.0 * q.compliance_c(), a);
+        y
+    }
+
+    #[test]
+    fn power_balance_holds_pointwise() {
+        // d/dt E_stored (central difference along the flow) = u i + F_load v - P_loss - P_kin
         let states = [
-            [0.4, 600.0, 300.0, 0.08, -0.004, 2e-4, 3.0],
-            [1.2, 1200.0, -50.0, 0.05, 0.01, -1e-3, 40.0],
-            [0.05, 0.01, 0.3, 0.0898, 0.0, 1e-5, 0.1],
+            [0.4, 600.0, 300.0, 0.08, -0.004, 2e-4, 3.0, 0.0, 0.0, 0.0],
+            [1.2, 1200.0, -50.0, 0.05, 0.01, -1e-3, 40.0, 0.0, 0.0, 0.0],
+            [-0.7, 80.0, 20.0, 0.0898, 0.002, 1e-5, -0.1, 0.0, 0.0, 0.0],
+        ];
+        for q in &effect_cases() {
+            let plant = Plant {
+                par: q,
+                inp: Inputs {
+                    theta_ref: 0.0,
+                    voltage: 5.0,
+                    f_load: 10.0,
+                    omega_ref: 200.0,
+                },
+            };
+            for y0 in &states {
+                for stretch in [true, false] {
+                    let mut y = taut(q, y0);
+                    if !stretch {
+                        y[3] += 0.3 * 100.0 * q.compliance_c(); // less tension, damping active
+                    }
+                    let aux = plant.eval(&y);
+                    let h = 1e-7; // s, along the flow
+                    let mut yp = y;
+                    let mut ym = y;
+                    for k in 0..DIM {
+                        yp[k] += h * aux.dy[k];
+                        ym[k] -= h * aux.dy[k];
+                    }
+                    let de = (stored_energy(q, &yp) - stored_energy(q, &ym)) / (2.0 * h);
+                    let rhs = aux.p_el + plant.inp.f_load * y[ix::V] - aux.p_loss - aux.p_kin;
+                    let scale = aux.p_el.abs() + aux.p_loss.abs() + aux.p_kin.abs() + 1.0;
+                    assert!(
+                        (de - rhs).abs() < 1e-6 * scale,
+                        "dE/dt {de} vs {rhs} (scale {scale}, {q:?}, y {y:?})"
+                    );
+                    if q.compliance.is_none() {
+                        assert_eq!(aux.p_kin, 0.0);
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn losses_are_dissipative_without_compliance() {
+        // every loss term >= 0 up to the smoothed gearhead switch, bounded by its blend width
+        for q in effect_cases().iter().filter(|q| q.compliance.is_none()) {
+            let plant = Plant {
+                par: q,
+                inp: Inputs {
+                    theta_ref: 0.0,
+                    voltage: -3.0,
+                    f_load: 0.0,
+                    omega_ref: -100.0,
+                },
+            };
+            for om in [-500.0, -1.0, 0.0, 0.5, 300.0] {
+                let y = taut(q, &[0.3, 700.0, om, 0.0, 0.001, 0.0, 0.0, 0.0, 0.0, 0.0]);
+                let aux = plant.eval(&y);
+                assert!(
+                    aux.p_loss > -0.01 * EFFICIENCY_POWER_WIDTH,
+                    "{}",
+                    aux.p_loss
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn analytic_jacobian_matches_differences() {
+        let cases = effect_cases();
+        let states = [
+            [0.4, 600.0, 300.0, 0.08, -0.004, 2e-4, 3.0, 1.0, 0.5, 0.1],
+            [1.2, 1200.0, -50.0, 0.05, 0.01, -1e-3, 40.0, 2.0, 1.0, 0.0],
+            [0.05, 0.01, 0.3, 0.0898, 0.0, 1e-5, 0.1, 0.0, 0.0, 0.0],
         ];
         for q in &cases {
             let plant = Plant {
@@ -613,15 +797,7 @@ mod tests {
             };
             for y0 in &states {
                 // place the load so that the strings carry about 100 N (taut), as in operation
-                let mut y = *y0;
-                let th_t = y[1] / q.gear_ratio;
-                let (a, _) = twist_arc(th_t, q.string_radius, q.radius_growth.unwrap_or(0.0));
-                let lf = match q.compliance {
-                    Some((a1, a2, _)) => free_length(y[1], q.string_length, a1, a2).0,
-                    None => q.string_length,
-                };
-                y[3] = helix_position(lf + 100.0 * q.compliance_c(), a);
-                let y = &y;
+                let y = &taut(q, y0);
                 let jr = plant.jacobian_rows(y);
                 for c in 0..DIM {
                     let h = 1e-6 * NOMINAL[c].max(y[c].abs() * 1e-2);
