@@ -508,3 +508,23 @@ def test_step_that_cannot_advance_time_is_refused(name, start, step):
     except subprocess.TimeoutExpired:
         pytest.fail(f"fmi2DoStep({start}, {step}) on {name} did not return within 10 s")
     assert r.returncode == 0, r.stdout + r.stderr[-2000:]
+
+
+@pytest.mark.parametrize("name", ALL)
+def test_null_logger_and_null_callbacks(name):
+    """fmi2Instantiate with callbacks whose logger is NULL: errors are still returned (nothing can
+    be logged), nothing crashes; with NULL callbacks the instantiation is refused."""
+    from fmpy.fmi2 import fmi2CallbackFunctions
+
+    h = Harness(fmu_path(name))
+    f = h.slave._functions["fmi2Instantiate"]
+    assert not f(b"x", 1, h.md.guid.encode(), b"file:///tmp", None, 0, 0)
+    cb = fmi2CallbackFunctions()  # all NULL
+    c = f(b"x", 1, h.md.guid.encode(), b"file:///tmp", byref(cb), 0, 1)
+    assert c
+    h.component = c
+    assert h.do_step(0.0, H) == ERROR
+    assert h.set_real([len(h.md.modelVariables) + 3], [0.0]) == ERROR
+    assert h.initialize() == OK
+    assert h.do_step(0.0, H) == OK
+    h.free()
