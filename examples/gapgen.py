@@ -138,9 +138,12 @@ def simulate(model, t, cols, start_values, outputs=None):
     for n in names:
         sig[n] = cols[n]
     dt = float(t[1] - t[0])
-    return simulate_fmu(fmu_file(model), start_time=float(t[0]), stop_time=float(t[-1]),
-                        output_interval=dt, step_size=dt, start_values=dict(start_values),
-                        input=sig, output=outputs or MEASURED[model], validate=False)
+    import contextlib
+    import io
+    with contextlib.redirect_stdout(io.StringIO()):  # FMPy warns about inputs left at start
+        return simulate_fmu(fmu_file(model), start_time=float(t[0]), stop_time=float(t[-1]),
+                            output_interval=dt, step_size=dt, start_values=dict(start_values),
+                            input=sig, output=outputs or MEASURED[model], validate=False)
 
 
 def noisy(rng, y, frac, ar):

@@ -118,23 +118,32 @@ impl Simulator for FmuSimulator<'_> {
             None => host::Simulator::new(self.fmu).map_err(|e| e.to_string())?,
         };
         let res = sim.run(&req).map_err(|e| e.to_string());
-        self.pool.lock().unwrap_or_else(|e| e.into_inner()).push(sim);
+        self.pool
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .push(sim);
         let res = res?;
         // Outputs at the data's times: the communication points are start + k h, which match a
         // uniform grid; any other grid is interpolated.
         let t = &self.time[..n];
         let aligned = res.time.len() >= n
-            && t.iter().zip(&res.time).all(|(a, b)| (a - b).abs() <= 1e-6 * self.step);
+            && t.iter()
+                .zip(&res.time)
+                .all(|(a, b)| (a - b).abs() <= 1e-6 * self.step);
         let cols = self
             .outputs
             .iter()
             .map(|name| {
-                let c = res.column(name).ok_or_else(|| format!("output '{name}' not recorded"))?;
+                let c = res
+                    .column(name)
+                    .ok_or_else(|| format!("output '{name}' not recorded"))?;
                 if aligned {
                     Ok(c[..n].to_vec())
                 } else {
                     let mut cur = 0;
-                    Ok(t.iter().map(|&x| host::interpolate(&res.time, c, x, &mut cur)).collect())
+                    Ok(t.iter()
+                        .map(|&x| host::interpolate(&res.time, c, x, &mut cur))
+                        .collect())
                 }
             })
             .collect::<Result<Vec<_>, String>>()?;

@@ -82,6 +82,30 @@ pub fn n_eff(n: usize, rho: f64) -> f64 {
     (n as f64 * (1.0 - r) / (1.0 + r)).max(1.0)
 }
 
+/// Effective number of independent samples of a residual from its autocorrelation:
+/// `N_eff = N / (1 + 2 Σ_{k=1..K} (1 − k/(K+1)) ρ_k)` with Bartlett weights and K = min(100, N/10)
+/// lags (the variance inflation of a mean of a stationary series, e.g. Priestley 1981 §5.3; for
+/// AR(1) it tends to `N (1 − ρ)/(1 + ρ)`). The inflation is clamped to [1, N].
+pub fn n_eff_series(x: &[f64]) -> f64 {
+    let n = x.len();
+    if n < 4 {
+        return n as f64;
+    }
+    let kmax = (n / 10).clamp(1, 100);
+    let m = x.iter().sum::<f64>() / n as f64;
+    let d: Vec<f64> = x.iter().map(|v| v - m).collect();
+    let c0: f64 = d.iter().map(|v| v * v).sum();
+    if c0 <= 0.0 {
+        return n as f64;
+    }
+    let mut infl = 1.0;
+    for k in 1..=kmax {
+        let ck: f64 = d[..n - k].iter().zip(&d[k..]).map(|(a, b)| a * b).sum();
+        infl += 2.0 * (1.0 - k as f64 / (kmax + 1) as f64) * ck / c0;
+    }
+    n as f64 / infl.clamp(1.0, n as f64)
+}
+
 /// Ljung–Box statistic `Q = N (N + 2) Σ_{k=1..h} ρ_k² / (N − k)` and its p-value from χ²(h)
 /// (Ljung & Box 1978). Small p: the residual is not white.
 pub fn ljung_box(x: &[f64], h: usize) -> (f64, f64) {
@@ -322,6 +346,15 @@ mod tests {
         assert!((rho - 0.9).abs() < 0.03, "rho {rho}");
         let ne = n_eff(n, rho);
         assert!(ne > n as f64 / 25.0 && ne < n as f64 / 14.0, "n_eff {ne}");
+        // Bartlett-weighted: the weights shrink the sum of an AR(1) (0.9) to about 1 + 2·8.1
+        // with K = 100 lags, so N_eff ≈ N/17 here, close to the AR(1) value N/19.
+        let ns = n_eff_series(&ar);
+        assert!(
+            ns > n as f64 / 25.0 && ns < n as f64 / 10.0,
+            "n_eff_series {ns}"
+        );
+        let nw = n_eff_series(&e);
+        assert!(nw > 0.8 * n as f64, "white: {nw}");
         let (_, p_ar) = ljung_box(&ar, 20);
         assert!(p_ar < 1e-6);
     }

@@ -222,9 +222,24 @@ struct Ctx<'a, S: Simulator + ?Sized> {
     n: usize,
     n_train: usize,
     pb: ProgressBar,
+    t0: Instant,
 }
 
 impl<S: Simulator + ?Sized> Ctx<'_, S> {
+    /// Progress message; with `GAP_TRACE` set also a line on stderr with the elapsed time and
+    /// the simulation count (for profiling).
+    fn stage(&self, msg: String) {
+        if std::env::var_os("GAP_TRACE").is_some() {
+            eprintln!(
+                "[gap {:7.2} s, {:4} sims, {:7.2} s simulating] {msg}",
+                self.t0.elapsed().as_secs_f64(),
+                self.sim.count(),
+                self.sim.busy_s()
+            );
+        }
+        self.pb.set_message(msg);
+    }
+
     fn settings(
         &self,
         st: &ModelState,
@@ -292,7 +307,7 @@ fn rss_neff(r: &[f64], k: usize) -> Vec<(f64, f64)> {
         .map(|j| {
             let rk = &r[j * n..(j + 1) * n];
             let rss: f64 = rk.iter().map(|v| v * v).sum();
-            (rss.max(1e-300), stats::n_eff(n, stats::autocorr(rk, 1)))
+            (rss.max(1e-300), stats::n_eff_series(rk))
         })
         .collect()
 }
@@ -318,7 +333,7 @@ fn row_scale(r: &[f64], k: usize) -> Vec<f64> {
         .map(|j| {
             let rk = &r[j * n..(j + 1) * n];
             let s = stats::rms(rk).max(1e-12);
-            let ne = stats::n_eff(n, stats::autocorr(rk, 1));
+            let ne = stats::n_eff_series(rk);
             (ne / n as f64).sqrt() / s
         })
         .collect()
@@ -425,6 +440,7 @@ fn fit_state<S: Simulator + ?Sized>(
     extra_idx: &[usize],
     n: usize,
     max_iter: usize,
+    rel_tol: f64,
 ) -> Result<FitOut, String> {
     let mut idx = st.idx.clone();
     let mut p0 = st.val.clone();
@@ -446,6 +462,7 @@ fn fit_state<S: Simulator + ?Sized>(
     let bounds = bounds_of(&ctx.params, &idx);
     let opts = LmOptions {
         max_iter,
+        rel_tol,
         ..Default::default()
     };
     let fit = lm::levenberg_marquardt(&problem, &bounds, &p0, opts, &|| ctx.pb.tick())?;
@@ -731,12 +748,13 @@ pub fn run<S: Simulator + ?Sized>(
         n,
         n_train,
         pb,
+        t0: t_start,
     };
     let kout = ctx.out_idx.len();
     let t_est = Instant::now();
 
     // --- The model as given.
-    ctx.pb.set_message("simulating the model as given");
+    ctx.stage("simulating the model as given".to_string());
     let st0 = ModelState {
         named: Vec::new(),
         idx: fit_idx.clone(),
@@ -755,7 +773,11 @@ pub fn run<S: Simulator + ?Sized>(
     // --- 1. Calibrate the base model on the training part.
     ctx.pb
         .set_message(format!("calibrating {} base parameter(s)", fit_idx.len()));
-    let base = fit_state(&ctx, &st0, None, &[], n_train, 20).map_err(GapError::Simulation)?;
+    let base = fit_state(&ctx, &st0, None, &[], n_train, 20, 1e-4).map_err(GapError::Simulation)?;
+    ctx.stage(format!(
+        "base fit: {} iterations, {} simulations",
+        base.fit.iterations, base.fit.evaluations
+    ));
     let mut cur = base;
     let base_all = ctx
         .sim
@@ -814,15 +836,27 @@ pub fn run<S: Simulator + ?Sized>(
         if remaining.is_empty() {
             break;
         }
-        ctx.pb.set_message(format!(
+        ctx.stage(format!(
             "round {round}: screening {} candidate effect(s)",
             remaining.len()
         ));
         let screened = screen(&ctx, &cur, &remaining);
         let mut order: Vec<(usize, f64)> = remaining.iter().copied().zip(screened).collect();
+        ctx.stage(format!("round {round}: screened"));
         order.sort_by(|a, b| b.1.partial_cmp(&a.1).unwrap_or(std::cmp::Ordering::Equal));
-        let top: Vec<(usize, f64)> = order.iter().take(cfg.max_refit.max(1)).copied().collect();
-        ctx.pb.set_message(format!(
+        // Round 1 refits the two best screened candidates whatever their linearised evidence (a
+        // dead zone or backlash is poorly linearised at its start value), and further ones up to
+        // `max_refit` only when that evidence reaches the naming threshold; later rounds refit
+        // only candidates whose linearised evidence reaches it (saves simulations).
+        let top: Vec<(usize, f64)> = order
+            .iter()
+            .enumerate()
+            .filter(|(i, (_, score))| {
+                *i < cfg.max_refit.max(1) && ((round == 1 && *i < 2) || *score >= cfg.min_delta_bic)
+            })
+            .map(|(_, c)| *c)
+            .collect();
+        ctx.stage(format!(
             "round {round}: refitting {}",
             top.iter()
                 .map(|(e, _)| effects[*e].name.as_str())
@@ -921,7 +955,14 @@ pub fn run<S: Simulator + ?Sized>(
             }
         } else {
             let closest = ranked[0].effect.clone();
-            let why = reasons(&ranked[0], cfg.min_delta_bic, n_train >= n).join("; ");
+            let why = if ranked[0].refit {
+                reasons(&ranked[0], cfg.min_delta_bic, n_train >= n).join("; ")
+            } else {
+                format!(
+                    "linearised ΔBIC = {:.1} < {}: not refitted",
+                    ranked[0].score, cfg.min_delta_bic
+                )
+            };
             verdict = if named_names.is_empty() {
                 format!("no missing effect found; the closest candidate, {closest}, is left unexplained ({why})")
             } else {
@@ -956,7 +997,14 @@ pub fn run<S: Simulator + ?Sized>(
         .map(|&k| final_all[k][..n].to_vec())
         .collect();
     let scale = row_scale(&fin.fit.residuals, kout);
-    let parameters = estimates(&params, &fin.state.idx, &fin.fit, &fin.bounds, &scale, n_train);
+    let parameters = estimates(
+        &params,
+        &fin.state.idx,
+        &fin.fit,
+        &fin.bounds,
+        &scale,
+        n_train,
+    );
     let mut outputs = BTreeMap::new();
     let mut traces = Traces {
         time: data.time.clone(),
@@ -1145,7 +1193,11 @@ fn refit<S: Simulator + ?Sized>(
     let n = ctx.n_train;
     let k = ctx.out_idx.len();
     let eff = &ctx.effects[e];
-    let f = fit_state(ctx, &cur.state, Some(e), &eff.params, n, 15)?;
+    let f = fit_state(ctx, &cur.state, Some(e), &eff.params, n, 12, 5e-4)?;
+    ctx.stage(format!(
+        "refit {}: {} iterations, {} simulations",
+        eff.name, f.fit.iterations, f.fit.evaluations
+    ));
     let dbic = delta_bic(&cur.fit.residuals, &f.fit.residuals, k, eff.params.len());
     let scale = row_scale(&f.fit.residuals, k);
     let all_est = estimates(&ctx.params, &f.state.idx, &f.fit, &f.bounds, &scale, n);
