@@ -143,7 +143,10 @@ def test_position_step_settles_and_stays_in_band():
 
 def test_average_speed_at_8000rpm():
     """Section 6: over motor angle 335.1 -> 2011 rad at the 8000 rpm limit the actuator moves at
-    {1.58, 1.53, 1.53, 1.45, 1.42} cm/s for the five loads (slower for heavier loads)."""
+    {1.58, 1.53, 1.53, 1.45, 1.42} cm/s for the five loads (slower for heavier loads): the measured
+    length changes {31.5, 30.5, 30.5, 29.0, 28.5} mm over the 2.0 s that 1675.9 rad take at 8000 rpm.
+    Every load within 1.4-1.6 cm/s and within 0.1 cm/s of the paper, and the mean motor speed over
+    the range within 1 % of 8000 rpm (the time base is the motor at its limit, not the speed loop)."""
     paper = dict(zip(LOADS, (1.58, 1.53, 1.53, 1.45, 1.42)))
     speeds = []
     for F in LOADS:
@@ -157,10 +160,10 @@ def test_average_speed_at_8000rpm():
         # the speed set point is clamped at 8000 rpm; the speed loop overshoots it briefly
         assert np.max(res["omega_motor"]) <= ref.RPM8000 * 1.05
         mean_w = (th[k1] - th[k0]) / (t[k1] - t[k0])
-        assert 0.97 * ref.RPM8000 < mean_w < 1.01 * ref.RPM8000
+        assert 0.99 * ref.RPM8000 < mean_w < 1.01 * ref.RPM8000
         v = (p[k0] - p[k1]) / (t[k1] - t[k0]) * 100.0
         speeds.append(v)
-        assert 1.35 <= v <= 1.65, f"{F} N: {v:.3f} cm/s"
+        assert 1.4 <= v <= 1.6, f"{F} N: {v:.3f} cm/s"
         assert abs(v - paper[F]) < 0.1, f"{F} N: {v:.3f} vs paper {paper[F]}"
     assert all(a > b for a, b in zip(speeds, speeds[1:])), speeds
 

@@ -33,7 +33,7 @@ DEFAULTS = {
     "internal_controller": True,
     "load_mass": 23.0 / G,
     "string_length": 0.0897,
-    "string_radius": (1.0 / math.sqrt(2.0) + 0.5) * 1e-3,
+    "string_radius": 1.2127e-3,  # doc. section 2: eq. 9-10 fitted to the sec. 6 contractions
     "string_count": 4.0,
     "string_stiffness": 1e6,
     "string_damping": 2000.0,

@@ -57,7 +57,8 @@ pub fn twist_angle(theta_m: f64, ratio: f64, backlash: Option<(f64, f64)>) -> (f
 /// Effective helix radius of a bundle of four round strings of diameter `d` packed in a square:
 /// centres at `d / sqrt(2)` from the axis plus the string radius, `r = (1/sqrt(2) + 1/2) d`.
 /// For d = 1 mm: 1.2071 mm; the least-squares fit of eq. 9-10 (Table 3) to the Table 2 regression
-/// gives 1.2060 mm (see the documentation), so the geometric value is the default.
+/// gives 1.2060 mm and to the measured contractions of sec. 6 1.2127 mm (the default, see the
+/// documentation, section 2).
 pub fn bundle_radius(d: f64) -> f64 {
     (std::f64::consts::FRAC_1_SQRT_2 + 0.5) * d
 }
