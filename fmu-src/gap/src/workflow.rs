@@ -866,7 +866,11 @@ pub fn run<S: Simulator + ?Sized>(
         type Refit = Result<(Candidate, FitOut, Vec<f64>), String>;
         let refits: Vec<(usize, f64, Refit)> = top
             .par_iter()
-            .map(|&(e, score)| (e, score, refit(&ctx, &cur, e, score, &cur_full_r)))
+            .enumerate()
+            .map(|(i, &(e, score))| {
+                let alt = (round == 1 && i == 0).then_some(&st0);
+                (e, score, refit(&ctx, &cur, e, score, &cur_full_r, alt))
+            })
             .collect();
         let mut ranked: Vec<Candidate> = Vec::new();
         let mut fits: Vec<(String, FitOut, Vec<f64>)> = Vec::new();
@@ -1189,11 +1193,29 @@ fn refit<S: Simulator + ?Sized>(
     e: usize,
     score: f64,
     cur_full_r: &[f64],
+    alt_start: Option<&ModelState>,
 ) -> Result<(Candidate, FitOut, Vec<f64>), String> {
     let n = ctx.n_train;
     let k = ctx.out_idx.len();
     let eff = &ctx.effects[e];
-    let f = fit_state(ctx, &cur.state, Some(e), &eff.params, n, 12, 5e-4)?;
+    // From the current fit, and (for the most promising candidate of the first round) also from
+    // the base parameters as given: the base fit may have bent them to mimic the effect, and
+    // undoing that can trap the refit in a local minimum. The lower sum of squares wins.
+    let starts: Vec<&ModelState> = std::iter::once(&cur.state).chain(alt_start).collect();
+    let fits: Vec<Result<FitOut, String>> = starts
+        .par_iter()
+        .map(|st| fit_state(ctx, st, Some(e), &eff.params, n, 12, 5e-4))
+        .collect();
+    let f = fits
+        .into_iter()
+        .filter_map(Result::ok)
+        .min_by(|a, b| {
+            a.fit
+                .sse
+                .partial_cmp(&b.fit.sse)
+                .unwrap_or(std::cmp::Ordering::Equal)
+        })
+        .ok_or_else(|| format!("refit of {} failed from every start", eff.name))?;
     ctx.stage(format!(
         "refit {}: {} iterations, {} simulations",
         eff.name, f.fit.iterations, f.fit.evaluations

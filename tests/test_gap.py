@@ -1,0 +1,161 @@
+"""Smoke tests of `actuator-fmu gap` (issue 7 and the `gap` part of issue 10).
+
+Data are generated here with examples/gapgen.py: FMPy simulates the packaged FMU with our own
+random inputs and parameter draws, one effect hidden or none, plus Gaussian noise of 1 % of each
+output's range. The traces are short (3 s at 200 Hz) so the suite stays fast; the statistical
+evaluation over many datasets is scripts/gap-eval.
+"""
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from conftest import REPO, cli_path, fmu_path
+
+sys.path.insert(0, str(REPO / "examples"))
+import gapgen  # noqa: E402
+
+DURATION, RATE = 3.0, 200.0
+
+
+def generate(tmp_path, model, name, seed, hidden=(), **kw):
+    fmu_path(model)
+    ds = gapgen.make(model, seed, hidden, duration=DURATION, rate=RATE, **kw)
+    path = tmp_path / f"{name}.csv"
+    gapgen.write_csv(ds, path, comment=f"test data: {model}, hidden {list(hidden)}, seed {seed}")
+    return ds, path
+
+
+def gap(model, csv, out, *args):
+    cmd = [cli_path(), "gap", fmu_path(model), "--data", str(csv), "--out", str(out), "--quiet",
+           *args]
+    p = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    return p
+
+
+def run_ok(model, csv, out, *args):
+    p = gap(model, csv, out, *args)
+    assert p.returncode == 0, p.stderr + p.stdout
+    with open(out / "report.json") as f:
+        return json.load(f)
+
+
+def check_report_shape(rep, ds):
+    for key in ("named", "candidates", "parameters", "outputs", "timing"):
+        assert key in rep
+    assert set(rep["outputs"]) == set(ds["outputs"])
+    for o in rep["outputs"].values():
+        for k in ("rmse_before", "rmse_after", "max_before", "max_after"):
+            assert o[k] >= 0
+    for k in ("total_s", "simulate_s", "fit_s"):
+        assert rep["timing"][k] >= 0
+    for e in rep["named"]:
+        assert rep["candidates"], "a named effect comes from a candidate round"
+
+
+def resimulate_rmse(model, ds, rep):
+    """RMSE per output of an FMPy simulation with the report's parameters, named effects and
+    --set values, on the CSV's inputs at its sample interval (issue 10)."""
+    start = {k: v["value"] for k, v in rep["parameters"].items()}
+    for e in rep["named"]:
+        start[e + ".enabled"] = True
+    for k, v in rep.get("fixed", {}).items():
+        start[k] = v
+    vs = gapgen.variables(model)
+    for k in list(start):
+        if vs[k]["type"] == "Boolean":
+            start[k] = bool(start[k])
+    res = gapgen.simulate(model, ds["time"], ds["inputs"], start, outputs=list(ds["outputs"]))
+    return {n: float(np.sqrt(np.mean((np.asarray(res[n]) - ds["outputs"][n]) ** 2)))
+            for n in ds["outputs"]}
+
+
+@pytest.mark.parametrize("model,effect,seed", [
+    ("HydraulicJoint", "seal_friction", 11),
+    ("HydraulicJoint", "internal_leakage", 12),
+    ("TwistedString", "string_compliance", 13),
+    ("TwistedString", "motor_friction", 14),
+])
+def test_hidden_effect_is_named(tmp_path, model, effect, seed):
+    ds, csv = generate(tmp_path, model, effect, seed, (effect,))
+    rep = run_ok(model, csv, tmp_path / "out", "--rounds", "1")
+    check_report_shape(rep, ds)
+    assert rep["named"] == [effect], rep["verdict"]
+    assert rep["candidates"][0][0]["effect"] == effect
+    # Every parameter of the named effect is reported with an interval.
+    for p in gapgen.effects(model)[effect]:
+        e = rep["parameters"][p]
+        assert e["ci_low"] <= e["value"] <= e["ci_high"]
+    # The gap shrinks: each output to within 1.2x its noise or by 5x.
+    for n, o in rep["outputs"].items():
+        s = ds["noise_sigma"][n]
+        assert o["rmse_after"] <= 1.2 * s or o["rmse_after"] * 5 <= o["rmse_base_fit"], (n, o, s)
+    # Plots and the human report exist.
+    out = tmp_path / "out"
+    assert (out / "report.md").stat().st_size > 500
+    assert (out / "outputs.png").stat().st_size > 1000
+    assert (out / "residuals.png").stat().st_size > 1000
+    if model == "HydraulicJoint" and effect == "seal_friction":
+        # Re-simulating the report with FMPy gives its rmse_after.
+        rm = resimulate_rmse(model, ds, rep)
+        for n, o in rep["outputs"].items():
+            assert rm[n] == pytest.approx(o["rmse_after"], rel=1e-3), n
+
+
+def test_clean_data_wrong_load_mass_is_calibrated_not_named(tmp_path):
+    model = "HydraulicJoint"
+    true_mass = 1.3 * gapgen.variables(model)["load_mass"]["start"]
+    ds, csv = generate(tmp_path, model, "clean", 21, (), draw_base=False,
+                       base_overrides={"load_mass": true_mass})
+    rep = run_ok(model, csv, tmp_path / "out")
+    check_report_shape(rep, ds)
+    assert rep["named"] == [], rep["verdict"]
+    assert "no missing effect found" in rep["verdict"]
+    m = rep["parameters"]["load_mass"]
+    assert m["value"] == pytest.approx(true_mass, rel=0.05), m
+    assert m["ci_low"] <= m["value"] <= m["ci_high"]
+    for n, o in rep["outputs"].items():
+        assert o["rmse_after"] <= 1.2 * ds["noise_sigma"][n], (n, o)
+    rm = resimulate_rmse(model, ds, rep)
+    for n, o in rep["outputs"].items():
+        assert rm[n] == pytest.approx(o["rmse_after"], rel=1e-3), n
+
+
+def test_set_and_missing_input_column(tmp_path):
+    """tau_ext has no column (keeps its start value 0); load_mass is known (--set) and so is not
+    fitted; --fit chooses the calibrated parameters."""
+    model = "HydraulicJoint"
+    ds, csv = generate(tmp_path, model, "set", 31, (), keep_inputs=["theta_ref"])
+    header = [l for l in csv.read_text().splitlines() if not l.startswith("#")][0]
+    assert "tau_ext" not in header
+    mass = ds["truth"]["load_mass"]
+    rep = run_ok(model, csv, tmp_path / "out", "--set", f"load_mass={mass!r}",
+                 "--fit", "link_damping,bulk_modulus,valve_flow_scale", "--rounds", "1")
+    assert rep["fixed"]["load_mass"] == pytest.approx(mass)
+    assert "load_mass" not in rep["parameters"]
+    assert set(rep["parameters"]) >= {"link_damping", "bulk_modulus", "valve_flow_scale"}
+    assert rep["named"] == []
+    rm = resimulate_rmse(model, ds, rep)
+    for n, o in rep["outputs"].items():
+        assert rm[n] == pytest.approx(o["rmse_after"], rel=1e-3), n
+
+
+def test_bad_csv_exits_2_with_location(tmp_path):
+    model = "HydraulicJoint"
+    bad = tmp_path / "bad.csv"
+    bad.write_text("time,theta_ref,theta\n0,0,0\n0.01,0,abc\n0.02,0,0\n")
+    p = gap(model, bad, tmp_path / "out")
+    assert p.returncode == 2
+    assert "bad.csv:3:3" in p.stderr, p.stderr
+    unknown = tmp_path / "unknown.csv"
+    unknown.write_text("time,theta_ref,nonsense\n0,0,0\n0.01,0,0\n")
+    p = gap(model, unknown, tmp_path / "out")
+    assert p.returncode == 2 and "unknown.csv:1:3" in p.stderr, p.stderr
+    p = gap(model, bad, tmp_path / "out", "--set", "no_such_parameter=1")
+    assert p.returncode == 2 and "no_such_parameter" in p.stderr, p.stderr
+    nooutput = tmp_path / "noout.csv"
+    nooutput.write_text("time,theta_ref\n" + "".join(f"{i*0.01},0\n" for i in range(30)))
+    p = gap(model, nooutput, tmp_path / "out")
+    assert p.returncode == 2 and "noout.csv:1" in p.stderr, p.stderr
