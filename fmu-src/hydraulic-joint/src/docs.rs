@@ -197,7 +197,8 @@ possible, and at the oil-column frequency the negative damping is divided by
 -p hydraulic-joint --example explore perf</code>). <code>tau_L</code> is a parameter (1-50 ms, default
 5 ms) because the lag is seal-specific.</p>
 <p>Ranges: Coulomb 5-200 N and breakaway excess 0-200 N (1-10 % of the 2 kN a 16 mm bore gives at
-100 bar); Stribeck speed 2-50 mm/s; leakage 1e-14-5e-12 m3/(s Pa) (0.0006-0.3 L/min at 10 bar,
+100 bar); Stribeck speed 2-50 mm/s; frictional memory 1-50 ms (lags of milliseconds to tens of
+milliseconds; at 1 ms the Stribeck damping at the oil-column frequency is still divided by about 14); leakage 1e-14-5e-12 m3/(s Pa) (0.0006-0.3 L/min at 10 bar,
 new to worn seals); PTFE-lined Bowden mu 0.02-0.3 over 0.5-6.3 rad of bends; air 0.5-10 % by
 volume; spool 400-2000 rad/s (step responses of direct-operated proportional valves, 2-10 ms).</p>
 
