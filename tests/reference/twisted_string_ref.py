@@ -44,7 +44,7 @@ DEFAULTS = {
     "motor_inductance": 0.238e-3,
     "torque_constant": 0.0234,
     "back_emf_constant": 0.0234,
-    "rotor_inertia": 1.14e-6,
+    "rotor_inertia": 1.09e-6,    # RE 25 118752 rotor 10.3 g cm^2 + gearhead input 0.6 g cm^2
     "gear_ratio": 19.2,
     "gear_efficiency": 0.81,
     "encoder_cpt": 1000.0,

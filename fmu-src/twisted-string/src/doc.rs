@@ -122,13 +122,24 @@ Gearhead: &tau;<sub>in</sub> = f (d&theta;<sub>t</sub>/d&theta;<sub>m</sub>) &ta
 (P = &tau;<sub>out</sub>&omega;<sub>t</sub> &gt; 0) and &eta; when the load drives, blended smoothly:
 f = (1/&eta;+&eta;)/2 + (1/&eta;&minus;&eta;)/2 tanh(P/0.1 W). The blend width 0.1 W (about 60 rpm of motor speed at the highest loads) is a choice: a sharper switch acts near standstill as a huge damper that, against the slow speed-PI integrator, made the held motor creep for seconds out of the 2&deg; band.</p>
 <table border="1"><tr><th>parameter</th><th>value</th><th>source / rationale</th></tr>
-<tr><td>motor_resistance</td><td>2.32 &Omega;</td><td rowspan="5">Values typical of a maxon RE 25 (&empty;25 mm, graphite brushes, 20 W) with a 24 V winding, as recalled from the maxon catalogue; the paper names only "Maxon DC motor (20 W)" [15]. Not checked against a current datasheet: plausible for this class, and R, L, k<sub>t</sub>, k<sub>e</sub> are mutually consistent (no-load speed 24 V/k<sub>e</sub> &asymp; 9800 rpm, stall torque k<sub>t</sub>&middot;24 V/R &asymp; 0.24 N&middot;m). rotor_inertia = rotor 10.8 g&middot;cm&sup2; + an estimated 0.6 g&middot;cm&sup2; for the gearhead input stage.</td></tr>
+<tr><td>motor_resistance</td><td>2.32 &Omega;</td><td rowspan="5">maxon RE 25, &empty;25 mm, graphite brushes,
+20 W, 24 V winding (order no. 118752); the paper names only "Maxon DC motor (20 W)" [15]. Checked against the
+public motor-model file <code>digital/asserv/models/motor.m</code> of the GitHub repository
+<code>oliv5/apbteam</code> (commit 4839708f, entry "Maxon RE25G 20W 24V 118752", catalogue values):
+terminal resistance 2.32 &Omega; (agrees), terminal inductance 0.24 mH (agrees with 0.238 mH to its two
+digits), torque constant 23.4 mN&middot;m/A (agrees), speed constant 407 rpm/V (k<sub>e</sub> = 0.02346 V&middot;s/rad;
+the model keeps k<sub>e</sub> = k<sub>t</sub> = 0.0234 in SI, i.e. 408 rpm/V, as for an ideal machine: 0.3 %
+difference, within catalogue rounding), rotor inertia 10.3 g&middot;cm&sup2; (<b>corrected</b>: the model
+used a recalled 10.8 g&middot;cm&sup2; before). rotor_inertia = 10.3 g&middot;cm&sup2; rotor + an estimated
+0.6 g&middot;cm&sup2; for the gearhead input stage (not checked). Derived: no-load speed 24 V &middot; 408 rpm/V
+&asymp; 9800 rpm, stall torque k<sub>t</sub>&middot;24 V/R &asymp; 0.24 N&middot;m.</td></tr>
 <tr><td>motor_inductance</td><td>0.238 mH</td></tr>
 <tr><td>torque_constant</td><td>23.4 mN&middot;m/A</td></tr>
 <tr><td>back_emf_constant</td><td>0.0234 V&middot;s/rad (408 rpm/V)</td></tr>
-<tr><td>rotor_inertia</td><td>1.14&middot;10<sup>-6</sup> kg&middot;m&sup2;</td></tr>
+<tr><td>rotor_inertia</td><td>1.09&middot;10<sup>-6</sup> kg&middot;m&sup2;</td></tr>
 <tr><td>gear_ratio</td><td>19.2</td><td>paper sec. 3, maxon GP 26 A [16]</td></tr>
-<tr><td>gear_efficiency</td><td>0.81</td><td>2-stage planetary gearhead, maxon catalogue class value</td></tr>
+<tr><td>gear_efficiency</td><td>0.81</td><td>2-stage planetary gearhead, maxon catalogue class value as recalled;
+<b>not verified</b>: no GP 26 A data sheet was reachable with the public sources searched</td></tr>
 <tr><td>encoder_cpt</td><td>1000 (read 4x)</td><td>paper sec. 6, encoder MR 1000 CPT [17]</td></tr>
 <tr><td>speed_limit</td><td>8000 rpm</td><td>paper sec. 6: maximum permissible gearhead input speed</td></tr>
 <tr><td>supply_voltage / current_limit</td><td>24 V / 3 A</td><td>ESCON module [19] supply for a 24 V winding; current limit a choice (about 2x the nominal current of the winding)</td></tr>
@@ -146,7 +157,7 @@ and let the speed overshoot 8000 rpm by 10 % after a current-limited acceleratio
 <ul>
 <li>Speed PI: e<sub>&omega;</sub> = &omega;<sub>ref</sub> &minus; &omega;<sub>m</sub>, i<sub>ref</sub> saturated at &plusmn;<code>current_limit</code>.
 Table 5 "963" read in &micro;A/rpm: K<sub>&omega;</sub> = 9.196&middot;10<sup>-3</sup> A&middot;s/rad, T<sub>i</sub> = 42 ms
-(crossover K<sub>&omega;</sub>k<sub>t</sub>/J &asymp; 189 rad/s, PI zero 24 rad/s).</li>
+(crossover K<sub>&omega;</sub>k<sub>t</sub>/J &asymp; 197 rad/s, PI zero 24 rad/s).</li>
 <li>Current PI: e<sub>i</sub> = i<sub>ref</sub> &minus; i, u saturated at &plusmn;<code>supply_voltage</code>.
 Table 5 "165" read in mV/A: K<sub>i</sub> = 0.165 V/A, T<sub>i</sub> = 69 &micro;s (closed-loop poles
 &asymp; &minus;1.07&middot;10<sup>3</sup> and &minus;9.4&middot;10<sup>3</sup> rad/s).</li>
@@ -162,7 +173,7 @@ sample inside the band: steady-state error &lt; 2&deg;, its value depending on t
 taken at the start of the next step (after the new inputs are set); instants within
 10<sup>-6</sup>T<sub>s</sub> of a communication point count as on it.</li>
 <li>Gain units are a reading, not stated by the paper: they give the cascade ordering the paper
-describes (current loop fastest, position loop slowest: &asymp;1000, 190, 9 rad/s).</li>
+describes (current loop fastest, position loop slowest: &asymp;1000, 200, 9 rad/s).</li>
 </ul>
 <p>With <code>internal_controller</code> = false the armature voltage is the input <code>voltage</code>
 and the controller states are frozen.</p>
@@ -259,7 +270,7 @@ at rtol = 10<sup>-8</sup>: it falls with the tolerance, so it is integration err
 of twist up to 6000&deg; under 23, 39, 54, 97, 124 N: 0.71 mm RMS from the regression (max 1.8 mm at
 zero twist and 124 N, where c<sub>4</sub> and a<sub>3</sub> disagree).</li>
 <li>Section 6 speeds at the 8000 rpm limit over 335.1&rarr;2011 rad (step from rest at 335.1 rad to
-2100 rad, measured between leaving 335.1 and reaching 2011 rad): 1.543, 1.525, 1.509, 1.463, 1.435 cm/s
+2100 rad, measured between leaving 335.1 and reaching 2011 rad): 1.543, 1.526, 1.509, 1.464, 1.435 cm/s
 for the five loads (paper: 1.58, 1.53, 1.53, 1.45, 1.42), slower for heavier loads, mean motor speed
 99.7 % of 8000 rpm (section 2).</li>
 <li>Eq. 20&ndash;21: the encoder angle ends inside SP &plusmn; 2&deg; (true angle within one count more).</li>

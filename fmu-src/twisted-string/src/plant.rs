@@ -616,7 +616,7 @@ mod tests {
             motor_inductance: 0.238e-3,
             torque_constant: 0.0234,
             back_emf_constant: 0.0234,
-            rotor_inertia: 1.14e-6,
+            rotor_inertia: 1.09e-6,
             gear_ratio: 19.2,
             gear_efficiency: 0.81,
             encoder_cpt: 1000.0,
