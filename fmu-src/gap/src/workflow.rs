@@ -942,6 +942,20 @@ pub fn run<S: Simulator + ?Sized>(
                 .into_iter()
                 .find(|(s, _, _)| *s == name)
                 .expect("fit of the named candidate");
+            // Polish the named model's fit (the candidate refits stop early to save
+            // simulations); keep the refit if polishing fails.
+            ctx.stage(format!("round {round}: polishing the fit with {name}"));
+            let (f, r) = match fit_state(&ctx, &f.state, None, &[], n_train, 20, 1e-6) {
+                Ok(p) if p.fit.sse <= f.fit.sse => {
+                    let y = ctx
+                        .measured_outputs(&ctx.settings(&p.state, None, &[]), n)
+                        .map_err(GapError::Simulation)?;
+                    let r = ctx.residual(&y, n);
+                    (p, r)
+                }
+                _ => (f, r),
+            };
+            ctx.stage(format!("round {round}: polished, {} simulations", f.fit.evaluations));
             cur = f;
             cur_full_r = r;
             named_names.push(name);
