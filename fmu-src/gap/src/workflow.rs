@@ -821,12 +821,11 @@ pub fn run<S: Simulator + ?Sized>(
     let mut named_names = Vec::new();
     let mut unexplained = None;
     let mut rounds: Vec<Vec<Candidate>> = Vec::new();
-    let mut verdict;
-    if diagnosis[0].consistent_with_noise {
-        verdict = "no missing effect found: the calibrated base model's residuals are consistent with noise".to_string();
-    } else {
-        verdict = String::new();
-    }
+    let mut verdict = String::new();
+    // Residuals at the noise level and white still get the (cheap) screening: a small effect can
+    // hide under the noise in the RMS yet be plain along its own sensitivity direction. Only if
+    // no candidate's linearised ΔBIC reaches the threshold are they consistent with noise.
+    let looks_like_noise = diagnosis[0].consistent_with_noise;
     let mut round = 0;
     while verdict.is_empty() && round < cfg.rounds {
         round += 1;
@@ -844,6 +843,33 @@ pub fn run<S: Simulator + ?Sized>(
         let mut order: Vec<(usize, f64)> = remaining.iter().copied().zip(screened).collect();
         ctx.stage(format!("round {round}: screened"));
         order.sort_by(|a, b| b.1.partial_cmp(&a.1).unwrap_or(std::cmp::Ordering::Equal));
+        let best_score = order.first().map(|c| c.1).unwrap_or(f64::NEG_INFINITY);
+        if round == 1 && looks_like_noise && best_score < cfg.min_delta_bic {
+            verdict = format!(
+                "no missing effect found: the calibrated base model's residuals are consistent with noise (every output within 1.2× its noise level and white; the best candidate, {}, has a linearised ΔBIC of {:.1} < {})",
+                order.first().map(|c| effects[c.0].name.as_str()).unwrap_or("none"),
+                best_score,
+                cfg.min_delta_bic
+            );
+            rounds.push(
+                order
+                    .iter()
+                    .map(|&(e, score)| Candidate {
+                        effect: effects[e].name.clone(),
+                        delta_bic: score,
+                        score,
+                        refit: false,
+                        parameters: BTreeMap::new(),
+                        magnitude: None,
+                        holdout_sse_without: None,
+                        holdout_sse_with: None,
+                        named: false,
+                        verdict: "screened only (linearised ΔBIC)".into(),
+                    })
+                    .collect(),
+            );
+            break;
+        }
         // Round 1 refits the two best screened candidates whatever their linearised evidence (a
         // dead zone or backlash is poorly linearised at its start value), and further ones up to
         // `max_refit` only when that evidence reaches the naming threshold; later rounds refit
@@ -852,7 +878,8 @@ pub fn run<S: Simulator + ?Sized>(
             .iter()
             .enumerate()
             .filter(|(i, (_, score))| {
-                *i < cfg.max_refit.max(1) && ((round == 1 && *i < 2) || *score >= cfg.min_delta_bic)
+                *i < cfg.max_refit.max(1)
+                    && ((round == 1 && !looks_like_noise && *i < 2) || *score >= cfg.min_delta_bic)
             })
             .map(|(_, c)| *c)
             .collect();
@@ -955,7 +982,10 @@ pub fn run<S: Simulator + ?Sized>(
                 }
                 _ => (f, r),
             };
-            ctx.stage(format!("round {round}: polished, {} simulations", f.fit.evaluations));
+            ctx.stage(format!(
+                "round {round}: polished, {} simulations",
+                f.fit.evaluations
+            ));
             cur = f;
             cur_full_r = r;
             named_names.push(name);
@@ -1215,13 +1245,20 @@ fn refit<S: Simulator + ?Sized>(
     // From the current fit, and (for the most promising candidate of the first round) also from
     // the base parameters as given: the base fit may have bent them to mimic the effect, and
     // undoing that can trap the refit in a local minimum. The lower sum of squares wins.
-    let starts: Vec<&ModelState> = std::iter::once(&cur.state).chain(alt_start).collect();
-    let fits: Vec<Result<FitOut, String>> = starts
-        .par_iter()
-        .map(|st| fit_state(ctx, st, Some(e), &eff.params, n, 12, 5e-4))
-        .collect();
-    let f = fits
-        .into_iter()
+    // The second start is tried only when the first leaves some output's residual above 1.2×
+    // its noise level.
+    let first = fit_state(ctx, &cur.state, Some(e), &eff.params, n, 12, 5e-4);
+    let at_noise =
+        |f: &FitOut| (0..k).all(|j| stats::rms(&f.fit.residuals[j * n..(j + 1) * n]) <= 1.2);
+    let second = match (&first, alt_start) {
+        (Ok(f), Some(st)) if !at_noise(f) => {
+            Some(fit_state(ctx, st, Some(e), &eff.params, n, 12, 5e-4))
+        }
+        (Err(_), Some(st)) => Some(fit_state(ctx, st, Some(e), &eff.params, n, 12, 5e-4)),
+        _ => None,
+    };
+    let f = std::iter::once(first)
+        .chain(second)
         .filter_map(Result::ok)
         .min_by(|a, b| {
             a.fit
