@@ -2,8 +2,27 @@
 //! effect convention) and a measurement disagree, name the missing effect, add it, and show the
 //! gap shrink.
 //!
-//! The method is written against the [`Simulator`] trait so it can be tested on synthetic models;
-//! the CLI adapts the FMU host to it.
+//! The method is written against the [`Simulator`] trait so it can be tested on synthetic models
+//! (`synthetic.rs`); [`fmu::FmuSimulator`] adapts an FMU opened by the `host` crate to it, and the
+//! CLI's `gap` subcommand wires CSV, FMU, workflow and report together.
+//!
+//! Steps ([`workflow::run`]):
+//! 1. Noise level per output from the data's second differences (robust MAD), the weights
+//!    `1/σ_k`. The last 30 % of the trace is held out.
+//! 2. Calibration of the base parameters (`[calibrate]` tag or `--fit`) by a bounded
+//!    Levenberg–Marquardt ([`lm`]) with a parallel finite-difference Jacobian and Broyden updates.
+//! 3. Diagnosis of the residual: RMS/noise per output and per time window, Ljung–Box whiteness,
+//!    cross-correlation with the inputs, and the operating region (quantile bins of every input
+//!    and model output, η²) that organises it best.
+//! 4. Screening of every candidate effect by a score-type regression of the residual on the base
+//!    Jacobian plus the effect's switch-on change and parameter sensitivities (linearised ΔBIC).
+//! 5. Refit of the most promising candidates (rayon) with base and effect parameters; ranking by
+//!    BIC with per-output noise variances and an effective sample size from the residual
+//!    autocorrelation (Bartlett-weighted), so correlated noise is not taken as evidence.
+//!    An effect is named only if ΔBIC ≥ 10, the 95 % interval of its contribution's scale excludes
+//!    0, and it lowers the error on the held-out part; its fit is then polished, and the loop
+//!    repeats (`rounds`).
+//! 6. Report ([`report`]: `report.json`, `report.md`) and plots ([`plots`]).
 
 pub mod fmu;
 pub mod lm;
