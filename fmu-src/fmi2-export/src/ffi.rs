@@ -691,26 +691,38 @@ pub unsafe fn get_status<M: Model>(
     })
 }
 
+/// A status query that is answered for one `kind` (`read` gives the value) and is not
+/// available for the others.
+unsafe fn status_value<M: Model, T>(
+    c: Fmi2Component,
+    func: &'static str,
+    kind: Fmi2StatusKind,
+    answered_kind: Fmi2StatusKind,
+    value: *mut T,
+    read: impl FnOnce(&Instance<M>) -> T,
+) -> Fmi2Status {
+    if kind != answered_kind {
+        return get_status::<M>(c, func, kind, value.is_null());
+    }
+    with_component::<M>(c, func, |comp| {
+        if let Err(s) = comp.instance.check_state(func, allowed::STATUS) {
+            return s;
+        }
+        if value.is_null() {
+            return comp.instance.error(func, "value is NULL");
+        }
+        *value = read(&comp.instance);
+        Status::Ok
+    })
+}
+
 /// `fmi2GetRealStatus`: `fmi2LastSuccessfulTime` (kind 2) gives the current time.
 pub unsafe fn get_real_status<M: Model>(
     c: Fmi2Component,
     kind: Fmi2StatusKind,
     value: *mut Fmi2Real,
 ) -> Fmi2Status {
-    const F: &str = "fmi2GetRealStatus";
-    if kind != 2 {
-        return get_status::<M>(c, F, kind, value.is_null());
-    }
-    with_component::<M>(c, F, |comp| {
-        if let Err(s) = comp.instance.check_state(F, allowed::STATUS) {
-            return s;
-        }
-        if value.is_null() {
-            return comp.instance.error(F, "value is NULL");
-        }
-        *value = comp.instance.time;
-        Status::Ok
-    })
+    status_value::<M, _>(c, "fmi2GetRealStatus", kind, 2, value, |i| i.time)
 }
 
 /// `fmi2GetBooleanStatus`: `fmi2Terminated` (kind 3) is always false.
@@ -719,20 +731,7 @@ pub unsafe fn get_boolean_status<M: Model>(
     kind: Fmi2StatusKind,
     value: *mut Fmi2Boolean,
 ) -> Fmi2Status {
-    const F: &str = "fmi2GetBooleanStatus";
-    if kind != 3 {
-        return get_status::<M>(c, F, kind, value.is_null());
-    }
-    with_component::<M>(c, F, |comp| {
-        if let Err(s) = comp.instance.check_state(F, allowed::STATUS) {
-            return s;
-        }
-        if value.is_null() {
-            return comp.instance.error(F, "value is NULL");
-        }
-        *value = 0;
-        Status::Ok
-    })
+    status_value::<M, _>(c, "fmi2GetBooleanStatus", kind, 3, value, |_| 0)
 }
 
 /// Export every FMI 2.0 Co-Simulation function for model type `$model` from this `cdylib`.
