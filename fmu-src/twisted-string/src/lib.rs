@@ -23,6 +23,9 @@ pub const RPM8000: f64 = 8000.0 * std::f64::consts::PI / 30.0;
 /// per degree of twist error, `K = 0.0035 * 837.758 rad/s * (180/pi) / 19.2` per rad of motor
 /// angle = 8.7501 1/s.
 pub const POSITION_P_SI: f64 = 0.0035 * RPM8000 * (180.0 / std::f64::consts::PI) / 19.2;
+/// `sqrt(DIM_DYN / DIM)`: scale of the tolerances handed to the integrator so that the RMS error
+/// norm over the 7 dynamic states is held to `rtol`/`atol` as without the 3 energy quadratures.
+pub const TOL_NORM_SCALE: f64 = 0.836_660_026_534_075_5;
 /// Largest number of position-loop samples one `fmi2DoStep` may span (keeps a huge step from
 /// hanging the importer: it is refused with a message instead).
 pub const MAX_SAMPLES_PER_STEP: f64 = 2e5;
@@ -364,7 +367,15 @@ impl Model for TwistedString {
         let p0 = plant::rest_position(&par, f_load)?;
         self.y = [0.0; DIM];
         self.y[ix::P] = p0;
-        self.integ = ode::Integrator::new(par.rtol, NOMINAL.iter().map(|n| par.atol * n).collect());
+        // The solver's error norm is the RMS over all DIM components; the energy quadratures add
+        // DIM - DIM_DYN nearly error-free terms that would loosen the control of the dynamic states
+        // by sqrt(DIM / DIM_DYN). Scaling the tolerances by sqrt(DIM_DYN / DIM) keeps the accepted
+        // steps of the dynamic states as they were without the quadratures.
+        let f = TOL_NORM_SCALE;
+        self.integ = ode::Integrator::new(
+            f * par.rtol,
+            NOMINAL.iter().map(|n| f * par.atol * n).collect(),
+        );
         self.integ.set_max_steps(200_000);
         self.pos = PositionLoop::default();
         self.t0 = start_time;
@@ -558,6 +569,12 @@ mod tests {
                 assert!(rel < rtol, "{rel}");
             }
         }
+    }
+
+    #[test]
+    fn tolerance_scale_matches_state_counts() {
+        let f = (plant::DIM_DYN as f64 / DIM as f64).sqrt();
+        assert!((TOL_NORM_SCALE - f).abs() < 1e-15);
     }
 
     #[test]
