@@ -204,8 +204,14 @@ atol&middot;nominal: i 1 A, &theta;<sub>m</sub> 1 rad, &omega;<sub>m</sub> 10 ra
 z<sub>i</sub> 10<sup>-3</sup> A&middot;s, z<sub>&omega;</sub> 1 rad, energy integrals 1 J. The solver's error norm is
 the RMS over all 10 components; so that the three nearly error-free energy quadratures do not loosen the
 control of the seven dynamic states by &radic;(10/7), both tolerances are handed to the solver multiplied by
-&radic;(7/10) = 0.8367. The step-size history is reset when an input or
-the speed set point changes. The Jacobian is analytic (chain rule through every equation above,
+&radic;(7/10) = 0.8367. The motor angle is integrated relative to its value at the start of each
+interval between position-loop samples (the plant sees &theta;<sub>m</sub> = offset + y<sub>1</sub>, the offset being
+added back after each interval), so its error control is absolute (atol&middot;1 rad) instead of
+rtol&middot;|&theta;<sub>m</sub>| &asymp; 10<sup>-3</sup> rad at 2000 rad, comparable to one encoder count (1.6&middot;10<sup>-3</sup> rad):
+the quantized encoder decisions of the position loop then agree with a tight reference. The step-size
+history is kept across a new speed set point (the interval starts at the sample instant; a too-large
+first step is rejected and shrunk) and reset only when F<sub>load</sub> (or, in open loop, the voltage) jumps.
+The Jacobian is analytic (chain rule through every equation above,
 unit-tested against central differences for every effect and both controller modes).</p>
 <p>A communication step spanning more than 2&middot;10<sup>5</sup> position-loop samples is refused
 with fmi2Error (a huge step must not hang the importer).</p>

@@ -331,6 +331,7 @@ impl TwistedString {
             } else {
                 0.0
             },
+            theta_offset: 0.0,
         }
     }
 }
@@ -390,10 +391,22 @@ impl Model for TwistedString {
 
     fn do_step(&mut self, vars: &mut [f64], t: f64, h: f64) -> Result<(), String> {
         let inputs = Self::inputs(vars);
-        if self.last_inputs != Some(inputs) {
-            // inputs jump at the communication point: restart the step-size selection
+        // Restart the step-size selection only when an input that enters the right-hand side
+        // jumps (F_load; voltage in open loop). theta_motor_ref acts through the sampled position
+        // loop, and a new speed set point starts a step at its sample instant anyway: the step
+        // sequence continues across those (a too-large first step is rejected and shrunk).
+        let rhs_inputs = (
+            0.0,
+            if self.par.internal_controller {
+                0.0
+            } else {
+                inputs.1
+            },
+            inputs.2,
+        );
+        if self.last_inputs != Some(rhs_inputs) {
             self.integ.reset_step_size();
-            self.last_inputs = Some(inputs);
+            self.last_inputs = Some(rhs_inputs);
         }
         let t_end = t + h;
         let ts = self.par.position_period;
@@ -420,9 +433,6 @@ impl Model for TwistedString {
                         self.par.position_band,
                         self.par.speed_limit,
                     );
-                    if w != self.pos.omega_ref {
-                        self.integ.reset_step_size();
-                    }
                     self.pos.omega_ref = w;
                     self.pos.next_sample += 1;
                 }
@@ -437,14 +447,17 @@ impl Model for TwistedString {
                     t_next = ts_next;
                 }
             }
-            let inp = self.make_inputs(vars);
+            let mut inp = self.make_inputs(vars);
+            // integrate the motor angle relative to its value at tc (absolute error control)
+            inp.theta_offset = self.y[ix::THETA];
+            self.y[ix::THETA] = 0.0;
             let plant = Plant {
                 par: &self.par,
                 inp,
             };
-            self.integ
-                .integrate(&plant, tc, t_next, &mut self.y)
-                .map_err(|e| format!("TwistedString: {e}"))?;
+            let res = self.integ.integrate(&plant, tc, t_next, &mut self.y);
+            self.y[ix::THETA] += inp.theta_offset;
+            res.map_err(|e| format!("TwistedString: {e}"))?;
             tc = t_next;
         }
         self.w_external += inputs.2 * (self.y[ix::P] - p_start);

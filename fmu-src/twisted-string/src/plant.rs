@@ -110,6 +110,10 @@ pub struct Inputs {
     pub voltage: f64,
     pub f_load: f64,
     pub omega_ref: f64,
+    /// The motor angle is `theta_offset + y[1]`: the model integrates the angle relative to its
+    /// value at the start of each interval, so that its error control is absolute (atol * 1 rad)
+    /// instead of relative to thousands of radians (documentation, section 8).
+    pub theta_offset: f64,
 }
 
 /// Every intermediate quantity of the right-hand side (outputs are taken from here).
@@ -150,7 +154,15 @@ impl Plant<'_> {
     /// Evaluate the model equations at state `y` (see the documentation for each line's source).
     pub fn eval(&self, y: &[f64]) -> Aux {
         let q = self.par;
-        let (i, th_m, om, p, v, zi, zw) = (y[0], y[1], y[2], y[3], y[4], y[5], y[6]);
+        let (i, th_m, om, p, v, zi, zw) = (
+            y[0],
+            self.inp.theta_offset + y[1],
+            y[2],
+            y[3],
+            y[4],
+            y[5],
+            y[6],
+        );
         let n = q.gear_ratio;
         let q_p = (p * p + P_EPS * P_EPS).sqrt();
         // gearhead output = twist angle (with optional backlash dead zone)
@@ -330,7 +342,15 @@ impl Plant<'_> {
     /// (tested against central differences).
     pub fn jacobian_rows(&self, y: &[f64]) -> [Grad; DIM] {
         let q = self.par;
-        let (i, th_m, om, p, v, zi, zw) = (y[0], y[1], y[2], y[3], y[4], y[5], y[6]);
+        let (i, th_m, om, p, v, zi, zw) = (
+            y[0],
+            self.inp.theta_offset + y[1],
+            y[2],
+            y[3],
+            y[4],
+            y[5],
+            y[6],
+        );
         let n = q.gear_ratio;
         let (e_i, e_th, e_om, e_p, e_v, e_zi, e_zw) = (
             unit(0),
@@ -721,6 +741,7 @@ mod tests {
                     voltage: 5.0,
                     f_load: 10.0,
                     omega_ref: 200.0,
+                    theta_offset: 0.0,
                 },
             };
             for y0 in &states {
@@ -763,6 +784,7 @@ mod tests {
                     voltage: -3.0,
                     f_load: 0.0,
                     omega_ref: -100.0,
+                    theta_offset: 0.0,
                 },
             };
             for om in [-500.0, -1.0, 0.0, 0.5, 300.0] {
@@ -793,6 +815,7 @@ mod tests {
                     voltage: 5.0,
                     f_load: 10.0,
                     omega_ref: 200.0,
+                    theta_offset: 0.0,
                 },
             };
             for y0 in &states {
