@@ -86,10 +86,10 @@ pub struct Estimate {
 pub struct Candidate {
     pub effect: String,
     /// BIC(current model) − BIC(current model + effect) after the nonlinear refit; for a candidate
-    /// that was only screened, the linearised estimate (equal to `score`).
+    /// that was only screened, the linearised estimate with the autocorrelation correction.
     pub delta_bic: f64,
-    /// Screening statistic: linearised ΔBIC of regressing the residual on the base Jacobian plus
-    /// the effect's sensitivities.
+    /// Screening statistic (ranks the candidates): linearised ΔBIC of regressing the residual on
+    /// the base Jacobian plus the effect's sensitivities, every sample counted as independent.
     pub score: f64,
     pub refit: bool,
     /// Fitted effect parameters (refitted candidates only).
@@ -323,6 +323,21 @@ fn delta_bic(r_small: &[f64], r_large: &[f64], k: usize, extra_params: usize) ->
         .map(|(s, l)| l.1 * (s.0 / l.0).ln())
         .sum();
     gain - extra_params as f64 * ne_total.ln()
+}
+
+/// ΔBIC as [`delta_bic`] but with every sample counted as independent (N_eff = N): for ranking
+/// candidates in the screening, where the residual is still dominated by the missing effect and
+/// its autocorrelation would deflate every candidate alike.
+fn delta_bic_naive(r_small: &[f64], r_large: &[f64], k: usize, extra_params: usize) -> f64 {
+    let n = (r_small.len() / k.max(1)) as f64;
+    let small = rss_neff(r_small, k);
+    let large = rss_neff(r_large, k);
+    let gain: f64 = small
+        .iter()
+        .zip(&large)
+        .map(|(s, l)| n * (s.0 / l.0).ln())
+        .sum();
+    gain - extra_params as f64 * (n * k as f64).ln()
 }
 
 /// Row scaling that turns the weighted Jacobian into one whose (J̃ᵀJ̃)⁻¹ is the parameter
@@ -840,14 +855,32 @@ pub fn run<S: Simulator + ?Sized>(
             remaining.len()
         ));
         let screened = screen(&ctx, &cur, &remaining);
-        let mut order: Vec<(usize, f64)> = remaining.iter().copied().zip(screened).collect();
+        // Ranked by the uncorrected linearised ΔBIC; the autocorrelation-corrected one gates the
+        // refits where evidence is required.
+        let corrected: BTreeMap<usize, f64> = remaining
+            .iter()
+            .copied()
+            .zip(screened.iter().map(|s| s.1))
+            .collect();
+        let mut order: Vec<(usize, f64)> = remaining
+            .iter()
+            .copied()
+            .zip(screened.iter().map(|s| s.0))
+            .collect();
         ctx.stage(format!("round {round}: screened"));
         order.sort_by(|a, b| b.1.partial_cmp(&a.1).unwrap_or(std::cmp::Ordering::Equal));
-        let best_score = order.first().map(|c| c.1).unwrap_or(f64::NEG_INFINITY);
+        let best_score = corrected
+            .values()
+            .copied()
+            .fold(f64::NEG_INFINITY, f64::max);
         if round == 1 && looks_like_noise && best_score < cfg.min_delta_bic {
             verdict = format!(
                 "no missing effect found: the calibrated base model's residuals are consistent with noise (every output within 1.2× its noise level and white; the best candidate, {}, has a linearised ΔBIC of {:.1} < {})",
-                order.first().map(|c| effects[c.0].name.as_str()).unwrap_or("none"),
+                corrected
+                    .iter()
+                    .max_by(|a, b| a.1.partial_cmp(b.1).unwrap_or(std::cmp::Ordering::Equal))
+                    .map(|c| effects[*c.0].name.as_str())
+                    .unwrap_or("none"),
                 best_score,
                 cfg.min_delta_bic
             );
@@ -856,7 +889,7 @@ pub fn run<S: Simulator + ?Sized>(
                     .iter()
                     .map(|&(e, score)| Candidate {
                         effect: effects[e].name.clone(),
-                        delta_bic: score,
+                        delta_bic: corrected[&e],
                         score,
                         refit: false,
                         parameters: BTreeMap::new(),
@@ -877,9 +910,10 @@ pub fn run<S: Simulator + ?Sized>(
         let top: Vec<(usize, f64)> = order
             .iter()
             .enumerate()
-            .filter(|(i, (_, score))| {
+            .filter(|(i, (e, _))| {
                 *i < cfg.max_refit.max(1)
-                    && ((round == 1 && !looks_like_noise && *i < 2) || *score >= cfg.min_delta_bic)
+                    && ((round == 1 && !looks_like_noise && *i < 2)
+                        || corrected[e] >= cfg.min_delta_bic)
             })
             .map(|(_, c)| *c)
             .collect();
@@ -929,7 +963,7 @@ pub fn run<S: Simulator + ?Sized>(
         for &(e, score) in order.iter().skip(top.len()) {
             ranked.push(Candidate {
                 effect: effects[e].name.clone(),
-                delta_bic: score,
+                delta_bic: corrected[&e],
                 score,
                 refit: false,
                 parameters: BTreeMap::new(),
@@ -1008,7 +1042,7 @@ pub fn run<S: Simulator + ?Sized>(
             } else {
                 format!(
                     "linearised ΔBIC = {:.1} < {}: not refitted",
-                    ranked[0].score, cfg.min_delta_bic
+                    ranked[0].delta_bic, cfg.min_delta_bic
                 )
             };
             verdict = if named_names.is_empty() {
@@ -1138,7 +1172,11 @@ fn reasons(c: &Candidate, min_delta_bic: f64, no_holdout: bool) -> Vec<String> {
 /// Screening (score test): regress the current weighted residual on the current Jacobian plus, per
 /// candidate, the change the effect makes at its start values and the sensitivities to each of its
 /// parameters there; the statistic is the linearised ΔBIC of the augmented regression.
-fn screen<S: Simulator + ?Sized>(ctx: &Ctx<'_, S>, cur: &FitOut, cand: &[usize]) -> Vec<f64> {
+fn screen<S: Simulator + ?Sized>(
+    ctx: &Ctx<'_, S>,
+    cur: &FitOut,
+    cand: &[usize],
+) -> Vec<(f64, f64)> {
     let n = ctx.n_train;
     let k = ctx.out_idx.len();
     let r0 = &cur.fit.residuals;
@@ -1188,7 +1226,7 @@ fn screen<S: Simulator + ?Sized>(ctx: &Ctx<'_, S>, cur: &FitOut, cand: &[usize])
             let mut cols: Vec<Vec<f64>> = Vec::new();
             let on_pos = jobs.iter().position(|j| *j == (e, None));
             let Some(y_on) = on_pos.and_then(|i| sims[i].as_ref()) else {
-                return f64::NEG_INFINITY;
+                return (f64::NEG_INFINITY, f64::NEG_INFINITY);
             };
             let mut d0 = Vec::with_capacity(n * k);
             for j in 0..k {
@@ -1210,7 +1248,7 @@ fn screen<S: Simulator + ?Sized>(ctx: &Ctx<'_, S>, cur: &FitOut, cand: &[usize])
                 .filter(|c| c.iter().any(|v| *v != 0.0))
                 .collect();
             if cols.is_empty() {
-                return f64::NEG_INFINITY;
+                return (f64::NEG_INFINITY, f64::NEG_INFINITY);
             }
             let pb = cur.fit.jac.ncols();
             let x = DMatrix::from_fn(n * k, pb + cols.len(), |i, j| {
@@ -1223,7 +1261,10 @@ fn screen<S: Simulator + ?Sized>(ctx: &Ctx<'_, S>, cur: &FitOut, cand: &[usize])
             // r ≈ X β: the residual explained by readjusted base parameters plus the effect.
             let (res, _) = regress(&x, r0);
             let (res0, _) = regress(&cur.fit.jac, r0);
-            delta_bic(&res0, &res, k, cols.len())
+            (
+                delta_bic_naive(&res0, &res, k, cols.len()),
+                delta_bic(&res0, &res, k, cols.len()),
+            )
         })
         .collect()
 }
