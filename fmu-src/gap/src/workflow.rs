@@ -997,6 +997,12 @@ pub fn run<S: Simulator + ?Sized>(
             }
             c.verdict = format!("not named: {}", why.join("; "));
         }
+        for c in ranked
+            .iter_mut()
+            .filter(|c| c.refit && c.verdict.is_empty())
+        {
+            c.verdict = "not considered: a higher-ranked candidate was named".into();
+        }
         if let Some(i) = chosen {
             let name = ranked[i].effect.clone();
             let (_, f, r) = fits
