@@ -24,11 +24,11 @@
 //!   integrals (1e-8 m3 for the oil volumes, 1 J for the energies): a floor for runs where nothing
 //!   moves yet. Measured (scripts/soak, 10^6 steps, rtol = atol = 1e-6): the oil balance closes to
 //!   1e-11 (base) and 5e-10 (entrained_air + internal_leakage) of the throughput, 1e-5 and 5e-5 of
-//!   the bound. The energy balance closes to 3e-8..7e-8 with every effect on (string_compliance's
-//!   law), but to 1e-6..9e-6 (0.1..0.97 of the bound over 15 runs of 10^6 steps, 9 seeds) with the base string law when
-//!   F_load < 0 lets the load lift off: each slack-to-taut catch adds up to ~2e-3 J at rtol 1e-6,
-//!   2e-5 J at 1e-7 (integration error poorly controlled across the catch, not a leak: at
-//!   rtol 1e-10 the jumps vanish); with F_load >= 0 the same run closes to 3e-7.
+//!   the bound. The energy balance closes to 0.005..0.06 of the bound (TwistedString, base
+//!   string law and every effect on, closed and open loop): the energy quadratures restart at 0
+//!   in every integration call (twisted-string commit c9e90f9), so their error control also sees
+//!   the short damping-power spike of a slack-to-taut string catch (about 1e-5 J per catch at
+//!   rtol 1e-6, random sign; before that fix up to 2e-3 J per catch, 0.97 of the bound).
 //! - Oscillator (run with damping = 0): mechanical energy, `E = m v^2/2 + k x^2/2` is the output
 //!   `energy`; with the force F held over a step, `E(t+h) - E(t) = F (x(t+h) - x(t))` exactly, so
 //!   the accumulated residual measures only the solver error (reported relative to max E).
