@@ -354,19 +354,82 @@ fn row_scale(r: &[f64], k: usize) -> Vec<f64> {
         .collect()
 }
 
-/// Covariance (J̃ᵀJ̃)⁻¹ of the columns of `x` with the per-output row scaling; `None` if singular.
+/// Relative eigenvalue below which a direction of the unit-diagonal normal matrix counts as
+/// undetermined: `λ_i < EIG_REL_TOL · λ_max`, i.e. a singular value of the column-normalised
+/// Jacobian below ~1e-4 of the largest (a correlation within 1e-8 of ±1; such a direction's
+/// variance would be inflated by > 1e4 anyway).
+const EIG_REL_TOL: f64 = 1e-8;
+
+/// A parameter whose unit vector has a squared component above this in the undetermined
+/// eigenspace is not estimable (its interval is unbounded).
+const NULL_COMPONENT_TOL: f64 = 1e-4;
+
+/// Covariance of the columns of `x` with the per-output row scaling, robust to parameters that
+/// are not separately identifiable.
+///
+/// `A = J̃ᵀJ̃` is scaled to unit diagonal, `Â = D⁻¹ A D⁻¹`, and eigen-decomposed,
+/// `Â = V Λ Vᵀ`. Directions with `λ_i < EIG_REL_TOL λ_max` are undetermined by the data (e.g. two
+/// parameters that enter only as a product). The covariance is the Moore–Penrose pseudo-inverse
+/// restricted to the well-determined subspace, `Cov = D⁻¹ V₊ Λ₊⁻¹ V₊ᵀ D⁻¹`. For a parameter whose
+/// unit vector `e_j` lies in that subspace (`e_j` is an *estimable function*, Rao 1973 §4a), this is
+/// exactly its variance, the same value as the ordinary inverse of the model in which the
+/// undetermined combination is held fixed. A parameter with a squared component above
+/// `NULL_COMPONENT_TOL` in the undetermined eigenspace (`Σ_{i∉+} V_{ji}² `) is not estimable: its
+/// variance is `+∞` (its row and column are NaN), so its interval is unbounded (null in the
+/// report) and, for an effect magnitude, never excludes zero. `None` only for an empty or
+/// non-finite matrix. (Before this, a single singular pair made `try_inverse` fail and every
+/// parameter's interval null.)
 fn covariance(x: &DMatrix<f64>, scale: &[f64], n: usize) -> Option<DMatrix<f64>> {
     let mut xs = x.clone();
     for (row, mut xr) in xs.row_iter_mut().enumerate() {
-        xr *= scale[(row / n).min(scale.len() - 1)];
+        xr *= scale[(row / n.max(1)).min(scale.len() - 1)];
     }
     let a = xs.transpose() * xs;
     let p = a.nrows();
-    // Scale to unit diagonal for a well-conditioned inversion.
-    let d: Vec<f64> = (0..p).map(|i| a[(i, i)].max(1e-300).sqrt()).collect();
-    let an = DMatrix::from_fn(p, p, |i, j| a[(i, j)] / (d[i] * d[j]));
-    let inv = an.try_inverse()?;
-    Some(DMatrix::from_fn(p, p, |i, j| inv[(i, j)] / (d[i] * d[j])))
+    if p == 0 || a.iter().any(|v| !v.is_finite()) {
+        return None;
+    }
+    // Scale to unit diagonal (a zero column stays zero and is then undetermined).
+    let d: Vec<f64> = (0..p).map(|i| a[(i, i)].max(0.0).sqrt()).collect();
+    let an = DMatrix::from_fn(p, p, |i, j| {
+        if d[i] > 0.0 && d[j] > 0.0 {
+            a[(i, j)] / (d[i] * d[j])
+        } else {
+            0.0
+        }
+    });
+    let eig = an.symmetric_eigen();
+    let lmax = eig.eigenvalues.iter().cloned().fold(0.0_f64, f64::max);
+    if lmax <= 0.0 {
+        let mut c = DMatrix::from_element(p, p, f64::NAN);
+        c.fill_diagonal(f64::INFINITY);
+        return Some(c);
+    }
+    let keep: Vec<bool> = eig
+        .eigenvalues
+        .iter()
+        .map(|&l| l > EIG_REL_TOL * lmax)
+        .collect();
+    let v = &eig.eigenvectors;
+    let estimable: Vec<bool> = (0..p)
+        .map(|j| {
+            let null: f64 = (0..p)
+                .filter(|&i| !keep[i])
+                .map(|i| v[(j, i)].powi(2))
+                .sum();
+            d[j] > 0.0 && null <= NULL_COMPONENT_TOL
+        })
+        .collect();
+    Some(DMatrix::from_fn(p, p, |i, j| {
+        if !(estimable[i] && estimable[j]) {
+            return if i == j { f64::INFINITY } else { f64::NAN };
+        }
+        let s: f64 = (0..p)
+            .filter(|&m| keep[m])
+            .map(|m| v[(i, m)] * v[(j, m)] / eig.eigenvalues[m])
+            .sum();
+        s / (d[i] * d[j])
+    }))
 }
 
 /// Least-squares fit of `y` on the columns of `x` (column-normalised normal equations with a tiny
@@ -1393,4 +1456,95 @@ fn refit<S: Simulator + ?Sized>(
         f,
         r_full,
     ))
+}
+
+#[cfg(test)]
+mod covariance_tests {
+    use super::*;
+
+    /// Ordinary inverse of XᵀX (reference for the identifiable case).
+    fn plain_inv(x: &DMatrix<f64>) -> DMatrix<f64> {
+        (x.transpose() * x).try_inverse().unwrap()
+    }
+
+    fn design(n: usize) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+        let t: Vec<f64> = (0..n).map(|i| i as f64 / n as f64).collect();
+        let c1: Vec<f64> = t.iter().map(|t| (6.0 * t).sin()).collect();
+        let c3: Vec<f64> = t.iter().map(|t| t * t + 0.3 * (6.0 * t).sin()).collect();
+        let c4: Vec<f64> = t.iter().map(|t| (17.0 * t).cos() - 0.2 * t).collect();
+        (c1, c3, c4)
+    }
+
+    #[test]
+    fn full_rank_matches_the_ordinary_inverse() {
+        let n = 200;
+        let (c1, c3, c4) = design(n);
+        let x = DMatrix::from_fn(n, 3, |i, j| [c1[i], c3[i], c4[i]][j]);
+        let c = covariance(&x, &[1.0], n).unwrap();
+        let r = plain_inv(&x);
+        for i in 0..3 {
+            for j in 0..3 {
+                assert!(
+                    (c[(i, j)] - r[(i, j)]).abs() <= 1e-9 * r[(i, i)].abs().max(r[(j, j)].abs())
+                );
+            }
+        }
+    }
+
+    /// Columns 0 and 1 are exactly collinear (a product `mu * phi`: d/dmu = phi f', d/dphi = mu f');
+    /// columns 2 and 3 are identifiable and correlated with column 0. The collinear pair must be
+    /// unbounded, the other two must get the variance of the model with the pair merged into one
+    /// column (`e_j` is estimable, so its variance does not depend on how the pair is split).
+    #[test]
+    fn collinear_pair_is_unbounded_others_finite() {
+        let n = 200;
+        let (c1, c3, c4) = design(n);
+        let x = DMatrix::from_fn(n, 4, |i, j| [c1[i], -2.5 * c1[i], c3[i], c4[i]][j]);
+        // Row scaling by output: two "outputs" of n/2 rows each.
+        let scale = [0.7, 1.9];
+        let c = covariance(&x, &scale, n / 2).unwrap();
+        assert!(c[(0, 0)].is_infinite() && c[(1, 1)].is_infinite());
+        // Reference: the merged model [c1, c3, c4] with the same row scaling.
+        let xm = DMatrix::from_fn(n, 3, |i, j| {
+            let s = scale[i / (n / 2)];
+            s * [c1[i], c3[i], c4[i]][j]
+        });
+        let r = plain_inv(&xm);
+        for (j, jr) in [(2, 1), (3, 2)] {
+            assert!(c[(j, j)].is_finite() && c[(j, j)] > 0.0);
+            let rel = (c[(j, j)] - r[(jr, jr)]).abs() / r[(jr, jr)];
+            assert!(
+                rel < 1e-8,
+                "param {j}: {} vs {} (rel {rel:e})",
+                c[(j, j)],
+                r[(jr, jr)]
+            );
+        }
+        let rel = (c[(2, 3)] - r[(1, 2)]).abs() / (r[(1, 1)] * r[(2, 2)]).sqrt();
+        assert!(rel < 1e-8);
+        // The old behaviour (ordinary inverse) fails on this matrix.
+        let a = {
+            let xs = DMatrix::from_fn(n, 4, |i, j| x[(i, j)] * scale[i / (n / 2)]);
+            xs.transpose() * xs
+        };
+        let cond = a.clone().symmetric_eigen().eigenvalues;
+        let (lo, hi) = cond
+            .iter()
+            .fold((f64::INFINITY, 0.0_f64), |(l, h), &v| (l.min(v), h.max(v)));
+        assert!(lo < 1e-12 * hi);
+    }
+
+    /// A magnitude column that duplicates a base column is unbounded, so the naming rule
+    /// "magnitude interval excludes zero" rejects it.
+    #[test]
+    fn magnitude_collinear_with_base_is_not_bounded() {
+        let n = 100;
+        let (c1, c3, _) = design(n);
+        let x = DMatrix::from_fn(n, 3, |i, j| [c1[i], c3[i], 3.0 * c3[i]][j]);
+        let c = covariance(&x, &[1.0], n).unwrap();
+        assert!(c[(2, 2)].is_infinite());
+        let sd = c[(2, 2)].max(0.0).sqrt();
+        assert!(1.0 - Z95 * sd <= 0.0);
+        assert!(c[(0, 0)].is_finite());
+    }
 }
