@@ -246,6 +246,30 @@ def test_calibration_tags(md):
     assert tagged == ["bulk_modulus", "link_damping", "load_mass", "valve_flow_scale"]
 
 
+def test_cable_friction_identifiable_wrap_angle_is_base(md, fmu):
+    """The capstan law sees mu and the wrap angle only through mu * phi (docs, Kaneko 1991), so
+    the effect's only parameter is cable_friction.mu and the wrap angle is the base (geometry,
+    not calibrated) parameter bowden_wrap_angle: (mu, phi) = (0.1, 3) and (0.3, 1) must give the
+    same trace, while (0.1, 1.5) must differ."""
+    assert [v.name for v in effect_params(md)["cable_friction"]] == ["cable_friction.mu"]
+    w = {v.name: v for v in md.modelVariables}["bowden_wrap_angle"]
+    assert w.causality == "parameter" and w.unit == "rad"
+    assert (float(w.min), float(w.start), float(w.max)) == (0.5, 3.0, 6.3)
+    assert not (w.description or "").startswith("[calibrate]")
+    t = np.arange(int(round(VIS_T / VIS_DT)) + 1) * VIS_DT
+    inp = {"theta_ref": min_jerk(t)}
+
+    def trace(mu, phi):
+        return run(fmu, {"cable_friction.enabled": True, "cable_friction.mu": mu,
+                         "bowden_wrap_angle": phi}, inp, t_end=VIS_T, dt=VIS_DT)
+
+    a, b, c = trace(0.1, 3.0), trace(0.3, 1.0), trace(0.1, 1.5)
+    same = max(float(np.max(np.abs(a[o] - b[o]))) / max(float(np.ptp(a[o])), 1e-300) for o in OUTPUTS)
+    diff = max(float(np.max(np.abs(a[o] - c[o]))) / max(float(np.ptp(a[o])), 1e-300) for o in OUTPUTS)
+    assert same < 1e-6, same
+    assert diff > 1e-2, diff
+
+
 VIS_T, VIS_DT = 1.2, 1e-3
 
 

@@ -76,7 +76,7 @@ DEFAULTS = {
     "internal_leakage.coefficient": 5e-13,
     "cable_friction.enabled": False,
     "cable_friction.mu": 0.1,
-    "cable_friction.wrap_angle": 3.0,
+    "bowden_wrap_angle": 3.0,
     "entrained_air.enabled": False,
     "entrained_air.fraction": 0.02,
     "entrained_air.polytropic_index": 1.2,
@@ -255,7 +255,7 @@ class Joint:
             elong = self.e0 + (x - self.x_mid) - side * R * th
             Tp = p["spring_stiffness"] * ramp_c1(elong, W_SLACK)
             if p["cable_friction.enabled"]:
-                mphi = p["cable_friction.mu"] * p["cable_friction.wrap_angle"]
+                mphi = p["cable_friction.mu"] * p["bowden_wrap_angle"]
                 Tj = Tp * math.exp(-mphi * math.tanh(side * R * om / V_CAPSTAN))
             else:
                 Tj = Tp

@@ -169,7 +169,7 @@ are the unknowns tuned; b is tagged for calibration.</p>
 <tr><td><code>seal_friction</code></td><td><code>g += (Fc + Fex exp(-(v_m/vs)^2)) tanh(v/1e-4 m/s) + sigma v</code>, <code>v_m' = (v - v_m)/tau_L</code> (<code>tau_L</code> = <code>seal_friction.memory_time</code>; one state per piston, 0 at rest)</td><td>Stribeck curve with frictional memory: Armstrong-Helouvry, Dupont, Canudas de Wit, Automatica 1994 (seven-parameter model); Hess &amp; Soom, ASME J. Tribology 1990; Manring 2005 sec. 6</td></tr>
 <tr><td><code>valve_overlap</code></td><td>dead band edges moved to <code>-1.8 - width</code>, <code>1.5 + width</code></td><td>Merritt sec. 5.2 (overlapped spool)</td></tr>
 <tr><td><code>internal_leakage</code></td><td><code>Q_leak = C_ip (P1 - P2)</code> out of chamber 1, <code>Q_leak r(P1)/r(P2)</code> into chamber 2 (same mass; see the oil balance)</td><td>Merritt eq. 5-32</td></tr>
-<tr><td><code>cable_friction</code></td><td><code>T_joint = T_spring exp(-mu phi tanh(v_slide/1e-3 m/s))</code>, <code>v_slide = +-R theta'</code> toward the piston</td><td>capstan equation; Kaneko et al. IEEE TRA 1991</td></tr>
+<tr><td><code>cable_friction</code></td><td><code>T_joint = T_spring exp(-mu phi tanh(v_slide/1e-3 m/s))</code>, <code>v_slide = +-R theta'</code> toward the piston, <code>mu = cable_friction.mu</code>, <code>phi = bowden_wrap_angle</code></td><td>capstan equation; Kaneko et al. IEEE TRA 1991</td></tr>
 <tr><td><code>entrained_air</code></td><td>mixture specific volume per unit gas-free oil at 0 gauge <code>v(P) = exp(-P/beta) + x0 (p_atm/p_a)^(1/n)</code>, <code>beta_e = -v/(dv/dP)</code>, <code>r = v(0)/v(P)</code>; <code>p_a = 0.5 (q + sqrt(q^2 + (0.1 p_atm)^2))</code>, <code>q = P + p_atm</code> (absolute pressure smoothly kept &gt; 0). Equal to the textbook <code>beta_e = beta (1+X)/(1 + X beta/(n p_a))</code>, <code>X = x0 (p_atm/p_a)^(1/n)</code>, except that the oil's own compression (<code>P/beta</code>, &lt; 2 %) is kept in X and the smooth max's slope in dv/dP; this exact form has the closed-form density ratio the oil balance needs</td><td>Merritt sec. 2.6; Manring eq. 1.29</td></tr>
 <tr><td><code>valve_dynamics</code></td><td><code>xv'' + 2 zeta omega xv' + omega^2 xv = omega^2 u</code>, <code>u_eff = deadband(xv)</code></td><td>paper eq. (18); omega = 1300 rad/s, zeta = 0.7 reach 95 % in about 3.3 ms (paper: 3.5 ms step response)</td></tr>
 </table>
@@ -199,7 +199,7 @@ possible, and at the oil-column frequency the negative damping is divided by
 <p>Ranges: Coulomb 5-200 N and breakaway excess 0-200 N (1-10 % of the 2 kN a 16 mm bore gives at
 100 bar); Stribeck speed 2-50 mm/s; frictional memory 1-50 ms (lags of milliseconds to tens of
 milliseconds; at 1 ms the Stribeck damping at the oil-column frequency is still divided by about 14); leakage 1e-14-5e-12 m3/(s Pa) (0.0006-0.3 L/min at 10 bar,
-new to worn seals); PTFE-lined Bowden mu 0.02-0.3 over 0.5-6.3 rad of bends; air 0.5-10 % by
+new to worn seals); PTFE-lined Bowden mu 0.02-0.3 over <code>bowden_wrap_angle</code> 0.5-6.3 rad of bends (the capstan law depends on mu and phi only through their product, so only <code>cable_friction.mu</code> is an effect parameter the gap workflow fits; the wrap angle is routing geometry, a base parameter that is measured, not calibrated); air 0.5-10 % by
 volume; spool 400-2000 rad/s (step responses of direct-operated proportional valves, 2-10 ms).</p>
 
 <h2>Initialization at rest</h2>
@@ -229,6 +229,7 @@ matched zero-lapped valve, <code>P2 = (Ps + Pr)/2</code>, and <code>P1 = (T0 + P
 <tr><td>load_mass, load_radius</td><td>2.0 kg at 0.30 m</td><td>forearm and hand (1.65 kg for 75 kg) with their own inertia lumped at the elbow (sec. V: "a mass has been calculated and fixed on the link")</td></tr>
 <tr><td>link_damping</td><td>3 N m s/rad</td><td>see the tuning section</td></tr>
 <tr><td>spring_stiffness, spring_pretension</td><td>5e4 N/m, 150 N</td><td>a 50 N/mm safety spring; 150 N co-contraction keeps the cables taut up to about 9 N m of torque imbalance</td></tr>
+<tr><td>bowden_wrap_angle</td><td>3 rad (172 deg)</td><td>total bend of each Bowden cable from cylinder to joint: about a half turn of routing around a shoulder; only used by <code>cable_friction</code>, which identifies <code>cable_friction.mu</code> at this angle (the law sees <code>mu phi</code> only); range 0.5-6.3 rad, measured on the hardware, not calibrated</td></tr>
 <tr><td>controller_gain</td><td>0.2</td><td>see the tuning section</td></tr>
 <tr><td>c1..c4, valve_use_mean, valve_flow_scale</td><td>Table I, false, 1</td><td>from the paper (SI reading derived above); the mean is the paper's merged coefficient; the scale is the calibration handle</td></tr>
 <tr><td>valve_deadband_low/high, controller_deadband_low/high</td><td>-1.8 V, 1.5 V</td><td>Fig. 6 (paper text); not calibrated by default</td></tr>

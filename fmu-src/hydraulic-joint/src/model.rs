@@ -82,7 +82,7 @@ pub fn read_params(vars: &[f64]) -> Params {
             .then(|| g(V::INTERNAL_LEAKAGE_COEFFICIENT)),
         cable_friction: flag(vars, V::CABLE_FRICTION_ENABLED).then(|| CableFriction {
             mu: g(V::CABLE_FRICTION_MU),
-            wrap_angle: g(V::CABLE_FRICTION_WRAP_ANGLE),
+            wrap_angle: g(V::BOWDEN_WRAP_ANGLE),
         }),
         entrained_air: flag(vars, V::ENTRAINED_AIR_ENABLED).then(|| EntrainedAir {
             fraction: g(V::ENTRAINED_AIR_FRACTION),

@@ -226,8 +226,9 @@ pub fn spool_accel(xv: f64, vv: f64, u: f64, omega: f64, zeta: f64) -> f64 {
 /// Capstan (Euler-Eytelwein) friction of the Bowden cable: tension at the joint end
 /// `T_j = T_p exp(-mu phi tanh(v_slide/v_eps))` [N] from the tension `T_p` at the piston end,
 /// `v_slide` the core speed toward the piston [m/s] (piston pulling: the joint end sees less;
-/// joint pulling: the piston end sees less). `mu phi` is friction coefficient times total wrap
-/// angle (Kaneko et al., IEEE TRA 1991; Agrawal et al. 2010).
+/// joint pulling: the piston end sees less). `mu phi` is friction coefficient (`cable_friction.mu`) times total wrap
+/// angle (`bowden_wrap_angle`; only the product is identifiable from data) (Kaneko et al.,
+/// IEEE TRA 1991; Agrawal et al. 2010).
 pub fn capstan_joint_tension(t_piston: f64, mu_phi: f64, v_slide: f64, v_eps: f64) -> f64 {
     t_piston * (-mu_phi * (v_slide / v_eps).tanh()).exp()
 }

@@ -99,7 +99,10 @@ fmi2_export::declare_variables! {
     INTERNAL_LEAKAGE_COEFFICIENT => Variable::parameter("internal_leakage.coefficient", 5e-13, "m3/(s.Pa)", "Cross-piston leakage coefficient C_ip").range(1e-14, 5e-12),
     CABLE_FRICTION_ENABLED => Variable::flag("cable_friction.enabled", false, "Bowden capstan friction T_j = T_p exp(-mu phi sign(v))"),
     CABLE_FRICTION_MU => Variable::parameter("cable_friction.mu", 0.1, "1", "Friction coefficient core/liner (PTFE liner)").range(0.02, 0.3),
-    CABLE_FRICTION_WRAP_ANGLE => Variable::parameter("cable_friction.wrap_angle", 3.0, "rad", "Total bend angle of the Bowden cable").range(0.5, 6.3).display("deg"),
+    // Base (not calibrated, not an effect parameter): the capstan law depends only on mu * phi, so the
+    // wrap angle is fixed hardware geometry and only cable_friction.mu is identified. Kept at the
+    // value reference of the former `cable_friction.wrap_angle` so no other reference shifts.
+    BOWDEN_WRAP_ANGLE => Variable::parameter("bowden_wrap_angle", 3.0, "rad", "Total bend angle phi of each Bowden cable along its routing (geometry; used by cable_friction, whose law depends only on mu phi)").range(0.5, 6.3).display("deg"),
     ENTRAINED_AIR_ENABLED => Variable::flag("entrained_air.enabled", false, "Effective bulk modulus falling at low pressure (air in the oil)"),
     ENTRAINED_AIR_FRACTION => Variable::parameter("entrained_air.fraction", 0.02, "1", "Air-to-oil volume ratio at atmospheric pressure").range(0.005, 0.1),
     ENTRAINED_AIR_POLYTROPIC_INDEX => Variable::parameter("entrained_air.polytropic_index", 1.2, "1", "Polytropic index of the air (1 isothermal, 1.4 adiabatic)").range(1.0, 1.4),
