@@ -409,10 +409,13 @@ impl Model for TwistedString {
 
     fn do_step(&mut self, vars: &mut [f64], t: f64, h: f64) -> Result<(), String> {
         let inputs = Self::inputs(vars);
-        // Restart the step-size selection only when an input that enters the right-hand side
-        // jumps (F_load; voltage in open loop). theta_motor_ref acts through the sampled position
-        // loop, and a new speed set point starts a step at its sample instant anyway: the step
-        // sequence continues across those (a too-large first step is rejected and shrunk).
+        // Restart the step-size selection when an input that enters the right-hand side jumps
+        // (F_load; voltage in open loop) and at every position-loop sample whose speed set point
+        // differs from the held one (below). Letting the step sequence continue across a set-point
+        // jump instead made the first step after each 1 ms sample fail about 3 times while
+        // theta_motor_ref moved: on examples/twisted_string_string_compliance.csv 15425 rejected
+        // of 39189 attempted steps, versus 494 of 26115 with the restart (and 30% fewer rhs
+        // evaluations).
         let rhs_inputs = (
             0.0,
             if self.par.internal_controller {
@@ -451,6 +454,11 @@ impl Model for TwistedString {
                         self.par.position_band,
                         self.par.speed_limit,
                     );
+                    // A new speed set point is a jump of the speed-loop error: restart the
+                    // step-size selection there (see the comment at the top of do_step).
+                    if w != self.pos.omega_ref {
+                        self.integ.reset_step_size();
+                    }
                     self.pos.omega_ref = w;
                     self.pos.next_sample += 1;
                 }
