@@ -105,6 +105,24 @@ pub struct Candidate {
     pub verdict: String,
 }
 
+impl Candidate {
+    /// A candidate that was screened (linearised ΔBIC `delta_bic`) but not refitted.
+    fn screened_only(effect: &str, delta_bic: f64, score: f64) -> Self {
+        Candidate {
+            effect: effect.to_string(),
+            delta_bic,
+            score,
+            refit: false,
+            parameters: BTreeMap::new(),
+            magnitude: None,
+            holdout_sse_without: None,
+            holdout_sse_with: None,
+            named: false,
+            verdict: "screened only (linearised ΔBIC)".into(),
+        }
+    }
+}
+
 /// Where the model and the measurement disagree, per output.
 #[derive(Clone, Debug, Serialize)]
 pub struct OutputDiagnosis {
@@ -950,17 +968,8 @@ pub fn run<S: Simulator + ?Sized>(
             rounds.push(
                 order
                     .iter()
-                    .map(|&(e, score)| Candidate {
-                        effect: effects[e].name.clone(),
-                        delta_bic: corrected[&e],
-                        score,
-                        refit: false,
-                        parameters: BTreeMap::new(),
-                        magnitude: None,
-                        holdout_sse_without: None,
-                        holdout_sse_with: None,
-                        named: false,
-                        verdict: "screened only (linearised ΔBIC)".into(),
+                    .map(|&(e, score)| {
+                        Candidate::screened_only(&effects[e].name, corrected[&e], score)
                     })
                     .collect(),
             );
@@ -1024,18 +1033,11 @@ pub fn run<S: Simulator + ?Sized>(
                 .unwrap_or(std::cmp::Ordering::Equal)
         });
         for &(e, score) in order.iter().skip(top.len()) {
-            ranked.push(Candidate {
-                effect: effects[e].name.clone(),
-                delta_bic: corrected[&e],
+            ranked.push(Candidate::screened_only(
+                &effects[e].name,
+                corrected[&e],
                 score,
-                refit: false,
-                parameters: BTreeMap::new(),
-                magnitude: None,
-                holdout_sse_without: None,
-                holdout_sse_with: None,
-                named: false,
-                verdict: "screened only (linearised ΔBIC)".into(),
-            });
+            ));
         }
         if ranked.is_empty() {
             break;
