@@ -4,8 +4,9 @@
 //! * Methods: Rodas5P (Steinebach 2023, order 5(4), default) and Rodas4 (Hairer & Wanner 1996,
 //!   order 4(3)); both L-stable and stiffly accurate, with an embedded error estimate.
 //!   See `README.md` for the measurement that chose the default.
-//! * One LU decomposition of `W = I/(h gamma) - J` per step attempt, done in place with nalgebra's
-//!   partial-pivoting Gaussian elimination; the Jacobian `J` is analytic when the system provides
+//! * One LU decomposition of `W = I/(h gamma) - J` per step attempt, done in place by a small
+//!   hand-written partial-pivoting Gaussian elimination on a column-major buffer (contiguous axpy
+//!   inner loops for the 10-20 states of the actuator models); the Jacobian `J` is analytic when the system provides
 //!   it, otherwise forward differences with scaled increments. After a rejected step the Jacobian
 //!   (and `f(t, y)`, `df/dt`) of the same point is reused; only the LU is redone for the new `h`.
 //! * Step-size control: Gustafsson predictive controller with safety factor and growth limits
@@ -21,7 +22,7 @@ mod tableau;
 
 pub use clock::{SampleClock, Segments};
 
-use nalgebra::{DMatrix, DVector};
+use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
 use tableau::{Tableau, RODAS4, RODAS5P};
 
@@ -308,13 +309,10 @@ impl Integrator {
 
             // W = I/(h gamma) - J, LU in place.
             let inv_hg = 1.0 / (h * tab.gamma);
-            w.w.copy_from(&w.jac);
-            w.w.neg_mut();
-            for i in 0..n {
-                w.w[(i, i)] += inv_hg;
-            }
+            form_w(w.jac.as_slice(), inv_hg, n, &mut w.w);
             self.stats.lu_decomps += 1;
-            let ok = lu_in_place(&mut w.w, &mut w.piv) && self.stages(sys, tab, w, t, h, y);
+            let ok = lu_in_place(&mut w.w, n, &mut w.piv, &mut w.dinv)
+                && self.stages(sys, tab, w, t, h, y);
             if !ok {
                 // Singular W or a NaN/inf in a stage: retry with a much smaller step.
                 self.stats.rejected += 1;
@@ -476,7 +474,7 @@ impl Integrator {
         for s in 0..tab.stages {
             // Stage argument u = y + sum_j a_sj k_j and rhs f(t + c_s h, u).
             if s == 0 {
-                w.b.as_mut_slice().copy_from_slice(&w.f0);
+                w.b.copy_from_slice(&w.f0);
             } else {
                 w.u.copy_from_slice(y);
                 for (j, &a) in tab.a[s].iter().enumerate() {
@@ -484,7 +482,7 @@ impl Integrator {
                         axpy(a, &w.k[j * n..(j + 1) * n], &mut w.u);
                     }
                 }
-                sys.rhs(t + tab.c[s] * h, &w.u, w.b.as_mut_slice());
+                sys.rhs(t + tab.c[s] * h, &w.u, &mut w.b);
                 self.stats.rhs_evals += 1;
             }
             // + d_s h df/dt + sum_j (C_sj / h) k_j
@@ -496,14 +494,13 @@ impl Integrator {
             for (j, &c) in tab.cc[s].iter().enumerate() {
                 axpy(c * inv_h, &w.k[j * n..(j + 1) * n], b);
             }
+            // A non-finite right-hand side gives a non-finite solution (the solve propagates
+            // NaN/inf), so one check of the solved increment covers both.
+            lu_solve(&w.w, n, &w.piv, &w.dinv, b);
             if !all_finite(b) {
                 return false;
             }
-            lu_solve(&w.w, &w.piv, &mut w.b);
-            if !all_finite(w.b.as_slice()) {
-                return false;
-            }
-            w.k[s * n..(s + 1) * n].copy_from_slice(w.b.as_slice());
+            w.k[s * n..(s + 1) * n].copy_from_slice(b);
         }
         w.ynew.copy_from_slice(y);
         for (j, &bj) in tab.b.iter().enumerate() {
@@ -527,10 +524,12 @@ struct Work {
     /// Stage increments k_0..k_{s-1}, stage-major (`k[s*n + i]`).
     k: Vec<f64>,
     jac: DMatrix<f64>,
-    /// W and then its LU factors.
-    w: DMatrix<f64>,
+    /// W and then its LU factors, column-major (`w[i + j*n]`).
+    w: Vec<f64>,
     piv: Vec<usize>,
-    b: DVector<f64>,
+    /// Reciprocals of the diagonal of U.
+    dinv: Vec<f64>,
+    b: Vec<f64>,
 }
 
 impl std::fmt::Debug for Work {
@@ -556,9 +555,10 @@ impl Work {
             ytmp: vec![0.0; n],
             k: vec![0.0; n * stages],
             jac: DMatrix::zeros(n, n),
-            w: DMatrix::zeros(n, n),
+            w: vec![0.0; n * n],
             piv: vec![0; n],
-            b: DVector::zeros(n),
+            dinv: vec![0.0; n],
+            b: vec![0.0; n],
         };
     }
 }
@@ -570,41 +570,126 @@ fn axpy(a: f64, x: &[f64], y: &mut [f64]) {
     }
 }
 
+/// True when every value is finite. Branch-free (an integer max over the exponent bits, which the
+/// compiler vectorises): a value is NaN or infinite exactly when its exponent bits are all ones.
 fn all_finite(v: &[f64]) -> bool {
-    v.iter().all(|x| x.is_finite())
+    const EXP: u64 = 0x7ff0_0000_0000_0000;
+    v.iter().fold(0u64, |m, x| m.max(x.to_bits() & EXP)) != EXP
 }
 
-/// LU decomposition with partial pivoting in place (nalgebra's Gaussian elimination steps, the
-/// algorithm of `nalgebra::LU::new`, without allocating). `piv[i]` is the row swapped with row
-/// `i` at step `i`. Returns false for a singular or non-finite matrix.
-fn lu_in_place(m: &mut DMatrix<f64>, piv: &mut [usize]) -> bool {
-    let n = m.nrows();
+/// Call `f(a, n, b...)` with `n` a compile-time constant for the small dimensions of the actuator
+/// models (fully unrolled loops without remainder handling), otherwise with the runtime `n`.
+macro_rules! specialise {
+    ($n:expr, $f:ident($a:expr $(, $rest:expr)*)) => {
+        match $n {
+            8 => $f($a, 8 $(, $rest)*),
+            9 => $f($a, 9 $(, $rest)*),
+            10 => $f($a, 10 $(, $rest)*),
+            11 => $f($a, 11 $(, $rest)*),
+            12 => $f($a, 12 $(, $rest)*),
+            13 => $f($a, 13 $(, $rest)*),
+            14 => $f($a, 14 $(, $rest)*),
+            15 => $f($a, 15 $(, $rest)*),
+            16 => $f($a, 16 $(, $rest)*),
+            n => $f($a, n $(, $rest)*),
+        }
+    };
+}
+
+/// `W = I/(h gamma) - J` into the column-major `w` (n x n, same layout as the Jacobian).
+fn form_w(jac: &[f64], inv_hg: f64, n: usize, w: &mut [f64]) {
+    let w = &mut w[..n * n];
+    for (wi, &v) in w.iter_mut().zip(&jac[..n * n]) {
+        *wi = -v;
+    }
     for i in 0..n {
-        let p = m.view_range(i.., i).icamax() + i;
-        let diag = m[(p, i)];
+        w[i * n + i] += inv_hg;
+    }
+}
+
+/// LU decomposition with partial pivoting in place (Golub & Van Loan, Algorithm 3.4.1, row
+/// interchanges applied to whole rows as in LAPACK `dgetf2`) of the column-major n x n matrix `m`
+/// (`m[i + j*n]`): afterwards the strict lower triangle holds the unit-lower factor L, the upper
+/// triangle U, `dinv[i] = 1 / U_ii`, and `piv[i]` is the row swapped with row `i` at step `i`.
+/// Every inner loop is a contiguous column update. Returns false for a zero or non-finite pivot.
+fn lu_in_place(m: &mut [f64], n: usize, piv: &mut [usize], dinv: &mut [f64]) -> bool {
+    specialise!(n, lu_in_place_n(m, piv, dinv))
+}
+
+/// Body of [`lu_in_place`]; inlined into [`specialise!`] so small `n` become constants.
+#[inline(always)]
+fn lu_in_place_n(m: &mut [f64], n: usize, piv: &mut [usize], dinv: &mut [f64]) -> bool {
+    let m = &mut m[..n * n];
+    let (piv, dinv) = (&mut piv[..n], &mut dinv[..n]);
+    for i in 0..n {
+        // Pivot: largest |m[r, i]| for r >= i (first one on ties).
+        let col = &m[i * n..(i + 1) * n];
+        let mut p = i;
+        let mut best = col[i].abs();
+        for (r, v) in col.iter().enumerate().skip(i + 1) {
+            if v.abs() > best {
+                best = v.abs();
+                p = r;
+            }
+        }
+        let diag = col[p];
         if diag == 0.0 || !diag.is_finite() {
             return false;
         }
         piv[i] = p;
         if p != i {
-            m.columns_range_mut(..i).swap_rows(i, p);
-            nalgebra::linalg::gauss_step_swap(m, diag, i, p);
-        } else {
-            nalgebra::linalg::gauss_step(m, diag, i);
+            for c in m.chunks_exact_mut(n) {
+                c.swap(i, p);
+            }
+        }
+        let inv = 1.0 / diag;
+        dinv[i] = inv;
+        let (left, right) = m.split_at_mut((i + 1) * n);
+        let l = &mut left[i * n + i + 1..];
+        for x in l.iter_mut() {
+            *x *= inv;
+        }
+        for c in right.chunks_exact_mut(n) {
+            let u = c[i];
+            for (x, &li) in c[i + 1..].iter_mut().zip(l.iter()) {
+                *x -= u * li;
+            }
         }
     }
     true
 }
 
-/// Solve `LU x = P b` in place (factors from [`lu_in_place`]).
-fn lu_solve(lu: &DMatrix<f64>, piv: &[usize], b: &mut DVector<f64>) {
-    for (i, &p) in piv.iter().enumerate() {
+/// Solve `LU x = P b` in place (factors from [`lu_in_place`]): row interchanges, forward
+/// substitution with the unit-lower L, back substitution with U, both column-oriented (axpy).
+fn lu_solve(lu: &[f64], n: usize, piv: &[usize], dinv: &[f64], b: &mut [f64]) {
+    specialise!(n, lu_solve_n(lu, piv, dinv, b))
+}
+
+/// Body of [`lu_solve`]; inlined into [`specialise!`] so small `n` become constants.
+#[inline(always)]
+fn lu_solve_n(lu: &[f64], n: usize, piv: &[usize], dinv: &[f64], b: &mut [f64]) {
+    let lu = &lu[..n * n];
+    let (b, dinv) = (&mut b[..n], &dinv[..n]);
+    for (i, &p) in piv[..n].iter().enumerate() {
         if p != i {
-            b.swap_rows(i, p);
+            b.swap(i, p);
         }
     }
-    lu.solve_lower_triangular_with_diag_mut(b, 1.0);
-    lu.solve_upper_triangular_mut(b);
+    for (i, col) in lu.chunks_exact(n).enumerate() {
+        let (head, tail) = b.split_at_mut(i + 1);
+        let xi = head[i];
+        for (x, &l) in tail.iter_mut().zip(&col[i + 1..]) {
+            *x -= xi * l;
+        }
+    }
+    for (i, col) in lu.chunks_exact(n).enumerate().rev() {
+        let (head, tail) = b.split_at_mut(i);
+        let xi = tail[0] * dinv[i];
+        tail[0] = xi;
+        for (x, &u) in head.iter_mut().zip(&col[..i]) {
+            *x -= xi * u;
+        }
+    }
 }
 
 #[cfg(test)]
@@ -613,20 +698,27 @@ mod tests {
 
     #[test]
     fn lu_matches_nalgebra() {
+        use nalgebra::DVector;
         let a = DMatrix::from_row_slice(3, 3, &[0.0, 2.0, 1.0, 4.0, -1.0, 3.0, 2.0, 5.0, -7.0]);
         let rhs = DVector::from_vec(vec![1.0, -2.0, 3.0]);
         let expected = a.clone().lu().solve(&rhs).unwrap();
-        let mut m = a.clone();
+        let mut m = a.as_slice().to_vec(); // column-major
         let mut piv = vec![0; 3];
-        assert!(lu_in_place(&mut m, &mut piv));
+        let mut dinv = vec![0.0; 3];
+        assert!(lu_in_place(&mut m, 3, &mut piv, &mut dinv));
         let mut x = rhs.clone();
-        lu_solve(&m, &piv, &mut x);
+        lu_solve(&m, 3, &piv, &dinv, x.as_mut_slice());
         for i in 0..3 {
             assert!((x[i] - expected[i]).abs() < 1e-14, "{x} vs {expected}");
         }
         let r = &a * &x - &rhs;
         assert!(r.norm() < 1e-13);
-        let mut sing = DMatrix::from_row_slice(2, 2, &[1.0, 2.0, 2.0, 4.0]);
-        assert!(!lu_in_place(&mut sing, &mut piv[..2]));
+        let mut sing = vec![1.0, 2.0, 2.0, 4.0];
+        assert!(!lu_in_place(&mut sing, 2, &mut piv[..2], &mut dinv[..2]));
+        let mut nan = vec![f64::NAN, 1.0, 1.0, 1.0];
+        assert!(!lu_in_place(&mut nan, 2, &mut piv[..2], &mut dinv[..2]));
+        assert!(all_finite(&[1.0, -0.0, f64::MAX, f64::MIN_POSITIVE]));
+        assert!(!all_finite(&[1.0, f64::NAN]));
+        assert!(!all_finite(&[f64::NEG_INFINITY, 1.0]));
     }
 }
