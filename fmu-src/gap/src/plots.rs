@@ -35,6 +35,26 @@ fn line(t: &[f64], y: &[f64]) -> Vec<(f64, f64)> {
     t.iter().zip(y).step_by(s).map(|(a, b)| (*a, *b)).collect()
 }
 
+type Chart<'a, 'b> = ChartContext<
+    'a,
+    BitMapBackend<'b>,
+    Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+>;
+
+/// Draw `y` over `t` in `color` with a legend entry `label`.
+fn labelled_line(
+    ch: &mut Chart,
+    t: &[f64],
+    y: &[f64],
+    color: RGBColor,
+    label: &str,
+) -> Result<(), DynErr> {
+    ch.draw_series(LineSeries::new(line(t, y), color))?
+        .label(label)
+        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 15, y)], color));
+    Ok(())
+}
+
 /// Measured vs model (as given, base fit, final) per output.
 fn outputs_png(res: &GapResult, path: &Path) -> Result<(), DynErr> {
     let tr = &res.traces;
@@ -55,21 +75,10 @@ fn outputs_png(res: &GapResult, path: &Path) -> Result<(), DynErr> {
             .x_desc("time [s]")
             .max_light_lines(2)
             .draw()?;
-        ch.draw_series(LineSeries::new(
-            line(&tr.time, meas),
-            RGBColor(150, 150, 150),
-        ))?
-        .label("measured")
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 15, y)], RGBColor(150, 150, 150)));
-        ch.draw_series(LineSeries::new(line(&tr.time, nom), BLUE))?
-            .label("model as given")
-            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 15, y)], BLUE));
-        ch.draw_series(LineSeries::new(line(&tr.time, base), RGBColor(230, 140, 0)))?
-            .label("base fit")
-            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 15, y)], RGBColor(230, 140, 0)));
-        ch.draw_series(LineSeries::new(line(&tr.time, fin), RED))?
-            .label("after")
-            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 15, y)], RED));
+        labelled_line(&mut ch, &tr.time, meas, RGBColor(150, 150, 150), "measured")?;
+        labelled_line(&mut ch, &tr.time, nom, BLUE, "model as given")?;
+        labelled_line(&mut ch, &tr.time, base, RGBColor(230, 140, 0), "base fit")?;
+        labelled_line(&mut ch, &tr.time, fin, RED, "after")?;
         ch.configure_series_labels()
             .background_style(WHITE.mix(0.8))
             .border_style(BLACK)
@@ -104,12 +113,8 @@ fn residuals_png(res: &GapResult, path: &Path) -> Result<(), DynErr> {
             .x_desc("time [s]")
             .max_light_lines(2)
             .draw()?;
-        ch.draw_series(LineSeries::new(line(&tr.time, &rb), RGBColor(230, 140, 0)))?
-            .label("base fit")
-            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 15, y)], RGBColor(230, 140, 0)));
-        ch.draw_series(LineSeries::new(line(&tr.time, &rf), RED))?
-            .label("after")
-            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 15, y)], RED));
+        labelled_line(&mut ch, &tr.time, &rb, RGBColor(230, 140, 0), "base fit")?;
+        labelled_line(&mut ch, &tr.time, &rf, RED, "after")?;
         ch.configure_series_labels()
             .background_style(WHITE.mix(0.8))
             .border_style(BLACK)

@@ -151,10 +151,10 @@ pub struct Plant<'a> {
 }
 
 impl Plant<'_> {
-    /// Evaluate the model equations at state `y` (see the documentation for each line's source).
-    pub fn eval(&self, y: &[f64]) -> Aux {
-        let q = self.par;
-        let (i, th_m, om, p, v, zi, zw) = (
+    /// The physical states (current, absolute motor angle, motor speed, position, load speed,
+    /// current-loop and speed-loop integrators) from the solver vector `y`.
+    fn unpack(&self, y: &[f64]) -> (f64, f64, f64, f64, f64, f64, f64) {
+        (
             y[0],
             self.inp.theta_offset + y[1],
             y[2],
@@ -162,7 +162,13 @@ impl Plant<'_> {
             y[4],
             y[5],
             y[6],
-        );
+        )
+    }
+
+    /// Evaluate the model equations at state `y` (see the documentation for each line's source).
+    pub fn eval(&self, y: &[f64]) -> Aux {
+        let q = self.par;
+        let (i, th_m, om, p, v, zi, zw) = self.unpack(y);
         let n = q.gear_ratio;
         let q_p = (p * p + P_EPS * P_EPS).sqrt();
         // gearhead output = twist angle (with optional backlash dead zone)
@@ -342,15 +348,7 @@ impl Plant<'_> {
     /// (tested against central differences).
     pub fn jacobian_rows(&self, y: &[f64]) -> [Grad; DIM] {
         let q = self.par;
-        let (i, th_m, om, p, v, zi, zw) = (
-            y[0],
-            self.inp.theta_offset + y[1],
-            y[2],
-            y[3],
-            y[4],
-            y[5],
-            y[6],
-        );
+        let (i, th_m, om, p, v, zi, zw) = self.unpack(y);
         let n = q.gear_ratio;
         let (e_i, e_th, e_om, e_p, e_v, e_zi, e_zw) = (
             unit(0),
