@@ -80,19 +80,23 @@ def rel_errors(result, truth):
 
 
 def bench_model(model):
-    """The FMU's rtol and atol are tightened (1e-6, 1e-7, 1e-8) until its error is no larger than the
-    SciPy peer's, so the speedup is always at equal or better accuracy."""
+    """The FMU's rtol and atol are tightened (1e-6 ... 1e-10) until its error is no larger than the
+    SciPy peer's, so the speedup is always at equal or better accuracy. On the TwistedString run
+    both the FMU at 1e-7..1e-8 and SciPy at 1e-6 flip one or two encoder-count decisions of the
+    position loop against the truth (a near-tie at a sample; each flip leaves a 2e-5 blip in the
+    current), so which of the two has the lower RMS error there is luck; from rtol 1e-9 the FMU
+    reproduces the truth's decisions and its error falls to ~1e-10."""
     inputs = scenario(model)
     t_py, out_py = run_scipy(model, inputs, rtol=1e-6)
     _, truth = run_scipy(model, inputs, rtol=1e-10)
     e_py, w_py, m_py, mw_py = rel_errors(out_py, truth)
-    for rtol in (1e-6, 1e-7, 1e-8):
+    for rtol in (1e-6, 1e-7, 1e-8, 1e-9, 1e-10):
         with tempfile.TemporaryDirectory() as d:
             t_fmu, out_fmu = run_fmu(model, inputs, Path(d) / "fmu.csv", 3 if QUICK else 5, rtol)
         e_fmu, w_fmu, m_fmu, mw_fmu = rel_errors(out_fmu, truth)
         if e_fmu <= e_py:
             break
-    verdict = "equal or better accuracy" if e_fmu <= e_py else "LOWER accuracy even at rtol 1e-8"
+    verdict = "equal or better accuracy" if e_fmu <= e_py else "LOWER accuracy even at rtol 1e-10"
     print(f"{model} speedup {t_py / t_fmu:.0f}x (FMU from Rust at rtol {rtol:g}: {t_fmu * 1e3:.1f} ms; "
           f"SciPy Radau rtol 1e-6: {t_py:.2f} s; {T_END:g} s simulated at {DT * 1e3:g} ms steps; "
           f"error vs SciPy rtol 1e-10 relative to range, worst output RMS (max): "

@@ -42,6 +42,15 @@ pub trait OdeSystem {
     fn autonomous(&self) -> bool {
         false
     }
+    /// Number of trailing states that are quadratures: `y_k' = g_k(t, y_0..y_{m-1})` with no
+    /// right-hand side depending on any of them (their Jacobian columns are zero). The
+    /// integrator then decomposes only the leading `m x m` block of `W` and solves the quadrature
+    /// rows by substitution, which is exact for this block-triangular `W` (it only saves work).
+    /// Default 0. Declaring a state a quadrature while some `f_i` depends on it is a bug of the
+    /// system: its coupling would be dropped from the stage equations.
+    fn quadratures(&self) -> usize {
+        0
+    }
 }
 
 /// Failure of [`Integrator::integrate`]. `y` then holds the last accepted state (at `t`).
@@ -257,6 +266,8 @@ impl Integrator {
         y: &mut [f64],
     ) -> Result<(), OdeError> {
         let n = y.len();
+        // Leading block of non-quadrature states.
+        let m = n - sys.quadratures().min(n);
         let mut t = t0;
         sys.rhs(t, y, &mut w.f0);
         self.stats.rhs_evals += 1;
@@ -307,12 +318,13 @@ impl Integrator {
                 need_jac = false;
             }
 
-            // W = I/(h gamma) - J, LU in place.
+            // W = I/(h gamma) - J, LU of its leading m x m block in place (the quadrature rows
+            // below it are solved by substitution in `stages`).
             let inv_hg = 1.0 / (h * tab.gamma);
-            form_w(w.jac.as_slice(), inv_hg, n, &mut w.w);
+            form_w(w.jac.as_slice(), inv_hg, n, m, &mut w.w);
             self.stats.lu_decomps += 1;
-            let ok = lu_in_place(&mut w.w, n, &mut w.piv, &mut w.dinv)
-                && self.stages(sys, tab, w, t, h, y);
+            let ok = lu_in_place(&mut w.w, m, &mut w.piv, &mut w.dinv)
+                && self.stages(sys, tab, w, t, h, y, m);
             if !ok {
                 // Singular W or a NaN/inf in a stage: retry with a much smaller step.
                 self.stats.rejected += 1;
@@ -468,9 +480,11 @@ impl Integrator {
         t: f64,
         h: f64,
         y: &[f64],
+        m: usize,
     ) -> bool {
         let n = y.len();
         let inv_h = 1.0 / h;
+        let hg = h * tab.gamma;
         for s in 0..tab.stages {
             // Stage argument u = y + sum_j a_sj k_j and rhs f(t + c_s h, u).
             if s == 0 {
@@ -495,9 +509,20 @@ impl Integrator {
                 axpy(c * inv_h, &w.k[j * n..(j + 1) * n], b);
             }
             // A non-finite right-hand side gives a non-finite solution (the solve propagates
-            // NaN/inf), so one check of the solved increment covers both.
-            lu_solve(&w.w, n, &w.piv, &w.dinv, b);
-            if !all_finite(b) {
+            // NaN/inf to every component), and every later stage adds every earlier increment
+            // through the C_sj sum (a zero coefficient included: 0 * NaN = NaN), so a non-finite
+            // value anywhere reaches the last stage: one check there covers all stages.
+            lu_solve(&w.w, m, &w.piv, &w.dinv, &mut b[..m]);
+            // Quadrature rows of W k = b: k_i / (h gamma) - sum_{j<m} J_ij k_j = b_i.
+            let jac = w.jac.as_slice();
+            for i in m..n {
+                let mut acc = b[i];
+                for j in 0..m {
+                    acc += jac[i + j * n] * b[j];
+                }
+                b[i] = hg * acc;
+            }
+            if s + 1 == tab.stages && !all_finite(b) {
                 return false;
             }
             w.k[s * n..(s + 1) * n].copy_from_slice(b);
@@ -582,6 +607,10 @@ fn all_finite(v: &[f64]) -> bool {
 macro_rules! specialise {
     ($n:expr, $f:ident($a:expr $(, $rest:expr)*)) => {
         match $n {
+            4 => $f($a, 4 $(, $rest)*),
+            5 => $f($a, 5 $(, $rest)*),
+            6 => $f($a, 6 $(, $rest)*),
+            7 => $f($a, 7 $(, $rest)*),
             8 => $f($a, 8 $(, $rest)*),
             9 => $f($a, 9 $(, $rest)*),
             10 => $f($a, 10 $(, $rest)*),
@@ -596,14 +625,17 @@ macro_rules! specialise {
     };
 }
 
-/// `W = I/(h gamma) - J` into the column-major `w` (n x n, same layout as the Jacobian).
-fn form_w(jac: &[f64], inv_hg: f64, n: usize, w: &mut [f64]) {
-    let w = &mut w[..n * n];
-    for (wi, &v) in w.iter_mut().zip(&jac[..n * n]) {
-        *wi = -v;
+/// The leading `m x m` block of `W = I/(h gamma) - J` (J column-major n x n) into the
+/// column-major `w` (m x m).
+fn form_w(jac: &[f64], inv_hg: f64, n: usize, m: usize, w: &mut [f64]) {
+    let w = &mut w[..m * m];
+    for (wc, jc) in w.chunks_exact_mut(m).zip(jac.chunks_exact(n)) {
+        for (wi, &v) in wc.iter_mut().zip(&jc[..m]) {
+            *wi = -v;
+        }
     }
-    for i in 0..n {
-        w[i * n + i] += inv_hg;
+    for i in 0..m {
+        w[i * m + i] += inv_hg;
     }
 }
 

@@ -233,3 +233,79 @@ fn hydraulic_and_dc_motor_match_scipy() {
         assert!(e < 1e-6, "{m:?} dc motor: {y:?} vs {dc_ref:?} ({e:e})");
     }
 }
+
+/// A stiff decay `y0' = -k y0`
+/// driving a forced state `y1' = -y1 + y0`, and two quadratures `q0' = y0^2`, `q1' = y0 y1` that
+/// nothing depends on. Closed forms (y0(0) = 1, y1(0) = 0, k != 1):
+/// `y0 = e^{-kt}`, `y1 = (e^{-t} - e^{-kt}) / (k - 1)`,
+/// `q0 = (1 - e^{-2kt}) / (2k)`, `q1 = int_0^t y0 y1 = [ (1 - e^{-(k+1)t})/(k+1) - q0 ] / (k - 1)`.
+struct WithQuadratures {
+    k: f64,
+    declared: usize,
+}
+
+impl OdeSystem for WithQuadratures {
+    fn dim(&self) -> usize {
+        4
+    }
+    fn rhs(&self, _t: f64, y: &[f64], f: &mut [f64]) {
+        f[0] = -self.k * y[0];
+        f[1] = -y[1] + y[0];
+        f[2] = y[0] * y[0];
+        f[3] = y[0] * y[1];
+    }
+    fn autonomous(&self) -> bool {
+        true
+    }
+    fn quadratures(&self) -> usize {
+        self.declared
+    }
+}
+
+#[test]
+fn quadrature_states_are_solved_by_substitution_exactly() {
+    let k = 200.0;
+    let t1 = 2.0;
+    let e = |a: f64| (-a * t1).exp();
+    let q0 = (1.0 - e(2.0 * k)) / (2.0 * k);
+    let exact = [
+        e(k),
+        (e(1.0) - e(k)) / (k - 1.0),
+        q0,
+        ((1.0 - e(k + 1.0)) / (k + 1.0) - q0) / (k - 1.0),
+    ];
+    for m in METHODS {
+        let mut results = Vec::new();
+        for declared in [0, 2] {
+            let mut y = [1.0, 0.0, 0.0, 0.0];
+            let ig = solve(
+                &WithQuadratures { k, declared },
+                m,
+                1e-8,
+                vec![1e-10; 4],
+                t1,
+                &mut y,
+            );
+            for i in 0..4 {
+                assert!(
+                    (y[i] - exact[i]).abs() < 1e-7 * exact[i].abs().max(1e-3),
+                    "{m:?} declared {declared}: y[{i}] = {} vs exact {}",
+                    y[i],
+                    exact[i]
+                );
+            }
+            results.push((y, ig.stats().steps, ig.stats().rejected));
+        }
+        // W is block lower-triangular, so substitution solves the same linear systems: the same
+        // steps are taken and the states agree to rounding (different elimination order).
+        assert_eq!(results[0].1, results[1].1, "{m:?}: step counts differ");
+        assert_eq!(results[0].2, results[1].2, "{m:?}: rejection counts differ");
+        for i in 0..4 {
+            let (a, b) = (results[0].0[i], results[1].0[i]);
+            assert!(
+                (a - b).abs() <= 1e-10 * a.abs().max(1e-6),
+                "{m:?}: y[{i}] {a} vs {b}"
+            );
+        }
+    }
+}

@@ -283,6 +283,10 @@ impl ode::OdeSystem for Plant<'_> {
     fn autonomous(&self) -> bool {
         true
     }
+    /// The energy integrals 7..9 feed nothing back.
+    fn quadratures(&self) -> usize {
+        DIM - DIM_DYN
+    }
     fn jacobian(&self, _t: f64, y: &[f64], jac: &mut nalgebra::DMatrix<f64>) -> bool {
         let j = self.jacobian_rows(y);
         for (r, row) in j.iter().enumerate() {
