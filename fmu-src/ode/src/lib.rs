@@ -324,7 +324,7 @@ impl Integrator {
             form_w(w.jac.as_slice(), inv_hg, n, m, &mut w.w);
             self.stats.lu_decomps += 1;
             let ok = lu_in_place(&mut w.w, m, &mut w.piv, &mut w.dinv)
-                && self.stages(sys, tab, w, t, h, y, m);
+                && self.stages(sys, tab, w, t, h, y);
             if !ok {
                 // Singular W or a NaN/inf in a stage: retry with a much smaller step.
                 self.stats.rejected += 1;
@@ -480,9 +480,9 @@ impl Integrator {
         t: f64,
         h: f64,
         y: &[f64],
-        m: usize,
     ) -> bool {
         let n = y.len();
+        let m = n - sys.quadratures().min(n);
         let inv_h = 1.0 / h;
         let hg = h * tab.gamma;
         for s in 0..tab.stages {
