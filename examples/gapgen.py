@@ -123,7 +123,12 @@ def inputs(model, rng, t):
         tau = steps(rng, t, -3.0, 3.0, (0.8, 2.0))
         return {"theta_ref": ref, "tau_ext": tau}
     if model == "TwistedString":
-        ref = reaches(rng, t, 100.0, 1100.0, (1.0, 2.0), (0.3, 0.8))
+        # Stroke amplitude drawn per dataset (log-uniform, motor angle 150..1100 rad): small
+        # twists are where gear_backlash shows (its offset of half the backlash is a larger part
+        # of the twist, and the noise, 1 % of each signal's range, is smaller), large ones where
+        # radius_growth does; one fixed range would hide one of them.
+        amp = math.exp(rng.uniform(math.log(150.0), math.log(1100.0)))
+        ref = reaches(rng, t, 0.1 * amp, amp, (1.0, 2.0), (0.3, 0.8))
         f = steps(rng, t, 0.0, 40.0, (1.0, 2.5))
         return {"theta_motor_ref": ref, "F_load": f}
     raise ValueError(model)
