@@ -253,6 +253,25 @@ def test_stall_beyond_full_twist_is_finite():
     assert cpu < 2.0, f"stall took {cpu:.2f} s CPU: step size collapsed?"
 
 
+@pytest.mark.parametrize("effects", [
+    {"string_compliance.enabled": True},
+    {"radius_growth.enabled": True},
+    {"string_compliance.enabled": True, "radius_growth.enabled": True, "gear_backlash.enabled": True},
+])
+def test_twisting_backward_mirrors_twisting_forward(effects):
+    """The strings are symmetric: twisting to -600 rad gives the same load position, string force
+    and current magnitude as twisting to +600 rad, and mirrored angles (eq. 10 lengthens and the
+    bundle radius grows with the amount of twist, whichever the direction)."""
+    params = dict(effects, load_mass=39 / G)
+    fwd = sim(params, {"theta_motor_ref": ([0], [600.0])}, t_end=1.5)
+    bwd = sim(params, {"theta_motor_ref": ([0], [-600.0])}, t_end=1.5)
+    assert fwd["theta_motor"][-1] > 590
+    for name, sign in (("p", 1), ("F_string", 1), ("theta_twist", -1), ("current", -1),
+                       ("theta_motor", -1)):
+        a, b = fwd[name][-1], sign * bwd[name][-1]
+        assert a == pytest.approx(b, rel=1e-4, abs=1e-9), (name, a, b)
+
+
 def test_full_paper_range_reachable_with_compliance():
     res = sim({"load_mass": 124 / G, "string_compliance.enabled": True},
               {"theta_motor_ref": ([0], [DEG6000])}, t_end=4.0)

@@ -138,11 +138,11 @@ class Model:
         return val, slope / self.N
 
     def arc(self, th_t):
-        """Twist arc a = theta_t r(theta_t) and a' with r = r0 (1 + g theta_t / 2pi)."""
+        """Twist arc a = theta_t r(theta_t) and a' with r = r0 (1 + g |theta_t| / 2pi)."""
         r0 = self.q["string_radius"]
         g = self.q["radius_growth.per_turn"] if self.q["radius_growth.enabled"] else 0.0
-        r = r0 * (1.0 + g * th_t / (2 * math.pi))
-        return th_t * r, r + th_t * r0 * g / (2 * math.pi)
+        r = r0 * (1.0 + g * abs(th_t) / (2 * math.pi))
+        return th_t * r, r + abs(th_t) * r0 * g / (2 * math.pi)
 
     def lfree(self, th_t):
         """Unloaded strand length and its derivative w.r.t. the twist angle (eq. 10)."""
@@ -151,7 +151,8 @@ class Model:
             return L0, 0.0
         thM = self.N * th_t
         a1, a2 = self.q["string_compliance.a1"], self.q["string_compliance.a2"]
-        return L0 + a1 * thM + a2 * thM ** 2, (a1 + 2 * a2 * thM) * self.N
+        sgn = -1.0 if thM < 0 else 1.0  # forward derivative at zero twist
+        return L0 + a1 * abs(thM) + a2 * thM ** 2, (a1 * sgn + 2 * a2 * thM) * self.N
 
     def strings(self, y):
         """Tension and forces of the helix for state y."""

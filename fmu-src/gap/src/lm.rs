@@ -201,34 +201,52 @@ pub fn levenberg_marquardt<P: Problem>(
     while m > 0 && iterations < opts.max_iter {
         iterations += 1;
         tick();
-        let mut a = jac.transpose() * &jac;
-        let mut g = jac.transpose() * DVector::from_column_slice(&r);
-        // Active set: a parameter at a bound whose descent direction (-g) points out of the
-        // range is held there; the step is solved for the others (otherwise the clamped step
-        // rarely lowers the sum and the damping grows until the fit stalls at the bound).
-        for k in 0..m {
-            let (lo, hi) = b[k].z_bounds();
-            if (z[k] <= lo && g[k] > 0.0) || (z[k] >= hi && g[k] < 0.0) {
-                for j in 0..m {
-                    a[(k, j)] = 0.0;
-                    a[(j, k)] = 0.0;
-                }
-                a[(k, k)] = 1.0;
-                g[k] = 0.0;
-            }
-        }
+        let a = jac.transpose() * &jac;
+        let g = jac.transpose() * DVector::from_column_slice(&r);
         let mut accepted = None;
         let tries = if fresh { 12 } else { 3 };
         for _ in 0..tries {
-            let mut mm = a.clone();
-            for k in 0..m {
-                mm[(k, k)] += lambda * a[(k, k)].max(1e-12) + 1e-12;
-            }
-            let Some(ch) = mm.cholesky() else {
+            // Active set: a parameter at a bound whose step would leave the range is held there
+            // and the step re-solved for the others, until no further one would leave (a
+            // projected Newton step; clamping the full step instead rarely lowers the sum, and
+            // the gradient sign alone would also hold a parameter that the coupled step moves
+            // inward, as along the valley of two compensating parameters).
+            let mut held = vec![false; m];
+            let delta = loop {
+                let mut mm = a.clone();
+                let mut gg = g.clone();
+                for k in 0..m {
+                    mm[(k, k)] += lambda * a[(k, k)].max(1e-12) + 1e-12;
+                }
+                for k in (0..m).filter(|&k| held[k]) {
+                    #[allow(clippy::needless_range_loop)]
+                    for j in 0..m {
+                        mm[(k, j)] = 0.0;
+                        mm[(j, k)] = 0.0;
+                    }
+                    mm[(k, k)] = 1.0;
+                    gg[k] = 0.0;
+                }
+                let Some(ch) = mm.cholesky() else {
+                    break None;
+                };
+                let d = ch.solve(&(-&gg));
+                let mut more = false;
+                for k in 0..m {
+                    let (lo, hi) = b[k].z_bounds();
+                    if !held[k] && ((z[k] <= lo && d[k] < 0.0) || (z[k] >= hi && d[k] > 0.0)) {
+                        held[k] = true;
+                        more = true;
+                    }
+                }
+                if !more {
+                    break Some(d);
+                }
+            };
+            let Some(delta) = delta else {
                 lambda *= 10.0;
                 continue;
             };
-            let delta = ch.solve(&(-&g));
             let zn: Vec<f64> = (0..m)
                 .map(|k| {
                     let (lo, hi) = b[k].z_bounds();

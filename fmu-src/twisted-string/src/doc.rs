@@ -66,14 +66,16 @@ is reached at &theta;<sub>m</sub> = 1420 rad, well before 2011 rad (issue 10); w
 
 <h2>3. Strings (eq. 9&ndash;19)</h2>
 <p>Twist arc a = &theta;<sub>t</sub> r(&theta;<sub>t</sub>), a' = da/d&theta;<sub>t</sub>
-(r constant unless <code>radius_growth</code>: r = r<sub>0</sub>(1 + g &theta;<sub>t</sub>/2&pi;)).
+(r constant unless <code>radius_growth</code>: r = r<sub>0</sub>(1 + g |&theta;<sub>t</sub>|/2&pi;)).
 State p is the load position (the axial length of the helix, growing downward).</p>
 <ul>
 <li>Strand length of the current configuration (Pythagoras, Fig. 12, eq. 9 read backward):
 L = &radic;(p&sup2; + a&sup2;).</li>
 <li>Unloaded strand length: L<sub>free</sub> = L<sub>0</sub>, or with <code>string_compliance</code>
-L<sub>free</sub> = L<sub>0</sub> + a<sub>1</sub>&theta;<sub>M</sub> + a<sub>2</sub>&theta;<sub>M</sub>&sup2;
-with &theta;<sub>M</sub> = N &theta;<sub>t</sub> (eq. 10, Table 3, motor-referred angle).</li>
+L<sub>free</sub> = L<sub>0</sub> + a<sub>1</sub>|&theta;<sub>M</sub>| + a<sub>2</sub>&theta;<sub>M</sub>&sup2;
+with &theta;<sub>M</sub> = N &theta;<sub>t</sub> (eq. 10, Table 3, motor-referred angle; the paper twists one
+way only, &theta;<sub>M</sub> &ge; 0, and |&theta;<sub>M</sub>| makes strands twisted backward lengthen alike
+instead of shortening).</li>
 <li>Stretch s = L &minus; L<sub>free</sub>, its rate
 &sdot;s = (p v + a a' &omega;<sub>t</sub>)/L &minus; (dL<sub>free</sub>/d&theta;<sub>t</sub>) &omega;<sub>t</sub>;
 x = pos(s/c + d &sdot;s) (Kelvin-Voigt, d = <code>string_damping</code>, strings cannot push), with the
@@ -190,8 +192,10 @@ opposing the twist rate: twisting needs more torque than untwisting under the sa
 the one toward zero and (negligible output inertia) the output angle is the dead zone
 &theta;<sub>t</sub> = dz(&theta;<sub>m</sub>/N, b/2), dz(x) = pos(x&minus;b/2) &minus; pos(&minus;x&minus;b/2),
 width 10<sup>-4</sup> rad; the reflected torque uses d&theta;<sub>t</sub>/d&theta;<sub>m</sub>.
-GP 26 A class backlash is about 1GP 26 A class backlash is about 1&deg;.deg;; range 0.5GP 26 A class backlash is about 1&deg;.ndash;3GP 26 A class backlash is about 1&deg;.deg;.</li>
-<li><code>radius_growth</code>: r = r<sub>0</sub>(1 + g &theta;<sub>t</sub>/2&pi;) (the radius varies
+GP 26 A class backlash is about 1&deg;; range 0.5&ndash;3&deg;. Because the load torque never changes
+sign while the strings are twisted one way, the backlash shows only as the constant offset b/2 of the
+twist angle: a noticeable part of small twists, negligible at large ones.</li>
+<li><code>radius_growth</code>: r = r<sub>0</sub>(1 + g |&theta;<sub>t</sub>|/2&pi;) (the radius varies
 with twist, paper ref. [13]).</li>
 </ul>
 

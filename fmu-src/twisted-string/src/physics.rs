@@ -63,14 +63,27 @@ pub fn bundle_radius(d: f64) -> f64 {
     (std::f64::consts::FRAC_1_SQRT_2 + 0.5) * d
 }
 
-/// Bundle radius growing with twist (`radius_growth`): `r = r0 (1 + g theta_t / (2 pi))`, `g` the
-/// relative growth per turn (ref. [13] of the paper: the radius varies with twist).
-/// Returns the "twist arc" `a = theta_t r(theta_t)` and `da/dtheta_t = r + theta_t dr/dtheta_t`.
+/// Sign of `x` for the derivatives of `|x|`, with the right-hand value 1 at 0 (also at -0): the
+/// paper twists forward from zero, so at zero twist the forward derivative applies.
+#[inline]
+pub fn sign_fwd(x: f64) -> f64 {
+    if x < 0.0 {
+        -1.0
+    } else {
+        1.0
+    }
+}
+
+/// Bundle radius growing with the amount of twist (`radius_growth`):
+/// `r = r0 (1 + g |theta_t| / (2 pi))`, `g` the relative growth per turn (ref. [13] of the paper:
+/// the radius varies with twist). `|theta_t|`: twisting either way packs the bundle alike.
+/// Returns the "twist arc" `a = theta_t r(theta_t)` and `da/dtheta_t = r0 (1 + 2 g |theta_t| / (2 pi))`
+/// (continuous through 0; `d2a/dtheta_t2 = 2 r0 g sign(theta_t) / (2 pi)`, forward value at 0).
 #[inline]
 pub fn twist_arc(theta_t: f64, r0: f64, growth_per_turn: f64) -> (f64, f64) {
     let k = growth_per_turn / (2.0 * PI);
-    let r = r0 * (1.0 + k * theta_t);
-    (theta_t * r, r + theta_t * r0 * k)
+    let r = r0 * (1.0 + k * theta_t.abs());
+    (theta_t * r, r + theta_t.abs() * r0 * k)
 }
 
 /// Length of a helix strand of axial length `p` and twist arc `a = theta r` (Pythagoras, Fig. 12):
@@ -87,14 +100,17 @@ pub fn helix_position(l: f64, a: f64) -> f64 {
     (l * l - a * a).max(0.0).sqrt()
 }
 
-/// Eq. 10 without its load term: unloaded strand length `L0 + a1 theta_M + a2 theta_M^2`
-/// (theta_M = motor-referred twist angle in rad, Table 3) and its derivative w.r.t. theta_M.
-/// The load term `a3 F_L` of eq. 10 is the bundle's axial compliance, see [`string_tension`].
+/// Eq. 10 without its load term: unloaded strand length `L0 + a1 |theta_M| + a2 theta_M^2`
+/// (theta_M = motor-referred twist angle in rad, Table 3, where theta_M >= 0) and its derivative
+/// w.r.t. theta_M. `|theta_M|`: the strands lengthen with the amount of twist whichever the
+/// direction (the paper only twists one way; the linear term read as odd would shorten strings
+/// twisted backward). The load term `a3 F_L` of eq. 10 is the bundle's axial compliance, see
+/// [`string_tension`].
 #[inline]
 pub fn free_length(theta_motor: f64, l0: f64, a1: f64, a2: f64) -> (f64, f64) {
     (
-        l0 + a1 * theta_motor + a2 * theta_motor * theta_motor,
-        a1 + 2.0 * a2 * theta_motor,
+        l0 + a1 * theta_motor.abs() + a2 * theta_motor * theta_motor,
+        a1 * sign_fwd(theta_motor) + 2.0 * a2 * theta_motor,
     )
 }
 
@@ -334,6 +350,25 @@ mod tests {
         assert!((p - (0.0897f64.powi(2) - 0.0025).sqrt()).abs() < 1e-15);
         assert!((strand_length(p, 0.05) - 0.0897).abs() < 1e-15);
         assert_eq!(helix_position(0.05, 0.06), 0.0);
+    }
+
+    #[test]
+    fn twisting_backward_mirrors_twisting_forward() {
+        for th in [0.3, 5.0, 40.0] {
+            let (a, da) = twist_arc(th, 1.2e-3, 0.01);
+            let (am, dam) = twist_arc(-th, 1.2e-3, 0.01);
+            assert_eq!(am, -a);
+            assert_eq!(dam, da);
+            let (l, dl) = free_length(19.2 * th, 0.0897, 8.1153e-06, 8.4427e-09);
+            let (lm, dlm) = free_length(-19.2 * th, 0.0897, 8.1153e-06, 8.4427e-09);
+            assert_eq!(lm, l);
+            assert_eq!(dlm, -dl);
+            assert!(l > 0.0897, "twist either way lengthens the strands");
+        }
+        // at zero twist the forward derivative (the paper twists forward)
+        assert_eq!(free_length(0.0, 0.0897, 1e-5, 1e-8), (0.0897, 1e-5));
+        assert_eq!(sign_fwd(-0.0), 1.0);
+        assert_eq!(sign_fwd(-1e-300), -1.0);
     }
 
     #[test]

@@ -383,7 +383,7 @@ impl Plant<'_> {
         let k = q.radius_growth.unwrap_or(0.0) / (2.0 * std::f64::consts::PI);
         let r0 = q.string_radius;
         let (a, da) = twist_arc(theta_t, r0, q.radius_growth.unwrap_or(0.0));
-        let dda = 2.0 * r0 * k;
+        let dda = 2.0 * r0 * k * sign_fwd(theta_t);
         let d_a = scale(da * g, &e_th);
         let d_da = scale(dda * g, &e_th);
         let l = strand_length(p, a);
