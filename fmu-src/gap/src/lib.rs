@@ -10,15 +10,23 @@
 //! 1. Noise level per output from the data's second differences (robust MAD), the weights
 //!    `1/σ_k`. The last 30 % of the trace is held out.
 //! 2. Calibration of the base parameters (`[calibrate]` tag or `--fit`) by a bounded
-//!    Levenberg–Marquardt ([`lm`]) with a parallel finite-difference Jacobian and Broyden updates.
+//!    Levenberg–Marquardt ([`lm`]) with a parallel finite-difference Jacobian and Broyden updates;
+//!    bounds by an active set (a parameter whose step would leave its range is held at the bound
+//!    and the step re-solved for the others), stopping only when a step gains less than both a
+//!    fraction of the sum and one unit of chi-square.
 //! 3. Diagnosis of the residual: RMS/noise per output and per time window, Ljung–Box whiteness,
 //!    cross-correlation with the inputs, and the operating region (quantile bins of every input
 //!    and model output, η²) that organises it best.
-//! 4. Screening of every candidate effect by a score-type regression of the residual on the base
-//!    Jacobian plus the effect's switch-on change and parameter sensitivities (linearised ΔBIC).
-//! 5. Refit of the most promising candidates (rayon) with base and effect parameters; ranking by
+//! 4. Start scan of every candidate (its parameters at their start values and at 0, ¼, ½, ¾ and 1
+//!    of their ranges, scored after the linearised readjustment of the base parameters), then
+//!    screening by a score-type regression of the residual on the base Jacobian plus the effect's
+//!    switch-on change and parameter sensitivities at that start (linearised ΔBIC).
+//! 5. Refit of the most promising candidates (rayon; round 1 the best five unless the residuals
+//!    look like noise) from their scanned starts with base and effect parameters; ranking by
 //!    BIC with per-output noise variances and an effective sample size from the residual
-//!    autocorrelation (Bartlett-weighted), so correlated noise is not taken as evidence.
+//!    autocorrelation (Bartlett-weighted), so correlated noise is not taken as evidence. Before
+//!    naming, the base model is refitted from the best candidate's base values, so a gain the base
+//!    model reaches alone is not credited to the effect.
 //!    An effect is named only if ΔBIC ≥ 10, the 95 % interval of its contribution's scale excludes
 //!    0, and it lowers the error on the held-out part; its fit is then polished, and the loop
 //!    repeats (`rounds`).
