@@ -305,11 +305,7 @@ pub fn levenberg_marquardt<P: Problem>(
                 break;
             }
             // A small gain with an updated Jacobian may be the update's fault: refresh it.
-            evaluations += m;
-            jac = jacobian(problem, b, &z, &r, opts.fd_step);
-            fresh = true;
-            since_fd = 0;
-            continue;
+            since_fd = opts.broyden_steps;
         }
         if since_fd >= opts.broyden_steps {
             evaluations += m;

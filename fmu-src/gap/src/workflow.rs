@@ -1594,27 +1594,12 @@ fn refit<S: Simulator + ?Sized>(
     let first = fit_state(ctx, &from, Some(e), start, n, REFIT_ITERATIONS, 5e-4);
     let at_noise =
         |f: &FitOut| (0..k).all(|j| stats::rms(&f.fit.residuals[j * n..(j + 1) * n]) <= 1.2);
-    let second = match (&first, alt_start) {
-        (Ok(f), Some(st)) if !at_noise(f) => Some(fit_state(
-            ctx,
-            st,
-            Some(e),
-            start,
-            n,
-            REFIT_ITERATIONS,
-            5e-4,
-        )),
-        (Err(_), Some(st)) => Some(fit_state(
-            ctx,
-            st,
-            Some(e),
-            start,
-            n,
-            REFIT_ITERATIONS,
-            5e-4,
-        )),
+    let retry_from = match (&first, alt_start) {
+        (Ok(f), Some(st)) if !at_noise(f) => Some(st),
+        (Err(_), Some(st)) => Some(st),
         _ => None,
     };
+    let second = retry_from.map(|st| fit_state(ctx, st, Some(e), start, n, REFIT_ITERATIONS, 5e-4));
     let f = std::iter::once(first)
         .chain(second)
         .filter_map(Result::ok)
