@@ -132,6 +132,29 @@ def test_validate_survives_a_binary_that_crashes_on_a_wrong_call_order(tmp_path)
     assert all("SIGSEGV" in f["message"] for f in findings)
 
 
+def test_closed_stdout_is_not_a_crash(tmp_path):
+    """`actuator-fmu ... | head -1` closes stdout early: the summary lines are lost, not the run.
+    The pipe's read end is closed before the program starts, so every write fails (EPIPE); the
+    exit status stays that of the work and nothing panics."""
+    import os
+    r, w = os.pipe()
+    os.close(r)
+    try:
+        cases = [
+            ([cli_path(), "validate", fmu_path("HydraulicJoint")], 0),
+            ([cli_path(), "gap", fmu_path("TwistedString"), "--data",
+              str(REPO / "examples" / "twisted_string_string_compliance.csv"),
+              "--out", str(tmp_path / "gap"), "--quiet", "--rounds", "1"], 0),
+        ]
+        for cmd, code in cases:
+            p = subprocess.run(cmd, stdout=w, stderr=subprocess.PIPE, text=True, timeout=300)
+            assert "panicked" not in p.stderr, p.stderr
+            assert p.returncode == code, (cmd, p.returncode, p.stderr)
+        assert (tmp_path / "gap" / "report.json").exists()
+    finally:
+        os.close(w)
+
+
 def test_validate_usage_errors_exit_2(tmp_path):
     assert run("validate", tmp_path / "missing.fmu").returncode == 2
     assert run("validate").returncode == 2

@@ -1,4 +1,14 @@
-//! Shared helpers of the subcommands: errors with exit codes, `--set` parsing.
+//! Shared helpers of the subcommands: errors with exit codes, `--set` parsing, stdout lines.
+
+/// `println!` that never panics: a stdout that was closed (`actuator-fmu gap ... | head -1`) or
+/// fails loses the summary line, never the run (its results are in the files it wrote, and the
+/// exit status stays that of the work). `println!` panics on a broken pipe.
+macro_rules! out {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout().lock(), $($arg)*);
+    }};
+}
 
 use host::md::ModelDescription;
 use host::Value;

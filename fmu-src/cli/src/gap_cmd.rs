@@ -113,8 +113,8 @@ pub fn run(a: Args) -> CliResult {
     let (fmu_s, data_s) = (a.fmu.display().to_string(), a.data.display().to_string());
     gap::report::write(&res, &a.out, &fmu_s, &data_s, &plots)
         .map_err(|e| CliError::failure(format!("{}: {e}", a.out.display())))?;
-    println!("{}: {}", a.data.display(), res.verdict);
-    println!(
+    out!("{}: {}", a.data.display(), res.verdict);
+    out!(
         "named: [{}]",
         res.named
             .iter()
@@ -123,12 +123,16 @@ pub fn run(a: Args) -> CliResult {
             .join(", ")
     );
     for (name, o) in &res.outputs {
-        println!(
+        out!(
             "  {name}: RMSE {:.4e} -> {:.4e} (noise {:.3e}), max {:.4e} -> {:.4e}",
-            o.rmse_before, o.rmse_after, o.noise_sigma, o.max_before, o.max_after
+            o.rmse_before,
+            o.rmse_after,
+            o.noise_sigma,
+            o.max_before,
+            o.max_after
         );
     }
-    println!(
+    out!(
         "time {:.1} s (simulation {:.1} s, fitting {:.1} s, {} simulations); report: {}",
         res.timing.total_s,
         res.timing.simulate_s,

@@ -4,6 +4,7 @@
 //! FMU failed during the run), 2 usage error, unreadable/bad data or an FMU that cannot be opened.
 //! `main` only parses arguments and dispatches: one module per subcommand.
 
+#[macro_use]
 mod common;
 mod gap_cmd;
 mod probe;

@@ -49,19 +49,19 @@ pub fn run(a: Args) -> CliResult {
     }
     let total: usize = reports.iter().map(|r| r.findings.len()).sum();
     if a.json {
-        println!(
+        out!(
             "{}",
             serde_json::to_string_pretty(&reports).unwrap_or_default()
         );
     } else {
         for r in &reports {
             for f in &r.findings {
-                println!("{}: {f}", r.fmu);
+                out!("{}: {f}", r.fmu);
             }
             if r.findings.is_empty() {
-                println!("{}: OK (no findings)", r.fmu);
+                out!("{}: OK (no findings)", r.fmu);
             } else {
-                println!("{}: {} finding(s)", r.fmu, r.findings.len());
+                out!("{}: {} finding(s)", r.fmu, r.findings.len());
             }
         }
     }
