@@ -161,12 +161,63 @@ pub fn read_csv(path: &Path) -> Result<Table, CsvError> {
     parse_csv(&text, &file)
 }
 
-fn unquote(s: &str) -> &str {
-    let t = s.trim();
-    if t.len() >= 2 && t.starts_with('"') && t.ends_with('"') {
-        t[1..t.len() - 1].trim()
+/// Splits one CSV line into its fields (RFC 4180): a field in double quotes may hold commas and
+/// doubled quotes (`""` for `"`), so FMI names such as `x[1,2]` survive; spaces around a field
+/// are trimmed. Err(column) for a quote left open.
+fn split_fields(line: &str) -> Result<Vec<String>, usize> {
+    let mut fields = Vec::new();
+    let mut cur = String::new();
+    // Length of the quoted text of the current field once its closing quote is seen.
+    let mut quoted_len: Option<usize> = None;
+    let mut in_quotes = false;
+    let mut chars = line.chars().peekable();
+    while let Some(c) = chars.next() {
+        if in_quotes {
+            if c == '"' {
+                if chars.peek() == Some(&'"') {
+                    chars.next();
+                    cur.push('"');
+                } else {
+                    in_quotes = false;
+                    quoted_len = Some(cur.len());
+                }
+            } else {
+                cur.push(c);
+            }
+        } else if c == '"' && quoted_len.is_none() && cur.trim().is_empty() {
+            cur.clear();
+            in_quotes = true;
+        } else if c == ',' {
+            fields.push(finish_field(&cur, quoted_len));
+            cur.clear();
+            quoted_len = None;
+        } else {
+            cur.push(c);
+        }
+    }
+    if in_quotes {
+        return Err(fields.len() + 1);
+    }
+    fields.push(finish_field(&cur, quoted_len));
+    Ok(fields)
+}
+
+/// A field's text: a quoted one as written inside its quotes (blank text after the closing quote
+/// is ignored, other text kept), an unquoted one trimmed.
+fn finish_field(raw: &str, quoted_len: Option<usize>) -> String {
+    match quoted_len {
+        Some(n) if raw[n..].trim().is_empty() => raw[..n].to_string(),
+        _ => raw.trim().to_string(),
+    }
+}
+
+/// One field for a CSV line (RFC 4180): in double quotes, with `"` doubled, when it holds a
+/// comma, a quote, a line break or leading/trailing spaces; as is otherwise.
+pub fn quote_field(s: &str) -> std::borrow::Cow<'_, str> {
+    if s.contains([',', '"', '\n', '\r']) || s.trim() != s {
+        format!("\"{}\"", s.replace('"', "\"\"")).into()
     } else {
-        t
+        s.into()
     }
 }
 
@@ -192,7 +243,8 @@ pub fn parse_csv(text: &str, file: &str) -> Result<Table, CsvError> {
             "empty file: expected a header line starting with 'time'".into(),
         ));
     };
-    let names: Vec<String> = header.split(',').map(|h| unquote(h).to_string()).collect();
+    let names: Vec<String> = split_fields(header)
+        .map_err(|j| err(hline, j, "unterminated quote in the header".into()))?;
     match names.iter().position(|n| n == "time") {
         Some(0) => {}
         Some(j) => {
@@ -232,7 +284,8 @@ pub fn parse_csv(text: &str, file: &str) -> Result<Table, CsvError> {
     let mut cols: Vec<Vec<f64>> = vec![Vec::new(); ncol];
     let mut last_time: Option<(f64, usize)> = None;
     for (lno, line) in lines {
-        let cells: Vec<&str> = line.split(',').collect();
+        let cells: Vec<String> =
+            split_fields(line).map_err(|j| err(lno, j, "unterminated quote".into()))?;
         if cells.len() != ncol {
             return Err(err(
                 lno,
@@ -241,7 +294,7 @@ pub fn parse_csv(text: &str, file: &str) -> Result<Table, CsvError> {
             ));
         }
         for (j, cell) in cells.iter().enumerate() {
-            let c = unquote(cell);
+            let c = cell.trim();
             let x: f64 = c.parse().map_err(|_| {
                 if c.is_empty() {
                     err(lno, j + 1, format!("empty cell in column '{}'", names[j]))
@@ -310,7 +363,7 @@ pub fn write_csv_to<W: Write>(
     let mut line = String::from("time");
     for n in names {
         line.push(',');
-        line.push_str(n);
+        line.push_str(&quote_field(n));
     }
     line.push('\n');
     w.write_all(line.as_bytes())?;
@@ -344,6 +397,34 @@ mod tests {
 
     fn e(text: &str) -> CsvError {
         parse_csv(text, "d.csv").unwrap_err()
+    }
+
+    #[test]
+    fn names_with_commas_and_quotes_round_trip() {
+        // FMI 2.0 array elements are named like `x[1,2]`; names may hold quotes and spaces.
+        let names: Vec<String> = ["x[1,2]", "say \"hi\"", " padded ", "plain"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+        let cols = vec![
+            vec![1.0, 2.0],
+            vec![3.0, 4.0],
+            vec![5.0, 6.0],
+            vec![7.0, 8.0],
+        ];
+        let mut buf = Vec::new();
+        write_csv_to(&mut buf, &[0.0, 0.5], &names, &cols).unwrap();
+        let text = String::from_utf8(buf).unwrap();
+        assert!(
+            text.starts_with("time,\"x[1,2]\",\"say \"\"hi\"\"\",\" padded \",plain\n"),
+            "{text}"
+        );
+        let t = parse_csv(&text, "rt.csv").unwrap();
+        assert_eq!(t.names, names);
+        assert_eq!(t.columns, cols);
+        let e = e("time,\"open\n0,1\n");
+        assert_eq!((e.line, e.column), (1, 2), "{e}");
+        assert!(e.message.contains("unterminated quote"), "{e}");
     }
 
     #[test]
