@@ -128,7 +128,8 @@ pub struct LmFit {
     pub evaluations: usize,
 }
 
-fn sse(r: &[f64]) -> f64 {
+/// Sum of squares of a residual vector.
+pub fn sse(r: &[f64]) -> f64 {
     r.iter().map(|v| v * v).sum()
 }
 

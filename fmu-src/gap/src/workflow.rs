@@ -229,6 +229,18 @@ struct ModelState {
     val: Vec<f64>,
 }
 
+impl ModelState {
+    /// The same named effects and fitted parameters with other values (same order as `idx`).
+    fn with_values(&self, val: Vec<f64>) -> ModelState {
+        debug_assert_eq!(val.len(), self.idx.len());
+        ModelState {
+            named: self.named.clone(),
+            idx: self.idx.clone(),
+            val,
+        }
+    }
+}
+
 struct Ctx<'a, S: Simulator + ?Sized> {
     sim: Counted<'a, S>,
     params: Vec<ParamSpec>,
@@ -323,12 +335,7 @@ impl<S: Simulator + ?Sized> Problem for FitProblem<'_, '_, S> {
 fn holdout_sse(r: &[f64], k: usize, n: usize, n_train: usize) -> Option<f64> {
     (n_train < n).then(|| {
         (0..k)
-            .map(|j| {
-                r[j * n + n_train..(j + 1) * n]
-                    .iter()
-                    .map(|v| v * v)
-                    .sum::<f64>()
-            })
+            .map(|j| lm::sse(&r[j * n + n_train..(j + 1) * n]))
             .sum()
     })
 }
@@ -339,8 +346,7 @@ fn rss_neff(r: &[f64], k: usize) -> Vec<(f64, f64)> {
     (0..k)
         .map(|j| {
             let rk = &r[j * n..(j + 1) * n];
-            let rss: f64 = rk.iter().map(|v| v * v).sum();
-            (rss.max(1e-300), stats::n_eff_series(rk))
+            (lm::sse(rk).max(1e-300), stats::n_eff_series(rk))
         })
         .collect()
 }
@@ -1022,12 +1028,14 @@ pub fn run<S: Simulator + ?Sized>(
             .enumerate()
             .map(|(i, &(e, score))| {
                 let alt = (round == 1 && i == 0).then_some(&st0);
-                let k = remaining.iter().position(|&c| c == e).unwrap_or(0);
-                let start = starts.get(k).cloned().unwrap_or_default();
+                let k = remaining
+                    .iter()
+                    .position(|&c| c == e)
+                    .expect("refitted candidates are screened ones");
                 (
                     e,
                     score,
-                    refit(&ctx, &cur, e, score, &cur_full_r, alt, &start),
+                    refit(&ctx, &cur, e, score, &cur_full_r, alt, &starts[k]),
                 )
             })
             .collect();
@@ -1078,11 +1086,7 @@ pub fn run<S: Simulator + ?Sized>(
             })
         {
             let nb = cur.state.idx.len();
-            let from = ModelState {
-                named: cur.state.named.clone(),
-                idx: cur.state.idx.clone(),
-                val: f.state.val[..nb].to_vec(),
-            };
+            let from = cur.state.with_values(f.state.val[..nb].to_vec());
             ctx.stage(format!("round {round}: base re-check"));
             if let Ok(b2) = fit_state(&ctx, &from, None, &[], n_train, 12, 1e-4) {
                 if b2.fit.sse < cur.fit.sse - LM_ABS_TOL {
@@ -1335,7 +1339,7 @@ const SCAN_FRACTIONS: [f64; 5] = [0.0, 0.25, 0.5, 0.75, 1.0];
 
 /// Start of one candidate's screening and refit: its parameters' values and the base
 /// parameters' values (same order as the current fit's).
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 struct CandidateStart {
     effect: Vec<(usize, f64)>,
     base: Vec<f64>,
@@ -1384,7 +1388,6 @@ fn scan_starts<S: Simulator + ?Sized>(
         }
         pts
     };
-    let sse = |r: &[f64]| r.iter().map(|v| v * v).sum::<f64>();
     let jobs: Vec<(usize, Vec<(usize, f64)>)> = cand
         .iter()
         .flat_map(|&e| points(e).into_iter().map(move |p| (e, p)))
@@ -1399,23 +1402,21 @@ fn scan_starts<S: Simulator + ?Sized>(
                 .map(|y| ctx.residual(&y, n))
                 .ok()?;
             ctx.pb.tick();
-            let fixed = sse(&r);
+            let fixed = lm::sse(&r);
             let (res, beta) = regress(&cur.fit.jac, &r);
-            let lin = sse(&res);
+            let lin = lm::sse(&res);
             (fixed.is_finite() && lin.is_finite()).then_some((fixed, lin, -beta))
         })
         .collect();
+    // Per candidate, the scored point with the lowest readjusted sum.
     let chosen: Vec<Option<usize>> = cand
         .iter()
         .map(|&e| {
             (0..jobs.len())
-                .filter(|&k| jobs[k].0 == e && scored[k].is_some())
-                .min_by(|&a, &b| {
-                    let (sa, sb) = (scored[a].as_ref(), scored[b].as_ref());
-                    sa.map(|x| x.1)
-                        .unwrap_or(f64::INFINITY)
-                        .total_cmp(&sb.map(|x| x.1).unwrap_or(f64::INFINITY))
-                })
+                .filter(|&k| jobs[k].0 == e)
+                .filter_map(|k| scored[k].as_ref().map(|x| (k, x.1)))
+                .min_by(|a, b| a.1.total_cmp(&b.1))
+                .map(|(k, _)| k)
         })
         .collect();
     // Base start at the chosen point: the current fit or its linearised readjustment.
@@ -1438,14 +1439,10 @@ fn scan_starts<S: Simulator + ?Sized>(
                 .enumerate()
                 .map(|(j, (b, z))| b.to_p(z + step.get(j).copied().unwrap_or(0.0)))
                 .collect();
-            let st = ModelState {
-                named: cur.state.named.clone(),
-                idx: cur.state.idx.clone(),
-                val: moved.clone(),
-            };
+            let st = cur.state.with_values(moved.clone());
             let better = ctx
                 .measured_outputs(&ctx.settings(&st, Some(e), &pt), n)
-                .map(|y| sse(&ctx.residual(&y, n)))
+                .map(|y| lm::sse(&ctx.residual(&y, n)))
                 .map(|v| v < *fixed)
                 .unwrap_or(false);
             ctx.pb.tick();
@@ -1581,15 +1578,7 @@ fn refit<S: Simulator + ?Sized>(
     // undoing that can trap the refit in a local minimum. The lower sum of squares wins.
     // The second start is tried only when the first leaves some output's residual above 1.2×
     // its noise level.
-    let from = ModelState {
-        named: cur.state.named.clone(),
-        idx: cur.state.idx.clone(),
-        val: if start.base.len() == cur.state.val.len() {
-            start.base.clone()
-        } else {
-            cur.state.val.clone()
-        },
-    };
+    let from = cur.state.with_values(start.base.clone());
     let start = start.effect.as_slice();
     let first = fit_state(ctx, &from, Some(e), start, n, REFIT_ITERATIONS, 5e-4);
     let at_noise =
