@@ -7,6 +7,17 @@ fn vars0() -> Vec<f64> {
     VARIABLES.iter().map(|v| v.start).collect()
 }
 
+/// Start values with `NAME=VALUE` overrides.
+fn vars_with(sets: &[String]) -> Vec<f64> {
+    let mut v = vars0();
+    for a in sets {
+        let (n, x) = a.split_once('=').unwrap();
+        let i = VARIABLES.iter().position(|q| q.name == n).unwrap();
+        v[i] = x.parse().unwrap();
+    }
+    v
+}
+
 fn minjerk(t: f64) -> f64 {
     let s = (t / 1.0).clamp(0.0, 1.0);
     45f64.to_radians() * (10.0 * s.powi(3) - 15.0 * s.powi(4) + 6.0 * s.powi(5))
@@ -45,12 +56,7 @@ fn main() {
             }
         }
         "catch" => {
-            let mut v = vars0();
-            for a in args.iter().skip(2) {
-                let (n, x) = a.split_once('=').unwrap();
-                let i = VARIABLES.iter().position(|q| q.name == n).unwrap();
-                v[i] = x.parse().unwrap();
-            }
+            let mut v = vars_with(&args[2..]);
             let mut m = HydraulicJoint::new();
             m.initialize(&mut v, 0.0).unwrap();
             let dt = 1e-3;
@@ -156,12 +162,7 @@ fn main() {
         }
         "steps" => {
             // where the solver spends its steps: per 1 ms step, accepted steps and v_left
-            let mut v = vars0();
-            for a in args.iter().skip(2) {
-                let (n, x) = a.split_once('=').unwrap();
-                let i = VARIABLES.iter().position(|q| q.name == n).unwrap();
-                v[i] = x.parse().unwrap();
-            }
+            let mut v = vars_with(&args[2..]);
             let mut m = HydraulicJoint::new();
             m.initialize(&mut v, 0.0).unwrap();
             let mut last = 0;
@@ -185,12 +186,7 @@ fn main() {
         }
         "oil" => {
             // oil balance over 10 s of pseudo-random closed/open-loop input
-            let mut v = vars0();
-            for a in args.iter().skip(2) {
-                let (n, x) = a.split_once('=').unwrap();
-                let i = VARIABLES.iter().position(|q| q.name == n).unwrap();
-                v[i] = x.parse().unwrap();
-            }
+            let mut v = vars_with(&args[2..]);
             let open = v[V::INTERNAL_CONTROLLER as usize] == 0.0;
             let mut m = HydraulicJoint::new();
             m.initialize(&mut v, 0.0).unwrap();

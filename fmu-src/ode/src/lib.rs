@@ -266,8 +266,7 @@ impl Integrator {
         y: &mut [f64],
     ) -> Result<(), OdeError> {
         let n = y.len();
-        // Leading block of non-quadrature states.
-        let m = n - sys.quadratures().min(n);
+        let m = implicit_dim(sys, n);
         let mut t = t0;
         sys.rhs(t, y, &mut w.f0);
         self.stats.rhs_evals += 1;
@@ -482,7 +481,7 @@ impl Integrator {
         y: &[f64],
     ) -> bool {
         let n = y.len();
-        let m = n - sys.quadratures().min(n);
+        let m = implicit_dim(sys, n);
         let inv_h = 1.0 / h;
         let hg = h * tab.gamma;
         for s in 0..tab.stages {
@@ -586,6 +585,12 @@ impl Work {
             b: vec![0.0; n],
         };
     }
+}
+
+/// Number of leading non-quadrature states of an `n`-state system (the block of `W` that is
+/// decomposed; see [`OdeSystem::quadratures`]).
+fn implicit_dim<S: OdeSystem>(sys: &S, n: usize) -> usize {
+    n - sys.quadratures().min(n)
 }
 
 /// `y += a * x` (equal lengths).

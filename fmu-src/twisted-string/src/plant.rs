@@ -727,6 +727,21 @@ mod tests {
         y
     }
 
+    /// The plant of `q` with set point 0, no angle offset and the given voltage, load force and
+    /// speed set point.
+    fn test_plant(q: &Params, voltage: f64, f_load: f64, omega_ref: f64) -> Plant<'_> {
+        Plant {
+            par: q,
+            inp: Inputs {
+                theta_ref: 0.0,
+                voltage,
+                f_load,
+                omega_ref,
+                theta_offset: 0.0,
+            },
+        }
+    }
+
     #[test]
     fn power_balance_holds_pointwise() {
         // d/dt E_stored (central difference along the flow) = u i + F_load v - P_loss - P_kin
@@ -736,16 +751,7 @@ mod tests {
             [-0.7, 80.0, 20.0, 0.0898, 0.002, 1e-5, -0.1, 0.0, 0.0, 0.0],
         ];
         for q in &effect_cases() {
-            let plant = Plant {
-                par: q,
-                inp: Inputs {
-                    theta_ref: 0.0,
-                    voltage: 5.0,
-                    f_load: 10.0,
-                    omega_ref: 200.0,
-                    theta_offset: 0.0,
-                },
-            };
+            let plant = test_plant(q, 5.0, 10.0, 200.0);
             for y0 in &states {
                 for stretch in [true, false] {
                     let mut y = taut(q, y0);
@@ -779,16 +785,7 @@ mod tests {
     fn losses_are_dissipative_without_compliance() {
         // every loss term >= 0 up to the smoothed gearhead switch, bounded by its blend width
         for q in effect_cases().iter().filter(|q| q.compliance.is_none()) {
-            let plant = Plant {
-                par: q,
-                inp: Inputs {
-                    theta_ref: 0.0,
-                    voltage: -3.0,
-                    f_load: 0.0,
-                    omega_ref: -100.0,
-                    theta_offset: 0.0,
-                },
-            };
+            let plant = test_plant(q, -3.0, 0.0, -100.0);
             for om in [-500.0, -1.0, 0.0, 0.5, 300.0] {
                 let y = taut(q, &[0.3, 700.0, om, 0.0, 0.001, 0.0, 0.0, 0.0, 0.0, 0.0]);
                 let aux = plant.eval(&y);
@@ -810,16 +807,7 @@ mod tests {
             [0.05, 0.01, 0.3, 0.0898, 0.0, 1e-5, 0.1, 0.0, 0.0, 0.0],
         ];
         for q in &cases {
-            let plant = Plant {
-                par: q,
-                inp: Inputs {
-                    theta_ref: 0.0,
-                    voltage: 5.0,
-                    f_load: 10.0,
-                    omega_ref: 200.0,
-                    theta_offset: 0.0,
-                },
-            };
+            let plant = test_plant(q, 5.0, 10.0, 200.0);
             for y0 in &states {
                 // place the load so that the strings carry about 100 N (taut), as in operation
                 let y = &taut(q, y0);
