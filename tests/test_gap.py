@@ -92,6 +92,13 @@ def test_hidden_effect_is_named(tmp_path, model, effect, seed):
     for n, o in rep["outputs"].items():
         s = ds["noise_sigma"][n]
         assert o["rmse_after"] <= 1.2 * s or o["rmse_after"] * 5 <= o["rmse_base_fit"], (n, o, s)
+    # The named effect was visible in these data: its scanned visibility reaches what naming
+    # needs, and the scan is reported in range order.
+    top = rep["candidates"][0][0]
+    assert top["visibility"] >= top["visibility_needed"] > 10.0
+    assert top["detectable_from"] is not None
+    fr = [p["fraction"] for p in top["visibility_scan"]]
+    assert len(fr) >= 2 and fr == sorted(fr)
     # Plots and the human report exist.
     out = tmp_path / "out"
     assert (out / "report.md").stat().st_size > 500
@@ -102,6 +109,32 @@ def test_hidden_effect_is_named(tmp_path, model, effect, seed):
         rm = resimulate_rmse(model, ds, rep)
         for n, o in rep["outputs"].items():
             assert rm[n] == pytest.approx(o["rmse_after"], rel=1e-3), n
+
+
+def test_an_effect_the_data_cannot_show_is_reported_as_such(tmp_path, monkeypatch):
+    """TwistedString strokes kept at 800-1100 motor rad: the strings never untwist, the gearhead
+    flank in contact never changes, so backlash is only a constant offset of the twist that
+    string_radius absorbs (see the model documentation). The report must say that these data
+    cannot reveal gear_backlash (its visibility is far below the threshold at every setting in
+    range) rather than only that it was not found, and still call the strong effects visible."""
+    def large_strokes(model, rng, t):
+        return {"theta_motor_ref": gapgen.reaches(rng, t, 800.0, 1100.0, (1.0, 2.0), (0.3, 0.8)),
+                "F_load": gapgen.steps(rng, t, 0.0, 40.0, (1.0, 2.5))}
+    monkeypatch.setattr(gapgen, "inputs", large_strokes)
+    model = "TwistedString"
+    ds, csv = generate(tmp_path, model, "large_strokes", 31, ())
+    rep = run_ok(model, csv, tmp_path / "out", "--rounds", "1")
+    assert rep["named"] == [], rep["verdict"]
+    cands = {c["effect"]: c for c in rep["candidates"][0]}
+    bl = cands["gear_backlash"]
+    assert bl["visibility"] < 0.1 * bl["visibility_needed"], bl
+    assert bl["detectable_from"] is None
+    assert "cannot reveal gear_backlash" in rep["verdict"]
+    for e in ("motor_friction", "string_compliance", "twist_hysteresis"):
+        assert cands[e]["visibility"] > 10 * cands[e]["visibility_needed"], (e, cands[e])
+        assert e not in rep["verdict"].split("cannot reveal")[-1]
+    md = (tmp_path / "out" / "report.md").read_text()
+    assert "none in range" in md and "Visibility" in md
 
 
 def test_clean_data_wrong_load_mass_is_calibrated_not_named(tmp_path):

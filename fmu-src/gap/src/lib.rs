@@ -20,7 +20,10 @@
 //! 4. Start scan of every candidate (its parameters at their start values and at 0, ¼, ½, ¾ and 1
 //!    of their ranges, scored after the linearised readjustment of the base parameters), then
 //!    screening by a score-type regression of the residual on the base Jacobian plus the effect's
-//!    switch-on change and parameter sensitivities at that start (linearised ΔBIC).
+//!    switch-on change and parameter sensitivities at that start (linearised ΔBIC). The same
+//!    scan gives each candidate's visibility: at every scanned setting, the chi-square of the
+//!    change it makes to the outputs that the base Jacobian cannot absorb. Below the naming
+//!    threshold everywhere in range, the data cannot reveal the effect, and the verdict says so.
 //! 5. Refit of the most promising candidates (rayon; round 1 the best five unless the residuals
 //!    look like noise) from their scanned starts with base and effect parameters; ranking by
 //!    BIC with per-output noise variances and an effective sample size from the residual

@@ -67,7 +67,7 @@ pub fn to_markdown(res: &GapResult, fmu: &str, data: &str, plots: &[String]) -> 
     }
     let _ = writeln!(s, "## Candidate effects\n");
     for (r, round) in res.candidates.iter().enumerate() {
-        let _ = writeln!(s, "### Round {}\n\n| rank | effect | ΔBIC | screening score | magnitude 95 % CI | held-out SSE with / without | verdict |\n|---|---|---|---|---|---|---|", r + 1);
+        let _ = writeln!(s, "### Round {}\n\n| rank | effect | ΔBIC | screening score | magnitude 95 % CI | held-out SSE with / without | visibility: max Δχ² / needed; weakest detectable setting | verdict |\n|---|---|---|---|---|---|---|---|", r + 1);
         for (i, c) in round.iter().enumerate() {
             let mag = c
                 .magnitude
@@ -78,15 +78,32 @@ pub fn to_markdown(res: &GapResult, fmu: &str, data: &str, plots: &[String]) -> 
                 (Some(a), Some(b)) => format!("{} / {}", g(a), g(b)),
                 _ => "–".into(),
             };
+            let vis = match c.visibility {
+                Some(v) => format!(
+                    "{} / {:.1}; {}",
+                    g(v),
+                    c.visibility_needed,
+                    c.detectable_from
+                        .as_ref()
+                        .map(|m| m
+                            .iter()
+                            .map(|(k, v)| format!("{k} = {}", g(*v)))
+                            .collect::<Vec<_>>()
+                            .join(", "))
+                        .unwrap_or_else(|| "none in range".into())
+                ),
+                None => "–".into(),
+            };
             let _ = writeln!(
                 s,
-                "| {} | {} | {:.1} | {:.1} | {} | {} | {} |",
+                "| {} | {} | {:.1} | {:.1} | {} | {} | {} | {} |",
                 i + 1,
                 c.effect,
                 c.delta_bic,
                 c.score,
                 mag,
                 hold,
+                vis,
                 c.verdict
             );
         }
@@ -130,7 +147,7 @@ pub fn to_markdown(res: &GapResult, fmu: &str, data: &str, plots: &[String]) -> 
             let _ = writeln!(s, "![{p}]({p})\n");
         }
     }
-    let _ = writeln!(s, "## Method\n\nBase parameters are calibrated by Levenberg–Marquardt on the weighted residual (model − measured)/σ, σ per output estimated from the data's second differences (robust MAD). Bounds are honoured with an active set (a parameter at a bound that the descent would push out is held there while the others move). For each candidate a start is chosen by scanning its parameters along their ranges (six simulations, base parameters at the current fit); candidates are screened by regressing the residual on the base Jacobian plus each effect's sensitivities at that start; the best few are refitted from it (before naming, the base model is refitted from the best candidate's base values, so a gain the base model reaches alone is not credited to the effect) with their parameters and the base ones and ranked by BIC with a per-output noise variance and an effective sample size N(1−ρ)/(1+ρ) from the residual's lag-1 autocorrelation (so correlated noise is not mistaken for evidence). An effect is named only if ΔBIC ≥ 10, the 95 % interval of its contribution's scale excludes 0, and it lowers the error on the held-out end of the trace.");
+    let _ = writeln!(s, "## Method\n\nBase parameters are calibrated by Levenberg–Marquardt on the weighted residual (model − measured)/σ, σ per output estimated from the data's second differences (robust MAD). Bounds are honoured with an active set (a parameter at a bound that the descent would push out is held there while the others move). For each candidate a start is chosen by scanning its parameters along their ranges (six simulations, base parameters at the current fit); candidates are screened by regressing the residual on the base Jacobian plus each effect's sensitivities at that start; the best few are refitted from it (before naming, the base model is refitted from the best candidate's base values, so a gain the base model reaches alone is not credited to the effect) with their parameters and the base ones and ranked by BIC with a per-output noise variance and an effective sample size N(1−ρ)/(1+ρ) from the residual's lag-1 autocorrelation (so correlated noise is not mistaken for evidence). An effect is named only if ΔBIC ≥ 10, the 95 % interval of its contribution's scale excludes 0, and it lowers the error on the held-out end of the trace.\n\n**Visibility.** At every scanned setting the change the effect makes to the outputs, in units of each output's noise, is projected off the base Jacobian (what the base parameters can absorb, linearised); its sum of squares is the most the effect could lower the chi-square there. Naming needs at least ΔBIC plus the BIC penalty of its parameters (`needed`). A candidate whose visibility stays below that everywhere in its range cannot be revealed by these data: not naming it is no evidence that it is absent, and the verdict says so. The weakest setting that reaches it is a detection limit (coarse: the scan's points; optimistic where discrete controller decisions make small parameter changes flip samples).");
     s
 }
 

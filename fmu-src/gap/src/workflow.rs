@@ -103,6 +103,35 @@ pub struct Candidate {
     pub named: bool,
     /// Why it was or was not named.
     pub verdict: String,
+    /// Largest drop of the weighted sum of squares (chi-square) the effect could bring anywhere
+    /// in its scanned range once the base parameters readjust (linearised; see `visibility`).
+    pub visibility: Option<f64>,
+    /// The drop naming needs: `min ΔBIC + (effect parameters) ln N`. A candidate whose
+    /// visibility stays below it cannot be revealed by these data, whatever its true size.
+    pub visibility_needed: f64,
+    /// Detection limit: the weakest scanned setting of the effect's parameters whose visibility
+    /// reaches `visibility_needed` (None: no scanned setting does). A true effect weaker than
+    /// this is likely to go unnamed in these data.
+    pub detectable_from: Option<BTreeMap<String, f64>>,
+    /// The scanned settings in range order with their visibility.
+    pub visibility_scan: Vec<VisibilityPoint>,
+}
+
+/// One scanned setting of a candidate's parameters.
+#[derive(Clone, Debug, Serialize)]
+pub struct VisibilityPoint {
+    pub parameters: BTreeMap<String, f64>,
+    /// Mean position of the values in their ranges (0 = min, 1 = max, in the fitting coordinate).
+    pub fraction: f64,
+    /// Chi-square of the change the setting makes that the base parameters cannot absorb.
+    pub visibility: Option<f64>,
+}
+
+impl Candidate {
+    /// Whether the data can reveal this effect at all (unknown: assumed they can).
+    pub fn detectable(&self) -> bool {
+        self.visibility.is_none_or(|v| v >= self.visibility_needed)
+    }
 }
 
 impl Candidate {
@@ -119,6 +148,10 @@ impl Candidate {
             holdout_sse_with: None,
             named: false,
             verdict: "screened only (linearised ΔBIC)".into(),
+            visibility: None,
+            visibility_needed: 0.0,
+            detectable_from: None,
+            visibility_scan: Vec::new(),
         }
     }
 }
@@ -959,6 +992,46 @@ pub fn run<S: Simulator + ?Sized>(
         ));
         let starts = scan_starts(&ctx, &cur, &remaining);
         ctx.stage(format!("round {round}: start scan done"));
+        for (k, &e) in remaining.iter().enumerate() {
+            ctx.stage(format!(
+                "visibility of {} over its scan (range fraction: chi-square): {}",
+                effects[e].name,
+                starts[k]
+                    .scan
+                    .iter()
+                    .map(|x| format!("{:.2}: {:.1}", x.fraction, x.visibility.unwrap_or(f64::NAN)))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ));
+        }
+        let with_visibility = |mut c: Candidate| -> Candidate {
+            if let Some(k) = remaining.iter().position(|&e| effects[e].name == c.effect) {
+                let scan = &starts[k].scan;
+                let needed = cfg.min_delta_bic
+                    + effects[remaining[k]].params.len() as f64 * ((n_train * kout) as f64).ln();
+                let mut points: Vec<VisibilityPoint> = scan
+                    .iter()
+                    .map(|x| VisibilityPoint {
+                        parameters: x
+                            .setting
+                            .iter()
+                            .map(|&(i, v)| (params[i].name.clone(), v))
+                            .collect(),
+                        fraction: x.fraction,
+                        visibility: x.visibility,
+                    })
+                    .collect();
+                points.sort_by(|a, b| a.fraction.total_cmp(&b.fraction));
+                c.visibility = points.iter().filter_map(|x| x.visibility).reduce(f64::max);
+                c.visibility_needed = needed;
+                c.detectable_from = points
+                    .iter()
+                    .find(|x| x.visibility.is_some_and(|v| v >= needed))
+                    .map(|x| x.parameters.clone());
+                c.visibility_scan = points;
+            }
+            c
+        };
         let screened = screen(&ctx, &cur, &remaining, &starts);
         // Ranked by the uncorrected linearised ΔBIC; the autocorrelation-corrected one gates the
         // refits where evidence is required.
@@ -993,10 +1066,15 @@ pub fn run<S: Simulator + ?Sized>(
                 order
                     .iter()
                     .map(|&(e, score)| {
-                        Candidate::screened_only(&effects[e].name, corrected[&e], score)
+                        with_visibility(Candidate::screened_only(
+                            &effects[e].name,
+                            corrected[&e],
+                            score,
+                        ))
                     })
                     .collect(),
             );
+            verdict.push_str(&hidden_from_data(rounds.last().expect("just pushed")));
             break;
         }
         // Refit whatever the linearised evidence (a dead zone or backlash is poorly linearised,
@@ -1058,6 +1136,10 @@ pub fn run<S: Simulator + ?Sized>(
                     holdout_sse_with: None,
                     named: false,
                     verdict: format!("refit failed: {m}"),
+                    visibility: None,
+                    visibility_needed: 0.0,
+                    detectable_from: None,
+                    visibility_scan: Vec::new(),
                 }),
             }
         }
@@ -1122,6 +1204,7 @@ pub fn run<S: Simulator + ?Sized>(
         if ranked.is_empty() {
             break;
         }
+        let mut ranked: Vec<Candidate> = ranked.into_iter().map(with_visibility).collect();
         // Check every refitted candidate in ΔBIC order; the first passing all three criteria is
         // named (a candidate that absorbs part of a different missing effect may top the BIC
         // ranking yet fail on the held-out part).
@@ -1141,6 +1224,13 @@ pub fn run<S: Simulator + ?Sized>(
                 break;
             }
             c.verdict = format!("not named: {}", why.join("; "));
+            if !c.detectable() {
+                c.verdict.push_str(&format!(
+                    "; these data cannot reveal it (at most Δχ² = {:.1} anywhere in its range after the base parameters readjust; naming needs {:.1})",
+                    c.visibility.unwrap_or(0.0),
+                    c.visibility_needed
+                ));
+            }
         }
         for c in ranked
             .iter_mut()
@@ -1204,6 +1294,7 @@ pub fn run<S: Simulator + ?Sized>(
                     named_names.join(", ")
                 )
             };
+            verdict.push_str(&hidden_from_data(&ranked));
             unexplained = Some(closest);
             rounds.push(ranked);
         }
@@ -1294,6 +1385,31 @@ pub fn run<S: Simulator + ?Sized>(
     })
 }
 
+/// Verdict sentence listing the candidates these data cannot reveal (empty if none): for them
+/// "not named" is no evidence of absence, and the user needs other excitation or sensors.
+fn hidden_from_data(round: &[Candidate]) -> String {
+    let hidden: Vec<String> = round
+        .iter()
+        .filter(|c| !c.detectable())
+        .map(|c| {
+            format!(
+                "{} (at most Δχ² = {:.1}, naming needs {:.1})",
+                c.effect,
+                c.visibility.unwrap_or(0.0),
+                c.visibility_needed
+            )
+        })
+        .collect();
+    if hidden.is_empty() {
+        String::new()
+    } else {
+        format!(
+            ". These data cannot reveal {}: even at the strongest setting in range, the base parameters absorb all but a change below the naming threshold, so their absence is not shown",
+            hidden.join(", ")
+        )
+    }
+}
+
 /// Why a refitted candidate may not be named (empty: it may).
 fn reasons(c: &Candidate, min_delta_bic: f64, no_holdout: bool) -> Vec<String> {
     let mut why = Vec::new();
@@ -1343,6 +1459,36 @@ const SCAN_FRACTIONS: [f64; 5] = [0.0, 0.25, 0.5, 0.75, 1.0];
 struct CandidateStart {
     effect: Vec<(usize, f64)>,
     base: Vec<f64>,
+    /// Every scanned point.
+    scan: Vec<ScannedPoint>,
+}
+
+/// One point of a candidate's start scan.
+#[derive(Clone, Debug)]
+struct ScannedPoint {
+    /// Effect parameter values.
+    setting: Vec<(usize, f64)>,
+    /// Mean fraction of their ranges in the fitting coordinate.
+    fraction: f64,
+    /// [`visibility`] there.
+    visibility: Option<f64>,
+}
+
+/// Chi-square of an effect's signal that survives the linearised readjustment of the base
+/// parameters: `‖(I − J J⁺) (r_at − r_cur)‖²`, where `r_at − r_cur = (y_at − y_cur)/σ` is the
+/// weighted change of the outputs when the effect is switched on at the scanned point and `J` the
+/// current fit's Jacobian. This is about the largest drop of the weighted sum of squares the
+/// effect could bring at that point; if it stays below the naming threshold
+/// (`min ΔBIC + k ln N`) at every scanned magnitude, these data cannot reveal the effect, and
+/// not naming it says nothing about whether it is there.
+fn visibility(jac: &DMatrix<f64>, r_cur: &[f64], r_at: &[f64]) -> Option<f64> {
+    if r_cur.len() != r_at.len() || jac.nrows() != r_at.len() {
+        return None;
+    }
+    let d: Vec<f64> = r_at.iter().zip(r_cur).map(|(a, c)| a - c).collect();
+    let (res, _) = regress(jac, &d);
+    let v = lm::sse(&res);
+    v.is_finite().then_some(v)
 }
 
 /// Start of each candidate's screening and refit. Its parameters are scanned over their start
@@ -1392,8 +1538,9 @@ fn scan_starts<S: Simulator + ?Sized>(
         .iter()
         .flat_map(|&e| points(e).into_iter().map(move |p| (e, p)))
         .collect();
-    // (sum at fixed base, sum after the linearised readjustment, readjustment in z)
-    let scored: Vec<Option<(f64, f64, DVector<f64>)>> = jobs
+    // (sum at fixed base, sum after the linearised readjustment, readjustment in z, visibility)
+    type Scored = (f64, f64, DVector<f64>, Option<f64>);
+    let scored: Vec<Option<Scored>> = jobs
         .par_iter()
         .map(|(e, pt)| {
             let set = ctx.settings(&cur.state, Some(*e), pt);
@@ -1405,7 +1552,8 @@ fn scan_starts<S: Simulator + ?Sized>(
             let fixed = lm::sse(&r);
             let (res, beta) = regress(&cur.fit.jac, &r);
             let lin = lm::sse(&res);
-            (fixed.is_finite() && lin.is_finite()).then_some((fixed, lin, -beta))
+            let vis = visibility(&cur.fit.jac, &cur.fit.residuals, &r);
+            (fixed.is_finite() && lin.is_finite()).then_some((fixed, lin, -beta, vis))
         })
         .collect();
     // Per candidate, the scored point with the lowest readjusted sum.
@@ -1424,13 +1572,35 @@ fn scan_starts<S: Simulator + ?Sized>(
         .par_iter()
         .zip(cand.par_iter())
         .map(|(k, &e)| {
+            let scan: Vec<ScannedPoint> = (0..jobs.len())
+                .filter(|&j| jobs[j].0 == e)
+                .map(|j| {
+                    let pt = &jobs[j].1;
+                    let frac = pt
+                        .iter()
+                        .map(|&(i, v)| {
+                            let q = &ctx.params[i];
+                            let b = Bounded::new(q.start, q.min, q.max);
+                            let (lo, hi) = b.z_bounds();
+                            (b.to_z(v) - lo) / (hi - lo)
+                        })
+                        .sum::<f64>()
+                        / pt.len().max(1) as f64;
+                    ScannedPoint {
+                        setting: pt.clone(),
+                        fraction: frac,
+                        visibility: scored[j].as_ref().and_then(|x| x.3),
+                    }
+                })
+                .collect();
             let Some(k) = *k else {
                 return CandidateStart {
                     effect: Vec::new(),
                     base: cur.state.val.clone(),
+                    scan,
                 };
             };
-            let (fixed, _, step) = scored[k].as_ref().expect("chosen points are scored");
+            let (fixed, _, step, _) = scored[k].as_ref().expect("chosen points are scored");
             let pt = jobs[k].1.clone();
             let moved: Vec<f64> = cur
                 .bounds
@@ -1449,6 +1619,7 @@ fn scan_starts<S: Simulator + ?Sized>(
             CandidateStart {
                 effect: pt,
                 base: if better { moved } else { cur.state.val.clone() },
+                scan,
             }
         })
         .collect()
@@ -1660,6 +1831,10 @@ fn refit<S: Simulator + ?Sized>(
             holdout_sse_with: hw,
             named: false,
             verdict: String::new(),
+            visibility: None,
+            visibility_needed: 0.0,
+            detectable_from: None,
+            visibility_scan: Vec::new(),
         },
         f,
         r_full,
@@ -1754,5 +1929,69 @@ mod covariance_tests {
         let sd = c[(2, 2)].max(0.0).sqrt();
         assert!(1.0 - Z95 * sd <= 0.0);
         assert!(c[(0, 0)].is_finite());
+    }
+}
+
+#[cfg(test)]
+mod visibility_tests {
+    use super::*;
+
+    /// Base Jacobian with columns 1 and t on t = 0..1 (an offset and a slope the base can absorb).
+    fn base_jac(n: usize) -> DMatrix<f64> {
+        DMatrix::from_fn(n, 2, |i, j| {
+            if j == 0 {
+                1.0
+            } else {
+                i as f64 / (n - 1) as f64
+            }
+        })
+    }
+
+    #[test]
+    fn a_change_the_base_absorbs_is_invisible() {
+        let n = 200;
+        let jac = base_jac(n);
+        let r_cur: Vec<f64> = (0..n)
+            .map(|i| ((i * 7919) % 13) as f64 / 13.0 - 0.5)
+            .collect();
+        // The effect shifts and tilts the output by 3σ: all within the span of the base columns.
+        let r_at: Vec<f64> = (0..n)
+            .map(|i| r_cur[i] + 3.0 - 2.0 * i as f64 / (n - 1) as f64)
+            .collect();
+        let v = visibility(&jac, &r_cur, &r_at).unwrap();
+        assert!(v < 1e-6, "absorbed change reported visible: {v}");
+    }
+
+    #[test]
+    fn the_unabsorbable_part_is_counted_in_chi_square() {
+        let n = 400;
+        let jac = base_jac(n);
+        let r_cur = vec![0.0; n];
+        // A sine of amplitude 0.5σ over whole periods, plus an absorbable offset; the sine is
+        // orthogonal to a constant and nearly so to the slope, so its chi-square is close to
+        // n · 0.5² / 2 = 50, minus its small projection on the slope (computed in closed form).
+        let w = 2.0 * std::f64::consts::PI * 4.0 / n as f64;
+        let s: Vec<f64> = (0..n).map(|i| 0.5 * (w * i as f64).sin()).collect();
+        let r_at: Vec<f64> = s.iter().map(|x| x + 1.0).collect();
+        let t: Vec<f64> = (0..n).map(|i| i as f64 / (n - 1) as f64).collect();
+        let tm = t.iter().sum::<f64>() / n as f64;
+        let sm = s.iter().sum::<f64>() / n as f64;
+        let sxx: f64 = t.iter().map(|x| (x - tm).powi(2)).sum();
+        let sxy: f64 = t.iter().zip(&s).map(|(x, y)| (x - tm) * (y - sm)).sum();
+        let syy: f64 = s.iter().map(|y| (y - sm).powi(2)).sum();
+        let expected = syy - sxy * sxy / sxx;
+        let v = visibility(&jac, &r_cur, &r_at).unwrap();
+        assert!(
+            (v - expected).abs() < 1e-6 * expected,
+            "visibility {v}, closed form {expected}"
+        );
+        assert!(v > 40.0 && v < 50.0);
+    }
+
+    #[test]
+    fn mismatched_lengths_give_none() {
+        let jac = base_jac(10);
+        assert!(visibility(&jac, &[0.0; 10], &[0.0; 9]).is_none());
+        assert!(visibility(&jac, &[0.0; 9], &[0.0; 9]).is_none());
     }
 }
