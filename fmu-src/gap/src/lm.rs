@@ -286,6 +286,12 @@ pub fn levenberg_marquardt<P: Problem>(
             continue;
         };
         let rel = (s - sn) / s.max(1e-300);
+        if std::env::var_os("LM_TRACE").is_some() {
+            eprintln!(
+                "[lm] iteration {iterations}: sum {s:.1} -> {sn:.1}, p = {:?}",
+                to_p(b, &zn)
+            );
+        }
         // Broyden's rank-one update J += (Δr − J Δz) Δzᵀ / (Δzᵀ Δz) (Broyden 1965).
         let dz = DVector::from_iterator(m, zn.iter().zip(&z).map(|(a, b)| a - b));
         let dr = DVector::from_iterator(r.len(), rn.iter().zip(&r).map(|(a, b)| a - b));
