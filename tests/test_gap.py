@@ -45,6 +45,9 @@ def run_ok(model, csv, out, *args):
 def check_report_shape(rep, ds):
     for key in ("named", "candidates", "parameters", "outputs", "timing"):
         assert key in rep
+    # A warning names each parameter that ended on a bound of its range, and only those.
+    on_bound = sorted(k for k, e in rep["parameters"].items() if e["at_bound"])
+    assert sorted(w.split()[0] for w in rep["warnings"]) == on_bound
     assert set(rep["outputs"]) == set(ds["outputs"])
     for o in rep["outputs"].values():
         for k in ("rmse_before", "rmse_after", "max_before", "max_after"):

@@ -114,6 +114,9 @@ pub fn run(a: Args) -> CliResult {
     gap::report::write(&res, &a.out, &fmu_s, &data_s, &plots)
         .map_err(|e| CliError::failure(format!("{}: {e}", a.out.display())))?;
     out!("{}: {}", a.data.display(), res.verdict);
+    for w in &res.warnings {
+        out!("warning: {w}");
+    }
     out!(
         "named: [{}]",
         res.named

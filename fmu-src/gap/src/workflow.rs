@@ -79,6 +79,9 @@ pub struct Estimate {
     pub ci_high: f64,
     pub unit: String,
     pub start: f64,
+    /// "min" or "max" when the fitted value lies on that bound of the parameter's range (the fit
+    /// wanted to go further), else None.
+    pub at_bound: Option<String>,
 }
 
 /// One candidate effect in one round.
@@ -217,6 +220,8 @@ pub struct GapResult {
     pub named: Vec<String>,
     pub unexplained: Option<String>,
     pub verdict: String,
+    /// Things the user should know about the fit (parameters on bounds).
+    pub warnings: Vec<String>,
     pub candidates: Vec<Vec<Candidate>>,
     pub parameters: BTreeMap<String, Estimate>,
     pub outputs: BTreeMap<String, OutputErrors>,
@@ -558,8 +563,40 @@ fn estimates(
                     ci_high: v + Z95 * sd,
                     unit: ctx_params[pi].unit.clone(),
                     start: ctx_params[pi].start,
+                    at_bound: bound_hit(&ctx_params[pi], v),
                 },
             )
+        })
+        .collect()
+}
+
+/// "min" / "max" when `v` lies on that bound of the parameter's range (to 1e-9 of the range).
+fn bound_hit(q: &ParamSpec, v: f64) -> Option<String> {
+    let (lo, hi) = (q.min?, q.max?);
+    let tol = 1e-9 * (hi - lo).abs().max(f64::MIN_POSITIVE);
+    if (v - lo).abs() <= tol {
+        Some("min".into())
+    } else if (v - hi).abs() <= tol {
+        Some("max".into())
+    } else {
+        None
+    }
+}
+
+/// Warnings for the user about the final fit: parameters that ended on a bound of their range.
+fn bound_warnings(parameters: &BTreeMap<String, Estimate>, params: &[ParamSpec]) -> Vec<String> {
+    parameters
+        .iter()
+        .filter_map(|(name, e)| {
+            let side = e.at_bound.as_deref()?;
+            let q = params.iter().find(|q| &q.name == name)?;
+            let bound = if side == "min" { q.min? } else { q.max? };
+            Some(format!(
+                "{name} ended on its {} bound {bound} {} (start {}): the fit pushes against it. Either the true value lies there or outside the declared range, or the model bends this parameter to stand in for something it lacks (a missing effect the data cannot single out, or a wrong fixed value); treat its interval, and effects judged alongside it, with caution.",
+                if side == "min" { "lower" } else { "upper" },
+                e.unit,
+                e.start
+            ))
         })
         .collect()
 }
@@ -1362,10 +1399,12 @@ pub fn run<S: Simulator + ?Sized>(
     ctx.pb.finish_and_clear();
     let est_s = t_est.elapsed().as_secs_f64();
     let sim_s = ctx.sim.busy_s();
+    let warnings = bound_warnings(&parameters, &params);
     Ok(GapResult {
         named: named_names,
         unexplained,
         verdict,
+        warnings,
         candidates: rounds,
         parameters,
         outputs,
@@ -1812,6 +1851,7 @@ fn refit<S: Simulator + ?Sized>(
             ci_high: 1.0 + Z95 * sd,
             unit: "1".into(),
             start: 0.0,
+            at_bound: None,
         }
     });
     // Held-out part.
@@ -1993,5 +2033,55 @@ mod visibility_tests {
         let jac = base_jac(10);
         assert!(visibility(&jac, &[0.0; 10], &[0.0; 9]).is_none());
         assert!(visibility(&jac, &[0.0; 9], &[0.0; 9]).is_none());
+    }
+}
+
+#[cfg(test)]
+mod bound_tests {
+    use super::*;
+
+    fn est(v: f64) -> Estimate {
+        Estimate {
+            value: v,
+            ci_low: v,
+            ci_high: v,
+            unit: "N/m".into(),
+            start: 100.0,
+            at_bound: None,
+        }
+    }
+
+    #[test]
+    fn values_on_a_bound_are_flagged_and_warned_about() {
+        let q = ParamSpec::real(
+            "spring_stiffness",
+            100.0,
+            Some(0.0),
+            Some(5000.0),
+            "N/m",
+            "",
+        );
+        assert_eq!(bound_hit(&q, 5000.0).as_deref(), Some("max"));
+        assert_eq!(bound_hit(&q, 0.0).as_deref(), Some("min"));
+        assert_eq!(bound_hit(&q, 4999.0), None);
+        assert_eq!(bound_hit(&q, 1e-3), None);
+        let open = ParamSpec::real("free", 1.0, None, Some(2.0), "1", "");
+        assert_eq!(
+            bound_hit(&open, 2.0),
+            None,
+            "a half-open range has no box to hit"
+        );
+        let mut on = est(5000.0);
+        on.at_bound = bound_hit(&q, 5000.0);
+        let params = vec![q];
+        let map: BTreeMap<String, Estimate> = [
+            ("spring_stiffness".to_string(), on),
+            ("other".to_string(), est(3.0)),
+        ]
+        .into_iter()
+        .collect();
+        let w = bound_warnings(&map, &params);
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(w[0].starts_with("spring_stiffness ended on its upper bound 5000 N/m (start 100)"));
     }
 }
