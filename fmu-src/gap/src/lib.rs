@@ -18,7 +18,9 @@
 //!    cross-correlation with the inputs, and the operating region (quantile bins of every input
 //!    and model output, η²) that organises it best.
 //! 4. Start scan of every candidate (its parameters at their start values and at 0, ¼, ½, ¾ and 1
-//!    of their ranges, scored after the linearised readjustment of the base parameters), then
+//!    of their ranges, scored after the linearised readjustment of the base parameters, and also
+//!    simulated with the base parameters as given: a strong effect the base fit could not
+//!    imitate leaves the fitted base values, and their linearisation, far off), then
 //!    screening by a score-type regression of the residual on the base Jacobian plus the effect's
 //!    switch-on change and parameter sensitivities at that start (linearised ΔBIC). The same
 //!    scan gives each candidate's visibility: at every scanned setting, the chi-square of the

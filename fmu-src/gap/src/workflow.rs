@@ -1027,7 +1027,15 @@ pub fn run<S: Simulator + ?Sized>(
             "round {round}: screening {} candidate effect(s)",
             remaining.len()
         ));
-        let starts = scan_starts(&ctx, &cur, &remaining);
+        // The current model with its base parameters at their values as given.
+        let given = (cur.state.idx.len() >= st0.idx.len()
+            && cur.state.idx[..st0.idx.len()] == st0.idx[..])
+            .then(|| {
+                let mut v = cur.state.val.clone();
+                v[..st0.val.len()].copy_from_slice(&st0.val);
+                cur.state.with_values(v)
+            });
+        let starts = scan_starts(&ctx, &cur, &remaining, given.as_ref());
         ctx.stage(format!("round {round}: start scan done"));
         for (k, &e) in remaining.iter().enumerate() {
             ctx.stage(format!(
@@ -1536,7 +1544,9 @@ fn visibility(jac: &DMatrix<f64>, r_cur: &[f64], r_at: &[f64]) -> Option<f64> {
 /// on the current fit's Jacobian): an effect coupled to a base parameter (radius_growth and
 /// string_radius) only pays off once both move, which a score at fixed base parameters misses.
 /// At the chosen point the base parameters start from the current fit or from its linearised
-/// readjustment, whichever simulates to the lower sum (one more simulation). An effect's declared
+/// readjustment, whichever simulates to the lower sum (one more simulation); every point is also
+/// simulated with the base parameters as given (`given`), and the refit starts there when one
+/// of those simulates lower still. An effect's declared
 /// start value can be far too strong or too weak for the data at hand (a friction coefficient of
 /// 0.1 where the data show 0.03 raised the sum of squares three-hundredfold in the TwistedString
 /// evaluation), and a refit started there ended in a local minimum worse than the base model.
@@ -1544,6 +1554,7 @@ fn scan_starts<S: Simulator + ?Sized>(
     ctx: &Ctx<'_, S>,
     cur: &FitOut,
     cand: &[usize],
+    given: Option<&ModelState>,
 ) -> Vec<CandidateStart> {
     let n = ctx.n_train;
     let points = |e: usize| -> Vec<Vec<(usize, f64)>> {
@@ -1593,6 +1604,19 @@ fn scan_starts<S: Simulator + ?Sized>(
             let lin = lm::sse(&res);
             let vis = visibility(&cur.fit.jac, &cur.fit.residuals, &r);
             (fixed.is_finite() && lin.is_finite()).then_some((fixed, lin, -beta, vis))
+        })
+        .collect();
+    // Sum of squares at every point with the base values as given instead of fitted.
+    let given_sse: Vec<Option<f64>> = jobs
+        .par_iter()
+        .map(|(e, pt)| {
+            let st = given?;
+            let v = ctx
+                .measured_outputs(&ctx.settings(st, Some(*e), pt), n)
+                .map(|y| lm::sse(&ctx.residual(&y, n)))
+                .ok();
+            ctx.pb.tick();
+            v.filter(|v| v.is_finite())
         })
         .collect();
     // Per candidate, the scored point with the lowest readjusted sum.
@@ -1649,16 +1673,35 @@ fn scan_starts<S: Simulator + ?Sized>(
                 .map(|(j, (b, z))| b.to_p(z + step.get(j).copied().unwrap_or(0.0)))
                 .collect();
             let st = cur.state.with_values(moved.clone());
-            let better = ctx
+            let moved_sse = ctx
                 .measured_outputs(&ctx.settings(&st, Some(e), &pt), n)
                 .map(|y| lm::sse(&ctx.residual(&y, n)))
-                .map(|v| v < *fixed)
-                .unwrap_or(false);
+                .unwrap_or(f64::INFINITY);
             ctx.pb.tick();
-            CandidateStart {
-                effect: pt,
-                base: if better { moved } else { cur.state.val.clone() },
-                scan,
+            let (base, sse) = if moved_sse < *fixed {
+                (moved, moved_sse)
+            } else {
+                (cur.state.val.clone(), *fixed)
+            };
+            // A strong effect the base fit could not imitate leaves it far off (hydraulic valve
+            // overlap of 1 V: the base fit's sum was 2e10, its linearisation useless there);
+            // then the effect at a scanned point with the base values as given can simulate
+            // far better, and the refit starts there.
+            match (0..jobs.len())
+                .filter(|&j| jobs[j].0 == e)
+                .filter_map(|j| given_sse[j].map(|v| (j, v)))
+                .min_by(|a, b| a.1.total_cmp(&b.1))
+            {
+                Some((j, v)) if v < sse => CandidateStart {
+                    effect: jobs[j].1.clone(),
+                    base: given.expect("scored with the given base").val.clone(),
+                    scan,
+                },
+                _ => CandidateStart {
+                    effect: pt,
+                    base,
+                    scan,
+                },
             }
         })
         .collect()
