@@ -1508,6 +1508,9 @@ struct CandidateStart {
     base: Vec<f64>,
     /// Every scanned point.
     scan: Vec<ScannedPoint>,
+    /// Effect setting the screening linearises at (the linearised choice at the current base
+    /// values; `effect` may instead come from the scan with the base values as given).
+    screen_effect: Vec<(usize, f64)>,
 }
 
 /// One point of a candidate's start scan.
@@ -1661,6 +1664,7 @@ fn scan_starts<S: Simulator + ?Sized>(
                     effect: Vec::new(),
                     base: cur.state.val.clone(),
                     scan,
+                    screen_effect: Vec::new(),
                 };
             };
             let (fixed, _, step, _) = scored[k].as_ref().expect("chosen points are scored");
@@ -1696,11 +1700,13 @@ fn scan_starts<S: Simulator + ?Sized>(
                     effect: jobs[j].1.clone(),
                     base: given.expect("scored with the given base").val.clone(),
                     scan,
+                    screen_effect: pt,
                 },
                 _ => CandidateStart {
-                    effect: pt,
+                    effect: pt.clone(),
                     base,
                     scan,
+                    screen_effect: pt,
                 },
             }
         })
@@ -1728,7 +1734,7 @@ fn screen<S: Simulator + ?Sized>(
     let start_of = |e: usize| -> &[(usize, f64)] {
         cand.iter()
             .position(|&c| c == e)
-            .map(|k| starts[k].effect.as_slice())
+            .map(|k| starts[k].screen_effect.as_slice())
             .unwrap_or(&[])
     };
     let jobs: Vec<(usize, Option<usize>)> = cand
