@@ -194,6 +194,7 @@ pub fn levenberg_marquardt<P: Problem>(
     } else {
         DMatrix::zeros(r.len(), 0)
     };
+    let trace = std::env::var_os("LM_TRACE").is_some();
     let mut lambda = 1e-3;
     let mut iterations = 0;
     // `fresh`: `jac` is a finite-difference Jacobian at `z` (else a Broyden update of one).
@@ -286,7 +287,7 @@ pub fn levenberg_marquardt<P: Problem>(
             continue;
         };
         let rel = (s - sn) / s.max(1e-300);
-        if std::env::var_os("LM_TRACE").is_some() {
+        if trace {
             eprintln!(
                 "[lm] iteration {iterations}: sum {s:.1} -> {sn:.1}, p = {:?}",
                 to_p(b, &zn)

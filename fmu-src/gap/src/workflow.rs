@@ -1054,26 +1054,13 @@ pub fn run<S: Simulator + ?Sized>(
                 let scan = &starts[k].scan;
                 let needed = cfg.min_delta_bic
                     + effects[remaining[k]].params.len() as f64 * ((n_train * kout) as f64).ln();
-                let mut points: Vec<VisibilityPoint> = scan
-                    .iter()
-                    .map(|x| VisibilityPoint {
-                        parameters: x
-                            .setting
-                            .iter()
-                            .map(|&(i, v)| (params[i].name.clone(), v))
-                            .collect(),
-                        fraction: x.fraction,
-                        visibility: x.visibility,
-                    })
-                    .collect();
-                points.sort_by(|a, b| a.fraction.total_cmp(&b.fraction));
-                c.visibility = points.iter().filter_map(|x| x.visibility).reduce(f64::max);
+                c.visibility = scan.iter().filter_map(|x| x.visibility).reduce(f64::max);
                 c.visibility_needed = needed;
-                c.detectable_from = points
+                c.detectable_from = scan
                     .iter()
                     .find(|x| x.visibility.is_some_and(|v| v >= needed))
                     .map(|x| x.parameters.clone());
-                c.visibility_scan = points;
+                c.visibility_scan = scan.clone();
             }
             c
         };
@@ -1506,22 +1493,11 @@ const SCAN_FRACTIONS: [f64; 5] = [0.0, 0.25, 0.5, 0.75, 1.0];
 struct CandidateStart {
     effect: Vec<(usize, f64)>,
     base: Vec<f64>,
-    /// Every scanned point.
-    scan: Vec<ScannedPoint>,
+    /// Every scanned point, in range order.
+    scan: Vec<VisibilityPoint>,
     /// Effect setting the screening linearises at (the linearised choice at the current base
     /// values; `effect` may instead come from the scan with the base values as given).
     screen_effect: Vec<(usize, f64)>,
-}
-
-/// One point of a candidate's start scan.
-#[derive(Clone, Debug)]
-struct ScannedPoint {
-    /// Effect parameter values.
-    setting: Vec<(usize, f64)>,
-    /// Mean fraction of their ranges in the fitting coordinate.
-    fraction: f64,
-    /// [`visibility`] there.
-    visibility: Option<f64>,
 }
 
 /// Chi-square of an effect's signal that survives the linearised readjustment of the base
@@ -1638,7 +1614,7 @@ fn scan_starts<S: Simulator + ?Sized>(
         .par_iter()
         .zip(cand.par_iter())
         .map(|(k, &e)| {
-            let scan: Vec<ScannedPoint> = (0..jobs.len())
+            let mut scan: Vec<VisibilityPoint> = (0..jobs.len())
                 .filter(|&j| jobs[j].0 == e)
                 .map(|j| {
                     let pt = &jobs[j].1;
@@ -1652,13 +1628,17 @@ fn scan_starts<S: Simulator + ?Sized>(
                         })
                         .sum::<f64>()
                         / pt.len().max(1) as f64;
-                    ScannedPoint {
-                        setting: pt.clone(),
+                    VisibilityPoint {
+                        parameters: pt
+                            .iter()
+                            .map(|&(i, v)| (ctx.params[i].name.clone(), v))
+                            .collect(),
                         fraction: frac,
                         visibility: scored[j].as_ref().and_then(|x| x.3),
                     }
                 })
                 .collect();
+            scan.sort_by(|a, b| a.fraction.total_cmp(&b.fraction));
             let Some(k) = *k else {
                 return CandidateStart {
                     effect: Vec::new(),
@@ -1691,23 +1671,22 @@ fn scan_starts<S: Simulator + ?Sized>(
             // overlap of 1 V: the base fit's sum was 2e10, its linearisation useless there);
             // then the effect at a scanned point with the base values as given can simulate
             // far better, and the refit starts there.
-            match (0..jobs.len())
+            let (effect, base) = match (0..jobs.len())
                 .filter(|&j| jobs[j].0 == e)
                 .filter_map(|j| given_sse[j].map(|v| (j, v)))
                 .min_by(|a, b| a.1.total_cmp(&b.1))
             {
-                Some((j, v)) if v < sse => CandidateStart {
-                    effect: jobs[j].1.clone(),
-                    base: given.expect("scored with the given base").val.clone(),
-                    scan,
-                    screen_effect: pt,
-                },
-                _ => CandidateStart {
-                    effect: pt.clone(),
-                    base,
-                    scan,
-                    screen_effect: pt,
-                },
+                Some((j, v)) if v < sse => (
+                    jobs[j].1.clone(),
+                    given.expect("scored with the given base").val.clone(),
+                ),
+                _ => (pt.clone(), base),
+            };
+            CandidateStart {
+                effect,
+                base,
+                scan,
+                screen_effect: pt,
             }
         })
         .collect()
