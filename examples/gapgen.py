@@ -12,6 +12,7 @@ coefficient and the same marginal standard deviation).
 Used by examples/README.md (the bundled examples), tests/test_gap.py and scripts/gap-eval.
 Command line:  python examples/gapgen.py MODEL OUT.csv [--effect E ...] [--seed S] [--noise F]
                [--ar RHO] [--duration T] [--rate HZ] [--no-draw] [--set NAME=VALUE ...]
+               [--inputs reaches|sines|steps]
 """
 import argparse
 import json
@@ -116,8 +117,31 @@ def steps(rng, t, lo, hi, period):
     return y
 
 
-def inputs(model, rng, t):
-    """Random input columns for `model` on the time grid t."""
+def sines(rng, t, lo, hi, f_lo, f_hi, n=3):
+    """Sum of `n` sines of random frequency in [f_lo, f_hi] Hz and random phase, scaled to span
+    [lo, hi] over the grid (starts wherever the sum starts)."""
+    y = np.zeros_like(t)
+    for _ in range(n):
+        y += rng.uniform(0.5, 1.0) * np.sin(2 * math.pi * rng.uniform(f_lo, f_hi) * t
+                                            + rng.uniform(0, 2 * math.pi))
+    return lo + (hi - lo) * (y - y.min()) / (y.max() - y.min())
+
+
+INPUT_FAMILIES = ("reaches", "sines", "steps")
+
+
+def inputs(model, rng, t, family="reaches"):
+    """Random input columns for `model` on the time grid t.
+
+    family "reaches" (the default, used for the bundled examples, the tests and the rates in
+    examples/README.md): minimum-jerk moves between random set points with holds, load steps.
+    "sines": sums of three sines for set point and load (no holds). "steps": set-point steps
+    without shaping, load steps. The other two families check that the workflow does not depend
+    on one input shape (held-out inputs)."""
+    if family not in INPUT_FAMILIES:
+        raise ValueError(f"unknown input family {family!r}; one of {INPUT_FAMILIES}")
+    if family != "reaches":
+        return _other_inputs(model, rng, t, family)
     if model == "HydraulicJoint":
         ref = reaches(rng, t, math.radians(-30), math.radians(60), (0.5, 1.0), (0.3, 0.9))
         tau = steps(rng, t, -3.0, 3.0, (0.8, 2.0))
@@ -131,6 +155,24 @@ def inputs(model, rng, t):
         ref = reaches(rng, t, 0.1 * amp, amp, (1.0, 2.0), (0.3, 0.8))
         f = steps(rng, t, 0.0, 40.0, (1.0, 2.5))
         return {"theta_motor_ref": ref, "F_load": f}
+    raise ValueError(model)
+
+
+def _other_inputs(model, rng, t, family):
+    if model == "HydraulicJoint":
+        lo, hi = math.radians(-30), math.radians(60)
+        if family == "sines":
+            return {"theta_ref": sines(rng, t, lo, hi, 0.1, 1.0),
+                    "tau_ext": sines(rng, t, -3.0, 3.0, 0.05, 0.5)}
+        return {"theta_ref": steps(rng, t, lo, hi, (0.6, 1.5)),
+                "tau_ext": steps(rng, t, -3.0, 3.0, (0.8, 2.0))}
+    if model == "TwistedString":
+        amp = math.exp(rng.uniform(math.log(150.0), math.log(1100.0)))
+        if family == "sines":
+            return {"theta_motor_ref": sines(rng, t, 0.1 * amp, amp, 0.05, 0.4),
+                    "F_load": sines(rng, t, 0.0, 40.0, 0.05, 0.4)}
+        return {"theta_motor_ref": steps(rng, t, 0.1 * amp, amp, (1.0, 2.5)),
+                "F_load": steps(rng, t, 0.0, 40.0, (1.0, 2.5))}
     raise ValueError(model)
 
 
@@ -165,7 +207,7 @@ def noisy(rng, y, frac, ar):
 
 
 def make(model, seed, hidden=(), noise=0.01, ar=0.0, duration=10.0, rate=1000.0,
-         draw_base=True, base_overrides=None, sets=None, keep_inputs=None):
+         draw_base=True, base_overrides=None, sets=None, keep_inputs=None, input_family="reaches"):
     """One dataset. Returns dict(time, inputs, outputs, truth, noise_sigma)."""
     rng = np.random.default_rng(seed)
     t = np.round(np.arange(0, int(round(duration * rate)) + 1) / rate, 12)
@@ -185,7 +227,7 @@ def make(model, seed, hidden=(), noise=0.01, ar=0.0, duration=10.0, rate=1000.0,
             truth[p] = draw_in_range(rng, vs[p])
     for n, x in (sets or {}).items():
         truth[n] = x
-    cols = inputs(model, rng, t)
+    cols = inputs(model, rng, t, input_family)
     if keep_inputs is not None:
         cols = {k: v for k, v in cols.items() if k in keep_inputs}
     res = simulate(model, t, cols, truth)
@@ -220,6 +262,8 @@ def main(argv=None):
     ap.add_argument("--duration", type=float, default=10.0)
     ap.add_argument("--rate", type=float, default=1000.0)
     ap.add_argument("--no-draw", action="store_true", help="base parameters at their defaults")
+    ap.add_argument("--inputs", default="reaches", choices=INPUT_FAMILIES,
+                    help="input family (default: minimum-jerk reaches with holds)")
     ap.add_argument("--set", action="append", default=[], help="NAME=VALUE applied to the truth")
     a = ap.parse_args(argv)
     sets = {}
@@ -227,7 +271,7 @@ def main(argv=None):
         k, v = s.split("=", 1)
         sets[k] = v == "true" if v in ("true", "false") else float(v)
     ds = make(a.model, a.seed, a.effect, a.noise, a.ar, a.duration, a.rate,
-              draw_base=not a.no_draw, sets=sets)
+              draw_base=not a.no_draw, sets=sets, input_family=a.inputs)
     comment = (f"Generated by examples/gapgen.py {' '.join(sys.argv[1:] if argv is None else argv)}\n"
                f"FMPy simulation of dist/{a.model}.fmu; Gaussian noise {a.noise:g} x range"
                f"{'' if a.ar == 0 else f', AR(1) {a.ar:g}'}\n"

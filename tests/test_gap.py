@@ -120,7 +120,7 @@ def test_an_effect_the_data_cannot_show_is_reported_as_such(tmp_path, monkeypatc
     string_radius absorbs (see the model documentation). The report must say that these data
     cannot reveal gear_backlash (its visibility is far below the threshold at every setting in
     range) rather than only that it was not found, and still call the strong effects visible."""
-    def large_strokes(model, rng, t):
+    def large_strokes(model, rng, t, family="reaches"):
         return {"theta_motor_ref": gapgen.reaches(rng, t, 800.0, 1100.0, (1.0, 2.0), (0.3, 0.8)),
                 "F_load": gapgen.steps(rng, t, 0.0, 40.0, (1.0, 2.5))}
     monkeypatch.setattr(gapgen, "inputs", large_strokes)

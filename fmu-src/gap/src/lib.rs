@@ -35,7 +35,9 @@
 //!    An effect is named only if ΔBIC ≥ 10, the 95 % interval of its contribution's scale excludes
 //!    0, and it lowers the error on the held-out part; its fit is then polished, and the loop
 //!    repeats (`rounds`).
-//! 6. Report ([`report`]: `report.json`, `report.md`) and plots ([`plots`]).
+//! 6. Final fit: the chosen model (base plus named effects) is refitted on the whole trace; its
+//!    parameters and intervals are the reported ones, its errors the "after" column.
+//! 7. Report ([`report`]: `report.json`, `report.md`) and plots ([`plots`]).
 
 pub mod fmu;
 pub mod lm;

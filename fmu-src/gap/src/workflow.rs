@@ -1340,9 +1340,26 @@ pub fn run<S: Simulator + ?Sized>(
     }
 
     // --- 5. Final fit on the whole trace and the errors before/after.
-    // The reported model is the one fitted on the training part (its intervals from that fit's
-    // Jacobian); its errors are over the whole trace.
-    let fin = cur;
+    // The held-out end has done its work (choosing which effects to name); the chosen model's
+    // parameters are then estimated from all the data, as after any model selection: a model
+    // with several friction parameters can fit the training part to the noise with values the
+    // held-out end contradicts. Its intervals come from this fit's Jacobian; it is kept only if
+    // it lowers the whole trace's sum of squares (a failed fit keeps the training-part one).
+    let fin = if n_train < n {
+        ctx.stage("final fit on the whole trace".to_string());
+        let sse_cur = lm::sse(&cur_full_r);
+        match fit_state(&ctx, &cur.state, None, &[], n, FINAL_ITERATIONS, 1e-6) {
+            Ok(f) if f.fit.sse < sse_cur => f,
+            _ => cur,
+        }
+    } else {
+        cur
+    };
+    let n_fin = if fin.fit.residuals.len() == kout * n {
+        n
+    } else {
+        n_train
+    };
     let final_all = ctx
         .sim
         .simulate(&ctx.settings(&fin.state, None, &[]), n)
@@ -1359,7 +1376,7 @@ pub fn run<S: Simulator + ?Sized>(
         &fin.fit,
         &fin.bounds,
         &scale,
-        n_train,
+        n_fin,
     );
     let mut outputs = BTreeMap::new();
     let mut traces = Traces {
@@ -1481,6 +1498,9 @@ const LM_ABS_TOL: f64 = 1.0;
 
 /// Iteration limit of a candidate's refit (the named one is polished afterwards).
 const REFIT_ITERATIONS: usize = 15;
+
+/// Iteration cap of the final fit of the chosen model on the whole trace.
+const FINAL_ITERATIONS: usize = 20;
 
 /// Points of the start scan along each effect's range: fractions of the way from every
 /// parameter's min to its max, in the parameter's fitting coordinate (log for ranges over a
