@@ -31,7 +31,9 @@
 //!    BIC with per-output noise variances and an effective sample size from the residual
 //!    autocorrelation (Bartlett-weighted), so correlated noise is not taken as evidence. Before
 //!    naming, the base model is refitted from the best candidate's base values, so a gain the base
-//!    model reaches alone is not credited to the effect.
+//!    model reaches alone is not credited to the effect; when that re-check improves the base fit
+//!    by ΔBIC ≥ 10 and no candidate still reaches the threshold against it, the round is done
+//!    once more from the better base (the refits started from a worse one).
 //!    An effect is named only if ΔBIC ≥ 10, the 95 % interval of its contribution's scale excludes
 //!    0, and it lowers the error on the held-out part; its fit is then polished, and the loop
 //!    repeats (`rounds`).

@@ -1015,8 +1015,14 @@ pub fn run<S: Simulator + ?Sized>(
     // no candidate's linearised ΔBIC reaches the threshold are they consistent with noise.
     let looks_like_noise = diagnosis[0].consistent_with_noise;
     let mut round = 0;
-    while verdict.is_empty() && round < cfg.rounds {
-        round += 1;
+    // A round is done again, once, from a better base found by its base re-check (below).
+    let mut redo_round = false;
+    let mut redone_rounds: Vec<usize> = Vec::new();
+    while verdict.is_empty() && (redo_round || round < cfg.rounds) {
+        if !redo_round {
+            round += 1;
+        }
+        redo_round = false;
         let remaining: Vec<usize> = (0..effects.len())
             .filter(|e| !cur.state.named.contains(e))
             .collect();
@@ -1207,6 +1213,7 @@ pub fn run<S: Simulator + ?Sized>(
                     let y = ctx
                         .measured_outputs(&ctx.settings(&b2.state, None, &[]), n)
                         .map_err(GapError::Simulation)?;
+                    let base_gain = delta_bic(&cur.fit.residuals, &b2.fit.residuals, kout, 0);
                     cur = b2;
                     cur_full_r = ctx.residual(&y, n);
                     let without = holdout_sse(&cur_full_r, kout, n, n_train);
@@ -1217,6 +1224,26 @@ pub fn run<S: Simulator + ?Sized>(
                                 delta_bic(&cur.fit.residuals, &fc.fit.residuals, kout, extra);
                             c.holdout_sse_without = without;
                         }
+                    }
+                    // The candidates were refitted from a base this much worse than the one now
+                    // found: if none of them still reaches the threshold, their refits say
+                    // nothing about the better base, so the round is screened and refitted
+                    // again from it (once per round).
+                    let best_now = ranked
+                        .iter()
+                        .filter(|c| c.refit)
+                        .map(|c| c.delta_bic)
+                        .fold(f64::NEG_INFINITY, f64::max);
+                    if base_gain >= cfg.min_delta_bic
+                        && best_now < cfg.min_delta_bic
+                        && !redone_rounds.contains(&round)
+                    {
+                        ctx.stage(format!(
+                            "round {round}: the base re-check improved the base fit by ΔBIC = {base_gain:.1}; the round is done again from it"
+                        ));
+                        redone_rounds.push(round);
+                        redo_round = true;
+                        continue;
                     }
                 }
             }
