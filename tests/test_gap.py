@@ -18,6 +18,7 @@ sys.path.insert(0, str(REPO / "examples"))
 import gapgen  # noqa: E402
 
 DURATION, RATE = 3.0, 200.0
+FAR_WARNING = "The final model is still far from the data"
 
 
 def generate(tmp_path, model, name, seed, hidden=(), **kw):
@@ -47,7 +48,11 @@ def check_report_shape(rep, ds):
         assert key in rep
     # A warning names each parameter that ended on a bound of its range, and only those.
     on_bound = sorted(k for k, e in rep["parameters"].items() if e["at_bound"])
-    assert sorted(w.split()[0] for w in rep["warnings"]) == on_bound
+    bound_warnings = [w for w in rep["warnings"] if not w.startswith(FAR_WARNING)]
+    assert sorted(w.split()[0] for w in bound_warnings) == on_bound
+    # The far-from-data warning is there exactly when some output ends above 3x its noise.
+    far = any(o["rmse_after"] > 3 * o["noise_sigma"] for o in rep["outputs"].values())
+    assert far == any(w.startswith(FAR_WARNING) for w in rep["warnings"])
     assert set(rep["outputs"]) == set(ds["outputs"])
     for o in rep["outputs"].values():
         for k in ("rmse_before", "rmse_after", "max_before", "max_after"):
@@ -219,6 +224,22 @@ def test_set_and_missing_input_column(tmp_path):
     rm = resimulate_rmse(model, ds, rep)
     for n, o in rep["outputs"].items():
         assert rm[n] == pytest.approx(o["rmse_after"], rel=1e-3), n
+
+
+def test_a_wrong_fixed_parameter_leaves_a_warning(tmp_path):
+    """string_radius fixed (--set) at 0.8x its true value and not fitted: no base parameter or
+    candidate can make up for it, so p stays far from the data, and the report says so rather
+    than presenting what it named as the explanation."""
+    model = "TwistedString"
+    ds, csv = generate(tmp_path, model, "wrong_radius", 41, ())
+    r = 0.8 * ds["truth"]["string_radius"]
+    rep = run_ok(model, csv, tmp_path / "out", "--set", f"string_radius={r!r}",
+                 "--fit", "load_mass", "--rounds", "1")
+    check_report_shape(rep, ds)
+    assert rep["outputs"]["p"]["rmse_after"] > 3 * rep["outputs"]["p"]["noise_sigma"]
+    far = [w for w in rep["warnings"] if w.startswith(FAR_WARNING)]
+    assert len(far) == 1 and "p " in far[0], rep["warnings"]
+    assert FAR_WARNING in (tmp_path / "out" / "report.md").read_text()
 
 
 def test_bad_csv_exits_2_with_location(tmp_path):

@@ -601,6 +601,31 @@ fn bound_warnings(parameters: &BTreeMap<String, Estimate>, params: &[ParamSpec])
         .collect()
 }
 
+/// An output is "far from the data" after the final fit above this multiple of its noise level.
+const FAR_FROM_DATA: f64 = 3.0;
+
+/// Warning when the final model still misses some output by more than [`FAR_FROM_DATA`] times its
+/// noise level (None otherwise): whatever was named then explains part of the gap at most.
+fn far_from_data_warning(outputs: &BTreeMap<String, OutputErrors>) -> Option<String> {
+    let mut far: Vec<(&String, f64)> = outputs
+        .iter()
+        .filter(|(_, o)| o.noise_sigma > 0.0)
+        .map(|(n, o)| (n, o.rmse_after / o.noise_sigma))
+        .filter(|(_, r)| *r > FAR_FROM_DATA)
+        .collect();
+    if far.is_empty() {
+        return None;
+    }
+    far.sort_by(|a, b| b.1.total_cmp(&a.1));
+    Some(format!(
+        "The final model is still far from the data: RMSE {} the noise level. Whatever was named explains part of the gap at most. A missing effect that is not among the candidates, a wrong fixed parameter, or a trajectory too sensitive to the parameters to fit over the whole trace (a loop near its stability limit, oscillating) can leave this; see the residual plots.",
+        far.iter()
+            .map(|(n, r)| format!("{n} {r:.1}×"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    ))
+}
+
 fn bounds_of(params: &[ParamSpec], idx: &[usize]) -> Vec<Bounded> {
     idx.iter()
         .map(|&i| Bounded::new(params[i].start, params[i].min, params[i].max))
@@ -1438,7 +1463,8 @@ pub fn run<S: Simulator + ?Sized>(
     ctx.pb.finish_and_clear();
     let est_s = t_est.elapsed().as_secs_f64();
     let sim_s = ctx.sim.busy_s();
-    let warnings = bound_warnings(&parameters, &params);
+    let mut warnings = bound_warnings(&parameters, &params);
+    warnings.extend(far_from_data_warning(&outputs));
     Ok(GapResult {
         named: named_names,
         unexplained,
@@ -2124,6 +2150,28 @@ mod bound_tests {
             start: 100.0,
             at_bound: None,
         }
+    }
+
+    #[test]
+    fn far_from_data_is_warned_about_only_above_three_times_the_noise() {
+        let o = |rmse: f64| OutputErrors {
+            rmse_before: 10.0,
+            max_before: 10.0,
+            rmse_after: rmse,
+            max_after: rmse,
+            rmse_base_fit: 10.0,
+            max_base_fit: 10.0,
+            noise_sigma: 2.0,
+        };
+        let mut outs = BTreeMap::new();
+        outs.insert("theta".to_string(), o(5.9));
+        outs.insert("p".to_string(), o(2.1));
+        assert!(far_from_data_warning(&outs).is_none());
+        outs.insert("x".to_string(), o(20.8));
+        outs.insert("y".to_string(), o(6.4));
+        let w = far_from_data_warning(&outs).expect("x and y are far");
+        assert!(w.contains("x 10.4×, y 3.2×"), "{w}");
+        assert!(!w.contains("theta"), "{w}");
     }
 
     #[test]
