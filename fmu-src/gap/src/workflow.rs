@@ -1397,20 +1397,16 @@ pub fn run<S: Simulator + ?Sized>(
     // with several friction parameters can fit the training part to the noise with values the
     // held-out end contradicts. Its intervals come from this fit's Jacobian; it is kept only if
     // it lowers the whole trace's sum of squares (a failed fit keeps the training-part one).
-    let fin = if n_train < n {
+    // `n_fin`: the samples the reported fit used.
+    let (fin, n_fin) = if n_train < n {
         ctx.stage("final fit on the whole trace".to_string());
         let sse_cur = lm::sse(&cur_full_r);
         match fit_state(&ctx, &cur.state, None, &[], n, FINAL_ITERATIONS, 1e-6) {
-            Ok(f) if f.fit.sse < sse_cur => f,
-            _ => cur,
+            Ok(f) if f.fit.sse < sse_cur => (f, n),
+            _ => (cur, n_train),
         }
     } else {
-        cur
-    };
-    let n_fin = if fin.fit.residuals.len() == kout * n {
-        n
-    } else {
-        n_train
+        (cur, n_train)
     };
     let final_all = ctx
         .sim
