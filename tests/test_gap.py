@@ -44,7 +44,7 @@ def run_ok(model, csv, out, *args):
 
 
 def check_report_shape(rep, ds):
-    for key in ("named", "candidates", "parameters", "outputs", "timing"):
+    for key in ("named", "candidates", "parameters", "outputs", "timing", "redone_rounds"):
         assert key in rep
     # A warning names each parameter that ended on a bound of its range, and only those.
     on_bound = sorted(k for k, e in rep["parameters"].items() if e["at_bound"])
@@ -155,6 +155,9 @@ def test_round_is_redone_from_a_better_base(tmp_path):
     ds, csv = eval_dataset(tmp_path, "HydraulicJoint", 500028, ("valve_dynamics",))
     rep = run_ok("HydraulicJoint", csv, tmp_path / "out", "--rounds", "1")
     assert rep["named"] == ["valve_dynamics"], rep["verdict"]
+    (redone,) = rep["redone_rounds"]
+    assert redone["round"] == 1 and redone["base_delta_bic"] >= 10, redone
+    assert "Done twice" in (tmp_path / "out" / "report.md").read_text()
     for p in gapgen.effects("HydraulicJoint")["valve_dynamics"]:
         e = rep["parameters"][p]
         assert e["ci_low"] <= ds["truth"][p] <= e["ci_high"], (p, e, ds["truth"][p])

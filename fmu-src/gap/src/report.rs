@@ -16,6 +16,7 @@ pub fn to_json(res: &GapResult, fmu: &str, data: &str) -> Value {
         "named": res.named,
         "unexplained": res.unexplained,
         "candidates": res.candidates,
+        "redone_rounds": res.redone_rounds.iter().map(|(r, g)| json!({"round": r, "base_delta_bic": g})).collect::<Vec<_>>(),
         "parameters": res.parameters,
         "outputs": res.outputs,
         "timing": res.timing,
@@ -71,7 +72,11 @@ pub fn to_markdown(res: &GapResult, fmu: &str, data: &str, plots: &[String]) -> 
     }
     let _ = writeln!(s, "## Candidate effects\n");
     for (r, round) in res.candidates.iter().enumerate() {
-        let _ = writeln!(s, "### Round {}\n\n| rank | effect | ΔBIC | screening score | magnitude 95 % CI | held-out SSE with / without | visibility: max Δχ² / needed; weakest detectable setting | verdict |\n|---|---|---|---|---|---|---|---|", r + 1);
+        let _ = writeln!(s, "### Round {}\n", r + 1);
+        if let Some((_, gain)) = res.redone_rounds.iter().find(|x| x.0 == r + 1) {
+            let _ = writeln!(s, "Done twice: its base re-check improved the base fit by ΔBIC = {gain:.1}, after which no candidate refitted from the worse base reached the threshold; screened and refitted again from the better base. The table is the second pass.\n");
+        }
+        let _ = writeln!(s, "| rank | effect | ΔBIC | screening score | magnitude 95 % CI | held-out SSE with / without | visibility: max Δχ² / needed; weakest detectable setting | verdict |\n|---|---|---|---|---|---|---|---|");
         for (i, c) in round.iter().enumerate() {
             let mag = c
                 .magnitude

@@ -223,6 +223,9 @@ pub struct GapResult {
     /// Things the user should know about the fit (parameters on bounds).
     pub warnings: Vec<String>,
     pub candidates: Vec<Vec<Candidate>>,
+    /// Rounds done twice because their base re-check found a better base: (round, 1-based;
+    /// ΔBIC by which the base fit improved). `candidates` holds the second pass.
+    pub redone_rounds: Vec<(usize, f64)>,
     pub parameters: BTreeMap<String, Estimate>,
     pub outputs: BTreeMap<String, OutputErrors>,
     pub fixed: BTreeMap<String, f64>,
@@ -1042,7 +1045,7 @@ pub fn run<S: Simulator + ?Sized>(
     let mut round = 0;
     // A round is done again, once, from a better base found by its base re-check (below).
     let mut redo_round = false;
-    let mut redone_rounds: Vec<usize> = Vec::new();
+    let mut redone_rounds: Vec<(usize, f64)> = Vec::new();
     while verdict.is_empty() && (redo_round || round < cfg.rounds) {
         if !redo_round {
             round += 1;
@@ -1261,12 +1264,12 @@ pub fn run<S: Simulator + ?Sized>(
                         .fold(f64::NEG_INFINITY, f64::max);
                     if base_gain >= cfg.min_delta_bic
                         && best_now < cfg.min_delta_bic
-                        && !redone_rounds.contains(&round)
+                        && !redone_rounds.iter().any(|r| r.0 == round)
                     {
                         ctx.stage(format!(
                             "round {round}: the base re-check improved the base fit by ΔBIC = {base_gain:.1}; the round is done again from it"
                         ));
-                        redone_rounds.push(round);
+                        redone_rounds.push((round, base_gain));
                         redo_round = true;
                         continue;
                     }
@@ -1467,6 +1470,7 @@ pub fn run<S: Simulator + ?Sized>(
         verdict,
         warnings,
         candidates: rounds,
+        redone_rounds,
         parameters,
         outputs,
         fixed: cfg.fixed.iter().cloned().collect(),
