@@ -128,6 +128,15 @@ def sines(rng, t, lo, hi, f_lo, f_hi, n=3):
 
 
 INPUT_FAMILIES = ("reaches", "sines", "steps")
+HJ_ANGLE_RANGE = (math.radians(-30), math.radians(60))
+
+
+def stroke_amplitude(rng):
+    """TwistedString stroke amplitude, drawn per dataset (log-uniform, motor angle 150..1100 rad):
+    small twists are where gear_backlash shows (its offset of half the backlash is a larger part
+    of the twist, and the noise, 1 % of each signal's range, is smaller), large ones where
+    radius_growth does; one fixed range would hide one of them."""
+    return math.exp(rng.uniform(math.log(150.0), math.log(1100.0)))
 
 
 def inputs(model, rng, t, family="reaches"):
@@ -143,15 +152,11 @@ def inputs(model, rng, t, family="reaches"):
     if family != "reaches":
         return _other_inputs(model, rng, t, family)
     if model == "HydraulicJoint":
-        ref = reaches(rng, t, math.radians(-30), math.radians(60), (0.5, 1.0), (0.3, 0.9))
+        ref = reaches(rng, t, *HJ_ANGLE_RANGE, (0.5, 1.0), (0.3, 0.9))
         tau = steps(rng, t, -3.0, 3.0, (0.8, 2.0))
         return {"theta_ref": ref, "tau_ext": tau}
     if model == "TwistedString":
-        # Stroke amplitude drawn per dataset (log-uniform, motor angle 150..1100 rad): small
-        # twists are where gear_backlash shows (its offset of half the backlash is a larger part
-        # of the twist, and the noise, 1 % of each signal's range, is smaller), large ones where
-        # radius_growth does; one fixed range would hide one of them.
-        amp = math.exp(rng.uniform(math.log(150.0), math.log(1100.0)))
+        amp = stroke_amplitude(rng)
         ref = reaches(rng, t, 0.1 * amp, amp, (1.0, 2.0), (0.3, 0.8))
         f = steps(rng, t, 0.0, 40.0, (1.0, 2.5))
         return {"theta_motor_ref": ref, "F_load": f}
@@ -160,14 +165,14 @@ def inputs(model, rng, t, family="reaches"):
 
 def _other_inputs(model, rng, t, family):
     if model == "HydraulicJoint":
-        lo, hi = math.radians(-30), math.radians(60)
+        lo, hi = HJ_ANGLE_RANGE
         if family == "sines":
             return {"theta_ref": sines(rng, t, lo, hi, 0.1, 1.0),
                     "tau_ext": sines(rng, t, -3.0, 3.0, 0.05, 0.5)}
         return {"theta_ref": steps(rng, t, lo, hi, (0.6, 1.5)),
                 "tau_ext": steps(rng, t, -3.0, 3.0, (0.8, 2.0))}
     if model == "TwistedString":
-        amp = math.exp(rng.uniform(math.log(150.0), math.log(1100.0)))
+        amp = stroke_amplitude(rng)
         if family == "sines":
             return {"theta_motor_ref": sines(rng, t, 0.1 * amp, amp, 0.05, 0.4),
                     "F_load": sines(rng, t, 0.0, 40.0, 0.05, 0.4)}

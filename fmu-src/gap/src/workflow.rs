@@ -629,6 +629,15 @@ fn far_from_data_warning(outputs: &BTreeMap<String, OutputErrors>) -> Option<Str
     ))
 }
 
+/// The highest ΔBIC among the refitted candidates of a round (−∞ if none was refitted).
+fn best_refit_delta_bic(ranked: &[Candidate]) -> f64 {
+    ranked
+        .iter()
+        .filter(|c| c.refit)
+        .map(|c| c.delta_bic)
+        .fold(f64::NEG_INFINITY, f64::max)
+}
+
 fn bounds_of(params: &[ParamSpec], idx: &[usize]) -> Vec<Bounded> {
     idx.iter()
         .map(|&i| Bounded::new(params[i].start, params[i].min, params[i].max))
@@ -1043,14 +1052,10 @@ pub fn run<S: Simulator + ?Sized>(
     // no candidate's linearised ΔBIC reaches the threshold are they consistent with noise.
     let looks_like_noise = diagnosis[0].consistent_with_noise;
     let mut round = 0;
-    // A round is done again, once, from a better base found by its base re-check (below).
-    let mut redo_round = false;
+    // Rounds done again, once each, from a better base found by their base re-check (below).
     let mut redone_rounds: Vec<(usize, f64)> = Vec::new();
-    while verdict.is_empty() && (redo_round || round < cfg.rounds) {
-        if !redo_round {
-            round += 1;
-        }
-        redo_round = false;
+    while verdict.is_empty() && round < cfg.rounds {
+        round += 1;
         let remaining: Vec<usize> = (0..effects.len())
             .filter(|e| !cur.state.named.contains(e))
             .collect();
@@ -1215,11 +1220,7 @@ pub fn run<S: Simulator + ?Sized>(
         // base values; if it lowers the base sum, it becomes the current model and every
         // candidate's ΔBIC and held-out comparison are taken against it. Only needed when some
         // candidate reaches the naming threshold.
-        let best_refit = ranked
-            .iter()
-            .filter(|c| c.refit)
-            .map(|c| c.delta_bic)
-            .fold(f64::NEG_INFINITY, f64::max);
+        let best_refit = best_refit_delta_bic(&ranked);
         if let Some((_, f, _)) = fits
             .iter()
             .filter(|_| best_refit >= cfg.min_delta_bic)
@@ -1257,20 +1258,15 @@ pub fn run<S: Simulator + ?Sized>(
                     // found: if none of them still reaches the threshold, their refits say
                     // nothing about the better base, so the round is screened and refitted
                     // again from it (once per round).
-                    let best_now = ranked
-                        .iter()
-                        .filter(|c| c.refit)
-                        .map(|c| c.delta_bic)
-                        .fold(f64::NEG_INFINITY, f64::max);
                     if base_gain >= cfg.min_delta_bic
-                        && best_now < cfg.min_delta_bic
+                        && best_refit_delta_bic(&ranked) < cfg.min_delta_bic
                         && !redone_rounds.iter().any(|r| r.0 == round)
                     {
                         ctx.stage(format!(
                             "round {round}: the base re-check improved the base fit by ΔBIC = {base_gain:.1}; the round is done again from it"
                         ));
                         redone_rounds.push((round, base_gain));
-                        redo_round = true;
+                        round -= 1;
                         continue;
                     }
                 }
