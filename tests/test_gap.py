@@ -165,6 +165,25 @@ def test_round_is_redone_from_a_better_base(tmp_path):
         assert o["rmse_after"] <= 1.2 * ds["noise_sigma"][n], (n, o)
 
 
+def test_a_refit_stuck_at_the_far_end_of_a_valley_is_restarted_from_its_profile(tmp_path):
+    """TwistedString with a string radius that grows 0.91 % per turn: the base fit imitates the
+    growth with a spring about three times too stiff, and the radius_growth refit from there
+    descends to the bottom of the growth's range (ΔBIC -2.4, nothing named; measured with
+    GAP_NO_PROFILE=1). Fitting the base parameters with the growth held at each scanned setting
+    finds the valley's other end; refitted from there, radius_growth is named at its true size.
+    Dataset: scripts/gap-eval seed 700537 at 4 s; truth from the generator's draw."""
+    ds, csv = eval_dataset(tmp_path, "TwistedString", 700537, ("radius_growth",))
+    rep = run_ok("TwistedString", csv, tmp_path / "out", "--rounds", "1")
+    assert rep["named"] == ["radius_growth"], rep["verdict"]
+    (c,) = [c for c in rep["candidates"][0] if c["effect"] == "radius_growth"]
+    assert c["profiled"] and c["delta_bic"] >= 10, c
+    assert "restarted from its profile" in (tmp_path / "out" / "report.md").read_text()
+    true = ds["truth"]["radius_growth.per_turn"]
+    assert rep["parameters"]["radius_growth.per_turn"]["value"] == pytest.approx(true, rel=0.05)
+    for n, o in rep["outputs"].items():
+        assert o["rmse_after"] <= 1.2 * ds["noise_sigma"][n], (n, o)
+
+
 def test_an_effect_the_data_cannot_show_is_reported_as_such(tmp_path, monkeypatch):
     """TwistedString strokes kept at 800-1100 motor rad: the strings never untwist, the gearhead
     flank in contact never changes, so backlash is only a constant offset of the twist that
