@@ -1238,6 +1238,45 @@ pub fn run<S: Simulator + ?Sized>(
                 }),
             }
         }
+        // Profile restarts, only when no refit reaches the naming threshold (see
+        // `profile_restart`): every refitted candidate that falls short of it although the data
+        // could show it, and that predicts the held-out end no worse than the current model,
+        // within one standard deviation of a chi-square over the held-out samples, √(2 N_h) (or
+        // nothing is held out); one that predicts clearly worse is not worth the simulations.
+        if best_refit_delta_bic(&ranked) < cfg.min_delta_bic {
+            let n_held = (kout * (n - n_train)) as f64;
+            let eligible: Vec<usize> = (0..ranked.len())
+                .filter(|&i| {
+                    let c = &ranked[i];
+                    c.refit
+                        && c.delta_bic.is_finite()
+                        && match (c.holdout_sse_with, c.holdout_sse_without) {
+                            (Some(with), Some(without)) => with <= without + (2.0 * n_held).sqrt(),
+                            _ => true,
+                        }
+                })
+                .collect();
+            let restarted: Vec<(usize, Refit)> = eligible
+                .par_iter()
+                .filter_map(|&i| {
+                    let c = &ranked[i];
+                    let e = effects.iter().position(|x| x.name == c.effect)?;
+                    let k = remaining.iter().position(|&x| x == e)?;
+                    let (_, f, _) = fits.iter().find(|x| x.0 == c.effect)?;
+                    let g = profile_restart(&ctx, &cur, e, f, &starts[k].scan, given.as_ref())?;
+                    Some((i, assess(&ctx, &cur, e, c.score, &cur_full_r, g)))
+                })
+                .collect();
+            for (i, res) in restarted {
+                if let Ok((mut c, f, r)) = res {
+                    c.profiled = true;
+                    if let Some(x) = fits.iter_mut().find(|x| x.0 == c.effect) {
+                        *x = (c.effect.clone(), f, r);
+                    }
+                    ranked[i] = c;
+                }
+            }
+        }
         // Base re-check: a candidate refit also re-optimises the base parameters from a new
         // start, and a gain that the base model alone reaches from the candidate's base values
         // is the base fit's, not the effect's. Refit the base model from the best candidate's
@@ -1904,7 +1943,6 @@ fn refit<S: Simulator + ?Sized>(
     let n = ctx.n_train;
     let k = ctx.out_idx.len();
     let eff = &ctx.effects[e];
-    let scan = &start.scan;
     // From the current fit, and (for the most promising candidate of the first round) also from
     // the base parameters as given: the base fit may have bent them to mimic the effect, and
     // undoing that can trap the refit in a local minimum. The lower sum of squares wins.
@@ -1931,38 +1969,27 @@ fn refit<S: Simulator + ?Sized>(
                 .unwrap_or(std::cmp::Ordering::Equal)
         })
         .ok_or_else(|| format!("refit of {} failed from every start", eff.name))?;
-    let full_residual = |st: &ModelState| -> Result<Vec<f64>, String> {
-        let y = ctx.measured_outputs(&ctx.settings(st, None, &[]), ctx.n)?;
-        Ok(ctx.residual(&y, ctx.n))
-    };
-    let mut r_full = full_residual(&f.state)?;
-    // Profiled only when the refit predicts the held-out end no worse than the current model,
-    // within one standard deviation of a chi-square over the held-out samples, √(2 N_h) (or when
-    // nothing is held out): an effect that falls short of the evidence on the training part
-    // but not on unseen data may be under-fitted; one that predicts clearly worse is not worth
-    // the simulations.
-    let n_held = (k * (ctx.n - ctx.n_train)) as f64;
-    let helps_held_out = match (
-        holdout_sse(&r_full, k, ctx.n, ctx.n_train),
-        holdout_sse(cur_full_r, k, ctx.n, ctx.n_train),
-    ) {
-        (Some(with), Some(without)) => with <= without + (2.0 * n_held).sqrt(),
-        _ => true,
-    };
-    let (f, profiled) = match helps_held_out
-        .then(|| profile_restart(ctx, cur, e, &f, scan))
-        .flatten()
-    {
-        Some(g) => {
-            r_full = full_residual(&g.state)?;
-            (g, true)
-        }
-        None => (f, false),
-    };
     ctx.stage(format!(
         "refit {}: {} iterations, {} simulations",
         eff.name, f.fit.iterations, f.fit.evaluations
     ));
+    assess(ctx, cur, e, score, cur_full_r, f)
+}
+
+/// The candidate record of effect `e` fitted as `f` (with the current fit `cur`): its ΔBIC,
+/// parameter and magnitude intervals and held-out error. Returns it with the fit and the fit's
+/// full-trace weighted residual.
+fn assess<S: Simulator + ?Sized>(
+    ctx: &Ctx<'_, S>,
+    cur: &FitOut,
+    e: usize,
+    score: f64,
+    cur_full_r: &[f64],
+    f: FitOut,
+) -> Result<(Candidate, FitOut, Vec<f64>), String> {
+    let n = ctx.n_train;
+    let k = ctx.out_idx.len();
+    let eff = &ctx.effects[e];
     let dbic = delta_bic(&cur.fit.residuals, &f.fit.residuals, k, eff.params.len());
     let scale = row_scale(&f.fit.residuals, k);
     let all_est = estimates(&ctx.params, &f.state.idx, &f.fit, &f.bounds, &scale, n);
@@ -2005,6 +2032,8 @@ fn refit<S: Simulator + ?Sized>(
         }
     });
     // Held-out part.
+    let full = ctx.measured_outputs(&ctx.settings(&f.state, None, &[]), ctx.n)?;
+    let r_full = ctx.residual(&full, ctx.n);
     let hw = holdout_sse(&r_full, k, ctx.n, ctx.n_train);
     let hwo = hw.and(holdout_sse(cur_full_r, k, ctx.n, ctx.n_train));
     Ok((
@@ -2023,7 +2052,7 @@ fn refit<S: Simulator + ?Sized>(
             visibility_needed: 0.0,
             detectable_from: None,
             visibility_scan: Vec::new(),
-            profiled,
+            profiled: false,
         },
         f,
         r_full,
@@ -2047,6 +2076,7 @@ fn profile_restart<S: Simulator + ?Sized>(
     e: usize,
     f: &FitOut,
     scan: &[VisibilityPoint],
+    given: Option<&ModelState>,
 ) -> Option<FitOut> {
     let min_delta_bic = ctx.min_delta_bic;
     let n = ctx.n_train;
@@ -2077,21 +2107,17 @@ fn profile_restart<S: Simulator + ?Sized>(
     if points.is_empty() {
         return None;
     }
-    let profiles: Vec<(Vec<(usize, f64)>, FitOut)> = points
+    let froms: Vec<&ModelState> = std::iter::once(&cur.state).chain(given).collect();
+    let jobs: Vec<(&Vec<(usize, f64)>, &ModelState)> = points
+        .iter()
+        .flat_map(|pt| froms.iter().map(move |st| (pt, *st)))
+        .collect();
+    let profiles: Vec<(Vec<(usize, f64)>, FitOut)> = jobs
         .into_par_iter()
-        .filter_map(|pt| {
-            fit_state_holding(
-                ctx,
-                &cur.state,
-                Some(e),
-                &[],
-                &pt,
-                n,
-                PROFILE_ITERATIONS,
-                1e-3,
-            )
-            .ok()
-            .map(|p| (pt, p))
+        .filter_map(|(pt, st)| {
+            fit_state_holding(ctx, st, Some(e), &[], pt, n, PROFILE_ITERATIONS, 1e-3)
+                .ok()
+                .map(|p| (pt.clone(), p))
         })
         .collect();
     let (pt, prof) = profiles
