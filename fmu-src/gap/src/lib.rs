@@ -29,12 +29,11 @@
 //! 5. Refit of the most promising candidates (rayon; round 1 the best five unless the residuals
 //!    look like noise) from their scanned starts with base and effect parameters; ranking by
 //!    BIC with per-output noise variances and an effective sample size from the residual
-//!    autocorrelation (Bartlett-weighted), so correlated noise is not taken as evidence. When no
-//!    refit reaches the naming threshold, each one that falls short although the scan says the
-//!    data could show the effect, and that predicts the held-out end no worse (within √(2 N_h)
-//!    of chi-square), is restarted from its profile: the base parameters fitted with the effect held at each revealing scanned
-//!    setting (from their current values and from their values as given), the best refitted in
-//!    full (the base fit may have bent a base parameter to imitate
+//!    autocorrelation (Bartlett-weighted), so correlated noise is not taken as evidence. A refit
+//!    that falls short of the evidence, although the scan says the data could show the effect
+//!    and it predicts the held-out end no worse (within √(2 N_h) of chi-square), is restarted
+//!    from its profile: the base parameters fitted with the effect held at each revealing scanned
+//!    setting, the best refitted in full (the base fit may have bent a base parameter to imitate
 //!    the effect, a stiffer spring for a growing string radius, and a local descent from there
 //!    lowers the effect instead of unbending it). Before
 //!    naming, the base model is refitted from the best candidate's base values, so a gain the base

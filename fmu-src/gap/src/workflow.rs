@@ -1238,43 +1238,18 @@ pub fn run<S: Simulator + ?Sized>(
                 }),
             }
         }
-        // Profile restarts (see `profile_restart`) for every refitted candidate that falls short
-        // of the naming threshold although the data could show it, and that predicts the
-        // held-out end no worse than the current model, within one standard deviation of a
-        // chi-square over the held-out samples, √(2 N_h) (or nothing is held out; one that
-        // predicts clearly worse is not worth the simulations). When some candidate already
-        // reaches the threshold, only those whose visibility exceeds its chi-square gain: the
-        // others could not outrank it (a strong valve overlap on a 1 kHz HydraulicJoint trace
-        // left the weaker candidates' profiles costing a third of the run for nothing).
-        let best_gain = fits
-            .iter()
-            .filter(|(name, _, _)| {
-                ranked
-                    .iter()
-                    .any(|c| c.effect == *name && c.delta_bic >= cfg.min_delta_bic)
-            })
-            .map(|(_, f, _)| cur.fit.sse - f.fit.sse)
-            .fold(f64::NEG_INFINITY, f64::max);
-        {
+        // Profile restarts, only when no refit reaches the naming threshold (see
+        // `profile_restart`): every refitted candidate that falls short of it although the data
+        // could show it, and that predicts the held-out end no worse than the current model,
+        // within one standard deviation of a chi-square over the held-out samples, √(2 N_h) (or
+        // nothing is held out); one that predicts clearly worse is not worth the simulations.
+        if best_refit_delta_bic(&ranked) < cfg.min_delta_bic {
             let n_held = (kout * (n - n_train)) as f64;
             let eligible: Vec<usize> = (0..ranked.len())
                 .filter(|&i| {
                     let c = &ranked[i];
-                    let could_outrank = remaining
-                        .iter()
-                        .position(|&x| effects[x].name == c.effect)
-                        .and_then(|k| {
-                            starts[k]
-                                .scan
-                                .iter()
-                                .filter_map(|x| x.visibility)
-                                .reduce(f64::max)
-                        })
-                        .is_some_and(|v| v > best_gain);
                     c.refit
                         && c.delta_bic.is_finite()
-                        && c.delta_bic < cfg.min_delta_bic
-                        && could_outrank
                         && match (c.holdout_sse_with, c.holdout_sse_without) {
                             (Some(with), Some(without)) => with <= without + (2.0 * n_held).sqrt(),
                             _ => true,
@@ -2092,11 +2067,9 @@ const PROFILE_ITERATIONS: usize = 4;
 /// imitate the effect (a stiffer spring for a radius that grows with twist), and from there
 /// the local descent lowers the effect instead of unbending them. Profile the valley: at every
 /// scanned setting the data can reveal (above the fraction 0 of the range), fit the base
-/// parameters with the effect held there (a few iterations, in parallel), starting from their
-/// current values and from their values as given (`given`: the base fit may have bent them
-/// far); from the best of these, if it beats the refit, refit everything. Returns that fit if
-/// its sum of squares is lower than the refit's. `GAP_NO_PROFILE` in the environment turns
-/// this off (for before/after measurements).
+/// parameters with the effect held there (a few iterations, in parallel); from the best of
+/// these, if it beats the refit, refit everything. Returns that fit if its sum of squares is
+/// lower than the refit's.
 fn profile_restart<S: Simulator + ?Sized>(
     ctx: &Ctx<'_, S>,
     cur: &FitOut,
