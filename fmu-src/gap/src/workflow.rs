@@ -332,6 +332,14 @@ impl<S: Simulator + ?Sized> Ctx<'_, S> {
         s
     }
 
+    /// The chi-square drop naming effect `e` needs on the training part: `min ΔBIC + (effect
+    /// parameters) ln N` (its visibility is measured against this).
+    fn visibility_needed(&self, e: usize) -> f64 {
+        self.min_delta_bic
+            + self.effects[e].params.len() as f64
+                * ((self.n_train * self.out_idx.len()) as f64).ln()
+    }
+
     /// Simulate and return the measured outputs only, first `n` samples.
     fn measured_outputs(&self, set: &[(usize, f64)], n: usize) -> Result<Vec<Vec<f64>>, String> {
         let all = self.sim.simulate(set, n)?;
@@ -1114,8 +1122,7 @@ pub fn run<S: Simulator + ?Sized>(
         let with_visibility = |mut c: Candidate| -> Candidate {
             if let Some(k) = remaining.iter().position(|&e| effects[e].name == c.effect) {
                 let scan = &starts[k].scan;
-                let needed = cfg.min_delta_bic
-                    + effects[remaining[k]].params.len() as f64 * ((n_train * kout) as f64).ln();
+                let needed = ctx.visibility_needed(remaining[k]);
                 c.visibility = scan.iter().filter_map(|x| x.visibility).reduce(f64::max);
                 c.visibility_needed = needed;
                 c.detectable_from = scan
@@ -2067,9 +2074,12 @@ const PROFILE_ITERATIONS: usize = 4;
 /// imitate the effect (a stiffer spring for a radius that grows with twist), and from there
 /// the local descent lowers the effect instead of unbending them. Profile the valley: at every
 /// scanned setting the data can reveal (above the fraction 0 of the range), fit the base
-/// parameters with the effect held there (a few iterations, in parallel); from the best of
-/// these, if it beats the refit, refit everything. Returns that fit if its sum of squares is
-/// lower than the refit's.
+/// parameters with the effect held there (a few iterations, in parallel), starting from their
+/// current values and from their values as given (`given`: the base fit may have bent them
+/// far); from the best of these, if it beats the refit `f`, refit everything. Returns that fit
+/// if its sum of squares is lower than the refit's. Called only for refits short of the naming
+/// threshold (see `run`). `GAP_NO_PROFILE` in the environment turns it off (for before/after
+/// measurements).
 fn profile_restart<S: Simulator + ?Sized>(
     ctx: &Ctx<'_, S>,
     cur: &FitOut,
@@ -2078,29 +2088,19 @@ fn profile_restart<S: Simulator + ?Sized>(
     scan: &[VisibilityPoint],
     given: Option<&ModelState>,
 ) -> Option<FitOut> {
-    let min_delta_bic = ctx.min_delta_bic;
     let n = ctx.n_train;
-    let k = ctx.out_idx.len();
     let eff = &ctx.effects[e];
-    if std::env::var_os("GAP_NO_PROFILE").is_some()
-        || eff.params.is_empty()
-        || delta_bic(&cur.fit.residuals, &f.fit.residuals, k, eff.params.len()) >= min_delta_bic
-    {
+    if std::env::var_os("GAP_NO_PROFILE").is_some() || eff.params.is_empty() {
         return None;
     }
-    let needed = min_delta_bic + eff.params.len() as f64 * ((n * k) as f64).ln();
+    let needed = ctx.visibility_needed(e);
     let points: Vec<Vec<(usize, f64)>> = scan
         .iter()
         .filter(|x| x.fraction > 0.0 && x.visibility.is_some_and(|v| v >= needed))
         .filter_map(|x| {
             x.parameters
                 .iter()
-                .map(|(name, &v)| {
-                    ctx.params
-                        .iter()
-                        .position(|q| &q.name == name)
-                        .map(|i| (i, v))
-                })
+                .map(|(name, &v)| find_param(&ctx.params, name).ok().map(|i| (i, v)))
                 .collect::<Option<Vec<_>>>()
         })
         .collect();
