@@ -350,3 +350,34 @@ fn report_and_plots_are_written() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A lightly damped free oscillation over about ten periods (mass 4 kg against a start of 1 kg,
+/// damping 0.2 against 2 N·s/m): the direct fit from the start values locks onto a wrong
+/// period; the growing-horizon calibration (`workflow::calibrate_base`) finds the true values.
+#[test]
+fn an_oscillation_over_many_periods_is_calibrated_over_growing_horizons() {
+    let dt = 4e-3;
+    let n = 5000;
+    let time: Vec<f64> = (0..n).map(|i| i as f64 * dt).collect();
+    let u: Vec<f64> = time
+        .iter()
+        .map(|&t| if t < 0.5 { 5.0 } else { 0.0 })
+        .collect();
+    let m = Msd::new(time, u);
+    let mut rng = Rng::new(11);
+    let d = measure(&m, &[(M, 4.0), (C, 0.2)], &mut rng, 0.01, 0.0, &[0, 1]);
+    let r = workflow::run(&m, &d, &Config::default()).expect("workflow");
+    let cal = &r.calibration;
+    let growing = cal.horizons.last().expect("horizons").1;
+    // Two outputs over the training part: chi-square ~ 2 * 3500 at the truth.
+    let at_noise = 2.0 * r.train_samples as f64;
+    assert!(growing < 1.2 * at_noise, "{cal:?}");
+    assert!(cal.direct_chi2 > 10.0 * at_noise, "{cal:?}");
+    assert_eq!(cal.chosen, "growing horizons");
+    assert_eq!(cal.horizons.len(), 3, "{cal:?}");
+    for (name, truth) in [("mass", 4.0), ("damping", 0.2)] {
+        let e = &r.parameters[name];
+        assert!(e.ci_low < truth && truth < e.ci_high, "{name}: {e:?}");
+    }
+    assert!(r.named.is_empty(), "{}", r.verdict);
+}
