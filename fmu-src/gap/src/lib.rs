@@ -14,10 +14,11 @@
 //!    bounds by an active set (a parameter whose step would leave its range is held at the bound
 //!    and the step re-solved for the others), stopping only when a step gains less than both a
 //!    fraction of the sum and one unit of chi-square. The calibration runs directly over the
-//!    training part and over growing horizons (its first quarter, half, then all, each fit
-//!    starting from the previous one's values), keeping the lower sum: for a trajectory whose
-//!    phase is sensitive to the parameters (a loop near its stability limit) a long horizon's
-//!    cost has many local minima that a short one does not.
+//!    training part and, where the model reproduces its first quarter to within √2 × the noise,
+//!    over growing horizons (the first quarter, half, then all, each fit starting from the
+//!    previous one's values), keeping the lower sum: for a trajectory whose phase is sensitive to
+//!    the parameters (a loop near its stability limit) a long horizon's cost has many local
+//!    minima that a short one does not.
 //! 3. Diagnosis of the residual: RMS/noise per output and per time window, Ljung–Box whiteness,
 //!    cross-correlation with the inputs, and the operating region (quantile bins of every input
 //!    and model output, η²) that organises it best.

@@ -381,3 +381,21 @@ fn an_oscillation_over_many_periods_is_calibrated_over_growing_horizons() {
     }
     assert!(r.named.is_empty(), "{}", r.verdict);
 }
+
+/// Strong Coulomb friction hidden from the start: the base model misses even the first quarter
+/// of the trace by far, so the growing-horizon calibration has no anchor and is not continued;
+/// the direct fit is kept and the friction is named from it.
+#[test]
+fn a_model_that_misses_the_start_gets_no_growing_horizon_fit() {
+    let r = run(1, &[(M, 1.2), (FRICTION_ON, 1.0), (FRICTION_FC, 3.0)], 0.0);
+    let cal = &r.calibration;
+    let (n_first, chi2_first) = match cal.horizons[..] {
+        [first] => first,
+        _ => panic!("continued: {cal:?}"),
+    };
+    assert!(chi2_first > 2.0 * (2 * n_first) as f64, "{cal:?}");
+    assert_eq!(cal.chosen, "direct");
+    assert_eq!(r.named, vec!["friction".to_string()], "{}", r.verdict);
+    let text = cal.text(&r.traces.time, r.train_samples, 2);
+    assert!(text.contains("was not continued"), "{text}");
+}
