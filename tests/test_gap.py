@@ -171,8 +171,8 @@ def test_an_oscillating_loop_is_calibrated_over_growing_horizons(tmp_path, monke
     rep = run_ok("HydraulicJoint", csv, tmp_path / "out", "--rounds", "0")
     cal = rep["calibration"]
     assert cal["chosen"] == "growing horizons", cal
-    n = rep["train_samples"]
-    assert [h[0] for h in cal["horizons"]] == [n // 4, n // 2, n], cal
+    n_train = rep["train_samples"]
+    assert [h[0] for h in cal["horizons"]] == [n_train // 4, n_train // 2, n_train], cal
     for n, o in rep["outputs"].items():
         assert o["rmse_after"] <= 1.2 * ds["noise_sigma"][n], (n, o)
     assert "growing horizons" in (tmp_path / "out" / "report.md").read_text()

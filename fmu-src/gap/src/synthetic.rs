@@ -373,7 +373,7 @@ fn an_oscillation_over_many_periods_is_calibrated_over_growing_horizons() {
     let at_noise = 2.0 * r.train_samples as f64;
     assert!(growing < 1.2 * at_noise, "{cal:?}");
     assert!(cal.direct_chi2 > 10.0 * at_noise, "{cal:?}");
-    assert_eq!(cal.chosen, "growing horizons");
+    assert_eq!(cal.chosen, workflow::CalibrationFit::GrowingHorizons);
     assert_eq!(cal.horizons.len(), 3, "{cal:?}");
     for (name, truth) in [("mass", 4.0), ("damping", 0.2)] {
         let e = &r.parameters[name];
@@ -394,7 +394,7 @@ fn a_model_that_misses_the_start_gets_no_growing_horizon_fit() {
         _ => panic!("continued: {cal:?}"),
     };
     assert!(chi2_first > 2.0 * (2 * n_first) as f64, "{cal:?}");
-    assert_eq!(cal.chosen, "direct");
+    assert_eq!(cal.chosen, workflow::CalibrationFit::Direct);
     assert_eq!(r.named, vec!["friction".to_string()], "{}", r.verdict);
     let text = cal.text(&r.traces.time, r.train_samples, 2);
     assert!(text.contains("was not continued"), "{text}");

@@ -747,6 +747,25 @@ const CALIBRATION_HORIZONS: [f64; 2] = [0.25, 0.5];
 /// model that reproduces the start of the trace ([`calibrate_base`]).
 const HORIZON_ANCHOR_MAX_CHI2: f64 = 2.0;
 
+/// Which base calibration was kept ([`calibrate_base`]); in JSON `"direct"` or
+/// `"growing horizons"`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub enum CalibrationFit {
+    #[serde(rename = "direct")]
+    Direct,
+    #[serde(rename = "growing horizons")]
+    GrowingHorizons,
+}
+
+impl CalibrationFit {
+    fn label(self) -> &'static str {
+        match self {
+            CalibrationFit::Direct => "direct",
+            CalibrationFit::GrowingHorizons => "growing horizons",
+        }
+    }
+}
+
 /// How the base model was calibrated ([`calibrate_base`]): chi-square (weighted sum of squares
 /// over the training part) of the direct fit and of the growing-horizon fit, and which was kept.
 #[derive(Clone, Debug, Serialize)]
@@ -756,8 +775,7 @@ pub struct Calibration {
     /// last is the whole training part unless the first horizon could not be fitted well enough
     /// to go on.
     pub horizons: Vec<(usize, f64)>,
-    /// `"direct"` or `"growing horizons"`.
-    pub chosen: String,
+    pub chosen: CalibrationFit,
 }
 
 impl Calibration {
@@ -789,7 +807,7 @@ impl Calibration {
                     .map(|(n, _)| span(*n))
                     .collect::<Vec<_>>()
                     .join(", "),
-                self.chosen
+                self.chosen.label()
             ),
         }
     }
@@ -816,45 +834,47 @@ impl Calibration {
 /// has nothing to anchor on and wanders (HydraulicJoint cable friction 0.22, gap-eval seed
 /// 1300030: load_mass 0.25 kg against a true 2.2, a sum 6 % below the direct fit's, after which
 /// the screening missed the effect); the direct fit, which stays nearer the values as given, is
-/// kept. `GAP_NO_HORIZONS` in the environment leaves only the direct fit (for before/after
-/// runs).
+/// kept. Horizons shorter than 20 samples are skipped; the anchor is the first one fitted.
+/// `GAP_NO_HORIZONS` in the environment leaves only the direct fit (for before/after runs).
 fn calibrate_base<S: Simulator + ?Sized>(
     ctx: &Ctx<'_, S>,
     st0: &ModelState,
 ) -> Result<(FitOut, Calibration), String> {
-    let direct = fit_state(ctx, st0, None, &[], ctx.n_train, 20, 1e-4)?;
+    let fit_base = |from: &ModelState, n: usize| fit_state(ctx, from, None, &[], n, 20, 1e-4);
+    let direct = fit_base(st0, ctx.n_train)?;
     let mut cal = Calibration {
         direct_chi2: direct.fit.sse,
         horizons: Vec::new(),
-        chosen: "direct".to_string(),
+        chosen: CalibrationFit::Direct,
     };
     if std::env::var_os("GAP_NO_HORIZONS").is_some() {
         return Ok((direct, cal));
     }
     let k = ctx.out_idx.len();
     let mut st = st0.clone();
-    for (i, frac) in CALIBRATION_HORIZONS.into_iter().enumerate() {
+    for frac in CALIBRATION_HORIZONS {
         let n_h = (ctx.n_train as f64 * frac) as usize;
         if n_h < 20 {
             continue;
         }
         // A horizon that cannot be fitted (a simulation failing at some trial values) ends the
         // continuation; the direct fit stands regardless.
-        let Ok(f) = fit_state(ctx, &st, None, &[], n_h, 20, 1e-4) else {
+        let Ok(f) = fit_base(&st, n_h) else {
             return Ok((direct, cal));
         };
+        let anchor = cal.horizons.is_empty();
         cal.horizons.push((n_h, f.fit.sse));
-        if i == 0 && f.fit.sse > HORIZON_ANCHOR_MAX_CHI2 * (n_h * k) as f64 {
+        if anchor && f.fit.sse > HORIZON_ANCHOR_MAX_CHI2 * (n_h * k) as f64 {
             return Ok((direct, cal));
         }
         st = f.state;
     }
-    let Ok(growing) = fit_state(ctx, &st, None, &[], ctx.n_train, 20, 1e-4) else {
+    let Ok(growing) = fit_base(&st, ctx.n_train) else {
         return Ok((direct, cal));
     };
     cal.horizons.push((ctx.n_train, growing.fit.sse));
     if growing.fit.sse < direct.fit.sse {
-        cal.chosen = "growing horizons".to_string();
+        cal.chosen = CalibrationFit::GrowingHorizons;
         Ok((growing, cal))
     } else {
         Ok((direct, cal))
@@ -1157,7 +1177,9 @@ pub fn run<S: Simulator + ?Sized>(
     let (base, calibration) = calibrate_base(&ctx, &st0).map_err(GapError::Simulation)?;
     ctx.stage(format!(
         "base fit: chi-square {:.1} directly; growing horizons (samples, chi-square) {:?}; kept {}",
-        calibration.direct_chi2, calibration.horizons, calibration.chosen
+        calibration.direct_chi2,
+        calibration.horizons,
+        calibration.chosen.label()
     ));
     let mut cur = base;
     let base_all = ctx
@@ -2491,7 +2513,7 @@ mod bound_tests {
 
 #[cfg(test)]
 mod calibration_tests {
-    use super::Calibration;
+    use super::{Calibration, CalibrationFit};
 
     #[test]
     fn the_report_sentence_says_which_fit_was_kept_and_why() {
@@ -2499,7 +2521,7 @@ mod calibration_tests {
         let mut cal = Calibration {
             direct_chi2: 5000.0,
             horizons: Vec::new(),
-            chosen: "direct".into(),
+            chosen: CalibrationFit::Direct,
         };
         let t = cal.text(&time, 700, 2);
         assert!(t.contains("χ² = 5000.0") && !t.contains("horizon"), "{t}");
@@ -2509,7 +2531,7 @@ mod calibration_tests {
         assert!(t.contains("not continued") && t.contains("1.740 s"), "{t}");
         assert!(t.contains("2.0× the noise level"), "{t}");
         cal.horizons = vec![(175, 350.0), (350, 700.0), (700, 1400.0)];
-        cal.chosen = "growing horizons".into();
+        cal.chosen = CalibrationFit::GrowingHorizons;
         let t = cal.text(&time, 700, 2);
         assert!(t.contains("1.740 s, 3.490 s, 6.990 s"), "{t}");
         assert!(
