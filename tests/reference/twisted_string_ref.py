@@ -84,11 +84,17 @@ OUTPUTS = [
 
 # regularisation widths stated in the documentation
 W_TENSION = 0.01          # N
-W_BACKLASH = 1e-4         # rad (twist)
 P_EFF = 0.1               # W
 W_COULOMB = 1.0           # rad/s (motor)
 W_HYST = 0.05             # rad/s (twist)
 P_EPS = 1e-3              # m, p regularisation of the string_compliance load law
+
+# gear_backlash contact (documentation section 7, "gear_backlash as a contact")
+J_OUT = 1.5e-6                         # kg m^2, gearhead output carrier + shaft + string clamp
+K_MESH = 1000.0                        # N m/rad, mesh stiffness at the output
+D_MESH = 2.0 * math.sqrt(K_MESH * J_OUT)  # N m s/rad, critical for J_OUT on a held motor
+W_PEN = 1e-6                           # rad, smoothing of the penetration
+W_CLIP = 1e-5                          # N m, smoothing of "a flank can only push"
 
 
 def pos(x, w):
@@ -111,7 +117,8 @@ def pos_integral(x, w):
 
 class Model:
     """The documented equations. State y = [i, theta_m, omega_m, p, v, z_i, z_w, E_el, E_loss,
-    E_kin] (the last three: energy integrals of documentation section 9)."""
+    E_kin] (E_*: energy integrals of documentation section 9), with gear_backlash followed by
+    [delta, omega_t] (position of the gearhead output in the gap, output speed)."""
 
     def __init__(self, prm: dict):
         self.q = dict(DEFAULTS)
@@ -123,19 +130,36 @@ class Model:
         self.N = q["gear_ratio"]
         self.compl = bool(q["string_compliance.enabled"])
         self.c = q["string_compliance.a3"] if self.compl else 1.0 / q["string_stiffness"]
+        self.backlash = bool(q["gear_backlash.enabled"])
+        self.dim = 12 if self.backlash else 10
 
     # --- kinematics of the gearhead output ---------------------------------------------
-    def twist(self, th_m):
-        """(theta_t, d theta_t / d theta_m): theta_m / N, or its backlash dead zone."""
-        x = th_m / self.N
-        if not self.q["gear_backlash.enabled"]:
-            return x, 1.0 / self.N
-        h = 0.5 * self.q["gear_backlash.angle"]
-        up, dn = x - h, -x - h
-        su, sd = math.sqrt(up * up + W_BACKLASH ** 2), math.sqrt(dn * dn + W_BACKLASH ** 2)
-        val = 0.5 * (up + su) - 0.5 * (dn + sd)
-        slope = 0.5 * (1 + up / su) + 0.5 * (1 + dn / sd)
-        return val, slope / self.N
+    def twist(self, y):
+        """(theta_t, omega_t): the gearhead output angle and speed. Rigid gearhead: theta_m / N and
+        omega_m / N. gear_backlash: theta_t = theta_m / N - delta with the position delta of the
+        output in the gap and the output speed omega_t as states y[10], y[11]."""
+        if not self.backlash:
+            return y[1] / self.N, y[2] / self.N
+        return y[1] / self.N - y[10], y[11]
+
+    def contact(self, delta, delta_rate):
+        """Torque of the gear flanks on the output and its elastic part (doc. section 7): each
+        flank pushes with pos(k pos(pen) + d pos'(pen) pen_rate) (a Kelvin-Voigt mesh that acts
+        only in contact and cannot pull), pen = +-delta - b/2."""
+        half = 0.5 * self.q["gear_backlash.angle"]
+        tau = elastic = 0.0
+        for sgn in (1.0, -1.0):
+            pen, rate = sgn * delta - half, sgn * delta_rate
+            root = math.sqrt(pen * pen + W_PEN ** 2)
+            r, dr = 0.5 * (pen + root), 0.5 * (1.0 + pen / root)
+            tau += sgn * pos(K_MESH * r + D_MESH * dr * rate, W_CLIP)
+            elastic += sgn * K_MESH * r
+        return tau, elastic
+
+    def contact_energy(self, delta):
+        """Elastic energy of the flanks, k (Phi(delta - b/2) + Phi(-delta - b/2))."""
+        half = 0.5 * self.q["gear_backlash.angle"]
+        return K_MESH * (pos_integral(delta - half, W_PEN) + pos_integral(-delta - half, W_PEN))
 
     def arc(self, th_t):
         """Twist arc a = theta_t r(theta_t) and a' with r = r0 (1 + g |theta_t| / 2pi)."""
@@ -156,8 +180,7 @@ class Model:
 
     def strings(self, y):
         """Tension and forces of the helix for state y."""
-        th_t, dth = self.twist(y[1])
-        w_t = dth * y[2]
+        th_t, w_t = self.twist(y)
         a, ad = self.arc(th_t)
         p, v = y[3], y[4]
         L = math.hypot(p, a)
@@ -178,7 +201,7 @@ class Model:
             T = x                      # strand tension from strand stretch
             FL = T * p / L             # eq. 12/19: F_L = T cos(alpha)
             P_kin = 0.0
-        return dict(th_t=th_t, dth=dth, w_t=w_t, a=a, ad=ad, L=L, dLf=dLf, T=T, stretch=stretch,
+        return dict(th_t=th_t, w_t=w_t, a=a, ad=ad, L=L, dLf=dLf, T=T, stretch=stretch,
                     FL=FL, Ftau=T * a / L, tauL=T * a * ad / L,
                     P_damp=(x - elastic) * stretch_rate, P_kin=P_kin)
 
@@ -206,10 +229,20 @@ class Model:
             tau_h = (q["twist_hysteresis.friction_coefficient"] * s["T"] * s["ad"]
                      * math.tanh(s["w_t"] / W_HYST))
             tau_out += tau_h
+        # torque and speed of the gear output as the gear sees them: the strings' torque and the
+        # twist rate (rigid gearhead), or the flank torque and the motor side's speed (backlash)
+        P_contact = 0.0
+        if self.backlash:
+            delta_rate = y[2] / self.N - y[11]
+            tau_gear, tau_el = self.contact(y[10], delta_rate)
+            P_contact = (tau_gear - tau_el) * delta_rate
+            w_gear = y[2] / self.N
+        else:
+            tau_gear, w_gear = tau_out, s["w_t"]
         eta = q["gear_efficiency"]
-        P = tau_out * s["w_t"]
+        P = tau_gear * w_gear
         f = 0.5 * (1 / eta + eta) + 0.5 * (1 / eta - eta) * math.tanh(P / P_EFF)
-        tau_in = f * s["dth"] * tau_out
+        tau_in = f * tau_gear / self.N
         fric = 0.0
         if q["motor_friction.enabled"]:
             fric = (q["motor_friction.coulomb"] * math.tanh(y[2] / W_COULOMB)
@@ -221,12 +254,15 @@ class Model:
         m = q["load_mass"]
         dv = (m * G + fload + Fs - s["FL"] - q["guide_damping"] * y[4]) / m
         # dissipated power (doc. section 9): copper, k_e/k_t mismatch, gearhead, motor friction,
-        # strand friction, guides, string damping
+        # strand friction, guides, string damping, gear-flank damping
         P_loss = (q["motor_resistance"] * y[0] ** 2
                   + (q["back_emf_constant"] - q["torque_constant"]) * y[0] * y[2]
                   + (f - 1.0) * P + fric * y[2] + tau_h * s["w_t"]
-                  + q["guide_damping"] * y[4] ** 2 + s["P_damp"])
-        return [di, y[2], dw, y[4], dv, dzi, dzw, u * y[0], P_loss, s["P_kin"]]
+                  + q["guide_damping"] * y[4] ** 2 + s["P_damp"] + P_contact)
+        dy = [di, y[2], dw, y[4], dv, dzi, dzw, u * y[0], P_loss, s["P_kin"]]
+        if self.backlash:
+            dy += [delta_rate, (tau_gear - tau_out) / J_OUT]
+        return dy
 
     def stored(self, y):
         """E_stored: L i^2/2 + J w^2/2 + m v^2/2 + (m g + F0)(L0 - p) + k (L0 - p)^2/2 + c Phi(s/c)."""
@@ -236,7 +272,8 @@ class Model:
         return (0.5 * q["motor_inductance"] * y[0] ** 2 + 0.5 * q["rotor_inertia"] * y[2] ** 2
                 + 0.5 * q["load_mass"] * y[4] ** 2
                 + (q["load_mass"] * G + q["spring_preload"]) * d + 0.5 * q["spring_stiffness"] * d * d
-                + self.c * pos_integral(s["stretch"] / self.c, W_TENSION))
+                + self.c * pos_integral(s["stretch"] / self.c, W_TENSION)
+                + (0.5 * J_OUT * y[11] ** 2 + self.contact_energy(y[10]) if self.backlash else 0.0))
 
     def outputs(self, y, w_ref, volt):
         q = self.q
@@ -269,7 +306,8 @@ class Model:
         b = q["load_mass"] * G + fload + q["spring_preload"]
         def residual(x):
             p0 = q["string_length"] + self.c * x
-            y = np.array([0.0, 0.0, 0.0, p0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+            y = np.zeros(self.dim)
+            y[3] = p0
             Fs = q["spring_preload"] + q["spring_stiffness"] * (q["string_length"] - p0)
             return self.strings(y)["FL"] - (q["load_mass"] * G + fload + Fs)
         # bisection (monotone), independent of the Rust Newton iteration
@@ -281,8 +319,11 @@ class Model:
             else:
                 lo = mid
         x = 0.5 * (lo + hi)
-        return np.array([0.0, 0.0, 0.0, q["string_length"] + self.c * x, 0.0, 0.0, 0.0,
-                         0.0, 0.0, 0.0])
+        # at rest untwisted the strings exert no torque: the output rests in the middle of the
+        # gap (delta = 0, omega_t = 0 with gear_backlash)
+        y = np.zeros(self.dim)
+        y[3] = q["string_length"] + self.c * x
+        return y
 
 
 def input_at(tv, t):
@@ -300,7 +341,8 @@ def input_at(tv, t):
     return float(np.interp(t, times, vals))
 
 
-NOMINAL = np.array([1.0, 1.0, 10.0, 0.01, 0.01, 1e-3, 1.0, 1.0, 1.0, 1.0])
+# gear_backlash states: delta 1e-2 rad, omega_t 1 rad/s
+NOMINAL = np.array([1.0, 1.0, 10.0, 0.01, 0.01, 1e-3, 1.0, 1.0, 1.0, 1.0, 1e-2, 1.0])
 
 
 def simulate(params: dict | None = None, inputs: dict | None = None, t_end: float = 1.0,
@@ -323,7 +365,7 @@ def simulate(params: dict | None = None, inputs: dict | None = None, t_end: floa
     w_ref = 0.0
     internal = bool(q["internal_controller"])
     quantum = 2 * math.pi / (4 * q["encoder_cpt"])
-    atol = atol_scale * NOMINAL
+    atol = atol_scale * NOMINAL[:model.dim]
 
     w_ext = 0.0  # work of F_load: held over each step, so F_load * (change of p) exactly
 

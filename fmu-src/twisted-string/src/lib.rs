@@ -14,7 +14,7 @@ pub mod plant;
 use controller::{position_loop, PositionLoop};
 use fmi2_export::{Model, Variable};
 use physics::*;
-use plant::{ix, Inputs, Params, Plant, DIM, NOMINAL, P_MIN_OUTPUT};
+use plant::{ix, Inputs, Params, Plant, DIM, DIM_BASE, NOMINAL, P_MIN_OUTPUT};
 use serde::{Deserialize, Serialize};
 
 /// 8000 rpm in rad/s: maximum permissible input speed of the GP 26 A gearhead (paper sec. 6).
@@ -23,9 +23,12 @@ pub const RPM8000: f64 = 8000.0 * std::f64::consts::PI / 30.0;
 /// per degree of twist error, `K = 0.0035 * 837.758 rad/s * (180/pi) / 19.2` per rad of motor
 /// angle = 8.7501 1/s.
 pub const POSITION_P_SI: f64 = 0.0035 * RPM8000 * (180.0 / std::f64::consts::PI) / 19.2;
-/// `sqrt(DIM_DYN / DIM)`: scale of the tolerances handed to the integrator so that the RMS error
-/// norm over the 7 dynamic states is held to `rtol`/`atol` as without the 3 energy quadratures.
+/// `sqrt(DIM_DYN / DIM_BASE)`: scale of the tolerances handed to the integrator so that the RMS
+/// error norm over the 7 dynamic states is held to `rtol`/`atol` as without the 3 energy
+/// quadratures.
 pub const TOL_NORM_SCALE: f64 = 0.836_660_026_534_075_5;
+/// `sqrt((DIM_DYN + 2) / DIM)`: the same with the two `gear_backlash` states (9 of 12).
+pub const TOL_NORM_SCALE_BACKLASH: f64 = 0.866_025_403_784_438_6;
 /// Largest number of position-loop samples one `fmi2DoStep` may span (keeps a huge step from
 /// hanging the importer: it is refused with a message instead).
 pub const MAX_SAMPLES_PER_STEP: f64 = 2e5;
@@ -368,7 +371,10 @@ impl Model for TwistedString {
         TwistedString {
             par: Params::default(),
             y: [0.0; DIM],
-            integ: ode::Integrator::new(1e-6, NOMINAL.iter().map(|n| 1e-6 * n).collect()),
+            integ: ode::Integrator::new(
+                1e-6,
+                NOMINAL[..DIM_BASE].iter().map(|n| 1e-6 * n).collect(),
+            ),
             pos: PositionLoop::default(),
             t0: 0.0,
             theta_meas: 0.0,
@@ -390,10 +396,15 @@ impl Model for TwistedString {
         // by sqrt(DIM_DYN / DIM) keeps the accepted steps of the dynamic states as they were
         // without the quadratures. (The quadratures are integrated from 0 in each call, see
         // `quadrature_offsets`, so that they stay visible to the error norm.)
-        let f = TOL_NORM_SCALE;
+        let n = plant::state_dim(&par);
+        let f = if n == DIM_BASE {
+            TOL_NORM_SCALE
+        } else {
+            TOL_NORM_SCALE_BACKLASH
+        };
         self.integ = ode::Integrator::new(
             f * par.rtol,
-            NOMINAL.iter().map(|n| f * par.atol * n).collect(),
+            NOMINAL[..n].iter().map(|n| f * par.atol * n).collect(),
         );
         self.integ.set_max_steps(200_000);
         self.pos = PositionLoop::default();
@@ -485,7 +496,8 @@ impl Model for TwistedString {
                 par: &self.par,
                 inp,
             };
-            let res = self.integ.integrate(&plant, tc, t_next, &mut self.y);
+            let n = plant::state_dim(&self.par);
+            let res = self.integ.integrate(&plant, tc, t_next, &mut self.y[..n]);
             self.y[ix::THETA] += inp.theta_offset;
             for (k, e) in QUADRATURES.iter().zip(e_offset) {
                 self.y[*k] += e;
@@ -657,8 +669,10 @@ mod tests {
 
     #[test]
     fn tolerance_scale_matches_state_counts() {
-        let f = (plant::DIM_DYN as f64 / DIM as f64).sqrt();
+        let f = (plant::DIM_DYN as f64 / DIM_BASE as f64).sqrt();
         assert!((TOL_NORM_SCALE - f).abs() < 1e-15);
+        let f = ((plant::DIM_DYN + DIM - DIM_BASE) as f64 / DIM as f64).sqrt();
+        assert!((TOL_NORM_SCALE_BACKLASH - f).abs() < 1e-15);
     }
 
     #[test]

@@ -6,23 +6,41 @@
 //! z_w = int(omega_ref - omega_m) dt [rad]; energy integrals (issue 8 item 6, see the
 //! documentation section "Energy balance"): 7 E_electrical = int u i dt [J], 8 E_loss = int of
 //! the dissipated powers [J], 9 E_kinematic = int of the non-conservative exchange of the
-//! `string_compliance` law [J]. The energy states feed nothing back (quadratures).
+//! `string_compliance` law [J]. The energy states feed nothing back (quadratures). With
+//! `gear_backlash` two more: 10 delta = theta_m / N - theta_t, the position of the gearhead output
+//! in the gap [rad], and 11 omega_t, the output speed [rad/s] (documentation, section 7); the
+//! solver then integrates 12 states, otherwise the first 10.
 
 use crate::controller::{pi_integrator_rate, pi_output};
 use crate::physics::*;
 use serde::{Deserialize, Serialize};
 
-/// Number of states.
-pub const DIM: usize = 10;
-/// Number of physical and controller states (the rest are energy quadratures).
+/// Largest number of states (with `gear_backlash`).
+pub const DIM: usize = 12;
+/// Number of states without `gear_backlash`: physical, controller and energy states.
+pub const DIM_BASE: usize = 10;
+/// Number of physical and controller states without `gear_backlash` (then followed by the
+/// energy quadratures).
 pub const DIM_DYN: usize = 7;
 /// Nominal magnitude of each state: the absolute tolerance of state k is `atol * NOMINAL[k]`
-/// (energies 1 J).
-pub const NOMINAL: [f64; DIM] = [1.0, 1.0, 10.0, 0.01, 0.01, 1e-3, 1.0, 1.0, 1.0, 1.0];
+/// (energies 1 J; gear_backlash: delta 1e-2 rad, about the gap, omega_t 1 rad/s).
+pub const NOMINAL: [f64; DIM] = [
+    1.0, 1.0, 10.0, 0.01, 0.01, 1e-3, 1.0, 1.0, 1.0, 1.0, 1e-2, 1.0,
+];
 /// Smoothing width of the slack regularisation of the strand tension [N].
 pub const TENSION_WIDTH: f64 = 1e-2;
-/// Smoothing width of the backlash dead-zone edges [rad of twist].
-pub const BACKLASH_WIDTH: f64 = 1e-4;
+/// Inertia of the gearhead output with `gear_backlash` [kg.m2]: output planet carrier with its
+/// planets, output shaft and string clamp (documentation, section 7; estimate).
+pub const GEAR_OUTPUT_INERTIA: f64 = 1.5e-6;
+/// Contact law of the gear flanks at the output with `gear_backlash` (documentation, section 7):
+/// stiffness 1000 N.m/rad, damping `2 sqrt(k J_out)` (critical for the output on a held motor),
+/// smoothing widths 1e-6 rad (penetration) and 1e-5 N.m (push only).
+pub const MESH: Mesh = Mesh {
+    k: 1000.0,
+    d: 0.077_459_666_924_148_34,
+    w_pen: 1e-6,
+    w_tau: 1e-5,
+};
 /// Power scale of the gearhead efficiency direction switch [W].
 pub const EFFICIENCY_POWER_WIDTH: f64 = 0.1;
 /// Speed scale of the Coulomb motor friction [rad/s] (motor shaft).
@@ -46,6 +64,20 @@ pub mod ix {
     pub const E_EL: usize = 7;
     pub const E_LOSS: usize = 8;
     pub const E_KIN: usize = 9;
+    /// gear_backlash: position of the output in the gap, theta_m / N - theta_t [rad].
+    pub const DELTA: usize = 10;
+    /// gear_backlash: output (twist) speed [rad/s].
+    pub const OMEGA_T: usize = 11;
+}
+
+/// Number of states the solver integrates for these parameters: 12 with `gear_backlash`
+/// (its two states follow the energy integrals), 10 otherwise.
+pub fn state_dim(q: &Params) -> usize {
+    if q.backlash.is_some() {
+        DIM
+    } else {
+        DIM_BASE
+    }
 }
 
 /// Every parameter in SI units (read from the variable table at initialization).
@@ -87,7 +119,7 @@ pub struct Params {
     pub hysteresis: Option<f64>,
     /// `motor_friction`: (Coulomb [N.m], viscous [N.m.s/rad]).
     pub motor_friction: Option<(f64, f64)>,
-    /// `gear_backlash`: total backlash at the output [rad].
+    /// `gear_backlash`: total backlash at the output [rad] (adds the states delta, omega_t).
     pub backlash: Option<f64>,
     /// `radius_growth`: relative radius growth per turn of twist.
     pub radius_growth: Option<f64>,
@@ -120,7 +152,6 @@ pub struct Inputs {
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Aux {
     pub theta_t: f64,
-    pub dtheta_t: f64,
     pub omega_t: f64,
     pub a: f64,
     pub da: f64,
@@ -131,13 +162,16 @@ pub struct Aux {
     pub f_axial: f64,
     pub f_tangential: f64,
     pub tau_out: f64,
+    /// Torque the gear passes to the output [N.m]: tau_out, or with `gear_backlash` the flank
+    /// torque.
+    pub tau_gear: f64,
     pub tau_in: f64,
     pub u: f64,
     pub i_ref: f64,
     /// Electrical input power `u i` [W].
     pub p_el: f64,
     /// Dissipated power (copper, conversion mismatch, gearhead, motor friction, strand
-    /// friction, guides, string damping) [W].
+    /// friction, guides, string damping, gear-flank damping) [W].
     pub p_loss: f64,
     /// Non-conservative exchange power of the `string_compliance` law [W] (0 without it).
     pub p_kin: f64,
@@ -171,9 +205,13 @@ impl Plant<'_> {
         let (i, th_m, om, p, v, zi, zw) = self.unpack(y);
         let n = q.gear_ratio;
         let q_p = (p * p + P_EPS * P_EPS).sqrt();
-        // gearhead output = twist angle (with optional backlash dead zone)
-        let (theta_t, dtheta_t) = twist_angle(th_m, n, q.backlash.map(|b| (b, BACKLASH_WIDTH)));
-        let omega_t = dtheta_t * om;
+        // gearhead output = twist angle: rigid theta_m / N, or with backlash the output's own
+        // angle theta_m / N - delta and speed omega_t (states)
+        let dtheta_t = 1.0 / n;
+        let (theta_t, omega_t) = match q.backlash {
+            None => (th_m / n, dtheta_t * om),
+            Some(_) => (th_m / n - y[ix::DELTA], y[ix::OMEGA_T]),
+        };
         // helix geometry (eq. 9), optional radius growth
         let (a, da) = twist_arc(theta_t, q.string_radius, q.radius_growth.unwrap_or(0.0));
         let l = strand_length(p, a);
@@ -200,10 +238,23 @@ impl Plant<'_> {
             None => 0.0,
         };
         let tau_out = tau_l + tau_h;
+        // torque through the gear and the speed of its output as the motor side sees it: the
+        // strings' torque at the twist rate (rigid), or the flank torque at omega_m / N (backlash)
+        let (tau_gear, omega_gear, mesh) = match q.backlash {
+            None => (tau_out, omega_t, None),
+            Some(b) => {
+                let rate = dtheta_t * om - y[ix::OMEGA_T];
+                let f = flank_torque(y[ix::DELTA], rate, b, &MESH);
+                (f.tau, dtheta_t * om, Some((f, rate)))
+            }
+        };
         // gearhead: reflect to the motor with the efficiency in the direction of power flow
-        let (f_eta, _) =
-            gear_efficiency_factor(tau_out * omega_t, q.gear_efficiency, EFFICIENCY_POWER_WIDTH);
-        let tau_in = f_eta * dtheta_t * tau_out;
+        let (f_eta, _) = gear_efficiency_factor(
+            tau_gear * omega_gear,
+            q.gear_efficiency,
+            EFFICIENCY_POWER_WIDTH,
+        );
+        let tau_in = f_eta * dtheta_t * tau_gear;
         let tau_fric = match q.motor_friction {
             Some((tc, b)) => motor_friction(om, tc, b, FRICTION_SPEED_WIDTH).0,
             None => 0.0,
@@ -238,20 +289,27 @@ impl Plant<'_> {
         // power balance (documentation, "Energy balance"): elastic part of the string law
         let t_el = smooth_pos(s / c, TENSION_WIDTH).0;
         let p_el = u * i;
-        let p_loss = q.motor_resistance * i * i
+        let mut p_loss = q.motor_resistance * i * i
             + (q.back_emf_constant - q.torque_constant) * i * om
-            + (f_eta - 1.0) * tau_out * omega_t
+            + (f_eta - 1.0) * tau_gear * omega_gear
             + tau_fric * om
             + tau_h * omega_t
             + f_guide * v
             + (x - t_el) * s_dot;
+        // backlash: the output and the damping of the flanks
+        let (d_delta, d_omega_t) = match mesh {
+            Some((f, rate)) => {
+                p_loss += (f.tau - f.elastic) * rate;
+                (rate, (f.tau - tau_out) / GEAR_OUTPUT_INERTIA)
+            }
+            None => (0.0, 0.0),
+        };
         let p_kin = match q.compliance {
             Some(_) => x * ((l / q_p) * (s_dot + dlfree * omega_t) - s_dot),
             None => 0.0,
         };
         Aux {
             theta_t,
-            dtheta_t,
             omega_t,
             a,
             da,
@@ -262,35 +320,45 @@ impl Plant<'_> {
             f_axial,
             f_tangential,
             tau_out,
+            tau_gear,
             tau_in,
             u,
             i_ref,
             p_el,
             p_loss,
             p_kin,
-            dy: [di, om, dom, v, dv, dzi, dzw, p_el, p_loss, p_kin],
+            dy: [
+                di, om, dom, v, dv, dzi, dzw, p_el, p_loss, p_kin, d_delta, d_omega_t,
+            ],
         }
     }
 }
 
 impl ode::OdeSystem for Plant<'_> {
     fn dim(&self) -> usize {
-        DIM
+        state_dim(self.par)
     }
     fn rhs(&self, _t: f64, y: &[f64], dydt: &mut [f64]) {
-        dydt.copy_from_slice(&self.eval(y).dy);
+        let n = dydt.len();
+        dydt.copy_from_slice(&self.eval(y).dy[..n]);
     }
     fn autonomous(&self) -> bool {
         true
     }
-    /// The energy integrals 7..9 feed nothing back.
+    /// The energy integrals 7..9 feed nothing back; they are trailing only without
+    /// `gear_backlash` (whose states follow them), so only then are they declared.
     fn quadratures(&self) -> usize {
-        DIM - DIM_DYN
+        if self.par.backlash.is_some() {
+            0
+        } else {
+            DIM_BASE - DIM_DYN
+        }
     }
     fn jacobian(&self, _t: f64, y: &[f64], jac: &mut nalgebra::DMatrix<f64>) -> bool {
+        let n = y.len();
         let j = self.jacobian_rows(y);
-        for (r, row) in j.iter().enumerate() {
-            for (c, v) in row.iter().enumerate() {
+        for (r, row) in j.iter().take(n).enumerate() {
+            for (c, v) in row.iter().take(n).enumerate() {
                 jac[(r, c)] = *v;
             }
         }
@@ -298,7 +366,7 @@ impl ode::OdeSystem for Plant<'_> {
     }
 }
 
-/// Gradient of a scalar with respect to the 7 states.
+/// Gradient of a scalar with respect to the states.
 type Grad = [f64; DIM];
 
 #[inline]
@@ -321,13 +389,6 @@ fn lin(a: f64, x: &Grad, b: f64, y: &Grad) -> Grad {
 #[inline]
 fn scale(a: f64, x: &Grad) -> Grad {
     lin(a, x, 0.0, x)
-}
-
-/// Second derivative of [`smooth_pos`]: `w^2 / (2 (x^2 + w^2)^(3/2))`.
-#[inline]
-fn smooth_pos_dd(x: f64, w: f64) -> f64 {
-    let q = x * x + w * w;
-    0.5 * w * w / (q * q.sqrt())
 }
 
 /// Derivative of the clamping anti-windup integrator rate `e (1 - s)` (see
@@ -363,29 +424,26 @@ impl Plant<'_> {
             unit(5),
             unit(6),
         );
+        let (e_delta, e_omt) = (unit(ix::DELTA), unit(ix::OMEGA_T));
         let zero = [0.0; DIM];
-        // gearhead output: theta_t, g = dtheta_t/dtheta_m, g_th = dg/dtheta_m
-        let x = th_m / n;
-        let (theta_t, g, g_th) = match q.backlash {
-            None => (x, 1.0 / n, 0.0),
-            Some(b) => {
-                let h = 0.5 * b;
-                let (y1, d1) = smooth_pos(x - h, BACKLASH_WIDTH);
-                let (y2, d2) = smooth_pos(-x - h, BACKLASH_WIDTH);
-                let dd =
-                    smooth_pos_dd(x - h, BACKLASH_WIDTH) - smooth_pos_dd(-x - h, BACKLASH_WIDTH);
-                (y1 - y2, (d1 + d2) / n, dd / (n * n))
-            }
+        // gearhead output (twist) angle and speed with their gradients, g = 1/N
+        let g = 1.0 / n;
+        let (theta_t, d_th_t, omega_t, d_omega_t) = match q.backlash {
+            None => (th_m / n, scale(g, &e_th), g * om, scale(g, &e_om)),
+            Some(_) => (
+                th_m / n - y[ix::DELTA],
+                lin(g, &e_th, -1.0, &e_delta),
+                y[ix::OMEGA_T],
+                e_omt,
+            ),
         };
-        let omega_t = g * om;
-        let d_omega_t = lin(g_th * om, &e_th, g, &e_om);
         // arc a = theta_t r(theta_t), a' and a''
         let k = q.radius_growth.unwrap_or(0.0) / (2.0 * std::f64::consts::PI);
         let r0 = q.string_radius;
         let (a, da) = twist_arc(theta_t, r0, q.radius_growth.unwrap_or(0.0));
         let dda = 2.0 * r0 * k * sign_fwd(theta_t);
-        let d_a = scale(da * g, &e_th);
-        let d_da = scale(dda * g, &e_th);
+        let d_a = scale(da, &d_th_t);
+        let d_da = scale(dda, &d_th_t);
         let l = strand_length(p, a);
         let d_l = lin(p / l, &e_p, a / l, &d_a);
         let (lf_p, lf_pp) = match q.compliance {
@@ -399,8 +457,8 @@ impl Plant<'_> {
             Some((a1, a2, _)) => free_length(n * theta_t, q.string_length, a1, a2).0,
             None => q.string_length,
         };
-        let d_lf = scale(lf_p * g, &e_th);
-        let d_lf_p = scale(lf_pp * g, &e_th);
+        let d_lf = scale(lf_p, &d_th_t);
+        let d_lf_p = scale(lf_pp, &d_th_t);
         let c = q.compliance_c();
         let s = l - lfree;
         let d_s = lin(1.0, &d_l, -1.0, &d_lf);
@@ -462,15 +520,30 @@ impl Plant<'_> {
                 d_tau[kk] += d_tau_h[kk];
             }
         }
-        let power = tau_out * omega_t;
-        let d_power = lin(omega_t, &d_tau, tau_out, &d_omega_t);
+        // torque through the gear and its output speed on the motor side (see Plant::eval)
+        let (tau_g, d_tau_g, omega_g, d_omega_g, mesh) = match q.backlash {
+            None => (tau_out, d_tau, omega_t, d_omega_t, None),
+            Some(b) => {
+                let rate = g * om - y[ix::OMEGA_T];
+                let d_rate = lin(g, &e_om, -1.0, &e_omt);
+                let f = flank_torque(y[ix::DELTA], rate, b, &MESH);
+                let d_tg = lin(f.d_delta, &e_delta, f.d_rate, &d_rate);
+                (
+                    f.tau,
+                    d_tg,
+                    g * om,
+                    scale(g, &e_om),
+                    Some((f, rate, d_rate)),
+                )
+            }
+        };
+        let power = tau_g * omega_g;
+        let d_power = lin(omega_g, &d_tau_g, tau_g, &d_omega_g);
         let (f_eta, df_dp) =
             gear_efficiency_factor(power, q.gear_efficiency, EFFICIENCY_POWER_WIDTH);
         let mut d_tau_in = [0.0; DIM];
         for kk in 0..DIM {
-            d_tau_in[kk] = df_dp * d_power[kk] * g * tau_out
-                + f_eta * g_th * e_th[kk] * tau_out
-                + f_eta * g * d_tau[kk];
+            d_tau_in[kk] = df_dp * d_power[kk] * g * tau_g + f_eta * g * d_tau_g[kk];
         }
         let (fric, d_fric) = match q.motor_friction {
             Some((tc, b)) => {
@@ -523,6 +596,17 @@ impl Plant<'_> {
         jr[ix::P] = e_v;
         jr[ix::ZI] = d_dzi;
         jr[ix::ZW] = d_dzw;
+        if let Some((_, _, d_rate)) = mesh {
+            // output in the gap: d delta/dt = omega_m / N - omega_t,
+            // J_out d omega_t/dt = tau_gear - tau_out; flank damping power (tau - elastic) rate
+            jr[ix::DELTA] = d_rate;
+            jr[ix::OMEGA_T] = lin(
+                1.0 / GEAR_OUTPUT_INERTIA,
+                &d_tau_g,
+                -1.0 / GEAR_OUTPUT_INERTIA,
+                &d_tau,
+            );
+        }
         // energy quadratures: gradients of the powers of Plant::eval
         let (r, kdiff) = (q.motor_resistance, q.back_emf_constant - q.torque_constant);
         let (t_el, dt_el) = smooth_pos(s / c, TENSION_WIDTH);
@@ -541,6 +625,13 @@ impl Plant<'_> {
                 + (d_x[kk] - d_tel[kk]) * s_dot
                 + (xt - t_el) * d_sdot[kk];
         }
+        if let Some((f, rate, d_rate)) = mesh {
+            let d_el = scale(f.d_elastic, &e_delta);
+            for kk in 0..DIM {
+                jr[ix::E_LOSS][kk] +=
+                    (d_tau_g[kk] - d_el[kk]) * rate + (f.tau - f.elastic) * d_rate[kk];
+            }
+        }
         if q.compliance.is_some() {
             let qp = (p * p + P_EPS * P_EPS).sqrt();
             let lfd = lf_p * omega_t;
@@ -558,10 +649,23 @@ impl Plant<'_> {
 }
 
 /// Stored energy [J] (documentation, "Energy balance"): magnetic `L i^2/2`, rotor `J omega^2/2`,
-/// load `m v^2/2`, gravity and return spring [`load_potential`] (zero at p = L0), and the elastic
+/// load `m v^2/2`, gravity and return spring [`load_potential`] (zero at p = L0), the elastic
 /// energy of the string law `c Phi(s/c)` ([`smooth_pos_primitive`], s = L - L_free, c = a3 or
-/// 1/string_stiffness). Along any solution `d/dt E_stored = u i + F_load v - P_loss - P_kin`.
+/// 1/string_stiffness), and with `gear_backlash` the output's `J_out omega_t^2/2` and the flanks'
+/// [`flank_energy`]. Along any solution `d/dt E_stored = u i + F_load v - P_loss - P_kin`.
 pub fn stored_energy(q: &Params, y: &[f64]) -> f64 {
+    let gear = match q.backlash {
+        Some(b) => {
+            quadratic_energy(GEAR_OUTPUT_INERTIA, y[ix::OMEGA_T])
+                + flank_energy(y[ix::DELTA], b, &MESH)
+        }
+        None => 0.0,
+    };
+    strings_and_motor_energy(q, y) + gear
+}
+
+/// [`stored_energy`] without the gearhead output's terms.
+fn strings_and_motor_energy(q: &Params, y: &[f64]) -> f64 {
     let aux = Plant {
         par: q,
         inp: Inputs::default(),
@@ -659,6 +763,12 @@ mod tests {
     }
 
     #[test]
+    fn mesh_damping_is_critical_for_the_output() {
+        let crit = 2.0 * (MESH.k * GEAR_OUTPUT_INERTIA).sqrt();
+        assert!((MESH.d - crit).abs() < 1e-15 * crit);
+    }
+
+    #[test]
     fn rest_is_equilibrium() {
         for compl in [None, Some((8.1153e-06, 8.4427e-09, 1.6914e-5))] {
             let mut q = defaults();
@@ -668,7 +778,7 @@ mod tests {
                 par: &q,
                 inp: Inputs::default(),
             };
-            let y = [0.0, 0.0, 0.0, p0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+            let y = [0.0, 0.0, 0.0, p0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
             let aux = plant.eval(&y);
             for (k, d) in aux.dy.iter().enumerate() {
                 assert!(d.abs() < 1e-9, "state {k}: {d}");
@@ -686,18 +796,18 @@ mod tests {
             inp: Inputs::default(),
         };
         let th_m = 1.05 * q.string_length / q.string_radius * q.gear_ratio;
-        let y = [0.0, th_m, 0.0, 1e-3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+        let y = [0.0, th_m, 0.0, 1e-3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
         let aux = plant.eval(&y);
         assert!(aux.tension > 1e3 && aux.tension.is_finite());
         assert!(aux.dy.iter().all(|d| d.is_finite()));
     }
 
-    /// Every effect alone, in both controller modes.
+    /// Every effect alone and all together, in both controller modes.
     fn effect_cases() -> Vec<Params> {
         let base = defaults();
         let mut cases = vec![];
         for internal in [true, false] {
-            for effect in 0..6 {
+            for effect in 0..7 {
                 let mut q = base.clone();
                 q.internal_controller = internal;
                 match effect {
@@ -706,6 +816,13 @@ mod tests {
                     3 => q.motor_friction = Some((1e-3, 1e-6)),
                     4 => q.backlash = Some(1f64.to_radians()),
                     5 => q.radius_growth = Some(0.005),
+                    6 => {
+                        q.compliance = Some((8.1153e-06, 8.4427e-09, 1.6914e-5));
+                        q.hysteresis = Some(0.1);
+                        q.motor_friction = Some((1e-3, 1e-6));
+                        q.backlash = Some(2f64.to_radians());
+                        q.radius_growth = Some(0.005);
+                    }
                     _ => {}
                 }
                 cases.push(q);
@@ -714,13 +831,34 @@ mod tests {
         cases
     }
 
-    /// A state with the strings carrying about 100 N (taut, as in operation).
-    fn taut(q: &Params, y0: &[f64; DIM]) -> [f64; DIM] {
-        let mut y = *y0;
-        let th_t = y[1] / q.gear_ratio;
+    /// Where the gearhead output is in the `gear_backlash` test states.
+    #[derive(Clone, Copy, Debug)]
+    enum Output {
+        /// On the positive flank, 1e-4 rad deep, turning 10 % slower than the motor side.
+        Pressed,
+        /// Inside the gap, a third of the way from the centre, turning at half the motor side's
+        /// speed.
+        InGap,
+    }
+
+    const OUTPUTS: [Output; 2] = [Output::Pressed, Output::InGap];
+
+    /// The 10 base states `y0` with the strings carrying about 100 N (taut, as in operation), and
+    /// with `gear_backlash` the output placed as `out` says.
+    fn taut(q: &Params, y0: &[f64; DIM_BASE], out: Output) -> [f64; DIM] {
+        let mut y = [0.0; DIM];
+        y[..DIM_BASE].copy_from_slice(y0);
+        if let Some(b) = q.backlash {
+            let w = y[ix::OMEGA] / q.gear_ratio;
+            (y[ix::DELTA], y[ix::OMEGA_T]) = match out {
+                Output::Pressed => (0.5 * b + 1e-4, 0.9 * w),
+                Output::InGap => (b / 6.0, 0.5 * w),
+            };
+        }
+        let th_t = y[1] / q.gear_ratio - y[ix::DELTA];
         let (a, _) = twist_arc(th_t, q.string_radius, q.radius_growth.unwrap_or(0.0));
         let lf = match q.compliance {
-            Some((a1, a2, _)) => free_length(y[1], q.string_length, a1, a2).0,
+            Some((a1, a2, _)) => free_length(q.gear_ratio * th_t, q.string_length, a1, a2).0,
             None => q.string_length,
         };
         y[3] = helix_position(lf + 100.0 * q.compliance_c(), a);
@@ -752,9 +890,9 @@ mod tests {
         ];
         for q in &effect_cases() {
             let plant = test_plant(q, 5.0, 10.0, 200.0);
-            for y0 in &states {
+            for (y0, out) in states.iter().flat_map(|y| OUTPUTS.map(|o| (y, o))) {
                 for stretch in [true, false] {
-                    let mut y = taut(q, y0);
+                    let mut y = taut(q, y0, out);
                     if !stretch {
                         y[3] += 0.3 * 100.0 * q.compliance_c(); // less tension, damping active
                     }
@@ -787,7 +925,8 @@ mod tests {
         for q in effect_cases().iter().filter(|q| q.compliance.is_none()) {
             let plant = test_plant(q, -3.0, 0.0, -100.0);
             for om in [-500.0, -1.0, 0.0, 0.5, 300.0] {
-                let y = taut(q, &[0.3, 700.0, om, 0.0, 0.001, 0.0, 0.0, 0.0, 0.0, 0.0]);
+                let y0 = [0.3, 700.0, om, 0.0, 0.001, 0.0, 0.0, 0.0, 0.0, 0.0];
+                let y = taut(q, &y0, Output::Pressed);
                 let aux = plant.eval(&y);
                 assert!(
                     aux.p_loss > -0.01 * EFFICIENCY_POWER_WIDTH,
@@ -808,9 +947,9 @@ mod tests {
         ];
         for q in &cases {
             let plant = test_plant(q, 5.0, 10.0, 200.0);
-            for y0 in &states {
+            for (y0, out) in states.iter().flat_map(|y| OUTPUTS.map(|o| (y, o))) {
                 // place the load so that the strings carry about 100 N (taut), as in operation
-                let y = &taut(q, y0);
+                let y = &taut(q, y0, out);
                 let jr = plant.jacobian_rows(y);
                 for c in 0..DIM {
                     let h = 1e-6 * NOMINAL[c].max(y[c].abs() * 1e-2);
