@@ -443,6 +443,19 @@ def cases():
         c[f"effect_{name}"] = (dict(prm, load_mass=39 / G),
                                {"theta_motor_ref": ([0, 0.02, 0.62, 0.82, 1.42], [0, 0, 500, 500, 100])},
                                1.6, 1e-3)
+    # gear_backlash load reversals (documentation section 7): with strand friction the torque
+    # through the gear reverses while the strings untwist near zero twist (100 -> 10 rad), and
+    # again when they are twisted (10 -> 80 rad): each time the motor crosses the gap
+    c["backlash_load_reversal"] = (
+        {"load_mass": 39 / G, "twist_hysteresis.enabled": True, "gear_backlash.enabled": True},
+        {"theta_motor_ref": ([0, 0.02, 0.02, 0.5, 0.5, 1.0, 1.0], [0, 0, 100, 100, 10, 10, 80])},
+        1.5, 1e-3)
+    # steps through zero twist under 54 N: the strings' torque changes sign with the twist
+    c["backlash_through_zero"] = (
+        {"load_mass": 54 / G, "gear_backlash.enabled": True},
+        {"theta_motor_ref": ([0, 0.02, 0.02, 0.4, 0.4, 0.8, 0.8, 1.2, 1.2],
+                             [0, 0, 30, 30, -30, -30, 30, 30, 0])},
+        1.6, 1e-3)
     return c
 
 
