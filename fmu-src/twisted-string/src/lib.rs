@@ -144,7 +144,7 @@ fmi2_export::declare_variables! {
     MOTOR_FRICTION_VISCOUS => Variable::parameter("motor_friction.viscous", 1e-6, "N.m.s/rad",
         "Viscous friction at the motor shaft").range(2e-7, 1e-5),
     GEAR_BACKLASH_ENABLED => Variable::flag("gear_backlash.enabled", false,
-        "Backlash of the gearhead: dead zone in the output (twist) angle"),
+        "Backlash of the gearhead: the output (twist) has its own inertia and touches the flank the transmitted torque pushes it to; when that torque reverses, the motor crosses the gap"),
     GEAR_BACKLASH_ANGLE => Variable::parameter("gear_backlash.angle", 1.0 * std::f64::consts::PI / 180.0, "rad",
         "Total backlash at the gearhead output").range(0.5 * std::f64::consts::PI / 180.0, 3.0 * std::f64::consts::PI / 180.0).display("deg"),
     RADIUS_GROWTH_ENABLED => Variable::flag("radius_growth.enabled", false,
