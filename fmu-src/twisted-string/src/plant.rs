@@ -162,9 +162,6 @@ pub struct Aux {
     pub f_axial: f64,
     pub f_tangential: f64,
     pub tau_out: f64,
-    /// Torque the gear passes to the output [N.m]: tau_out, or with `gear_backlash` the flank
-    /// torque.
-    pub tau_gear: f64,
     pub tau_in: f64,
     pub u: f64,
     pub i_ref: f64,
@@ -240,13 +237,10 @@ impl Plant<'_> {
         let tau_out = tau_l + tau_h;
         // torque through the gear and the speed of its output as the motor side sees it: the
         // strings' torque at the twist rate (rigid), or the flank torque at omega_m / N (backlash)
-        let (tau_gear, omega_gear, mesh) = match q.backlash {
-            None => (tau_out, omega_t, None),
-            Some(b) => {
-                let rate = dtheta_t * om - y[ix::OMEGA_T];
-                let f = flank_torque(y[ix::DELTA], rate, b, &MESH);
-                (f.tau, dtheta_t * om, Some((f, rate)))
-            }
+        let mesh = flanks(q, y, om);
+        let (tau_gear, omega_gear) = match mesh {
+            None => (tau_out, omega_t),
+            Some((f, _)) => (f.tau, dtheta_t * om),
         };
         // gearhead: reflect to the motor with the efficiency in the direction of power flow
         let (f_eta, _) = gear_efficiency_factor(
@@ -320,7 +314,6 @@ impl Plant<'_> {
             f_axial,
             f_tangential,
             tau_out,
-            tau_gear,
             tau_in,
             u,
             i_ref,
@@ -332,6 +325,15 @@ impl Plant<'_> {
             ],
         }
     }
+}
+
+/// With `gear_backlash`: the torque of the gear flanks on the output and the rate of the output's
+/// position in the gap, `d delta/dt = omega_m / N - omega_t` (documentation, section 7.1).
+fn flanks(q: &Params, y: &[f64], omega_m: f64) -> Option<(FlankTorque, f64)> {
+    q.backlash.map(|b| {
+        let rate = (1.0 / q.gear_ratio) * omega_m - y[ix::OMEGA_T];
+        (flank_torque(y[ix::DELTA], rate, b, &MESH), rate)
+    })
 }
 
 impl ode::OdeSystem for Plant<'_> {
@@ -521,21 +523,15 @@ impl Plant<'_> {
             }
         }
         // torque through the gear and its output speed on the motor side (see Plant::eval)
-        let (tau_g, d_tau_g, omega_g, d_omega_g, mesh) = match q.backlash {
-            None => (tau_out, d_tau, omega_t, d_omega_t, None),
-            Some(b) => {
-                let rate = g * om - y[ix::OMEGA_T];
-                let d_rate = lin(g, &e_om, -1.0, &e_omt);
-                let f = flank_torque(y[ix::DELTA], rate, b, &MESH);
-                let d_tg = lin(f.d_delta, &e_delta, f.d_rate, &d_rate);
-                (
-                    f.tau,
-                    d_tg,
-                    g * om,
-                    scale(g, &e_om),
-                    Some((f, rate, d_rate)),
-                )
-            }
+        let mesh = flanks(q, y, om).map(|(f, rate)| (f, rate, lin(g, &e_om, -1.0, &e_omt)));
+        let (tau_g, d_tau_g, omega_g, d_omega_g) = match mesh {
+            None => (tau_out, d_tau, omega_t, d_omega_t),
+            Some((f, _, d_rate)) => (
+                f.tau,
+                lin(f.d_delta, &e_delta, f.d_rate, &d_rate),
+                g * om,
+                scale(g, &e_om),
+            ),
         };
         let power = tau_g * omega_g;
         let d_power = lin(omega_g, &d_tau_g, tau_g, &d_omega_g);
