@@ -64,6 +64,7 @@ DEFAULTS = {
     "controller_slope_retract": 0.0366,
     "controller_deadband_low": -1.8,
     "controller_deadband_high": 1.5,
+    "controller_cocontraction": 1.0,
     "seal_friction.enabled": False,
     "seal_friction.coulomb": 40.0,
     "seal_friction.breakaway_excess": 30.0,
@@ -301,10 +302,15 @@ class Joint:
             u = 0.0
         return min(U_SAT, max(-U_SAT, u))
 
-    def control(self, theta_ref, theta):
+    def control(self, theta_ref, y):
+        """Eq. (23)-(24) plus the co-contraction loop: both pistons also get the common speed
+        -K_c f m, m = (x_L + x_R)/2 - x_mid (see the model documentation)."""
         p = self.p
-        xd = (theta_ref - theta) * p["controller_rate"] * p["pulley_radius"]
-        return self.voltage(xd), self.voltage(-xd)
+        f = p["controller_rate"]
+        xd = (theta_ref - y[0]) * f * p["pulley_radius"]
+        m = 0.5 * (y[2] + y[6]) - self.x_mid
+        xc = -p["controller_cocontraction"] * f * m
+        return self.voltage(xd + xc), self.voltage(-xd + xc)
 
     # --- rest state -----------------------------------------------------------------------------
     def rest(self, uL, uR):
@@ -357,7 +363,9 @@ def simulate(params: dict, inputs: dict, t_end: float, dt: float, rtol=1e-10, at
         return min(U_SAT, max(-U_SAT, u))
 
     if internal:
-        uL, uR = m.control(_input_at(inputs, "theta_ref", t0), 0.0)
+        # at rest: theta = 0 and the pistons mid-stroke (no co-contraction correction)
+        y = m.rest(0.0, 0.0)
+        uL, uR = m.control(_input_at(inputs, "theta_ref", t0), y)
     else:
         uL, uR = sat(_input_at(inputs, "u_left", t0)), sat(_input_at(inputs, "u_right", t0))
     y = m.rest(uL, uR)
@@ -380,13 +388,13 @@ def simulate(params: dict, inputs: dict, t_end: float, dt: float, rtol=1e-10, at
         if internal:
             ref = _input_at(inputs, "theta_ref", t)
             while t0 + j * Ts <= t + tol:
-                uL, uR = m.control(ref, y[0])
+                uL, uR = m.control(ref, y)
                 j += 1
             tc = t
             while t0 + j * Ts < te - tol:
                 ts = t0 + j * Ts
                 y = advance(tc, ts, y, uL, uR, tau)
-                uL, uR = m.control(ref, y[0])
+                uL, uR = m.control(ref, y)
                 j += 1
                 tc = ts
             y = advance(tc, te, y, uL, uR, tau)
@@ -434,6 +442,9 @@ def scenarios():
     dt, T = 5e-3, 1.5
     t = np.arange(0, T + dt / 2, dt)
     sc["catching"] = ({}, {"theta_ref": (t, min_jerk(t))}, T, dt)
+    # sustained sinusoidal tracking: the co-contraction loop holds the pretension
+    t = np.arange(0, 3.0 + dt / 2, dt)
+    sc["sustained_tracking"] = ({}, {"theta_ref": (t, 0.5 * np.sin(2 * np.pi * 0.7 * t))}, 3.0, dt)
     # external torque disturbance at rest, controller holding 0
     t = np.arange(0, 1.0 + dt / 2, dt)
     tau = np.where((t >= 0.2) & (t < 0.6), 3.0, 0.0)

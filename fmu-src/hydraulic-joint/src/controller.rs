@@ -26,6 +26,8 @@ pub struct ControllerParams {
     /// Dead band edges of Fig. 6 [V].
     pub deadband_low: f64,
     pub deadband_high: f64,
+    /// Co-contraction gain `K_c` [1] on the mean piston offset (see [`controller_update`]).
+    pub cocontraction: f64,
 }
 
 /// Desired piston speed, paper eq. (23): `xdot = e f R` [m/s] with `e = theta_d - theta` [rad].
@@ -49,11 +51,27 @@ pub fn piston_voltage(xdot: f64, c: &ControllerParams) -> f64 {
 }
 
 /// One controller sample: returns the held valve voltages `(u_left, u_right)` [V]. The left
-/// piston's pull (extension) makes `theta` grow, so `xdot_L = e f R`, `xdot_R = -xdot_L`
-/// (equal and opposite piston speeds keep both cables taut, section IV).
-pub fn controller_update(theta_ref: f64, theta: f64, c: &ControllerParams) -> (f64, f64) {
+/// piston's pull (extension) makes `theta` grow, so the differential speeds are
+/// `xdot_L = e f R`, `xdot_R = -xdot_L` (eq. 23-24, section IV). The sum of the two spring
+/// elongations, `2 e0 + 2 m` with the mean piston offset `m = (x_L + x_R)/2 - x0` [m] read from
+/// the piston potentiometers (section II), does not depend on `theta`: the pretension is held
+/// only while `m = 0`. Equal and opposite *commanded* speeds keep `m` constant only if both
+/// valves deliver them; under load the pulling piston extends slower and the pulled one retracts
+/// faster than the unloaded Fig. 6 curve promises, `m` drifts negative and the cables go slack.
+/// So both pistons also get the common speed `-K_c f m` (the co-contraction loop, corrected at
+/// the rate of eq. 23); `K_c = 0` is eq. 23-24 alone.
+pub fn controller_update(
+    theta_ref: f64,
+    theta: f64,
+    mean_offset: f64,
+    c: &ControllerParams,
+) -> (f64, f64) {
     let xdot = desired_piston_speed(theta_ref - theta, c.rate, c.radius);
-    (piston_voltage(xdot, c), piston_voltage(-xdot, c))
+    let common = -c.cocontraction * c.rate * mean_offset;
+    (
+        piston_voltage(xdot + common, c),
+        piston_voltage(-xdot + common, c),
+    )
 }
 
 #[cfg(test)]
@@ -70,18 +88,19 @@ mod tests {
             slope_retract: 0.036,
             deadband_low: -1.8,
             deadband_high: 1.5,
+            cocontraction: 1.0,
         }
     }
 
     #[test]
     fn zero_error_gives_zero_voltage() {
-        assert_eq!(controller_update(0.3, 0.3, &params()), (0.0, 0.0));
+        assert_eq!(controller_update(0.3, 0.3, 0.0, &params()), (0.0, 0.0));
     }
 
     #[test]
     fn positive_error_extends_left_and_retracts_right_at_equal_speeds() {
         let c = params();
-        let (ul, ur) = controller_update(0.1, 0.0, &c);
+        let (ul, ur) = controller_update(0.1, 0.0, 0.0, &c);
         assert!(ul > c.deadband_high && ur < c.deadband_low);
         // through the (measured) Fig. 6 curve both give the same speed magnitude K e f R
         let want = c.gain * 0.1 * 40.0 * 0.03;
@@ -92,7 +111,21 @@ mod tests {
 
     #[test]
     fn saturates_at_ten_volts() {
-        let (ul, ur) = controller_update(10.0, 0.0, &params());
+        let (ul, ur) = controller_update(10.0, 0.0, 0.0, &params());
         assert_eq!((ul, ur), (10.0, -10.0));
+    }
+
+    #[test]
+    fn a_mean_piston_offset_moves_both_pistons_back_at_the_same_speed() {
+        // pistons 2 mm retracted on average, no joint error: both extend at K K_c f 2 mm
+        let c = params();
+        let (ul, ur) = controller_update(0.0, 0.0, -2e-3, &c);
+        let want = c.gain * c.cocontraction * 40.0 * 2e-3;
+        let vl = c.slope_extend * dead_band(ul, -1.8, 1.5, DEAD_BAND_BLEND);
+        let vr = c.slope_extend * dead_band(ur, -1.8, 1.5, DEAD_BAND_BLEND);
+        assert!(
+            (vl - want).abs() < 1e-12 && (vr - want).abs() < 1e-12,
+            "{vl} {vr}"
+        );
     }
 }

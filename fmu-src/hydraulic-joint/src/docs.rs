@@ -137,8 +137,8 @@ joint end (the load cells of sec. II), equal to the spring tensions unless
 <h3>Position controller, sec. IV, eq. (23)-(26)</h3>
 <p>Sampled at <code>t0 + j/f</code> (f = <code>controller_rate</code> = 40 Hz, j an integer
 counter, so samples are hit exactly whatever the communication step): <code>e = theta_ref -
-theta</code>, desired piston speeds <code>xdot_L = e f R</code>, <code>xdot_R = -xdot_L</code>
-(eq. 23-24; equal and opposite speeds keep both cables taut), voltages
+theta</code>, desired piston speeds <code>xdot_L = e f R + c</code>, <code>xdot_R = -e f R + c</code>
+(eq. 23-24 plus the common speed <code>c</code> of the co-contraction loop below), voltages
 <code>V_i = f_inv(K xdot_i)</code> held until the next sample, saturated to +-10 V, where
 <code>f_inv</code> inverts the Fig. 6 curve: 0 for 0, <code>1.5 + w/2 + y</code> (extending) or
 <code>-1.8 - w/2 - y</code> (retracting) with <code>y = |speed|/k_side</code> (the exact inverse of
@@ -149,6 +149,36 @@ dead band and the joint would stall with a standing error. A sample falling on t
 communication step uses that step's <code>theta_ref</code>; one strictly inside a step
 interrupts the integration there. With <code>internal_controller = false</code> the valves get
 <code>u_left</code>, <code>u_right</code> (saturated to +-10 V) over each step.</p>
+
+<h3>Co-contraction loop (holding the pretension)</h3>
+<p>The paper keeps the cables "always in tense" by moving the pistons "with the same velocity
+but in different directions" (sec. IV), with the pretension set by the series springs "during
+the cocontraction" (sec. II). The sum of the two spring elongations,
+<code>e_L + e_R = 2 e0 + (x_L - x0) + (x_R - x0) = 2 e0 + 2 m</code>, does not depend on
+<code>theta</code>: both cables keep their pretension on average only while the mean piston offset
+<code>m = (x_L + x_R)/2 - x0</code> stays 0. Equal and opposite <i>commanded</i> speeds keep
+<code>m</code> constant only if both valves deliver them, but the Fig. 6 curve the controller inverts
+was measured on a free piston: under load the pulling piston's metering edge sees a smaller
+pressure drop (it extends slower than commanded) and the pulled piston's a larger one (it retracts
+faster). So <code>m</code> drifts negative whenever the joint tracks a moving reference against
+the link's inertia and damping. Measured on the model with eq. 23-24 alone
+(<code>controller_cocontraction = 0</code>), tracking <code>0.5 sin(2 pi 0.7 t)</code> rad: both
+pistons creep toward retraction (the mean offset reaches -15 mm after 10 s), the cables go slack
+in every half cycle, and the RMS tracking error grows from 0.18 to 0.34 rad over 10 s.</p>
+<p>The rig measures both piston positions (potentiometers, sec. II), so the model's controller
+closes a second, common-mode loop on them: both pistons get the common speed
+<code>c = -K_c f m</code>, the same form as eq. 23 (the mean offset corrected at the sample rate,
+scaled by <code>K</code> through <code>f_inv(K xdot)</code>) with gain
+<code>K_c = controller_cocontraction</code> (default 1: the common mode converges like the joint
+error, time constant <code>1/(K K_c f)</code> = 0.125 s). It does not act on
+<code>theta</code> (the two common speeds pull the link equally) and is 0 at rest. With it, the
+same sinusoid leaves <code>m</code> within 2 mm, both cable tensions above 25 N from 1.5 s on (the
+first acceleration from rest asks for more torque than twice the pretension can give, so the right
+cable slackens for about 60 ms near 0.2 s), and the RMS tracking error steady at 0.18&ndash;0.19 rad
+over 2 s windows: the lag of the sampled loop (with ideal velocity-source pistons <code>theta_(k+1) = theta_k + K e_k</code>, error
+amplitude <code>|z - 1| / |z - 1 + K|</code> at <code>z = exp(j w / f)</code>: 0.174 rad RMS) plus
+the lag of the springs, oil columns and link inertia. <code>controller_cocontraction = 0</code>
+gives the paper's law as written.</p>
 
 <h3>Tuning to the paper's catching result (K, b)</h3>
 <p>With the pistons acting as velocity sources, the loop <code>theta' = K f e</code> is first
@@ -231,6 +261,7 @@ matched zero-lapped valve, <code>P2 = (Ps + Pr)/2</code>, and <code>P1 = (T0 + P
 <tr><td>spring_stiffness, spring_pretension</td><td>5e4 N/m, 150 N</td><td>a 50 N/mm safety spring; 150 N co-contraction keeps the cables taut up to about 9 N m of torque imbalance</td></tr>
 <tr><td>bowden_wrap_angle</td><td>3 rad (172 deg)</td><td>total bend of each Bowden cable from cylinder to joint: about a half turn of routing around a shoulder; only used by <code>cable_friction</code>, which identifies <code>cable_friction.mu</code> at this angle (the law sees <code>mu phi</code> only); range 0.5-6.3 rad, measured on the hardware, not calibrated</td></tr>
 <tr><td>controller_gain</td><td>0.2</td><td>see the tuning section</td></tr>
+<tr><td>controller_cocontraction</td><td>1</td><td>choice: the common mode converges like the joint error (see the co-contraction loop)</td></tr>
 <tr><td>c1..c4, valve_use_mean, valve_flow_scale</td><td>Table I, false, 1</td><td>from the paper (SI reading derived above); the mean is the paper's merged coefficient; the scale is the calibration handle</td></tr>
 <tr><td>valve_deadband_low/high, controller_deadband_low/high</td><td>-1.8 V, 1.5 V</td><td>Fig. 6 (paper text); not calibrated by default</td></tr>
 <tr><td>controller_rate</td><td>40 Hz</td><td>paper sec. V</td></tr>

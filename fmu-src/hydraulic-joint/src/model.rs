@@ -67,6 +67,7 @@ pub fn read_params(vars: &[f64]) -> Params {
             slope_retract: g(V::CONTROLLER_SLOPE_RETRACT),
             deadband_low: g(V::CONTROLLER_DEADBAND_LOW),
             deadband_high: g(V::CONTROLLER_DEADBAND_HIGH),
+            cocontraction: g(V::CONTROLLER_COCONTRACTION),
         },
         rtol: g(V::RTOL),
         atol: g(V::ATOL),
@@ -193,6 +194,15 @@ impl HydraulicJoint {
         Ok(())
     }
 
+    /// Mean piston offset from the rest position `(x_L + x_R)/2 - x0` [m], the co-contraction
+    /// loop's measurement (piston potentiometers).
+    fn mean_piston_offset(&self) -> f64 {
+        match &self.params {
+            Some((_, d)) => 0.5 * (self.y[piston(0)] + self.y[piston(1)]) - d.x0,
+            None => 0.0,
+        }
+    }
+
     /// Set new held commands; forget the step-size history if they changed (discontinuity).
     fn hold(&mut self, u: [f64; 2], tau: f64) {
         if u != self.u_held || tau != self.tau_held {
@@ -237,7 +247,7 @@ impl Model for HydraulicJoint {
         let p = read_params(vars);
         let d = p.derive()?;
         let u = if p.internal_controller {
-            let (l, r) = controller_update(vars[V::THETA_REF as usize], 0.0, &p.ctrl);
+            let (l, r) = controller_update(vars[V::THETA_REF as usize], 0.0, 0.0, &p.ctrl);
             [l, r]
         } else {
             Self::open_loop_commands(vars)
@@ -288,7 +298,8 @@ impl Model for HydraulicJoint {
             // samples due at (or before, within rounding) the start of the step: one update at
             // t uses the state there, however many sample instants lie at or before t
             if sample_time(self.next_sample) <= t + tol {
-                let (l, r) = controller_update(theta_ref, self.y[TH], &ctrl);
+                let (l, r) =
+                    controller_update(theta_ref, self.y[TH], self.mean_piston_offset(), &ctrl);
                 u = [l, r];
                 let due = ((t + tol - t0) / ts).floor().max(0.0) as u64;
                 self.next_sample = due.max(self.next_sample) + 1;
@@ -298,7 +309,8 @@ impl Model for HydraulicJoint {
                 let tk = sample_time(self.next_sample);
                 if tk < t_end - tol {
                     self.advance(tc, tk)?;
-                    let (l, r) = controller_update(theta_ref, self.y[TH], &ctrl);
+                    let (l, r) =
+                        controller_update(theta_ref, self.y[TH], self.mean_piston_offset(), &ctrl);
                     self.hold([l, r], tau);
                     self.next_sample += 1;
                     tc = tk;

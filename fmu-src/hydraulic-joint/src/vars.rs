@@ -119,4 +119,7 @@ fmi2_export::declare_variables! {
     // ---- appended effect parameters
     SEAL_FRICTION_MEMORY_TIME => Variable::parameter("seal_friction.memory_time", 5e-3, "s",
         "Frictional memory: lag of the Stribeck part behind the sliding speed (Hess & Soom 1990)").range(1e-3, 5e-2).display("ms"),
+    // ---- appended after the first release, so earlier value references stay valid
+    CONTROLLER_COCONTRACTION => Variable::parameter("controller_cocontraction", 1.0, "1",
+        "Gain K_c of the co-contraction loop: both pistons get the common speed -K_c f m, m = mean piston offset from mid-stroke (holds the cable pretension; 0: eq. (23)-(24) alone)").range(0.0, 5.0),
 }
