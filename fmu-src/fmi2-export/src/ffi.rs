@@ -9,46 +9,19 @@
 use crate::instance::{allowed, Instance, Snapshot, Status};
 use crate::{Model, VarType};
 use std::collections::HashSet;
-use std::ffi::{c_char, c_int, c_uint, c_void, CStr, CString};
+use std::ffi::{c_int, CStr, CString};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
-pub type Fmi2Component = *mut c_void;
-pub type Fmi2ComponentEnvironment = *mut c_void;
-pub type Fmi2FmuState = *mut c_void;
-pub type Fmi2ValueReference = c_uint;
-pub type Fmi2Real = f64;
-pub type Fmi2Integer = c_int;
-pub type Fmi2Boolean = c_int;
-pub type Fmi2String = *const c_char;
-pub type Fmi2Byte = c_char;
-pub type Fmi2Status = c_int;
-pub type Fmi2StatusKind = c_int;
-pub type Fmi2Type = c_int;
-
-pub const FMI2_OK: Fmi2Status = 0;
-pub const FMI2_ERROR: Fmi2Status = 3;
-pub const FMI2_DISCARD: Fmi2Status = 2;
-pub const FMI2_COSIMULATION: Fmi2Type = 1;
-
-/// `fmi2CallbackLogger`: C-variadic; we always pass `"%s"` and the message.
-pub type Fmi2CallbackLogger = unsafe extern "C" fn(
-    Fmi2ComponentEnvironment,
-    Fmi2String,
-    Fmi2Status,
-    Fmi2String,
-    Fmi2String,
-    ...
-);
-
-/// `fmi2CallbackFunctions`.
-#[repr(C)]
-pub struct Fmi2CallbackFunctions {
-    pub logger: Option<Fmi2CallbackLogger>,
-    pub allocate_memory: Option<unsafe extern "C" fn(usize, usize) -> *mut c_void>,
-    pub free_memory: Option<unsafe extern "C" fn(*mut c_void)>,
-    pub step_finished: Option<unsafe extern "C" fn(Fmi2ComponentEnvironment, Fmi2Status)>,
-    pub component_environment: Fmi2ComponentEnvironment,
-}
+/// The C types of `fmi2FunctionTypes.h`, under the names the exported functions use.
+pub use fmi2_types::c::{
+    Boolean as Fmi2Boolean, Byte as Fmi2Byte, CallbackFunctions as Fmi2CallbackFunctions,
+    CallbackLogger as Fmi2CallbackLogger, Component as Fmi2Component,
+    ComponentEnvironment as Fmi2ComponentEnvironment, FmiString as Fmi2String, FmiType as Fmi2Type,
+    FmuState as Fmi2FmuState, Integer as Fmi2Integer, RawStatus as Fmi2Status, Real as Fmi2Real,
+    StatusKind as Fmi2StatusKind, ValueReference as Fmi2ValueReference,
+    CO_SIMULATION as FMI2_COSIMULATION, DISCARD as FMI2_DISCARD, ERROR as FMI2_ERROR,
+    OK as FMI2_OK,
+};
 
 const MAGIC: u64 = 0x4146_4d55_4932_4353; // "AFMUI2CS"
 
@@ -76,7 +49,7 @@ impl<M: Model> Component<M> {
                 logger,
                 self.environment,
                 &self.name,
-                e.status as c_int,
+                e.status.raw(),
                 e.category,
                 &e.message,
             );
@@ -142,7 +115,7 @@ unsafe fn with_component<M: Model>(
     };
     // Logging itself must not unwind into C either.
     let _ = catch_unwind(AssertUnwindSafe(|| comp.flush_log()));
-    status as Fmi2Status
+    status.raw()
 }
 
 /// A slice from a C array, or `None` when the pointer is null while `n > 0`.
@@ -1023,6 +996,14 @@ macro_rules! export_model {
                 v: *mut Fmi2String,
             ) -> Fmi2Status {
                 get_status::<M>(c, "fmi2GetStringStatus", k, v.is_null())
+            }
+
+            /// Every exported model's variable table follows FMI 2.0 (names, units, ranges,
+            /// causality/variability/initial) and the candidate-effect convention.
+            #[test]
+            fn variable_table_is_consistent() {
+                let problems = $crate::xml::check_table(<M as $crate::Model>::variables());
+                assert!(problems.is_empty(), "{problems:#?}");
             }
         }
     };

@@ -10,17 +10,7 @@ use crate::{Causality, Model, VarType, Variability};
 use bincode::Options as _;
 use serde::{Deserialize, Serialize};
 
-/// `fmi2Status`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
-#[repr(i32)]
-pub enum Status {
-    Ok = 0,
-    Warning = 1,
-    Discard = 2,
-    Error = 3,
-    Fatal = 4,
-    Pending = 5,
-}
+pub use fmi2_types::Status;
 
 /// States of the FMI 2.0 Co-Simulation state machine (standard section 4.2.4); each is one bit so
 /// a function's allowed states are a mask.

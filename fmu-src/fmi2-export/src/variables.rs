@@ -1,42 +1,9 @@
 //! The variable table: every variable of a model declared once, from which the C API,
 //! `modelDescription.xml` and the HTML documentation are all derived.
 
-/// FMI 2.0 base type of a scalar variable.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum VarType {
-    Real,
-    Integer,
-    Boolean,
-}
-
-/// FMI 2.0 causality (standard section 2.2.7).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Causality {
-    Parameter,
-    CalculatedParameter,
-    Input,
-    Output,
-    Local,
-    Independent,
-}
-
-/// FMI 2.0 variability.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Variability {
-    Constant,
-    Fixed,
-    Tunable,
-    Discrete,
-    Continuous,
-}
-
-/// FMI 2.0 `initial` attribute.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Initial {
-    Exact,
-    Approx,
-    Calculated,
-}
+/// Type element, causality, variability and initial of a variable: the FMI 2.0 vocabulary
+/// shared with the host (the exporter writes Real, Integer and Boolean variables only).
+pub use fmi2_types::{Causality, Initial, VarKind as VarType, Variability};
 
 /// One scalar variable. Its value reference is its index in the model's table.
 #[derive(Clone, Copy, Debug)]
@@ -53,6 +20,9 @@ pub struct Variable {
     pub unit: Option<&'static str>,
     pub display_unit: Option<&'static str>,
     pub description: &'static str,
+    /// True for a Real whose SI unit FMI cannot express (`BaseUnit` exponents are integers);
+    /// its description states the unit instead.
+    pub unit_not_expressible: bool,
 }
 
 impl Variable {
@@ -79,6 +49,7 @@ impl Variable {
             unit,
             display_unit: None,
             description,
+            unit_not_expressible: false,
         }
     }
 
@@ -188,6 +159,14 @@ impl Variable {
     }
 
     /// The display unit (must be one defined for `unit` in [`crate::units::KNOWN`]).
+    /// A Real whose SI unit has a fractional exponent (e.g. m3 s^-1 V^-1 Pa^-1/2), which FMI
+    /// `BaseUnit` cannot express: no unit attribute; the description must state the unit.
+    pub const fn unit_not_expressible(mut self) -> Self {
+        self.unit = None;
+        self.unit_not_expressible = true;
+        self
+    }
+
     pub const fn display(mut self, display_unit: &'static str) -> Self {
         self.display_unit = Some(display_unit);
         self

@@ -6,7 +6,9 @@
 
 use crate::instance::LOG_CATEGORIES;
 use crate::units;
-use crate::{Causality, Initial, Model, VarType, Variability, Variable};
+use crate::{Causality, Initial, Model, VarType, Variable};
+use fmi2_types::effects;
+use fmi2_types::schema::{combination_allowed, initial_allowed};
 use quick_xml::events::{BytesDecl, BytesEnd, BytesStart, Event};
 use quick_xml::Writer;
 use sha2::{Digest, Sha256};
@@ -24,35 +26,6 @@ pub fn fmt_f64(x: f64) -> String {
         format!("{x}")
     } else {
         format!("{x:e}")
-    }
-}
-
-fn causality(c: Causality) -> &'static str {
-    match c {
-        Causality::Parameter => "parameter",
-        Causality::CalculatedParameter => "calculatedParameter",
-        Causality::Input => "input",
-        Causality::Output => "output",
-        Causality::Local => "local",
-        Causality::Independent => "independent",
-    }
-}
-
-fn variability(v: Variability) -> &'static str {
-    match v {
-        Variability::Constant => "constant",
-        Variability::Fixed => "fixed",
-        Variability::Tunable => "tunable",
-        Variability::Discrete => "discrete",
-        Variability::Continuous => "continuous",
-    }
-}
-
-fn initial(i: Initial) -> &'static str {
-    match i {
-        Initial::Exact => "exact",
-        Initial::Approx => "approx",
-        Initial::Calculated => "calculated",
     }
 }
 
@@ -165,18 +138,13 @@ fn write_description<M: Model>(guid: &str) -> String {
         if !v.description.is_empty() {
             sv.push_attribute(("description", v.description));
         }
-        sv.push_attribute(("causality", causality(v.causality)));
-        sv.push_attribute(("variability", variability(v.variability)));
+        sv.push_attribute(("causality", v.causality.as_str()));
+        sv.push_attribute(("variability", v.variability.as_str()));
         if let Some(i) = v.initial {
-            sv.push_attribute(("initial", initial(i)));
+            sv.push_attribute(("initial", i.as_str()));
         }
         ev(Event::Start(sv));
-        let tag = match v.vtype {
-            VarType::Real => "Real",
-            VarType::Integer => "Integer",
-            VarType::Boolean => "Boolean",
-        };
-        let mut t = BytesStart::new(tag);
+        let mut t = BytesStart::new(v.vtype.as_str());
         if v.vtype == VarType::Real {
             if let Some(u) = v.unit {
                 t.push_attribute(("unit", u));
@@ -197,7 +165,7 @@ fn write_description<M: Model>(guid: &str) -> String {
             let s = match v.vtype {
                 VarType::Boolean => (if v.start != 0.0 { "true" } else { "false" }).to_string(),
                 VarType::Integer => (v.start as i64).to_string(),
-                VarType::Real => fmt_f64(v.start),
+                _ => fmt_f64(v.start),
             };
             t.push_attribute(("start", s.as_str()));
         }
@@ -254,6 +222,39 @@ pub fn guid<M: Model>() -> String {
     )
 }
 
+/// Departures from the candidate-effect convention (see [`fmi2_types::effects`]), one sentence
+/// each naming the variable.
+fn effect_convention(vars: &[Variable]) -> Vec<String> {
+    let params: Vec<&Variable> = vars
+        .iter()
+        .filter(|v| v.causality == Causality::Parameter)
+        .collect();
+    let scanned: Vec<effects::Param> = params
+        .iter()
+        .map(|v| effects::Param {
+            name: v.name,
+            kind: v.vtype,
+            variability: v.variability,
+            start: v.has_start().then_some(v.start),
+            min: v.min,
+            max: v.max,
+            has_unit: v.unit.is_some(),
+            description: v.description,
+        })
+        .collect();
+    let convention = effects::scan(&scanned);
+    let has_effects = !convention.effects.is_empty();
+    convention
+        .problems
+        .into_iter()
+        .filter_map(|(i, p)| match i {
+            Some(i) => Some(format!("'{}': {p}", params[i].name)),
+            // A model without candidate effects needs no default calibration set.
+            None => has_effects.then(|| format!("model: {p}")),
+        })
+        .collect()
+}
+
 /// The complete `modelDescription.xml`.
 pub fn model_description<M: Model>() -> String {
     write_description::<M>(&guid::<M>())
@@ -272,8 +273,14 @@ pub fn check_table(vars: &[Variable]) -> Vec<String> {
         if v.description.is_empty() {
             problems.push(format!("'{n}': no description"));
         }
+        if !matches!(v.vtype, VarType::Real | VarType::Integer | VarType::Boolean) {
+            problems.push(format!(
+                "'{n}': the exporter supports Real, Integer and Boolean only"
+            ));
+        }
         if v.vtype == VarType::Real {
             match v.unit.map(|u| (u, units::lookup(u))) {
+                None if v.unit_not_expressible => {}
                 None => problems.push(format!("'{n}': Real variable without a unit")),
                 Some((u, None)) => problems.push(format!("'{n}': unit '{u}' not in units::KNOWN")),
                 Some((u, Some(def))) => {
@@ -299,21 +306,8 @@ pub fn check_table(vars: &[Variable]) -> Vec<String> {
                 problems.push(format!("'{n}': start {} outside [min, max]", v.start));
             }
         }
-        let ok_combination = match (v.causality, v.variability) {
-            (Causality::Parameter, Variability::Fixed | Variability::Tunable) => {
-                v.initial == Some(Initial::Exact)
-            }
-            (Causality::Input, Variability::Continuous | Variability::Discrete) => {
-                v.initial.is_none()
-            }
-            (
-                Causality::Output | Causality::Local,
-                Variability::Continuous | Variability::Discrete,
-            ) => true,
-            (Causality::CalculatedParameter, Variability::Fixed | Variability::Tunable) => true,
-            (Causality::Independent, Variability::Continuous) => v.initial.is_none(),
-            _ => false,
-        };
+        let ok_combination = combination_allowed(v.causality, v.variability)
+            && initial_allowed(v.causality, v.variability).contains(&v.initial);
         if !ok_combination {
             problems.push(format!(
                 "'{n}': causality {:?} with variability {:?} and initial {:?} is not allowed by FMI 2.0",
@@ -322,18 +316,13 @@ pub fn check_table(vars: &[Variable]) -> Vec<String> {
         }
         if let Some(effect) = v.effect() {
             let flag = format!("{effect}.enabled");
-            let has_flag = vars
-                .iter()
-                .any(|f| f.name == flag && f.vtype == VarType::Boolean && f.start == 0.0);
-            if !has_flag {
+            if !vars.iter().any(|f| f.name == flag) {
                 problems.push(format!(
-                    "'{n}': effect '{effect}' has no Boolean '{flag}' defaulting to false"
+                    "'{n}': dotted names are for effects; '{flag}' is missing"
                 ));
-            }
-            if v.vtype == VarType::Real && (v.min.is_none() || v.max.is_none()) {
-                problems.push(format!("'{n}': effect parameter without min and max"));
             }
         }
     }
+    problems.extend(effect_convention(vars));
     problems
 }

@@ -1,8 +1,9 @@
 //! What the workflow knows about a model: its parameters and the candidate effects found from the
-//! effect naming convention (issue 7/10): a Boolean parameter `<effect>.enabled` plus Real
+//! effect naming convention: a Boolean parameter `<effect>.enabled` plus Real
 //! parameters `<effect>.<name>`; base parameters calibrated by default carry the description tag
 //! `[calibrate]`.
 
+use fmi2_types::{effects, VarKind, Variability};
 use serde::Serialize;
 
 /// Type of a parameter as declared in the model description.
@@ -62,7 +63,7 @@ impl ParamSpec {
 
     /// True when the description starts with the tag `[calibrate]`.
     pub fn is_default_calibrated(&self) -> bool {
-        self.kind == ParamKind::Real && self.description.trim_start().starts_with("[calibrate]")
+        self.kind == ParamKind::Real && effects::is_tagged_calibrate(&self.description)
     }
 }
 
@@ -74,45 +75,48 @@ pub struct EffectSpec {
     pub params: Vec<usize>,
 }
 
+/// The candidate-effect convention read from a parameter list (one reading shared with the
+/// exporter and the validator: [`fmi2_types::effects`]).
+pub fn convention(params: &[ParamSpec]) -> effects::Convention {
+    let scanned: Vec<effects::Param> = params
+        .iter()
+        .map(|p| effects::Param {
+            name: &p.name,
+            kind: match p.kind {
+                ParamKind::Real => VarKind::Real,
+                ParamKind::Integer => VarKind::Integer,
+                ParamKind::Boolean => VarKind::Boolean,
+            },
+            // Only settable parameters reach the workflow; their variability is not kept.
+            variability: Variability::Fixed,
+            start: Some(p.start),
+            min: p.min,
+            max: p.max,
+            has_unit: !p.unit.is_empty(),
+            description: &p.description,
+        })
+        .collect();
+    effects::scan(&scanned)
+}
+
 /// The effects of a parameter list, found by the naming convention. A Boolean `<e>.enabled`
 /// defines effect `<e>`; every Real parameter named `<e>.<something>` belongs to it. Effects are
 /// returned in declaration order of their switch.
 pub fn find_effects(params: &[ParamSpec]) -> Vec<EffectSpec> {
-    let mut effects = Vec::new();
-    for (i, p) in params.iter().enumerate() {
-        if p.kind != ParamKind::Boolean {
-            continue;
-        }
-        if let Some(prefix) = p.name.strip_suffix(".enabled") {
-            if prefix.is_empty() {
-                continue;
-            }
-            let dotted = format!("{prefix}.");
-            let members = params
-                .iter()
-                .enumerate()
-                .filter(|(j, q)| {
-                    *j != i && q.kind == ParamKind::Real && q.name.starts_with(&dotted)
-                })
-                .map(|(j, _)| j)
-                .collect();
-            effects.push(EffectSpec {
-                name: prefix.to_string(),
-                enabled: i,
-                params: members,
-            });
-        }
-    }
-    effects
+    convention(params)
+        .effects
+        .into_iter()
+        .map(|e| EffectSpec {
+            name: e.name,
+            enabled: e.switch,
+            params: e.params,
+        })
+        .collect()
 }
 
 /// Indices of the parameters tagged `[calibrate]` that belong to no effect.
-pub fn default_calibration(params: &[ParamSpec], effects: &[EffectSpec]) -> Vec<usize> {
-    (0..params.len())
-        .filter(|&i| {
-            params[i].is_default_calibrated() && !effects.iter().any(|e| e.params.contains(&i))
-        })
-        .collect()
+pub fn default_calibration(params: &[ParamSpec], _effects: &[EffectSpec]) -> Vec<usize> {
+    convention(params).calibrate
 }
 
 #[cfg(test)]

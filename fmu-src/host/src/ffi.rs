@@ -6,35 +6,9 @@ use std::ffi::{c_char, c_int, c_void, CStr};
 use std::path::Path;
 use std::sync::Mutex;
 
-/// `fmi2Component`
-pub type Component = *mut c_void;
-/// `fmi2FMUstate`
-pub type FmuState = *mut c_void;
-/// `fmi2ValueReference`
-pub type ValueReference = u32;
-/// `fmi2Boolean` (an int; fmi2True = 1, fmi2False = 0)
-pub type Fmi2Boolean = c_int;
-/// `fmi2Status` as the raw int
-pub type RawStatus = c_int;
-
-/// `fmi2CallbackLogger` (variadic: the message is a printf format).
-pub type Logger =
-    unsafe extern "C" fn(*mut c_void, *const c_char, RawStatus, *const c_char, *const c_char, ...);
-
-/// `fmi2CallbackFunctions`
-#[repr(C)]
-pub struct CallbackFunctions {
-    /// logger
-    pub logger: Logger,
-    /// allocateMemory (calloc semantics)
-    pub allocate_memory: unsafe extern "C" fn(usize, usize) -> *mut c_void,
-    /// freeMemory
-    pub free_memory: unsafe extern "C" fn(*mut c_void),
-    /// stepFinished (NULL: asynchronous steps not used)
-    pub step_finished: Option<unsafe extern "C" fn(*mut c_void, RawStatus)>,
-    /// componentEnvironment: points to the instance's [`LogEnv`].
-    pub component_environment: *mut c_void,
-}
+pub use fmi2_types::c::{
+    Boolean as Fmi2Boolean, CallbackFunctions, Component, FmuState, RawStatus, ValueReference,
+};
 
 extern "C" {
     /// csrc/logger.c: formats with vsnprintf, then calls `LogEnv::sink`.

@@ -97,9 +97,9 @@ impl Fmu {
             data: &*log as *const LogSink as *mut c_void,
         });
         let callbacks = Box::new(CallbackFunctions {
-            logger: ffi::fmi2host_logger,
-            allocate_memory: ffi::fmi2host_calloc,
-            free_memory: ffi::fmi2host_free,
+            logger: Some(ffi::fmi2host_logger),
+            allocate_memory: Some(ffi::fmi2host_calloc),
+            free_memory: Some(ffi::fmi2host_free),
             step_finished: None,
             component_environment: &mut *env as *mut LogEnv as *mut c_void,
         });

@@ -10,66 +10,7 @@ use quick_xml::events::{BytesStart, Event};
 use quick_xml::Reader;
 use std::str::FromStr;
 
-/// `causality` of a ScalarVariable (default `local`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "camelCase")]
-pub enum Causality {
-    /// parameter
-    Parameter,
-    /// calculatedParameter
-    CalculatedParameter,
-    /// input
-    Input,
-    /// output
-    Output,
-    /// local
-    Local,
-    /// independent
-    Independent,
-}
-
-/// `variability` of a ScalarVariable (default `continuous`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "camelCase")]
-pub enum Variability {
-    /// constant
-    Constant,
-    /// fixed
-    Fixed,
-    /// tunable
-    Tunable,
-    /// discrete
-    Discrete,
-    /// continuous
-    Continuous,
-}
-
-/// `initial` of a ScalarVariable (no default: depends on causality and variability).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "camelCase")]
-pub enum Initial {
-    /// exact
-    Exact,
-    /// approx
-    Approx,
-    /// calculated
-    Calculated,
-}
-
-/// Type element of a ScalarVariable.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
-pub enum VarKind {
-    /// `<Real>`
-    Real,
-    /// `<Integer>`
-    Integer,
-    /// `<Boolean>`
-    Boolean,
-    /// `<String>`
-    String,
-    /// `<Enumeration>`
-    Enumeration,
-}
+pub use fmi2_types::{Causality, Initial, VarKind, Variability};
 
 /// A start value, typed by the variable's type element.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -146,14 +87,8 @@ impl ScalarVariable {
     /// (exact for constants and parameters, calculated for calculatedParameters, outputs and
     /// locals, none for inputs and the independent variable).
     pub fn effective_initial(&self) -> Option<Initial> {
-        if self.initial.is_some() {
-            return self.initial;
-        }
-        match (self.causality, self.variability) {
-            (Causality::Input, _) | (Causality::Independent, _) => None,
-            (_, Variability::Constant) | (Causality::Parameter, _) => Some(Initial::Exact),
-            _ => Some(Initial::Calculated),
-        }
+        self.initial
+            .or_else(|| fmi2_types::schema::default_initial(self.causality, self.variability))
     }
 }
 
@@ -753,43 +688,31 @@ impl<'a> Parser<'a> {
             )
         })?;
         let causality = match a.get("causality") {
-            None | Some("local") => Causality::Local,
-            Some("parameter") => Causality::Parameter,
-            Some("calculatedParameter") => Causality::CalculatedParameter,
-            Some("input") => Causality::Input,
-            Some("output") => Causality::Output,
-            Some("independent") => Causality::Independent,
-            Some(o) => {
-                return Err(self.err(
+            None => Causality::Local,
+            Some(o) => Causality::parse(o).ok_or_else(|| {
+                self.err(
                     a.line,
                     format!("variable '{name}': unknown causality \"{o}\""),
-                ))
-            }
+                )
+            })?,
         };
         let variability = match a.get("variability") {
-            None | Some("continuous") => Variability::Continuous,
-            Some("constant") => Variability::Constant,
-            Some("fixed") => Variability::Fixed,
-            Some("tunable") => Variability::Tunable,
-            Some("discrete") => Variability::Discrete,
-            Some(o) => {
-                return Err(self.err(
+            None => Variability::Continuous,
+            Some(o) => Variability::parse(o).ok_or_else(|| {
+                self.err(
                     a.line,
                     format!("variable '{name}': unknown variability \"{o}\""),
-                ))
-            }
+                )
+            })?,
         };
         let initial = match a.get("initial") {
             None => None,
-            Some("exact") => Some(Initial::Exact),
-            Some("approx") => Some(Initial::Approx),
-            Some("calculated") => Some(Initial::Calculated),
-            Some(o) => {
-                return Err(self.err(
+            Some(o) => Some(Initial::parse(o).ok_or_else(|| {
+                self.err(
                     a.line,
                     format!("variable '{name}': unknown initial \"{o}\""),
-                ))
-            }
+                )
+            })?),
         };
         self.current_var = Some(ScalarVariable {
             name,
@@ -896,14 +819,7 @@ impl<'a> Parser<'a> {
 }
 
 fn var_kind(name: &str) -> Option<VarKind> {
-    match name {
-        "Real" => Some(VarKind::Real),
-        "Integer" => Some(VarKind::Integer),
-        "Boolean" => Some(VarKind::Boolean),
-        "String" => Some(VarKind::String),
-        "Enumeration" => Some(VarKind::Enumeration),
-        _ => None,
-    }
+    VarKind::parse(name)
 }
 
 /// Parses an xs:double (accepts INF, -INF, NaN as XML Schema writes them).

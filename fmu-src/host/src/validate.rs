@@ -16,6 +16,7 @@ use crate::instance::Instance;
 use crate::md::{
     Causality, Initial, ModelDescription, ScalarVariable, StartValue, VarKind, Variability,
 };
+use fmi2_types::effects;
 use std::collections::{BTreeSet, HashMap};
 use std::fmt;
 
@@ -56,40 +57,7 @@ fn is_c_identifier(s: &str) -> bool {
         && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
 }
 
-/// Allowed (causality, variability) combinations, FMI 2.0.4 section 2.2.7 table
-/// "Combinations of variability/causality".
-pub fn combination_allowed(c: Causality, v: Variability) -> bool {
-    use Causality as C;
-    use Variability as V;
-    matches!(
-        (c, v),
-        (C::Parameter | C::CalculatedParameter, V::Fixed | V::Tunable)
-            | (C::Input, V::Discrete | V::Continuous)
-            | (C::Output, V::Constant | V::Discrete | V::Continuous)
-            | (C::Local, _)
-            | (C::Independent, V::Continuous)
-    )
-}
-
-/// Allowed values of `initial` for an allowed combination (None in the list = attribute
-/// absent), FMI 2.0.4 section 2.2.7 table of `initial` (cases A-E).
-pub fn initial_allowed(c: Causality, v: Variability) -> &'static [Option<Initial>] {
-    use Causality as C;
-    use Initial as I;
-    use Variability as V;
-    match (c, v) {
-        // (A) constant output/local, (B) parameter: exact only
-        (C::Output | C::Local, V::Constant) | (C::Parameter, _) => &[None, Some(I::Exact)],
-        // (B) calculatedParameter, fixed/tunable local: calculated or approx
-        (C::CalculatedParameter, _) | (C::Local, V::Fixed | V::Tunable) => {
-            &[None, Some(I::Calculated), Some(I::Approx)]
-        }
-        // (C) discrete/continuous output and local: calculated, exact or approx
-        (C::Output | C::Local, _) => &[None, Some(I::Calculated), Some(I::Exact), Some(I::Approx)],
-        // (D) input, (E) independent: no initial attribute
-        (C::Input | C::Independent, _) => &[None],
-    }
-}
+pub use fmi2_types::schema::{combination_allowed, initial_allowed};
 
 /// Checks of `modelDescription.xml` for a Co-Simulation FMU.
 pub fn check_model_description(md: &ModelDescription) -> Vec<Finding> {
@@ -665,109 +633,41 @@ fn check_model_structure(md: &ModelDescription, f: &mut Vec<Finding>) {
     }
 }
 
-/// The candidate-effect convention of this project (issues 7 and 10), for FMUs meant for the
-/// gap workflow: each Boolean parameter `<effect>.enabled` is fixed with start false and has at
-/// least one Real parameter `<effect>.<name>`; every such Real parameter is fixed, has a unit,
-/// finite `min < max` and a start inside them; at least one parameter's description starts
-/// with the tag `[calibrate]`.
+/// The candidate-effect convention (see [`fmi2_types::effects`]) for FMUs meant for the gap
+/// workflow, one finding per departure, located at its variable.
 pub fn check_effect_convention(md: &ModelDescription) -> Vec<Finding> {
-    let mut f = Vec::new();
-    let params: Vec<&ScalarVariable> = md
+    let vars: Vec<&ScalarVariable> = md
         .model_variables
         .iter()
         .filter(|v| v.causality == Causality::Parameter)
         .collect();
-    let effects: Vec<&ScalarVariable> = params
+    let params: Vec<effects::Param> = vars
         .iter()
-        .copied()
-        .filter(|v| v.name.ends_with(".enabled"))
-        .collect();
-    for e in &effects {
-        let loc = var_loc(e);
-        let prefix = &e.name[..e.name.len() - "enabled".len()];
-        if e.kind != VarKind::Boolean || e.variability != Variability::Fixed {
-            f.push(Finding::new(
-                "effect-convention",
-                &loc,
-                "an effect switch must be a fixed Boolean parameter",
-            ));
-        }
-        if e.start != Some(StartValue::Boolean(false)) {
-            f.push(Finding::new(
-                "effect-convention",
-                &loc,
-                "an effect switch must start false (effect off)",
-            ));
-        }
-        let members: Vec<&&ScalarVariable> = params
-            .iter()
-            .filter(|v| v.name.starts_with(prefix) && v.name != e.name)
-            .collect();
-        if members.is_empty() {
-            f.push(Finding::new(
-                "effect-convention",
-                &loc,
-                format!("no parameter '{prefix}<name>' belongs to this effect"),
-            ));
-        }
-        for v in members {
-            let loc = var_loc(v);
-            if v.kind != VarKind::Real {
-                f.push(Finding::new(
-                    "effect-convention",
-                    &loc,
-                    "an effect parameter must be Real",
-                ));
-                continue;
-            }
-            if v.variability != Variability::Fixed {
-                f.push(Finding::new(
-                    "effect-convention",
-                    &loc,
-                    "an effect parameter must be fixed",
-                ));
-            }
-            if md.effective_unit(v).is_none() {
-                f.push(Finding::new(
-                    "effect-convention",
-                    &loc,
-                    "an effect parameter needs a unit",
-                ));
-            }
+        .map(|v| {
             let (min, max) = effective_range(md, v);
-            match (min, max) {
-                (Some(a), Some(b)) if a.is_finite() && b.is_finite() && a < b => {
-                    if let Some(s) = v.start.as_ref().and_then(StartValue::as_f64) {
-                        if s < a || s > b {
-                            f.push(Finding::new(
-                                "effect-convention",
-                                &loc,
-                                format!("start {s} is outside [{a}, {b}]"),
-                            ));
-                        }
-                    }
-                }
-                _ => f.push(Finding::new(
-                    "effect-convention",
-                    &loc,
-                    "an effect parameter needs finite min < max (the plausible hardware range)",
-                )),
+            effects::Param {
+                name: &v.name,
+                kind: v.kind,
+                variability: v.variability,
+                start: v.start.as_ref().and_then(StartValue::as_f64),
+                min,
+                max,
+                has_unit: md.effective_unit(v).is_some(),
+                description: v.description.as_deref().unwrap_or(""),
             }
-        }
-    }
-    let tagged = params.iter().any(|v| {
-        v.description
-            .as_deref()
-            .is_some_and(|d| d.trim_start().starts_with("[calibrate]"))
-    });
-    if !tagged {
-        f.push(Finding::new(
-            "effect-convention",
-            "modelDescription.xml:<ModelVariables>",
-            "no parameter description starts with [calibrate] (the default calibration set)",
-        ));
-    }
-    f
+        })
+        .collect();
+    effects::scan(&params)
+        .problems
+        .into_iter()
+        .map(|(i, problem)| {
+            let loc = match i {
+                Some(i) => var_loc(vars[i]),
+                None => "modelDescription.xml:<ModelVariables>".to_string(),
+            };
+            Finding::new("effect-convention", &loc, problem.to_string())
+        })
+        .collect()
 }
 
 /// File-level checks: the binary for this platform exists under `binaries/linux64/`.

@@ -5,9 +5,9 @@ use fmi2_export::Variable;
 /// Table I orifice coefficient with no FMI unit: the SI unit m3 s^-1 V^-1 Pa^-1/2 has a
 /// half-integer exponent, which FMI `BaseUnit` cannot express; it is stated in the description.
 const fn coefficient(name: &'static str, start: f64, description: &'static str) -> Variable {
-    let mut v = Variable::parameter(name, start, "1", description).range(5e-10, 5e-8);
-    v.unit = None;
-    v
+    Variable::parameter(name, start, "1", description)
+        .range(5e-10, 5e-8)
+        .unit_not_expressible()
 }
 
 fmi2_export::declare_variables! {

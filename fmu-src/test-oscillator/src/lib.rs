@@ -120,14 +120,6 @@ mod tests {
     use super::*;
 
     #[test]
-    fn table_is_consistent() {
-        assert_eq!(
-            fmi2_export::xml::check_table(VARIABLES),
-            Vec::<String>::new()
-        );
-    }
-
-    #[test]
     fn free_oscillation_matches_closed_form() {
         let mut m = Oscillator::new();
         let mut vars: Vec<f64> = VARIABLES.iter().map(|v| v.start).collect();
