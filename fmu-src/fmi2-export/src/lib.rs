@@ -37,9 +37,73 @@ pub trait Model: Clone + Send + serde::Serialize + serde::de::DeserializeOwned +
     fn new() -> Self;
     /// Validate parameters (min/max are already checked by the layer), build the consistent initial
     /// state and write every output into `vars`. Idempotent. `Err` names the offending parameter.
-    fn initialize(&mut self, vars: &mut [f64], start_time: f64) -> Result<(), String>;
+    fn initialize(&mut self, vars: &mut [f64], start_time: f64) -> Result<(), ModelError>;
     /// Advance from `t` to `t + h` with inputs as in `vars`; write every output into `vars`.
-    fn do_step(&mut self, vars: &mut [f64], t: f64, h: f64) -> Result<(), String>;
+    fn do_step(&mut self, vars: &mut [f64], t: f64, h: f64) -> Result<(), ModelError>;
+}
+
+/// Why a model cannot initialize or complete a step. The FMI layer logs it under the FMI
+/// function's name and returns `fmi2Error`; the message is built here, once, from the fields.
+#[derive(Debug, thiserror::Error)]
+pub enum ModelError {
+    /// Parameter values the physics cannot use, each name a variable of the table.
+    #[error("{}: {reason}", quote_names(names))]
+    Parameters {
+        names: Vec<&'static str>,
+        reason: String,
+    },
+    /// A communication step the model cannot take as asked.
+    #[error("communication step at t = {t} s with h = {h} s: {reason}")]
+    Step { t: f64, h: f64, reason: String },
+    /// The integrator failed inside `[t0, t1]`.
+    #[error("integration from t = {t0} s to {t1} s failed: {source}")]
+    Solver {
+        t0: f64,
+        t1: f64,
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
+    /// `do_step` before `initialize` (the FMI state machine prevents it; kept for direct users).
+    #[error("do_step before initialize")]
+    NotInitialized,
+}
+
+/// `parameter 'a'` or `parameters 'a', 'b'`.
+fn quote_names(names: &[&str]) -> String {
+    let quoted: Vec<String> = names.iter().map(|n| format!("'{n}'")).collect();
+    let noun = if names.len() == 1 {
+        "parameter"
+    } else {
+        "parameters"
+    };
+    format!("{noun} {}", quoted.join(", "))
+}
+
+impl ModelError {
+    /// One parameter the physics cannot use.
+    pub fn parameter(name: &'static str, reason: impl Into<String>) -> Self {
+        ModelError::Parameters {
+            names: vec![name],
+            reason: reason.into(),
+        }
+    }
+
+    /// A combination of parameters the physics cannot use.
+    pub fn parameters(names: &[&'static str], reason: impl Into<String>) -> Self {
+        ModelError::Parameters {
+            names: names.to_vec(),
+            reason: reason.into(),
+        }
+    }
+
+    /// The integrator failed inside `[t0, t1]`.
+    pub fn solver(t0: f64, t1: f64, e: impl std::error::Error + Send + Sync + 'static) -> Self {
+        ModelError::Solver {
+            t0,
+            t1,
+            source: Box::new(e),
+        }
+    }
 }
 
 /// Entry point of each model's `describe-<crate>` binary: writes `modelDescription.xml` and

@@ -14,5 +14,6 @@ pub mod plant;
 pub mod vars;
 
 pub use model::HydraulicJoint;
+pub use vars::{V, VARIABLES};
 
 fmi2_export::export_model!(HydraulicJoint);

@@ -4,8 +4,8 @@
 use crate::controller::{controller_update, ControllerParams, U_MAX};
 use crate::plant::*;
 use crate::vars::{V, VARIABLES};
-use fmi2_export::{Model, Variable};
-use ode::Integrator;
+use fmi2_export::{Model, ModelError, Variable};
+use ode::{Integrator, SampleClock};
 use serde::{Deserialize, Serialize};
 
 /// The HydraulicJoint model state (serialized whole for fmi2GetFMUstate).
@@ -166,12 +166,12 @@ impl HydraulicJoint {
     }
 
     /// Integrate the plant from `t0` to `t1` with the held commands.
-    fn advance(&mut self, t0: f64, t1: f64) -> Result<(), String> {
+    fn advance(&mut self, t0: f64, t1: f64) -> Result<(), ModelError> {
         if t1 <= t0 {
             return Ok(());
         }
         let (Some((p, d)), Some(integ)) = (&self.params, &mut self.integrator) else {
-            return Err("HydraulicJoint: doStep before initialization".into());
+            return Err(ModelError::NotInitialized);
         };
         let plant = Plant {
             p,
@@ -183,12 +183,14 @@ impl HydraulicJoint {
         self.y[VRET] = 0.0;
         integ
             .integrate(&plant, t0, t1, &mut self.y)
-            .map_err(|e| format!("HydraulicJoint: integration failed: {e}"))?;
+            .map_err(|e| ModelError::solver(t0, t1, e))?;
         self.oil[0] += self.y[VSUP];
         self.oil[1] += self.y[VRET];
-        if let Some(i) = self.y.iter().position(|v| !v.is_finite()) {
-            return Err(format!(
-                "HydraulicJoint: non-finite state component {i} at t = {t1}"
+        if self.y.iter().any(|v| !v.is_finite()) {
+            return Err(ModelError::solver(
+                t0,
+                t1,
+                ode::OdeError::NonFinite { t: t1 },
             ));
         }
         Ok(())
@@ -243,7 +245,7 @@ impl Model for HydraulicJoint {
         }
     }
 
-    fn initialize(&mut self, vars: &mut [f64], start_time: f64) -> Result<(), String> {
+    fn initialize(&mut self, vars: &mut [f64], start_time: f64) -> Result<(), ModelError> {
         let p = read_params(vars);
         let d = p.derive()?;
         let u = if p.internal_controller {
@@ -264,9 +266,9 @@ impl Model for HydraulicJoint {
         Ok(())
     }
 
-    fn do_step(&mut self, vars: &mut [f64], t: f64, h: f64) -> Result<(), String> {
+    fn do_step(&mut self, vars: &mut [f64], t: f64, h: f64) -> Result<(), ModelError> {
         let Some((p, _)) = &self.params else {
-            return Err("HydraulicJoint: doStep before initialization".into());
+            return Err(ModelError::NotInitialized);
         };
         let internal = p.internal_controller;
         let ctrl = p.ctrl;
@@ -274,50 +276,54 @@ impl Model for HydraulicJoint {
         let theta_ref = vars[V::THETA_REF as usize];
         let t_end = t + h;
         if !(h.is_finite() && h >= 0.0 && t.is_finite() && t_end.is_finite()) {
-            return Err(format!(
-                "HydraulicJoint: invalid communication step t = {t}, h = {h}"
-            ));
+            return Err(ModelError::Step {
+                t,
+                h,
+                reason: "time and step size must be finite, h >= 0".into(),
+            });
         }
         if !internal {
             self.hold(Self::open_loop_commands(vars), tau);
             self.advance(t, t_end)?;
         } else {
-            let ts = 1.0 / ctrl.rate;
-            let tol = 1e-9 * ts;
-            let t0 = self.t0;
-            let sample_time = |k: u64| t0 + k as f64 * ts;
-            let mut tc = t;
-            let mut u = self.u_held;
-            if h * ctrl.rate > 1e6 {
-                return Err(format!(
-                    "HydraulicJoint: communication step {h} s spans more than 1e6 samples of the \
-                     {} Hz controller; use smaller steps",
-                    ctrl.rate
+            let Some(clock) = SampleClock::new(self.t0, 1.0 / ctrl.rate) else {
+                return Err(ModelError::parameter(
+                    "controller_rate",
+                    format!("{} Hz gives no sample period", ctrl.rate),
                 ));
+            };
+            if h * ctrl.rate > 1e6 {
+                return Err(ModelError::Step {
+                    t,
+                    h,
+                    reason: format!(
+                        "spans more than 1e6 samples of the {} Hz controller; use smaller steps",
+                        ctrl.rate
+                    ),
+                });
             }
             // samples due at (or before, within rounding) the start of the step: one update at
             // t uses the state there, however many sample instants lie at or before t
-            if sample_time(self.next_sample) <= t + tol {
+            let mut u = self.u_held;
+            if clock.is_due(self.next_sample, t) {
                 let (l, r) =
                     controller_update(theta_ref, self.y[TH], self.mean_piston_offset(), &ctrl);
                 u = [l, r];
-                let due = ((t + tol - t0) / ts).floor().max(0.0) as u64;
-                self.next_sample = due.max(self.next_sample) + 1;
+                self.next_sample = clock.after_due(self.next_sample, t);
             }
             self.hold(u, tau);
+            let mut tc = t;
             loop {
-                let tk = sample_time(self.next_sample);
-                if tk < t_end - tol {
-                    self.advance(tc, tk)?;
-                    let (l, r) =
-                        controller_update(theta_ref, self.y[TH], self.mean_piston_offset(), &ctrl);
-                    self.hold([l, r], tau);
-                    self.next_sample += 1;
-                    tc = tk;
-                } else {
-                    self.advance(tc, t_end)?;
+                let (tk, sample) = clock.stop_before(self.next_sample, t_end);
+                self.advance(tc, tk)?;
+                if !sample {
                     break;
                 }
+                let (l, r) =
+                    controller_update(theta_ref, self.y[TH], self.mean_piston_offset(), &ctrl);
+                self.hold([l, r], tau);
+                self.next_sample += 1;
+                tc = tk;
             }
         }
         self.write_outputs(vars);

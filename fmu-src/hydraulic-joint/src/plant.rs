@@ -8,6 +8,7 @@
 
 use crate::controller::{ControllerParams, DEAD_BAND_BLEND};
 use crate::physics::*;
+use fmi2_export::ModelError;
 use serde::{Deserialize, Serialize};
 
 pub const TH: usize = 0;
@@ -131,17 +132,24 @@ pub struct Derived {
 impl Params {
     /// Check combinations the per-variable bounds cannot express and derive the constants.
     /// `Err` names the offending parameter.
-    pub fn derive(&self) -> Result<Derived, String> {
+    pub fn derive(&self) -> Result<Derived, ModelError> {
         if self.annulus_area >= self.piston_area {
-            return Err(format!(
-                "annulus_area ({}) must be smaller than piston_area ({}) for a single-rod cylinder",
-                self.annulus_area, self.piston_area
+            return Err(ModelError::parameters(
+                &["annulus_area", "piston_area"],
+                format!(
+                    "annulus_area ({}) must be smaller than piston_area ({}) for a single-rod \
+                     cylinder",
+                    self.annulus_area, self.piston_area
+                ),
             ));
         }
         if self.return_pressure >= self.supply_pressure {
-            return Err(format!(
-                "return_pressure ({}) must be below supply_pressure ({})",
-                self.return_pressure, self.supply_pressure
+            return Err(ModelError::parameters(
+                &["return_pressure", "supply_pressure"],
+                format!(
+                    "return_pressure ({}) must be below supply_pressure ({})",
+                    self.return_pressure, self.supply_pressure
+                ),
             ));
         }
         let c_eff = if self.valve_use_mean {
@@ -184,11 +192,14 @@ impl Params {
         };
         let (p1, p2) = self.rest_pressures();
         if self.cables_attached && (p1 > self.supply_pressure || p2 > self.supply_pressure) {
-            return Err(format!(
-                "spring_pretension ({t0} N) cannot be held at rest with supply_pressure {} Pa \
-                 (chamber pressure {:.4e} Pa needed)",
-                self.supply_pressure,
-                p1.max(p2)
+            return Err(ModelError::parameters(
+                &["spring_pretension", "supply_pressure"],
+                format!(
+                    "spring_pretension ({t0} N) cannot be held at rest with supply_pressure {} \
+                     Pa (chamber pressure {:.4e} Pa needed)",
+                    self.supply_pressure,
+                    p1.max(p2)
+                ),
             ));
         }
         Ok(d)

@@ -27,6 +27,40 @@ impl SampleClock {
         self.start + k as f64 * self.period
     }
 
+    /// Tolerance (in seconds) under which a time counts as reaching a sample instant:
+    /// `1e-9` periods. A communication point computed by an importer as `t + h` carries rounding
+    /// of order 1e-16 `t`, so a sample instant it meant to hit may lie just after it; far below
+    /// any meaningful sub-interval, the tolerance treats such a point as the instant itself.
+    pub fn tolerance(&self) -> f64 {
+        1e-9 * self.period
+    }
+
+    /// True when sample `k` is due at `t`: `time(k) <= t` within [`Self::tolerance`].
+    pub fn is_due(&self, k: u64, t: f64) -> bool {
+        self.time(k) <= t + self.tolerance()
+    }
+
+    /// The index following every sample due at `t`, and at least `k + 1`: after one controller
+    /// update at `t`, the samples a long communication step jumped over are not replayed.
+    pub fn after_due(&self, k: u64, t: f64) -> u64 {
+        let due = ((t + self.tolerance() - self.start) / self.period)
+            .floor()
+            .max(0.0) as u64;
+        due.max(k) + 1
+    }
+
+    /// Where an integration from a point whose next sample is `k` must stop on its way to
+    /// `t_end`: `(time(k), true)` when sample `k` comes first (earlier than `t_end` by more than
+    /// the tolerance), else `(t_end, false)`.
+    pub fn stop_before(&self, k: u64, t_end: f64) -> (f64, bool) {
+        let tk = self.time(k);
+        if tk < t_end - self.tolerance() {
+            (tk, true)
+        } else {
+            (t_end, false)
+        }
+    }
+
     /// Smallest `k` with `time(k) >= t` (0 for `t <= start`; saturates for huge or NaN `t`).
     pub fn index_at_or_after(&self, t: f64) -> u64 {
         if t.is_nan() || t <= self.start {
@@ -104,5 +138,30 @@ impl Iterator for Segments {
             self.t = self.t1;
             Some((self.t1, None))
         }
+    }
+}
+
+#[cfg(test)]
+mod sampled_loop_tests {
+    use super::*;
+
+    #[test]
+    fn a_communication_point_rounded_just_before_a_sample_counts_as_the_sample() {
+        let c = SampleClock::new(0.0, 0.025).unwrap();
+        // 25 steps of 1 ms accumulate to 0.025000000000000012: sample 1 is due there
+        let t: f64 = (0..25).map(|_| 1e-3).sum();
+        assert!(c.is_due(1, t) && c.is_due(1, 0.025 - 1e-13) && !c.is_due(1, 0.0249));
+        // a step ending 1e-13 s after sample 1 does not integrate a 1e-13 s sliver
+        assert_eq!(c.stop_before(1, 0.025 + 1e-13), (0.025 + 1e-13, false));
+        assert_eq!(c.stop_before(1, 0.03), (0.025, true));
+        assert_eq!(c.stop_before(2, 0.03), (0.03, false));
+    }
+
+    #[test]
+    fn samples_jumped_over_by_a_long_step_are_not_replayed() {
+        let c = SampleClock::new(1.0, 0.5).unwrap();
+        assert_eq!(c.after_due(0, 1.0), 1);
+        assert_eq!(c.after_due(0, 3.2), 5); // samples 0..=4 (1.0 .. 3.0) were due at 3.2
+        assert_eq!(c.after_due(7, 3.2), 8);
     }
 }

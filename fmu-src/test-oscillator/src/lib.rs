@@ -3,7 +3,7 @@
 //! Integrated with classical RK4 on fixed sub-steps of at most `max_substep`.
 //! `fail_at` makes a step fail on purpose at that time, to test the error path.
 
-use fmi2_export::{declare_variables, Model, Variable};
+use fmi2_export::{declare_variables, Model, ModelError, Variable};
 use serde::{Deserialize, Serialize};
 
 declare_variables! {
@@ -63,7 +63,7 @@ impl Model for Oscillator {
         Oscillator::default()
     }
 
-    fn initialize(&mut self, vars: &mut [f64], _start_time: f64) -> Result<(), String> {
+    fn initialize(&mut self, vars: &mut [f64], _start_time: f64) -> Result<(), ModelError> {
         *self = Oscillator {
             x: vars[V::X0 as usize],
             v: 0.0,
@@ -75,18 +75,22 @@ impl Model for Oscillator {
             locked: vars[V::LOCKED as usize] != 0.0,
         };
         if self.k == 0.0 && self.c == 0.0 && !self.locked {
-            return Err("parameters 'stiffness' and 'damping' are both 0: the motion is undamped and unbounded under a constant force".into());
+            return Err(ModelError::parameters(
+                &["stiffness", "damping"],
+                "both 0: the motion is undamped and unbounded under a constant force",
+            ));
         }
         self.outputs(vars);
         Ok(())
     }
 
-    fn do_step(&mut self, vars: &mut [f64], t: f64, h: f64) -> Result<(), String> {
+    fn do_step(&mut self, vars: &mut [f64], t: f64, h: f64) -> Result<(), ModelError> {
         if t + h >= self.fail_at {
-            return Err(format!(
-                "deliberate failure: fail_at = {} reached",
-                self.fail_at
-            ));
+            return Err(ModelError::Step {
+                t,
+                h,
+                reason: format!("deliberate failure: fail_at = {} reached", self.fail_at),
+            });
         }
         if !self.locked {
             let f = vars[V::FORCE as usize];

@@ -53,19 +53,11 @@ pub fn position_loop(sp: f64, pv: f64, k_pos: f64, band: f64, omega_max: f64) ->
 /// Discrete state of the sampled position loop.
 #[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
 pub struct PositionLoop {
-    /// Index of the next sample instant `k * Ts` not yet processed (integer counter: sample
-    /// instants are computed as `k * Ts`, never accumulated).
+    /// Index of the next sample instant not yet processed (an integer counter: the instants
+    /// are `ode::SampleClock::time(k) = t0 + k Ts`, never accumulated).
     pub next_sample: u64,
     /// Speed set point held since the last sample [rad/s].
     pub omega_ref: f64,
-}
-
-impl PositionLoop {
-    /// Time of sample `k`: `k * Ts` (relative to the start time).
-    #[inline]
-    pub fn sample_time(k: u64, ts: f64) -> f64 {
-        k as f64 * ts
-    }
 }
 
 #[cfg(test)]
@@ -107,11 +99,5 @@ mod tests {
         assert!((w - 8.75 * 1.5 * band).abs() < 1e-12);
         assert_eq!(position_loop(2011.0, 0.0, 8.75, band, 837.0), 837.0);
         assert_eq!(position_loop(-2011.0, 0.0, 8.75, band, 837.0), -837.0);
-    }
-
-    #[test]
-    fn sample_times_are_exact_multiples() {
-        assert_eq!(PositionLoop::sample_time(1000, 1e-3), 1000.0 * 1e-3);
-        assert_eq!(PositionLoop::sample_time(3, 0.1), 3.0 * 0.1);
     }
 }

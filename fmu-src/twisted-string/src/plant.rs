@@ -13,6 +13,7 @@
 
 use crate::controller::{pi_integrator_rate, pi_output};
 use crate::physics::*;
+use fmi2_export::ModelError;
 use serde::{Deserialize, Serialize};
 
 /// Largest number of states (with `gear_backlash`).
@@ -686,7 +687,7 @@ fn strings_and_motor_energy(q: &Params, y: &[f64]) -> f64 {
 /// x = (p0 - L0)/c the load force is `pos(x) phi(p0)` (phi = 1 for the strand law, p/q for the
 /// `string_compliance` law at zero twist); Newton on the monotone
 /// `g(x) = pos(x) phi(L0 + c x) + k_s c x - (m g + F_ext + F_0)`. Returns p0.
-pub fn rest_position(q: &Params, f_load: f64) -> Result<f64, String> {
+pub fn rest_position(q: &Params, f_load: f64) -> Result<f64, ModelError> {
     let c = q.compliance_c();
     let b = q.load_mass * GRAVITY + f_load + q.spring_preload;
     let ksc = q.spring_stiffness * c;
@@ -711,8 +712,9 @@ pub fn rest_position(q: &Params, f_load: f64) -> Result<f64, String> {
     }
     let p0 = q.string_length + c * x;
     if !(p0.is_finite() && p0 > 0.0) {
-        return Err(format!(
-            "load_mass/spring_preload/F_load: no equilibrium at rest (p0 = {p0})"
+        return Err(ModelError::parameters(
+            &["load_mass", "spring_preload", "F_load"],
+            format!("no equilibrium at rest (p0 = {p0})"),
         ));
     }
     Ok(p0)
