@@ -96,6 +96,14 @@ impl ModelError {
         }
     }
 
+    /// The variables this error names (empty unless it is about parameters).
+    pub fn names(&self) -> &[&'static str] {
+        match self {
+            ModelError::Parameters { names, .. } => names,
+            _ => &[],
+        }
+    }
+
     /// The integrator failed inside `[t0, t1]`.
     pub fn solver(t0: f64, t1: f64, e: impl std::error::Error + Send + Sync + 'static) -> Self {
         ModelError::Solver {

@@ -435,7 +435,7 @@ mod tests {
         let mut vars = start_vars();
         vars[V::SUPPLY_VOLTAGE as usize] = 5.0;
         let err = TwistedString::new().initialize(&mut vars, 0.0).unwrap_err();
-        assert!(err.contains("speed_limit"), "{err}");
+        assert!(err.names().contains(&"speed_limit"), "{err}");
     }
 
     /// Balance residual `E_el + W_ext - E_diss - (E_stored - E_stored0)` relative to the
