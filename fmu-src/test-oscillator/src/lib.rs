@@ -2,146 +2,15 @@
 //! FMI layer (state machine, FMU states, logging) independently of the actuator models.
 //! Integrated with classical RK4 on fixed sub-steps of at most `max_substep`.
 //! `fail_at` makes a step fail on purpose at that time, to test the error path.
+//!
+//! Modules: [`vars`] (variable table), [`model`] (the FMI model), [`docs`] (documentation): the
+//! layout every model crate follows (see ARCHITECTURE.md, "Adding a model").
 
-use fmi2_export::{declare_variables, Model, ModelError, Variable};
-use serde::{Deserialize, Serialize};
+pub mod docs;
+pub mod model;
+pub mod vars;
 
-declare_variables! {
-    MASS => Variable::parameter("mass", 1.0, "kg", "Mass m").range(1e-3, 1e3),
-    STIFFNESS => Variable::parameter("stiffness", 100.0, "N/m", "Spring stiffness k").range(0.0, 1e6),
-    DAMPING => Variable::parameter("damping", 0.5, "N.s/m", "Viscous damping c").range(0.0, 1e4),
-    X0 => Variable::parameter("x0", 0.01, "m", "Initial position").range(-1.0, 1.0).display("mm"),
-    MAX_SUBSTEP => Variable::parameter("max_substep", 1e-4, "s", "Largest RK4 sub-step").range(1e-7, 1e-2),
-    FAIL_AT => Variable::parameter("fail_at", 1e9, "s", "A step reaching this time fails on purpose (test of the error path)").range(0.0, 1e9),
-    LOCKED => Variable::flag("locked", false, "When true the mass is held at x0"),
-    FORCE => Variable::input("force", 0.0, "N", "External force F").range(-1e3, 1e3),
-    X => Variable::output("x", "m", "Position").display("mm"),
-    V => Variable::output("v", "m/s", "Velocity"),
-    ENERGY => Variable::output("energy", "J", "Kinetic plus spring energy"),
-}
-
-/// The physical state; parameters copied at initialization.
-#[derive(Clone, Debug, Default, Serialize, Deserialize)]
-pub struct Oscillator {
-    x: f64,
-    v: f64,
-    m: f64,
-    k: f64,
-    c: f64,
-    h_max: f64,
-    fail_at: f64,
-    locked: bool,
-}
-
-impl Oscillator {
-    fn accel(&self, x: f64, v: f64, f: f64) -> f64 {
-        (f - self.c * v - self.k * x) / self.m
-    }
-
-    fn outputs(&self, vars: &mut [f64]) {
-        vars[V::X as usize] = self.x;
-        vars[V::V as usize] = self.v;
-        vars[V::ENERGY as usize] = 0.5 * self.m * self.v * self.v + 0.5 * self.k * self.x * self.x;
-    }
-}
-
-impl Model for Oscillator {
-    const NAME: &'static str = "Oscillator";
-    const DESCRIPTION: &'static str = "Damped spring-mass oscillator (test model of the FMI layer)";
-    const DEFAULT_STOP_TIME: f64 = 2.0;
-
-    fn variables() -> &'static [Variable] {
-        VARIABLES
-    }
-
-    fn documentation_html() -> String {
-        "<h2>Equations</h2><p><code>m x'' + c x' + k x = F</code>, RK4 on fixed sub-steps.</p>"
-            .into()
-    }
-
-    fn new() -> Self {
-        Oscillator::default()
-    }
-
-    fn initialize(&mut self, vars: &mut [f64], _start_time: f64) -> Result<(), ModelError> {
-        *self = Oscillator {
-            x: vars[V::X0 as usize],
-            v: 0.0,
-            m: vars[V::MASS as usize],
-            k: vars[V::STIFFNESS as usize],
-            c: vars[V::DAMPING as usize],
-            h_max: vars[V::MAX_SUBSTEP as usize],
-            fail_at: vars[V::FAIL_AT as usize],
-            locked: vars[V::LOCKED as usize] != 0.0,
-        };
-        if self.k == 0.0 && self.c == 0.0 && !self.locked {
-            return Err(ModelError::parameters(
-                &["stiffness", "damping"],
-                "both 0: the motion is undamped and unbounded under a constant force",
-            ));
-        }
-        self.outputs(vars);
-        Ok(())
-    }
-
-    fn do_step(&mut self, vars: &mut [f64], t: f64, h: f64) -> Result<(), ModelError> {
-        if t + h >= self.fail_at {
-            return Err(ModelError::Step {
-                t,
-                h,
-                reason: format!("deliberate failure: fail_at = {} reached", self.fail_at),
-            });
-        }
-        if !self.locked {
-            let f = vars[V::FORCE as usize];
-            let n = (h / self.h_max).ceil().max(1.0) as usize;
-            let dt = h / n as f64;
-            for _ in 0..n {
-                let (x, v) = (self.x, self.v);
-                let (k1x, k1v) = (v, self.accel(x, v, f));
-                let (k2x, k2v) = (
-                    v + 0.5 * dt * k1v,
-                    self.accel(x + 0.5 * dt * k1x, v + 0.5 * dt * k1v, f),
-                );
-                let (k3x, k3v) = (
-                    v + 0.5 * dt * k2v,
-                    self.accel(x + 0.5 * dt * k2x, v + 0.5 * dt * k2v, f),
-                );
-                let (k4x, k4v) = (v + dt * k3v, self.accel(x + dt * k3x, v + dt * k3v, f));
-                self.x += dt / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x);
-                self.v += dt / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
-            }
-        }
-        self.outputs(vars);
-        Ok(())
-    }
-}
+pub use model::Oscillator;
+pub use vars::{V, VARIABLES};
 
 fmi2_export::export_model!(Oscillator);
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn free_oscillation_matches_closed_form() {
-        let mut m = Oscillator::new();
-        let mut vars: Vec<f64> = VARIABLES.iter().map(|v| v.start).collect();
-        m.initialize(&mut vars, 0.0).unwrap();
-        for i in 0..1000 {
-            m.do_step(&mut vars, i as f64 * 1e-3, 1e-3).unwrap();
-        }
-        // Underdamped closed form: x = x0 e^{-zeta wn t} (cos wd t + zeta wn / wd sin wd t).
-        let (k, c, mass, x0, t) = (100.0f64, 0.5, 1.0, 0.01, 1.0);
-        let wn = (k / mass).sqrt();
-        let zeta = c / (2.0 * (k * mass).sqrt());
-        let wd = wn * (1.0 - zeta * zeta).sqrt();
-        let exact =
-            x0 * (-zeta * wn * t).exp() * ((wd * t).cos() + zeta * wn / wd * (wd * t).sin());
-        assert!(
-            (vars[V::X as usize] - exact).abs() < 1e-9,
-            "{} vs {exact}",
-            vars[V::X as usize]
-        );
-    }
-}

@@ -1,0 +1,6 @@
+//! The HTML documentation of the oscillator.
+
+/// HTML fragment for `documentation/index.html`.
+pub fn html() -> String {
+    "<h2>Equations</h2><p><code>m x'' + c x' + k x = F</code>, RK4 on fixed sub-steps.</p>".into()
+}
