@@ -7,6 +7,11 @@
 //! else `z = p / s` with `s` its typical size. Bounds are enforced by clamping `z` after each step
 //! (a projected LM step); the damping is Marquardt's `λ diag(JᵀJ)` (Marquardt 1963), so the
 //! choice of `s` only sets the finite-difference step.
+//!
+//! Why our own instead of the `levenberg-marquardt` crate: that crate has no bounds (the
+//! parameters here have hardware ranges the fit must respect), evaluates its Jacobian through one
+//! user callback (here every column is a whole FMU simulation, run in parallel), and has no
+//! Broyden updates between Jacobians (which save a simulation per parameter per iteration).
 
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
