@@ -64,7 +64,7 @@ def test_validate_passes_every_project_fmu():
 
 
 def test_validate_effects_convention_holds_for_both_actuators():
-    """Issue 10: effect switches off by default, effect parameters with unit and min/max, a
+    """Effect switches off by default, effect parameters with unit and min/max, a
     [calibrate] default set; the test oscillator (no effects, no calibration tags) is caught."""
     r = run("validate", "--effects", fmu_path("HydraulicJoint"), fmu_path("TwistedString"))
     assert r.returncode == 0, r.stdout + r.stderr
@@ -207,7 +207,7 @@ def test_simulate_boolean_set_and_missing_input_column(tmp_path):
 
 
 def test_simulate_hydraulic_joint_with_some_inputs_matches_fmpy(tmp_path):
-    """Issue 10: inputs without a column keep their start value; the step is the CSV's sample
+    """Inputs without a column keep their start value; the step is the CSV's sample
     interval (0.001 s here, written as k * 0.001 so single differences carry rounding noise)."""
     fmu = fmu_path("HydraulicJoint")
     t = np.arange(0, 2001) * 0.001

@@ -1,4 +1,4 @@
-"""Issue 8, item 5: 8 threads, each with its own instance of each FMU (HydraulicJoint,
+"""Instances in parallel threads share nothing: 8 threads, each with its own instance of each FMU (HydraulicJoint,
 TwistedString, Oscillator, one loaded binary per FMU shared by all threads), each thread with
 different inputs; every output at every step bit-identical to the same simulation run alone.
 The driver is the standalone Rust crate tests/drivers/hostdrivers (bin concurrency-driver, using the host crate)."""

@@ -1,4 +1,4 @@
-"""Issue 8 item 4 (and issue 4), short version: scripts/memcheck runs the C driver
+"""Memory safety, short version: scripts/memcheck runs the C driver
 tests/drivers/memcheck/fmu_cycle.c under valgrind memcheck (--error-exitcode=1,
 --leak-check=full, definite and indirect leaks are errors) for 20 full instance life cycles of
 every FMU. The long run (1,000 cycles) is `scripts/memcheck` without arguments."""

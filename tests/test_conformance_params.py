@@ -1,4 +1,4 @@
-"""Issue 8, item 7: bad parameters are refused at fmi2ExitInitializationMode with a message naming
+"""Bad parameters are refused at fmi2ExitInitializationMode with a message naming
 the parameter, never discovered later as NaN; and values inside the declared ranges work.
 
 - every Real parameter of every FMU, set to the nearest double outside its min or max (all other
@@ -10,7 +10,7 @@ the parameter, never discovered later as NaN; and values inside the declared ran
 - every Real parameter at its min and at its max: either refused with a message naming a parameter,
   or 0.1 s of simulation with fmi2OK and finite outputs (a failed step must say why);
 - candidate effects (`<effect>.enabled` = true) with each effect parameter at its min and its max:
-  initialization and 0.2 s of simulation succeed with finite outputs (issue 7/10 convention).
+  initialization and 0.2 s of simulation succeed with finite outputs (the candidate-effect convention).
 """
 import math
 import re

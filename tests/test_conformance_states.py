@@ -1,4 +1,4 @@
-"""Issue 8, item 2: hostile call sequences, table-driven, on every FMU in dist/ and the Oscillator.
+"""Hostile call sequences, table-driven, on every FMU in dist/ and the Oscillator.
 
 Every exported function is called in every state of the FMI 2.0 Co-Simulation state machine that
 the FMU can reach (instantiated, initialization mode, step complete, terminated, and error, which

@@ -1,4 +1,4 @@
-"""Issue 8, item 8: `actuator-fmu validate` catches deliberately broken copies of our FMUs and
+"""`actuator-fmu validate` catches deliberately broken copies of our FMUs and
 passes the clean ones.
 
 Broken copies are made in a temporary directory:

@@ -1,4 +1,4 @@
-"""Smoke tests of `actuator-fmu gap` (issue 7 and the `gap` part of issue 10).
+"""Smoke tests of `actuator-fmu gap`: effects named on data made by the FMUs, verdicts, reports.
 
 Data are generated here with examples/gapgen.py: FMPy simulates the packaged FMU with our own
 random inputs and parameter draws, one effect hidden or none, plus Gaussian noise of 1 % of each
@@ -78,7 +78,7 @@ def check_report_shape(rep, ds):
 
 def resimulate_rmse(model, ds, rep):
     """RMSE per output of an FMPy simulation with the report's parameters, named effects and
-    --set values, on the CSV's inputs at its sample interval (issue 10)."""
+    --set values, on the CSV's inputs at its sample interval."""
     start = {k: v["value"] for k, v in rep["parameters"].items()}
     for e in rep["named"]:
         start[e + ".enabled"] = True

@@ -1,4 +1,4 @@
-"""Issue 8, item 1: a second, independent importer. Every FMU in dist/ (and the Oscillator test
+"""A second, independent importer (libcosim), so conformance is not judged by FMPy alone. Every FMU in dist/ (and the Oscillator test
 model) runs in libcosim (DNV's C++ co-simulation library, through the `libcosimpy` wheel) and in
 FMPy (through tests/fmi_harness.py) over the same inputs, the same non-default parameter and the
 same communication step; every output agrees within 1e-6 of that signal's range.

@@ -1,4 +1,4 @@
-"""Issue 8, item 6, short version: 2*10^4 communication steps (1 ms) of each FMU with random
+"""Soak, short version (the long one is scripts/soak): 2*10^4 communication steps (1 ms) of each FMU with random
 inputs inside their ranges (tests/drivers/hostdrivers, soak-driver): every step fmi2OK, every
 output finite, and the balances the outputs allow, checked every 1000 steps and at the end. The
 long run (10^6 steps, closed and open loop, with and without effects) is scripts/soak.

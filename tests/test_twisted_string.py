@@ -1,4 +1,4 @@
-"""Acceptance tests of the TwistedString FMU (issues 6 and 10).
+"""Acceptance tests of the TwistedString FMU.
 
 The FMU is simulated with FMPy (`simulate_fmu`). Expected values come from the independent SciPy
 reference (tests/reference/twisted_string_ref.py, traces tests/reference/twisted_string_*.csv), the
@@ -262,7 +262,7 @@ def test_stiffness_falls_with_twist(staircases):
         assert k[-1] < 0.5 * k[0]
 
 
-# ---- interface contract (issue 10) ---------------------------------------------------------
+# ---- interface contract ---------------------------------------------------------------------
 @pytest.mark.parametrize("internal", [True, False])
 def test_equilibrium_at_rest(internal):
     res = sim({"internal_controller": internal}, None, t_end=10.0, dt=1e-3)
@@ -387,7 +387,7 @@ def test_bad_parameters_refused(params, name):
         h.free()
 
 
-# ---- energy balance (issue 8 item 6) -----------------------------------------------------------
+# ---- energy balance ---------------------------------------------------------------------------
 ALL_EFFECTS = {f"{e}.enabled": True for e in ("string_compliance", "twist_hysteresis",
                                              "motor_friction", "gear_backlash", "radius_growth")}
 

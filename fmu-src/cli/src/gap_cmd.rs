@@ -1,5 +1,5 @@
 //! `actuator-fmu gap FMU --data measured.csv --out DIR [--fit NAME,...] [--effects a,b]
-//! [--rounds N] [--set NAME=VALUE ...]`: the gap workflow of issue 7 (crate `gap`).
+//! [--rounds N] [--set NAME=VALUE ...]`: the gap workflow (crate `gap`).
 
 use crate::common::{parse_sets, CliError, CliResult};
 use gap::fmu::FmuSimulator;

@@ -1,4 +1,4 @@
-//! The gap workflow of issue 7: find where a model (an FMI 2.0 co-simulation FMU following the
+//! The gap workflow: find where a model (an FMI 2.0 co-simulation FMU following the
 //! effect convention) and a measurement disagree, name the missing effect, add it, and show the
 //! gap shrink.
 //!

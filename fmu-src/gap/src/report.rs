@@ -1,4 +1,4 @@
-//! `report.json` and `report.md` (issue 7 §4, issue 10).
+//! `report.json` (for scripts and CI) and `report.md` (for the engineer) of one gap run.
 
 use crate::workflow::GapResult;
 use serde_json::{json, Value};
@@ -170,7 +170,7 @@ pub fn to_markdown(res: &GapResult, fmu: &str, data: &str, plots: &[String]) -> 
             let _ = writeln!(s, "![{p}]({p})\n");
         }
     }
-    let _ = writeln!(s, "## Method\n\nBase parameters are calibrated by Levenberg–Marquardt on the weighted residual (model − measured)/σ, σ per output estimated from the data's second differences (robust MAD). Bounds are honoured with an active set (a parameter at a bound that the descent would push out is held there while the others move). The base calibration is done directly over the training part and, when the model reproduces its first quarter to within √2 × the noise, also over growing horizons (the first quarter, half, then all of it, each fit starting from the previous one's values), and the lower sum of squares is kept: when the trajectory's phase is sensitive to the parameters (a loop near its stability limit, oscillating), a long horizon's cost has many local minima, while over a short one the trajectories have not yet drifted apart. For each candidate a start is chosen by scanning its parameters along their ranges (six settings, each simulated with the base parameters at the current fit, scored after their linearised readjustment, and simulated with the base parameters as given; the lowest sum of squares wins); candidates are screened by regressing the residual on the base Jacobian plus each effect's sensitivities at that start; the best few are refitted from it (before naming, the base model is refitted from the best candidate's base values, so a gain the base model reaches alone is not credited to the effect; when that re-check improves the base fit by ΔBIC ≥ 10 and no candidate still reaches the threshold against it, the round is screened and refitted once more from the better base) with their parameters and the base ones (a refit that lowers the held-out error but falls short of the evidence, although the scan says the data could show the effect, is restarted from its profile: the base parameters fitted with the effect held at each scanned setting the data can reveal, the best of these refitted in full; the base fit may have bent a base parameter to imitate the effect, and a local descent from there lowers the effect instead of unbending it) and ranked by BIC with a per-output noise variance and an effective sample size N(1−ρ)/(1+ρ) from the residual's lag-1 autocorrelation (so correlated noise is not mistaken for evidence). An effect is named only if ΔBIC ≥ 10, the 95 % interval of its contribution's scale excludes 0, and it lowers the error on the held-out end of the trace. Once the effects are chosen, the model is refitted on the whole trace (the held-out end has served for the choice; a model with several friction parameters can fit the training part to the noise with values the held-out end contradicts); the parameters and intervals reported are from that fit.\n\n**Visibility.** At every scanned setting the change the effect makes to the outputs, in units of each output's noise, is projected off the base Jacobian (what the base parameters can absorb, linearised); its sum of squares is the most the effect could lower the chi-square there. Naming needs at least ΔBIC plus the BIC penalty of its parameters (`needed`). A candidate whose visibility stays below that everywhere in its range cannot be revealed by these data: not naming it is no evidence that it is absent, and the verdict says so. The weakest setting that reaches it is a detection limit (coarse: the scan's points; optimistic where discrete controller decisions make small parameter changes flip samples).");
+    let _ = writeln!(s, "## Method\n\n{METHOD}");
     s
 }
 
@@ -191,3 +191,51 @@ pub fn write(
     std::fs::write(dir.join("report.md"), to_markdown(res, fmu, data, plots))?;
     Ok(())
 }
+
+/// The Method section of report.md: how the verdict was reached, in the order the workflow runs.
+const METHOD: &str = "\
+**Calibration.** The base parameters are fitted by Levenberg–Marquardt to the weighted \
+residual (model − measured)/σ, where σ is each output's noise level, estimated from the \
+data's second differences (a robust median absolute deviation). Bounds are respected with an \
+active set: a parameter at a bound that the descent would push out is held there while the \
+others move. The fit is made directly over the training part and, when the model reproduces \
+the first quarter of it to within √2 × the noise, also over growing horizons (the first \
+quarter, half, then all of it, each fit starting from the previous one's values); the lower \
+sum of squares is kept. When the trajectory's phase is sensitive to the parameters (a loop \
+near its stability limit, oscillating), a long horizon's cost has many local minima, while \
+over a short one the trajectories have not yet drifted apart.
+
+**Candidates.** For each candidate effect a start is chosen by scanning its parameters along \
+their ranges: six settings, each simulated with the base parameters at the current fit and \
+scored after their linearised readjustment, and simulated with the base parameters as given; \
+the lowest sum of squares wins. Candidates are screened by regressing the residual on the \
+base Jacobian plus each effect's sensitivities at that start, and the best few are refitted \
+from it together with the base parameters.
+
+**Checks before naming.** The base model is refitted from the best candidate's base values, \
+so that a gain the base model reaches alone is not credited to the effect; when that re-check \
+improves the base fit by ΔBIC ≥ 10 and no candidate still reaches the threshold against it, \
+the round is screened and refitted once more from the better base. A refit that lowers the \
+held-out error but falls short of the evidence, although the scan says the data could show \
+the effect, is restarted from its profile: the base parameters fitted with the effect held at \
+each revealing setting, the best of these refitted in full (the base fit may have bent a base \
+parameter to imitate the effect, and a local descent from there shrinks the effect instead).
+
+**Naming.** Refits are ranked by BIC with a noise variance per output and an effective sample \
+size N(1−ρ)/(1+ρ) from the residual's lag-1 autocorrelation ρ, so that correlated noise is \
+not mistaken for evidence. An effect is named only if ΔBIC ≥ 10, the 95 % interval of its \
+contribution's scale excludes 0, and it lowers the error on the held-out end of the trace.
+
+**Final fit.** Once the effects are chosen, the model is refitted on the whole trace (the \
+held-out end has served for the choice; a model with several friction parameters can fit the \
+training part to the noise with values the held-out end contradicts). The parameters and \
+intervals reported come from that fit.
+
+**Visibility.** At every scanned setting, the change the effect makes to the outputs, in units \
+of each output's noise, is projected off the base Jacobian (what the base parameters can \
+absorb, linearised); its sum of squares is the most the effect could lower the chi-square \
+there. Naming needs at least ΔBIC plus the BIC penalty of its parameters (`needed`). A \
+candidate whose visibility stays below that everywhere in its range cannot be revealed by \
+these data: not naming it is no evidence that it is absent, and the verdict says so. The \
+weakest setting that reaches it is a detection limit (coarse: the scan's points; optimistic \
+where discrete controller decisions make small parameter changes flip samples).";

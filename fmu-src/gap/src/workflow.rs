@@ -1,4 +1,4 @@
-//! The gap workflow (issue 7, step 3): calibrate, locate, screen, refit, name, repeat, report.
+//! The gap workflow: calibrate, locate, screen, refit, name, repeat, report.
 //!
 //! Notation: `K` measured outputs, `N` samples, weighted residual `r = (y_model − y_meas) / σ_k`
 //! stacked output by output (row `k N + i`). `σ_k` is the noise level of output `k` estimated from

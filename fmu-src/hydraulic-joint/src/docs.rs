@@ -72,7 +72,7 @@ integration call and are summed in the model, so their relative tolerance applie
 increment rather than to the growing total); the residual of the balance is therefore the
 solver's error, of order <code>rtol</code> times the oil moved, and shrinks with <code>rtol</code>
 (<code>tests/test_hydraulic_joint.py::test_oil_balance</code>). These outputs are diagnostics
-for soak tests (issue 8); the SciPy reference does not compute them. Pressures are gauge, so
+for soak tests; the SciPy reference does not compute them. Pressures are gauge, so
 <code>r</code> is taken relative to atmospheric pressure; <code>beta</code> lumps the hose
 compliance, so <code>V_stored</code> is the model's oil content, not a measurable tank level.</p>
 <h3>Valve, eq. (13)-(17)</h3>

@@ -1,4 +1,5 @@
-//! The variable table (value reference = index). Names are a fixed interface (issues 5 and 10).
+//! The variable table (value reference = index). Names are a fixed interface: users, tests and
+//! scripts address variables by them.
 
 use fmi2_export::Variable;
 
@@ -109,7 +110,7 @@ fmi2_export::declare_variables! {
     VALVE_DYNAMICS_ENABLED => Variable::flag("valve_dynamics.enabled", false, "Spool second-order lag, eq. (18)"),
     VALVE_DYNAMICS_NATURAL_FREQUENCY => Variable::parameter("valve_dynamics.natural_frequency", 1300.0, "rad/s", "Spool natural frequency omega").range(400.0, 2000.0),
     VALVE_DYNAMICS_DAMPING_RATIO => Variable::parameter("valve_dynamics.damping_ratio", 0.7, "1", "Spool damping ratio zeta").range(0.4, 1.2),
-    // ---- oil balance diagnostics (issue 8 item 6; appended so earlier value references stay)
+    // ---- oil balance diagnostics (appended so earlier value references stay)
     V_SUPPLIED => Variable::output("V_supplied", "m3",
         "Oil drawn from the supply by both valves since initialization, as volume at 0 gauge (mass / rho(0)); diagnostic").display("cm3"),
     V_RETURNED => Variable::output("V_returned", "m3",

@@ -61,7 +61,7 @@ nominal 1 mm, well within the tolerance of a braided string). Residual 0.36 mm R
 as measured; the Table 2 regression is still met within 0.64 mm RMS on the grid above (1 mm required).
 Without the return spring the fit would give 1.2124 mm.
 With this radius and <code>string_compliance</code> off, full twist (&theta;<sub>t</sub> r = L<sub>0</sub>)
-is reached at &theta;<sub>m</sub> = 1420 rad, well before 2011 rad (issue 10); with
+is reached at &theta;<sub>m</sub> = 1420 rad, well before 2011 rad; with
 <code>string_compliance</code> on, the strands lengthen with twist and p(2011 rad) &asymp; 6 cm.</p>
 
 <h2>3. Strings (eq. 9&ndash;19)</h2>
@@ -113,7 +113,7 @@ dp/dt = v, g = 9.81 m/s&sup2;, m = <code>load_mass</code> (paper loads: m = F/9.
 Return spring (Fig. 7 part 6, pushing the load away from the motor toward the untwisted length):
 F<sub>s</sub> = F<sub>0</sub> + k<sub>s</sub>(L<sub>0</sub> &minus; p), defaults k<sub>s</sub> = 100 N/m,
 F<sub>0</sub> = 5 N (the paper gives no values; "powerful enough to overcome friction losses").
-Guides: viscous c<sub>g</sub> = 20 N&middot;s/m (choice; issue 6 asks for a plain viscous term).</p>
+Guides: viscous c<sub>g</sub> = 20 N&middot;s/m (choice: the paper gives no friction model for the guides).</p>
 
 <h2>5. Motor and gearhead</h2>
 <p>L di/dt = u &minus; R i &minus; k<sub>e</sub>&omega;<sub>m</sub>;
@@ -306,7 +306,7 @@ unit-tested against central differences for every effect and both controller mod
 <p>A communication step spanning more than 2&middot;10<sup>5</sup> position-loop samples is refused
 with fmi2Error (a huge step must not hang the importer).</p>
 
-<h2>9. Energy balance (issue 8 item 6)</h2>
+<h2>9. Energy balance</h2>
 <p>Outputs <code>E_electrical</code>, <code>W_external</code>, <code>E_dissipated</code>,
 <code>E_stored</code> [J] (and <code>E_string_kinematic</code>, a part of <code>E_dissipated</code>)
 let an importer check over any run that
@@ -373,7 +373,7 @@ rtol&middot;|y| + atol&middot;nominal the expected bound is |r| &le; rtol &times
 with every effect on under 97 N: |r|/throughput = 7&middot;10<sup>-9</sup> (closed loop) and
 2.6&middot;10<sup>-8</sup> (voltage mode) at rtol = 10<sup>-6</sup>, 2&middot;10<sup>-10</sup> and 1.4&middot;10<sup>-9</sup>
 at rtol = 10<sup>-8</sup>: it falls with the tolerance, so it is integration error, not a modelling leak.
-Soak (issue 8 item 6, FMPy, 10<sup>6</sup> steps of 1 ms, random set points 0&ndash;2011 rad, voltages
+Soak (FMPy, 10<sup>6</sup> steps of 1 ms, random set points 0&ndash;2011 rad, voltages
 &plusmn;24 V and F<sub>load</sub> &minus;40&hellip;60 N held 0.5 s, every effect on, 54 N): |r|/throughput =
 1.1&middot;10<sup>-8</sup> (closed loop, throughput 5.5 kJ) and 1.6&middot;10<sup>-8</sup> (voltage mode, 13.2 kJ).
 In voltage mode the motor is also driven into negative twist, where eq. 10 (fitted for &theta;<sub>M</sub> &ge; 0)

@@ -9,7 +9,7 @@
 
 use std::f64::consts::PI;
 
-/// Standard gravity [m/s2]; the paper's loads are `F = m g` (issue 10: `load_mass = F / 9.81`).
+/// Standard gravity [m/s2]; the paper's loads are `F = m g` (so a load of F newtons is `load_mass = F / 9.81`).
 pub const GRAVITY: f64 = 9.81;
 
 /// Smooth positive part `max(x, 0) ~ (x + sqrt(x^2 + w^2)) / 2` and its derivative.
@@ -291,7 +291,7 @@ pub fn spring_force(p: f64, l0: f64, k: f64, preload: f64) -> f64 {
     preload + k * (l0 - p)
 }
 
-/// Linear guides (4 guides, linear bearings): plain viscous friction `F = c v` (issue 6).
+/// Linear guides (4 guides, linear bearings): plain viscous friction `F = c v` (the paper gives no friction model for them).
 #[inline]
 pub fn guide_friction(v: f64, c: f64) -> f64 {
     c * v

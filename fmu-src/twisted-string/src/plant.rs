@@ -3,7 +3,7 @@
 //! States `y`: 0 armature current i [A], 1 motor angle theta_m [rad], 2 motor speed omega_m
 //! [rad/s], 3 load position p [m] (twisted length, grows downward), 4 load velocity v = dp/dt
 //! [m/s], 5 current-PI integrator z_i = int(i_ref - i) dt [A.s], 6 speed-PI integrator
-//! z_w = int(omega_ref - omega_m) dt [rad]; energy integrals (issue 8 item 6, see the
+//! z_w = int(omega_ref - omega_m) dt [rad]; energy integrals (for the energy balance, see the
 //! documentation section "Energy balance"): 7 E_electrical = int u i dt [J], 8 E_loss = int of
 //! the dissipated powers [J], 9 E_kinematic = int of the non-conservative exchange of the
 //! `string_compliance` law [J]. The energy states feed nothing back (quadratures). With
@@ -682,7 +682,7 @@ fn strings_and_motor_energy(q: &Params, y: &[f64]) -> f64 {
         + c * smooth_pos_primitive(aux.stretch / c, TENSION_WIDTH)
 }
 
-/// Consistent initial state at rest, untwisted (issue 10): theta_m = omega = i = 0, controller
+/// Consistent initial state at rest, untwisted (a simulation starts there unless told otherwise): theta_m = omega = i = 0, controller
 /// integrators 0, and the load hanging in equilibrium `F_L(p0) = m g + F_ext + F_s(p0)`. With
 /// x = (p0 - L0)/c the load force is `pos(x) phi(p0)` (phi = 1 for the strand law, p/q for the
 /// `string_compliance` law at zero twist); Newton on the monotone

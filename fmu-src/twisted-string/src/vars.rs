@@ -18,7 +18,7 @@ pub const STRING_RADIUS_FIT: f64 = 1.2127e-3;
 pub const SPEED_P_SI: f64 = 963e-6 * 30.0 / std::f64::consts::PI;
 
 fmi2_export::declare_variables! {
-    // ---- interface of issue 6 -------------------------------------------------------------
+    // ---- interface: mode, inputs, outputs -----------------------------------------------------
     INTERNAL_CONTROLLER => Variable::flag("internal_controller", true,
         "true: the cascade controller (Fig. 11, Table 5) tracks theta_motor_ref; false: the motor voltage is the input 'voltage'"),
     THETA_MOTOR_REF => Variable::input("theta_motor_ref", 0.0, "rad",
@@ -128,7 +128,7 @@ fmi2_export::declare_variables! {
         "Effective bundle radius growing with twist r = r0 (1 + g theta_t / 2 pi)"),
     RADIUS_GROWTH_PER_TURN => Variable::parameter("radius_growth.per_turn", 0.005, "1",
         "Relative radius growth g per turn of twist").range(0.001, 0.02),
-    // ---- energy balance (issue 8 item 6; appended so earlier value references stay) --------
+    // ---- energy balance (appended so earlier value references stay) -----------------------
     // E_electrical + W_external = E_dissipated + E_stored - E_stored(start) within the solver
     // tolerance (documentation section "Energy balance").
     E_ELECTRICAL => Variable::output("E_electrical", "J",

@@ -1,4 +1,4 @@
-/* A deliberately broken FMU binary for tests/test_conformance_validate.py (issue 8 item 8): it
+/* A deliberately broken FMU binary for tests/test_conformance_validate.py: it
  * forwards every FMI 2.0 call to the real binary of the FMU (renamed to real_<id>.so next to it)
  * but dereferences NULL when fmi2DoStep is called on an instance that is not initialized (before
  * fmi2ExitInitializationMode, or after fmi2Terminate/fmi2Reset): a crash on a wrong call order.

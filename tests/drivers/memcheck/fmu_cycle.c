@@ -1,4 +1,4 @@
-/* Memory driver for scripts/memcheck (issue 8, item 4; issue 4): loads an FMU binary with dlopen
+/* Memory driver for scripts/memcheck (leaks and invalid accesses over whole instance lives): loads an FMU binary with dlopen
  * and runs REPS full life cycles of one instance:
  *   instantiate, setup, enter/exit initialization (inputs set), STEPS steps with changing inputs,
  *   get/set/serialize/deserialize FMU states, a few rejected calls (error paths and logging),

@@ -1,4 +1,4 @@
-//! Concurrency check (issue 8, item 5), using the project's `host` crate.
+//! Concurrency check (instances of one FMU in parallel threads), using the project's `host` crate.
 //!
 //! For every FMU given: one [`host::Fmu`] (one loaded binary) shared by `--threads` threads; each
 //! thread owns one instance of every FMU and drives it with its own inputs (a different

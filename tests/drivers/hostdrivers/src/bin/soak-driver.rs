@@ -1,4 +1,4 @@
-//! Soak run (issue 8, item 6), using the project's `host` crate: `--steps` communication steps of
+//! Soak run (long runs with random inputs, balances checked), using the project's `host` crate: `--steps` communication steps of
 //! `--h` seconds of one FMU with random piecewise-constant inputs inside their ranges (held for a
 //! random 1..500 steps; xorshift64* generator, `--seed`). Every step must return fmi2OK and every
 //! Real output must be finite. Balances, where the FMU exposes the needed outputs, checked every
