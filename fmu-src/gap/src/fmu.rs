@@ -2,9 +2,9 @@
 //! inputs drive it (linearly interpolated at the communication points), the communication step
 //! is the data's sample interval, and the outputs are compared at the data's times.
 
-use crate::sim::Simulator;
+use crate::sim::{SimError, Simulator};
 use crate::spec::{ParamKind, ParamSpec};
-use crate::workflow::Data;
+use crate::workflow::{Data, GapError};
 use host::md::{Causality, VarKind, Variability};
 use host::{Fmu, InputSeries, SimulationRequest, Value};
 use std::sync::Mutex;
@@ -33,7 +33,7 @@ pub fn sample_interval(time: &[f64]) -> Option<f64> {
 impl<'a> FmuSimulator<'a> {
     /// Settable variables are the parameters (fixed or tunable) and the inputs (whose start
     /// value applies when the data have no column for them).
-    pub fn new(fmu: &'a Fmu, data: &Data) -> Result<Self, String> {
+    pub fn new(fmu: &'a Fmu, data: &Data) -> Result<Self, GapError> {
         let md = fmu.model_description();
         let mut params = Vec::new();
         for v in &md.model_variables {
@@ -66,7 +66,8 @@ impl<'a> FmuSimulator<'a> {
                 description,
             });
         }
-        let step = sample_interval(&data.time).ok_or("the data need at least two rows")?;
+        let step = sample_interval(&data.time)
+            .ok_or_else(|| GapError::Usage("the data need at least two rows".into()))?;
         Ok(FmuSimulator {
             fmu,
             params,
@@ -110,14 +111,14 @@ impl Simulator for FmuSimulator<'_> {
         &self.outputs
     }
 
-    fn simulate(&self, set: &[(usize, f64)], n: usize) -> Result<Vec<Vec<f64>>, String> {
+    fn simulate(&self, set: &[(usize, f64)], n: usize) -> Result<Vec<Vec<f64>>, SimError> {
         let req = self.request(set, n);
         let popped = self.pool.lock().unwrap_or_else(|e| e.into_inner()).pop();
         let mut sim = match popped {
             Some(s) => s,
-            None => host::Simulator::new(self.fmu).map_err(|e| e.to_string())?,
+            None => host::Simulator::new(self.fmu)?,
         };
-        let res = sim.run(&req).map_err(|e| e.to_string());
+        let res = sim.run(&req).map_err(SimError::from);
         self.pool
             .lock()
             .unwrap_or_else(|e| e.into_inner())
@@ -136,7 +137,7 @@ impl Simulator for FmuSimulator<'_> {
             .map(|name| {
                 let c = res
                     .column(name)
-                    .ok_or_else(|| format!("output '{name}' not recorded"))?;
+                    .ok_or_else(|| SimError::MissingOutput(name.clone()))?;
                 if aligned {
                     Ok(c[..n].to_vec())
                 } else {
@@ -146,7 +147,7 @@ impl Simulator for FmuSimulator<'_> {
                         .collect())
                 }
             })
-            .collect::<Result<Vec<_>, String>>()?;
+            .collect::<Result<Vec<_>, SimError>>()?;
         Ok(cols)
     }
 }

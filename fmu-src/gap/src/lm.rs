@@ -13,6 +13,7 @@
 //! user callback (here every column is a whole FMU simulation, run in parallel), and has no
 //! Broyden updates between Jacobians (which save a simulation per parameter per iteration).
 
+use crate::sim::SimError;
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
@@ -89,7 +90,7 @@ impl Bounded {
 
 /// A least-squares problem: weighted residuals (model − data) / σ for physical parameters.
 pub trait Problem: Sync {
-    fn residuals(&self, p: &[f64]) -> Result<Vec<f64>, String>;
+    fn residuals(&self, p: &[f64]) -> Result<Vec<f64>, SimError>;
 }
 
 /// Options of the fit.
@@ -184,12 +185,12 @@ pub fn levenberg_marquardt<P: Problem>(
     p0: &[f64],
     opts: LmOptions,
     tick: &(dyn Fn() + Sync),
-) -> Result<LmFit, String> {
+) -> Result<LmFit, SimError> {
     let m = p0.len();
     let mut z: Vec<f64> = b.iter().zip(p0).map(|(b, &p)| b.to_z(p)).collect();
     let mut r = problem.residuals(&to_p(b, &z))?;
     if r.iter().any(|v| !v.is_finite()) {
-        return Err("non-finite residual at the starting point".into());
+        return Err(SimError::NonFiniteStart);
     }
     let mut s = sse(&r);
     let mut evaluations = 1;
@@ -352,7 +353,7 @@ mod tests {
         y: Vec<f64>,
     }
     impl Problem for Decay {
-        fn residuals(&self, p: &[f64]) -> Result<Vec<f64>, String> {
+        fn residuals(&self, p: &[f64]) -> Result<Vec<f64>, SimError> {
             Ok(self
                 .t
                 .iter()
@@ -409,7 +410,7 @@ mod tests {
         y: Vec<f64>,
     }
     impl Problem for Line {
-        fn residuals(&self, p: &[f64]) -> Result<Vec<f64>, String> {
+        fn residuals(&self, p: &[f64]) -> Result<Vec<f64>, SimError> {
             Ok(self
                 .t
                 .iter()

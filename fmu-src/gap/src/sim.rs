@@ -16,7 +16,44 @@ pub trait Simulator: Sync {
     /// Simulate the first `n` samples of the time grid (the communication step is the sample
     /// interval) with the given parameters set (index into `params()`, value; Booleans 0/1), all
     /// others at their start values. Returns `out[k][i]`, output `k` at sample `i < n`.
-    fn simulate(&self, set: &[(usize, f64)], n: usize) -> Result<Vec<Vec<f64>>, String>;
+    fn simulate(&self, set: &[(usize, f64)], n: usize) -> Result<Vec<Vec<f64>>, SimError>;
+}
+
+/// Why a simulation gave no usable outputs. Cloneable so that parallel refits can report it.
+#[derive(Clone, Debug, thiserror::Error)]
+pub enum SimError {
+    /// The model itself failed (for an FMU: the host's message, which names the FMI function,
+    /// the time and what the FMU logged).
+    #[error("{0}")]
+    Model(String),
+    /// A model output the workflow needs was not recorded.
+    #[error("output '{0}' not recorded")]
+    MissingOutput(String),
+    /// Fewer outputs or samples than asked for.
+    #[error("the simulator returned {got} of {want} {what}")]
+    Short {
+        what: &'static str,
+        got: usize,
+        want: usize,
+    },
+    /// An output that is NaN or infinite.
+    #[error("output '{output}' is not finite at sample {sample}")]
+    NonFinite { output: String, sample: usize },
+    /// Every start of an effect's refit failed; the first failure is the cause.
+    #[error("refit of {effect} failed from every start: {cause}")]
+    Refit {
+        effect: String,
+        cause: Box<SimError>,
+    },
+    /// The residual at the starting point of a fit is not finite.
+    #[error("non-finite residual at the starting point of a fit")]
+    NonFiniteStart,
+}
+
+impl From<host::HostError> for SimError {
+    fn from(e: host::HostError) -> Self {
+        SimError::Model(e.to_string())
+    }
 }
 
 /// Counts simulations and the wall time during which any is running.
@@ -40,7 +77,7 @@ impl<'a, S: Simulator + ?Sized> Counted<'a, S> {
     }
 
     /// Simulate through the wrapped simulator, accounting for the time.
-    pub fn simulate(&self, set: &[(usize, f64)], n: usize) -> Result<Vec<Vec<f64>>, String> {
+    pub fn simulate(&self, set: &[(usize, f64)], n: usize) -> Result<Vec<Vec<f64>>, SimError> {
         {
             let mut g = self.since.lock().unwrap_or_else(|e| e.into_inner());
             if self.active.fetch_add(1, Ordering::SeqCst) == 0 {

@@ -4,7 +4,7 @@
 //! `F_f = F_c tanh(ẋ / 0.01)` (smoothed sign) and cubic stiffening `k3`. Integrated with classical
 //! RK4 at four substeps per sample (the input held over the sample, as a co-simulation step).
 
-use crate::sim::Simulator;
+use crate::sim::{SimError, Simulator};
 use crate::spec::ParamSpec;
 use crate::workflow::{self, Config, Data};
 
@@ -115,7 +115,7 @@ impl Simulator for Msd {
     fn output_names(&self) -> &[String] {
         &self.outputs
     }
-    fn simulate(&self, set: &[(usize, f64)], n: usize) -> Result<Vec<Vec<f64>>, String> {
+    fn simulate(&self, set: &[(usize, f64)], n: usize) -> Result<Vec<Vec<f64>>, SimError> {
         let mut p: Vec<f64> = self.params.iter().map(|q| q.start).collect();
         for &(i, v) in set {
             p[i] = v;

@@ -14,7 +14,7 @@
 //! so `Cov(z) = (J̃ᵀ J̃)⁻¹` and 95 % Wald intervals follow by the delta method.
 
 use crate::lm::{self, Bounded, LmOptions, Problem};
-use crate::sim::{Counted, Simulator};
+use crate::sim::{Counted, SimError, Simulator};
 use crate::spec::{self, EffectSpec, ParamKind, ParamSpec};
 use crate::stats;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -263,7 +263,7 @@ pub enum GapError {
     #[error("{0}")]
     Usage(String),
     #[error("simulation failed: {0}")]
-    Simulation(String),
+    Simulation(#[from] SimError),
 }
 
 /// A model configuration: parameter values that are set for a simulation.
@@ -343,17 +343,27 @@ impl<S: Simulator + ?Sized> Ctx<'_, S> {
     }
 
     /// Simulate and return the measured outputs only, first `n` samples.
-    fn measured_outputs(&self, set: &[(usize, f64)], n: usize) -> Result<Vec<Vec<f64>>, String> {
+    fn measured_outputs(&self, set: &[(usize, f64)], n: usize) -> Result<Vec<Vec<f64>>, SimError> {
         let all = self.sim.simulate(set, n)?;
         self.out_idx
             .iter()
             .map(|&k| {
-                let v = all.get(k).ok_or("simulator returned too few outputs")?;
+                let v = all.get(k).ok_or(SimError::Short {
+                    what: "outputs",
+                    got: all.len(),
+                    want: k + 1,
+                })?;
                 if v.len() < n {
-                    return Err("simulator returned too few samples".to_string());
+                    let (got, want) = (v.len(), n);
+                    return Err(SimError::Short {
+                        what: "samples",
+                        got,
+                        want,
+                    });
                 }
-                if v[..n].iter().any(|x| !x.is_finite()) {
-                    return Err("non-finite model output".to_string());
+                if let Some(sample) = v[..n].iter().position(|x| !x.is_finite()) {
+                    let output = self.sim.inner.output_names()[k].clone();
+                    return Err(SimError::NonFinite { output, sample });
                 }
                 Ok(v[..n].to_vec())
             })
@@ -379,7 +389,7 @@ struct FitProblem<'c, 'a, S: Simulator + ?Sized> {
 }
 
 impl<S: Simulator + ?Sized> Problem for FitProblem<'_, '_, S> {
-    fn residuals(&self, p: &[f64]) -> Result<Vec<f64>, String> {
+    fn residuals(&self, p: &[f64]) -> Result<Vec<f64>, SimError> {
         let mut set = self.base.clone();
         set.extend(self.idx.iter().copied().zip(p.iter().copied()));
         let y = self.ctx.measured_outputs(&set, self.n)?;
@@ -681,7 +691,7 @@ fn fit_state<S: Simulator + ?Sized>(
     n: usize,
     max_iter: usize,
     rel_tol: f64,
-) -> Result<FitOut, String> {
+) -> Result<FitOut, SimError> {
     fit_state_holding(ctx, st, extra_on, extra, &[], n, max_iter, rel_tol)
 }
 
@@ -697,7 +707,7 @@ fn fit_state_holding<S: Simulator + ?Sized>(
     n: usize,
     max_iter: usize,
     rel_tol: f64,
-) -> Result<FitOut, String> {
+) -> Result<FitOut, SimError> {
     let mut idx = st.idx.clone();
     let mut p0 = st.val.clone();
     for &(i, v) in extra {
@@ -839,7 +849,7 @@ impl Calibration {
 fn calibrate_base<S: Simulator + ?Sized>(
     ctx: &Ctx<'_, S>,
     st0: &ModelState,
-) -> Result<(FitOut, Calibration), String> {
+) -> Result<(FitOut, Calibration), SimError> {
     let fit_base = |from: &ModelState, n: usize| fit_state(ctx, from, None, &[], n, 20, 1e-4);
     let direct = fit_base(st0, ctx.n_train)?;
     let mut cal = Calibration {
@@ -1348,7 +1358,7 @@ pub fn run<S: Simulator + ?Sized>(
                 .collect::<Vec<_>>()
                 .join(", ")
         ));
-        type Refit = Result<(Candidate, FitOut, Vec<f64>), String>;
+        type Refit = Result<(Candidate, FitOut, Vec<f64>), SimError>;
         let refits: Vec<(usize, f64, Refit)> = top
             .par_iter()
             .enumerate()
@@ -2094,7 +2104,7 @@ fn refit<S: Simulator + ?Sized>(
     cur_full_r: &[f64],
     alt_start: Option<&ModelState>,
     start: &CandidateStart,
-) -> Result<(Candidate, FitOut, Vec<f64>), String> {
+) -> Result<(Candidate, FitOut, Vec<f64>), SimError> {
     let n = ctx.n_train;
     let k = ctx.out_idx.len();
     let eff = &ctx.effects[e];
@@ -2114,16 +2124,20 @@ fn refit<S: Simulator + ?Sized>(
         _ => None,
     };
     let second = retry_from.map(|st| fit_state(ctx, st, Some(e), start, n, REFIT_ITERATIONS, 5e-4));
-    let f = std::iter::once(first)
+    let mut failure = None;
+    let best = std::iter::once(first)
         .chain(second)
-        .filter_map(Result::ok)
+        .filter_map(|r| r.map_err(|e| failure = failure.take().or(Some(e))).ok())
         .min_by(|a, b| {
             a.fit
                 .sse
                 .partial_cmp(&b.fit.sse)
                 .unwrap_or(std::cmp::Ordering::Equal)
-        })
-        .ok_or_else(|| format!("refit of {} failed from every start", eff.name))?;
+        });
+    let f = best.ok_or_else(|| SimError::Refit {
+        effect: eff.name.clone(),
+        cause: Box::new(failure.unwrap_or(SimError::NonFiniteStart)),
+    })?;
     ctx.stage(format!(
         "refit {}: {} iterations, {} simulations",
         eff.name, f.fit.iterations, f.fit.evaluations
@@ -2141,7 +2155,7 @@ fn assess<S: Simulator + ?Sized>(
     score: f64,
     cur_full_r: &[f64],
     f: FitOut,
-) -> Result<(Candidate, FitOut, Vec<f64>), String> {
+) -> Result<(Candidate, FitOut, Vec<f64>), SimError> {
     let n = ctx.n_train;
     let k = ctx.out_idx.len();
     let eff = &ctx.effects[e];

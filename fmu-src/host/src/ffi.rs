@@ -168,19 +168,27 @@ pub fn missing_symbols(lib: &Library) -> Vec<&'static str> {
         .collect()
 }
 
+/// Why a binary cannot serve as an FMI 2.0 Co-Simulation library.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum LoadError {
+    /// The dynamic loader refused it (its message, without the repeated path).
+    #[error("cannot be loaded: {0}")]
+    CannotLoad(String),
+    /// A function every CS binary must export is missing.
+    #[error("does not export {0}")]
+    MissingFunction(&'static str),
+}
+
 /// Loads the shared library at `path`.
 ///
 /// # Safety
 /// Loading runs the library's initialisers; the binary must be a trusted FMU.
-pub unsafe fn load_library(path: &Path) -> Result<Library, String> {
+pub unsafe fn load_library(path: &Path) -> Result<Library, LoadError> {
     Library::new(path).map_err(|e| {
         // dlerror() repeats the path: keep only what follows it.
         let msg = e.to_string();
         let prefix = format!("{}: ", path.display());
-        match msg.strip_prefix(&prefix) {
-            Some(rest) => format!("cannot be loaded: {rest}"),
-            None => format!("cannot be loaded: {msg}"),
-        }
+        LoadError::CannotLoad(msg.strip_prefix(&prefix).unwrap_or(&msg).to_string())
     })
 }
 
@@ -188,10 +196,10 @@ pub unsafe fn load_library(path: &Path) -> Result<Library, String> {
 ///
 /// # Safety
 /// `lib` must be an FMI 2.0 binary whose exports have the standard signatures.
-pub unsafe fn resolve(lib: &Library) -> Result<Functions, String> {
+pub unsafe fn resolve(lib: &Library) -> Result<Functions, LoadError> {
     macro_rules! req {
         ($name:literal) => {
-            sym(lib, $name).ok_or_else(|| format!("does not export {}", $name))?
+            sym(lib, $name).ok_or(LoadError::MissingFunction($name))?
         };
     }
     Ok(Functions {

@@ -179,7 +179,7 @@ impl Fmu {
             "binaries/{PLATFORM}/{}",
             bin.file_name().unwrap_or_default().to_string_lossy()
         );
-        let bad = |message: String| HostError::Binary {
+        let bad = |message: ffi::LoadError| HostError::Binary {
             path: extracted.path.clone(),
             message: format!("{rel} {message}"),
         };

@@ -715,7 +715,7 @@ pub fn check_symbols(fmu: &Extracted) -> Vec<Finding> {
     );
     // SAFETY: the validator's purpose is to load the FMU (in a child process).
     match unsafe { crate::ffi::load_library(&bin) } {
-        Err(e) => vec![Finding::new("binary", loc, e)],
+        Err(e) => vec![Finding::new("binary", loc, e.to_string())],
         Ok(lib) => crate::ffi::missing_symbols(&lib)
             .into_iter()
             .map(|s| Finding::new("symbols", &loc, format!("does not export {s}")))
