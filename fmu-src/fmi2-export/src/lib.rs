@@ -13,7 +13,7 @@ pub mod variables;
 pub mod xml;
 
 pub use instance::{Instance, MachineState, Status};
-pub use variables::{Causality, Initial, VarType, Variability, Variable};
+pub use variables::{Causality, Initial, Values, ValuesMut, VarId, VarType, Variability, Variable};
 
 /// A Co-Simulation model. The layer owns the values of all variables (`vars`, indexed by value
 /// reference, Booleans as 0.0/1.0) and the FMI state machine; the model owns its physical state.

@@ -222,5 +222,48 @@ macro_rules! declare_variables {
         pub enum V { $($id),* }
         /// The model's variable table, indexed by value reference.
         pub static VARIABLES: &[$crate::Variable] = &[$($spec),*];
+        impl $crate::variables::VarId for V {
+            fn index(self) -> usize {
+                self as usize
+            }
+        }
     };
+}
+
+/// An identifier of a model's variable table (the `V` that [`declare_variables!`] generates).
+pub trait VarId: Copy {
+    /// The value reference, which is the index into the table and the value vector.
+    fn index(self) -> usize;
+}
+
+/// The variable values of a model addressed by its table's identifiers: how every model reads
+/// its parameters and inputs (Booleans are stored as 0/1; an effect's parameters are read only
+/// when its switch is on).
+pub struct Values<'a>(pub &'a [f64]);
+
+impl Values<'_> {
+    /// A Real or Integer value.
+    pub fn real(&self, v: impl VarId) -> f64 {
+        self.0[v.index()]
+    }
+
+    /// A Boolean value.
+    pub fn flag(&self, v: impl VarId) -> bool {
+        self.0[v.index()] != 0.0
+    }
+
+    /// `Some(read(self))` when the effect's switch `<effect>.enabled` is on, else None.
+    pub fn effect<T>(&self, switch: impl VarId, read: impl FnOnce(&Self) -> T) -> Option<T> {
+        self.flag(switch).then(|| read(self))
+    }
+}
+
+/// The variable values of a model, for writing its outputs by identifier.
+pub struct ValuesMut<'a>(pub &'a mut [f64]);
+
+impl ValuesMut<'_> {
+    /// Sets one value.
+    pub fn set(&mut self, v: impl VarId, x: f64) {
+        self.0[v.index()] = x;
+    }
 }

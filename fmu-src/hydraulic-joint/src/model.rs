@@ -4,7 +4,7 @@
 use crate::controller::{controller_update, ControllerParams, U_MAX};
 use crate::plant::*;
 use crate::vars::{V, VARIABLES};
-use fmi2_export::{Model, ModelError, Variable};
+use fmi2_export::{Model, ModelError, Values, ValuesMut, Variable};
 use ode::{Integrator, SampleClock};
 use serde::{Deserialize, Serialize};
 
@@ -27,17 +27,14 @@ pub struct HydraulicJoint {
     t0: f64,
 }
 
-fn flag(vars: &[f64], v: V) -> bool {
-    vars[v as usize] != 0.0
-}
-
 /// Read every parameter from the variable values.
 pub fn read_params(vars: &[f64]) -> Params {
-    let g = |v: V| vars[v as usize];
+    let v = Values(vars);
+    let g = |x: V| v.real(x);
     Params {
-        internal_controller: flag(vars, V::INTERNAL_CONTROLLER),
-        cables_attached: flag(vars, V::CABLES_ATTACHED),
-        valve_use_mean: flag(vars, V::VALVE_USE_MEAN),
+        internal_controller: v.flag(V::INTERNAL_CONTROLLER),
+        cables_attached: v.flag(V::CABLES_ATTACHED),
+        valve_use_mean: v.flag(V::VALVE_USE_MEAN),
         load_mass: g(V::LOAD_MASS),
         load_radius: g(V::LOAD_RADIUS),
         link_inertia: g(V::LINK_INERTIA),
@@ -71,25 +68,26 @@ pub fn read_params(vars: &[f64]) -> Params {
         },
         rtol: g(V::RTOL),
         atol: g(V::ATOL),
-        seal_friction: flag(vars, V::SEAL_FRICTION_ENABLED).then(|| SealFriction {
+        seal_friction: v.effect(V::SEAL_FRICTION_ENABLED, |_| SealFriction {
             coulomb: g(V::SEAL_FRICTION_COULOMB),
             breakaway_excess: g(V::SEAL_FRICTION_BREAKAWAY_EXCESS),
             stribeck_velocity: g(V::SEAL_FRICTION_STRIBECK_VELOCITY),
             viscous: g(V::SEAL_FRICTION_VISCOUS),
             memory_time: g(V::SEAL_FRICTION_MEMORY_TIME),
         }),
-        valve_overlap: flag(vars, V::VALVE_OVERLAP_ENABLED).then(|| g(V::VALVE_OVERLAP_WIDTH)),
-        internal_leakage: flag(vars, V::INTERNAL_LEAKAGE_ENABLED)
-            .then(|| g(V::INTERNAL_LEAKAGE_COEFFICIENT)),
-        cable_friction: flag(vars, V::CABLE_FRICTION_ENABLED).then(|| CableFriction {
+        valve_overlap: v.effect(V::VALVE_OVERLAP_ENABLED, |_| g(V::VALVE_OVERLAP_WIDTH)),
+        internal_leakage: v.effect(V::INTERNAL_LEAKAGE_ENABLED, |_| {
+            g(V::INTERNAL_LEAKAGE_COEFFICIENT)
+        }),
+        cable_friction: v.effect(V::CABLE_FRICTION_ENABLED, |_| CableFriction {
             mu: g(V::CABLE_FRICTION_MU),
             wrap_angle: g(V::BOWDEN_WRAP_ANGLE),
         }),
-        entrained_air: flag(vars, V::ENTRAINED_AIR_ENABLED).then(|| EntrainedAir {
+        entrained_air: v.effect(V::ENTRAINED_AIR_ENABLED, |_| EntrainedAir {
             fraction: g(V::ENTRAINED_AIR_FRACTION),
             polytropic_index: g(V::ENTRAINED_AIR_POLYTROPIC_INDEX),
         }),
-        valve_dynamics: flag(vars, V::VALVE_DYNAMICS_ENABLED).then(|| ValveDynamics {
+        valve_dynamics: v.effect(V::VALVE_DYNAMICS_ENABLED, |_| ValveDynamics {
             natural_frequency: g(V::VALVE_DYNAMICS_NATURAL_FREQUENCY),
             damping_ratio: g(V::VALVE_DYNAMICS_DAMPING_RATIO),
         }),
@@ -123,7 +121,7 @@ impl HydraulicJoint {
         let y = &self.y;
         let l = plant.piston(0, y);
         let r = plant.piston(1, y);
-        let set = |vars: &mut [f64], v: V, x: f64| vars[v as usize] = x;
+        let set = |vars: &mut [f64], v: V, x: f64| ValuesMut(vars).set(v, x);
         set(vars, V::THETA, y[TH]);
         set(vars, V::V_SUPPLIED, self.oil[0]);
         set(vars, V::V_RETURNED, self.oil[1]);

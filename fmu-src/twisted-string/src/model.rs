@@ -5,7 +5,7 @@ use crate::controller::{position_loop, PositionLoop};
 use crate::physics::*;
 use crate::plant::{self, ix, Inputs, Params, Plant, DIM, DIM_BASE, NOMINAL, P_MIN_OUTPUT};
 use crate::vars::*;
-use fmi2_export::{Model, ModelError, Variable};
+use fmi2_export::{Model, ModelError, Values, ValuesMut, Variable};
 use ode::SampleClock;
 use serde::{Deserialize, Serialize};
 
@@ -48,15 +48,12 @@ fn quadrature_offsets(y: &mut [f64; DIM]) -> [f64; 3] {
     off
 }
 
-fn flag(vars: &[f64], v: V) -> bool {
-    vars[v as usize] != 0.0
-}
-
 /// Read every parameter from the variable table into SI [`Params`].
 pub fn read_params(vars: &[f64]) -> Params {
-    let g = |v: V| vars[v as usize];
+    let v = Values(vars);
+    let g = |x: V| v.real(x);
     Params {
-        internal_controller: flag(vars, V::INTERNAL_CONTROLLER),
+        internal_controller: v.flag(V::INTERNAL_CONTROLLER),
         load_mass: g(V::LOAD_MASS),
         string_length: g(V::STRING_LENGTH),
         string_radius: g(V::STRING_RADIUS),
@@ -86,19 +83,21 @@ pub fn read_params(vars: &[f64]) -> Params {
         position_period: g(V::CONTROLLER_POSITION_PERIOD),
         rtol: g(V::RTOL),
         atol: g(V::ATOL),
-        compliance: flag(vars, V::STRING_COMPLIANCE_ENABLED).then(|| {
+        compliance: v.effect(V::STRING_COMPLIANCE_ENABLED, |_| {
             (
                 g(V::STRING_COMPLIANCE_A1),
                 g(V::STRING_COMPLIANCE_A2),
                 g(V::STRING_COMPLIANCE_A3),
             )
         }),
-        hysteresis: flag(vars, V::TWIST_HYSTERESIS_ENABLED)
-            .then(|| g(V::TWIST_HYSTERESIS_FRICTION_COEFFICIENT)),
-        motor_friction: flag(vars, V::MOTOR_FRICTION_ENABLED)
-            .then(|| (g(V::MOTOR_FRICTION_COULOMB), g(V::MOTOR_FRICTION_VISCOUS))),
-        backlash: flag(vars, V::GEAR_BACKLASH_ENABLED).then(|| g(V::GEAR_BACKLASH_ANGLE)),
-        radius_growth: flag(vars, V::RADIUS_GROWTH_ENABLED).then(|| g(V::RADIUS_GROWTH_PER_TURN)),
+        hysteresis: v.effect(V::TWIST_HYSTERESIS_ENABLED, |_| {
+            g(V::TWIST_HYSTERESIS_FRICTION_COEFFICIENT)
+        }),
+        motor_friction: v.effect(V::MOTOR_FRICTION_ENABLED, |_| {
+            (g(V::MOTOR_FRICTION_COULOMB), g(V::MOTOR_FRICTION_VISCOUS))
+        }),
+        backlash: v.effect(V::GEAR_BACKLASH_ENABLED, |_| g(V::GEAR_BACKLASH_ANGLE)),
+        radius_growth: v.effect(V::RADIUS_GROWTH_ENABLED, |_| g(V::RADIUS_GROWTH_PER_TURN)),
     }
 }
 
@@ -169,7 +168,8 @@ impl TwistedString {
         let aux = plant.eval(y);
         let p = y[ix::P];
         let c = q.compliance_c();
-        let mut set = |v: V, x: f64| vars[v as usize] = x;
+        let mut out = ValuesMut(vars);
+        let mut set = |v: V, x: f64| out.set(v, x);
         set(V::P, p);
         set(V::THETA_MOTOR, y[ix::THETA]);
         set(V::OMEGA_MOTOR, y[ix::OMEGA]);
@@ -468,12 +468,14 @@ mod tests {
             vars[V::VOLTAGE as usize] = [12.0, 24.0, -10.0, 20.0, 0.0, -24.0][seg % 6];
             vars[V::F_LOAD as usize] = 30.0 * (2.0 * t).sin();
             m.do_step(&mut vars, t, h).unwrap();
-            let g = |v: V| vars[v as usize];
+            let v = Values(&vars);
+            let g = |x: V| v.real(x);
             let res =
                 g(V::E_ELECTRICAL) + g(V::W_EXTERNAL) - g(V::E_DISSIPATED) - (g(V::E_STORED) - e0);
             worst = worst.max(res.abs());
         }
-        let g = |v: V| vars[v as usize];
+        let v = Values(&vars);
+        let g = |x: V| v.real(x);
         let thr = g(V::E_ELECTRICAL).abs() + g(V::W_EXTERNAL).abs() + g(V::E_DISSIPATED).abs();
         (worst / thr, thr)
     }
@@ -512,7 +514,8 @@ mod tests {
         for k in 0..400 {
             vars[V::F_LOAD as usize] = if k < 60 { -40.0 } else { 60.0 };
             m.do_step(&mut vars, k as f64 * h, h).unwrap();
-            let g = |v: V| vars[v as usize];
+            let v = Values(&vars);
+            let g = |x: V| v.real(x);
             let res =
                 g(V::E_ELECTRICAL) + g(V::W_EXTERNAL) - g(V::E_DISSIPATED) - (g(V::E_STORED) - e0);
             worst = worst.max(res.abs());
