@@ -103,9 +103,10 @@ impl HydraulicJoint {
     /// Valve voltages when no controller sample is due: the inputs (open loop) or the held
     /// controller output.
     fn open_loop_commands(vars: &[f64]) -> [f64; 2] {
+        let v = Values(vars);
         [
-            vars[V::U_LEFT as usize].clamp(-U_MAX, U_MAX),
-            vars[V::U_RIGHT as usize].clamp(-U_MAX, U_MAX),
+            v.real(V::U_LEFT).clamp(-U_MAX, U_MAX),
+            v.real(V::U_RIGHT).clamp(-U_MAX, U_MAX),
         ]
     }
 
@@ -247,7 +248,7 @@ impl Model for HydraulicJoint {
         let p = read_params(vars);
         let d = p.derive()?;
         let u = if p.internal_controller {
-            let (l, r) = controller_update(vars[V::THETA_REF as usize], 0.0, 0.0, &p.ctrl);
+            let (l, r) = controller_update(Values(vars).real(V::THETA_REF), 0.0, 0.0, &p.ctrl);
             [l, r]
         } else {
             Self::open_loop_commands(vars)
@@ -255,7 +256,7 @@ impl Model for HydraulicJoint {
         self.y = p.rest_state(&d, u);
         self.integrator = Some(Integrator::new(p.rtol, p.atol_vector(&d)));
         self.u_held = u;
-        self.tau_held = vars[V::TAU_EXT as usize];
+        self.tau_held = Values(vars).real(V::TAU_EXT);
         self.next_sample = 0;
         self.oil = [0.0; 2];
         self.t0 = start_time;
@@ -270,8 +271,9 @@ impl Model for HydraulicJoint {
         };
         let internal = p.internal_controller;
         let ctrl = p.ctrl;
-        let tau = vars[V::TAU_EXT as usize];
-        let theta_ref = vars[V::THETA_REF as usize];
+        let inputs = Values(vars);
+        let tau = inputs.real(V::TAU_EXT);
+        let theta_ref = inputs.real(V::THETA_REF);
         let t_end = t + h;
         if !(h.is_finite() && h >= 0.0 && t.is_finite() && t_end.is_finite()) {
             return Err(ModelError::Step {

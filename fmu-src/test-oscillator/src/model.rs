@@ -1,7 +1,7 @@
 //! The FMI model: parameters copied at initialization, RK4 sub-steps, outputs.
 
 use crate::vars::{V, VARIABLES};
-use fmi2_export::{Model, ModelError, Variable};
+use fmi2_export::{Model, ModelError, Values, ValuesMut, Variable};
 use serde::{Deserialize, Serialize};
 
 /// The physical state; parameters copied at initialization.
@@ -23,9 +23,13 @@ impl Oscillator {
     }
 
     fn outputs(&self, vars: &mut [f64]) {
-        vars[V::X as usize] = self.x;
-        vars[V::V as usize] = self.v;
-        vars[V::ENERGY as usize] = 0.5 * self.m * self.v * self.v + 0.5 * self.k * self.x * self.x;
+        let mut out = ValuesMut(vars);
+        out.set(V::X, self.x);
+        out.set(V::V, self.v);
+        out.set(
+            V::ENERGY,
+            0.5 * self.m * self.v * self.v + 0.5 * self.k * self.x * self.x,
+        );
     }
 }
 
@@ -47,15 +51,16 @@ impl Model for Oscillator {
     }
 
     fn initialize(&mut self, vars: &mut [f64], _start_time: f64) -> Result<(), ModelError> {
+        let p = Values(vars);
         *self = Oscillator {
-            x: vars[V::X0 as usize],
+            x: p.real(V::X0),
             v: 0.0,
-            m: vars[V::MASS as usize],
-            k: vars[V::STIFFNESS as usize],
-            c: vars[V::DAMPING as usize],
-            h_max: vars[V::MAX_SUBSTEP as usize],
-            fail_at: vars[V::FAIL_AT as usize],
-            locked: vars[V::LOCKED as usize] != 0.0,
+            m: p.real(V::MASS),
+            k: p.real(V::STIFFNESS),
+            c: p.real(V::DAMPING),
+            h_max: p.real(V::MAX_SUBSTEP),
+            fail_at: p.real(V::FAIL_AT),
+            locked: p.flag(V::LOCKED),
         };
         if self.k == 0.0 && self.c == 0.0 && !self.locked {
             return Err(ModelError::parameters(
@@ -76,7 +81,7 @@ impl Model for Oscillator {
             });
         }
         if !self.locked {
-            let f = vars[V::FORCE as usize];
+            let f = Values(vars).real(V::FORCE);
             let n = (h / self.h_max).ceil().max(1.0) as usize;
             let dt = h / n as f64;
             for _ in 0..n {

@@ -153,10 +153,11 @@ impl TwistedString {
     }
 
     fn inputs(vars: &[f64]) -> (f64, f64, f64) {
+        let v = Values(vars);
         (
-            vars[V::THETA_MOTOR_REF as usize],
-            vars[V::VOLTAGE as usize],
-            vars[V::F_LOAD as usize],
+            v.real(V::THETA_MOTOR_REF),
+            v.real(V::VOLTAGE),
+            v.real(V::F_LOAD),
         )
     }
 
