@@ -5,7 +5,9 @@ import numpy as np
 import pytest
 from fmpy import read_model_description
 from fmpy.fmi1 import FMICallException
-from fmpy.fmi2 import FMU2Slave
+from fmpy import calloc, free
+from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
+                       fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
 from fmpy import extract
 
 from conftest import fmu_path
@@ -40,7 +42,13 @@ def run(model, change=None):
     inp, u, _, _, out = CASES[model]
     fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(fmu_path(model)),
                     modelIdentifier=md.coSimulation.modelIdentifier, instanceName="tune")
-    fmu.instantiate()
+    # Own callbacks: FMPy's default ones go through its logger proxy, whose C global may point to
+    # a logger of an earlier simulate_fmu call that no longer exists.
+    callbacks = fmi2CallbackFunctions()
+    callbacks.logger = fmi2CallbackLoggerTYPE(lambda *args: None)
+    callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+    callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+    fmu.instantiate(callbacks=callbacks)
     fmu.setupExperiment(startTime=0.0)
     fmu.enterInitializationMode()
     fmu.setReal([vr[inp]], [u])
