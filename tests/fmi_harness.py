@@ -21,6 +21,9 @@ _libc.calloc.argtypes = [c_size_t, c_size_t]
 _libc.free.argtypes = [c_void_p]
 
 
+_LOGGERS_KEPT_ALIVE = []
+
+
 class Harness:
     """One instance of an FMU, with every logged message kept in `messages` as
     (status, category, text)."""
@@ -39,6 +42,10 @@ class Harness:
         )
         self.callbacks = fmi2CallbackFunctions()
         self.callbacks.logger = fmi2CallbackLoggerTYPE(self._log)
+        # FMPy's logger proxy keeps the last logger it was given in a C global, also used by
+        # FMPy's default callbacks: it must outlive this Harness, or a later FMU log message
+        # (through any FMPy instance) calls freed memory.
+        _LOGGERS_KEPT_ALIVE.append(self.callbacks.logger)
         self.callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(_libc.calloc)
         self.callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(_libc.free)
         addLoggerProxy(byref(self.callbacks))

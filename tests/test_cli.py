@@ -75,8 +75,10 @@ def test_validate_effects_convention_holds_for_both_actuators():
 def test_validate_json_lists_each_fmu():
     r = run("validate", "--json", fmu_path("Oscillator"))
     assert r.returncode == 0, r.stdout + r.stderr
-    report = json.loads(r.stdout)
-    assert report == [{"fmu": fmu_path("Oscillator"), "findings": []}]
+    (report,) = json.loads(r.stdout)
+    assert report["fmu"] == fmu_path("Oscillator") and report["findings"] == []
+    (binary,) = report["binaries"]
+    assert binary["entry"] == "binaries/linux64/Oscillator.so" and binary["format"] == "ELF"
 
 
 def rewrite_md(src, dst, edit):

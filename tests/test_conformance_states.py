@@ -78,8 +78,8 @@ DISCARDED = {"GetStatus", "GetIntegerStatus", "GetStringStatus"}
 H = 1e-3
 # per model: a Real input, a Real output, a Boolean fixed parameter, a Real fixed parameter
 ROLES = {
-    "HydraulicJoint": ("theta_ref", "theta", "internal_controller", "load_mass"),
-    "TwistedString": ("theta_motor_ref", "p", "internal_controller", "load_mass"),
+    "HydraulicJoint": ("theta_ref", "theta", "internal_controller", "load_radius"),
+    "TwistedString": ("theta_motor_ref", "p", "internal_controller", "string_length"),
     "Oscillator": ("force", "x", "locked", "mass"),
 }
 OTHER = {"HydraulicJoint": "TwistedString", "TwistedString": "HydraulicJoint", "Oscillator": "HydraulicJoint"}

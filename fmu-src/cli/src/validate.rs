@@ -3,7 +3,10 @@
 
 use crate::common::{CliError, CliResult};
 use crate::probe::{FINDINGS_MARK, STEP_MARK};
-use host::validate::{check_effect_convention, check_files, check_model_description, Finding};
+use host::validate::{
+    check_effect_convention, check_files, check_model_description, check_platform_binaries,
+    Finding, PlatformBinary,
+};
 use host::{Extracted, HostError};
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -32,6 +35,8 @@ pub struct Args {
 struct Report {
     fmu: String,
     findings: Vec<Finding>,
+    /// Every platform binary: format, architectures, exported functions, glibc needs.
+    binaries: Vec<PlatformBinary>,
 }
 
 /// Runs `validate`: exit 0 without findings, 1 with any, 2 when an FMU file cannot be read.
@@ -41,10 +46,11 @@ pub fn run(a: Args) -> CliResult {
         if !path.exists() {
             return Err(CliError::input(format!("{}: no such file", path.display())));
         }
-        let findings = validate_one(path, Duration::from_secs(a.timeout), a.effects)?;
+        let (findings, binaries) = validate_one(path, Duration::from_secs(a.timeout), a.effects)?;
         reports.push(Report {
             fmu: path.display().to_string(),
             findings,
+            binaries,
         });
     }
     let total: usize = reports.iter().map(|r| r.findings.len()).sum();
@@ -68,7 +74,9 @@ pub fn run(a: Args) -> CliResult {
     Ok(if total == 0 { 0 } else { 1 })
 }
 
-fn validate_one(path: &Path, timeout: Duration, effects: bool) -> Result<Vec<Finding>, CliError> {
+type Checked = (Vec<Finding>, Vec<PlatformBinary>);
+
+fn validate_one(path: &Path, timeout: Duration, effects: bool) -> Result<Checked, CliError> {
     let ex = match Extracted::open(path) {
         Ok(ex) => ex,
         Err(HostError::Io { path, source }) => {
@@ -79,11 +87,12 @@ fn validate_one(path: &Path, timeout: Duration, effects: bool) -> Result<Vec<Fin
                 HostError::ModelDescription { .. } => "model-description-xml",
                 _ => "archive",
             };
-            return Ok(vec![Finding {
+            let finding = Finding {
                 check: check.into(),
                 location: path.display().to_string(),
                 message: e.to_string(),
-            }]);
+            };
+            return Ok((vec![finding], Vec::new()));
         }
     };
     let mut findings = check_model_description(&ex.model_description);
@@ -91,12 +100,14 @@ fn validate_one(path: &Path, timeout: Duration, effects: bool) -> Result<Vec<Fin
         findings.extend(check_effect_convention(&ex.model_description));
     }
     findings.extend(check_files(&ex));
+    let (binary_findings, binaries) = check_platform_binaries(&ex);
+    findings.extend(binary_findings);
     let binary_present = ex.binary_path().map(|b| b.is_file()).unwrap_or(false);
     drop(ex);
     if binary_present {
         findings.extend(run_probe(path, timeout)?);
     }
-    Ok(findings)
+    Ok((findings, binaries))
 }
 
 fn signal_name(sig: i32) -> &'static str {

@@ -8,7 +8,7 @@
 
 use crate::instance::{allowed, Instance, Snapshot, Status};
 use crate::{Model, VarType};
-use std::collections::HashSet;
+use std::collections::BTreeSet;
 use std::ffi::{c_int, CStr, CString};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
@@ -33,7 +33,7 @@ pub struct Component<M: Model> {
     environment: Fmi2ComponentEnvironment,
     name: CString,
     /// FMU states handed out by this instance and not yet freed.
-    states: HashSet<usize>,
+    states: BTreeSet<usize>,
 }
 
 impl<M: Model> Component<M> {
@@ -206,7 +206,7 @@ pub unsafe fn instantiate<M: Model>(
             logger,
             environment: env,
             name,
-            states: HashSet::new(),
+            states: BTreeSet::new(),
         });
         Box::into_raw(comp) as Fmi2Component
     }));
@@ -221,7 +221,7 @@ pub unsafe fn free_instance<M: Model>(c: Fmi2Component) {
     let _ = catch_unwind(AssertUnwindSafe(|| {
         let mut comp = Box::from_raw(c as *mut Component<M>);
         comp.magic = 0;
-        for p in comp.states.drain() {
+        for p in std::mem::take(&mut comp.states) {
             drop(Box::from_raw(p as *mut Snapshot<M>));
         }
     }));

@@ -447,17 +447,61 @@ impl<M: Model> Instance<M> {
                 }
             }
         }
-        for (&vr, &x) in vrs.iter().zip(values) {
-            self.vars[vr as usize] = if ty == VarType::Boolean {
+        let value = |x: f64| {
+            if ty == VarType::Boolean {
                 (x != 0.0) as i32 as f64
             } else {
                 x
-            };
+            }
+        };
+        let tuned = initialized
+            && vrs
+                .iter()
+                .any(|&vr| table[vr as usize].causality == Causality::Parameter);
+        if tuned {
+            if let Err(s) = self.tune(func, vrs, values, value) {
+                return s;
+            }
+        }
+        for (&vr, &x) in vrs.iter().zip(values) {
+            self.vars[vr as usize] = value(x);
         }
         if self.state != MachineState::StepComplete {
             self.init_outputs_stale = true;
         }
         status
+    }
+
+    /// Tunable parameters set in Step mode: each inside its range, then the model accepts the
+    /// new values (from the next step) or refuses them with nothing changed.
+    fn tune(
+        &mut self,
+        func: &str,
+        vrs: &[u32],
+        values: &[f64],
+        value: impl Fn(f64) -> f64,
+    ) -> Result<(), Status> {
+        let table = M::variables();
+        let mut candidate = self.vars.clone();
+        for (&vr, &x) in vrs.iter().zip(values) {
+            let v = &table[vr as usize];
+            if v.min.is_some_and(|m| x < m) || v.max.is_some_and(|m| x > m) {
+                let (lo, hi) = (
+                    v.min.unwrap_or(f64::NEG_INFINITY),
+                    v.max.unwrap_or(f64::INFINITY),
+                );
+                let m = format!("'{}' = {x} is outside its range [{lo}, {hi}]", v.name);
+                return Err(self.error(func, m));
+            }
+            candidate[vr as usize] = value(x);
+        }
+        match self.model.tune(&candidate) {
+            Ok(()) => {
+                self.event(format!("tunable parameters changed at t = {}", self.time));
+                Ok(())
+            }
+            Err(e) => Err(self.error(func, e)),
+        }
     }
 
     /// `fmi2DoStep`.

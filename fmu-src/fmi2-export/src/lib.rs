@@ -28,6 +28,15 @@ pub trait Model: Clone + Send + serde::Serialize + serde::de::DeserializeOwned +
     const DEFAULT_STEP_SIZE: f64 = 1e-3;
     /// `DefaultExperiment` tolerance.
     const DEFAULT_TOLERANCE: f64 = 1e-6;
+    /// `version` of the model description: the workspace version.
+    const VERSION: &'static str = env!("CARGO_PKG_VERSION");
+    /// `author`.
+    const AUTHOR: &'static str = "the actuator-fmu developers";
+    /// `copyright`.
+    const COPYRIGHT: &'static str = "Copyright (c) 2026 the actuator-fmu developers";
+    /// `license`: the licence of the FMU; the licences of the crates compiled into its binaries
+    /// are in `documentation/licenses/`.
+    const LICENSE: &'static str = "MIT (see documentation/licenses/)";
 
     /// Every variable once; value reference = index.
     fn variables() -> &'static [Variable];
@@ -40,6 +49,16 @@ pub trait Model: Clone + Send + serde::Serialize + serde::de::DeserializeOwned +
     fn initialize(&mut self, vars: &mut [f64], start_time: f64) -> Result<(), ModelError>;
     /// Advance from `t` to `t + h` with inputs as in `vars`; write every output into `vars`.
     fn do_step(&mut self, vars: &mut [f64], t: f64, h: f64) -> Result<(), ModelError>;
+    /// Apply tunable parameters changed in Step mode: `vars` holds the new values (already
+    /// inside their ranges); they act from the next step. `Err` (nothing changed) refuses them.
+    /// A model that declares tunable variables implements it.
+    fn tune(&mut self, vars: &[f64]) -> Result<(), ModelError> {
+        let _ = vars;
+        Err(ModelError::parameters(
+            &[],
+            "this model applies no parameter change after initialization",
+        ))
+    }
 }
 
 /// Why a model cannot initialize or complete a step. The FMI layer logs it under the FMI

@@ -167,6 +167,13 @@ impl Variable {
         self
     }
 
+    /// A parameter a running simulation may change in Step mode (`variability="tunable"`):
+    /// the model applies it from the next step ([`crate::Model::tune`]).
+    pub const fn tunable(mut self) -> Self {
+        self.variability = Variability::Tunable;
+        self
+    }
+
     pub const fn display(mut self, display_unit: &'static str) -> Self {
         self.display_unit = Some(display_unit);
         self

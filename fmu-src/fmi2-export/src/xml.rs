@@ -46,6 +46,10 @@ fn write_description<M: Model>(guid: &str) -> String {
     root.push_attribute(("modelName", M::NAME));
     root.push_attribute(("guid", guid));
     root.push_attribute(("description", M::DESCRIPTION));
+    root.push_attribute(("author", M::AUTHOR));
+    root.push_attribute(("version", M::VERSION));
+    root.push_attribute(("copyright", M::COPYRIGHT));
+    root.push_attribute(("license", M::LICENSE));
     root.push_attribute(("generationTool", "actuator-fmu fmi2-export"));
     root.push_attribute(("variableNamingConvention", "structured"));
     root.push_attribute(("numberOfEventIndicators", "0"));
@@ -197,6 +201,12 @@ fn write_description<M: Model>(guid: &str) -> String {
         for &i in list {
             let mut u = BytesStart::new("Unknown");
             u.push_attribute(("index", (i + 1).to_string().as_str()));
+            // Outputs are computed in fmi2DoStep only: none depends directly on an input (an
+            // input set between steps changes no output before the next step), so the list is
+            // empty. Initial unknowns keep the default (every known), which is always correct.
+            if tag == "Outputs" {
+                u.push_attribute(("dependencies", ""));
+            }
             ev(Event::Empty(u));
         }
         ev(Event::End(BytesEnd::new(tag)));

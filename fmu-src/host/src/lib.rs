@@ -9,6 +9,7 @@
 //! - [`validate`] checks a model description and probes a binary's state machine.
 #![warn(missing_docs)]
 
+pub mod binary;
 pub mod csv;
 mod error;
 pub mod ffi;

@@ -265,6 +265,18 @@ impl Model for HydraulicJoint {
         Ok(())
     }
 
+    /// The tunable parameters (load mass, controller gains) act from the next step; the state
+    /// and the held valve commands are kept, the step-size history restarts.
+    fn tune(&mut self, vars: &[f64]) -> Result<(), ModelError> {
+        let p = read_params(vars);
+        let d = p.derive()?;
+        self.params = Some((p, d));
+        if let Some(integ) = &mut self.integrator {
+            integ.reset_step_size();
+        }
+        Ok(())
+    }
+
     fn do_step(&mut self, vars: &mut [f64], t: f64, h: f64) -> Result<(), ModelError> {
         let Some((p, _)) = &self.params else {
             return Err(ModelError::NotInitialized);

@@ -45,7 +45,7 @@ fmi2_export::declare_variables! {
     Q_RIGHT => Variable::output("Q_right", "m3/s", "Flow drawn from the supply by the right valve").display("L/min"),
     // ---- link
     LOAD_MASS => Variable::parameter("load_mass", 2.0, "kg",
-        "[calibrate] Mass fixed on the link standing for forearm and hand (paper sec. V)").range(0.0, 10.0),
+        "[calibrate] Mass fixed on the link standing for forearm and hand (paper sec. V)").range(0.0, 10.0).tunable(),
     LOAD_RADIUS => Variable::parameter("load_radius", 0.30, "m", "Distance of the load mass from the joint axis").range(0.05, 0.6),
     LINK_INERTIA => Variable::parameter("link_inertia", 0.056, "kg.m2",
         "Inertia of the bare link about the joint axis (human upper arm, Winter 2009)").range(0.005, 0.5),
@@ -78,7 +78,7 @@ fmi2_export::declare_variables! {
     SPRING_PRETENSION => Variable::parameter("spring_pretension", 150.0, "N", "Cable pretension at rest (co-contraction)").range(0.0, 2000.0),
     // ---- controller (sec. IV)
     CONTROLLER_RATE => Variable::parameter("controller_rate", 40.0, "1/s", "Sample rate f of the position controller, eq. (23)").range(1.0, 1000.0).display("Hz"),
-    CONTROLLER_GAIN => Variable::parameter("controller_gain", 0.2, "1", "Gain K of eq. (25)-(26), on the desired piston speed").range(0.0, 5.0),
+    CONTROLLER_GAIN => Variable::parameter("controller_gain", 0.2, "1", "Gain K of eq. (25)-(26), on the desired piston speed").range(0.0, 5.0).tunable(),
     CONTROLLER_SLOPE_EXTEND => Variable::parameter("controller_slope_extend", 0.0509, "m/(s.V)",
         "Slope of the Fig. 6 curve the controller inverts, extending (above the dead band)").range(1e-3, 1.0),
     CONTROLLER_SLOPE_RETRACT => Variable::parameter("controller_slope_retract", 0.0366, "m/(s.V)",
@@ -122,5 +122,5 @@ fmi2_export::declare_variables! {
         "Frictional memory: lag of the Stribeck part behind the sliding speed (Hess & Soom 1990)").range(1e-3, 5e-2).display("ms"),
     // ---- appended after the first release, so earlier value references stay valid
     CONTROLLER_COCONTRACTION => Variable::parameter("controller_cocontraction", 1.0, "1",
-        "Gain K_c of the co-contraction loop: both pistons get the common speed -K_c f m, m = mean piston offset from mid-stroke (holds the cable pretension; 0: eq. (23)-(24) alone)").range(0.0, 5.0),
+        "Gain K_c of the co-contraction loop: both pistons get the common speed -K_c f m, m = mean piston offset from mid-stroke (holds the cable pretension; 0: eq. (23)-(24) alone)").range(0.0, 5.0).tunable(),
 }

@@ -2,6 +2,8 @@
 //! `<out>.fmu` (FMI 2.0 section 2.4 layout). Entries are written in a fixed order with a fixed
 //! timestamp and permissions, so building twice gives byte-identical archives.
 
+mod macho;
+
 use clap::Parser;
 use std::fs;
 use std::io::Write;
@@ -12,13 +14,16 @@ use zip::{CompressionMethod, DateTime, ZipWriter};
 #[derive(Parser)]
 #[command(about = "Package an FMI 2.0 Co-Simulation FMU reproducibly")]
 struct Args {
-    /// Directory holding modelDescription.xml and documentation/ (from describe-<crate>).
+    /// Directory holding modelDescription.xml, documentation/ (from describe-<crate>) and,
+    /// optionally, the icon model.png.
     #[arg(long)]
     model_dir: PathBuf,
-    /// The compiled shared library (e.g. target/release/libhydraulic_joint.so).
-    #[arg(long)]
-    binary: PathBuf,
-    /// modelIdentifier: the library is stored as binaries/linux64/<identifier>.so.
+    /// A compiled shared library as `PLATFORM=PATH` (FMI 2.0 platform names: linux64, win64,
+    /// darwin64), stored as `binaries/PLATFORM/<identifier>.<so|dll|dylib>`. Repeatable. For
+    /// darwin64, `PATH+PATH` joins single-architecture dylibs into one universal binary.
+    #[arg(long, required = true)]
+    binary: Vec<String>,
+    /// modelIdentifier: the name of the libraries inside binaries/.
     #[arg(long)]
     identifier: String,
     /// The .fmu to write.
@@ -57,6 +62,10 @@ fn package(args: &Args) -> Result<(), String> {
     }
     let mut entries: Vec<(String, Vec<u8>, u32)> =
         vec![("modelDescription.xml".into(), description, 0o644)];
+    let icon = args.model_dir.join("model.png");
+    if icon.is_file() {
+        entries.push(("model.png".into(), read(&icon)?, 0o644));
+    }
     let doc_dir = args.model_dir.join("documentation");
     if doc_dir.is_dir() {
         for rel in files_below(&doc_dir).map_err(|e| format!("{}: {e}", doc_dir.display()))? {
@@ -64,11 +73,27 @@ fn package(args: &Args) -> Result<(), String> {
             entries.push((name, read(&doc_dir.join(&rel))?, 0o644));
         }
     }
-    entries.push((
-        format!("binaries/linux64/{}.so", args.identifier),
-        read(&args.binary)?,
-        0o755,
-    ));
+    for spec in &args.binary {
+        let (platform, paths) = spec
+            .split_once('=')
+            .ok_or_else(|| format!("--binary {spec}: expected PLATFORM=PATH"))?;
+        let ext = match platform {
+            "linux64" => "so",
+            "win64" => "dll",
+            "darwin64" => "dylib",
+            other => return Err(format!("--binary {spec}: unknown platform '{other}'")),
+        };
+        let slices = paths
+            .split('+')
+            .map(|p| read(Path::new(p)))
+            .collect::<Result<Vec<_>, _>>()?;
+        let data = match slices.len() {
+            1 => slices.into_iter().next().unwrap_or_default(),
+            _ => macho::universal(&slices).map_err(|e| format!("--binary {spec}: {e}"))?,
+        };
+        let name = format!("binaries/{platform}/{}.{ext}", args.identifier);
+        entries.push((name, data, 0o755));
+    }
 
     if let Some(parent) = args.out.parent() {
         fs::create_dir_all(parent)

@@ -280,6 +280,16 @@ impl Model for TwistedString {
         Ok(())
     }
 
+    /// The tunable parameters (load mass, controller gains and limits) act from the next step;
+    /// the state and the controller's integrators are kept, the step-size history restarts.
+    fn tune(&mut self, vars: &[f64]) -> Result<(), ModelError> {
+        let par = read_params(vars);
+        validate(&par)?;
+        self.par = par;
+        self.integ.reset_step_size();
+        Ok(())
+    }
+
     fn do_step(&mut self, vars: &mut [f64], t: f64, h: f64) -> Result<(), ModelError> {
         let inputs = Self::inputs(vars);
         // Restart the step-size selection when an input that enters the right-hand side jumps

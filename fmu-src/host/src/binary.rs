@@ -1,0 +1,166 @@
+//! What each platform binary of an FMU is, read from its bytes without loading it (goblin):
+//! the file format and architectures, the functions it exports, and for Linux the newest GLIBC
+//! symbol version it needs. The validator judges every `binaries/<platform>/` entry with it, so
+//! the Windows and macOS binaries are checked on a Linux machine too.
+
+use goblin::mach::{Mach, SingleArch};
+use goblin::Object;
+
+/// One architecture slice of a binary.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Slice {
+    /// `x86_64`, `aarch64`, `x86` or the raw machine number.
+    pub architecture: String,
+    /// Exported function names, sorted (Mach-O's leading underscore removed).
+    pub exports: Vec<String>,
+}
+
+/// A platform binary as read from its bytes.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct BinaryInfo {
+    /// `ELF`, `PE` or `Mach-O`.
+    pub format: &'static str,
+    /// One slice, or several for a universal Mach-O.
+    pub slices: Vec<Slice>,
+    /// ELF only: the newest `GLIBC_x.y` version any symbol needs (None: no glibc symbol).
+    pub max_glibc: Option<String>,
+}
+
+/// The format and architectures an FMI 2.0 platform's binary must have (standard section 2.4:
+/// `linux64`, `win64`, `darwin64`; macOS universal binaries may hold several architectures).
+pub fn expected_format(platform: &str) -> Option<(&'static str, &'static [&'static str])> {
+    match platform {
+        "linux64" => Some(("ELF", &["x86_64"])),
+        "win64" => Some(("PE", &["x86_64"])),
+        "darwin64" => Some(("Mach-O", &["x86_64", "aarch64"])),
+        "linux32" => Some(("ELF", &["x86"])),
+        "win32" => Some(("PE", &["x86"])),
+        _ => None,
+    }
+}
+
+/// Reads a shared library's format, architectures, exports and (ELF) glibc needs.
+pub fn inspect(bytes: &[u8]) -> Result<BinaryInfo, String> {
+    match Object::parse(bytes).map_err(|e| format!("not a readable binary: {e}"))? {
+        Object::Elf(elf) => Ok(elf_info(&elf)),
+        Object::PE(pe) => Ok(BinaryInfo {
+            format: "PE",
+            slices: vec![Slice {
+                architecture: pe_arch(pe.header.coff_header.machine),
+                exports: sorted(pe.exports.iter().filter_map(|e| e.name.map(str::to_string))),
+            }],
+            max_glibc: None,
+        }),
+        Object::Mach(Mach::Binary(m)) => Ok(BinaryInfo {
+            format: "Mach-O",
+            slices: vec![macho_slice(&m)?],
+            max_glibc: None,
+        }),
+        Object::Mach(Mach::Fat(fat)) => {
+            let mut slices = Vec::new();
+            for arch in fat.into_iter() {
+                match arch.map_err(|e| format!("universal binary: {e}"))? {
+                    SingleArch::MachO(m) => slices.push(macho_slice(&m)?),
+                    SingleArch::Archive(_) => {
+                        return Err("universal binary holds an archive".into())
+                    }
+                }
+            }
+            Ok(BinaryInfo {
+                format: "Mach-O",
+                slices,
+                max_glibc: None,
+            })
+        }
+        _ => Err("not an ELF, PE or Mach-O shared library".into()),
+    }
+}
+
+fn sorted(names: impl Iterator<Item = String>) -> Vec<String> {
+    let mut v: Vec<String> = names.collect();
+    v.sort();
+    v.dedup();
+    v
+}
+
+fn elf_info(elf: &goblin::elf::Elf) -> BinaryInfo {
+    use goblin::elf::sym::{STB_GLOBAL, STB_WEAK, STT_FUNC};
+    let exports = elf
+        .dynsyms
+        .iter()
+        .filter(|s| s.st_shndx != 0 && s.st_type() == STT_FUNC)
+        .filter(|s| matches!(s.st_bind(), STB_GLOBAL | STB_WEAK))
+        .filter_map(|s| elf.dynstrtab.get_at(s.st_name).map(str::to_string));
+    let mut glibc: Option<(Vec<u32>, String)> = None;
+    if let Some(verneed) = &elf.verneed {
+        for need in verneed.iter() {
+            for aux in need.iter() {
+                let Some(name) = elf.dynstrtab.get_at(aux.vna_name) else {
+                    continue;
+                };
+                let Some(v) = name.strip_prefix("GLIBC_") else {
+                    continue;
+                };
+                let key: Vec<u32> = v.split('.').filter_map(|p| p.parse().ok()).collect();
+                if glibc.as_ref().is_none_or(|(k, _)| key > *k) {
+                    glibc = Some((key, name.to_string()));
+                }
+            }
+        }
+    }
+    let architecture = match elf.header.e_machine {
+        goblin::elf::header::EM_X86_64 => "x86_64".to_string(),
+        goblin::elf::header::EM_AARCH64 => "aarch64".to_string(),
+        goblin::elf::header::EM_386 => "x86".to_string(),
+        m => format!("machine {m}"),
+    };
+    BinaryInfo {
+        format: "ELF",
+        slices: vec![Slice {
+            architecture,
+            exports: sorted(exports),
+        }],
+        max_glibc: glibc.map(|(_, n)| n),
+    }
+}
+
+fn pe_arch(machine: u16) -> String {
+    match machine {
+        goblin::pe::header::COFF_MACHINE_X86_64 => "x86_64".into(),
+        goblin::pe::header::COFF_MACHINE_X86 => "x86".into(),
+        goblin::pe::header::COFF_MACHINE_ARM64 => "aarch64".into(),
+        m => format!("machine {m:#x}"),
+    }
+}
+
+fn macho_slice(m: &goblin::mach::MachO) -> Result<Slice, String> {
+    use goblin::mach::cputype::{CPU_TYPE_ARM64, CPU_TYPE_X86_64};
+    let architecture = match m.header.cputype {
+        CPU_TYPE_X86_64 => "x86_64".to_string(),
+        CPU_TYPE_ARM64 => "aarch64".to_string(),
+        c => format!("cputype {c:#x}"),
+    };
+    let exports = m.exports().map_err(|e| format!("Mach-O exports: {e}"))?;
+    let names = exports
+        .into_iter()
+        .map(|e| e.name.strip_prefix('_').unwrap_or(&e.name).to_string());
+    Ok(Slice {
+        architecture,
+        exports: sorted(names),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn this_test_binary_is_read_as_the_platform_it_runs_on() {
+        let exe = std::fs::read(std::env::current_exe().unwrap()).unwrap();
+        let info = inspect(&exe).unwrap();
+        assert_eq!(info.format, "ELF");
+        assert_eq!(info.slices[0].architecture, std::env::consts::ARCH);
+        assert!(info.max_glibc.is_some());
+        assert!(inspect(b"not a binary at all").is_err());
+    }
+}
