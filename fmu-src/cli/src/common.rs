@@ -40,6 +40,52 @@ impl CliError {
     }
 }
 
+/// The exit status of a host error met while running an FMU: an FMU that cannot be
+/// instantiated or initialized (NULL from fmi2Instantiate, a GUID it refuses, parameters it
+/// refuses) is a bad FMU or bad input, exit 2; a failure after initialization is the FMU
+/// failing during the run, exit 1.
+pub fn run_error(context: &str, e: host::HostError) -> CliError {
+    use host::HostError;
+    let setup = match &e {
+        HostError::Instantiate { .. } | HostError::Unsupported { .. } => true,
+        HostError::Fmi { function, .. } => matches!(
+            *function,
+            "fmi2Instantiate"
+                | "fmi2SetupExperiment"
+                | "fmi2EnterInitializationMode"
+                | "fmi2ExitInitializationMode"
+        ),
+        HostError::Request(_) | HostError::UnknownVariable(_) => true,
+        _ => false,
+    };
+    if setup {
+        CliError::input(format!("{context}: {e}"))
+    } else {
+        CliError::failure(format!("{context}: simulation failed: {e}"))
+    }
+}
+
+/// Refuses an output path that is one of the inputs (the same file, however it is named):
+/// writing it would destroy the user's data.
+pub fn refuse_overwriting(
+    out: &std::path::Path,
+    inputs: &[&std::path::Path],
+) -> Result<(), CliError> {
+    let Ok(out_real) = out.canonicalize() else {
+        return Ok(()); // does not exist yet: cannot be an input
+    };
+    for input in inputs {
+        if input.canonicalize().is_ok_and(|i| i == out_real) {
+            return Err(CliError::input(format!(
+                "--out {} is the input {}: refusing to overwrite it",
+                out.display(),
+                input.display()
+            )));
+        }
+    }
+    Ok(())
+}
+
 /// Result of a subcommand: the exit status on success.
 pub type CliResult = Result<i32, CliError>;
 
@@ -58,6 +104,18 @@ pub fn parse_sets(
             let var = md.variable(name).ok_or_else(|| {
                 CliError::input(format!("--set '{s}': the FMU has no variable '{name}'"))
             })?;
+            use host::md::Causality;
+            if !matches!(var.causality, Causality::Parameter | Causality::Input) {
+                return Err(CliError::input(format!(
+                    "--set '{s}': '{name}' is {} {}: only parameters and inputs can be set",
+                    if var.causality == Causality::Output {
+                        "an"
+                    } else {
+                        "a"
+                    },
+                    var.causality
+                )));
+            }
             let v = Value::parse_for(var, value)
                 .map_err(|e| CliError::input(format!("--set '{s}': {e}")))?;
             Ok((name.to_string(), v))

@@ -41,8 +41,34 @@ pub struct Args {
     pub quiet: bool,
 }
 
+/// The report directory must not be an input, nor hold an input under a name the report writes
+/// (report.json, report.md, *.png).
+fn refuse_writing_over_inputs(a: &Args) -> Result<(), CliError> {
+    let inputs = [a.fmu.as_path(), a.data.as_path()];
+    crate::common::refuse_overwriting(&a.out, &inputs)?;
+    let Ok(out) = a.out.canonicalize() else {
+        return Ok(());
+    };
+    for input in inputs {
+        let Ok(real) = input.canonicalize() else {
+            continue;
+        };
+        let name = real.file_name().unwrap_or_default().to_string_lossy();
+        let written = name == "report.json" || name == "report.md" || name.ends_with(".png");
+        if written && real.parent() == Some(out.as_path()) {
+            return Err(CliError::input(format!(
+                "--out {}: the report would overwrite the input {}",
+                a.out.display(),
+                input.display()
+            )));
+        }
+    }
+    Ok(())
+}
+
 /// Runs `gap`.
 pub fn run(a: Args) -> CliResult {
+    refuse_writing_over_inputs(&a)?;
     let fmu = Fmu::open(&a.fmu).map_err(CliError::input)?;
     let md = fmu.model_description();
     let sets = parse_sets(md, &a.set)?;
@@ -72,9 +98,10 @@ pub fn run(a: Args) -> CliResult {
             ),
         }));
     }
-    if !(0.0..0.9).contains(&a.holdout) {
+    // The held-out end decides whether an effect generalises; without it nothing can be named.
+    if !(a.holdout > 0.0 && a.holdout < 0.9) {
         return Err(CliError::input(format!(
-            "--holdout {}: must be in [0, 0.9)",
+            "--holdout {}: must be in (0, 0.9): the held-out end decides whether an effect is named",
             a.holdout
         )));
     }

@@ -1,7 +1,9 @@
 //! `actuator-fmu`: simulate and validate FMI 2.0 Co-Simulation FMUs.
 //!
-//! Exit status: 0 success (validate: no finding), 1 failure (validate: findings; simulate: the
-//! FMU failed during the run), 2 usage error, unreadable/bad data or an FMU that cannot be opened.
+//! Exit status: 0 success (validate: no finding), 1 failure (validate: findings; simulate, gap:
+//! the FMU failed after initialization), 2 bad input: usage, unreadable or bad data, an FMU that
+//! cannot be opened, instantiated or initialized (refused parameters, GUID), FMI 3.0, an output
+//! path that is an input.
 //! `main` only parses arguments and dispatches: one module per subcommand.
 
 #[macro_use]
@@ -17,7 +19,11 @@ use clap::{Parser, Subcommand};
 #[command(
     name = "actuator-fmu",
     version,
-    about = "Simulate and validate FMI 2.0 Co-Simulation FMUs"
+    about = "Simulate and validate FMI 2.0 Co-Simulation FMUs",
+    after_help = "Exit status: 0 success; 1 validate found problems, or the FMU failed after \
+                  initialization (simulate, gap); 2 bad input: usage, unreadable or bad data, \
+                  an FMU that cannot be opened, instantiated or initialized, FMI 3.0, an --out \
+                  that is an input."
 )]
 struct Cli {
     #[command(subcommand)]

@@ -1,6 +1,6 @@
 //! `actuator-fmu simulate FMU --data in.csv [--stop T] [--step H] [--set NAME=VALUE ...] --out out.csv`
 
-use crate::common::{parse_sets, CliError, CliResult};
+use crate::common::{parse_sets, refuse_overwriting, run_error, CliError, CliResult};
 use host::csv::{read_csv, write_csv};
 use host::{simulate, Fmu, InputSeries, SimulationRequest};
 use std::path::PathBuf;
@@ -30,6 +30,9 @@ pub struct Args {
 
 /// Runs `simulate`.
 pub fn run(a: Args) -> CliResult {
+    let mut inputs = vec![a.fmu.as_path()];
+    inputs.extend(a.data.as_deref());
+    refuse_overwriting(&a.out, &inputs)?;
     let fmu = Fmu::open(&a.fmu).map_err(CliError::input)?;
     let md = fmu.model_description();
     let start_values = parse_sets(md, &a.set)?;
@@ -95,8 +98,7 @@ pub fn run(a: Args) -> CliResult {
         inputs,
         ..SimulationRequest::new(start, stop, step)
     };
-    let res = simulate(&fmu, &req)
-        .map_err(|e| CliError::failure(format!("{}: simulation failed: {e}", a.fmu.display())))?;
+    let res = simulate(&fmu, &req).map_err(|e| run_error(&a.fmu.display().to_string(), e))?;
     write_csv(&a.out, &res.time, &res.names, &res.columns)
         .map_err(|e| CliError::input(format!("{}: cannot write: {e}", a.out.display())))?;
     Ok(0)

@@ -82,6 +82,7 @@ fn validate_one(path: &Path, timeout: Duration, effects: bool) -> Result<Checked
         Err(HostError::Io { path, source }) => {
             return Err(CliError::input(format!("{}: {source}", path.display())))
         }
+        Err(e @ HostError::Unsupported { .. }) => return Err(CliError::input(e)),
         Err(e) => {
             let check = match e {
                 HostError::ModelDescription { .. } => "model-description-xml",

@@ -251,7 +251,7 @@ fn simulate_reports_bad_data_and_bad_arguments_with_exit_2() {
         s(&out),
     ]);
     assert_eq!(o.status.code(), Some(2));
-    // the FMU refusing a value is a run failure (exit 1) carrying the FMU's message
+    // the FMU refusing a value at initialization is bad input (exit 2) carrying its message
     let o = cli(&[
         "simulate",
         s(&fmu),
@@ -262,6 +262,6 @@ fn simulate_reports_bad_data_and_bad_arguments_with_exit_2() {
         "--out",
         s(&out),
     ]);
-    assert_eq!(o.status.code(), Some(1));
+    assert_eq!(o.status.code(), Some(2));
     assert!(text(&o).1.contains("k must be > 0"));
 }

@@ -184,11 +184,13 @@ pub fn write(
 ) -> std::io::Result<()> {
     std::fs::create_dir_all(dir)?;
     let j = to_json(res, fmu, data);
-    std::fs::write(
-        dir.join("report.json"),
-        serde_json::to_string_pretty(&j).unwrap_or_default(),
-    )?;
-    std::fs::write(dir.join("report.md"), to_markdown(res, fmu, data, plots))?;
+    let json = serde_json::to_string_pretty(&j).unwrap_or_default();
+    let md = to_markdown(res, fmu, data, plots);
+    for (name, text) in [("report.json", json), ("report.md", md)] {
+        host::csv::write_atomically(&dir.join(name), |mut f| {
+            std::io::Write::write_all(&mut f, text.as_bytes())
+        })?;
+    }
     Ok(())
 }
 

@@ -477,8 +477,29 @@ pub fn write_csv(
     names: &[String],
     columns: &[Vec<f64>],
 ) -> std::io::Result<()> {
-    let f = std::fs::File::create(path)?;
-    write_csv_to(std::io::BufWriter::new(f), time, names, columns)
+    write_atomically(path, |f| {
+        write_csv_to(std::io::BufWriter::new(f), time, names, columns)
+    })
+}
+
+/// Writes `path` through a temporary file in the same directory, renamed over `path` once
+/// complete: an interrupted run never leaves half a file in place of a good one.
+pub fn write_atomically(
+    path: &Path,
+    write: impl FnOnce(&std::fs::File) -> std::io::Result<()>,
+) -> std::io::Result<()> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let tmp = tempfile::Builder::new()
+        .prefix(".actuator-fmu-")
+        .suffix(".partial")
+        .tempfile_in(dir)?;
+    write(tmp.as_file())?;
+    tmp.as_file().sync_all()?;
+    tmp.persist(path).map_err(|e| e.error)?;
+    Ok(())
 }
 
 #[cfg(test)]

@@ -92,6 +92,14 @@ pub enum HostError {
     /// A variable name not in the model description.
     #[error("unknown variable '{0}'")]
     UnknownVariable(String),
+    /// A kind of FMU this host does not run (e.g. FMI 3.0).
+    #[error("{}: {message}", path.display())]
+    Unsupported {
+        /// The FMU.
+        path: PathBuf,
+        /// What is not supported.
+        message: String,
+    },
     /// A request that cannot be carried out (wrong type, wrong causality, bad times).
     #[error("{0}")]
     Request(String),

@@ -4,6 +4,7 @@ use crate::error::{HostError, Result};
 use crate::ffi::{self, Functions};
 use crate::md::ModelDescription;
 use libloading::Library;
+use std::io::Read;
 use std::path::{Path, PathBuf};
 
 /// Platform folder of the binaries on this machine (FMI 2.0.4 section 2.3).
@@ -45,6 +46,14 @@ impl Extracted {
             (td.path().to_path_buf(), Some(td))
         };
         let md_path = dir.join("modelDescription.xml");
+        if std::fs::metadata(&md_path).is_ok_and(|m| m.len() > MAX_DESCRIPTION_BYTES) {
+            return Err(HostError::Archive {
+                path: path.clone(),
+                message: format!(
+                    "modelDescription.xml is larger than {MAX_DESCRIPTION_BYTES} bytes"
+                ),
+            });
+        }
         let xml = std::fs::read(&md_path).map_err(|_| HostError::Archive {
             path: path.clone(),
             message: "no modelDescription.xml at the top level".into(),
@@ -55,6 +64,20 @@ impl Extracted {
             column: 0,
             message: format!("not UTF-8: {e}"),
         })?;
+        if let Some(v) = fmi_version(&xml).filter(|v| !v.starts_with("2.")) {
+            let major = v.split('.').next().unwrap_or(v);
+            return Err(HostError::Unsupported {
+                path: path.clone(),
+                message: if major == "3" {
+                    "FMI 3.0 is not supported by this command (FMI 2.0 only)".into()
+                } else {
+                    format!(
+                        "fmiVersion \"{}\" is not supported (FMI 2.0 only)",
+                        major.escape_debug()
+                    )
+                },
+            });
+        }
         let model_description =
             ModelDescription::parse(&xml, &format!("{}!modelDescription.xml", path.display()))?;
         Ok(Extracted {
@@ -65,9 +88,12 @@ impl Extracted {
         })
     }
 
-    /// The `modelIdentifier` of the CoSimulation element.
+    /// The `modelIdentifier` of the CoSimulation element, which must be a C identifier (FMI
+    /// 2.0.4 section 2.2.1: it names the library and prefixes the functions): anything else,
+    /// such as `../x` or an absolute path, could name a library outside the FMU.
     pub fn model_identifier(&self) -> Result<&str> {
-        self.model_description
+        let id = self
+            .model_description
             .co_simulation
             .as_ref()
             .map(|c| c.model_identifier.as_str())
@@ -76,23 +102,65 @@ impl Extracted {
                 message:
                     "modelDescription.xml has no <CoSimulation> element (not a Co-Simulation FMU)"
                         .into(),
-            })
+            })?;
+        let mut chars = id.chars();
+        let first_ok = chars
+            .next()
+            .is_some_and(|c| c.is_ascii_alphabetic() || c == '_');
+        if !first_ok || !chars.all(|c| c.is_ascii_alphanumeric() || c == '_') {
+            let shown: String = id.chars().take(60).flat_map(char::escape_debug).collect();
+            return Err(HostError::Archive {
+                path: self.path.clone(),
+                message: format!(
+                    "modelIdentifier \"{shown}\" is not a C identifier (FMI 2.0.4 section 2.2.1)"
+                ),
+            });
+        }
+        Ok(id)
     }
 
     /// Path of the binary for this platform: `binaries/linux64/<modelIdentifier>.so`.
     pub fn binary_path(&self) -> Result<PathBuf> {
         let id = self.model_identifier()?;
-        Ok(self
+        let path = self
             .dir
             .join("binaries")
             .join(PLATFORM)
-            .join(format!("{id}.{LIB_SUFFIX}")))
+            .join(format!("{id}.{LIB_SUFFIX}"));
+        // A symbolic link (in an extracted directory given as the FMU) must not lead the loader
+        // outside the FMU either.
+        if let (Ok(real), Ok(root)) = (path.canonicalize(), self.dir.canonicalize()) {
+            if !real.starts_with(&root) {
+                return Err(HostError::Archive {
+                    path: self.path.clone(),
+                    message: format!(
+                        "binaries/{PLATFORM}/{id}.{LIB_SUFFIX} resolves outside the FMU"
+                    ),
+                });
+            }
+        }
+        Ok(path)
     }
 
     /// `file://` URI of the resources folder, as fmi2Instantiate expects.
     pub fn resource_uri(&self) -> String {
         file_uri(&self.dir.join("resources"))
     }
+}
+
+/// The `fmiVersion` attribute of the root element, read before the full parse so that an FMU of
+/// another standard version gets one clear message rather than schema errors.
+fn fmi_version(xml: &str) -> Option<&str> {
+    let root = &xml[xml.find("<fmiModelDescription")?..];
+    let root = &root[..root.find('>')?];
+    let at = root.find("fmiVersion")?;
+    let rest = root[at + "fmiVersion".len()..]
+        .trim_start()
+        .strip_prefix('=')?
+        .trim_start();
+    let quote = rest.chars().next().filter(|c| *c == '"' || *c == '\'')?;
+    let rest = &rest[1..];
+    Some(&rest[..rest.find(quote)?])
 }
 
 /// Extracts the zip at `archive` into `dest`, refusing entries that escape it.
@@ -106,6 +174,7 @@ fn extract(archive: &Path, dest: &Path) -> Result<()> {
         source,
     })?;
     let mut zip = zip::ZipArchive::new(file).map_err(|e| bad(format!("not a zip archive: {e}")))?;
+    let mut total: u64 = 0;
     for i in 0..zip.len() {
         let mut entry = zip
             .by_index(i)
@@ -125,12 +194,39 @@ fn extract(archive: &Path, dest: &Path) -> Result<()> {
         if let Some(parent) = out.parent() {
             std::fs::create_dir_all(parent).map_err(io)?;
         }
+        let name = entry.name().chars().take(80).collect::<String>();
+        let ratio = entry.size() / entry.compressed_size().max(1);
+        if entry.size() > MAX_ENTRY_BYTES || (entry.size() > 1 << 20 && ratio > MAX_RATIO) {
+            return Err(bad(format!(
+                "entry '{name}' would extract to {} bytes ({ratio}x its compressed size; \
+                 limits {MAX_ENTRY_BYTES} bytes, {MAX_RATIO}x)",
+                entry.size()
+            )));
+        }
         let mut f = std::fs::File::create(&out).map_err(io)?;
-        std::io::copy(&mut entry, &mut f)
-            .map_err(|e| bad(format!("entry '{}': {e}", entry.name())))?;
+        // The declared size may lie: count what is actually written.
+        let limit = MAX_ENTRY_BYTES.min(MAX_TOTAL_BYTES - total);
+        let n = std::io::copy(&mut (&mut entry).take(limit + 1), &mut f)
+            .map_err(|e| bad(format!("entry '{name}': {e}")))?;
+        total += n;
+        if n > limit {
+            return Err(bad(format!(
+                "entry '{name}' extracts to more than {limit} bytes (limits: {MAX_ENTRY_BYTES} \
+                 per entry, {MAX_TOTAL_BYTES} in total)"
+            )));
+        }
     }
     Ok(())
 }
+
+/// Limits of extraction, far above any real FMU (ours are 5 MB, binaries of large models some
+/// 100 MB) and far below what fills a disk: bytes per entry, bytes in total, and the ratio of an
+/// entry's size to its compressed size above which a large entry is taken for a zip bomb.
+const MAX_ENTRY_BYTES: u64 = 1 << 30;
+const MAX_TOTAL_BYTES: u64 = 2 << 30;
+const MAX_RATIO: u64 = 1000;
+/// Largest modelDescription.xml read into memory.
+const MAX_DESCRIPTION_BYTES: u64 = 64 << 20;
 
 /// Percent-encodes a path as a `file://` URI (RFC 8089).
 pub fn file_uri(path: &Path) -> String {

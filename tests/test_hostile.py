@@ -1,0 +1,154 @@
+"""The host treats every FMU and file as untrusted. Each hostile FMU or input is made here (zip
+files written by the test, a C library compiled by it); each case asserts what the user sees:
+the exit status, one bounded message, and the files on disk before and after."""
+import re
+import shutil
+import subprocess
+import zipfile
+
+import pytest
+
+from conftest import cli_path, fmu_path
+
+EXIT_BAD_INPUT = 2
+
+
+def run(*args, cwd=None):
+    return subprocess.run([cli_path(), *map(str, args)], capture_output=True, text=True,
+                          timeout=300, cwd=cwd)
+
+
+def rewrite_fmu(src, dst, edit_md=None, extra=None):
+    """Copy of the FMU `src` with modelDescription.xml edited and extra entries added."""
+    with zipfile.ZipFile(src) as zin, zipfile.ZipFile(dst, "w", zipfile.ZIP_DEFLATED) as zout:
+        for item in zin.infolist():
+            data = zin.read(item.filename)
+            if item.filename == "modelDescription.xml" and edit_md:
+                data = edit_md(data.decode()).encode()
+            zout.writestr(item, data)
+        for name, data in (extra or {}).items():
+            zout.writestr(name, data)
+    return dst
+
+
+def data_csv(path, rows=30):
+    path.write_text("time,force,x\n" + "".join(f"{k * 1e-3},0,0.01\n" for k in range(rows)))
+    return path
+
+
+def assert_one_bounded_message(res, *fragments):
+    assert res.returncode == EXIT_BAD_INPUT, (res.returncode, res.stdout, res.stderr)
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and len(lines[0]) < 400, res.stderr[:1000]
+    for f in fragments:
+        assert f in lines[0], lines[0]
+
+
+def test_a_model_identifier_that_is_a_path_loads_nothing_from_outside(tmp_path):
+    """modelIdentifier = absolute path of a library outside the FMU whose constructor writes a
+    marker: simulate, validate and gap refuse the FMU and the library is never loaded."""
+    if not shutil.which("gcc"):
+        pytest.fail("gcc is needed to build the outside library")
+    marker = tmp_path / "LOADED"
+    c = tmp_path / "evil.c"
+    c.write_text('#include <stdio.h>\n__attribute__((constructor)) static void hit(void) '
+                 f'{{ FILE *f = fopen("{marker}", "w"); if (f) fclose(f); }}\n')
+    subprocess.run(["gcc", "-shared", "-fPIC", "-o", tmp_path / "evil.so", c], check=True)
+    evil_id = str(tmp_path / "evil")
+    fmu = rewrite_fmu(fmu_path("Oscillator"), tmp_path / "evil.fmu",
+                      lambda md: md.replace('modelIdentifier="Oscillator"',
+                                            f'modelIdentifier="{evil_id}"'))
+    data = data_csv(tmp_path / "d.csv")
+    for args in (["simulate", fmu, "--data", data, "--out", tmp_path / "o.csv"],
+                 ["gap", fmu, "--data", data, "--out", tmp_path / "g"],
+                 ["validate", fmu]):
+        res = run(*args)
+        assert res.returncode in (1, EXIT_BAD_INPUT), res.stderr
+        assert "C identifier" in res.stderr + res.stdout, (args[0], res.stderr, res.stdout)
+        assert not marker.exists(), f"{args[0]} loaded a library from outside the FMU"
+
+
+def test_an_fmi3_fmu_is_refused_by_every_command(tmp_path):
+    fmu = rewrite_fmu(fmu_path("Oscillator"), tmp_path / "fmi3.fmu",
+                      lambda md: md.replace('fmiVersion="2.0"', 'fmiVersion="3.0"'))
+    data = data_csv(tmp_path / "d.csv")
+    for args in (["simulate", fmu, "--data", data, "--out", tmp_path / "o.csv"],
+                 ["gap", fmu, "--data", data, "--out", tmp_path / "g"],
+                 ["validate", fmu]):
+        assert_one_bounded_message(run(*args), "FMI 3.0 is not supported by this command")
+
+
+@pytest.mark.parametrize("which", ["data", "fmu"])
+def test_out_equal_to_an_input_is_refused_and_the_input_kept(tmp_path, which):
+    fmu = tmp_path / "m.fmu"
+    shutil.copy(fmu_path("Oscillator"), fmu)
+    data = data_csv(tmp_path / "d.csv")
+    target = {"data": data, "fmu": fmu}[which]
+    before = target.read_bytes()
+    # the same file under another name
+    res = run("simulate", fmu, "--data", data, "--out", tmp_path / "." / target.name)
+    assert_one_bounded_message(res, "refusing to overwrite")
+    assert target.read_bytes() == before
+
+
+def test_gap_report_directory_holding_an_input_named_like_a_report_is_refused(tmp_path):
+    data = data_csv(tmp_path / "report.json")
+    before = data.read_bytes()
+    res = run("gap", fmu_path("Oscillator"), "--data", data, "--out", tmp_path)
+    assert_one_bounded_message(res, "would overwrite the input")
+    assert data.read_bytes() == before
+
+
+def test_simulate_output_is_replaced_whole_or_not_at_all(tmp_path):
+    out = tmp_path / "o.csv"
+    out.write_text("previous good result\n")
+    res = run("simulate", fmu_path("Oscillator"), "--data", data_csv(tmp_path / "d.csv"),
+              "--set", "fail_at=0.01", "--out", out)
+    assert res.returncode != 0
+    assert out.read_text() == "previous good result\n"
+    assert not [p for p in tmp_path.iterdir() if p.name.endswith(".partial")]
+
+
+def test_holdout_zero_is_refused(tmp_path):
+    res = run("gap", fmu_path("Oscillator"), "--data", data_csv(tmp_path / "d.csv"),
+              "--out", tmp_path / "g", "--holdout", "0")
+    assert_one_bounded_message(res, "--holdout 0")
+
+
+def test_setting_an_output_is_refused(tmp_path):
+    res = run("simulate", fmu_path("Oscillator"), "--data", data_csv(tmp_path / "d.csv"),
+              "--set", "x=1", "--out", tmp_path / "o.csv")
+    assert_one_bounded_message(res, "'x' is an output", "only parameters and inputs")
+
+
+def test_a_guid_the_binary_refuses_is_a_bad_fmu(tmp_path):
+    fmu = rewrite_fmu(fmu_path("Oscillator"), tmp_path / "g.fmu",
+                      lambda md: re.sub(r'guid="[^"]*"', 'guid="{00000000-0000-0000-0000-000000000000}"', md))
+    res = run("simulate", fmu, "--data", data_csv(tmp_path / "d.csv"), "--out", tmp_path / "o.csv")
+    assert_one_bounded_message(res, "fmi2Instantiate")
+
+
+def test_a_zip_bomb_is_refused_before_it_fills_the_disk(tmp_path):
+    """64 MiB of zeros deflate to 64 kB (ratio > 1000): refused, naming the entry and the limit."""
+    fmu = rewrite_fmu(fmu_path("Oscillator"), tmp_path / "bomb.fmu",
+                      extra={"resources/zeros.bin": b"\0" * (64 << 20)})
+    res = run("simulate", fmu, "--data", data_csv(tmp_path / "d.csv"), "--out", tmp_path / "o.csv")
+    assert_one_bounded_message(res, "resources/zeros.bin", "1000x")
+    # validate reports it as a finding of the archive
+    res = run("validate", fmu)
+    assert res.returncode == 1 and "resources/zeros.bin" in res.stdout
+
+
+def test_a_huge_cell_gets_a_short_message_with_its_location(tmp_path):
+    data = tmp_path / "d.csv"
+    data.write_bytes(b"time,force,x\n0,0,0\n0.001," + b"7" * (2 << 20) + b",0\n")
+    res = run("simulate", fmu_path("Oscillator"), "--data", data, "--out", tmp_path / "o.csv")
+    assert_one_bounded_message(res, "d.csv:3", "line longer than")
+
+
+def test_control_bytes_in_a_cell_are_escaped_in_the_message(tmp_path):
+    data = tmp_path / "d.csv"
+    data.write_bytes(b"time,force,x\n0,0,0\n0.001,1\x00\x1b[31mred,0\n")
+    res = run("simulate", fmu_path("Oscillator"), "--data", data, "--out", tmp_path / "o.csv")
+    assert_one_bounded_message(res, "d.csv:3")
+    assert "\x00" not in res.stderr and "\x1b" not in res.stderr
