@@ -160,7 +160,7 @@ def test_named_model_is_refitted_on_the_whole_trace(tmp_path):
         assert rm[n] == pytest.approx(o["rmse_after"], rel=1e-3), n
 
 
-def test_an_oscillating_loop_is_calibrated_over_growing_horizons(tmp_path, monkeypatch):
+def test_an_oscillating_loop_is_calibrated_over_growing_horizons(tmp_path):
     """A base-parameter draw (valve flow x1.24, bulk modulus x0.81) that puts the 40 Hz loop near
     its stability limit: by t = 10 s the joint swings +-0.6 rad about its set point. A direct fit
     of the base parameters over the 7 s training part locks onto the wrong phase of the
@@ -177,13 +177,12 @@ def test_an_oscillating_loop_is_calibrated_over_growing_horizons(tmp_path, monke
         assert o["rmse_after"] <= 1.2 * ds["noise_sigma"][n], (n, o)
     assert "growing horizons" in (tmp_path / "out" / "report.md").read_text()
     # The direct fit alone (the workflow before growing horizons) stays off the data.
-    monkeypatch.setenv("GAP_NO_HORIZONS", "1")
-    rep = run_ok("HydraulicJoint", csv, tmp_path / "direct", "--rounds", "0")
+    rep = run_ok("HydraulicJoint", csv, tmp_path / "direct", "--rounds", "0", "--no-horizons")
     assert rep["calibration"]["chosen"] == "direct" and rep["calibration"]["horizons"] == []
     assert max(o["rmse_after"] / ds["noise_sigma"][n] for n, o in rep["outputs"].items()) > 1.5
 
 
-def test_valve_dynamics_is_named_whichever_base_calibration_is_used(tmp_path, monkeypatch):
+def test_valve_dynamics_is_named_whichever_base_calibration_is_used(tmp_path):
     """A trace whose direct base calibration is poor (chi-square 53 700 against 8 300 over
     growing horizons): with either calibration the user sees valve_dynamics named, its true
     frequency and damping ratio inside their intervals and every output at its noise level.
@@ -201,8 +200,7 @@ def test_valve_dynamics_is_named_whichever_base_calibration_is_used(tmp_path, mo
 
     rep = run_ok("HydraulicJoint", csv, tmp_path / "out", "--rounds", "1")
     named_at_truth(rep)
-    monkeypatch.setenv("GAP_NO_HORIZONS", "1")
-    rep = run_ok("HydraulicJoint", csv, tmp_path / "direct", "--rounds", "1")
+    rep = run_ok("HydraulicJoint", csv, tmp_path / "direct", "--rounds", "1", "--no-horizons")
     named_at_truth(rep)
 
 
@@ -210,7 +208,7 @@ def test_a_growth_the_base_fit_imitates_with_a_stiffer_spring_is_still_named(tmp
     """TwistedString with a string radius that grows 0.91 % per turn: the base fit imitates the
     growth with a spring about three times too stiff, and the radius_growth refit from there
     descends to the bottom of the growth's range (ΔBIC -2.4, nothing named; measured with
-    GAP_NO_PROFILE=1). Fitting the base parameters with the growth held at each scanned setting
+    --no-profile). Fitting the base parameters with the growth held at each scanned setting
     finds the valley's other end; refitted from there, radius_growth is named at its true size.
     Only the outcome is asserted (named, size, residuals at noise), not which path reached it.
     Dataset: scripts/gap-eval seed 700537 at 4 s; truth from the generator's draw."""

@@ -39,6 +39,17 @@ pub struct Args {
     /// No progress display on stderr.
     #[arg(long)]
     pub quiet: bool,
+    /// Calibrate the base model by one direct fit only, without the growing horizons (for
+    /// before/after comparisons of the calibration).
+    #[arg(long)]
+    pub no_horizons: bool,
+    /// Never restart a refit from the profile of its effect's valley (for before/after
+    /// comparisons).
+    #[arg(long)]
+    pub no_profile: bool,
+    /// Print every stage (elapsed time, simulation count) and every fit iteration on stderr.
+    #[arg(long)]
+    pub trace: bool,
 }
 
 /// Runs `gap`.
@@ -100,6 +111,9 @@ pub fn run(a: Args) -> CliResult {
         fixed,
         holdout: a.holdout,
         progress: !a.quiet,
+        calibration_horizons: !a.no_horizons,
+        profile_restart: !a.no_profile,
+        trace: a.trace,
         ..Config::default()
     };
     let sim = FmuSimulator::new(&fmu, &data).map_err(CliError::input)?;

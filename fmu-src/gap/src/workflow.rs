@@ -54,6 +54,15 @@ pub struct Config {
     pub min_delta_bic: f64,
     /// Show progress on stderr.
     pub progress: bool,
+    /// Calibrate the base model over growing horizons as well as directly (`false`: the direct
+    /// fit only, for before/after measurements of the continuation).
+    pub calibration_horizons: bool,
+    /// Restart a refit short of the naming threshold from the profile of its effect's valley
+    /// (`false`: off, for before/after measurements).
+    pub profile_restart: bool,
+    /// Print a line per stage on stderr with the elapsed time and simulation count, and every
+    /// Levenberg-Marquardt iteration (for profiling).
+    pub trace: bool,
 }
 
 impl Default for Config {
@@ -67,6 +76,9 @@ impl Default for Config {
             max_refit: 5,
             min_delta_bic: 10.0,
             progress: false,
+            calibration_horizons: true,
+            profile_restart: true,
+            trace: false,
         }
     }
 }
@@ -300,15 +312,19 @@ struct Ctx<'a, S: Simulator + ?Sized> {
     n_train: usize,
     /// ΔBIC an effect needs to be named (`Config::min_delta_bic`).
     min_delta_bic: f64,
+    /// `Config::calibration_horizons`, `Config::profile_restart`, `Config::trace`.
+    calibration_horizons: bool,
+    profile_restart: bool,
+    trace: bool,
     pb: ProgressBar,
     t0: Instant,
 }
 
 impl<S: Simulator + ?Sized> Ctx<'_, S> {
-    /// Progress message; with `GAP_TRACE` set also a line on stderr with the elapsed time and
+    /// Progress message; with `Config::trace` also a line on stderr with the elapsed time and
     /// the simulation count (for profiling).
     fn stage(&self, msg: String) {
-        if std::env::var_os("GAP_TRACE").is_some() {
+        if self.trace {
             eprintln!(
                 "[gap {:7.2} s, {:4} sims, {:7.2} s simulating] {msg}",
                 self.t0.elapsed().as_secs_f64(),
@@ -730,6 +746,7 @@ fn fit_state_holding<S: Simulator + ?Sized>(
         max_iter,
         rel_tol,
         abs_tol: LM_ABS_TOL,
+        trace: ctx.trace,
         ..Default::default()
     };
     let fit = lm::levenberg_marquardt(&problem, &bounds, &p0, opts, &|| ctx.pb.tick())?;
@@ -845,7 +862,7 @@ impl Calibration {
 /// 1300030: load_mass 0.25 kg against a true 2.2, a sum 6 % below the direct fit's, after which
 /// the screening missed the effect); the direct fit, which stays nearer the values as given, is
 /// kept. Horizons shorter than 20 samples are skipped; the anchor is the first one fitted.
-/// `GAP_NO_HORIZONS` in the environment leaves only the direct fit (for before/after runs).
+/// `Config::calibration_horizons` false leaves only the direct fit (for before/after runs).
 fn calibrate_base<S: Simulator + ?Sized>(
     ctx: &Ctx<'_, S>,
     st0: &ModelState,
@@ -857,7 +874,7 @@ fn calibrate_base<S: Simulator + ?Sized>(
         horizons: Vec::new(),
         chosen: CalibrationFit::Direct,
     };
-    if std::env::var_os("GAP_NO_HORIZONS").is_some() {
+    if !ctx.calibration_horizons {
         return Ok((direct, cal));
     }
     let k = ctx.out_idx.len();
@@ -1158,6 +1175,9 @@ pub fn run<S: Simulator + ?Sized>(
         n,
         n_train,
         min_delta_bic: cfg.min_delta_bic,
+        calibration_horizons: cfg.calibration_horizons,
+        profile_restart: cfg.profile_restart,
+        trace: cfg.trace,
         pb,
         t0: t_start,
     };
@@ -2240,7 +2260,7 @@ const PROFILE_ITERATIONS: usize = 4;
 /// current values and from their values as given (`given`: the base fit may have bent them
 /// far); from the best of these, if it beats the refit `f`, refit everything. Returns that fit
 /// if its sum of squares is lower than the refit's. Called only for refits short of the naming
-/// threshold (see `run`). `GAP_NO_PROFILE` in the environment turns it off (for before/after
+/// threshold (see `run`). `Config::profile_restart` false turns it off (for before/after
 /// measurements).
 fn profile_restart<S: Simulator + ?Sized>(
     ctx: &Ctx<'_, S>,
@@ -2252,7 +2272,7 @@ fn profile_restart<S: Simulator + ?Sized>(
 ) -> Option<FitOut> {
     let n = ctx.n_train;
     let eff = &ctx.effects[e];
-    if std::env::var_os("GAP_NO_PROFILE").is_some() || eff.params.is_empty() {
+    if !ctx.profile_restart || eff.params.is_empty() {
         return None;
     }
     let needed = ctx.visibility_needed(e);
