@@ -6,6 +6,7 @@ output's range. The traces are short (3 s at 200 Hz) so the suite stays fast; th
 evaluation over many datasets is scripts/gap-eval.
 """
 import json
+import os
 import subprocess
 import sys
 
@@ -29,15 +30,15 @@ def generate(tmp_path, model, name, seed, hidden=(), **kw):
     return ds, path
 
 
-def gap(model, csv, out, *args):
+def gap(model, csv, out, *args, env=None):
     cmd = [cli_path(), "gap", fmu_path(model), "--data", str(csv), "--out", str(out), "--quiet",
            *args]
-    p = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    p = subprocess.run(cmd, capture_output=True, text=True, timeout=300, env=env)
     return p
 
 
-def run_ok(model, csv, out, *args):
-    p = gap(model, csv, out, *args)
+def run_ok(model, csv, out, *args, env=None):
+    p = gap(model, csv, out, *args, env=env)
     assert p.returncode == 0, p.stderr + p.stdout
     with open(out / "report.json") as f:
         return json.load(f)
@@ -130,6 +131,23 @@ def test_hidden_effect_is_named(tmp_path, model, effect, seed):
         rm = resimulate_rmse(model, ds, rep)
         for n, o in rep["outputs"].items():
             assert rm[n] == pytest.approx(o["rmse_after"], rel=1e-3), n
+
+
+def test_same_report_with_1_and_16_threads(tmp_path):
+    """The same data give the same report.json whatever the number of worker threads: the
+    parallel simulations and finite-difference columns are collected in index order and reduced
+    sequentially (rayon map + collect, never a parallel sum or min). Only the
+    `timing` block (wall-clock seconds and the thread count itself) is excluded; every verdict,
+    candidate score, estimate and interval must be bit-identical."""
+    ds, csv = generate(tmp_path, "TwistedString", "motor_friction", 14, ("motor_friction",))
+    reps = []
+    for threads in (1, 16):
+        env = dict(os.environ, RAYON_NUM_THREADS=str(threads))
+        rep = run_ok("TwistedString", csv, tmp_path / f"t{threads}", "--rounds", "1", env=env)
+        assert rep["timing"]["threads"] == threads
+        del rep["timing"]
+        reps.append(json.dumps(rep, sort_keys=True))
+    assert reps[0] == reps[1]
 
 
 def eval_dataset(tmp_path, model, seed, hidden, duration=4.0):
