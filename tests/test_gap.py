@@ -7,6 +7,7 @@ evaluation over many datasets is scripts/gap-eval.
 """
 import json
 import os
+import zipfile
 import subprocess
 import sys
 
@@ -286,6 +287,55 @@ def test_clean_data_wrong_load_mass_is_calibrated_not_named(tmp_path):
     rm = resimulate_rmse(model, ds, rep)
     for n, o in rep["outputs"].items():
         assert rm[n] == pytest.approx(o["rmse_after"], rel=1e-3), n
+
+
+def edited_fmu(tmp_path, model, name, edits):
+    """A copy of the packaged FMU whose modelDescription.xml has the (old, new) text edits
+    applied (the binary is unchanged: names, ranges and descriptions are read by the host)."""
+    src, dst = fmu_path(model), tmp_path / f"{name}.fmu"
+    with zipfile.ZipFile(src) as zi, zipfile.ZipFile(dst, "w", zipfile.ZIP_DEFLATED) as zo:
+        for item in zi.infolist():
+            data = zi.read(item)
+            if item.filename == "modelDescription.xml":
+                text = data.decode()
+                for old, new in edits:
+                    assert old in text, old
+                    text = text.replace(old, new)
+                data = text.encode()
+            zo.writestr(item, data)
+    return dst
+
+
+def test_convention_departures_are_warnings_naming_the_variable(tmp_path):
+    """A [calibrate] tag moved to the end of a description and an effect parameter without a
+    range are each reported as a warning naming the variable (stdout and report.json); with
+    no tag left and no effect switch, nothing is left to do: exit 2 with the reason."""
+    ds, csv = generate(tmp_path, "TwistedString", "conv", 41, ())
+    fmu = edited_fmu(tmp_path, "TwistedString", "tagged", [
+        ('description="[calibrate] Viscous friction of the 4 linear guides and bearings"',
+         'description="Viscous friction of the 4 linear guides and bearings [calibrate]"'),
+        ('min="0.008726646259971648" max="0.05235987755982988" ', ''),
+    ])
+    cmd = [cli_path(), "gap", str(fmu), "--data", str(csv), "--out", str(tmp_path / "out"),
+           "--quiet", "--rounds", "0"]
+    p = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr + p.stdout
+    warn = [l for l in p.stdout.splitlines() if l.startswith("warning: ")]
+    assert any(l.startswith("warning: guide_damping: ") and "[calibrate]" in l for l in warn), warn
+    assert any(l.startswith("warning: gear_backlash.angle: ") and "min < max" in l
+               for l in warn), warn
+    rep = json.loads((tmp_path / "out" / "report.json").read_text())
+    assert "guide_damping" not in rep["parameters"]
+    assert any(w.startswith("gear_backlash.angle: ") for w in rep["convention_warnings"])
+
+    edits = [('description="[calibrate] ', 'description="')]
+    edits += [(f'name="{e}.enabled"', f'name="{e}_on"') for e in gapgen.effects("TwistedString")]
+    bare = edited_fmu(tmp_path, "TwistedString", "bare", edits)
+    p = subprocess.run([cli_path(), "gap", str(bare), "--data", str(csv), "--out",
+                        str(tmp_path / "bare"), "--quiet"], capture_output=True, text=True,
+                       timeout=300)
+    assert p.returncode == 2, p.stderr + p.stdout
+    assert "nothing to do" in p.stderr and "[calibrate]" in p.stderr, p.stderr
 
 
 def test_set_and_missing_input_column(tmp_path):

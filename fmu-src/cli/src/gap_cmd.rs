@@ -128,7 +128,7 @@ pub fn run(a: Args) -> CliResult {
     gap::report::write(&res, &a.out, &fmu_s, &data_s, &plots)
         .map_err(|e| CliError::failure(format!("{}: {e}", a.out.display())))?;
     out!("{}: {}", a.data.display(), res.verdict);
-    for w in &res.warnings {
+    for w in res.warnings.iter().chain(&res.convention_warnings) {
         out!("warning: {w}");
     }
     out!(

@@ -238,6 +238,9 @@ pub struct GapResult {
     pub verdict: String,
     /// Things the user should know about the fit (parameters on bounds).
     pub warnings: Vec<String>,
+    /// Departures of the FMU from the candidate-effect convention, each naming its variable
+    /// (a variable the convention cannot use is ignored by the workflow; this says why).
+    pub convention_warnings: Vec<String>,
     pub candidates: Vec<Vec<Candidate>>,
     /// Rounds done twice because their base re-check found a better base: (round, 1-based;
     /// ΔBIC by which the base fit improved). `candidates` holds the second pass.
@@ -1138,6 +1141,19 @@ pub fn run<S: Simulator + ?Sized>(
         None => spec::default_calibration(&params, &all_effects),
     };
     let fit_idx: Vec<usize> = fit_idx.into_iter().filter(|&i| !fixed_has(i)).collect();
+    let convention_warnings = convention_warnings(&params, cfg.fit.is_some());
+    if fit_idx.is_empty() && effects.is_empty() {
+        let why = if convention_warnings.is_empty() {
+            String::new()
+        } else {
+            format!(" ({})", convention_warnings.join("; "))
+        };
+        return Err(GapError::Usage(format!(
+            "nothing to do: no parameter to calibrate (none tagged [calibrate] at the start of \
+             its description, no --fit) and no candidate effect (no Boolean parameter \
+             '<effect>.enabled' with ranged Real parameters '<effect>.<name>'){why}"
+        )));
+    }
     let mut fit_start = Vec::new();
     for &i in &fit_idx {
         fit_start.push(params[i].start);
@@ -1712,6 +1728,7 @@ pub fn run<S: Simulator + ?Sized>(
         unexplained,
         verdict,
         warnings,
+        convention_warnings,
         candidates: rounds,
         redone_rounds,
         calibration,
@@ -1731,6 +1748,21 @@ pub fn run<S: Simulator + ?Sized>(
         train_samples: n_train,
         traces,
     })
+}
+
+/// One line per departure from the candidate-effect convention, naming the variable
+/// ("model" for the FMU as a whole). The missing `[calibrate]` tag is not reported when the
+/// user names the parameters to fit (`fit_given`).
+fn convention_warnings(params: &[ParamSpec], fit_given: bool) -> Vec<String> {
+    spec::convention(params)
+        .problems
+        .into_iter()
+        .filter(|(_, p)| !(fit_given && *p == fmi2_types::effects::Problem::NoCalibrateTag))
+        .map(|(i, p)| match i {
+            Some(i) => format!("{}: {p}", params[i].name),
+            None => format!("model: {p}"),
+        })
+        .collect()
 }
 
 /// Verdict sentence listing the candidates these data cannot reveal (empty if none): for them
@@ -2572,5 +2604,44 @@ mod calibration_tests {
             t.contains("χ² = 1400.0") && t.ends_with("kept the growing horizons fit."),
             "{t}"
         );
+    }
+}
+
+#[cfg(test)]
+mod convention_tests {
+    use super::*;
+
+    fn params() -> Vec<ParamSpec> {
+        vec![
+            ParamSpec::real(
+                "inertia",
+                1.0,
+                Some(0.1),
+                Some(10.0),
+                "kg.m2",
+                "rotor [calibrate]",
+            ),
+            ParamSpec::flag("backlash.enabled", false, "switch"),
+            ParamSpec::real("backlash.width", 0.01, None, None, "rad", "gap width"),
+        ]
+    }
+
+    #[test]
+    fn each_departure_is_a_warning_naming_its_variable() {
+        let w = convention_warnings(&params(), false);
+        assert!(
+            w.iter()
+                .any(|s| s.starts_with("inertia: ") && s.contains("[calibrate]")),
+            "{w:?}"
+        );
+        assert!(
+            w.iter()
+                .any(|s| s.starts_with("backlash.width: ") && s.contains("min < max")),
+            "{w:?}"
+        );
+        assert!(w.iter().any(|s| s.starts_with("model: ")), "{w:?}");
+        // With --fit the missing default calibration set is no departure.
+        let w = convention_warnings(&params(), true);
+        assert!(!w.iter().any(|s| s.starts_with("model: ")), "{w:?}");
     }
 }
