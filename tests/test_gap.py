@@ -6,6 +6,8 @@ output's range. The traces are short (3 s at 200 Hz) so the suite stays fast; th
 evaluation over many datasets is scripts/gap-eval.
 """
 import json
+import os
+import zipfile
 import subprocess
 import sys
 
@@ -29,15 +31,15 @@ def generate(tmp_path, model, name, seed, hidden=(), **kw):
     return ds, path
 
 
-def gap(model, csv, out, *args):
+def gap(model, csv, out, *args, env=None):
     cmd = [cli_path(), "gap", fmu_path(model), "--data", str(csv), "--out", str(out), "--quiet",
            *args]
-    p = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    p = subprocess.run(cmd, capture_output=True, text=True, timeout=300, env=env)
     return p
 
 
-def run_ok(model, csv, out, *args):
-    p = gap(model, csv, out, *args)
+def run_ok(model, csv, out, *args, env=None):
+    p = gap(model, csv, out, *args, env=env)
     assert p.returncode == 0, p.stderr + p.stdout
     with open(out / "report.json") as f:
         return json.load(f)
@@ -132,6 +134,23 @@ def test_hidden_effect_is_named(tmp_path, model, effect, seed):
             assert rm[n] == pytest.approx(o["rmse_after"], rel=1e-3), n
 
 
+def test_same_report_with_1_and_16_threads(tmp_path):
+    """The same data give the same report.json whatever the number of worker threads: the
+    parallel simulations and finite-difference columns are collected in index order and reduced
+    sequentially (rayon map + collect, never a parallel sum or min). Only the
+    `timing` block (wall-clock seconds and the thread count itself) is excluded; every verdict,
+    candidate score, estimate and interval must be bit-identical."""
+    ds, csv = generate(tmp_path, "TwistedString", "motor_friction", 14, ("motor_friction",))
+    reps = []
+    for threads in (1, 16):
+        env = dict(os.environ, RAYON_NUM_THREADS=str(threads))
+        rep = run_ok("TwistedString", csv, tmp_path / f"t{threads}", "--rounds", "1", env=env)
+        assert rep["timing"]["threads"] == threads
+        del rep["timing"]
+        reps.append(json.dumps(rep, sort_keys=True))
+    assert reps[0] == reps[1]
+
+
 def eval_dataset(tmp_path, model, seed, hidden, duration=4.0):
     """A dataset as scripts/gap-eval makes it (4 s unless told, 250 Hz, 1 % noise)."""
     ds = gapgen.make(model, seed, hidden, duration=duration, rate=250.0)
@@ -160,7 +179,7 @@ def test_named_model_is_refitted_on_the_whole_trace(tmp_path):
         assert rm[n] == pytest.approx(o["rmse_after"], rel=1e-3), n
 
 
-def test_an_oscillating_loop_is_calibrated_over_growing_horizons(tmp_path, monkeypatch):
+def test_an_oscillating_loop_is_calibrated_over_growing_horizons(tmp_path):
     """A base-parameter draw (valve flow x1.24, bulk modulus x0.81) that puts the 40 Hz loop near
     its stability limit: by t = 10 s the joint swings +-0.6 rad about its set point. A direct fit
     of the base parameters over the 7 s training part locks onto the wrong phase of the
@@ -177,13 +196,12 @@ def test_an_oscillating_loop_is_calibrated_over_growing_horizons(tmp_path, monke
         assert o["rmse_after"] <= 1.2 * ds["noise_sigma"][n], (n, o)
     assert "growing horizons" in (tmp_path / "out" / "report.md").read_text()
     # The direct fit alone (the workflow before growing horizons) stays off the data.
-    monkeypatch.setenv("GAP_NO_HORIZONS", "1")
-    rep = run_ok("HydraulicJoint", csv, tmp_path / "direct", "--rounds", "0")
+    rep = run_ok("HydraulicJoint", csv, tmp_path / "direct", "--rounds", "0", "--no-horizons")
     assert rep["calibration"]["chosen"] == "direct" and rep["calibration"]["horizons"] == []
     assert max(o["rmse_after"] / ds["noise_sigma"][n] for n, o in rep["outputs"].items()) > 1.5
 
 
-def test_valve_dynamics_is_named_whichever_base_calibration_is_used(tmp_path, monkeypatch):
+def test_valve_dynamics_is_named_whichever_base_calibration_is_used(tmp_path):
     """A trace whose direct base calibration is poor (chi-square 53 700 against 8 300 over
     growing horizons): with either calibration the user sees valve_dynamics named, its true
     frequency and damping ratio inside their intervals and every output at its noise level.
@@ -201,8 +219,7 @@ def test_valve_dynamics_is_named_whichever_base_calibration_is_used(tmp_path, mo
 
     rep = run_ok("HydraulicJoint", csv, tmp_path / "out", "--rounds", "1")
     named_at_truth(rep)
-    monkeypatch.setenv("GAP_NO_HORIZONS", "1")
-    rep = run_ok("HydraulicJoint", csv, tmp_path / "direct", "--rounds", "1")
+    rep = run_ok("HydraulicJoint", csv, tmp_path / "direct", "--rounds", "1", "--no-horizons")
     named_at_truth(rep)
 
 
@@ -210,7 +227,7 @@ def test_a_growth_the_base_fit_imitates_with_a_stiffer_spring_is_still_named(tmp
     """TwistedString with a string radius that grows 0.91 % per turn: the base fit imitates the
     growth with a spring about three times too stiff, and the radius_growth refit from there
     descends to the bottom of the growth's range (ΔBIC -2.4, nothing named; measured with
-    GAP_NO_PROFILE=1). Fitting the base parameters with the growth held at each scanned setting
+    --no-profile). Fitting the base parameters with the growth held at each scanned setting
     finds the valley's other end; refitted from there, radius_growth is named at its true size.
     Only the outcome is asserted (named, size, residuals at noise), not which path reached it.
     Dataset: scripts/gap-eval seed 700537 at 4 s; truth from the generator's draw."""
@@ -270,6 +287,55 @@ def test_clean_data_wrong_load_mass_is_calibrated_not_named(tmp_path):
     rm = resimulate_rmse(model, ds, rep)
     for n, o in rep["outputs"].items():
         assert rm[n] == pytest.approx(o["rmse_after"], rel=1e-3), n
+
+
+def edited_fmu(tmp_path, model, name, edits):
+    """A copy of the packaged FMU whose modelDescription.xml has the (old, new) text edits
+    applied (the binary is unchanged: names, ranges and descriptions are read by the host)."""
+    src, dst = fmu_path(model), tmp_path / f"{name}.fmu"
+    with zipfile.ZipFile(src) as zi, zipfile.ZipFile(dst, "w", zipfile.ZIP_DEFLATED) as zo:
+        for item in zi.infolist():
+            data = zi.read(item)
+            if item.filename == "modelDescription.xml":
+                text = data.decode()
+                for old, new in edits:
+                    assert old in text, old
+                    text = text.replace(old, new)
+                data = text.encode()
+            zo.writestr(item, data)
+    return dst
+
+
+def test_convention_departures_are_warnings_naming_the_variable(tmp_path):
+    """A [calibrate] tag moved to the end of a description and an effect parameter without a
+    range are each reported as a warning naming the variable (stdout and report.json); with
+    no tag left and no effect switch, nothing is left to do: exit 2 with the reason."""
+    ds, csv = generate(tmp_path, "TwistedString", "conv", 41, ())
+    fmu = edited_fmu(tmp_path, "TwistedString", "tagged", [
+        ('description="[calibrate] Viscous friction of the 4 linear guides and bearings"',
+         'description="Viscous friction of the 4 linear guides and bearings [calibrate]"'),
+        ('min="0.008726646259971648" max="0.05235987755982988" ', ''),
+    ])
+    cmd = [cli_path(), "gap", str(fmu), "--data", str(csv), "--out", str(tmp_path / "out"),
+           "--quiet", "--rounds", "0"]
+    p = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr + p.stdout
+    warn = [l for l in p.stdout.splitlines() if l.startswith("warning: ")]
+    assert any(l.startswith("warning: guide_damping: ") and "[calibrate]" in l for l in warn), warn
+    assert any(l.startswith("warning: gear_backlash.angle: ") and "min < max" in l
+               for l in warn), warn
+    rep = json.loads((tmp_path / "out" / "report.json").read_text())
+    assert "guide_damping" not in rep["parameters"]
+    assert any(w.startswith("gear_backlash.angle: ") for w in rep["convention_warnings"])
+
+    edits = [('description="[calibrate] ', 'description="')]
+    edits += [(f'name="{e}.enabled"', f'name="{e}_on"') for e in gapgen.effects("TwistedString")]
+    bare = edited_fmu(tmp_path, "TwistedString", "bare", edits)
+    p = subprocess.run([cli_path(), "gap", str(bare), "--data", str(csv), "--out",
+                        str(tmp_path / "bare"), "--quiet"], capture_output=True, text=True,
+                       timeout=300)
+    assert p.returncode == 2, p.stderr + p.stdout
+    assert "nothing to do" in p.stderr and "[calibrate]" in p.stderr, p.stderr
 
 
 def test_set_and_missing_input_column(tmp_path):

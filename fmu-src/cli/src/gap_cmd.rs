@@ -39,6 +39,17 @@ pub struct Args {
     /// No progress display on stderr.
     #[arg(long)]
     pub quiet: bool,
+    /// Calibrate the base model by one direct fit only, without the growing horizons (for
+    /// before/after comparisons of the calibration).
+    #[arg(long)]
+    pub no_horizons: bool,
+    /// Never restart a refit from the profile of its effect's valley (for before/after
+    /// comparisons).
+    #[arg(long)]
+    pub no_profile: bool,
+    /// Print every stage (elapsed time, simulation count) and every fit iteration on stderr.
+    #[arg(long)]
+    pub trace: bool,
 }
 
 /// The report directory must not be an input, nor hold an input under a name the report writes
@@ -127,6 +138,9 @@ pub fn run(a: Args) -> CliResult {
         fixed,
         holdout: a.holdout,
         progress: !a.quiet,
+        calibration_horizons: !a.no_horizons,
+        profile_restart: !a.no_profile,
+        trace: a.trace,
         ..Config::default()
     };
     let sim = FmuSimulator::new(&fmu, &data).map_err(CliError::input)?;
@@ -141,7 +155,7 @@ pub fn run(a: Args) -> CliResult {
     gap::report::write(&res, &a.out, &fmu_s, &data_s, &plots)
         .map_err(|e| CliError::failure(format!("{}: {e}", a.out.display())))?;
     out!("{}: {}", a.data.display(), res.verdict);
-    for w in &res.warnings {
+    for w in res.warnings.iter().chain(&res.convention_warnings) {
         out!("warning: {w}");
     }
     out!(

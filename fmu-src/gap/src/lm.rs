@@ -108,6 +108,8 @@ pub struct LmOptions {
     pub fd_step: f64,
     /// Accepted steps with Broyden-updated Jacobians between finite-difference ones.
     pub broyden_steps: usize,
+    /// Print every iteration on stderr (for profiling).
+    pub trace: bool,
 }
 
 impl Default for LmOptions {
@@ -118,6 +120,7 @@ impl Default for LmOptions {
             abs_tol: 0.0,
             fd_step: 1e-3,
             broyden_steps: 3,
+            trace: false,
         }
     }
 }
@@ -200,7 +203,7 @@ pub fn levenberg_marquardt<P: Problem>(
     } else {
         DMatrix::zeros(r.len(), 0)
     };
-    let trace = std::env::var_os("LM_TRACE").is_some();
+    let trace = opts.trace;
     let mut lambda = 1e-3;
     let mut iterations = 0;
     // `fresh`: `jac` is a finite-difference Jacobian at `z` (else a Broyden update of one).

@@ -13,6 +13,7 @@ pub fn to_json(res: &GapResult, fmu: &str, data: &str) -> Value {
         "data": data,
         "verdict": res.verdict,
         "warnings": res.warnings,
+        "convention_warnings": res.convention_warnings,
         "named": res.named,
         "unexplained": res.unexplained,
         "candidates": res.candidates,
@@ -44,7 +45,7 @@ pub fn to_markdown(res: &GapResult, fmu: &str, data: &str, plots: &[String]) -> 
     let mut s = String::new();
     let _ = writeln!(s, "# Gap report\n\nFMU `{fmu}`, data `{data}` ({} samples; fits on the first {}, the last {:.0} % held out).\n", res.samples, res.train_samples, 100.0 * res.holdout_fraction);
     let _ = writeln!(s, "**Verdict:** {}\n", res.verdict);
-    for w in &res.warnings {
+    for w in res.warnings.iter().chain(&res.convention_warnings) {
         let _ = writeln!(s, "**Warning:** {w}\n");
     }
     if !res.fixed.is_empty() {

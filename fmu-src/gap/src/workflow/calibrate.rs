@@ -1,0 +1,176 @@
+//! Calibration of the base model: directly and over growing horizons ([`calibrate_base`]).
+
+use super::*;
+
+/// Horizons of the growing-horizon calibration before the whole training part, as fractions of
+/// it ([`calibrate_base`]).
+pub(super) const CALIBRATION_HORIZONS: [f64; 2] = [0.25, 0.5];
+
+/// The growing-horizon calibration goes on only if its first horizon is fitted to within this
+/// chi-square per sample and output (an RMS residual of √2 × the noise level): its premise is a
+/// model that reproduces the start of the trace ([`calibrate_base`]).
+pub(super) const HORIZON_ANCHOR_MAX_CHI2: f64 = 2.0;
+
+/// Which base calibration was kept ([`calibrate_base`]); in JSON `"direct"` or
+/// `"growing horizons"`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub enum CalibrationFit {
+    #[serde(rename = "direct")]
+    Direct,
+    #[serde(rename = "growing horizons")]
+    GrowingHorizons,
+}
+
+impl CalibrationFit {
+    pub(super) fn label(self) -> &'static str {
+        match self {
+            CalibrationFit::Direct => "direct",
+            CalibrationFit::GrowingHorizons => "growing horizons",
+        }
+    }
+}
+
+/// How the base model was calibrated ([`calibrate_base`]): chi-square (weighted sum of squares
+/// over the training part) of the direct fit and of the growing-horizon fit, and which was kept.
+#[derive(Clone, Debug, Serialize)]
+pub struct Calibration {
+    pub direct_chi2: f64,
+    /// Each horizon of the growing-horizon fit: (samples, chi-square over them at its end); the
+    /// last is the whole training part unless the first horizon could not be fitted well enough
+    /// to go on.
+    pub horizons: Vec<(usize, f64)>,
+    pub chosen: CalibrationFit,
+}
+
+impl Calibration {
+    /// One sentence for the report; `time`: the data's sample times, `train`: samples of the
+    /// training part, `outputs`: measured outputs.
+    pub fn text(&self, time: &[f64], train: usize, outputs: usize) -> String {
+        let span = |n: usize| match (time.first(), time.get(n.max(1) - 1)) {
+            (Some(a), Some(b)) => format!("{:.3} s", b - a),
+            _ => format!("{n} samples"),
+        };
+        let direct = format!(
+            "Base calibration: fitted directly over the training part (χ² = {:.1})",
+            self.direct_chi2
+        );
+        match self.horizons.last() {
+            None => format!("{direct}."),
+            Some(&(n, chi2)) if n < train => format!(
+                "{direct}; the growing-horizon fit was not continued: over its first horizon \
+                 ({}) the model stays {:.1}× the noise level off the data (RMS), so that \
+                 horizon gives no anchor.",
+                span(n),
+                (chi2 / (n * outputs.max(1)) as f64).sqrt()
+            ),
+            Some(&(_, chi2)) => format!(
+                "{direct} and over growing horizons ({}; each fit starting from the previous \
+                 one's values: χ² = {chi2:.1}); kept the {} fit.",
+                self.horizons
+                    .iter()
+                    .map(|(n, _)| span(*n))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                self.chosen.label()
+            ),
+        }
+    }
+}
+
+/// Calibrate the base model (effects off) on the training part, directly from the values as
+/// given and, where the model reproduces the start of the trace, over growing horizons: the
+/// first quarter of the training part, then half, then all of it, each fit starting from the
+/// previous one's values. The lower sum of squares wins.
+///
+/// Why the second: when a trajectory's phase is sensitive to the parameters (a feedback loop
+/// near its stability limit, oscillating), an output-error cost over a long horizon has many
+/// local minima: the model locks onto the data's oscillation a period early or late, and a
+/// local descent cannot cross to the right one. Over a short horizon the trajectories have not
+/// yet drifted apart, the cost is nearly quadratic and its minimum close to the truth; each
+/// longer horizon then starts inside the right basin (continuation in the horizon, the idea of
+/// multiple-shooting estimators: Bock 1983; Voss, Timmer & Kurths 2004). Measured: a
+/// HydraulicJoint draw whose 40 Hz loop oscillates (10 s at 1 kHz, gap-eval seed 800004) ends
+/// at χ² 4.2e6 directly and 1.1e5 over growing horizons, after which the hidden valve dynamics
+/// are named and every output is at its noise level.
+///
+/// The continuation rests on its first horizon: when the model misses even the start of the
+/// trace by more than √2 × the noise (a strong effect missing from the start), that short fit
+/// has nothing to anchor on and wanders (HydraulicJoint cable friction 0.22, gap-eval seed
+/// 1300030: load_mass 0.25 kg against a true 2.2, a sum 6 % below the direct fit's, after which
+/// the screening missed the effect); the direct fit, which stays nearer the values as given, is
+/// kept. Horizons shorter than 20 samples are skipped; the anchor is the first one fitted.
+/// `Config::calibration_horizons` false leaves only the direct fit (for before/after runs).
+pub(super) fn calibrate_base<S: Simulator + ?Sized>(
+    ctx: &Ctx<'_, S>,
+    st0: &ModelState,
+) -> Result<(FitOut, Calibration), SimError> {
+    let fit_base = |from: &ModelState, n: usize| fit_state(ctx, from, None, &[], n, 20, 1e-4);
+    let direct = fit_base(st0, ctx.n_train)?;
+    let mut cal = Calibration {
+        direct_chi2: direct.fit.sse,
+        horizons: Vec::new(),
+        chosen: CalibrationFit::Direct,
+    };
+    if !ctx.calibration_horizons {
+        return Ok((direct, cal));
+    }
+    let k = ctx.out_idx.len();
+    let mut st = st0.clone();
+    for frac in CALIBRATION_HORIZONS {
+        let n_h = (ctx.n_train as f64 * frac) as usize;
+        if n_h < 20 {
+            continue;
+        }
+        // A horizon that cannot be fitted (a simulation failing at some trial values) ends the
+        // continuation; the direct fit stands regardless.
+        let Ok(f) = fit_base(&st, n_h) else {
+            return Ok((direct, cal));
+        };
+        let anchor = cal.horizons.is_empty();
+        cal.horizons.push((n_h, f.fit.sse));
+        if anchor && f.fit.sse > HORIZON_ANCHOR_MAX_CHI2 * (n_h * k) as f64 {
+            return Ok((direct, cal));
+        }
+        st = f.state;
+    }
+    let Ok(growing) = fit_base(&st, ctx.n_train) else {
+        return Ok((direct, cal));
+    };
+    cal.horizons.push((ctx.n_train, growing.fit.sse));
+    if growing.fit.sse < direct.fit.sse {
+        cal.chosen = CalibrationFit::GrowingHorizons;
+        Ok((growing, cal))
+    } else {
+        Ok((direct, cal))
+    }
+}
+
+#[cfg(test)]
+mod calibration_tests {
+    use super::{Calibration, CalibrationFit};
+
+    #[test]
+    fn the_report_sentence_says_which_fit_was_kept_and_why() {
+        let time: Vec<f64> = (0..1000).map(|i| i as f64 * 0.01).collect();
+        let mut cal = Calibration {
+            direct_chi2: 5000.0,
+            horizons: Vec::new(),
+            chosen: CalibrationFit::Direct,
+        };
+        let t = cal.text(&time, 700, 2);
+        assert!(t.contains("χ² = 5000.0") && !t.contains("horizon"), "{t}");
+        // First horizon: 175 samples x 2 outputs at chi-square 1400 = 4 per sample, RMS 2x.
+        cal.horizons = vec![(175, 1400.0)];
+        let t = cal.text(&time, 700, 2);
+        assert!(t.contains("not continued") && t.contains("1.740 s"), "{t}");
+        assert!(t.contains("2.0× the noise level"), "{t}");
+        cal.horizons = vec![(175, 350.0), (350, 700.0), (700, 1400.0)];
+        cal.chosen = CalibrationFit::GrowingHorizons;
+        let t = cal.text(&time, 700, 2);
+        assert!(t.contains("1.740 s, 3.490 s, 6.990 s"), "{t}");
+        assert!(
+            t.contains("χ² = 1400.0") && t.ends_with("kept the growing horizons fit."),
+            "{t}"
+        );
+    }
+}

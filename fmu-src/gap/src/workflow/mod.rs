@@ -1,0 +1,1129 @@
+//! The gap workflow: calibrate, locate, screen, refit, name, repeat, report.
+//!
+//! Notation: `K` measured outputs, `N` samples, weighted residual `r = (y_model − y_meas) / σ_k`
+//! stacked output by output (row `k N + i`). `σ_k` is the noise level of output `k` estimated from
+//! the data (`stats::noise_sigma`). Fits use the first `(1 − holdout)` of the trace; the last part
+//! is held out to check that a named effect generalises.
+//!
+//! Model comparison uses the profile likelihood with one unknown noise variance per output and an
+//! effective sample size per output that accounts for residual autocorrelation:
+//! `BIC = Σ_k N_eff,k ln(RSS_k / N) + p ln(Σ_k N_eff,k)`, `N_eff,k = N (1 − ρ_k)/(1 + ρ_k)` with `ρ_k`
+//! the lag-1 autocorrelation of the larger model's residual (Schwarz 1978; AR(1) variance
+//! inflation). Parameter covariances use the Jacobian with the same per-output scaling:
+//! rows of output `k` are multiplied by `(σ_k / s_k) √(N_eff,k / N)` where `s_k` is the residual RMS,
+//! so `Cov(z) = (J̃ᵀ J̃)⁻¹` and 95 % Wald intervals follow by the delta method.
+
+use crate::lm::{self, Bounded, LmOptions, Problem};
+use crate::sim::{Counted, SimError, Simulator};
+use crate::spec::{self, EffectSpec, ParamKind, ParamSpec};
+use crate::stats;
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::time::Instant;
+
+mod calibrate;
+mod diagnose;
+mod evidence;
+mod refit;
+mod screen;
+mod setup;
+mod verdict;
+
+use calibrate::*;
+pub use calibrate::{Calibration, CalibrationFit};
+use diagnose::*;
+use evidence::*;
+use refit::*;
+use screen::*;
+use setup::*;
+use verdict::*;
+
+/// z value of a two-sided 95 % interval.
+pub const Z95: f64 = 1.959_963_984_540_054;
+
+/// Measured data on one time grid (SI units).
+#[derive(Clone, Debug, Default)]
+pub struct Data {
+    pub time: Vec<f64>,
+    pub inputs: Vec<(String, Vec<f64>)>,
+    pub outputs: Vec<(String, Vec<f64>)>,
+}
+
+/// Options of the workflow.
+#[derive(Clone, Debug)]
+pub struct Config {
+    /// Base parameters to calibrate (names); `None` = those tagged `[calibrate]`.
+    pub fit: Option<Vec<String>>,
+    /// Candidate effects to consider (names); `None` = every effect of the model.
+    pub effects: Option<Vec<String>>,
+    /// Maximum number of effects to add.
+    pub rounds: usize,
+    /// Known settings applied to every simulation and never fitted (`--set`).
+    pub fixed: Vec<(String, f64)>,
+    /// Fraction of the trace held out at its end.
+    pub holdout: f64,
+    /// How many screened candidates are refitted per round.
+    pub max_refit: usize,
+    /// Minimum BIC improvement to name an effect.
+    pub min_delta_bic: f64,
+    /// Show progress on stderr.
+    pub progress: bool,
+    /// Calibrate the base model over growing horizons as well as directly (`false`: the direct
+    /// fit only, for before/after measurements of the continuation).
+    pub calibration_horizons: bool,
+    /// Restart a refit short of the naming threshold from the profile of its effect's valley
+    /// (`false`: off, for before/after measurements).
+    pub profile_restart: bool,
+    /// Print a line per stage on stderr with the elapsed time and simulation count, and every
+    /// Levenberg-Marquardt iteration (for profiling).
+    pub trace: bool,
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Config {
+            fit: None,
+            effects: None,
+            rounds: 2,
+            fixed: Vec::new(),
+            holdout: 0.3,
+            max_refit: 5,
+            min_delta_bic: 10.0,
+            progress: false,
+            calibration_horizons: true,
+            profile_restart: true,
+            trace: false,
+        }
+    }
+}
+
+/// Value with a 95 % interval.
+#[derive(Clone, Debug, Serialize)]
+pub struct Estimate {
+    pub value: f64,
+    pub ci_low: f64,
+    pub ci_high: f64,
+    pub unit: String,
+    pub start: f64,
+    /// "min" or "max" when the fitted value lies on that bound of the parameter's range (the fit
+    /// wanted to go further), else None.
+    pub at_bound: Option<String>,
+}
+
+/// One candidate effect in one round.
+#[derive(Clone, Debug, Serialize)]
+pub struct Candidate {
+    pub effect: String,
+    /// BIC(current model) − BIC(current model + effect) after the nonlinear refit; for a candidate
+    /// that was only screened, the linearised estimate with the autocorrelation correction.
+    pub delta_bic: f64,
+    /// Screening statistic (ranks the candidates): linearised ΔBIC of regressing the residual on
+    /// the base Jacobian plus the effect's sensitivities, every sample counted as independent.
+    pub score: f64,
+    pub refit: bool,
+    /// Fitted effect parameters (refitted candidates only).
+    pub parameters: BTreeMap<String, Estimate>,
+    /// Scale `a` of the effect's contribution `y_off + a (y_on − y_off)` with its interval
+    /// (fitted value 1 by construction); the interval must exclude 0 to name the effect.
+    pub magnitude: Option<Estimate>,
+    /// Weighted sum of squares on the held-out part: current model and with this effect.
+    pub holdout_sse_without: Option<f64>,
+    pub holdout_sse_with: Option<f64>,
+    pub named: bool,
+    /// Why it was or was not named.
+    pub verdict: String,
+    /// Largest drop of the weighted sum of squares (chi-square) the effect could bring anywhere
+    /// in its scanned range once the base parameters readjust (linearised; see `visibility`).
+    pub visibility: Option<f64>,
+    /// The drop naming needs: `min ΔBIC + (effect parameters) ln N`. A candidate whose
+    /// visibility stays below it cannot be revealed by these data, whatever its true size.
+    pub visibility_needed: f64,
+    /// Detection limit: the weakest scanned setting of the effect's parameters whose visibility
+    /// reaches `visibility_needed` (None: no scanned setting does). A true effect weaker than
+    /// this is likely to go unnamed in these data.
+    pub detectable_from: Option<BTreeMap<String, f64>>,
+    /// The scanned settings in range order with their visibility.
+    pub visibility_scan: Vec<VisibilityPoint>,
+    /// The refit fell short of the evidence and was restarted from the best point of the
+    /// effect's profile (see `profile_restart`), which fitted better.
+    pub profiled: bool,
+}
+
+/// One scanned setting of a candidate's parameters.
+#[derive(Clone, Debug, Serialize)]
+pub struct VisibilityPoint {
+    pub parameters: BTreeMap<String, f64>,
+    /// Mean position of the values in their ranges (0 = min, 1 = max, in the fitting coordinate).
+    pub fraction: f64,
+    /// Chi-square of the change the setting makes that the base parameters cannot absorb.
+    pub visibility: Option<f64>,
+}
+
+impl Candidate {
+    /// Whether the data can reveal this effect at all (unknown: assumed they can).
+    pub fn detectable(&self) -> bool {
+        self.visibility.is_none_or(|v| v >= self.visibility_needed)
+    }
+}
+
+impl Candidate {
+    /// A candidate that was screened (linearised ΔBIC `delta_bic`) but not refitted.
+    fn screened_only(effect: &str, delta_bic: f64, score: f64) -> Self {
+        Candidate {
+            effect: effect.to_string(),
+            delta_bic,
+            score,
+            refit: false,
+            parameters: BTreeMap::new(),
+            magnitude: None,
+            holdout_sse_without: None,
+            holdout_sse_with: None,
+            named: false,
+            verdict: "screened only (linearised ΔBIC)".into(),
+            visibility: None,
+            visibility_needed: 0.0,
+            detectable_from: None,
+            visibility_scan: Vec::new(),
+            profiled: false,
+        }
+    }
+}
+
+/// Where the model and the measurement disagree, per output.
+#[derive(Clone, Debug, Serialize)]
+pub struct OutputDiagnosis {
+    pub output: String,
+    pub noise_sigma: f64,
+    /// Residual RMS / noise level.
+    pub rmse_over_noise: f64,
+    /// Window [t0, t1] with the largest RMS residual and its RMS / noise level.
+    pub worst_window: (f64, f64, f64),
+    pub window_rmse_over_noise: Vec<f64>,
+    pub ljung_box_p: f64,
+    pub lag1_autocorr: f64,
+    /// Input with the largest cross-correlation: (name, lag in samples, correlation).
+    pub input_xcorr: Option<(String, usize, f64)>,
+    /// Variable whose operating region best explains the residual: (name, η²).
+    pub region_variable: Option<(String, f64)>,
+    pub region_bins: Vec<stats::RegionBin>,
+    pub text: String,
+}
+
+/// Diagnosis of one round.
+#[derive(Clone, Debug, Serialize)]
+pub struct Diagnosis {
+    pub consistent_with_noise: bool,
+    pub outputs: Vec<OutputDiagnosis>,
+    pub text: String,
+}
+
+/// Errors per measured output.
+#[derive(Clone, Debug, Serialize)]
+pub struct OutputErrors {
+    /// Model as given (start values, `--set` applied, effects off).
+    pub rmse_before: f64,
+    pub max_before: f64,
+    /// Model after the final fit with the named effects.
+    pub rmse_after: f64,
+    pub max_after: f64,
+    /// Base model (effects off) after calibration.
+    pub rmse_base_fit: f64,
+    pub max_base_fit: f64,
+    pub noise_sigma: f64,
+}
+
+/// Timing split.
+#[derive(Clone, Debug, Serialize)]
+pub struct Timing {
+    pub total_s: f64,
+    /// Wall time during which at least one simulation was running.
+    pub simulate_s: f64,
+    /// Wall time of the estimation not spent simulating (linear algebra, statistics).
+    pub fit_s: f64,
+    pub simulations: usize,
+    pub threads: usize,
+}
+
+/// Everything the report needs.
+#[derive(Clone, Debug, Serialize)]
+pub struct GapResult {
+    pub named: Vec<String>,
+    pub unexplained: Option<String>,
+    pub verdict: String,
+    /// Things the user should know about the fit (parameters on bounds).
+    pub warnings: Vec<String>,
+    /// Departures of the FMU from the candidate-effect convention, each naming its variable
+    /// (a variable the convention cannot use is ignored by the workflow; this says why).
+    pub convention_warnings: Vec<String>,
+    pub candidates: Vec<Vec<Candidate>>,
+    /// Rounds done twice because their base re-check found a better base: (round, 1-based;
+    /// ΔBIC by which the base fit improved). `candidates` holds the second pass.
+    pub redone_rounds: Vec<(usize, f64)>,
+    /// How the base model was calibrated (direct or over growing horizons).
+    pub calibration: Calibration,
+    pub parameters: BTreeMap<String, Estimate>,
+    pub outputs: BTreeMap<String, OutputErrors>,
+    pub fixed: BTreeMap<String, f64>,
+    pub diagnosis: Vec<Diagnosis>,
+    pub timing: Timing,
+    pub holdout_fraction: f64,
+    pub samples: usize,
+    pub train_samples: usize,
+    #[serde(skip)]
+    pub traces: Traces,
+}
+
+/// (name, measured, nominal model, base fit, final) of one output.
+pub type OutputTrace = (String, Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>);
+
+/// Time series kept for the plots.
+#[derive(Clone, Debug, Default)]
+pub struct Traces {
+    pub time: Vec<f64>,
+    /// (name, measured, nominal model, base fit, final)
+    pub outputs: Vec<OutputTrace>,
+    /// (output index, variable name, variable values at the base fit)
+    pub revealing: Option<(usize, String, Vec<f64>)>,
+}
+
+/// Errors of the workflow.
+#[derive(Debug, thiserror::Error)]
+pub enum GapError {
+    #[error("{0}")]
+    Usage(String),
+    #[error("simulation failed: {0}")]
+    Simulation(#[from] SimError),
+}
+
+/// A model configuration: parameter values that are set for a simulation.
+#[derive(Clone, Debug)]
+struct ModelState {
+    /// Named effects (indices into the effect list).
+    named: Vec<usize>,
+    /// Fitted parameter indices and their current values.
+    idx: Vec<usize>,
+    val: Vec<f64>,
+}
+
+impl ModelState {
+    /// The same named effects and fitted parameters with other values (same order as `idx`).
+    fn with_values(&self, val: Vec<f64>) -> ModelState {
+        debug_assert_eq!(val.len(), self.idx.len());
+        ModelState {
+            named: self.named.clone(),
+            idx: self.idx.clone(),
+            val,
+        }
+    }
+}
+
+struct Ctx<'a, S: Simulator + ?Sized> {
+    sim: Counted<'a, S>,
+    params: Vec<ParamSpec>,
+    effects: Vec<EffectSpec>,
+    fixed: Vec<(usize, f64)>,
+    out_idx: Vec<usize>,
+    meas: Vec<Vec<f64>>,
+    sigma: Vec<f64>,
+    n: usize,
+    n_train: usize,
+    /// ΔBIC an effect needs to be named (`Config::min_delta_bic`).
+    min_delta_bic: f64,
+    /// `Config::calibration_horizons`, `Config::profile_restart`, `Config::trace`.
+    calibration_horizons: bool,
+    profile_restart: bool,
+    trace: bool,
+    pb: ProgressBar,
+    t0: Instant,
+}
+
+impl<S: Simulator + ?Sized> Ctx<'_, S> {
+    /// Progress message; with `Config::trace` also a line on stderr with the elapsed time and
+    /// the simulation count (for profiling).
+    fn stage(&self, msg: String) {
+        if self.trace {
+            eprintln!(
+                "[gap {:7.2} s, {:4} sims, {:7.2} s simulating] {msg}",
+                self.t0.elapsed().as_secs_f64(),
+                self.sim.count(),
+                self.sim.busy_s()
+            );
+        }
+        self.pb.set_message(msg);
+    }
+
+    fn settings(
+        &self,
+        st: &ModelState,
+        extra_on: Option<usize>,
+        extra: &[(usize, f64)],
+    ) -> Vec<(usize, f64)> {
+        let mut s = self.fixed.clone();
+        for &e in st.named.iter().chain(extra_on.iter()) {
+            s.push((self.effects[e].enabled, 1.0));
+        }
+        s.extend(st.idx.iter().copied().zip(st.val.iter().copied()));
+        s.extend_from_slice(extra);
+        s
+    }
+
+    /// The chi-square drop naming effect `e` needs on the training part: `min ΔBIC + (effect
+    /// parameters) ln N` (its visibility is measured against this).
+    fn visibility_needed(&self, e: usize) -> f64 {
+        self.min_delta_bic
+            + self.effects[e].params.len() as f64
+                * ((self.n_train * self.out_idx.len()) as f64).ln()
+    }
+
+    /// Simulate and return the measured outputs only, first `n` samples.
+    fn measured_outputs(&self, set: &[(usize, f64)], n: usize) -> Result<Vec<Vec<f64>>, SimError> {
+        let all = self.sim.simulate(set, n)?;
+        self.out_idx
+            .iter()
+            .map(|&k| {
+                let v = all.get(k).ok_or(SimError::Short {
+                    what: "outputs",
+                    got: all.len(),
+                    want: k + 1,
+                })?;
+                if v.len() < n {
+                    let (got, want) = (v.len(), n);
+                    return Err(SimError::Short {
+                        what: "samples",
+                        got,
+                        want,
+                    });
+                }
+                if let Some(sample) = v[..n].iter().position(|x| !x.is_finite()) {
+                    let output = self.sim.inner.output_names()[k].clone();
+                    return Err(SimError::NonFinite { output, sample });
+                }
+                Ok(v[..n].to_vec())
+            })
+            .collect()
+    }
+
+    /// Weighted residual stacked by output over samples `0..n`.
+    fn residual(&self, y: &[Vec<f64>], n: usize) -> Vec<f64> {
+        let mut r = Vec::with_capacity(n * y.len());
+        for (k, yk) in y.iter().enumerate() {
+            r.extend((0..n).map(|i| (yk[i] - self.meas[k][i]) / self.sigma[k]));
+        }
+        r
+    }
+}
+
+struct FitProblem<'c, 'a, S: Simulator + ?Sized> {
+    ctx: &'c Ctx<'a, S>,
+    /// Settings that stay constant in this fit.
+    base: Vec<(usize, f64)>,
+    idx: Vec<usize>,
+    n: usize,
+}
+
+impl<S: Simulator + ?Sized> Problem for FitProblem<'_, '_, S> {
+    fn residuals(&self, p: &[f64]) -> Result<Vec<f64>, SimError> {
+        let mut set = self.base.clone();
+        set.extend(self.idx.iter().copied().zip(p.iter().copied()));
+        let y = self.ctx.measured_outputs(&set, self.n)?;
+        Ok(self.ctx.residual(&y, self.n))
+    }
+}
+
+fn bounds_of(params: &[ParamSpec], idx: &[usize]) -> Vec<Bounded> {
+    idx.iter()
+        .map(|&i| Bounded::new(params[i].start, params[i].min, params[i].max))
+        .collect()
+}
+
+fn find_param(params: &[ParamSpec], name: &str) -> Result<usize, GapError> {
+    params
+        .iter()
+        .position(|p| p.name == name)
+        .ok_or_else(|| GapError::Usage(format!("the model has no parameter named '{name}'")))
+}
+
+struct FitOut {
+    state: ModelState,
+    fit: lm::LmFit,
+    bounds: Vec<Bounded>,
+}
+
+fn fit_state<S: Simulator + ?Sized>(
+    ctx: &Ctx<'_, S>,
+    st: &ModelState,
+    extra_on: Option<usize>,
+    extra: &[(usize, f64)],
+    n: usize,
+    max_iter: usize,
+    rel_tol: f64,
+) -> Result<FitOut, SimError> {
+    fit_state_holding(ctx, st, extra_on, extra, &[], n, max_iter, rel_tol)
+}
+
+/// [`fit_state`] with the settings `held` applied and kept constant (a profile fit: the base
+/// parameters fitted with an effect's parameters held at given values).
+#[allow(clippy::too_many_arguments)]
+fn fit_state_holding<S: Simulator + ?Sized>(
+    ctx: &Ctx<'_, S>,
+    st: &ModelState,
+    extra_on: Option<usize>,
+    extra: &[(usize, f64)],
+    held: &[(usize, f64)],
+    n: usize,
+    max_iter: usize,
+    rel_tol: f64,
+) -> Result<FitOut, SimError> {
+    let mut idx = st.idx.clone();
+    let mut p0 = st.val.clone();
+    for &(i, v) in extra {
+        idx.push(i);
+        p0.push(v);
+    }
+    let empty = ModelState {
+        named: st.named.clone(),
+        idx: Vec::new(),
+        val: Vec::new(),
+    };
+    let problem = FitProblem {
+        ctx,
+        base: ctx.settings(&empty, extra_on, held),
+        idx: idx.clone(),
+        n,
+    };
+    let bounds = bounds_of(&ctx.params, &idx);
+    let opts = LmOptions {
+        max_iter,
+        rel_tol,
+        abs_tol: LM_ABS_TOL,
+        trace: ctx.trace,
+        ..Default::default()
+    };
+    let fit = lm::levenberg_marquardt(&problem, &bounds, &p0, opts, &|| ctx.pb.tick())?;
+    let mut named = st.named.clone();
+    if let Some(e) = extra_on {
+        named.push(e);
+    }
+    Ok(FitOut {
+        state: ModelState {
+            named,
+            idx,
+            val: fit.p.clone(),
+        },
+        fit,
+        bounds,
+    })
+}
+
+/// Run the workflow on `data` with the simulator `sim`.
+pub fn run<S: Simulator + ?Sized>(
+    sim: &S,
+    data: &Data,
+    cfg: &Config,
+) -> Result<GapResult, GapError> {
+    let t_start = Instant::now();
+    let Setup {
+        params,
+        names,
+        n,
+        out_idx,
+        fixed,
+        effects,
+        fit_idx,
+        fit_start,
+        convention_warnings,
+    } = setup(sim, data, cfg)?;
+
+    let meas: Vec<Vec<f64>> = data.outputs.iter().map(|(_, v)| v.clone()).collect();
+    let sigma: Vec<f64> = meas
+        .iter()
+        .map(|y| {
+            let r = stats::range(y);
+            stats::noise_sigma(y).max(1e-4 * r).max(1e-12)
+        })
+        .collect();
+    let holdout = cfg.holdout.clamp(0.0, 0.9);
+    let n_train = ((n as f64) * (1.0 - holdout)).round().clamp(10.0, n as f64) as usize;
+
+    let pb = if cfg.progress {
+        let pb = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr());
+        pb.set_style(
+            ProgressStyle::with_template("{spinner} [{elapsed_precise}] {msg}")
+                .unwrap_or(ProgressStyle::default_spinner()),
+        );
+        pb
+    } else {
+        ProgressBar::hidden()
+    };
+    let ctx = Ctx {
+        sim: Counted::new(sim),
+        params: params.clone(),
+        effects: effects.clone(),
+        fixed: fixed.clone(),
+        out_idx,
+        meas,
+        sigma,
+        n,
+        n_train,
+        min_delta_bic: cfg.min_delta_bic,
+        calibration_horizons: cfg.calibration_horizons,
+        profile_restart: cfg.profile_restart,
+        trace: cfg.trace,
+        pb,
+        t0: t_start,
+    };
+    let kout = ctx.out_idx.len();
+    let t_est = Instant::now();
+
+    // --- The model as given.
+    ctx.stage("simulating the model as given".to_string());
+    let st0 = ModelState {
+        named: Vec::new(),
+        idx: fit_idx.clone(),
+        val: fit_start,
+    };
+    let nominal_all = ctx
+        .sim
+        .simulate(&ctx.settings(&st0, None, &[]), n)
+        .map_err(GapError::Simulation)?;
+    let nominal: Vec<Vec<f64>> = ctx
+        .out_idx
+        .iter()
+        .map(|&k| nominal_all[k][..n].to_vec())
+        .collect();
+
+    // --- 1. Calibrate the base model on the training part.
+    ctx.pb
+        .set_message(format!("calibrating {} base parameter(s)", fit_idx.len()));
+    let (base, calibration) = calibrate_base(&ctx, &st0).map_err(GapError::Simulation)?;
+    ctx.stage(format!(
+        "base fit: chi-square {:.1} directly; growing horizons (samples, chi-square) {:?}; kept {}",
+        calibration.direct_chi2,
+        calibration.horizons,
+        calibration.chosen.label()
+    ));
+    let mut cur = base;
+    let base_all = ctx
+        .sim
+        .simulate(&ctx.settings(&cur.state, None, &[]), n)
+        .map_err(GapError::Simulation)?;
+    let base_fit: Vec<Vec<f64>> = ctx
+        .out_idx
+        .iter()
+        .map(|&k| base_all[k][..n].to_vec())
+        .collect();
+    let mut cur_full_r = ctx.residual(&base_fit, n);
+
+    // --- 2. Locate the disagreement.
+    let mut diagnosis = vec![diagnose(&ctx, data, &base_all, &names)];
+    let revealing = diagnosis[0]
+        .outputs
+        .iter()
+        .enumerate()
+        .max_by(|a, b| {
+            a.1.rmse_over_noise
+                .partial_cmp(&b.1.rmse_over_noise)
+                .unwrap_or(std::cmp::Ordering::Equal)
+        })
+        .and_then(|(k, d)| {
+            let (name, _) = d.region_variable.as_ref()?;
+            let v = data
+                .inputs
+                .iter()
+                .find(|(s, _)| s == name)
+                .map(|(_, v)| v[..n].to_vec())
+                .or_else(|| {
+                    names
+                        .iter()
+                        .position(|s| s == name)
+                        .map(|j| base_all[j][..n].to_vec())
+                })?;
+            Some((k, name.clone(), v))
+        });
+
+    // --- 3./4. Screen, refit, name; repeat.
+    let mut named_names = Vec::new();
+    let mut unexplained = None;
+    let mut rounds: Vec<Vec<Candidate>> = Vec::new();
+    let mut verdict = String::new();
+    // Residuals at the noise level and white still get the (cheap) screening: a small effect can
+    // hide under the noise in the RMS yet be plain along its own sensitivity direction. Only if
+    // no candidate's linearised ΔBIC reaches the threshold are they consistent with noise.
+    let looks_like_noise = diagnosis[0].consistent_with_noise;
+    let mut round = 0;
+    // Rounds done again, once each, from a better base found by their base re-check (below).
+    let mut redone_rounds: Vec<(usize, f64)> = Vec::new();
+    while verdict.is_empty() && round < cfg.rounds {
+        round += 1;
+        let remaining: Vec<usize> = (0..effects.len())
+            .filter(|e| !cur.state.named.contains(e))
+            .collect();
+        if remaining.is_empty() {
+            break;
+        }
+        ctx.stage(format!(
+            "round {round}: screening {} candidate effect(s)",
+            remaining.len()
+        ));
+        // The current model with its base parameters at their values as given.
+        let given = (cur.state.idx.len() >= st0.idx.len()
+            && cur.state.idx[..st0.idx.len()] == st0.idx[..])
+            .then(|| {
+                let mut v = cur.state.val.clone();
+                v[..st0.val.len()].copy_from_slice(&st0.val);
+                cur.state.with_values(v)
+            });
+        let starts = scan_starts(&ctx, &cur, &remaining, given.as_ref());
+        ctx.stage(format!("round {round}: start scan done"));
+        for (k, &e) in remaining.iter().enumerate() {
+            ctx.stage(format!(
+                "visibility of {} over its scan (range fraction: chi-square): {}",
+                effects[e].name,
+                starts[k]
+                    .scan
+                    .iter()
+                    .map(|x| format!("{:.2}: {:.1}", x.fraction, x.visibility.unwrap_or(f64::NAN)))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ));
+        }
+        let with_visibility = |mut c: Candidate| -> Candidate {
+            if let Some(k) = remaining.iter().position(|&e| effects[e].name == c.effect) {
+                let scan = &starts[k].scan;
+                let needed = ctx.visibility_needed(remaining[k]);
+                c.visibility = scan.iter().filter_map(|x| x.visibility).reduce(f64::max);
+                c.visibility_needed = needed;
+                c.detectable_from = scan
+                    .iter()
+                    .find(|x| x.visibility.is_some_and(|v| v >= needed))
+                    .map(|x| x.parameters.clone());
+                c.visibility_scan = scan.clone();
+            }
+            c
+        };
+        let screened = screen(&ctx, &cur, &remaining, &starts);
+        // Ranked by the uncorrected linearised ΔBIC; the autocorrelation-corrected one gates the
+        // refits where evidence is required.
+        let corrected: BTreeMap<usize, f64> = remaining
+            .iter()
+            .copied()
+            .zip(screened.iter().map(|s| s.1))
+            .collect();
+        let mut order: Vec<(usize, f64)> = remaining
+            .iter()
+            .copied()
+            .zip(screened.iter().map(|s| s.0))
+            .collect();
+        ctx.stage(format!("round {round}: screened"));
+        order.sort_by(|a, b| b.1.partial_cmp(&a.1).unwrap_or(std::cmp::Ordering::Equal));
+        let best_score = corrected
+            .values()
+            .copied()
+            .fold(f64::NEG_INFINITY, f64::max);
+        if round == 1 && looks_like_noise && best_score < cfg.min_delta_bic {
+            verdict = format!(
+                "no missing effect found: the calibrated base model's residuals are consistent with noise (every output within 1.2× its noise level and white; the best candidate, {}, has a linearised ΔBIC of {:.1} < {})",
+                corrected
+                    .iter()
+                    .max_by(|a, b| a.1.partial_cmp(b.1).unwrap_or(std::cmp::Ordering::Equal))
+                    .map(|c| effects[*c.0].name.as_str())
+                    .unwrap_or("none"),
+                best_score,
+                cfg.min_delta_bic
+            );
+            rounds.push(
+                order
+                    .iter()
+                    .map(|&(e, score)| {
+                        with_visibility(Candidate::screened_only(
+                            &effects[e].name,
+                            corrected[&e],
+                            score,
+                        ))
+                    })
+                    .collect(),
+            );
+            verdict.push_str(&hidden_from_data(rounds.last().expect("just pushed")));
+            break;
+        }
+        // Refit whatever the linearised evidence (a dead zone or backlash is poorly linearised,
+        // and an effect coupled to a base parameter can show its gain only once both move):
+        // round 1 the best `max_refit` screened candidates unless the base residuals look like
+        // noise, later rounds (reached only when the residuals still do not) the best two;
+        // beyond that, candidates whose linearised evidence reaches the naming threshold.
+        let refit_any = round > 1 || !looks_like_noise;
+        let quota = if round == 1 { cfg.max_refit } else { 2 };
+        let top: Vec<(usize, f64)> = order
+            .iter()
+            .enumerate()
+            .filter(|(i, (e, _))| {
+                *i < cfg.max_refit.max(1)
+                    && ((refit_any && *i < quota) || corrected[e] >= cfg.min_delta_bic)
+            })
+            .map(|(_, c)| *c)
+            .collect();
+        ctx.stage(format!(
+            "round {round}: refitting {}",
+            top.iter()
+                .map(|(e, _)| effects[*e].name.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
+        type Refit = Result<(Candidate, FitOut, Vec<f64>), SimError>;
+        let refits: Vec<(usize, f64, Refit)> = top
+            .par_iter()
+            .enumerate()
+            .map(|(i, &(e, score))| {
+                let alt = (round == 1 && i == 0).then_some(&st0);
+                let k = remaining
+                    .iter()
+                    .position(|&c| c == e)
+                    .expect("refitted candidates are screened ones");
+                (
+                    e,
+                    score,
+                    refit(&ctx, &cur, e, score, &cur_full_r, alt, &starts[k]),
+                )
+            })
+            .collect();
+        let mut ranked: Vec<Candidate> = Vec::new();
+        let mut fits: Vec<(String, FitOut, Vec<f64>)> = Vec::new();
+        for (e, score, res) in refits {
+            match res {
+                Ok((c, f, r)) => {
+                    fits.push((c.effect.clone(), f, r));
+                    ranked.push(c)
+                }
+                Err(m) => ranked.push(Candidate {
+                    effect: effects[e].name.clone(),
+                    delta_bic: f64::NEG_INFINITY,
+                    score,
+                    refit: true,
+                    parameters: BTreeMap::new(),
+                    magnitude: None,
+                    holdout_sse_without: None,
+                    holdout_sse_with: None,
+                    named: false,
+                    verdict: format!("refit failed: {m}"),
+                    visibility: None,
+                    visibility_needed: 0.0,
+                    detectable_from: None,
+                    visibility_scan: Vec::new(),
+                    profiled: false,
+                }),
+            }
+        }
+        // Profile restarts, only when no refit reaches the naming threshold (see
+        // `profile_restart`): every refitted candidate that falls short of it although the data
+        // could show it, and that predicts the held-out end no worse than the current model,
+        // within one standard deviation of a chi-square over the held-out samples, √(2 N_h) (or
+        // nothing is held out); one that predicts clearly worse is not worth the simulations.
+        if best_refit_delta_bic(&ranked) < cfg.min_delta_bic {
+            let n_held = (kout * (n - n_train)) as f64;
+            let eligible: Vec<usize> = (0..ranked.len())
+                .filter(|&i| {
+                    let c = &ranked[i];
+                    c.refit
+                        && c.delta_bic.is_finite()
+                        && match (c.holdout_sse_with, c.holdout_sse_without) {
+                            (Some(with), Some(without)) => with <= without + (2.0 * n_held).sqrt(),
+                            _ => true,
+                        }
+                })
+                .collect();
+            let restarted: Vec<(usize, Refit)> = eligible
+                .par_iter()
+                .filter_map(|&i| {
+                    let c = &ranked[i];
+                    let e = effects.iter().position(|x| x.name == c.effect)?;
+                    let k = remaining.iter().position(|&x| x == e)?;
+                    let (_, f, _) = fits.iter().find(|x| x.0 == c.effect)?;
+                    let g = profile_restart(&ctx, &cur, e, f, &starts[k].scan, given.as_ref())?;
+                    Some((i, assess(&ctx, &cur, e, c.score, &cur_full_r, g)))
+                })
+                .collect();
+            for (i, res) in restarted {
+                if let Ok((mut c, f, r)) = res {
+                    c.profiled = true;
+                    if let Some(x) = fits.iter_mut().find(|x| x.0 == c.effect) {
+                        *x = (c.effect.clone(), f, r);
+                    }
+                    ranked[i] = c;
+                }
+            }
+        }
+        // Base re-check: a candidate refit also re-optimises the base parameters from a new
+        // start, and a gain that the base model alone reaches from the candidate's base values
+        // is the base fit's, not the effect's. Refit the base model from the best candidate's
+        // base values; if it lowers the base sum, it becomes the current model and every
+        // candidate's ΔBIC and held-out comparison are taken against it. Only needed when some
+        // candidate reaches the naming threshold.
+        let best_refit = best_refit_delta_bic(&ranked);
+        if let Some((_, f, _)) = fits
+            .iter()
+            .filter(|_| best_refit >= cfg.min_delta_bic)
+            .max_by(|a, b| {
+                let d = |name: &str| {
+                    ranked
+                        .iter()
+                        .find(|c| c.effect == name)
+                        .map_or(f64::NEG_INFINITY, |c| c.delta_bic)
+                };
+                d(&a.0).total_cmp(&d(&b.0))
+            })
+        {
+            let nb = cur.state.idx.len();
+            let from = cur.state.with_values(f.state.val[..nb].to_vec());
+            ctx.stage(format!("round {round}: base re-check"));
+            if let Ok(b2) = fit_state(&ctx, &from, None, &[], n_train, 12, 1e-4) {
+                if b2.fit.sse < cur.fit.sse - LM_ABS_TOL {
+                    let y = ctx
+                        .measured_outputs(&ctx.settings(&b2.state, None, &[]), n)
+                        .map_err(GapError::Simulation)?;
+                    let base_gain = delta_bic(&cur.fit.residuals, &b2.fit.residuals, kout, 0);
+                    cur = b2;
+                    cur_full_r = ctx.residual(&y, n);
+                    let without = holdout_sse(&cur_full_r, kout, n, n_train);
+                    for c in ranked.iter_mut().filter(|c| c.refit) {
+                        if let Some((_, fc, _)) = fits.iter().find(|x| x.0 == c.effect) {
+                            let extra = fc.state.idx.len() - nb;
+                            c.delta_bic =
+                                delta_bic(&cur.fit.residuals, &fc.fit.residuals, kout, extra);
+                            c.holdout_sse_without = without;
+                        }
+                    }
+                    // The candidates were refitted from a base this much worse than the one now
+                    // found: if none of them still reaches the threshold, their refits say
+                    // nothing about the better base, so the round is screened and refitted
+                    // again from it (once per round).
+                    if base_gain >= cfg.min_delta_bic
+                        && best_refit_delta_bic(&ranked) < cfg.min_delta_bic
+                        && !redone_rounds.iter().any(|r| r.0 == round)
+                    {
+                        ctx.stage(format!(
+                            "round {round}: the base re-check improved the base fit by ΔBIC = {base_gain:.1}; the round is done again from it"
+                        ));
+                        redone_rounds.push((round, base_gain));
+                        round -= 1;
+                        continue;
+                    }
+                }
+            }
+        }
+        ranked.sort_by(|a, b| {
+            b.delta_bic
+                .partial_cmp(&a.delta_bic)
+                .unwrap_or(std::cmp::Ordering::Equal)
+        });
+        for &(e, score) in order.iter().skip(top.len()) {
+            ranked.push(Candidate::screened_only(
+                &effects[e].name,
+                corrected[&e],
+                score,
+            ));
+        }
+        if ranked.is_empty() {
+            break;
+        }
+        let mut ranked: Vec<Candidate> = ranked.into_iter().map(with_visibility).collect();
+        // Check every refitted candidate in ΔBIC order; the first passing all three criteria is
+        // named (a candidate that absorbs part of a different missing effect may top the BIC
+        // ranking yet fail on the held-out part).
+        let mut chosen = None;
+        for (i, c) in ranked.iter_mut().enumerate() {
+            if !c.refit {
+                continue;
+            }
+            let why = reasons(c, cfg.min_delta_bic, n_train >= n);
+            if why.is_empty() {
+                c.named = true;
+                c.verdict = format!(
+                    "named: ΔBIC = {:.1} ≥ {}, magnitude interval excludes 0, held-out error lower",
+                    c.delta_bic, cfg.min_delta_bic
+                );
+                chosen = Some(i);
+                break;
+            }
+            c.verdict = format!("not named: {}", why.join("; "));
+            if !c.detectable() {
+                c.verdict.push_str(&format!(
+                    "; these data cannot reveal it (at most Δχ² = {:.1} anywhere in its range after the base parameters readjust; naming needs {:.1})",
+                    c.visibility.unwrap_or(0.0),
+                    c.visibility_needed
+                ));
+            }
+        }
+        for c in ranked
+            .iter_mut()
+            .filter(|c| c.refit && c.verdict.is_empty())
+        {
+            c.verdict = "not considered: a higher-ranked candidate was named".into();
+        }
+        if let Some(i) = chosen {
+            let name = ranked[i].effect.clone();
+            let (_, f, r) = fits
+                .into_iter()
+                .find(|(s, _, _)| *s == name)
+                .expect("fit of the named candidate");
+            // Polish the named model's fit (the candidate refits stop early to save
+            // simulations); keep the refit if polishing fails.
+            ctx.stage(format!("round {round}: polishing the fit with {name}"));
+            let (f, r) = match fit_state(&ctx, &f.state, None, &[], n_train, 20, 1e-6) {
+                Ok(p) if p.fit.sse <= f.fit.sse => {
+                    let y = ctx
+                        .measured_outputs(&ctx.settings(&p.state, None, &[]), n)
+                        .map_err(GapError::Simulation)?;
+                    let r = ctx.residual(&y, n);
+                    (p, r)
+                }
+                _ => (f, r),
+            };
+            ctx.stage(format!(
+                "round {round}: polished, {} simulations",
+                f.fit.evaluations
+            ));
+            cur = f;
+            cur_full_r = r;
+            named_names.push(name);
+            rounds.push(ranked);
+            // Diagnose what remains.
+            let all = ctx
+                .sim
+                .simulate(&ctx.settings(&cur.state, None, &[]), n)
+                .map_err(GapError::Simulation)?;
+            let d = diagnose(&ctx, data, &all, &names);
+            let stop = d.consistent_with_noise;
+            diagnosis.push(d);
+            if stop {
+                break;
+            }
+        } else {
+            let closest = ranked[0].effect.clone();
+            let why = if ranked[0].refit {
+                reasons(&ranked[0], cfg.min_delta_bic, n_train >= n).join("; ")
+            } else {
+                format!(
+                    "linearised ΔBIC = {:.1} < {}: not refitted",
+                    ranked[0].delta_bic, cfg.min_delta_bic
+                )
+            };
+            verdict = if named_names.is_empty() {
+                format!("no missing effect found; the closest candidate, {closest}, is left unexplained ({why})")
+            } else {
+                format!(
+                    "named {}; no further effect found; the closest remaining candidate, {closest}, is left unexplained ({why})",
+                    named_names.join(", ")
+                )
+            };
+            verdict.push_str(&hidden_from_data(&ranked));
+            unexplained = Some(closest);
+            rounds.push(ranked);
+        }
+    }
+    if verdict.is_empty() {
+        verdict = if named_names.is_empty() {
+            "no missing effect found".to_string()
+        } else {
+            format!("named {}", named_names.join(", "))
+        };
+    }
+
+    // --- 5. Final fit on the whole trace and the errors before/after.
+    // The held-out end has done its work (choosing which effects to name); the chosen model's
+    // parameters are then estimated from all the data, as after any model selection: a model
+    // with several friction parameters can fit the training part to the noise with values the
+    // held-out end contradicts. Its intervals come from this fit's Jacobian; it is kept only if
+    // it lowers the whole trace's sum of squares (a failed fit keeps the training-part one).
+    // `n_fin`: the samples the reported fit used.
+    let (fin, n_fin) = if n_train < n {
+        ctx.stage("final fit on the whole trace".to_string());
+        let sse_cur = lm::sse(&cur_full_r);
+        match fit_state(&ctx, &cur.state, None, &[], n, FINAL_ITERATIONS, 1e-6) {
+            Ok(f) if f.fit.sse < sse_cur => (f, n),
+            _ => (cur, n_train),
+        }
+    } else {
+        (cur, n_train)
+    };
+    let final_all = ctx
+        .sim
+        .simulate(&ctx.settings(&fin.state, None, &[]), n)
+        .map_err(GapError::Simulation)?;
+    let final_y: Vec<Vec<f64>> = ctx
+        .out_idx
+        .iter()
+        .map(|&k| final_all[k][..n].to_vec())
+        .collect();
+    let scale = row_scale(&fin.fit.residuals, kout);
+    let parameters = estimates(
+        &params,
+        &fin.state.idx,
+        &fin.fit,
+        &fin.bounds,
+        &scale,
+        n_fin,
+    );
+    let mut outputs = BTreeMap::new();
+    let mut traces = Traces {
+        time: data.time.clone(),
+        outputs: Vec::new(),
+        revealing,
+    };
+    for (k, (name, y)) in data.outputs.iter().enumerate() {
+        let (rb, mb) = errors(y, &nominal[k]);
+        let (ra, ma) = errors(y, &final_y[k]);
+        let (rf, mf) = errors(y, &base_fit[k]);
+        outputs.insert(
+            name.clone(),
+            OutputErrors {
+                rmse_before: rb,
+                max_before: mb,
+                rmse_after: ra,
+                max_after: ma,
+                rmse_base_fit: rf,
+                max_base_fit: mf,
+                noise_sigma: ctx.sigma[k],
+            },
+        );
+        traces.outputs.push((
+            name.clone(),
+            y.clone(),
+            nominal[k].clone(),
+            base_fit[k].clone(),
+            final_y[k].clone(),
+        ));
+    }
+    ctx.pb.finish_and_clear();
+    let est_s = t_est.elapsed().as_secs_f64();
+    let sim_s = ctx.sim.busy_s();
+    let mut warnings = bound_warnings(&parameters, &params);
+    warnings.extend(far_from_data_warning(&outputs));
+    Ok(GapResult {
+        named: named_names,
+        unexplained,
+        verdict,
+        warnings,
+        convention_warnings,
+        candidates: rounds,
+        redone_rounds,
+        calibration,
+        parameters,
+        outputs,
+        fixed: cfg.fixed.iter().cloned().collect(),
+        diagnosis,
+        timing: Timing {
+            total_s: t_start.elapsed().as_secs_f64(),
+            simulate_s: sim_s,
+            fit_s: (est_s - sim_s).max(0.0),
+            simulations: ctx.sim.count(),
+            threads: rayon::current_num_threads(),
+        },
+        holdout_fraction: holdout,
+        samples: n,
+        train_samples: n_train,
+        traces,
+    })
+}

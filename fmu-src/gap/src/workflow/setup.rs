@@ -1,0 +1,136 @@
+//! Setup: check the data against the model and resolve the configuration into indices (outputs
+//! compared, known settings, candidate effects, parameters to calibrate and their starts).
+
+use super::*;
+
+/// The run's inputs resolved against the model.
+pub(super) struct Setup {
+    pub(super) params: Vec<ParamSpec>,
+    /// Output names of the model.
+    pub(super) names: Vec<String>,
+    /// Samples.
+    pub(super) n: usize,
+    /// Model output index of each data output column.
+    pub(super) out_idx: Vec<usize>,
+    /// Known settings (`--set`): parameter index and value.
+    pub(super) fixed: Vec<(usize, f64)>,
+    /// Candidate effects (those switched by `--set` excluded).
+    pub(super) effects: Vec<EffectSpec>,
+    /// Parameters to calibrate and their values as given.
+    pub(super) fit_idx: Vec<usize>,
+    pub(super) fit_start: Vec<f64>,
+    /// Departures from the candidate-effect convention ([`convention_warnings`]).
+    pub(super) convention_warnings: Vec<String>,
+}
+
+/// Resolves `cfg` against the model and checks `data`; a usage error names what does not fit.
+pub(super) fn setup<S: Simulator + ?Sized>(
+    sim: &S,
+    data: &Data,
+    cfg: &Config,
+) -> Result<Setup, GapError> {
+    let params = sim.params().to_vec();
+    let names = sim.output_names().to_vec();
+    let n = data.time.len();
+    if n < 20 {
+        return Err(GapError::Usage(format!(
+            "need at least 20 samples, got {n}"
+        )));
+    }
+    if data.outputs.is_empty() {
+        return Err(GapError::Usage(
+            "the data hold no output column to compare with".into(),
+        ));
+    }
+    let mut out_idx = Vec::new();
+    for (name, v) in &data.outputs {
+        let k = names
+            .iter()
+            .position(|s| s == name)
+            .ok_or_else(|| GapError::Usage(format!("the model has no output named '{name}'")))?;
+        if v.len() != n {
+            return Err(GapError::Usage(format!(
+                "column '{name}' has {} values for {n} times",
+                v.len()
+            )));
+        }
+        out_idx.push(k);
+    }
+    let mut fixed = Vec::new();
+    for (name, v) in &cfg.fixed {
+        fixed.push((find_param(&params, name)?, *v));
+    }
+    let all_effects = spec::find_effects(&params);
+    let fixed_has = |i: usize| fixed.iter().any(|(j, _)| *j == i);
+    let effects: Vec<EffectSpec> = match &cfg.effects {
+        Some(list) => {
+            let mut v = Vec::new();
+            for name in list {
+                let e = all_effects
+                    .iter()
+                    .find(|e| &e.name == name)
+                    .ok_or_else(|| {
+                        GapError::Usage(format!("the model has no effect named '{name}'"))
+                    })?;
+                v.push(e.clone());
+            }
+            v
+        }
+        None => all_effects.clone(),
+    };
+    // Effects switched by --set are part of the given model, not candidates; their parameters
+    // set by --set are fixed.
+    let effects: Vec<EffectSpec> = effects
+        .into_iter()
+        .filter(|e| !fixed_has(e.enabled))
+        .map(|mut e| {
+            e.params.retain(|&i| !fixed_has(i));
+            e
+        })
+        .collect();
+    let fit_idx: Vec<usize> = match &cfg.fit {
+        Some(list) => {
+            let mut v = Vec::new();
+            for name in list {
+                let i = find_param(&params, name)?;
+                if params[i].kind != ParamKind::Real {
+                    return Err(GapError::Usage(format!(
+                        "'{name}' is not a Real parameter and cannot be fitted"
+                    )));
+                }
+                v.push(i);
+            }
+            v
+        }
+        None => spec::default_calibration(&params, &all_effects),
+    };
+    let fit_idx: Vec<usize> = fit_idx.into_iter().filter(|&i| !fixed_has(i)).collect();
+    let convention_warnings = convention_warnings(&params, cfg.fit.is_some());
+    if fit_idx.is_empty() && effects.is_empty() {
+        let why = if convention_warnings.is_empty() {
+            String::new()
+        } else {
+            format!(" ({})", convention_warnings.join("; "))
+        };
+        return Err(GapError::Usage(format!(
+            "nothing to do: no parameter to calibrate (none tagged [calibrate] at the start of \
+             its description, no --fit) and no candidate effect (no Boolean parameter \
+             '<effect>.enabled' with ranged Real parameters '<effect>.<name>'){why}"
+        )));
+    }
+    let mut fit_start = Vec::new();
+    for &i in &fit_idx {
+        fit_start.push(params[i].start);
+    }
+    Ok(Setup {
+        params,
+        names,
+        n,
+        out_idx,
+        fixed,
+        effects,
+        fit_idx,
+        fit_start,
+        convention_warnings,
+    })
+}
