@@ -152,3 +152,16 @@ def test_control_bytes_in_a_cell_are_escaped_in_the_message(tmp_path):
     res = run("simulate", fmu_path("Oscillator"), "--data", data, "--out", tmp_path / "o.csv")
     assert_one_bounded_message(res, "d.csv:3")
     assert "\x00" not in res.stderr and "\x1b" not in res.stderr
+
+
+@pytest.mark.parametrize("value", ["1e300", "-1e300", "1e101"])
+def test_data_too_large_to_compute_with_is_refused(tmp_path, value):
+    """Squares of ±1e300 overflow: refused with the place, never an rmse of inf or null."""
+    data = tmp_path / "d.csv"
+    data.write_text("time,force,x\n0,0,0\n0.001,0,0\n0.002,0," + value + "\n0.003,0,0\n")
+    out = tmp_path / "g"
+    res = run("gap", fmu_path("Oscillator"), "--data", data, "--out", out)
+    assert_one_bounded_message(res, "d.csv:4:3", "beyond ±1e100")
+    assert not (out / "report.json").exists()
+    res = run("simulate", fmu_path("Oscillator"), "--data", data, "--out", tmp_path / "o.csv")
+    assert_one_bounded_message(res, "d.csv:4:3", "beyond ±1e100")

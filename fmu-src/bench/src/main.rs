@@ -58,6 +58,7 @@ fn run(args: &Args) -> Result<serde_json::Value, String> {
                 .iter()
                 .map(|n| (n.clone(), table.column(n).expect("listed column").to_vec()))
                 .collect(),
+            ..Default::default()
         };
     }
     let mut sim = Simulator::new(&fmu).map_err(|e| e.to_string())?;

@@ -127,10 +127,16 @@ pub fn run(a: Args) -> CliResult {
             let x = match v {
                 Value::Real(x) => x,
                 Value::Boolean(b) => f64::from(u8::from(b)),
+                Value::Text(_) => {
+                    return Err(CliError::input(format!(
+                        "--set '{n}': a String parameter cannot be fixed for gap (numbers and \
+                         Booleans only)"
+                    )))
+                }
             };
-            (n, x)
+            Ok((n, x))
         })
-        .collect();
+        .collect::<Result<_, _>>()?;
     let cfg = Config {
         fit: a.fit.clone(),
         effects: a.effects.clone(),

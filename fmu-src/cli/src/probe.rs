@@ -35,11 +35,11 @@ pub fn run(a: Args) -> CliResult {
     let mut findings: Vec<Finding> = Vec::new();
     announce("load");
     match Extracted::open(&a.fmu) {
-        Err(e) => findings.push(Finding {
-            check: "open".into(),
-            location: a.fmu.display().to_string(),
-            message: e.to_string(),
-        }),
+        Err(e) => findings.push(Finding::new(
+            "open",
+            a.fmu.display().to_string(),
+            e.to_string(),
+        )),
         Ok(ex) => {
             let symbols = check_symbols(&ex);
             // A binary that does not load is reported once; there is nothing to probe.
@@ -48,11 +48,11 @@ pub fn run(a: Args) -> CliResult {
             drop(ex);
             if loadable {
                 match Fmu::open(&a.fmu) {
-                    Err(e) => findings.push(Finding {
-                        check: "binary".into(),
-                        location: a.fmu.display().to_string(),
-                        message: e.to_string(),
-                    }),
+                    Err(e) => findings.push(Finding::new(
+                        "binary",
+                        a.fmu.display().to_string(),
+                        e.to_string(),
+                    )),
                     Ok(fmu) => findings.extend(probe(&fmu, &mut |name| {
                         if a.skip.iter().any(|s| s == name) {
                             false

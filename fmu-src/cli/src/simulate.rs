@@ -1,7 +1,7 @@
 //! `actuator-fmu simulate FMU --data in.csv [--stop T] [--step H] [--set NAME=VALUE ...] --out out.csv`
 
 use crate::common::{parse_sets, refuse_overwriting, run_error, CliError, CliResult};
-use host::csv::{read_csv, write_csv};
+use host::csv::{read_csv_for, write_csv_text};
 use host::{simulate, Fmu, InputSeries, SimulationRequest};
 use std::path::PathBuf;
 
@@ -10,14 +10,18 @@ use std::path::PathBuf;
 pub struct Args {
     /// The FMU (.fmu file or extracted directory).
     pub fmu: PathBuf,
-    /// CSV with `time` first and columns named as FMU inputs (linearly interpolated) or
-    /// outputs (ignored here). Inputs without a column keep their start value.
+    /// CSV with `time` first and columns named as FMU inputs or outputs (ignored here).
+    /// Continuous Real inputs are interpolated linearly; discrete ones (Integer, Boolean,
+    /// Enumeration, String, Real with variability="discrete") are held from row to row.
+    /// Inputs without a column keep their start value.
     #[arg(long)]
     pub data: Option<PathBuf>,
-    /// Stop time [s] (default: the last time of the CSV, else the DefaultExperiment).
+    /// Stop time [s] (default: the last time of the CSV, else the DefaultExperiment, else
+    /// start + 1 s).
     #[arg(long)]
     pub stop: Option<f64>,
-    /// Communication step [s] (default: the CSV's sample interval, else the DefaultExperiment).
+    /// Communication step [s] (default: the CSV's sample interval, else the DefaultExperiment,
+    /// else a round step giving 500 to 1000 steps, as FMPy chooses).
     #[arg(long)]
     pub step: Option<f64>,
     /// Value set before initialization, e.g. `load_mass=2.4` or `cables_attached=false`.
@@ -26,6 +30,31 @@ pub struct Args {
     /// Output CSV: time and every output.
     #[arg(long)]
     pub out: PathBuf,
+}
+
+/// A round step that divides `span` into 500 to 1000 steps (FMPy's `auto_interval`, so both
+/// tools record the same grid for an FMU without a DefaultExperiment step).
+fn auto_interval(span: f64) -> f64 {
+    if !(span > 0.0 && span.is_finite()) {
+        return 1.0;
+    }
+    let h = 10f64.powf(span.log10().round() - 3.0);
+    let n = span / h;
+    h * if n >= 2500.0 {
+        5.0
+    } else if n >= 2000.0 {
+        4.0
+    } else if n >= 1000.0 {
+        2.0
+    } else if n <= 200.0 {
+        0.2
+    } else if n <= 250.0 {
+        0.25
+    } else if n <= 500.0 {
+        0.5
+    } else {
+        1.0
+    }
 }
 
 /// Runs `simulate`.
@@ -39,7 +68,7 @@ pub fn run(a: Args) -> CliResult {
     let de = md.default_experiment.clone().unwrap_or_default();
     let (start, stop, step, inputs) = match &a.data {
         Some(path) => {
-            let table = read_csv(path).map_err(CliError::input)?;
+            let table = read_csv_for(path, md).map_err(CliError::input)?;
             table.check_against(md).map_err(CliError::input)?;
             let start = table.time[0];
             let stop = a.stop.unwrap_or(*table.time.last().unwrap_or(&start));
@@ -52,34 +81,26 @@ pub fn run(a: Args) -> CliResult {
                     )))
                 }
             };
-            let columns = table
-                .input_columns(md)
-                .into_iter()
-                .map(|n| {
-                    let c = table.column(&n).unwrap_or_default().to_vec();
-                    (n, c)
-                })
-                .collect();
-            (
-                start,
-                stop,
-                step,
-                InputSeries {
-                    time: table.time.clone(),
-                    columns,
-                },
-            )
+            let mut series = InputSeries {
+                time: table.time.clone(),
+                ..Default::default()
+            };
+            for n in table.input_columns(md) {
+                if let Some(c) = table.column(&n) {
+                    series.columns.push((n, c.to_vec()));
+                } else if let Some(c) = table.text_column(&n) {
+                    series.text.push((n, c.to_vec()));
+                }
+            }
+            (start, stop, step, series)
         }
         None => {
             let start = de.start_time.unwrap_or(0.0);
-            let stop = a
-                .stop
-                .or(de.stop_time)
-                .ok_or_else(|| CliError::input("no --data: give --stop"))?;
+            let stop = a.stop.or(de.stop_time).unwrap_or(start + 1.0);
             let step = a
                 .step
                 .or(de.step_size)
-                .ok_or_else(|| CliError::input("no --data: give --step"))?;
+                .unwrap_or_else(|| auto_interval(stop - start));
             (start, stop, step, InputSeries::default())
         }
     };
@@ -99,7 +120,16 @@ pub fn run(a: Args) -> CliResult {
         ..SimulationRequest::new(start, stop, step)
     };
     let res = simulate(&fmu, &req).map_err(|e| run_error(&a.fmu.display().to_string(), e))?;
-    write_csv(&a.out, &res.time, &res.names, &res.columns)
+    write_csv_text(&a.out, &res.time, &res.names, &res.columns, &res.text)
         .map_err(|e| CliError::input(format!("{}: cannot write: {e}", a.out.display())))?;
+    if let Some(t) = res.ended_by_fmu {
+        eprintln!(
+            "{}: the FMU ended the simulation at t = {t} (fmi2DoStep returned fmi2Discard with \
+             fmi2Terminated); {} rows up to that time written to {}",
+            a.fmu.display(),
+            res.time.len(),
+            a.out.display()
+        );
+    }
     Ok(0)
 }

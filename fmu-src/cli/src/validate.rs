@@ -34,22 +34,28 @@ pub struct Args {
 #[derive(serde::Serialize)]
 struct Report {
     fmu: String,
+    /// What the standard requires and the FMU violates (exit 1).
     findings: Vec<Finding>,
+    /// What the standard permits but a robust FMU would do otherwise (exit 0).
+    notes: Vec<Finding>,
     /// Every platform binary: format, architectures, exported functions, glibc needs.
     binaries: Vec<PlatformBinary>,
 }
 
-/// Runs `validate`: exit 0 without findings, 1 with any, 2 when an FMU file cannot be read.
+/// Runs `validate`: exit 0 without findings (notes allowed), 1 with any, 2 when an FMU file
+/// cannot be read.
 pub fn run(a: Args) -> CliResult {
     let mut reports = Vec::new();
     for path in &a.fmus {
         if !path.exists() {
             return Err(CliError::input(format!("{}: no such file", path.display())));
         }
-        let (findings, binaries) = validate_one(path, Duration::from_secs(a.timeout), a.effects)?;
+        let (all, binaries) = validate_one(path, Duration::from_secs(a.timeout), a.effects)?;
+        let (findings, notes) = all.into_iter().partition(Finding::is_required);
         reports.push(Report {
             fmu: path.display().to_string(),
             findings,
+            notes,
             binaries,
         });
     }
@@ -61,13 +67,17 @@ pub fn run(a: Args) -> CliResult {
         );
     } else {
         for r in &reports {
-            for f in &r.findings {
+            for f in r.findings.iter().chain(&r.notes) {
                 out!("{}: {f}", r.fmu);
             }
+            let notes = match r.notes.len() {
+                0 => String::new(),
+                n => format!(", {n} note(s)"),
+            };
             if r.findings.is_empty() {
-                out!("{}: OK (no findings)", r.fmu);
+                out!("{}: OK (no findings{notes})", r.fmu);
             } else {
-                out!("{}: {} finding(s)", r.fmu, r.findings.len());
+                out!("{}: {} finding(s){notes}", r.fmu, r.findings.len());
             }
         }
     }
@@ -88,11 +98,7 @@ fn validate_one(path: &Path, timeout: Duration, effects: bool) -> Result<Checked
                 HostError::ModelDescription { .. } => "model-description-xml",
                 _ => "archive",
             };
-            let finding = Finding {
-                check: check.into(),
-                location: path.display().to_string(),
-                message: e.to_string(),
-            };
+            let finding = Finding::new(check, path.display().to_string(), e.to_string());
             return Ok((vec![finding], Vec::new()));
         }
     };
@@ -208,11 +214,11 @@ fn run_probe_once(
         .to_string();
     let loc = format!("probe {last_step}");
     let Some(status) = status else {
-        let finding = Finding {
-            check: "probe-timeout".into(),
-            location: loc,
-            message: format!("the FMU did not return within {} s", timeout.as_secs()),
-        };
+        let finding = Finding::new(
+            "probe-timeout",
+            loc,
+            format!("the FMU did not return within {} s", timeout.as_secs()),
+        );
         return Ok(ProbeOutcome::Crashed {
             step: last_step,
             finding,
@@ -233,11 +239,7 @@ fn run_probe_once(
         ),
         None => format!("the probe process ended with {status} during this probe step"),
     };
-    let finding = Finding {
-        check: "probe-crash".into(),
-        location: loc,
-        message,
-    };
+    let finding = Finding::new("probe-crash", loc, message);
     Ok(ProbeOutcome::Crashed {
         step: last_step,
         finding,

@@ -77,6 +77,7 @@ impl<'a> FmuSimulator<'a> {
             inputs: InputSeries {
                 time: data.time.clone(),
                 columns: data.inputs.clone(),
+                ..Default::default()
             },
             pool: Mutex::new(Vec::new()),
         })

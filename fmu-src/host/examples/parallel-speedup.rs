@@ -60,6 +60,7 @@ fn main() {
                 (n, c)
             })
             .collect(),
+        ..Default::default()
     };
     println!(
         "{}: {} samples, step {step} s, inputs {:?}",

@@ -48,9 +48,24 @@ pub struct Table {
     pub names: Vec<String>,
     /// `columns[j][k]`: column `names[j]` at `time[k]`.
     pub columns: Vec<Vec<f64>>,
+    /// Columns read as text (String variables), (name, cells), in file order.
+    pub text: Vec<(String, Vec<String>)>,
 }
 
 impl Table {
+    /// Cells of the text column `name`.
+    pub fn text_column(&self, name: &str) -> Option<&[String]> {
+        self.text
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, c)| c.as_slice())
+    }
+
+    /// Every column name but `time`: numeric columns, then text columns.
+    pub fn all_names(&self) -> impl Iterator<Item = &String> {
+        self.names.iter().chain(self.text.iter().map(|(n, _)| n))
+    }
+
     /// Samples of column `name`.
     pub fn column(&self, name: &str) -> Option<&[f64]> {
         self.names
@@ -67,7 +82,7 @@ impl Table {
     /// Checks every column against the FMU: each must be an input or an output of it.
     /// Returns the error for the first unknown column (line 1, its column number).
     pub fn check_against(&self, md: &ModelDescription) -> Result<(), CsvError> {
-        for (j, name) in self.names.iter().enumerate() {
+        for (j, name) in self.all_names().enumerate() {
             let ok = md
                 .variable(name)
                 .map(|v| matches!(v.causality, Causality::Input | Causality::Output))
@@ -97,8 +112,7 @@ impl Table {
 
     /// Names of the columns that are inputs of the FMU.
     pub fn input_columns(&self, md: &ModelDescription) -> Vec<String> {
-        self.names
-            .iter()
+        self.all_names()
             .filter(|n| {
                 md.variable(n)
                     .map(|v| v.causality == Causality::Input)
@@ -110,8 +124,7 @@ impl Table {
 
     /// Names of the columns that are outputs of the FMU.
     pub fn output_columns(&self, md: &ModelDescription) -> Vec<String> {
-        self.names
-            .iter()
+        self.all_names()
             .filter(|n| {
                 md.variable(n)
                     .map(|v| v.causality == Causality::Output)
@@ -158,6 +171,22 @@ pub const MAX_LINE_BYTES: usize = 1 << 20;
 /// Reads and parses the CSV at `path`, bounded by [`MAX_CSV_BYTES`] and [`MAX_LINE_BYTES`]
 /// while reading (`/dev/zero` or a file of one endless line is refused after 1 MiB).
 pub fn read_csv(path: &Path) -> Result<Table, CsvError> {
+    read_csv_with_text(path, &[])
+}
+
+/// [`read_csv`] for an FMU: the columns of its String variables are read as text.
+pub fn read_csv_for(path: &Path, md: &ModelDescription) -> Result<Table, CsvError> {
+    let text: Vec<String> = md
+        .model_variables
+        .iter()
+        .filter(|v| v.kind == crate::md::VarKind::String)
+        .map(|v| v.name.clone())
+        .collect();
+    read_csv_with_text(path, &text)
+}
+
+/// [`read_csv`] with the columns named in `text_columns` kept as text.
+pub fn read_csv_with_text(path: &Path, text_columns: &[String]) -> Result<Table, CsvError> {
     let file = path.display().to_string();
     let err = |line: usize, column: usize, message: String| CsvError {
         file: file.clone(),
@@ -186,7 +215,7 @@ pub fn read_csv(path: &Path) -> Result<Table, CsvError> {
             ));
         }
     };
-    parse_csv(&text, &file)
+    parse_csv_with_text(&text, &file, text_columns)
 }
 
 /// The file's bytes, or (line, message) when it cannot be read or exceeds a bound.
@@ -232,9 +261,11 @@ fn shown(cell: &str) -> String {
 }
 
 /// Splits one CSV line into its fields (RFC 4180): a field in double quotes may hold commas and
-/// doubled quotes (`""` for `"`), so FMI names such as `x[1,2]` survive; spaces around a field
-/// are trimmed. Err(column) for a quote left open.
-fn split_fields(line: &str) -> Result<Vec<String>, usize> {
+/// doubled quotes (`""` for `"`), so FMI names such as `x[1,2]` survive. Unquoted fields are
+/// trimmed when `trim_unquoted` (header names), else kept as written (RFC 4180: spaces are part
+/// of a field, which text cells keep; numeric cells are trimmed when parsed).
+/// Err(column) for a quote left open.
+fn split_fields(line: &str, trim_unquoted: bool) -> Result<Vec<String>, usize> {
     let mut fields = Vec::new();
     let mut cur = String::new();
     // Length of the quoted text of the current field once its closing quote is seen.
@@ -258,7 +289,7 @@ fn split_fields(line: &str) -> Result<Vec<String>, usize> {
             cur.clear();
             in_quotes = true;
         } else if c == ',' {
-            fields.push(finish_field(&cur, quoted_len));
+            fields.push(finish_field(&cur, quoted_len, trim_unquoted));
             cur.clear();
             quoted_len = None;
         } else {
@@ -268,15 +299,16 @@ fn split_fields(line: &str) -> Result<Vec<String>, usize> {
     if in_quotes {
         return Err(fields.len() + 1);
     }
-    fields.push(finish_field(&cur, quoted_len));
+    fields.push(finish_field(&cur, quoted_len, trim_unquoted));
     Ok(fields)
 }
 
 /// A field's text: a quoted one as written inside its quotes (blank text after the closing quote
-/// is ignored, other text kept), an unquoted one trimmed.
-fn finish_field(raw: &str, quoted_len: Option<usize>) -> String {
+/// is ignored, other text kept), an unquoted one as is or trimmed.
+fn finish_field(raw: &str, quoted_len: Option<usize>, trim_unquoted: bool) -> String {
     match quoted_len {
         Some(n) if raw[n..].trim().is_empty() => raw[..n].to_string(),
+        None if !trim_unquoted => raw.to_string(),
         _ => raw.trim().to_string(),
     }
 }
@@ -294,6 +326,20 @@ pub fn quote_field(s: &str) -> std::borrow::Cow<'_, str> {
 /// Parses CSV text; `file` names it in errors. Blank lines and lines starting with `#` are
 /// skipped (comments, e.g. the data's source).
 pub fn parse_csv(text: &str, file: &str) -> Result<Table, CsvError> {
+    parse_csv_with_text(text, file, &[])
+}
+
+/// Largest magnitude accepted in a numeric cell. Physical data in SI units stay far below it,
+/// and beyond it the squares summed by fits and error measures overflow (1e300² is infinite),
+/// so such a value is almost surely a unit or format error: refused with its location.
+pub const MAX_MAGNITUDE: f64 = 1e100;
+
+/// [`parse_csv`] with the columns named in `text_columns` kept as text (String variables).
+pub fn parse_csv_with_text(
+    text: &str,
+    file: &str,
+    text_columns: &[String],
+) -> Result<Table, CsvError> {
     let err = |line: usize, column: usize, message: String| CsvError {
         file: file.to_string(),
         line,
@@ -313,7 +359,7 @@ pub fn parse_csv(text: &str, file: &str) -> Result<Table, CsvError> {
             "empty file: expected a header line starting with 'time'".into(),
         ));
     };
-    let names: Vec<String> = split_fields(header)
+    let names: Vec<String> = split_fields(header, true)
         .map_err(|j| err(hline, j, "unterminated quote in the header".into()))?;
     match names.iter().position(|n| n == "time") {
         Some(0) => {}
@@ -355,11 +401,17 @@ pub fn parse_csv(text: &str, file: &str) -> Result<Table, CsvError> {
         }
     }
     let ncol = names.len();
+    let is_text: Vec<bool> = names
+        .iter()
+        .enumerate()
+        .map(|(j, n)| j > 0 && text_columns.contains(n))
+        .collect();
     let mut cols: Vec<Vec<f64>> = vec![Vec::new(); ncol];
+    let mut texts: Vec<Vec<String>> = vec![Vec::new(); ncol];
     let mut last_time: Option<(f64, usize)> = None;
     for (lno, line) in lines {
         let cells: Vec<String> =
-            split_fields(line).map_err(|j| err(lno, j, "unterminated quote".into()))?;
+            split_fields(line, false).map_err(|j| err(lno, j, "unterminated quote".into()))?;
         if cells.len() != ncol {
             return Err(err(
                 lno,
@@ -367,7 +419,11 @@ pub fn parse_csv(text: &str, file: &str) -> Result<Table, CsvError> {
                 format!("row has {} cells, the header has {ncol}", cells.len()),
             ));
         }
-        for (j, cell) in cells.iter().enumerate() {
+        for (j, cell) in cells.into_iter().enumerate() {
+            if is_text[j] {
+                texts[j].push(cell);
+                continue;
+            }
             let c = cell.trim();
             let x: f64 = c.parse().map_err(|_| {
                 if c.is_empty() {
@@ -406,6 +462,18 @@ pub fn parse_csv(text: &str, file: &str) -> Result<Table, CsvError> {
                     ),
                 ));
             }
+            if x.abs() > MAX_MAGNITUDE {
+                return Err(err(
+                    lno,
+                    j + 1,
+                    format!(
+                        "value '{}' in column '{}' is beyond ±{MAX_MAGNITUDE:e}: too large to \
+                         compute with (its square overflows); check the units",
+                        shown(c),
+                        shown(&names[j])
+                    ),
+                ));
+            }
             if j == 0 {
                 if let Some((prev, pl)) = last_time {
                     if x <= prev {
@@ -425,11 +493,23 @@ pub fn parse_csv(text: &str, file: &str) -> Result<Table, CsvError> {
         return Err(err(hline + 1, 0, "no data rows after the header".into()));
     }
     let time = cols.remove(0);
+    let (mut num_names, mut num_cols, mut text) = (Vec::new(), Vec::new(), Vec::new());
+    // `names` still starts with `time`; `cols` no longer does.
+    for (j, (name, col)) in names.into_iter().skip(1).zip(cols).enumerate() {
+        let j = j + 1;
+        if is_text[j] {
+            text.push((name, std::mem::take(&mut texts[j])));
+        } else {
+            num_names.push(name);
+            num_cols.push(col);
+        }
+    }
     Ok(Table {
         file: file.to_string(),
         time,
-        names: names[1..].to_vec(),
-        columns: cols,
+        names: num_names,
+        columns: num_cols,
+        text,
     })
 }
 
@@ -445,13 +525,24 @@ pub fn format_number(x: f64) -> String {
 
 /// Writes `time` and `columns` (each as long as `time`) as CSV with header `time,names...`.
 pub fn write_csv_to<W: Write>(
-    mut w: W,
+    w: W,
     time: &[f64],
     names: &[String],
     columns: &[Vec<f64>],
 ) -> std::io::Result<()> {
+    write_csv_text_to(w, time, names, columns, &[])
+}
+
+/// [`write_csv_to`] followed by text columns `(name, cells)`, quoted as RFC 4180 requires.
+pub fn write_csv_text_to<W: Write>(
+    mut w: W,
+    time: &[f64],
+    names: &[String],
+    columns: &[Vec<f64>],
+    text: &[(String, Vec<String>)],
+) -> std::io::Result<()> {
     let mut line = String::from("time");
-    for n in names {
+    for n in names.iter().chain(text.iter().map(|(n, _)| n)) {
         line.push(',');
         line.push_str(&quote_field(n));
     }
@@ -463,6 +554,10 @@ pub fn write_csv_to<W: Write>(
         for c in columns {
             line.push(',');
             line.push_str(&format_number(c.get(k).copied().unwrap_or(f64::NAN)));
+        }
+        for (_, c) in text {
+            line.push(',');
+            line.push_str(&quote_field(c.get(k).map_or("", String::as_str)));
         }
         line.push('\n');
         w.write_all(line.as_bytes())?;
@@ -477,8 +572,19 @@ pub fn write_csv(
     names: &[String],
     columns: &[Vec<f64>],
 ) -> std::io::Result<()> {
+    write_csv_text(path, time, names, columns, &[])
+}
+
+/// Writes a CSV file with text columns (see [`write_csv_text_to`]).
+pub fn write_csv_text(
+    path: &Path,
+    time: &[f64],
+    names: &[String],
+    columns: &[Vec<f64>],
+    text: &[(String, Vec<String>)],
+) -> std::io::Result<()> {
     write_atomically(path, |f| {
-        write_csv_to(std::io::BufWriter::new(f), time, names, columns)
+        write_csv_text_to(std::io::BufWriter::new(f), time, names, columns, text)
     })
 }
 
@@ -536,6 +642,34 @@ mod tests {
         let e = e("time,\"open\n0,1\n");
         assert_eq!((e.line, e.column), (1, 2), "{e}");
         assert!(e.message.contains("unterminated quote"), "{e}");
+    }
+
+    #[test]
+    fn text_columns_keep_their_cells_and_are_written_back_quoted() {
+        let text = "time, n ,s\n0,1, padded \n1,2,\"a, \"\"b\"\"\"\n";
+        let t = parse_csv_with_text(text, "d.csv", &["s".to_string()]).unwrap();
+        assert_eq!(t.names, vec!["n"]);
+        assert_eq!(t.column("n").unwrap(), &[1.0, 2.0]);
+        let s = t.text_column("s").unwrap();
+        assert_eq!(s, &[" padded ".to_string(), "a, \"b\"".to_string()]);
+        let mut buf = Vec::new();
+        write_csv_text_to(&mut buf, &t.time, &t.names, &t.columns, &t.text).unwrap();
+        let back = parse_csv_with_text(std::str::from_utf8(&buf).unwrap(), "b", &["s".into()]);
+        assert_eq!(
+            back.unwrap(),
+            Table {
+                file: "b".into(),
+                ..t
+            }
+        );
+    }
+
+    #[test]
+    fn magnitudes_beyond_1e100_are_refused_with_their_place() {
+        let e = e("time,y\n0,1\n1,-1e300\n");
+        assert_eq!((e.line, e.column), (3, 2), "{e}");
+        assert!(e.message.contains("beyond ±1e100"), "{e}");
+        assert!(parse_csv("time,y\n0,1e99\n", "d.csv").is_ok());
     }
 
     #[test]

@@ -3,6 +3,7 @@
 use crate::error::{HostError, LogRecord, Result, Status};
 use crate::ffi::{self, CallbackFunctions, Component, FmuState, LogEnv, LogSink, RawStatus};
 use crate::fmu::Fmu;
+use ffi::Fmi2Boolean;
 use std::ffi::{c_char, c_int, c_void, CString};
 use std::sync::atomic::Ordering;
 
@@ -390,6 +391,21 @@ impl<'a> Instance<'a> {
         let raw = unsafe { f(self.component, kind, &mut value) };
         self.check("fmi2GetStatus", raw)?;
         Ok(Status::from_raw(value))
+    }
+
+    /// fmi2GetBooleanStatus(fmi2Terminated = 3): whether the FMU ended the simulation itself
+    /// (after fmi2DoStep returned fmi2Discard).
+    pub fn terminated(&mut self) -> Result<bool> {
+        let f = self
+            .fmu
+            .functions
+            .get_boolean_status
+            .ok_or_else(|| missing("fmi2GetBooleanStatus"))?;
+        let mut value: Fmi2Boolean = 0;
+        // SAFETY: value is a valid out pointer.
+        let raw = unsafe { f(self.component, 3, &mut value) };
+        self.check("fmi2GetBooleanStatus", raw)?;
+        Ok(value != 0)
     }
 
     /// fmi2GetRealStatus(fmi2LastSuccessfulTime = 2): the time of the last successful step.

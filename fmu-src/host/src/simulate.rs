@@ -1,9 +1,12 @@
 //! High-level simulation: start values by name, input series, fixed communication step.
 
-use crate::error::{HostError, Result};
+use crate::error::{HostError, Result, Status};
 use crate::fmu::Fmu;
 use crate::instance::Instance;
-use crate::md::{Causality, ModelDescription, ScalarVariable, VarKind};
+use crate::md::{Causality, ModelDescription, ScalarVariable, VarKind, Variability};
+
+/// Columns of text: (variable name, one value per row).
+pub type TextColumns = Vec<(String, Vec<String>)>;
 
 /// A value for a variable before initialization (`--set NAME=VALUE`).
 #[derive(Clone, Debug, PartialEq)]
@@ -12,6 +15,8 @@ pub enum Value {
     Real(f64),
     /// For Boolean variables.
     Boolean(bool),
+    /// For String variables.
+    Text(String),
 }
 
 impl Value {
@@ -48,22 +53,26 @@ impl Value {
                 }
                 Ok(Value::Real(x))
             }
-            VarKind::String => Err(HostError::Request(format!(
-                "'{}' is a String variable: not supported",
-                v.name
-            ))),
+            VarKind::String => Ok(Value::Text(text.to_string())),
         }
     }
 }
 
 /// Input time series: `time` strictly increasing, each column as long as `time`.
-/// Values are interpolated linearly at each communication point and held at the ends.
+///
+/// At each communication point `t`, continuous Real inputs are interpolated linearly; discrete
+/// inputs (Integer, Boolean, Enumeration, String, and Real with `variability="discrete"`) are
+/// held at the row with the largest time `<= t` (zero-order hold, a row time within 1e-9
+/// relative of `t` counting as reached). Before the first row and after the last the end
+/// values are held. This is how FMPy applies inputs to a Co-Simulation FMU.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct InputSeries {
     /// Sample times.
     pub time: Vec<f64>,
-    /// (input name, samples).
+    /// (input name, samples); Booleans as 0/1.
     pub columns: Vec<(String, Vec<f64>)>,
+    /// (String input name, samples).
+    pub text: TextColumns,
 }
 
 /// What to simulate.
@@ -109,9 +118,23 @@ pub struct SimulationResult {
     pub names: Vec<String>,
     /// One trajectory per name (Booleans as 0/1).
     pub columns: Vec<Vec<f64>>,
+    /// Recorded String variables: (name, one value per time).
+    pub text: TextColumns,
+    /// When the FMU ended the run itself (fmi2DoStep returned fmi2Discard and
+    /// fmi2GetBooleanStatus(fmi2Terminated) was true): the last recorded time, its
+    /// fmi2LastSuccessfulTime.
+    pub ended_by_fmu: Option<f64>,
 }
 
 impl SimulationResult {
+    /// Values of the String variable `name`.
+    pub fn text_column(&self, name: &str) -> Option<&[String]> {
+        self.text
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, c)| c.as_slice())
+    }
+
     /// Trajectory of `name`.
     pub fn column(&self, name: &str) -> Option<&[f64]> {
         self.names
@@ -186,12 +209,27 @@ pub fn interpolate(xs: &[f64], ys: &[f64], x: f64, cursor: &mut usize) -> f64 {
     w0 * ys[i] + w1 * ys[j]
 }
 
+/// Index of the row held at `x` (zero-order hold): the largest `i` with `xs[i] <= x`, a row
+/// within 1e-9 relative of `x` counting as reached (FMPy's `isclose`); 0 before the first row.
+/// `cursor` speeds up monotone queries (start it at 0).
+pub fn hold_index(xs: &[f64], x: f64, cursor: &mut usize) -> usize {
+    let reached = |r: f64| r < x || (r - x).abs() <= 1e-9 * r.abs().max(x.abs());
+    if *cursor >= xs.len() || !reached(xs[*cursor]) {
+        *cursor = 0;
+    }
+    while *cursor + 1 < xs.len() && reached(xs[*cursor + 1]) {
+        *cursor += 1;
+    }
+    *cursor
+}
+
 /// Variable lookup split by type for one get/set call per type.
 #[derive(Clone, Debug, Default)]
 struct ByType {
     real: Vec<(usize, u32)>,
     integer: Vec<(usize, u32)>,
     boolean: Vec<(usize, u32)>,
+    string: Vec<(usize, u32)>,
 }
 
 fn lookup<'m>(md: &'m ModelDescription, name: &str) -> Result<&'m ScalarVariable> {
@@ -255,174 +293,338 @@ pub fn simulate(fmu: &Fmu, req: &SimulationRequest) -> Result<SimulationResult> 
 fn run_on(inst: &mut Instance<'_>, req: &SimulationRequest) -> Result<SimulationResult> {
     let md = inst.fmu().model_description();
     let times = communication_points(req.start_time, req.stop_time, req.step)?;
-
     // Resolve everything before touching the FMU.
-    let mut start_reals = Vec::new();
-    let mut start_ints = Vec::new();
-    let mut start_bools = Vec::new();
-    for (name, value) in &req.start_values {
-        let v = lookup(md, name)?;
-        if v.causality == Causality::Independent || v.causality == Causality::CalculatedParameter {
-            return Err(HostError::Request(format!(
-                "'{name}' is {:?}: cannot be set",
-                v.causality
-            )));
-        }
-        match (v.kind, value) {
-            (VarKind::Real, Value::Real(x)) => start_reals.push((v.value_reference, *x)),
-            (VarKind::Integer | VarKind::Enumeration, Value::Real(x))
-                if x.fract() == 0.0 && x.abs() < 2.1e9 =>
-            {
-                start_ints.push((v.value_reference, *x as i32))
-            }
-            (VarKind::Boolean, Value::Boolean(b)) => start_bools.push((v.value_reference, *b)),
-            (kind, value) => {
-                return Err(HostError::Request(format!(
-                    "'{name}' is {kind:?}: cannot take the value {value:?}"
-                )))
-            }
-        }
-    }
-    let series = &req.inputs;
-    let mut inputs = Vec::new(); // (kind, vr, column index)
-    for (col, (name, values)) in series.columns.iter().enumerate() {
-        let v = lookup(md, name)?;
-        if v.causality != Causality::Input {
-            return Err(HostError::Request(format!(
-                "'{name}' is not an input of the FMU"
-            )));
-        }
-        if values.len() != series.time.len() {
-            return Err(HostError::Request(format!(
-                "input '{name}' has {} samples for {} times",
-                values.len(),
-                series.time.len()
-            )));
-        }
-        inputs.push((v.kind, v.value_reference, col));
-    }
-    if !series.columns.is_empty() && series.time.is_empty() {
-        return Err(HostError::Request("input series has no samples".into()));
-    }
+    let starts = StartValues::resolve(md, &req.start_values)?;
+    let mut inputs = InputPlan::new(md, &req.inputs)?;
     let out_names: Vec<String> = if req.outputs.is_empty() {
         md.output_names()
     } else {
         req.outputs.clone()
     };
-    let mut outs = ByType::default();
-    for (j, name) in out_names.iter().enumerate() {
-        let v = lookup(md, name)?;
-        match v.kind {
-            VarKind::Real => outs.real.push((j, v.value_reference)),
-            VarKind::Integer | VarKind::Enumeration => outs.integer.push((j, v.value_reference)),
-            VarKind::Boolean => outs.boolean.push((j, v.value_reference)),
-            VarKind::String => {
-                return Err(HostError::Request(format!(
-                    "'{name}' is a String: cannot be recorded"
-                )))
-            }
-        }
-    }
+    let mut rec = Recorder::new(md, out_names, times.len())?;
 
-    let (rv, rx): (Vec<u32>, Vec<f64>) = start_reals.into_iter().unzip();
-    if !rv.is_empty() {
-        inst.set_real(&rv, &rx)?;
-    }
-    let (iv, ix): (Vec<u32>, Vec<i32>) = start_ints.into_iter().unzip();
-    if !iv.is_empty() {
-        inst.set_integer(&iv, &ix)?;
-    }
-    let (bv, bx): (Vec<u32>, Vec<bool>) = start_bools.into_iter().unzip();
-    if !bv.is_empty() {
-        inst.set_boolean(&bv, &bx)?;
-    }
-
-    let mut cursor = 0usize;
-    // Real inputs go to the FMU in one fmi2SetReal call per communication point.
-    let real_in_vrs: Vec<u32> = inputs
-        .iter()
-        .filter(|(k, _, _)| *k == VarKind::Real)
-        .map(|&(_, vr, _)| vr)
-        .collect();
-    let mut real_in_buf = vec![0.0; real_in_vrs.len()];
-    // All columns share one time axis, so one cursor serves them all.
-    let mut set_inputs = |inst: &mut Instance<'_>, t: f64, cursor: &mut usize| -> Result<()> {
-        let mut next = *cursor;
-        let mut ri = 0;
-        for &(kind, vr, col) in &inputs {
-            next = *cursor;
-            let x = interpolate(&series.time, &series.columns[col].1, t, &mut next);
-            match kind {
-                VarKind::Real => {
-                    real_in_buf[ri] = x;
-                    ri += 1;
-                }
-                VarKind::Boolean => {
-                    inst.set_boolean(&[vr], &[x >= 0.5])?;
-                }
-                _ => {
-                    inst.set_integer(&[vr], &[x.round() as i32])?;
-                }
-            }
-        }
-        if !real_in_vrs.is_empty() {
-            inst.set_real(&real_in_vrs, &real_in_buf)?;
-        }
-        *cursor = next;
-        Ok(())
-    };
-
-    set_inputs(inst, req.start_time, &mut cursor)?;
+    starts.apply(inst)?;
+    inputs.apply(inst, req.start_time)?;
     inst.setup_experiment(req.tolerance, req.start_time, Some(req.stop_time))?;
     inst.enter_initialization_mode()?;
     inst.exit_initialization_mode()?;
 
-    let n_out = out_names.len();
-    let mut columns: Vec<Vec<f64>> = (0..n_out)
-        .map(|_| Vec::with_capacity(times.len()))
-        .collect();
-    let rvrs: Vec<u32> = outs.real.iter().map(|&(_, vr)| vr).collect();
-    let ivrs: Vec<u32> = outs.integer.iter().map(|&(_, vr)| vr).collect();
-    let bvrs: Vec<u32> = outs.boolean.iter().map(|&(_, vr)| vr).collect();
-    let mut rbuf = vec![0.0; rvrs.len()];
-    let mut ibuf = vec![0i32; ivrs.len()];
-    let mut bbuf = vec![false; bvrs.len()];
-    let mut record = |inst: &mut Instance<'_>, columns: &mut Vec<Vec<f64>>| -> Result<()> {
-        if !rvrs.is_empty() {
-            inst.get_real(&rvrs, &mut rbuf)?;
-            for (&(j, _), &x) in outs.real.iter().zip(&rbuf) {
-                columns[j].push(x);
-            }
-        }
-        if !ivrs.is_empty() {
-            inst.get_integer(&ivrs, &mut ibuf)?;
-            for (&(j, _), &x) in outs.integer.iter().zip(&ibuf) {
-                columns[j].push(x as f64);
-            }
-        }
-        if !bvrs.is_empty() {
-            inst.get_boolean(&bvrs, &mut bbuf)?;
-            for (&(j, _), &x) in outs.boolean.iter().zip(&bbuf) {
-                columns[j].push(if x { 1.0 } else { 0.0 });
-            }
-        }
-        Ok(())
-    };
-    record(inst, &mut columns)?;
+    let mut time = Vec::with_capacity(times.len());
+    rec.record(inst)?;
+    time.push(times[0]);
+    let mut ended_by_fmu = None;
     for k in 0..times.len().saturating_sub(1) {
         let (t, t1) = (times[k], times[k + 1]);
         if k > 0 {
-            set_inputs(inst, t, &mut cursor)?;
+            inputs.apply(inst, t)?;
         }
-        inst.do_step(t, t1 - t, true)?;
-        record(inst, &mut columns)?;
+        match inst.do_step(t, t1 - t, true) {
+            Ok(_) => {}
+            Err(e) if e.status() == Some(Status::Discard) && inst.terminated().unwrap_or(false) => {
+                // FMI 2.0.4 section 4.2.3: after fmi2Discard, fmi2Terminated true means the FMU
+                // ended the simulation; its results are valid up to fmi2LastSuccessfulTime.
+                let last = inst.last_successful_time()?;
+                if last > t && last.is_finite() {
+                    rec.record(inst)?;
+                    time.push(last.min(t1));
+                }
+                ended_by_fmu = Some(*time.last().unwrap_or(&t));
+                break;
+            }
+            Err(e) => return Err(e),
+        }
+        rec.record(inst)?;
+        time.push(t1);
     }
     let _ = inst.terminate();
+    let (names, columns, text) = rec.finish();
     Ok(SimulationResult {
-        time: times,
-        names: out_names,
+        time,
+        names,
         columns,
+        text,
+        ended_by_fmu,
     })
+}
+
+/// Start values grouped by type, checked against the model description.
+#[derive(Default)]
+struct StartValues {
+    reals: (Vec<u32>, Vec<f64>),
+    ints: (Vec<u32>, Vec<i32>),
+    bools: (Vec<u32>, Vec<bool>),
+    strings: (Vec<u32>, Vec<String>),
+}
+
+impl StartValues {
+    fn resolve(md: &ModelDescription, values: &[(String, Value)]) -> Result<Self> {
+        let mut s = StartValues::default();
+        for (name, value) in values {
+            let v = lookup(md, name)?;
+            if v.causality == Causality::Independent
+                || v.causality == Causality::CalculatedParameter
+            {
+                return Err(HostError::Request(format!(
+                    "'{name}' is {:?}: cannot be set",
+                    v.causality
+                )));
+            }
+            let vr = v.value_reference;
+            match (v.kind, value) {
+                (VarKind::Real, Value::Real(x)) => push(&mut s.reals, vr, *x),
+                (VarKind::Integer | VarKind::Enumeration, Value::Real(x))
+                    if x.fract() == 0.0 && x.abs() < 2.1e9 =>
+                {
+                    push(&mut s.ints, vr, *x as i32)
+                }
+                (VarKind::Boolean, Value::Boolean(b)) => push(&mut s.bools, vr, *b),
+                (VarKind::String, Value::Text(t)) => push(&mut s.strings, vr, t.clone()),
+                (kind, value) => {
+                    return Err(HostError::Request(format!(
+                        "'{name}' is {kind:?}: cannot take the value {value:?}"
+                    )))
+                }
+            }
+        }
+        Ok(s)
+    }
+
+    fn apply(&self, inst: &mut Instance<'_>) -> Result<()> {
+        if !self.reals.0.is_empty() {
+            inst.set_real(&self.reals.0, &self.reals.1)?;
+        }
+        if !self.ints.0.is_empty() {
+            inst.set_integer(&self.ints.0, &self.ints.1)?;
+        }
+        if !self.bools.0.is_empty() {
+            inst.set_boolean(&self.bools.0, &self.bools.1)?;
+        }
+        if !self.strings.0.is_empty() {
+            let refs: Vec<&str> = self.strings.1.iter().map(String::as_str).collect();
+            inst.set_string(&self.strings.0, &refs)?;
+        }
+        Ok(())
+    }
+}
+
+fn push<T>(to: &mut (Vec<u32>, Vec<T>), vr: u32, x: T) {
+    to.0.push(vr);
+    to.1.push(x);
+}
+
+/// How an input column reaches the FMU.
+#[derive(Clone, Copy, PartialEq)]
+enum Apply {
+    /// Continuous Real: linear interpolation.
+    Interpolate,
+    /// Discrete Real, Integer, Enumeration, Boolean: zero-order hold.
+    Hold,
+}
+
+/// The inputs of a run: value references by type, one set call per type per point.
+struct InputPlan<'r> {
+    series: &'r InputSeries,
+    /// (vr, column, how) of Real inputs, set together.
+    reals: Vec<(u32, usize, Apply)>,
+    ints: Vec<(u32, usize)>,
+    bools: Vec<(u32, usize)>,
+    /// (vr, text column) of String inputs.
+    strings: Vec<(u32, usize)>,
+    real_vrs: Vec<u32>,
+    real_buf: Vec<f64>,
+    interp_cursor: usize,
+    hold_cursor: usize,
+}
+
+impl<'r> InputPlan<'r> {
+    fn new(md: &ModelDescription, series: &'r InputSeries) -> Result<Self> {
+        let mut plan = InputPlan {
+            series,
+            reals: Vec::new(),
+            ints: Vec::new(),
+            bools: Vec::new(),
+            strings: Vec::new(),
+            real_vrs: Vec::new(),
+            real_buf: Vec::new(),
+            interp_cursor: 0,
+            hold_cursor: 0,
+        };
+        let names = series.columns.iter().map(|(n, c)| (n, c.len()));
+        let text_names = series.text.iter().map(|(n, c)| (n, c.len()));
+        for (col, (name, len)) in names.chain(text_names).enumerate() {
+            let v = lookup(md, name)?;
+            if v.causality != Causality::Input {
+                return Err(HostError::Request(format!(
+                    "'{name}' is not an input of the FMU"
+                )));
+            }
+            if len != series.time.len() {
+                return Err(HostError::Request(format!(
+                    "input '{name}' has {len} samples for {} times",
+                    series.time.len()
+                )));
+            }
+            let vr = v.value_reference;
+            let text_col = col.checked_sub(series.columns.len());
+            match (v.kind, text_col) {
+                (VarKind::String, Some(j)) => plan.strings.push((vr, j)),
+                (VarKind::String, None) | (_, Some(_)) => {
+                    return Err(HostError::Request(format!(
+                        "input '{name}': text values for a {:?} variable or numbers for a String",
+                        v.kind
+                    )))
+                }
+                (VarKind::Real, None) if v.variability == Variability::Continuous => {
+                    plan.reals.push((vr, col, Apply::Interpolate))
+                }
+                (VarKind::Real, None) => plan.reals.push((vr, col, Apply::Hold)),
+                (VarKind::Boolean, None) => plan.bools.push((vr, col)),
+                (VarKind::Integer | VarKind::Enumeration, None) => plan.ints.push((vr, col)),
+            }
+        }
+        if !(series.columns.is_empty() && series.text.is_empty()) && series.time.is_empty() {
+            return Err(HostError::Request("input series has no samples".into()));
+        }
+        plan.real_vrs = plan.reals.iter().map(|r| r.0).collect();
+        plan.real_buf = vec![0.0; plan.reals.len()];
+        Ok(plan)
+    }
+
+    /// Sets every input to its value at `t`.
+    fn apply(&mut self, inst: &mut Instance<'_>, t: f64) -> Result<()> {
+        let s = self.series;
+        if s.time.is_empty() {
+            return Ok(());
+        }
+        let row = hold_index(&s.time, t, &mut self.hold_cursor);
+        // All columns share one time axis, so one cursor serves them all.
+        let mut next = self.interp_cursor;
+        for (x, &(_, col, how)) in self.real_buf.iter_mut().zip(&self.reals) {
+            *x = match how {
+                Apply::Interpolate => {
+                    next = self.interp_cursor;
+                    interpolate(&s.time, &s.columns[col].1, t, &mut next)
+                }
+                Apply::Hold => s.columns[col].1[row],
+            };
+        }
+        self.interp_cursor = next;
+        if !self.reals.is_empty() {
+            inst.set_real(&self.real_vrs, &self.real_buf)?;
+        }
+        for &(vr, col) in &self.ints {
+            inst.set_integer(&[vr], &[held_integer(s.columns[col].1[row])])?;
+        }
+        for &(vr, col) in &self.bools {
+            inst.set_boolean(&[vr], &[s.columns[col].1[row] >= 0.5])?;
+        }
+        for &(vr, col) in &self.strings {
+            inst.set_string(&[vr], &[s.text[col].1[row].as_str()])?;
+        }
+        Ok(())
+    }
+}
+
+/// An Integer input's value from a numeric cell: rounded, clamped to the i32 range.
+fn held_integer(x: f64) -> i32 {
+    x.round().clamp(i32::MIN as f64, i32::MAX as f64) as i32
+}
+
+/// Outputs read after each step, by type.
+struct Recorder {
+    names: Vec<String>,
+    by_type: ByType,
+    vrs: [Vec<u32>; 4],
+    columns: Vec<Vec<f64>>,
+    text: Vec<Vec<String>>,
+    rbuf: Vec<f64>,
+    ibuf: Vec<i32>,
+    bbuf: Vec<bool>,
+}
+
+impl Recorder {
+    fn new(md: &ModelDescription, names: Vec<String>, capacity: usize) -> Result<Self> {
+        let mut by_type = ByType::default();
+        for (j, name) in names.iter().enumerate() {
+            let v = lookup(md, name)?;
+            let to = match v.kind {
+                VarKind::Real => &mut by_type.real,
+                VarKind::Integer | VarKind::Enumeration => &mut by_type.integer,
+                VarKind::Boolean => &mut by_type.boolean,
+                VarKind::String => &mut by_type.string,
+            };
+            to.push((j, v.value_reference));
+        }
+        let vrs_of = |v: &[(usize, u32)]| v.iter().map(|&(_, vr)| vr).collect::<Vec<u32>>();
+        let vrs = [
+            vrs_of(&by_type.real),
+            vrs_of(&by_type.integer),
+            vrs_of(&by_type.boolean),
+            vrs_of(&by_type.string),
+        ];
+        Ok(Recorder {
+            columns: names.iter().map(|_| Vec::with_capacity(capacity)).collect(),
+            text: names.iter().map(|_| Vec::new()).collect(),
+            rbuf: vec![0.0; vrs[0].len()],
+            ibuf: vec![0; vrs[1].len()],
+            bbuf: vec![false; vrs[2].len()],
+            names,
+            by_type,
+            vrs,
+        })
+    }
+
+    fn record(&mut self, inst: &mut Instance<'_>) -> Result<()> {
+        let t = &self.by_type;
+        if !self.vrs[0].is_empty() {
+            inst.get_real(&self.vrs[0], &mut self.rbuf)?;
+            for (&(j, _), &x) in t.real.iter().zip(&self.rbuf) {
+                self.columns[j].push(x);
+            }
+        }
+        if !self.vrs[1].is_empty() {
+            inst.get_integer(&self.vrs[1], &mut self.ibuf)?;
+            for (&(j, _), &x) in t.integer.iter().zip(&self.ibuf) {
+                self.columns[j].push(x as f64);
+            }
+        }
+        if !self.vrs[2].is_empty() {
+            inst.get_boolean(&self.vrs[2], &mut self.bbuf)?;
+            for (&(j, _), &x) in t.boolean.iter().zip(&self.bbuf) {
+                self.columns[j].push(if x { 1.0 } else { 0.0 });
+            }
+        }
+        if !self.vrs[3].is_empty() {
+            let values = inst.get_string(&self.vrs[3])?;
+            for (&(j, _), x) in t.string.iter().zip(values) {
+                self.text[j].push(x);
+            }
+        }
+        Ok(())
+    }
+
+    /// (numeric names, their columns, String columns), each in the order asked for.
+    fn finish(self) -> (Vec<String>, Vec<Vec<f64>>, TextColumns) {
+        let is_text: Vec<bool> = (0..self.names.len())
+            .map(|j| self.by_type.string.iter().any(|&(k, _)| k == j))
+            .collect();
+        let (mut names, mut columns, mut text) = (Vec::new(), Vec::new(), Vec::new());
+        for (((name, col), txt), is_text) in self
+            .names
+            .into_iter()
+            .zip(self.columns)
+            .zip(self.text)
+            .zip(is_text)
+        {
+            if is_text {
+                text.push((name, txt));
+            } else {
+                names.push(name);
+                columns.push(col);
+            }
+        }
+        (names, columns, text)
+    }
 }
 
 #[cfg(test)]
@@ -445,6 +647,21 @@ mod tests {
         assert!(communication_points(0.0, 1.0, -0.1).is_err());
         assert!(communication_points(1.0, 0.0, 0.1).is_err());
         assert!(communication_points(0.0, f64::NAN, 0.1).is_err());
+    }
+
+    #[test]
+    fn discrete_inputs_hold_the_last_row_reached() {
+        let xs = [0.0, 0.1, 0.2, 0.30000000000000004];
+        let mut c = 0;
+        assert_eq!(hold_index(&xs, -1.0, &mut c), 0);
+        assert_eq!(hold_index(&xs, 0.05, &mut c), 0);
+        // a communication point computed as 3 * 0.1 reaches the row written as 0.3 and back
+        assert_eq!(hold_index(&xs, 0.1, &mut c), 1);
+        assert_eq!(hold_index(&xs, 0.3, &mut c), 3);
+        assert_eq!(hold_index(&xs, 0.2 - 1e-6, &mut c), 1);
+        assert_eq!(hold_index(&xs, 0.2 - 1e-12, &mut c), 2); // within 1e-9 relative
+        assert_eq!(hold_index(&xs, 9.0, &mut c), 3);
+        assert_eq!(hold_index(&xs, 0.15, &mut c), 1);
     }
 
     #[test]

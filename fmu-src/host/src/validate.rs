@@ -20,6 +20,17 @@ use fmi2_types::effects;
 use std::collections::{BTreeSet, HashMap};
 use std::fmt;
 
+/// Whether the standard requires what a check found, or only permits better.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Severity {
+    /// A requirement of the FMI 2.0 standard is violated: `validate` exits 1.
+    Finding,
+    /// The standard permits it (e.g. how an FMU answers a call the importer must not make);
+    /// reported as advice, `validate` still exits 0.
+    Note,
+}
+
 /// One problem found.
 #[derive(Clone, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Finding {
@@ -29,21 +40,92 @@ pub struct Finding {
     pub location: String,
     /// What is wrong, in one sentence.
     pub message: String,
+    /// Required by the standard, or only advice.
+    pub severity: Severity,
+    /// The clause of the FMI 2.0.4 specification the check rests on.
+    pub clause: String,
 }
 
 impl Finding {
-    fn new(check: &str, location: impl Into<String>, message: impl Into<String>) -> Self {
+    /// A result of the check `check`; its severity and clause follow from the check
+    /// (see [`classify`]).
+    pub fn new(check: &str, location: impl Into<String>, message: impl Into<String>) -> Self {
+        let (severity, clause) = classify(check);
         Finding {
             check: check.to_string(),
             location: location.into(),
             message: message.into(),
+            severity,
+            clause: clause.to_string(),
         }
+    }
+
+    /// Whether the standard requires it (exit 1) rather than only advising it.
+    pub fn is_required(&self) -> bool {
+        self.severity == Severity::Finding
+    }
+}
+
+/// Severity and FMI 2.0.4 clause of each check (section numbers of the FMI 2.0.4 document).
+///
+/// Probe calls the importer must not make (section 4.2.4: the state machine restricts the
+/// environment) leave the FMU's answer open, as does a NaN the standard does not mention: an
+/// FMU answering them with fmi2OK is conforming, so those results are notes. A crash is a
+/// finding: section 2.1.3 has every function return a status, fmi2Fatal for "a run-time
+/// exception such as access violation".
+pub fn classify(check: &str) -> (Severity, &'static str) {
+    use Severity::{Finding as F, Note as N};
+    match check {
+        "fmi-version" | "model-name" | "guid" | "variable-name" | "model-description-xml" => {
+            (F, "FMI 2.0.4 §2.2.1: fmiModelDescription")
+        }
+        "unit-declared" | "display-unit-declared" | "display-unit" | "unique-units" => {
+            (F, "FMI 2.0.4 §2.2.2: UnitDefinitions")
+        }
+        "declared-type" | "unique-types" => (F, "FMI 2.0.4 §2.2.3: TypeDefinitions"),
+        "log-categories" => (F, "FMI 2.0.4 §2.2.4: LogCategories"),
+        "default-experiment" => (F, "FMI 2.0.4 §2.2.5: DefaultExperiment"),
+        "model-structure" | "outputs-listed" | "initial-unknowns" | "derivative" => {
+            (F, "FMI 2.0.4 §2.2.8: ModelStructure")
+        }
+        "naming-convention" => (F, "FMI 2.0.4 §2.2.9: variable naming conventions"),
+        "archive" | "open" | "binary" | "binary-format" => (
+            F,
+            "FMI 2.0.4 §2.3: FMU distribution: zip layout, binaries/<platform>",
+        ),
+        "symbols" => (F, "FMI 2.0.4 §2.1 and §4.2: every fmi2 function exported"),
+        "co-simulation" | "model-identifier" | "capability-flags" => {
+            (F, "FMI 2.0.4 §4.3.1: CoSimulation element")
+        }
+        "probe-fmu-state" => (F, "FMI 2.0.4 §2.1.8: canGetAndSetFMUstate declared"),
+        "probe-normal-run" => (F, "FMI 2.0.4 §4.2.4: a legal calling sequence"),
+        "probe-crash" | "probe-timeout" => (F, "FMI 2.0.4 §2.1.3: every call returns a status"),
+        "probe-wrong-call" => (
+            N,
+            "FMI 2.0.4 §4.2.4: the importer must not make this call, so the answer is the FMU's",
+        ),
+        "probe-nan" => (
+            N,
+            "FMI 2.0.4 §2.1.2: the standard does not say how an FMU treats NaN",
+        ),
+        "probe-log" => (N, "FMI 2.0.4 §2.1.5: logging is the FMU's choice"),
+        "effect-convention" => (F, "actuator-fmu candidate-effect convention (README)"),
+        // schema-level variable attributes: causality, variability, initial, start, min/max
+        _ => (F, "FMI 2.0.4 §2.2.7: ScalarVariable"),
     }
 }
 
 impl fmt::Display for Finding {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "[{}] {}: {}", self.check, self.location, self.message)
+        let kind = match self.severity {
+            Severity::Finding => "",
+            Severity::Note => "note ",
+        };
+        write!(
+            f,
+            "{kind}[{}] {}: {} ({})",
+            self.check, self.location, self.message, self.clause
+        )
     }
 }
 
@@ -869,7 +951,7 @@ pub fn probe(fmu: &Fmu, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding> {
         Ok(())
     })();
     if let Err(e) = normal {
-        f.push(Finding::new("probe", loc("normal-run"), format!("instantiate, initialize, 10 steps, terminate, reset, re-initialize, step failed: {e}")));
+        f.push(Finding::new("probe-normal-run", loc("normal-run"), format!("instantiate, initialize, 10 steps, terminate, reset, re-initialize, step failed: {e}")));
         return f; // the wrong-call cases below assume a working FMU
     }
 
@@ -877,7 +959,7 @@ pub fn probe(fmu: &Fmu, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding> {
     let cs = md.co_simulation.clone().unwrap_or_default();
     if cs.can_get_and_set_fmu_state && step("fmu-state") {
         if let Err(e) = check_fmu_state(fmu, &init, t0, h, cs.can_serialize_fmu_state) {
-            f.push(Finding::new("probe", loc("fmu-state"), e));
+            f.push(Finding::new("probe-fmu-state", loc("fmu-state"), e));
         }
     }
 
@@ -893,7 +975,7 @@ pub fn probe(fmu: &Fmu, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding> {
                 Ok(i) => i,
                 Err(e) => {
                     f.push(Finding::new(
-                        "probe",
+                        "probe-normal-run",
                         loc(name),
                         format!("fmi2Instantiate failed: {e}"),
                     ));
@@ -903,7 +985,7 @@ pub fn probe(fmu: &Fmu, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding> {
             if !before_init {
                 if let Err(e) = init(&mut inst) {
                     f.push(Finding::new(
-                        "probe",
+                        "probe-normal-run",
                         loc(name),
                         format!("initialization failed: {e}"),
                     ));
@@ -912,9 +994,13 @@ pub fn probe(fmu: &Fmu, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding> {
             }
             match call(&mut inst) {
                 Ok(st) => f.push(Finding::new(
-                    "probe",
+                    if name.starts_with("nan") {
+                        "probe-nan"
+                    } else {
+                        "probe-wrong-call"
+                    },
                     loc(name),
-                    format!("{what} returned {st}, expected fmi2Error"),
+                    format!("{what} returned {st}; fmi2Error with a logged message would warn the importer"),
                 )),
                 Err(HostError::Fmi {
                     status: Status::Error,
@@ -930,11 +1016,11 @@ pub fn probe(fmu: &Fmu, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding> {
                     }
                 }
                 Err(HostError::Fmi { status, .. }) => f.push(Finding::new(
-                    "probe",
+                    "probe-wrong-call",
                     loc(name),
-                    format!("{what} returned {status}, expected fmi2Error"),
+                    format!("{what} returned {status}; fmi2Error is the usual answer"),
                 )),
-                Err(e) => f.push(Finding::new("probe", loc(name), format!("{what}: {e}"))),
+                Err(e) => f.push(Finding::new("probe-normal-run", loc(name), format!("{what}: {e}"))),
             }
         };
 

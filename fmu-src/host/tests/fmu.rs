@@ -81,6 +81,7 @@ fn inputs_are_interpolated_and_set_at_each_communication_point() {
     req.inputs = InputSeries {
         time: vec![0.0, 2.0],
         columns: vec![("u".into(), vec![2.0, 2.0])],
+        ..Default::default()
     };
     let res = simulate(&fmu, &req).unwrap();
     assert!(max_err(&res, 4.0, 0.0, 2.0, 1.0) < 1e-9);
@@ -99,6 +100,7 @@ fn bad_requests_are_typed_errors() {
     req.inputs = InputSeries {
         time: vec![0.0],
         columns: vec![("x".into(), vec![1.0])],
+        ..Default::default()
     };
     let e = simulate(&fmu, &req).unwrap_err().to_string();
     assert!(e.contains("'x' is not an input"), "{e}");
@@ -291,7 +293,7 @@ fn probe_finds_nothing_in_a_conforming_fmu() {
 }
 
 #[test]
-fn probe_reports_every_wrong_call_a_lax_fmu_accepts() {
+fn probe_notes_every_wrong_call_a_lax_fmu_accepts() {
     let dir = tempfile::tempdir().unwrap();
     let path = common::build_fmu(
         dir.path(),
@@ -316,9 +318,11 @@ fn probe_reports_every_wrong_call_a_lax_fmu_accepts() {
             "probe do-step-after-terminate"
         ]
     );
+    // The standard leaves the answer to a call the importer must not make (or to a NaN) to the
+    // FMU: each is a note, none a finding.
     assert!(
         f.iter()
-            .all(|x| x.message.ends_with("returned fmi2OK, expected fmi2Error")),
+            .all(|x| x.message.contains("returned fmi2OK;") && !x.is_required()),
         "{f:#?}"
     );
     let ex = host::Extracted::open(&path).unwrap();
