@@ -1,10 +1,14 @@
 """The host treats every FMU and file as untrusted. Each hostile FMU or input is made here (zip
 files written by the test, a C library compiled by it); each case asserts what the user sees:
 the exit status, one bounded message, and the files on disk before and after."""
+import os
 import re
 import shutil
+import signal
 import subprocess
+import time
 import zipfile
+from pathlib import Path
 
 import pytest
 
@@ -165,3 +169,88 @@ def test_data_too_large_to_compute_with_is_refused(tmp_path, value):
     assert not (out / "report.json").exists()
     res = run("simulate", fmu_path("Oscillator"), "--data", data, "--out", tmp_path / "o.csv")
     assert_one_bounded_message(res, "d.csv:4:3", "beyond ±1e100")
+
+
+def failing_copy(tmp_path, *defines):
+    """Oscillator whose fmi2DoStep crashes (or hangs, with -DHANG) from t = 0.01 s on: the
+    crash shim of tests/drivers/broken forwards every other call to the real binary."""
+    if shutil.which("gcc") is None:
+        pytest.skip("gcc not installed")
+    repo = Path(__file__).resolve().parent.parent
+    so = tmp_path / "shim.so"
+    subprocess.run(["gcc", "-shared", "-fPIC", "-O1", '-DMODEL_ID="Oscillator"', "-DFAIL_AT=0.01",
+                    *defines, "-o", str(so), str(repo / "tests/drivers/broken/crash_shim.c"), "-ldl"],
+                   check=True)
+    binary = "binaries/linux64/Oscillator.so"
+    dst = tmp_path / ("hang.fmu" if defines else "crash.fmu")
+    with zipfile.ZipFile(fmu_path("Oscillator")) as zin, \
+            zipfile.ZipFile(dst, "w", zipfile.ZIP_DEFLATED) as zout:
+        for item in zin.infolist():
+            data = zin.read(item.filename)
+            if item.filename == binary:
+                zout.writestr("binaries/linux64/real_Oscillator.so", data)
+                data = so.read_bytes()
+            zout.writestr(item.filename, data)
+    return dst
+
+
+def run_in(tmp, *args, **kw):
+    """The CLI with TMPDIR=tmp, so that the test sees every temporary file it makes."""
+    tmp.mkdir(exist_ok=True)
+    env = dict(os.environ, TMPDIR=str(tmp))
+    return subprocess.run([cli_path(), *map(str, args)], capture_output=True, text=True,
+                          timeout=120, env=env, **kw)
+
+
+@pytest.mark.parametrize("command", ["simulate", "gap"])
+def test_an_fmu_crashing_in_do_step_is_reported_with_time_and_nothing_left(tmp_path, command):
+    fmu = failing_copy(tmp_path)
+    data = data_csv(tmp_path / "d.csv", rows=50)
+    out = tmp_path / ("o.csv" if command == "simulate" else "g")
+    extra = ["--fit", "stiffness"] if command == "gap" else []
+    res = run_in(tmp_path / "tmp", command, fmu, "--data", data, "--out", out, *extra)
+    assert_one_bounded_message(res, "crashed (SIGSEGV) in fmi2DoStep at t = 0.01")
+    assert not out.exists()
+    assert list((tmp_path / "tmp").iterdir()) == []
+
+
+def test_an_fmu_hanging_in_do_step_is_stopped_after_the_timeout(tmp_path):
+    fmu = failing_copy(tmp_path, "-DHANG")
+    data = data_csv(tmp_path / "d.csv", rows=50)
+    t0 = time.monotonic()
+    res = run_in(tmp_path / "tmp", "simulate", fmu, "--data", data, "--out", tmp_path / "o.csv",
+                 "--timeout", "1")
+    assert time.monotonic() - t0 < 30
+    assert_one_bounded_message(res, "did not return from fmi2DoStep at t = 0.01", "within 1 s")
+    assert not (tmp_path / "o.csv").exists()
+    assert list((tmp_path / "tmp").iterdir()) == []
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_an_interrupted_run_removes_its_temporary_files(tmp_path, sig):
+    fmu = failing_copy(tmp_path, "-DHANG")
+    data = data_csv(tmp_path / "d.csv", rows=50)
+    tmp = tmp_path / "tmp"
+    tmp.mkdir()
+    # its own process group, as a shell job: Ctrl-C reaches the supervisor and its worker
+    p = subprocess.Popen([cli_path(), "simulate", fmu, "--data", data, "--out", tmp_path / "o.csv",
+                          "--timeout", "0"], env=dict(os.environ, TMPDIR=str(tmp)),
+                         stderr=subprocess.PIPE, text=True, start_new_session=True)
+    deadline = time.monotonic() + 20
+    while not any(tmp.rglob("*.so")) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert any(tmp.rglob("*.so")), "the FMU was never extracted"
+    time.sleep(0.3)  # inside the hanging fmi2DoStep now
+    os.killpg(p.pid, sig)
+    _, err = p.communicate(timeout=20)
+    assert p.returncode == 130, (p.returncode, err)
+    assert "interrupted" in err and len(err.strip().splitlines()) == 1, err
+    assert list(tmp.iterdir()) == []
+    assert not (tmp_path / "o.csv").exists()
+
+
+def test_validate_leaves_no_temporary_files_even_when_the_probe_crashes(tmp_path):
+    fmu = failing_copy(tmp_path)
+    res = run_in(tmp_path / "tmp", "validate", fmu)
+    assert res.returncode == 1, res.stdout + res.stderr
+    assert list((tmp_path / "tmp").iterdir()) == []

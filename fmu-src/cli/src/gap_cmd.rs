@@ -50,6 +50,13 @@ pub struct Args {
     /// Print every stage (elapsed time, simulation count) and every fit iteration on stderr.
     #[arg(long)]
     pub trace: bool,
+    /// Longest one FMU call may take [s] before the run is stopped as hung (0: no limit).
+    #[arg(long, default_value_t = 60.0, value_name = "SECONDS")]
+    pub timeout: f64,
+    /// Python interpreter whose runtime an FMU needing one (made by PythonFMU) gets
+    /// (default: python3 on PATH).
+    #[arg(long, value_name = "PATH")]
+    pub python: Option<PathBuf>,
 }
 
 /// The report directory must not be an input, nor hold an input under a name the report writes
@@ -80,7 +87,10 @@ fn refuse_writing_over_inputs(a: &Args) -> Result<(), CliError> {
 /// Runs `gap`.
 pub fn run(a: Args) -> CliResult {
     refuse_writing_over_inputs(&a)?;
-    let fmu = Fmu::open(&a.fmu).map_err(CliError::input)?;
+    let opts = host::OpenOptions {
+        python: a.python.clone(),
+    };
+    let fmu = Fmu::open_with(&a.fmu, &opts).map_err(CliError::input)?;
     let md = fmu.model_description();
     let sets = parse_sets(md, &a.set)?;
     let table = read_csv(&a.data).map_err(CliError::input)?;

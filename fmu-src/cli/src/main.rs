@@ -3,7 +3,9 @@
 //! Exit status: 0 success (validate: no finding), 1 failure (validate: findings; simulate, gap:
 //! the FMU failed after initialization), 2 bad input: usage, unreadable or bad data, an FMU that
 //! cannot be opened, instantiated or initialized (refused parameters, GUID), FMI 3.0, an output
-//! path that is an input.
+//! path that is an input, an FMU that crashed or did not return within --timeout; 130
+//! interrupted (Ctrl-C, SIGTERM, SIGHUP).
+//! The commands run in a supervised child process (module `supervise`).
 //! `main` only parses arguments and dispatches: one module per subcommand.
 
 #[macro_use]
@@ -11,6 +13,7 @@ mod common;
 mod gap_cmd;
 mod probe;
 mod simulate;
+mod supervise;
 mod validate;
 
 use clap::{Parser, Subcommand};
@@ -23,11 +26,33 @@ use clap::{Parser, Subcommand};
     after_help = "Exit status: 0 success; 1 validate found problems, or the FMU failed after \
                   initialization (simulate, gap); 2 bad input: usage, unreadable or bad data, \
                   an FMU that cannot be opened, instantiated or initialized, FMI 3.0, an --out \
-                  that is an input."
+                  that is an input, an FMU that crashed or did not return within --timeout; \
+                  130 interrupted (temporary files removed)."
 )]
 struct Cli {
+    /// Internal: this process is the supervised worker; marks FMU calls in this file.
+    #[arg(long, hide = true, value_name = "WATCH")]
+    supervised: Option<std::path::PathBuf>,
+    /// Run in this process, without a supervising process (no crash or hang reports, no
+    /// timeout, no cleanup on signals): for debugging with a debugger.
+    #[arg(long, hide = true)]
+    in_process: bool,
     #[command(subcommand)]
     command: Command,
+}
+
+impl Command {
+    /// How to supervise the command; None for the internal probe (validate supervises it).
+    fn supervision(&self) -> Option<supervise::Supervision> {
+        let secs = |t: f64| (t > 0.0).then(|| std::time::Duration::from_secs_f64(t));
+        let (fmu, call_timeout) = match self {
+            Command::Simulate(a) => (a.fmu.display().to_string(), secs(a.timeout)),
+            Command::Gap(a) => (a.fmu.display().to_string(), secs(a.timeout)),
+            Command::Validate(a) => (a.fmus[0].display().to_string(), None),
+            Command::Probe(_) => return None,
+        };
+        Some(supervise::Supervision { fmu, call_timeout })
+    }
 }
 
 #[derive(Subcommand)]
@@ -45,11 +70,17 @@ enum Command {
 
 fn main() {
     let cli = Cli::parse();
-    let result = match cli.command {
-        Command::Simulate(a) => simulate::run(a),
-        Command::Validate(a) => validate::run(a),
-        Command::Gap(a) => gap_cmd::run(a),
-        Command::Probe(a) => probe::run(a),
+    let result = match (&cli.supervised, cli.command.supervision()) {
+        (None, Some(s)) if !cli.in_process => supervise::run(s),
+        _ => {
+            if let Some(path) = &cli.supervised {
+                if let Err(e) = host::watch::attach(path) {
+                    eprintln!("actuator-fmu: error: cannot attach to the supervisor: {e}");
+                    std::process::exit(2);
+                }
+            }
+            dispatch(cli.command)
+        }
     };
     match result {
         Ok(code) => std::process::exit(code),
@@ -57,5 +88,14 @@ fn main() {
             eprintln!("actuator-fmu: error: {}", e.message);
             std::process::exit(e.code);
         }
+    }
+}
+
+fn dispatch(command: Command) -> common::CliResult {
+    match command {
+        Command::Simulate(a) => simulate::run(a),
+        Command::Validate(a) => validate::run(a),
+        Command::Gap(a) => gap_cmd::run(a),
+        Command::Probe(a) => probe::run(a),
     }
 }

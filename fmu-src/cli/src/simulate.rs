@@ -30,6 +30,13 @@ pub struct Args {
     /// Output CSV: time and every output.
     #[arg(long)]
     pub out: PathBuf,
+    /// Longest one FMU call may take [s] before the run is stopped as hung (0: no limit).
+    #[arg(long, default_value_t = 60.0, value_name = "SECONDS")]
+    pub timeout: f64,
+    /// Python interpreter whose runtime an FMU needing one (made by PythonFMU) gets
+    /// (default: python3 on PATH).
+    #[arg(long, value_name = "PATH")]
+    pub python: Option<PathBuf>,
 }
 
 /// A round step that divides `span` into 500 to 1000 steps (FMPy's `auto_interval`, so both
@@ -62,7 +69,10 @@ pub fn run(a: Args) -> CliResult {
     let mut inputs = vec![a.fmu.as_path()];
     inputs.extend(a.data.as_deref());
     refuse_overwriting(&a.out, &inputs)?;
-    let fmu = Fmu::open(&a.fmu).map_err(CliError::input)?;
+    let opts = host::OpenOptions {
+        python: a.python.clone(),
+    };
+    let fmu = Fmu::open_with(&a.fmu, &opts).map_err(CliError::input)?;
     let md = fmu.model_description();
     let start_values = parse_sets(md, &a.set)?;
     let de = md.default_experiment.clone().unwrap_or_default();

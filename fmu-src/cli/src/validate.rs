@@ -117,18 +117,6 @@ fn validate_one(path: &Path, timeout: Duration, effects: bool) -> Result<Checked
     Ok((findings, binaries))
 }
 
-fn signal_name(sig: i32) -> &'static str {
-    match sig {
-        4 => "SIGILL",
-        6 => "SIGABRT",
-        7 => "SIGBUS",
-        8 => "SIGFPE",
-        9 => "SIGKILL",
-        11 => "SIGSEGV",
-        _ => "signal",
-    }
-}
-
 /// Runs the probe in child processes: a case that crashes becomes a finding and the probe is
 /// run again without it, so every case is reported.
 fn run_probe(path: &Path, timeout: Duration) -> Result<Vec<Finding>, CliError> {
@@ -235,7 +223,7 @@ fn run_probe_once(
     let message = match status.signal() {
         Some(sig) => format!(
             "the FMU crashed ({} {sig}) during this probe step",
-            signal_name(sig)
+            crate::supervise::signal_name(sig)
         ),
         None => format!("the probe process ended with {status} during this probe step"),
     };

@@ -184,6 +184,7 @@ pub enum LoadError {
 /// # Safety
 /// Loading runs the library's initialisers; the binary must be a trusted FMU.
 pub unsafe fn load_library(path: &Path) -> Result<Library, LoadError> {
+    let _watch = crate::watch::enter(crate::watch::Call::Load, None);
     Library::new(path).map_err(|e| {
         // dlerror() repeats the path: keep only what follows it.
         let msg = e.to_string();

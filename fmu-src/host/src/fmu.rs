@@ -256,10 +256,23 @@ pub struct Fmu {
     extracted: Extracted,
 }
 
+/// How to open an FMU.
+#[derive(Clone, Debug, Default)]
+pub struct OpenOptions {
+    /// The Python interpreter whose runtime a binary that needs one (PythonFMU) gets; None:
+    /// `python3` on PATH.
+    pub python: Option<PathBuf>,
+}
+
 impl Fmu {
     /// Opens an `.fmu` (or an extracted FMU directory), parses the description and loads
     /// `binaries/linux64/<modelIdentifier>.so`, resolving the FMI 2.0 functions.
     pub fn open(path: impl AsRef<Path>) -> Result<Fmu> {
+        Fmu::open_with(path, &OpenOptions::default())
+    }
+
+    /// [`Fmu::open`] with options.
+    pub fn open_with(path: impl AsRef<Path>, opts: &OpenOptions) -> Result<Fmu> {
         let extracted = Extracted::open(path)?;
         let bin = extracted.binary_path()?;
         if !bin.is_file() {
@@ -279,6 +292,9 @@ impl Fmu {
             path: extracted.path.clone(),
             message: format!("{rel} {message}"),
         };
+        if crate::python::needs_python(&bin) {
+            crate::python::ensure_runtime(&extracted.path, opts.python.as_deref())?;
+        }
         // SAFETY: loading an FMU's binary is the purpose of the host; the FMU is trusted.
         let library = unsafe { ffi::load_library(&bin) }.map_err(bad)?;
         // SAFETY: the symbols are FMI 2.0 functions with the standard signatures.

@@ -3,6 +3,7 @@
 use crate::error::{HostError, LogRecord, Result, Status};
 use crate::ffi::{self, CallbackFunctions, Component, FmuState, LogEnv, LogSink, RawStatus};
 use crate::fmu::Fmu;
+use crate::watch::{self, Call};
 use ffi::Fmi2Boolean;
 use std::ffi::{c_char, c_int, c_void, CString};
 use std::sync::atomic::Ordering;
@@ -104,6 +105,7 @@ impl Fmu {
             step_finished: None,
             component_environment: &mut *env as *mut LogEnv as *mut c_void,
         });
+        let _watch = watch::enter(Call::Instantiate, None);
         // SAFETY: all pointers are valid NUL-terminated strings / boxed structs that outlive
         // the instance (they are owned by it).
         let component = unsafe {
@@ -175,6 +177,7 @@ impl<'a> Instance<'a> {
         start_time: f64,
         stop_time: Option<f64>,
     ) -> Result<Status> {
+        let _watch = watch::enter(Call::SetupExperiment, Some(start_time));
         // SAFETY: component is a live instance of this binary.
         let raw = unsafe {
             (self.fmu.functions.setup_experiment)(
@@ -191,6 +194,7 @@ impl<'a> Instance<'a> {
 
     /// fmi2EnterInitializationMode
     pub fn enter_initialization_mode(&mut self) -> Result<Status> {
+        let _watch = watch::enter(Call::EnterInitializationMode, None);
         // SAFETY: component is a live instance of this binary.
         let raw = unsafe { (self.fmu.functions.enter_initialization_mode)(self.component) };
         self.check("fmi2EnterInitializationMode", raw)
@@ -198,6 +202,7 @@ impl<'a> Instance<'a> {
 
     /// fmi2ExitInitializationMode
     pub fn exit_initialization_mode(&mut self) -> Result<Status> {
+        let _watch = watch::enter(Call::ExitInitializationMode, None);
         // SAFETY: component is a live instance of this binary.
         let raw = unsafe { (self.fmu.functions.exit_initialization_mode)(self.component) };
         self.check("fmi2ExitInitializationMode", raw)
@@ -205,6 +210,7 @@ impl<'a> Instance<'a> {
 
     /// fmi2Terminate
     pub fn terminate(&mut self) -> Result<Status> {
+        let _watch = watch::enter(Call::Terminate, None);
         // SAFETY: component is a live instance of this binary.
         let raw = unsafe { (self.fmu.functions.terminate)(self.component) };
         self.check("fmi2Terminate", raw)
@@ -212,6 +218,7 @@ impl<'a> Instance<'a> {
 
     /// fmi2Reset: back to the state after fmi2Instantiate (start values restored).
     pub fn reset(&mut self) -> Result<Status> {
+        let _watch = watch::enter(Call::Reset, None);
         // SAFETY: component is a live instance of this binary.
         let raw = unsafe { (self.fmu.functions.reset)(self.component) };
         self.check("fmi2Reset", raw)
@@ -219,6 +226,7 @@ impl<'a> Instance<'a> {
 
     /// fmi2DoStep(currentCommunicationPoint, communicationStepSize, noSetFMUStatePriorToCurrentPoint)
     pub fn do_step(&mut self, t: f64, h: f64, no_set_prior: bool) -> Result<Status> {
+        let _watch = watch::enter(Call::DoStep, Some(t));
         // SAFETY: component is a live instance of this binary.
         let raw =
             unsafe { (self.fmu.functions.do_step)(self.component, t, h, no_set_prior as c_int) };
@@ -228,6 +236,7 @@ impl<'a> Instance<'a> {
     /// fmi2GetReal into `out` (same length as `vrs`).
     pub fn get_real(&mut self, vrs: &[u32], out: &mut [f64]) -> Result<Status> {
         check_len(vrs.len(), out.len())?;
+        let _watch = watch::enter(Call::Get, None);
         // SAFETY: both slices have vrs.len() elements.
         let raw = unsafe {
             (self.fmu.functions.get_real)(self.component, vrs.as_ptr(), vrs.len(), out.as_mut_ptr())
@@ -238,6 +247,7 @@ impl<'a> Instance<'a> {
     /// fmi2SetReal
     pub fn set_real(&mut self, vrs: &[u32], values: &[f64]) -> Result<Status> {
         check_len(vrs.len(), values.len())?;
+        let _watch = watch::enter(Call::Set, None);
         // SAFETY: both slices have vrs.len() elements.
         let raw = unsafe {
             (self.fmu.functions.set_real)(self.component, vrs.as_ptr(), vrs.len(), values.as_ptr())
@@ -248,6 +258,7 @@ impl<'a> Instance<'a> {
     /// fmi2GetInteger
     pub fn get_integer(&mut self, vrs: &[u32], out: &mut [i32]) -> Result<Status> {
         check_len(vrs.len(), out.len())?;
+        let _watch = watch::enter(Call::Get, None);
         // SAFETY: both slices have vrs.len() elements; c_int is i32 on this platform.
         let raw = unsafe {
             (self.fmu.functions.get_integer)(
@@ -263,6 +274,7 @@ impl<'a> Instance<'a> {
     /// fmi2SetInteger
     pub fn set_integer(&mut self, vrs: &[u32], values: &[i32]) -> Result<Status> {
         check_len(vrs.len(), values.len())?;
+        let _watch = watch::enter(Call::Set, None);
         // SAFETY: both slices have vrs.len() elements.
         let raw = unsafe {
             (self.fmu.functions.set_integer)(
@@ -279,6 +291,7 @@ impl<'a> Instance<'a> {
     pub fn get_boolean(&mut self, vrs: &[u32], out: &mut [bool]) -> Result<Status> {
         check_len(vrs.len(), out.len())?;
         let mut raw_vals = vec![0 as c_int; vrs.len()];
+        let _watch = watch::enter(Call::Get, None);
         // SAFETY: both buffers have vrs.len() elements.
         let raw = unsafe {
             (self.fmu.functions.get_boolean)(
@@ -299,6 +312,7 @@ impl<'a> Instance<'a> {
     pub fn set_boolean(&mut self, vrs: &[u32], values: &[bool]) -> Result<Status> {
         check_len(vrs.len(), values.len())?;
         let raw_vals: Vec<c_int> = values.iter().map(|&b| b as c_int).collect();
+        let _watch = watch::enter(Call::Set, None);
         // SAFETY: both buffers have vrs.len() elements.
         let raw = unsafe {
             (self.fmu.functions.set_boolean)(
@@ -319,6 +333,7 @@ impl<'a> Instance<'a> {
             .get_string
             .ok_or_else(|| missing("fmi2GetString"))?;
         let mut ptrs: Vec<*const c_char> = vec![std::ptr::null(); vrs.len()];
+        let _watch = watch::enter(Call::Get, None);
         // SAFETY: both buffers have vrs.len() elements.
         let raw = unsafe { f(self.component, vrs.as_ptr(), vrs.len(), ptrs.as_mut_ptr()) };
         self.check("fmi2GetString", raw)?;
@@ -351,6 +366,7 @@ impl<'a> Instance<'a> {
             .collect::<std::result::Result<_, _>>()
             .map_err(|_| HostError::Request("string value contains a NUL byte".into()))?;
         let ptrs: Vec<*const c_char> = owned.iter().map(|c| c.as_ptr()).collect();
+        let _watch = watch::enter(Call::Set, None);
         // SAFETY: both buffers have vrs.len() elements; the strings outlive the call.
         let raw = unsafe { f(self.component, vrs.as_ptr(), vrs.len(), ptrs.as_ptr()) };
         self.check("fmi2SetString", raw)
@@ -374,6 +390,7 @@ impl<'a> Instance<'a> {
         } else {
             ptrs.as_ptr()
         };
+        let _watch = watch::enter(Call::Other, None);
         // SAFETY: ptrs has ptrs.len() valid C strings (or NULL with 0).
         let raw = unsafe { f(self.component, on as c_int, ptrs.len(), cats) };
         self.check("fmi2SetDebugLogging", raw)
@@ -387,6 +404,7 @@ impl<'a> Instance<'a> {
             .get_status
             .ok_or_else(|| missing("fmi2GetStatus"))?;
         let mut value: RawStatus = 0;
+        let _watch = watch::enter(Call::Other, None);
         // SAFETY: value is a valid out pointer.
         let raw = unsafe { f(self.component, kind, &mut value) };
         self.check("fmi2GetStatus", raw)?;
@@ -402,6 +420,7 @@ impl<'a> Instance<'a> {
             .get_boolean_status
             .ok_or_else(|| missing("fmi2GetBooleanStatus"))?;
         let mut value: Fmi2Boolean = 0;
+        let _watch = watch::enter(Call::Other, None);
         // SAFETY: value is a valid out pointer.
         let raw = unsafe { f(self.component, 3, &mut value) };
         self.check("fmi2GetBooleanStatus", raw)?;
@@ -416,6 +435,7 @@ impl<'a> Instance<'a> {
             .get_real_status
             .ok_or_else(|| missing("fmi2GetRealStatus"))?;
         let mut value = 0.0;
+        let _watch = watch::enter(Call::Other, None);
         // SAFETY: value is a valid out pointer.
         let raw = unsafe { f(self.component, 2, &mut value) };
         self.check("fmi2GetRealStatus", raw)?;
@@ -430,6 +450,7 @@ impl<'a> Instance<'a> {
             .get_fmu_state
             .ok_or_else(|| missing("fmi2GetFMUstate"))?;
         let mut state: FmuState = std::ptr::null_mut();
+        let _watch = watch::enter(Call::FmuState, None);
         // SAFETY: state is a valid out pointer (NULL asks the FMU to allocate).
         let raw = unsafe { f(self.component, &mut state) };
         self.check("fmi2GetFMUstate", raw)?;
@@ -451,6 +472,7 @@ impl<'a> Instance<'a> {
                 "FMU state does not belong to this instance".into(),
             ));
         }
+        let _watch = watch::enter(Call::FmuState, None);
         // SAFETY: the state was produced by this instance and not yet freed.
         let raw = unsafe { f(self.component, state.raw) };
         self.check("fmi2SetFMUstate", raw)
@@ -474,6 +496,7 @@ impl<'a> Instance<'a> {
             ));
         }
         let mut size = 0usize;
+        let _watch = watch::enter(Call::FmuState, None);
         // SAFETY: valid state of this instance, valid out pointer.
         let raw = unsafe { fs(self.component, state.raw, &mut size) };
         self.check("fmi2SerializedFMUstateSize", raw)?;
@@ -499,6 +522,7 @@ impl<'a> Instance<'a> {
             .deserialize_fmu_state
             .ok_or_else(|| missing("fmi2DeSerializeFMUstate"))?;
         let mut state: FmuState = std::ptr::null_mut();
+        let _watch = watch::enter(Call::FmuState, None);
         // SAFETY: bytes is a valid buffer of its length; state is a valid out pointer.
         let raw = unsafe {
             f(
@@ -529,6 +553,7 @@ impl<'a> Instance<'a> {
         };
         self.states.swap_remove(pos);
         let mut raw_state = state.raw;
+        let _watch = watch::enter(Call::FmuState, None);
         // SAFETY: state produced by this instance, removed from the list so freed once.
         let raw = unsafe { f(self.component, &mut raw_state) };
         self.check("fmi2FreeFMUstate", raw)
@@ -544,10 +569,12 @@ impl Drop for Instance<'_> {
     fn drop(&mut self) {
         if let Some(f) = self.fmu.functions.free_fmu_state {
             for mut s in std::mem::take(&mut self.states) {
+                let _watch = watch::enter(Call::FmuState, None);
                 // SAFETY: each state was produced by this instance and is freed once.
                 unsafe { f(self.component, &mut s) };
             }
         }
+        let _watch = watch::enter(Call::FreeInstance, None);
         // SAFETY: component is live; freed exactly once here.
         unsafe { (self.fmu.functions.free_instance)(self.component) };
         self.fmu.live_instances.fetch_sub(1, Ordering::SeqCst);

@@ -7,6 +7,8 @@
 //! - [`simulate`] / [`Simulator`] run a whole simulation from a [`SimulationRequest`].
 //! - [`csv`] reads measured/input CSV files with located errors and writes results.
 //! - [`validate`] checks a model description and probes a binary's state machine.
+//! - [`watch`] marks each FMI call on a page a supervising process reads (crash and hang
+//!   reports); [`python`] provides the Python runtime PythonFMU binaries expect.
 #![warn(missing_docs)]
 
 pub mod binary;
@@ -16,14 +18,16 @@ pub mod ffi;
 mod fmu;
 mod instance;
 pub mod md;
+pub mod python;
 mod simulate;
 pub mod validate;
+pub mod watch;
 
 pub use error::{HostError, LogRecord, Result, Status};
-pub use fmu::{file_uri, Extracted, Fmu, LIB_SUFFIX, PLATFORM};
+pub use fmu::{file_uri, Extracted, Fmu, OpenOptions, LIB_SUFFIX, PLATFORM};
 pub use instance::{FmuStateHandle, Instance, InstanceOptions};
 pub use md::ModelDescription;
 pub use simulate::{
-    communication_points, interpolate, simulate, InputSeries, SimulationRequest, SimulationResult,
-    Simulator, Value,
+    communication_points, hold_index, interpolate, simulate, InputSeries, SimulationRequest,
+    SimulationResult, Simulator, TextColumns, Value,
 };

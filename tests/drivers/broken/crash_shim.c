@@ -2,6 +2,8 @@
  * forwards every FMI 2.0 call to the real binary of the FMU (renamed to real_<id>.so next to it)
  * but dereferences NULL when fmi2DoStep is called on an instance that is not initialized (before
  * fmi2ExitInitializationMode, or after fmi2Terminate/fmi2Reset): a crash on a wrong call order.
+ * With -DFAIL_AT=T it also crashes (or, with -DHANG, never returns) in any fmi2DoStep starting at
+ * t >= T: a foreign FMU failing in the middle of a correct run.
  * Build: gcc -shared -fPIC -DMODEL_ID=\"Oscillator\" -o Oscillator.so crash_shim.c -ldl */
 #define _GNU_SOURCE
 #include <dlfcn.h>
@@ -9,6 +11,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #ifndef MODEL_ID
 #error "define MODEL_ID"
@@ -117,5 +120,16 @@ S fmi2DoStep(C c, double t, double h, int no_prior) {
         volatile int *null = NULL;
         *null = 42; /* the deliberate bug: crash on a wrong call order */
     }
+#ifdef FAIL_AT
+    /* -DFAIL_AT=T: a step starting at or after T crashes, or with -DHANG never returns */
+    if (t >= FAIL_AT) {
+#ifdef HANG
+        for (;;) pause();
+#else
+        volatile int *null = NULL;
+        *null = 42;
+#endif
+    }
+#endif
     return real_do_step(c, t, h, no_prior);
 }
