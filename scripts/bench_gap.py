@@ -94,16 +94,24 @@ def main():
         data = Path(d) / "trace.csv"
         gapgen.write_csv(ds, data)
         out = Path(d) / "report"
-        t0 = time.perf_counter()
-        subprocess.run([str(REPO / "target/release/actuator-fmu"), "gap", str(REPO / f"dist/{MODEL}.fmu"),
-                        "--data", str(data), "--out", str(out)], check=True,
-                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        wall = time.perf_counter() - t0
+        def gap(*extra):
+            t0 = time.perf_counter()
+            subprocess.run([str(REPO / "target/release/actuator-fmu"), *extra, "gap",
+                            str(REPO / f"dist/{MODEL}.fmu"), "--data", str(data), "--out", str(out)],
+                           check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            return time.perf_counter() - t0
+
+        wall = gap()
         report = json.loads((out / "report.json").read_text())
+        # The same run without the supervising process (crash/hang reports, cleanup on signals):
+        # the cost of isolation, same work in the same session.
+        bare = gap("--in-process")
     timing = report["timing"]
     print(f"gap time {wall:.1f} s wall for a {DURATION:g} s trace at 1 kHz ({MODEL}, hidden "
           f"internal_leakage, named {report['named']}); split: simulate {timing['simulate_s']:.1f} s, "
           f"fit {timing['fit_s']:.1f} s, total {timing['total_s']:.1f} s", flush=True)
+    print(f"gap isolation cost {100 * (wall / bare - 1):+.1f} % (supervised worker {wall:.2f} s, "
+          f"in-process {bare:.2f} s, same run)", flush=True)
     py = PythonWorkflow(ds, MODEL).run()
     print(f"gap speedup {py['seconds'] / wall:.1f}x against the Python workflow doing the same "
           f"steps (FMPy + SciPy: calibrate {', '.join(names)}, screen every candidate, refit the "

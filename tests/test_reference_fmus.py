@@ -158,3 +158,57 @@ def test_an_fmu_that_ends_the_run_stops_cleanly_at_its_last_successful_time(tmp_
     assert header == ["time", "counter"]
     assert float(rows[-1][0]) == 9.0 and rows[-1][1] == "10", rows[-3:]
     assert all(float(a[0]) < float(b[0]) for a, b in zip(rows, rows[1:]))
+
+
+GAIN_SLAVE = '''
+from pythonfmu import Fmi2Causality, Fmi2Slave, Real
+
+
+class Gain(Fmi2Slave):
+    description = "y = k * u"
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self.k = 2.0
+        self.u = 0.0
+        self.y = 0.0
+        self.register_variable(Real("k", causality=Fmi2Causality.parameter, variability="fixed"))
+        self.register_variable(Real("u", causality=Fmi2Causality.input))
+        self.register_variable(Real("y", causality=Fmi2Causality.output))
+
+    def do_step(self, current_time, step_size):
+        self.y = self.k * self.u
+        return True
+'''
+
+
+@pytest.fixture(scope="module")
+def python_fmu(tmp_path_factory):
+    """An FMU made by PythonFMU: its binary calls the CPython API without linking libpython."""
+    pytest.importorskip("pythonfmu")
+    d = tmp_path_factory.mktemp("pythonfmu")
+    (d / "Gain.py").write_text(GAIN_SLAVE)
+    subprocess.run([sys.executable, "-m", "pythonfmu", "build", "-f", str(d / "Gain.py"), "-d", str(d)],
+                   check=True, capture_output=True)
+    return d / "Gain.fmu"
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="linux64 binaries only")
+def test_a_pythonfmu_fmu_runs_with_the_python_runtime_loaded_first(python_fmu, tmp_path):
+    (tmp_path / "in.csv").write_text("time,u\n0,1\n0.1,2\n0.2,3\n")
+    r = run("simulate", python_fmu, "--data", tmp_path / "in.csv", "--out", tmp_path / "o.csv",
+            "--python", sys.executable)
+    assert r.returncode == 0, r.stderr
+    header, rows = read_csv(tmp_path / "o.csv")
+    assert header == ["time", "y"]
+    # y after a step is k times the input set before it (k = 2)
+    assert [float(row[1]) for row in rows] == [0.0, 2.0, 4.0], rows
+
+
+def test_a_pythonfmu_fmu_without_a_python_runtime_gets_one_line_saying_what_it_needs(python_fmu, tmp_path):
+    (tmp_path / "in.csv").write_text("time,u\n0,1\n0.1,2\n")
+    r = run("simulate", python_fmu, "--data", tmp_path / "in.csv", "--out", tmp_path / "o.csv",
+            "--python", tmp_path / "no-such-python")
+    assert r.returncode == 2, r.stderr
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "needs a Python runtime" in lines[0] and "--python" in lines[0], lines

@@ -253,11 +253,7 @@ fn read_bounded(path: &Path) -> Result<Vec<u8>, (usize, String)> {
 
 /// A cell as shown in a message: at most 40 characters, control characters escaped.
 fn shown(cell: &str) -> String {
-    let mut out: String = cell.chars().take(40).flat_map(char::escape_debug).collect();
-    if cell.chars().count() > 40 {
-        out.push_str("...");
-    }
-    out
+    crate::error::shown(cell, 40)
 }
 
 /// Splits one CSV line into its fields (RFC 4180): a field in double quotes may hold commas and

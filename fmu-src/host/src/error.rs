@@ -24,14 +24,41 @@ impl fmt::Display for LogRecord {
     }
 }
 
-/// Formats logged messages after an error: `: msg1; msg2`, or nothing.
+/// Text from outside (an FMU's log, a data cell) as shown in a one-line message: at most `max`
+/// characters, control characters (newlines, NUL, escape sequences) escaped.
+pub fn shown(text: &str, max: usize) -> String {
+    let mut out: String = text
+        .chars()
+        .take(max)
+        .flat_map(char::escape_debug)
+        .collect();
+    if text.chars().count() > max {
+        out.push_str("...");
+    }
+    out
+}
+
+/// Most logged messages quoted after an error, and the characters of each.
+const SHOWN_MESSAGES: usize = 3;
+const SHOWN_MESSAGE_CHARS: usize = 200;
+
+/// Formats logged messages after an error: ` (FMU log: msg1; msg2)`, or nothing. An FMU may log
+/// without bound: the last three messages are quoted, each cut and escaped, so the error stays
+/// one short line.
 fn fmt_messages(messages: &[LogRecord]) -> String {
     if messages.is_empty() {
-        String::new()
-    } else {
-        let joined: Vec<String> = messages.iter().map(|m| m.message.clone()).collect();
-        format!(" (FMU log: {})", joined.join("; "))
+        return String::new();
     }
+    let skip = messages.len().saturating_sub(SHOWN_MESSAGES);
+    let joined: Vec<String> = messages[skip..]
+        .iter()
+        .map(|m| shown(&m.message, SHOWN_MESSAGE_CHARS))
+        .collect();
+    let earlier = match skip {
+        0 => String::new(),
+        n => format!("{n} earlier message(s), then: "),
+    };
+    format!(" (FMU log: {earlier}{})", joined.join("; "))
 }
 
 /// Every failure of the host.

@@ -54,6 +54,21 @@ fn cstr_lossy(p: *const c_char) -> String {
     }
 }
 
+/// Longest message kept (bytes): an FMU may log without bound.
+const MAX_MESSAGE_BYTES: usize = 4096;
+
+fn bounded(mut s: String) -> String {
+    if s.len() > MAX_MESSAGE_BYTES {
+        let mut end = MAX_MESSAGE_BYTES;
+        while !s.is_char_boundary(end) {
+            end -= 1;
+        }
+        s.truncate(end);
+        s.push_str("...");
+    }
+    s
+}
+
 /// Sink called from C: stores the record. Never unwinds across the C boundary.
 pub extern "C" fn log_sink(
     data: *mut c_void,
@@ -72,10 +87,15 @@ pub extern "C" fn log_sink(
             instance: cstr_lossy(instance),
             status: Status::from_raw(status),
             category: cstr_lossy(category),
-            message: cstr_lossy(message),
+            message: bounded(cstr_lossy(message)),
         };
         if sink.echo {
-            eprintln!("{} {}: {}", record.instance, record.status, record.message);
+            eprintln!(
+                "{} {}: {}",
+                crate::error::shown(&record.instance, 40),
+                record.status,
+                crate::error::shown(&record.message, 1000)
+            );
         }
         if let Ok(mut r) = sink.records.lock() {
             if r.len() < 10_000 {

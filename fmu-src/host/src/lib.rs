@@ -23,7 +23,7 @@ mod simulate;
 pub mod validate;
 pub mod watch;
 
-pub use error::{HostError, LogRecord, Result, Status};
+pub use error::{shown, HostError, LogRecord, Result, Status};
 pub use fmu::{file_uri, Extracted, Fmu, OpenOptions, LIB_SUFFIX, PLATFORM};
 pub use instance::{FmuStateHandle, Instance, InstanceOptions};
 pub use md::ModelDescription;
