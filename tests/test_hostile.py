@@ -254,3 +254,19 @@ def test_validate_leaves_no_temporary_files_even_when_the_probe_crashes(tmp_path
     res = run_in(tmp_path / "tmp", "validate", fmu)
     assert res.returncode == 1, res.stdout + res.stderr
     assert list((tmp_path / "tmp").iterdir()) == []
+
+
+def test_a_symbolic_link_entry_is_refused_naming_the_entry_not_a_temporary_path(tmp_path):
+    link = zipfile.ZipInfo("resources/passwd")
+    link.create_system = 3  # unix
+    link.external_attr = (0o120777 << 16)  # S_IFLNK
+    fmu = tmp_path / "link.fmu"
+    with zipfile.ZipFile(fmu_path("Oscillator")) as zin, \
+            zipfile.ZipFile(fmu, "w", zipfile.ZIP_DEFLATED) as zout:
+        for item in zin.infolist():
+            zout.writestr(item, zin.read(item.filename))
+        zout.writestr(link, "/etc/passwd")
+    res = run_in(tmp_path / "tmp", "simulate", fmu, "--data", data_csv(tmp_path / "d.csv"),
+                 "--out", tmp_path / "o.csv")
+    assert_one_bounded_message(res, "resources/passwd", "symbolic link")
+    assert str(tmp_path / "tmp") not in res.stderr and "fmu-host-" not in res.stderr

@@ -183,10 +183,14 @@ fn extract(archive: &Path, dest: &Path) -> Result<()> {
             return Err(bad(format!("entry '{}' escapes the archive", entry.name())));
         };
         let out = dest.join(rel);
-        let io = |source| HostError::Io {
-            path: out.clone(),
-            source,
-        };
+        let name = crate::error::shown(entry.name(), 80);
+        // Messages name the entry in the archive, never the temporary directory.
+        let io = |e: std::io::Error| bad(format!("entry '{name}' cannot be extracted: {e}"));
+        if entry.is_symlink() {
+            return Err(bad(format!(
+                "entry '{name}' is a symbolic link: an FMU holds regular files only"
+            )));
+        }
         if entry.is_dir() {
             std::fs::create_dir_all(&out).map_err(io)?;
             continue;
@@ -194,7 +198,6 @@ fn extract(archive: &Path, dest: &Path) -> Result<()> {
         if let Some(parent) = out.parent() {
             std::fs::create_dir_all(parent).map_err(io)?;
         }
-        let name = entry.name().chars().take(80).collect::<String>();
         let ratio = entry.size() / entry.compressed_size().max(1);
         if entry.size() > MAX_ENTRY_BYTES || (entry.size() > 1 << 20 && ratio > MAX_RATIO) {
             return Err(bad(format!(
