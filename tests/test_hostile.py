@@ -270,3 +270,11 @@ def test_a_symbolic_link_entry_is_refused_naming_the_entry_not_a_temporary_path(
                  "--out", tmp_path / "o.csv")
     assert_one_bounded_message(res, "resources/passwd", "symbolic link")
     assert str(tmp_path / "tmp") not in res.stderr and "fmu-host-" not in res.stderr
+
+
+def test_a_run_that_would_record_more_than_memory_allows_is_refused(tmp_path):
+    """1e8 communication points of 2 outputs: refused before anything is allocated."""
+    res = run("simulate", fmu_path("Oscillator"), "--stop", "10", "--step", "1e-7",
+              "--out", tmp_path / "o.csv")
+    assert_one_bounded_message(res, "would record", "use a larger step")
+    assert not (tmp_path / "o.csv").exists()

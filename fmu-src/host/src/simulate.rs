@@ -301,6 +301,16 @@ fn run_on(inst: &mut Instance<'_>, req: &SimulationRequest) -> Result<Simulation
     } else {
         req.outputs.clone()
     };
+    let values = times.len().saturating_mul(out_names.len().max(1));
+    if values > MAX_RECORDED_VALUES {
+        return Err(HostError::Request(format!(
+            "{} communication points x {} outputs would record {values} values (limit \
+             {MAX_RECORDED_VALUES}, {} MB): use a larger step or fewer outputs",
+            times.len(),
+            out_names.len(),
+            MAX_RECORDED_VALUES * 8 >> 20
+        )));
+    }
     let mut rec = Recorder::new(md, out_names, times.len())?;
 
     starts.apply(inst)?;
@@ -346,6 +356,10 @@ fn run_on(inst: &mut Instance<'_>, req: &SimulationRequest) -> Result<Simulation
         ended_by_fmu,
     })
 }
+
+/// Most values one run records (8 bytes each): a step far too small for the interval, or an FMU
+/// with very many outputs, ends in a message rather than in exhausted memory.
+pub const MAX_RECORDED_VALUES: usize = 1 << 27;
 
 /// Start values grouped by type, checked against the model description.
 #[derive(Default)]
