@@ -308,7 +308,7 @@ fn run_on(inst: &mut Instance<'_>, req: &SimulationRequest) -> Result<Simulation
              {MAX_RECORDED_VALUES}, {} MB): use a larger step or fewer outputs",
             times.len(),
             out_names.len(),
-            MAX_RECORDED_VALUES * 8 >> 20
+            (MAX_RECORDED_VALUES * 8) >> 20
         )));
     }
     let mut rec = Recorder::new(md, out_names, times.len())?;
