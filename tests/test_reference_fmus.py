@@ -212,3 +212,23 @@ def test_a_pythonfmu_fmu_without_a_python_runtime_gets_one_line_saying_what_it_n
     assert r.returncode == 2, r.stderr
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and "needs a Python runtime" in lines[0] and "--python" in lines[0], lines
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="the fixtures hold linux64 binaries only")
+def test_gap_runs_on_a_foreign_fmu_with_string_variables(tmp_path):
+    """Feedthrough's outputs include a String and an Enumeration: gap compares the numeric
+    columns of the data and ignores the rest. The data are the FMU's own response (the output
+    after a step is the input set before it), so nothing is missing."""
+    t = np.round(np.arange(0.0, 2.0 + 1e-9, 0.01), 10)
+    u = np.sin(3 * t)
+    y = np.concatenate([[0.0], u[:-1]])
+    with open(tmp_path / "d.csv", "w") as f:
+        f.write("time,Float64_continuous_input,Float64_continuous_output\n")
+        for row in zip(t, u, y):
+            f.write(",".join(repr(float(x)) for x in row) + "\n")
+    r = run("gap", REF / "Feedthrough.fmu", "--data", tmp_path / "d.csv", "--out", tmp_path / "g",
+            "--fit", "Float64_tunable_parameter", "--quiet")
+    assert r.returncode == 0, r.stderr
+    report = json.loads((tmp_path / "g" / "report.json").read_text())
+    assert report["named"] == []
+    assert report["outputs"]["Float64_continuous_output"]["rmse_after"] < 1e-9
