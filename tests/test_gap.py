@@ -268,6 +268,18 @@ def test_an_effect_the_data_cannot_show_is_reported_as_such(tmp_path, monkeypatc
         assert e not in rep["verdict"].split("cannot reveal")[-1]
     md = (tmp_path / "out" / "report.md").read_text()
     assert "none in range" in md and "Visibility" in md
+    # Plain words first; visibility as a multiple of what naming needs.
+    assert rep["in_short"].startswith("no missing effect found."), rep["in_short"]
+    assert "cannot show gear_backlash" in rep["in_short"], rep["in_short"]
+    assert md.index("**In short:**") < md.index("**Verdict:**")
+    assert "× what naming needs; none in range" in md
+    # The visible candidates were not refitted: the verdict says so and why, never a bare
+    # "no missing effect found" while they were only screened.
+    screened = [c["effect"] for c in rep["candidates"][0] if not c["refit"]
+                and c["visibility"] >= c["visibility_needed"]]
+    assert screened, rep["candidates"][0]  # these data: residuals like noise, nothing refitted
+    for e in screened:
+        assert e in rep["verdict"].split("Only screened, not refitted:")[-1], rep["verdict"]
 
 
 def test_clean_data_wrong_load_mass_is_calibrated_not_named(tmp_path):

@@ -5,12 +5,56 @@ use serde_json::{json, Value};
 use std::fmt::Write as _;
 use std::path::Path;
 
+/// The verdict in plain words for the first line of the report: what was named, and which
+/// candidates these data cannot show at all (the details and the statistics follow).
+pub fn in_short(res: &GapResult) -> String {
+    let mut s = if res.named.is_empty() {
+        "no missing effect found.".to_string()
+    } else {
+        format!(
+            "the data show {} missing from the model: {}.",
+            if res.named.len() == 1 {
+                "an effect"
+            } else {
+                "effects"
+            },
+            res.named.join(", ")
+        )
+    };
+    let hidden: Vec<&str> = res
+        .candidates
+        .last()
+        .map(|r| {
+            r.iter()
+                .filter(|c| !c.detectable())
+                .map(|c| c.effect.as_str())
+                .collect()
+        })
+        .unwrap_or_default();
+    if !hidden.is_empty() {
+        s.push_str(&format!(
+            " These data cannot show {} even at full strength: testing for it needs other \
+             excitation or sensors.",
+            hidden.join(", ")
+        ));
+    }
+    if let Some(u) = &res.unexplained {
+        if res.named.is_empty() {
+            s.push_str(&format!(
+                " The closest candidate, {u}, did not meet the naming criteria."
+            ));
+        }
+    }
+    s
+}
+
 /// The JSON document: `named`, `candidates` (per round, ranked), `parameters`, `outputs`,
 /// `timing`, plus the diagnosis and settings.
 pub fn to_json(res: &GapResult, fmu: &str, data: &str) -> Value {
     json!({
         "fmu": fmu,
         "data": data,
+        "in_short": in_short(res),
         "verdict": res.verdict,
         "warnings": res.warnings,
         "convention_warnings": res.convention_warnings,
@@ -44,6 +88,7 @@ fn g(x: f64) -> String {
 pub fn to_markdown(res: &GapResult, fmu: &str, data: &str, plots: &[String]) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "# Gap report\n\nFMU `{fmu}`, data `{data}` ({} samples; fits on the first {}, the last {:.0} % held out).\n", res.samples, res.train_samples, 100.0 * res.holdout_fraction);
+    let _ = writeln!(s, "**In short:** {}\n", in_short(res));
     let _ = writeln!(s, "**Verdict:** {}\n", res.verdict);
     for w in res.warnings.iter().chain(&res.convention_warnings) {
         let _ = writeln!(s, "**Warning:** {w}\n");
@@ -87,7 +132,7 @@ pub fn to_markdown(res: &GapResult, fmu: &str, data: &str, plots: &[String]) -> 
         if let Some((_, gain)) = res.redone_rounds.iter().find(|x| x.0 == r + 1) {
             let _ = writeln!(s, "Done twice: its base re-check improved the base fit by ΔBIC = {gain:.1}, after which no candidate refitted from the worse base reached the threshold; screened and refitted again from the better base. The table is the second pass.\n");
         }
-        let _ = writeln!(s, "| rank | effect | ΔBIC | screening score | magnitude 95 % CI | held-out SSE with / without | visibility: max Δχ² / needed; weakest detectable setting | verdict |\n|---|---|---|---|---|---|---|---|");
+        let _ = writeln!(s, "| rank | effect | ΔBIC | screening score | magnitude 95 % CI | held-out SSE with / without | visibility: strongest setting, × what naming needs; weakest detectable setting | verdict |\n|---|---|---|---|---|---|---|---|");
         for (i, c) in round.iter().enumerate() {
             let mag = c
                 .magnitude
@@ -100,9 +145,8 @@ pub fn to_markdown(res: &GapResult, fmu: &str, data: &str, plots: &[String]) -> 
             };
             let vis = match c.visibility {
                 Some(v) => format!(
-                    "{} / {:.1}; {}",
-                    g(v),
-                    c.visibility_needed,
+                    "{}; {}",
+                    crate::workflow::visibility_scale(v, c.visibility_needed),
                     c.detectable_from
                         .as_ref()
                         .map(|m| m

@@ -39,6 +39,7 @@ use evidence::*;
 use refit::*;
 use screen::*;
 use setup::*;
+pub use verdict::visibility_scale;
 use verdict::*;
 
 /// z value of a two-sided 95 % interval.
@@ -746,7 +747,9 @@ pub fn run<S: Simulator + ?Sized>(
                     })
                     .collect(),
             );
-            verdict.push_str(&hidden_from_data(rounds.last().expect("just pushed")));
+            let last = rounds.last().expect("just pushed");
+            verdict.push_str(&only_screened(last, cfg.min_delta_bic));
+            verdict.push_str(&hidden_from_data(last));
             break;
         }
         // Refit whatever the linearised evidence (a dead zone or backlash is poorly linearised,
@@ -950,9 +953,8 @@ pub fn run<S: Simulator + ?Sized>(
             c.verdict = format!("not named: {}", why.join("; "));
             if !c.detectable() {
                 c.verdict.push_str(&format!(
-                    "; these data cannot reveal it (at most Δχ² = {:.1} anywhere in its range after the base parameters readjust; naming needs {:.1})",
-                    c.visibility.unwrap_or(0.0),
-                    c.visibility_needed
+                    "; these data cannot reveal it (anywhere in its range, after the base parameters readjust, at most {})",
+                    visibility_scale(c.visibility.unwrap_or(0.0), c.visibility_needed)
                 ));
             }
         }
@@ -1018,6 +1020,7 @@ pub fn run<S: Simulator + ?Sized>(
                     named_names.join(", ")
                 )
             };
+            verdict.push_str(&only_screened(&ranked, cfg.min_delta_bic));
             verdict.push_str(&hidden_from_data(&ranked));
             unexplained = Some(closest);
             rounds.push(ranked);

@@ -17,6 +17,43 @@ pub(super) fn convention_warnings(params: &[ParamSpec], fit_given: bool) -> Vec<
         .collect()
 }
 
+/// A candidate's visibility on a scale an engineer reads at a glance: the most the effect could
+/// explain anywhere in its range as a multiple of what naming it needs ("0.4×": it cannot be
+/// revealed by these data; "2.3e+05×": it would stand out at its strongest setting).
+pub fn visibility_scale(visibility: f64, needed: f64) -> String {
+    if !(visibility.is_finite() && needed > 0.0) {
+        return "unknown".into();
+    }
+    let r = visibility / needed;
+    if r < 0.01 {
+        "< 0.01× what naming needs".into()
+    } else if r < 100.0 {
+        format!("{r:.2}× what naming needs")
+    } else {
+        format!("{r:.1e}× what naming needs")
+    }
+}
+
+/// Verdict sentence for the candidates these data could show but that were only screened, not
+/// refitted (empty if none): why they were not refitted and what "not named" then means.
+pub(super) fn only_screened(round: &[Candidate], min_delta_bic: f64) -> String {
+    let names: Vec<String> = round
+        .iter()
+        .filter(|c| !c.refit && c.visibility.is_some() && c.detectable())
+        .map(|c| format!("{} (linearised ΔBIC {:.1})", c.effect, c.delta_bic))
+        .collect();
+    if names.is_empty() {
+        return String::new();
+    }
+    format!(
+        ". Only screened, not refitted: {}. The data could show each of them from its weakest \
+         detectable setting on (see the table), and the linearised test puts each below the \
+         naming threshold of ΔBIC {min_delta_bic}: none is present at that strength, though a \
+         weaker one, or one the linearisation misjudges (a dead zone), is not ruled out",
+        names.join(", ")
+    )
+}
+
 /// Verdict sentence listing the candidates these data cannot reveal (empty if none): for them
 /// "not named" is no evidence of absence, and the user needs other excitation or sensors.
 pub(super) fn hidden_from_data(round: &[Candidate]) -> String {
@@ -25,10 +62,9 @@ pub(super) fn hidden_from_data(round: &[Candidate]) -> String {
         .filter(|c| !c.detectable())
         .map(|c| {
             format!(
-                "{} (at most Δχ² = {:.1}, naming needs {:.1})",
+                "{} (at its strongest setting {})",
                 c.effect,
-                c.visibility.unwrap_or(0.0),
-                c.visibility_needed
+                visibility_scale(c.visibility.unwrap_or(0.0), c.visibility_needed)
             )
         })
         .collect();
@@ -66,6 +102,47 @@ pub(super) fn reasons(c: &Candidate, min_delta_bic: f64, no_holdout: bool) -> Ve
         why.push("does not lower the held-out error".to_string());
     }
     why
+}
+
+#[cfg(test)]
+mod text_tests {
+    use super::*;
+
+    #[test]
+    fn visibility_reads_as_a_multiple_of_the_threshold() {
+        assert_eq!(visibility_scale(9.0, 18.0), "0.50× what naming needs");
+        assert_eq!(visibility_scale(3.36e6, 18.7), "1.8e5× what naming needs");
+        assert_eq!(visibility_scale(0.0, 18.7), "< 0.01× what naming needs");
+        assert_eq!(visibility_scale(f64::NAN, 18.7), "unknown");
+    }
+
+    #[test]
+    fn a_detectable_candidate_only_screened_is_said_so_with_the_reason() {
+        let mut seen = Candidate::screened_only("backlash", 3.2, 3.2);
+        seen.visibility = Some(500.0);
+        seen.visibility_needed = 18.0;
+        let mut hidden = Candidate::screened_only("leak", 1.0, 1.0);
+        hidden.visibility = Some(2.0);
+        hidden.visibility_needed = 18.0;
+        let s = only_screened(&[seen.clone(), hidden.clone()], 10.0);
+        assert!(
+            s.contains("Only screened, not refitted: backlash (linearised ΔBIC 3.2)"),
+            "{s}"
+        );
+        assert!(s.contains("below the naming threshold of ΔBIC 10"), "{s}");
+        assert!(!s.contains("leak"), "{s}");
+        // an undetectable one goes to the other sentence, on the readable scale
+        let h = hidden_from_data(&[seen, hidden]);
+        assert!(
+            h.contains("leak (at its strongest setting 0.11× what naming needs)"),
+            "{h}"
+        );
+        // a refitted candidate is not "only screened"
+        let mut refitted = Candidate::screened_only("friction", 30.0, 30.0);
+        refitted.refit = true;
+        refitted.visibility = Some(500.0);
+        assert_eq!(only_screened(&[refitted], 10.0), "");
+    }
 }
 
 #[cfg(test)]
