@@ -402,3 +402,23 @@ def test_bad_csv_exits_2_with_location(tmp_path):
     nooutput.write_text("time,theta_ref\n" + "".join(f"{i*0.01},0\n" for i in range(30)))
     p = gap(model, nooutput, tmp_path / "out")
     assert p.returncode == 2 and "noout.csv:1" in p.stderr, p.stderr
+
+
+def test_a_sensor_offset_is_reported_as_such_never_as_an_effect(tmp_path):
+    """HydraulicJoint data without any effect, the joint angle read 5 noise levels too high (a
+    sensor zero error): nothing is named, and a warning names the output and the offset (the
+    mean of model − data, about −5σ), telling the user what to do."""
+    fmu_path("HydraulicJoint")
+    ds = gapgen.make("HydraulicJoint", 910001, (), duration=DURATION, rate=RATE)
+    sigma = ds["noise_sigma"]["theta"]
+    ds["outputs"]["theta"] = np.asarray(ds["outputs"]["theta"]) + 5 * sigma
+    csv = tmp_path / "offset.csv"
+    gapgen.write_csv(ds, csv, comment="test data: HydraulicJoint, no effect, theta offset +5 sigma")
+    rep = run_ok("HydraulicJoint", csv, tmp_path / "out")
+    assert rep["named"] == [], rep["verdict"]
+    warned = [w for w in rep["warnings"] if w.startswith("theta:") and "offset" in w]
+    assert warned, rep["warnings"]
+    mean = rep["outputs"]["theta"]["mean_after"]
+    assert -6 * sigma < mean < -4 * sigma, (mean, sigma)
+    # the other outputs carry no such warning
+    assert not [w for w in rep["warnings"] if "offset" in w and not w.startswith("theta:")]

@@ -269,6 +269,33 @@ pub(super) fn far_from_data_warning(outputs: &BTreeMap<String, OutputErrors>) ->
     ))
 }
 
+/// One warning per output whose remaining error after the final fit is mostly a constant offset:
+/// `mean² ≥ 0.5 RMSE²` (the offset is at least half the mean square) and `RMSE > 1.5 σ` (the
+/// output misses the data by more than noise). A sensor zero error looks like this; the model has
+/// no parameter for it, and the workflow does not invent an effect for it.
+pub(super) fn offset_warnings(outputs: &BTreeMap<String, OutputErrors>) -> Vec<String> {
+    outputs
+        .iter()
+        .filter(|(_, o)| {
+            o.noise_sigma > 0.0
+                && o.rmse_after > 1.5 * o.noise_sigma
+                && o.mean_after * o.mean_after >= 0.5 * o.rmse_after * o.rmse_after
+        })
+        .map(|(n, o)| {
+            format!(
+                "{n}: after the fit the model stays off the data by a nearly constant {:+.4e} \
+                 (mean of model − data; {:.1}× its noise level, most of its RMSE {:.4e}): a \
+                 sensor zero error or an offset the model has no parameter for. Correct the data \
+                 (or give the FMU an offset parameter tagged [calibrate]) and run again; no \
+                 effect is named for it.",
+                o.mean_after,
+                o.mean_after.abs() / o.noise_sigma,
+                o.rmse_after
+            )
+        })
+        .collect()
+}
+
 /// The highest ΔBIC among the refitted candidates of a round (−∞ if none was refitted).
 pub(super) fn best_refit_delta_bic(ranked: &[Candidate]) -> f64 {
     ranked
@@ -370,6 +397,39 @@ mod covariance_tests {
 }
 
 #[cfg(test)]
+mod offset_tests {
+    use super::*;
+
+    fn out(rmse: f64, mean: f64) -> OutputErrors {
+        OutputErrors {
+            rmse_before: 10.0,
+            max_before: 10.0,
+            rmse_after: rmse,
+            max_after: rmse,
+            rmse_base_fit: 10.0,
+            max_base_fit: 10.0,
+            noise_sigma: 1.0,
+            mean_after: mean,
+        }
+    }
+
+    #[test]
+    fn only_an_error_above_noise_that_is_mostly_constant_is_an_offset() {
+        let mut outs = BTreeMap::new();
+        outs.insert("theta".to_string(), out(5.1, -5.0)); // offset: 96 % of the mean square
+        outs.insert("p".to_string(), out(5.0, 2.0)); // large, but mostly not constant
+        outs.insert("x".to_string(), out(1.2, 1.1)); // constant, but within noise
+        let w = offset_warnings(&outs);
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(
+            w[0].starts_with("theta: ") && w[0].contains("-5.0000e0"),
+            "{w:?}"
+        );
+        assert!(w[0].contains("5.0× its noise level"), "{w:?}");
+    }
+}
+
+#[cfg(test)]
 mod bound_tests {
     use super::*;
 
@@ -394,6 +454,7 @@ mod bound_tests {
             rmse_base_fit: 10.0,
             max_base_fit: 10.0,
             noise_sigma: 2.0,
+            mean_after: 0.0,
         };
         let mut outs = BTreeMap::new();
         outs.insert("theta".to_string(), o(5.9));

@@ -234,6 +234,9 @@ pub struct OutputErrors {
     pub rmse_base_fit: f64,
     pub max_base_fit: f64,
     pub noise_sigma: f64,
+    /// Mean of (model − measured) after the final fit: a constant offset, such as a sensor zero
+    /// error, shows here.
+    pub mean_after: f64,
 }
 
 /// Timing split.
@@ -1089,6 +1092,8 @@ pub fn run<S: Simulator + ?Sized>(
                 rmse_base_fit: rf,
                 max_base_fit: mf,
                 noise_sigma: ctx.sigma[k],
+                mean_after: final_y[k].iter().zip(y).map(|(m, d)| m - d).sum::<f64>()
+                    / y.len().max(1) as f64,
             },
         );
         traces.outputs.push((
@@ -1103,6 +1108,7 @@ pub fn run<S: Simulator + ?Sized>(
     let est_s = t_est.elapsed().as_secs_f64();
     let sim_s = ctx.sim.busy_s();
     let mut warnings = bound_warnings(&parameters, &params);
+    warnings.extend(offset_warnings(&outputs));
     warnings.extend(far_from_data_warning(&outputs));
     Ok(GapResult {
         named: named_names,
