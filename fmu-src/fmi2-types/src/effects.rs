@@ -9,6 +9,11 @@
 //! - A parameter whose description starts with the tag `[calibrate]` is calibrated by default;
 //!   at least one should be, and a tag anywhere else in a description is a mistake (it is not
 //!   read there).
+//! - A Real parameter whose description starts with the tag `[initial]` sets the value of a
+//!   state at the start time (e.g. a current or speed the record may begin with): its start is
+//!   the state at rest, its range `min < max` the states a record may begin in. The gap workflow
+//!   estimates these with the base parameters, so a record need not begin at rest. Like
+//!   `[calibrate]`, the tag is read only at the start of a description.
 
 use crate::{VarKind, Variability};
 use std::fmt;
@@ -69,6 +74,11 @@ pub enum Problem {
     CalibrateTagNotAtStart,
     /// No parameter is tagged `[calibrate]` (reported for the model, variable "").
     NoCalibrateTag,
+    /// `[initial]` appears in a description but not at its start.
+    InitialTagNotAtStart,
+    /// A parameter tagged `[initial]` that is not a Real with a finite range `min < max`
+    /// containing its start.
+    InitialWithoutRange,
 }
 
 impl fmt::Display for Problem {
@@ -98,6 +108,13 @@ impl fmt::Display for Problem {
             Problem::NoCalibrateTag => f.write_str(
                 "no parameter description starts with [calibrate] (the default calibration set)",
             ),
+            Problem::InitialTagNotAtStart => f.write_str(
+                "the tag [initial] is only read at the start of a description; here it is not",
+            ),
+            Problem::InitialWithoutRange => f.write_str(
+                "an initial-state parameter ([initial]) must be a Real with finite min < max \
+                 containing its start (the states a record may begin in); it is not estimated",
+            ),
         }
     }
 }
@@ -109,15 +126,24 @@ pub struct Convention {
     pub effects: Vec<Effect>,
     /// Real parameters tagged `[calibrate]` that belong to no effect.
     pub calibrate: Vec<usize>,
+    /// Real parameters tagged `[initial]` with a usable range that belong to no effect: the
+    /// initial state, estimated with the base parameters.
+    pub initial: Vec<usize>,
     /// Departures, each with the index of its variable (None: the model as a whole).
     pub problems: Vec<(Option<usize>, Problem)>,
 }
 
 const TAG: &str = "[calibrate]";
+const INITIAL_TAG: &str = "[initial]";
 
 /// True when the description starts (after white space) with `[calibrate]`.
 pub fn is_tagged_calibrate(description: &str) -> bool {
     description.trim_start().starts_with(TAG)
+}
+
+/// True when the description starts (after white space) with `[initial]`.
+pub fn is_tagged_initial(description: &str) -> bool {
+    description.trim_start().starts_with(INITIAL_TAG)
 }
 
 /// Reads the convention from the parameters of a model.
@@ -175,7 +201,34 @@ pub fn scan(params: &[Param]) -> Convention {
     if !params.iter().any(|p| is_tagged_calibrate(p.description)) {
         c.problems.push((None, Problem::NoCalibrateTag));
     }
+    scan_initial(params, &mut c);
     c
+}
+
+/// The initial-state parameters (`[initial]`) and their departures.
+fn scan_initial(params: &[Param], c: &mut Convention) {
+    for (i, p) in params.iter().enumerate() {
+        if !is_tagged_initial(p.description) {
+            if p.description.contains(INITIAL_TAG) {
+                c.problems.push((Some(i), Problem::InitialTagNotAtStart));
+            }
+            continue;
+        }
+        if c.effects.iter().any(|e| e.params.contains(&i)) {
+            continue;
+        }
+        let ranged = match (p.min, p.max, p.start) {
+            (Some(min), Some(max), Some(start)) => {
+                min.is_finite() && max.is_finite() && min < max && (min..=max).contains(&start)
+            }
+            _ => false,
+        };
+        if p.kind == VarKind::Real && ranged {
+            c.initial.push(i);
+        } else {
+            c.problems.push((Some(i), Problem::InitialWithoutRange));
+        }
+    }
 }
 
 /// Problems of one effect member: Err when it is not Real (then it cannot be a member at all).
@@ -305,5 +358,27 @@ mod tests {
         );
         assert_eq!(c.effects[0].params, [1, 3, 4]);
         assert!(c.calibrate.is_empty());
+    }
+
+    #[test]
+    fn initial_state_parameters_need_the_tag_first_and_a_range() {
+        let params = [
+            real("mass", Some((0.0, 2.0)), "[calibrate] mass"),
+            real("speed_start", Some((-10.0, 10.0)), " [initial] speed at t0"),
+            real("angle_start", None, "[initial] no range"),
+            real("current_start", Some((-1.0, 1.0)), "current [initial]"),
+            real("far_start", Some((2.0, 3.0)), "[initial] start 1 outside"),
+        ];
+        let c = scan(&params);
+        assert_eq!(c.initial, [1]);
+        assert_eq!(c.calibrate, [0]);
+        assert_eq!(
+            c.problems,
+            [
+                (Some(2), Problem::InitialWithoutRange),
+                (Some(3), Problem::InitialTagNotAtStart),
+                (Some(4), Problem::InitialWithoutRange),
+            ]
+        );
     }
 }

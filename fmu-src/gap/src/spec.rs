@@ -119,6 +119,12 @@ pub fn default_calibration(params: &[ParamSpec], _effects: &[EffectSpec]) -> Vec
     convention(params).calibrate
 }
 
+/// Indices of the initial-state parameters: Real, tagged `[initial]`, with a range, in no
+/// effect. The workflow estimates them with the base parameters.
+pub fn initial_state(params: &[ParamSpec]) -> Vec<usize> {
+    convention(params).initial
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

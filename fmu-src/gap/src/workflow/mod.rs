@@ -30,6 +30,7 @@ mod evidence;
 mod refit;
 mod screen;
 mod setup;
+mod start;
 mod verdict;
 
 use calibrate::*;
@@ -39,6 +40,7 @@ use evidence::*;
 use refit::*;
 use screen::*;
 use setup::*;
+use start::*;
 pub use verdict::visibility_scale;
 use verdict::*;
 
@@ -537,6 +539,7 @@ pub fn run<S: Simulator + ?Sized>(
         fixed,
         effects,
         fit_idx,
+        initial_idx,
         fit_start,
         convention_warnings,
     } = setup(sim, data, cfg)?;
@@ -620,6 +623,7 @@ pub fn run<S: Simulator + ?Sized>(
         .map(|&k| base_all[k][..n].to_vec())
         .collect();
     let mut cur_full_r = ctx.residual(&base_fit, n);
+    let start_miss0 = start_disagreement(&ctx, &cur_full_r);
 
     // --- 2. Locate the disagreement.
     let mut diagnosis = vec![diagnose(&ctx, data, &base_all, &names)];
@@ -943,7 +947,14 @@ pub fn run<S: Simulator + ?Sized>(
             if !c.refit {
                 continue;
             }
-            let why = reasons(c, cfg.min_delta_bic, n_train >= n);
+            let mut why = reasons(c, cfg.min_delta_bic, n_train >= n);
+            if let (Some(miss), Some((_, _, r))) =
+                (&start_miss0, fits.iter().find(|x| x.0 == c.effect))
+            {
+                if !reproduces_start(&ctx, miss, r) {
+                    why.push(START_REASON.to_string());
+                }
+            }
             if why.is_empty() {
                 c.named = true;
                 c.verdict = format!(
@@ -1027,6 +1038,11 @@ pub fn run<S: Simulator + ?Sized>(
             verdict.push_str(&hidden_from_data(&ranked));
             unexplained = Some(closest);
             rounds.push(ranked);
+        }
+    }
+    if let Some(miss) = &start_miss0 {
+        if !reproduces_start(&ctx, miss, &cur_full_r) {
+            return Err(start_error(&ctx, miss, &initial_idx, &data.time));
         }
     }
     if verdict.is_empty() {
