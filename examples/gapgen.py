@@ -212,10 +212,17 @@ def noisy(rng, y, frac, ar):
 
 
 def make(model, seed, hidden=(), noise=0.01, ar=0.0, duration=10.0, rate=1000.0,
-         draw_base=True, base_overrides=None, sets=None, keep_inputs=None, input_family="reaches"):
-    """One dataset. Returns dict(time, inputs, outputs, truth, noise_sigma)."""
+         draw_base=True, base_overrides=None, sets=None, keep_inputs=None, input_family="reaches",
+         given_inputs=None, noise_sigma=None):
+    """One dataset. Returns dict(time, inputs, outputs, truth, noise_sigma).
+
+    given_inputs: (time, {input: values}) to use instead of drawn inputs (an experiment
+    `actuator-fmu design` proposed); noise_sigma: {output: sigma} absolute noise levels instead
+    of `noise` times each output's range (the same sensors as an earlier dataset)."""
     rng = np.random.default_rng(seed)
     t = np.round(np.arange(0, int(round(duration * rate)) + 1) / rate, 12)
+    if given_inputs is not None:
+        t = np.asarray(given_inputs[0], dtype=float)
     vs = variables(model)
     truth = {}
     if draw_base:
@@ -233,14 +240,32 @@ def make(model, seed, hidden=(), noise=0.01, ar=0.0, duration=10.0, rate=1000.0,
     for n, x in (sets or {}).items():
         truth[n] = x
     cols = inputs(model, rng, t, input_family)
+    if given_inputs is not None:
+        cols = {k: np.asarray(v, dtype=float) for k, v in given_inputs[1].items()}
     if keep_inputs is not None:
         cols = {k: v for k, v in cols.items() if k in keep_inputs}
     res = simulate(model, t, cols, truth)
     outs, sig = {}, {}
     for n in MEASURED[model]:
-        outs[n], sig[n] = noisy(rng, np.asarray(res[n], dtype=float), noise, ar)
+        y = np.asarray(res[n], dtype=float)
+        if noise_sigma is not None:
+            # The same white noise draw as `noisy`, at the given absolute level.
+            frac = noise_sigma[n] / max(float(np.max(y) - np.min(y)), 1e-300)
+            outs[n], sig[n] = noisy(rng, y, frac, ar)
+        else:
+            outs[n], sig[n] = noisy(rng, y, noise, ar)
     return dict(time=t, inputs=cols, outputs=outs, truth=truth, noise_sigma=sig,
                 clean={n: np.asarray(res[n], dtype=float) for n in MEASURED[model]})
+
+
+def read_inputs_csv(path):
+    """(time, {input: values}) of an input CSV (`actuator-fmu design --out`; '#' comments)."""
+    with open(path) as f:
+        lines = [ln for ln in f if ln.strip() and not ln.startswith("#")]
+    header = lines[0].strip().split(",")
+    a = np.array([[float(x) for x in ln.split(",")] for ln in lines[1:]])
+    cols = {n: a[:, j] for j, n in enumerate(header)}
+    return cols.pop("time"), cols
 
 
 def write_csv(ds, path, comment=None):

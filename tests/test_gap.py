@@ -63,7 +63,9 @@ def check_report_shape(rep, ds):
             assert chi2 > 2 * n * len(rep["outputs"])
     # A warning names each parameter that ended on a bound of its range, and only those.
     on_bound = sorted(k for k, e in rep["parameters"].items() if e["at_bound"])
-    bound_warnings = [w for w in rep["warnings"] if not w.startswith(FAR_WARNING)]
+    # (Warnings about an output, such as a constant offset, start with the output's name.)
+    bound_warnings = [w for w in rep["warnings"] if not w.startswith(FAR_WARNING)
+                      and w.split(":")[0] not in rep["outputs"]]
     assert sorted(w.split()[0] for w in bound_warnings) == on_bound
     # The far-from-data warning is there exactly when some output ends above 3x its noise.
     far = any(o["rmse_after"] > 3 * o["noise_sigma"] for o in rep["outputs"].values())
@@ -250,9 +252,6 @@ def test_an_effect_the_data_cannot_show_is_reported_as_such(tmp_path, monkeypatc
     (its visibility is below half the threshold at every setting in range: 0.14 of it, from that
     first engagement) rather than only that it was not found, and still call the strong effects
     visible."""
-    def large_strokes(model, rng, t, family="reaches"):
-        return {"theta_motor_ref": gapgen.reaches(rng, t, 800.0, 1100.0, (1.0, 2.0), (0.3, 0.8)),
-                "F_load": gapgen.steps(rng, t, 0.0, 40.0, (1.0, 2.5))}
     monkeypatch.setattr(gapgen, "inputs", large_strokes)
     model = "TwistedString"
     ds, csv = generate(tmp_path, model, "large_strokes", 31, ())
@@ -280,6 +279,74 @@ def test_an_effect_the_data_cannot_show_is_reported_as_such(tmp_path, monkeypatc
     assert screened, rep["candidates"][0]  # these data: residuals like noise, nothing refitted
     for e in screened:
         assert e in rep["verdict"].split("Only screened, not refitted:")[-1], rep["verdict"]
+
+
+def large_strokes(model, rng, t, family="reaches"):
+    """TwistedString strokes kept at 800-1100 motor rad (see the test below)."""
+    return {"theta_motor_ref": gapgen.reaches(rng, t, 800.0, 1100.0, (1.0, 2.0), (0.3, 0.8)),
+            "F_load": gapgen.steps(rng, t, 0.0, 40.0, (1.0, 2.5))}
+
+
+def test_an_unrevealable_effect_is_named_on_the_experiment_design_proposes(tmp_path,
+                                                                          monkeypatch):
+    """The loop an engineer follows: gap says the data cannot show gear_backlash (large strokes
+    never reverse the gearhead's torque) and gives the `actuator-fmu design` command; that
+    command proposes an input within the FMU's input ranges with the predicted visibility; data
+    simulated from that input, with the same hidden backlash, the same base parameters and the
+    same sensor noise (absolute), get gear_backlash named."""
+    monkeypatch.setattr(gapgen, "inputs", large_strokes)
+    model = "TwistedString"
+    ds, csv = generate(tmp_path, model, "large_strokes", 31, ("gear_backlash",))
+    monkeypatch.undo()
+    rep = run_ok(model, csv, tmp_path / "out", "--rounds", "1")
+    assert rep["named"] == [], rep["verdict"]
+    assert "cannot show gear_backlash" in rep["in_short"], rep["in_short"]
+    cmd = rep["design_commands"]["gear_backlash"].split()
+    md = (tmp_path / "out" / "report.md").read_text()
+    assert rep["design_commands"]["gear_backlash"] in md
+    assert cmd[:2] == ["actuator-fmu", "design"] and cmd[-2] == "--out"
+    design_csv = tmp_path / "design.csv"
+    p = subprocess.run([cli_path(), *cmd[1:-1], str(design_csv)], capture_output=True,
+                       text=True, timeout=300)
+    assert p.returncode == 0, p.stderr + p.stdout
+    # The prediction: invisible in the data, visible at the weakest backlash in the design.
+    line = next(ln for ln in p.stdout.splitlines() if ln.startswith("gear_backlash at its weakest"))
+    ratios = [float(x.split("×")[0].split()[-1]) for x in line.split("what naming needs")[:-1]]
+    assert ratios[0] < 1.0 < ratios[1], line
+    t, cols = gapgen.read_inputs_csv(design_csv)
+    ranges = {n: (v["min"], v["max"]) for n, v in gapgen.variables(model).items()
+              if v["causality"] == "input"}
+    for n, v in cols.items():
+        lo, hi = ranges[n]
+        assert lo <= v.min() and v.max() <= hi, (n, v.min(), v.max(), lo, hi)
+    ds2 = gapgen.make(model, 31, ("gear_backlash",), given_inputs=(t, cols),
+                      noise_sigma=ds["noise_sigma"])
+    assert ds2["truth"] == ds["truth"]
+    csv2 = tmp_path / "designed.csv"
+    gapgen.write_csv(ds2, csv2, comment="test data: the designed experiment, same truth")
+    rep2 = run_ok(model, csv2, tmp_path / "out2", "--rounds", "1")
+    assert rep2["named"] == ["gear_backlash"], rep2["verdict"]
+    o = rep2["outputs"]
+    assert sum(v["rmse_after"] / v["rmse_base_fit"] for v in o.values()) < len(o), o
+
+
+def test_design_refuses_what_it_cannot_do(tmp_path):
+    """Bad requests get exit status 2 and one line naming the problem."""
+    fmu = fmu_path("TwistedString")
+    out = tmp_path / "d.csv"
+    cases = [
+        (["--effect", "no_such_effect"], "no candidate effect 'no_such_effect'"),
+        (["--range", "theta_motor_ref=5:1"], "--range 'theta_motor_ref=5:1'"),
+        (["--range", "p=0:1"], "no Real input 'p'"),
+        (["--duration", "0.01"], "needs 20 to"),
+        (["--outputs", "nope"], "no output named 'nope'"),
+    ]
+    for args, msg in cases:
+        p = subprocess.run([cli_path(), "design", fmu, "--out", str(out), *args],
+                           capture_output=True, text=True, timeout=120)
+        assert p.returncode == 2, (args, p.stderr)
+        assert msg in p.stderr and len(p.stderr.splitlines()) == 1, (args, p.stderr)
+        assert not out.exists()
 
 
 def test_clean_data_wrong_load_mass_is_calibrated_not_named(tmp_path):

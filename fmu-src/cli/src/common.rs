@@ -122,3 +122,23 @@ pub fn parse_sets(
         })
         .collect()
 }
+
+/// `--set` arguments as numbers (Booleans 0/1) for the gap workflow and experiment design, which
+/// fix numeric settings only.
+pub fn numeric_sets(
+    md: &ModelDescription,
+    sets: &[String],
+    command: &str,
+) -> Result<Vec<(String, f64)>, CliError> {
+    parse_sets(md, sets)?
+        .into_iter()
+        .map(|(n, v)| match v {
+            Value::Real(x) => Ok((n, x)),
+            Value::Boolean(b) => Ok((n, f64::from(u8::from(b)))),
+            Value::Text(_) => Err(CliError::input(format!(
+                "--set '{n}': a String parameter cannot be fixed for {command} (numbers and \
+                 Booleans only)"
+            ))),
+        })
+        .collect()
+}

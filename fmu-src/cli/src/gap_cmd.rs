@@ -1,12 +1,12 @@
 //! `actuator-fmu gap FMU --data measured.csv --out DIR [--fit NAME,...] [--effects a,b]
 //! [--rounds N] [--set NAME=VALUE ...]`: the gap workflow (crate `gap`).
 
-use crate::common::{parse_sets, CliError, CliResult};
+use crate::common::{numeric_sets, CliError, CliResult};
 use gap::fmu::FmuSimulator;
 use gap::{Config, Data, GapError};
 use host::csv::{read_csv, CsvError};
-use host::{Fmu, Value};
-use std::path::PathBuf;
+use host::Fmu;
+use std::path::{Path, PathBuf};
 
 /// Arguments of `gap`.
 #[derive(clap::Args)]
@@ -84,6 +84,46 @@ fn refuse_writing_over_inputs(a: &Args) -> Result<(), CliError> {
     Ok(())
 }
 
+/// The measured data of `path` checked against the FMU: inputs and outputs it has, at least
+/// one output to compare and 20 rows.
+pub fn load_data(md: &host::md::ModelDescription, path: &Path) -> Result<Data, CliError> {
+    let table = read_csv(path).map_err(CliError::input)?;
+    table.check_against(md).map_err(CliError::input)?;
+    let col = |n: &String| (n.clone(), table.column(n).unwrap_or_default().to_vec());
+    let outputs: Vec<(String, Vec<f64>)> = table.output_columns(md).iter().map(col).collect();
+    let bad = |line: usize, column: usize, message: String| {
+        CliError::input(CsvError {
+            file: path.display().to_string(),
+            line,
+            column,
+            message,
+        })
+    };
+    if outputs.is_empty() {
+        return Err(bad(
+            1,
+            0,
+            format!(
+                "no column is an output of the FMU: nothing to compare (outputs: {})",
+                md.output_names().join(", ")
+            ),
+        ));
+    }
+    if table.time.len() < 20 {
+        let n = table.time.len();
+        return Err(bad(
+            n + 1,
+            1,
+            format!("{n} rows: the gap workflow needs at least 20"),
+        ));
+    }
+    Ok(Data {
+        time: table.time.clone(),
+        inputs: table.input_columns(md).iter().map(col).collect(),
+        outputs,
+    })
+}
+
 /// Runs `gap`.
 pub fn run(a: Args) -> CliResult {
     refuse_writing_over_inputs(&a)?;
@@ -92,33 +132,8 @@ pub fn run(a: Args) -> CliResult {
     };
     let fmu = Fmu::open_with(&a.fmu, &opts).map_err(CliError::input)?;
     let md = fmu.model_description();
-    let sets = parse_sets(md, &a.set)?;
-    let table = read_csv(&a.data).map_err(CliError::input)?;
-    table.check_against(md).map_err(CliError::input)?;
-    let col = |n: &String| (n.clone(), table.column(n).unwrap_or_default().to_vec());
-    let outputs: Vec<(String, Vec<f64>)> = table.output_columns(md).iter().map(col).collect();
-    if outputs.is_empty() {
-        return Err(CliError::input(CsvError {
-            file: a.data.display().to_string(),
-            line: 1,
-            column: 0,
-            message: format!(
-                "no column is an output of the FMU: nothing to compare (outputs: {})",
-                md.output_names().join(", ")
-            ),
-        }));
-    }
-    if table.time.len() < 20 {
-        return Err(CliError::input(CsvError {
-            file: a.data.display().to_string(),
-            line: table.time.len() + 1,
-            column: 1,
-            message: format!(
-                "{} rows: the gap workflow needs at least 20",
-                table.time.len()
-            ),
-        }));
-    }
+    let fixed = numeric_sets(md, &a.set, "gap")?;
+    let data = load_data(md, &a.data)?;
     // The held-out end decides whether an effect generalises; without it nothing can be named.
     if !(a.holdout > 0.0 && a.holdout < 0.9) {
         return Err(CliError::input(format!(
@@ -126,27 +141,6 @@ pub fn run(a: Args) -> CliResult {
             a.holdout
         )));
     }
-    let data = Data {
-        time: table.time.clone(),
-        inputs: table.input_columns(md).iter().map(col).collect(),
-        outputs,
-    };
-    let fixed = sets
-        .into_iter()
-        .map(|(n, v)| {
-            let x = match v {
-                Value::Real(x) => x,
-                Value::Boolean(b) => f64::from(u8::from(b)),
-                Value::Text(_) => {
-                    return Err(CliError::input(format!(
-                        "--set '{n}': a String parameter cannot be fixed for gap (numbers and \
-                         Booleans only)"
-                    )))
-                }
-            };
-            Ok((n, x))
-        })
-        .collect::<Result<_, _>>()?;
     let cfg = Config {
         fit: a.fit.clone(),
         effects: a.effects.clone(),

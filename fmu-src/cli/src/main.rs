@@ -10,6 +10,7 @@
 
 #[macro_use]
 mod common;
+mod design;
 mod gap_cmd;
 mod probe;
 mod simulate;
@@ -22,7 +23,7 @@ use clap::{Parser, Subcommand};
 #[command(
     name = "actuator-fmu",
     version,
-    about = "Simulate and validate FMI 2.0 Co-Simulation FMUs",
+    about = "Simulate, validate and find model gaps of FMI 2.0 Co-Simulation FMUs",
     after_help = "Exit status: 0 success; 1 validate found problems, or the FMU failed after \
                   initialization (simulate, gap); 2 bad input: usage, unreadable or bad data, \
                   an FMU that cannot be opened, instantiated or initialized, FMI 3.0, an --out \
@@ -48,6 +49,7 @@ impl Command {
         let (fmu, call_timeout) = match self {
             Command::Simulate(a) => (a.fmu.display().to_string(), secs(a.timeout)),
             Command::Gap(a) => (a.fmu.display().to_string(), secs(a.timeout)),
+            Command::Design(a) => (a.fmu.display().to_string(), secs(a.timeout)),
             Command::Validate(a) => (a.fmus[0].display().to_string(), None),
             Command::Probe(_) => return None,
         };
@@ -63,6 +65,8 @@ enum Command {
     Validate(validate::Args),
     /// The gap workflow: calibrate, locate the disagreement, name the missing effect, report.
     Gap(gap_cmd::Args),
+    /// Experiment design: an input CSV that would reveal candidate effects the data cannot.
+    Design(design::Args),
     /// Internal: the state-machine probe of `validate`, run in a child process.
     #[command(name = "__probe", hide = true)]
     Probe(probe::Args),
@@ -96,6 +100,7 @@ fn dispatch(command: Command) -> common::CliResult {
         Command::Simulate(a) => simulate::run(a),
         Command::Validate(a) => validate::run(a),
         Command::Gap(a) => gap_cmd::run(a),
+        Command::Design(a) => design::run(a),
         Command::Probe(a) => probe::run(a),
     }
 }

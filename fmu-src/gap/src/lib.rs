@@ -51,7 +51,11 @@
 //! 6. Final fit: the chosen model (base plus named effects) is refitted on the whole trace; its
 //!    parameters and intervals are the reported ones, its errors the "after" column.
 //! 7. Report ([`report`]: `report.json`, `report.md`) and plots ([`plots`]).
+//!
+//! For a candidate the data cannot reveal, [`design`] proposes an experiment (an input signal
+//! within the inputs' ranges) under which it would show at the weakest setting of its range.
 
+pub mod design;
 pub mod fmu;
 pub mod lm;
 pub mod plots;

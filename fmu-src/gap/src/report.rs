@@ -34,7 +34,8 @@ pub fn in_short(res: &GapResult) -> String {
     if !hidden.is_empty() {
         s.push_str(&format!(
             " These data cannot show {} even at full strength: testing for it needs other \
-             excitation or sensors.",
+             excitation or sensors (`actuator-fmu design` proposes an experiment; the commands \
+             are in the report).",
             hidden.join(", ")
         ));
     }
@@ -46,6 +47,58 @@ pub fn in_short(res: &GapResult) -> String {
         }
     }
     s
+}
+
+/// A word of a shell command, quoted when it holds anything but plain characters.
+fn shell_word(w: &str) -> String {
+    let plain = |c: char| c.is_ascii_alphanumeric() || "_-./=:+,@%".contains(c);
+    if !w.is_empty() && w.chars().all(plain) {
+        w.to_string()
+    } else {
+        format!("'{}'", w.replace('\'', r"'\''"))
+    }
+}
+
+/// For every candidate of the last round these data cannot show, the `actuator-fmu design`
+/// command that proposes an experiment that would: the same data (grid, outputs, noise), the
+/// known settings, the named effects and the fitted values.
+pub fn design_commands(
+    res: &GapResult,
+    fmu: &str,
+    data: &str,
+) -> std::collections::BTreeMap<String, String> {
+    let Some(round) = res.candidates.last() else {
+        return Default::default();
+    };
+    let mut sets: Vec<String> = res.fixed.iter().map(|(k, v)| format!("{k}={v}")).collect();
+    sets.extend(res.named.iter().map(|e| format!("{e}.enabled=true")));
+    sets.extend(
+        res.parameters
+            .iter()
+            .map(|(k, e)| format!("{k}={}", e.value)),
+    );
+    round
+        .iter()
+        .filter(|c| !c.detectable())
+        .map(|c| {
+            let mut words = vec![
+                "actuator-fmu".to_string(),
+                "design".into(),
+                shell_word(fmu),
+                "--data".into(),
+                shell_word(data),
+                "--effect".into(),
+                shell_word(&c.effect),
+            ];
+            for s in &sets {
+                words.push("--set".into());
+                words.push(shell_word(s));
+            }
+            words.push("--out".into());
+            words.push(shell_word(&format!("design-{}.csv", c.effect)));
+            (c.effect.clone(), words.join(" "))
+        })
+        .collect()
 }
 
 /// The JSON document: `named`, `candidates` (per round, ranked), `parameters`, `outputs`,
@@ -61,6 +114,7 @@ pub fn to_json(res: &GapResult, fmu: &str, data: &str) -> Value {
         "named": res.named,
         "unexplained": res.unexplained,
         "candidates": res.candidates,
+        "design_commands": design_commands(res, fmu, data),
         "redone_rounds": res.redone_rounds.iter().map(|(r, g)| json!({"round": r, "base_delta_bic": g})).collect::<Vec<_>>(),
         "calibration": res.calibration,
         "parameters": res.parameters,
@@ -176,6 +230,13 @@ pub fn to_markdown(res: &GapResult, fmu: &str, data: &str, plots: &[String]) -> 
             );
         }
         let _ = writeln!(s);
+    }
+    let designs = design_commands(res, fmu, data);
+    if !designs.is_empty() {
+        let _ = writeln!(s, "## Experiments that would show what these data cannot\n\nEach command proposes an input (within the FMU's input ranges) under which the effect would be visible at the weakest setting of its range, with the predicted visibility; run the experiment, then `gap` on its data.\n");
+        for (e, cmd) in &designs {
+            let _ = writeln!(s, "- {e}:\n\n  ```sh\n  {cmd}\n  ```\n");
+        }
     }
     let _ = writeln!(
         s,

@@ -20,10 +20,14 @@ fmi2_export::declare_variables! {
     VALVE_USE_MEAN => Variable::flag("valve_use_mean", false,
         "Use the mean of the four Table I orifice coefficients for all orifices (matched, symmetric valve)"),
     // ---- inputs
-    THETA_REF => Variable::input("theta_ref", 0.0, "rad", "Desired link angle theta_d (used when internal_controller)").display("deg"),
+    // Set-point range: +-90 deg keeps both pistons inside their stroke (+-50 mm on the 30 mm
+    // pulley is +-95 deg); the experiment design stays within it.
+    THETA_REF => Variable::input("theta_ref", 0.0, "rad", "Desired link angle theta_d (used when internal_controller)").range(-std::f64::consts::FRAC_PI_2, std::f64::consts::FRAC_PI_2).display("deg"),
     U_LEFT => Variable::input("u_left", 0.0, "V", "Left valve voltage when internal_controller is false (saturated to +-10 V)").range(-10.0, 10.0),
     U_RIGHT => Variable::input("u_right", 0.0, "V", "Right valve voltage when internal_controller is false (saturated to +-10 V)").range(-10.0, 10.0),
-    TAU_EXT => Variable::input("tau_ext", 0.0, "N.m", "External torque on the link, positive in the direction of theta"),
+    // +-20 N.m: three times the 2 kg load's torque at 0.3 m, a third of what one cylinder gives
+    // at 10 MPa on its 30 mm pulley.
+    TAU_EXT => Variable::input("tau_ext", 0.0, "N.m", "External torque on the link, positive in the direction of theta").range(-20.0, 20.0),
     // ---- outputs
     THETA => Variable::output("theta", "rad", "Link angle, eq. (1); grows when the left piston pulls").display("deg"),
     OMEGA => Variable::output("omega", "rad/s", "Link angular velocity").display("deg/s"),

@@ -21,12 +21,16 @@ fmi2_export::declare_variables! {
     // ---- interface: mode, inputs, outputs -----------------------------------------------------
     INTERNAL_CONTROLLER => Variable::flag("internal_controller", true,
         "true: the cascade controller (Fig. 11, Table 5) tracks theta_motor_ref; false: the motor voltage is the input 'voltage'"),
+    // Input ranges (the experiment design stays within them): the motor angle the paper drove
+    // the strings to (2011 rad, sec. 6), twisted either way; the 24 V ESCON supply; loads up to
+    // the paper's heaviest (124 N including the 23 N weight) and an upward pull down to slack
+    // strings under the default load (documentation, section 9).
     THETA_MOTOR_REF => Variable::input("theta_motor_ref", 0.0, "rad",
-        "Motor angle set point of the position loop (motor shaft, before the 19.2:1 gearhead)").display("deg"),
+        "Motor angle set point of the position loop (motor shaft, before the 19.2:1 gearhead)").range(-2011.0, 2011.0).display("deg"),
     VOLTAGE => Variable::input("voltage", 0.0, "V",
-        "Armature voltage when internal_controller = false"),
+        "Armature voltage when internal_controller = false").range(-24.0, 24.0),
     F_LOAD => Variable::input("F_load", 0.0, "N",
-        "Extra force pulling the load down (adds to its weight)"),
+        "Extra force pulling the load down (adds to its weight)").range(-40.0, 100.0),
     P => Variable::output("p", "m", "Load position = axial length of the twisted strings (eq. 9), grows downward").display("mm"),
     THETA_MOTOR => Variable::output("theta_motor", "rad", "Motor shaft angle").display("deg"),
     OMEGA_MOTOR => Variable::output("omega_motor", "rad/s", "Motor shaft speed").display("rpm"),

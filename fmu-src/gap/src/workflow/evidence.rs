@@ -151,7 +151,7 @@ pub(super) fn covariance(x: &DMatrix<f64>, scale: &[f64], n: usize) -> Option<DM
 
 /// Least-squares fit of `y` on the columns of `x` (column-normalised normal equations with a tiny
 /// ridge); returns the residual `y − X β` and β.
-pub(super) fn regress(x: &DMatrix<f64>, y: &[f64]) -> (Vec<f64>, DVector<f64>) {
+pub(crate) fn regress(x: &DMatrix<f64>, y: &[f64]) -> (Vec<f64>, DVector<f64>) {
     let p = x.ncols();
     let yv = DVector::from_column_slice(y);
     if p == 0 {
@@ -285,9 +285,9 @@ pub(super) fn offset_warnings(outputs: &BTreeMap<String, OutputErrors>) -> Vec<S
             format!(
                 "{n}: after the fit the model stays off the data by a nearly constant {:+.4e} \
                  (mean of model − data; {:.1}× its noise level, most of its RMSE {:.4e}): a \
-                 sensor zero error or an offset the model has no parameter for. Correct the data \
-                 (or give the FMU an offset parameter tagged [calibrate]) and run again; no \
-                 effect is named for it.",
+                 sensor zero error, an offset the model has no parameter for, or a wrong known \
+                 setting (--set). Check the sensor's zero and the settings (or give the FMU an \
+                 offset parameter tagged [calibrate]) and run again.",
                 o.mean_after,
                 o.mean_after.abs() / o.noise_sigma,
                 o.rmse_after

@@ -36,6 +36,7 @@ mod verdict;
 use calibrate::*;
 pub use calibrate::{Calibration, CalibrationFit};
 use diagnose::*;
+pub(crate) use evidence::regress;
 use evidence::*;
 use refit::*;
 use screen::*;

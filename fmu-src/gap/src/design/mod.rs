@@ -1,0 +1,581 @@
+//! Experiment design: an input that would reveal a candidate effect the data at hand cannot.
+//!
+//! The gap workflow calls a candidate unrevealable when its *visibility*, the chi-square of the
+//! change it makes to the measured outputs that a readjustment of the base parameters cannot
+//! absorb, `‖(I − J J⁺) (y_on − y_off)/σ‖²` over the training part, stays below what naming needs,
+//! `min ΔBIC + k ln(N K)` (k effect parameters, N training samples, K outputs). Whether an
+//! effect shows is a property of the experiment as much as of the model: a backlash shows only
+//! where the transmitted torque reverses, a radius growth only at large twist. This module
+//! predicts the same visibility for proposed experiments and returns the one with the largest:
+//!
+//! 1. Every input with a range (declared min/max, or one the user gives) is a design variable;
+//!    an input without one, or one that changes no measured output, is held at its start value.
+//! 2. Each effect is evaluated at its weakest setting: every parameter at the weak end (min) of
+//!    its range, so an experiment that reveals it there reveals any stronger instance.
+//! 3. An experiment is scored by `min over effects of visibility / needed`; the linearisation
+//!    uses the base parameters at their start values (or `--set` values), a finite-difference
+//!    Jacobian of the measured outputs, and the noise level of the data at hand (or a fraction of
+//!    each output's range in that experiment).
+//! 4. Search: each input alone runs through the signal library ([`signals`]) while the others
+//!    rest at their start values; then, from the best, every other input runs through the
+//!    library and constant levels, one input after another (coordinate search).
+//!
+//! The prediction is linear in the effect's change; the refit the gap workflow then runs is not,
+//! so a design aims well above 1× and the test of a design is the gap run on data it produced.
+
+pub mod signals;
+
+use crate::lm::{Bounded, Coord};
+use crate::sim::{Counted, SimError, Simulator};
+use crate::spec::{self, ParamSpec};
+use crate::workflow::{regress, Data, GapError};
+use nalgebra::DMatrix;
+use rayon::prelude::*;
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+/// An input the design may drive.
+#[derive(Clone, Debug)]
+pub struct InputSpec {
+    pub name: String,
+    pub start: f64,
+    /// Range the design stays within; None: held at its start value.
+    pub range: Option<(f64, f64)>,
+    pub unit: String,
+}
+
+/// How the noise level of each measured output is known.
+#[derive(Clone, Debug)]
+pub enum Noise {
+    /// The noise standard deviation of each measured output (from the data at hand).
+    Sigma(Vec<f64>),
+    /// A fraction of each output's range in the experiment itself (a sensor scaled to what it
+    /// measures).
+    Fraction(f64),
+}
+
+/// What to design for.
+#[derive(Clone, Debug)]
+pub struct DesignConfig {
+    /// Effects to reveal; None = every candidate of the model.
+    pub effects: Option<Vec<String>>,
+    /// Base parameters the gap workflow would calibrate; None = those tagged `[calibrate]`.
+    pub fit: Option<Vec<String>>,
+    /// Settings applied to every simulation (`--set`). Other parameters are never readjusted;
+    /// a calibrated one keeps its role (the linearisation is at the given value).
+    pub fixed: Vec<(String, f64)>,
+    /// Time grid of the experiment (the communication points).
+    pub time: Vec<f64>,
+    pub inputs: Vec<InputSpec>,
+    /// Names of the measured outputs.
+    pub outputs: Vec<String>,
+    pub noise: Noise,
+    /// The inputs of the data at hand, to report how visible each effect is there.
+    pub given: Option<Vec<(String, Vec<f64>)>>,
+    /// Held-out fraction of the gap workflow (visibility counts the training part only).
+    pub holdout: f64,
+    /// The naming threshold of the gap workflow.
+    pub min_delta_bic: f64,
+}
+
+/// One effect's predicted visibility.
+#[derive(Clone, Debug, Serialize)]
+pub struct EffectPrediction {
+    pub effect: String,
+    /// The setting it is evaluated at (its weakest).
+    pub weakest: BTreeMap<String, f64>,
+    /// Chi-square naming needs.
+    pub needed: f64,
+    /// Visibility in the data at hand (None without data, or when its simulation failed).
+    pub given: Option<f64>,
+    /// Visibility in the proposed experiment.
+    pub designed: Option<f64>,
+}
+
+/// The proposed experiment.
+#[derive(Clone, Debug, Serialize)]
+pub struct Design {
+    pub time: Vec<f64>,
+    /// Every input's signal (held ones constant).
+    pub inputs: Vec<(String, Vec<f64>)>,
+    /// What each input does, e.g. "square 0 .. 402 rad (lower fifth), period 1.25 s".
+    pub labels: Vec<(String, String)>,
+    /// Inputs held at their start value, and why.
+    pub held: Vec<(String, String)>,
+    pub effects: Vec<EffectPrediction>,
+    pub experiments: usize,
+    pub simulations: usize,
+}
+
+impl Design {
+    /// Whether every effect reaches the naming threshold in the proposed experiment.
+    pub fn reveals_all(&self) -> bool {
+        self.effects
+            .iter()
+            .all(|e| e.designed.is_some_and(|v| v >= e.needed))
+    }
+}
+
+/// What the evaluation of experiments needs, resolved once.
+struct Plan {
+    /// Settings of every simulation (fixed values).
+    base: Vec<(usize, f64)>,
+    /// Calibrated parameters: index, value, finite-difference step.
+    calib: Vec<(usize, f64, f64)>,
+    /// Per effect: its switch on and its weakest setting.
+    effects: Vec<(String, Vec<(usize, f64)>)>,
+    needed: Vec<f64>,
+    out_idx: Vec<usize>,
+    n_train: usize,
+}
+
+/// Design an experiment; `make` builds a simulator driven by the given inputs on the given grid.
+pub fn design<S, F>(make: F, cfg: &DesignConfig) -> Result<Design, GapError>
+where
+    S: Simulator,
+    F: Fn(&Data) -> Result<S, GapError> + Sync,
+{
+    check(cfg)?;
+    let rest: Vec<(String, Vec<f64>)> = cfg
+        .inputs
+        .iter()
+        .map(|i| (i.name.clone(), vec![i.start; cfg.time.len()]))
+        .collect();
+    let probe = make(&data_with(cfg, &rest))?;
+    let plan = plan(probe.params(), probe.output_names(), cfg)?;
+    let counter = std::sync::atomic::AtomicUsize::new(0);
+    let eval = |inputs: &[(String, Vec<f64>)]| -> Option<Vec<Option<f64>>> {
+        let sim = make(&data_with(cfg, inputs)).ok()?;
+        let counted = Counted::new(&sim);
+        let v = visibilities(&counted, &plan, &cfg.noise).ok();
+        counter.fetch_add(counted.count(), std::sync::atomic::Ordering::SeqCst);
+        v
+    };
+    let given = cfg.given.as_ref().and_then(|g| {
+        let mut inputs = rest.clone();
+        for (n, v) in g {
+            if let Some(slot) = inputs.iter_mut().find(|(m, _)| m == n) {
+                slot.1 = v.clone();
+            }
+        }
+        eval(&inputs)
+    });
+    let (held, active) = classify_inputs(cfg, &plan, &make, &rest, &counter)?;
+    let search = search(cfg, &plan, &active, &rest, &eval)?;
+    let effects = plan
+        .effects
+        .iter()
+        .enumerate()
+        .map(|(e, (name, set))| EffectPrediction {
+            effect: name.clone(),
+            weakest: set
+                .iter()
+                .skip(1)
+                .map(|&(i, v)| (probe.params()[i].name.clone(), v))
+                .collect(),
+            needed: plan.needed[e],
+            given: given.as_ref().and_then(|g| g[e]),
+            designed: search.visibility[e],
+        })
+        .collect();
+    Ok(Design {
+        time: cfg.time.clone(),
+        inputs: search.inputs,
+        labels: search.labels,
+        held,
+        effects,
+        experiments: search.experiments,
+        simulations: counter.into_inner(),
+    })
+}
+
+fn data_with(cfg: &DesignConfig, inputs: &[(String, Vec<f64>)]) -> Data {
+    Data {
+        time: cfg.time.clone(),
+        inputs: inputs.to_vec(),
+        outputs: Vec::new(),
+    }
+}
+
+fn check(cfg: &DesignConfig) -> Result<(), GapError> {
+    if cfg.time.len() < 20 {
+        return Err(GapError::Usage(format!(
+            "the experiment has {} samples: a design needs at least 20",
+            cfg.time.len()
+        )));
+    }
+    if cfg.outputs.is_empty() {
+        return Err(GapError::Usage("no measured output to design for".into()));
+    }
+    if let Noise::Sigma(s) = &cfg.noise {
+        if s.len() != cfg.outputs.len() || s.iter().any(|x| !(x.is_finite() && *x > 0.0)) {
+            return Err(GapError::Usage(
+                "the noise level of every measured output must be positive and finite".into(),
+            ));
+        }
+    }
+    for i in &cfg.inputs {
+        if let Some((lo, hi)) = i.range {
+            if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+                return Err(GapError::Usage(format!(
+                    "input '{}': range [{lo}, {hi}] is not a finite interval",
+                    i.name
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+fn find(params: &[ParamSpec], name: &str) -> Result<usize, GapError> {
+    params
+        .iter()
+        .position(|p| p.name == name)
+        .ok_or_else(|| GapError::Usage(format!("the model has no parameter named '{name}'")))
+}
+
+/// Resolve names into indices: the fixed settings, the calibrated parameters with their
+/// finite-difference steps, and each effect's weakest setting.
+fn plan(params: &[ParamSpec], outputs: &[String], cfg: &DesignConfig) -> Result<Plan, GapError> {
+    let mut base = Vec::new();
+    for (n, v) in &cfg.fixed {
+        base.push((find(params, n)?, *v));
+    }
+    let value = |i: usize| {
+        base.iter()
+            .rev()
+            .find(|(j, _)| *j == i)
+            .map_or(params[i].start, |&(_, v)| v)
+    };
+    let all = spec::find_effects(params);
+    let calib_idx: Vec<usize> = match &cfg.fit {
+        Some(names) => names
+            .iter()
+            .map(|n| find(params, n))
+            .collect::<Result<_, _>>()?,
+        None => spec::default_calibration(params, &all),
+    };
+    // A calibrated parameter given with --set (a fitted value from a gap run) is linearised
+    // there and still readjusted: the gap run on the new data calibrates it again.
+    let calib = calib_idx
+        .into_iter()
+        .map(|i| {
+            let p = &params[i];
+            let v = value(i);
+            // One thousandth of the parameter's fitting scale, towards the inside of its range
+            // (the projection that follows does not depend on the columns' scale).
+            let h = match Bounded::new(p.start, p.min, p.max).coord {
+                Coord::Log => 1e-3 * v.abs().max(1e-300),
+                Coord::Linear(s) => 1e-3 * s,
+            };
+            let (lo, hi) = (p.min.unwrap_or(f64::MIN), p.max.unwrap_or(f64::MAX));
+            let h = if v + h > hi && v - h >= lo { -h } else { h };
+            (i, v, h)
+        })
+        .collect();
+    let chosen: Vec<&spec::EffectSpec> = match &cfg.effects {
+        None => all.iter().collect(),
+        Some(names) => names
+            .iter()
+            .map(|n| {
+                all.iter().find(|e| &e.name == n).ok_or_else(|| {
+                    let known: Vec<&str> = all.iter().map(|e| e.name.as_str()).collect();
+                    GapError::Usage(format!(
+                        "the model has no candidate effect '{n}' (candidates: {})",
+                        known.join(", ")
+                    ))
+                })
+            })
+            .collect::<Result<_, _>>()?,
+    };
+    if chosen.is_empty() {
+        return Err(GapError::Usage(
+            "the model has no candidate effect (no Boolean parameter '<effect>.enabled')".into(),
+        ));
+    }
+    let n = cfg.time.len();
+    let n_train = ((n as f64) * (1.0 - cfg.holdout))
+        .round()
+        .clamp(10.0, n as f64) as usize;
+    let k = cfg.outputs.len();
+    let effects: Vec<(String, Vec<(usize, f64)>)> = chosen
+        .iter()
+        .map(|e| {
+            let mut set = vec![(e.enabled, 1.0)];
+            set.extend(
+                e.params
+                    .iter()
+                    .map(|&i| (i, params[i].min.unwrap_or(params[i].start))),
+            );
+            (e.name.clone(), set)
+        })
+        .collect();
+    let needed = chosen
+        .iter()
+        .map(|e| cfg.min_delta_bic + e.params.len() as f64 * ((n_train * k) as f64).ln())
+        .collect();
+    let out_idx = cfg
+        .outputs
+        .iter()
+        .map(|o| {
+            outputs
+                .iter()
+                .position(|m| m == o)
+                .ok_or_else(|| GapError::Usage(format!("the model has no output named '{o}'")))
+        })
+        .collect::<Result<_, _>>()?;
+    Ok(Plan {
+        base,
+        calib,
+        effects,
+        needed,
+        out_idx,
+        n_train,
+    })
+}
+
+/// The measured outputs of one simulation over the training part.
+fn measured<S: Simulator + ?Sized>(
+    sim: &Counted<'_, S>,
+    plan: &Plan,
+    extra: &[(usize, f64)],
+) -> Result<Vec<Vec<f64>>, SimError> {
+    let mut set = plan.base.clone();
+    set.extend(plan.calib.iter().map(|&(i, v, _)| (i, v)));
+    set.extend_from_slice(extra);
+    let all = sim.simulate(&set, plan.n_train)?;
+    plan.out_idx
+        .iter()
+        .map(|&k| {
+            let col = all.get(k).ok_or(SimError::Short {
+                what: "outputs",
+                got: all.len(),
+                want: k + 1,
+            })?;
+            if let Some(sample) = col.iter().position(|x| !x.is_finite()) {
+                let output = sim.inner.output_names()[k].clone();
+                return Err(SimError::NonFinite { output, sample });
+            }
+            Ok(col[..plan.n_train.min(col.len())].to_vec())
+        })
+        .collect()
+}
+
+/// Each effect's visibility in one experiment (the simulator carries its inputs).
+fn visibilities<S: Simulator + ?Sized>(
+    sim: &Counted<'_, S>,
+    plan: &Plan,
+    noise: &Noise,
+) -> Result<Vec<Option<f64>>, SimError> {
+    let y0 = measured(sim, plan, &[])?;
+    let sigma: Vec<f64> = match noise {
+        Noise::Sigma(s) => s.clone(),
+        Noise::Fraction(f) => y0
+            .iter()
+            .map(|y| {
+                let r = crate::stats::range(y);
+                if r > 0.0 {
+                    f * r
+                } else {
+                    f64::INFINITY // a flat output carries no information
+                }
+            })
+            .collect(),
+    };
+    let weighted = |y: &[Vec<f64>]| -> Vec<f64> {
+        let mut r = Vec::with_capacity(plan.n_train * y.len());
+        for (k, yk) in y.iter().enumerate() {
+            r.extend(yk.iter().zip(&y0[k]).map(|(a, b)| (a - b) / sigma[k]));
+        }
+        r
+    };
+    let cols: Vec<Vec<f64>> = plan
+        .calib
+        .iter()
+        .map(|&(i, v, h)| {
+            let y = measured(sim, plan, &[(i, v + h)])?;
+            Ok(weighted(&y).into_iter().map(|d| d / h).collect())
+        })
+        .collect::<Result<_, SimError>>()?;
+    let rows = plan.n_train * y0.len();
+    let jac = DMatrix::from_fn(rows, cols.len(), |r, c| cols[c][r]);
+    Ok(plan
+        .effects
+        .iter()
+        .map(|(_, set)| {
+            let d = weighted(&measured(sim, plan, set).ok()?);
+            let v = crate::lm::sse(&regress(&jac, &d).0);
+            v.is_finite().then_some(v)
+        })
+        .collect())
+}
+
+/// Inputs the design drives (index into `cfg.inputs`) and those it holds, with the reason.
+#[allow(clippy::type_complexity)]
+fn classify_inputs<S, F>(
+    cfg: &DesignConfig,
+    plan: &Plan,
+    make: &F,
+    rest: &[(String, Vec<f64>)],
+    counter: &std::sync::atomic::AtomicUsize,
+) -> Result<(Vec<(String, String)>, Vec<usize>), GapError>
+where
+    S: Simulator,
+    F: Fn(&Data) -> Result<S, GapError> + Sync,
+{
+    let run = |inputs: &[(String, Vec<f64>)]| -> Result<Vec<Vec<f64>>, GapError> {
+        let sim = make(&data_with(cfg, inputs))?;
+        counter.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+        Ok(measured(&Counted::new(&sim), plan, &[])?)
+    };
+    let at_rest = run(rest)?;
+    let mut held = Vec::new();
+    let mut active = Vec::new();
+    for (j, inp) in cfg.inputs.iter().enumerate() {
+        let Some((lo, hi)) = inp.range else {
+            held.push((
+                inp.name.clone(),
+                "no range declared (min/max); give one with --range NAME=LO:HI".to_string(),
+            ));
+            continue;
+        };
+        let sig = &signals::library(&cfg.time, lo, hi, inp.start, &inp.unit)[0];
+        let mut inputs = rest.to_vec();
+        inputs[j].1 = sig.values.clone();
+        let moved = run(&inputs)
+            .map(|y| {
+                y.iter().zip(&at_rest).any(|(a, b)| {
+                    let scale = b.iter().fold(0.0_f64, |m, x| m.max(x.abs())) + 1e-300;
+                    a.iter().zip(b).any(|(x, z)| (x - z).abs() > 1e-9 * scale)
+                })
+            })
+            .unwrap_or(true);
+        if moved {
+            active.push(j);
+        } else {
+            held.push((
+                inp.name.clone(),
+                "changes no measured output with these settings".to_string(),
+            ));
+        }
+    }
+    if active.is_empty() {
+        return Err(GapError::Usage(format!(
+            "no input can be designed: {}",
+            held.iter()
+                .map(|(n, why)| format!("{n}: {why}"))
+                .collect::<Vec<_>>()
+                .join("; ")
+        )));
+    }
+    Ok((held, active))
+}
+
+/// The best experiment found and its visibilities.
+struct Found {
+    inputs: Vec<(String, Vec<f64>)>,
+    labels: Vec<(String, String)>,
+    visibility: Vec<Option<f64>>,
+    experiments: usize,
+}
+
+/// `min over effects of visibility / needed` (a failed simulation scores nothing).
+fn objective(v: &[Option<f64>], needed: &[f64]) -> f64 {
+    v.iter()
+        .zip(needed)
+        .map(|(v, n)| v.map_or(0.0, |v| v / n))
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// Coordinate search over the signal library (see the module documentation).
+fn search<E>(
+    cfg: &DesignConfig,
+    plan: &Plan,
+    active: &[usize],
+    rest: &[(String, Vec<f64>)],
+    eval: &E,
+) -> Result<Found, GapError>
+where
+    E: Fn(&[(String, Vec<f64>)]) -> Option<Vec<Option<f64>>> + Sync,
+{
+    let lib = |j: usize, with_constants: bool| {
+        let inp = &cfg.inputs[j];
+        let (lo, hi) = inp.range.expect("active inputs have a range");
+        let mut v = signals::library(&cfg.time, lo, hi, inp.start, &inp.unit);
+        if with_constants {
+            v.extend(signals::constants(&cfg.time, lo, hi, inp.start, &inp.unit));
+        }
+        v
+    };
+    // Stage 1: each input alone.
+    let mut trials: Vec<(usize, signals::Signal)> = active
+        .iter()
+        .flat_map(|&j| lib(j, false).into_iter().map(move |s| (j, s)))
+        .collect();
+    // (chosen signals: input, label, values; visibilities; objective)
+    type Best = (Vec<(usize, String, Vec<f64>)>, Vec<Option<f64>>, f64);
+    let mut best: Option<Best> = None;
+    let mut experiments = 0;
+    let mut fixed: Vec<(usize, String, Vec<f64>)> = Vec::new();
+    let mut remaining: Vec<usize> = active.to_vec();
+    loop {
+        let scored: Vec<Option<(Vec<Option<f64>>, f64)>> = trials
+            .par_iter()
+            .map(|(j, s)| {
+                let mut inputs = rest.to_vec();
+                for (k, _, v) in &fixed {
+                    inputs[*k].1 = v.clone();
+                }
+                inputs[*j].1 = s.values.clone();
+                eval(&inputs).map(|v| {
+                    let o = objective(&v, &plan.needed);
+                    (v, o)
+                })
+            })
+            .collect();
+        experiments += trials.len();
+        // The first of the best (deterministic whatever the thread count).
+        let pick = scored
+            .iter()
+            .enumerate()
+            .filter_map(|(k, s)| s.as_ref().map(|(_, o)| (k, *o)))
+            .fold(None, |acc: Option<(usize, f64)>, (k, o)| match acc {
+                Some((_, b)) if b >= o => acc,
+                _ => Some((k, o)),
+            });
+        let Some((k, o)) = pick else { break };
+        if best.as_ref().is_some_and(|b| b.2 >= o) {
+            break; // another input adds nothing to the best so far
+        }
+        let (j, s) = trials[k].clone();
+        let mut chosen = fixed.clone();
+        chosen.push((j, s.label.clone(), s.values.clone()));
+        best = Some((chosen.clone(), scored[k].clone().expect("picked").0, o));
+        fixed = chosen;
+        remaining.retain(|&r| r != j);
+        if remaining.is_empty() {
+            break;
+        }
+        trials = remaining
+            .iter()
+            .flat_map(|&j| lib(j, true).into_iter().map(move |s| (j, s)))
+            .collect();
+    }
+    let Some((chosen, visibility, _)) = best else {
+        return Err(GapError::Simulation(SimError::Model(
+            "every proposed experiment failed to simulate".into(),
+        )));
+    };
+    let mut inputs = rest.to_vec();
+    let mut labels = Vec::new();
+    for (j, label, v) in chosen {
+        inputs[j].1 = v;
+        labels.push((cfg.inputs[j].name.clone(), label));
+    }
+    Ok(Found {
+        inputs,
+        labels,
+        visibility,
+        experiments,
+    })
+}

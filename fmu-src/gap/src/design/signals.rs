@@ -1,0 +1,215 @@
+//! The library of input signals an experiment design chooses from: for one input with range
+//! `[lo, hi]` on a time grid, square waves, staircases, triangles and raised cosines between the
+//! ends of several windows of the range (all of it, its lower and upper fifths, and windows
+//! around zero when the range spans it: small reversals are what a backlash or a friction
+//! reversal needs), at two periods. Every signal starts at the input's start value and leaves it
+//! along a minimum-jerk move, so the model starts at rest and no step excites what the effect
+//! should explain. Deterministic: the same grid and range give the same signals.
+
+use std::f64::consts::PI;
+
+/// One candidate signal of one input.
+#[derive(Clone, Debug)]
+pub struct Signal {
+    /// What it is, for the report: e.g. "square 0 .. 402 rad, period 1.25 s".
+    pub label: String,
+    pub values: Vec<f64>,
+}
+
+/// Minimum-jerk blend from 0 to 1 over `s` in [0, 1] (10 s^3 − 15 s^4 + 6 s^5).
+fn min_jerk(s: f64) -> f64 {
+    let s = s.clamp(0.0, 1.0);
+    s * s * s * (10.0 - 15.0 * s + 6.0 * s * s)
+}
+
+/// The windows `(a, b)` of `[lo, hi]` the library excites.
+fn windows(lo: f64, hi: f64) -> Vec<(&'static str, f64, f64)> {
+    let w = hi - lo;
+    let mut v = vec![
+        ("whole range", lo, hi),
+        ("lower fifth", lo, lo + 0.2 * w),
+        ("upper fifth", hi - 0.2 * w, hi),
+    ];
+    if lo < 0.0 && hi > 0.0 {
+        for f in [0.1, 0.02] {
+            v.push(("around zero", (-f * w).max(lo), (f * w).min(hi)));
+        }
+    }
+    v
+}
+
+/// A periodic waveform `g(phase) ∈ [0, 1]` over one period.
+type Wave = fn(f64) -> f64;
+
+/// Square wave with minimum-jerk edges taking 15 % of each half period.
+fn square(ph: f64) -> f64 {
+    let up = min_jerk(ph / 0.15);
+    let down = min_jerk((ph - 0.5) / 0.15);
+    up - down
+}
+
+/// Five levels up and back down (dwell a fifth of a half period each), minimum-jerk edges.
+fn staircase(ph: f64) -> f64 {
+    let k = (ph * 10.0).floor();
+    let within = ph * 10.0 - k;
+    let level = |k: f64| {
+        {
+            let k = k.rem_euclid(10.0);
+            if k < 5.0 {
+                k / 4.0
+            } else {
+                (9.0 - k) / 4.0
+            }
+        }
+        .min(1.0)
+    };
+    let prev = level(k - 1.0);
+    let cur = level(k);
+    prev + (cur - prev) * min_jerk(within / 0.3)
+}
+
+fn triangle(ph: f64) -> f64 {
+    1.0 - (2.0 * ph - 1.0).abs()
+}
+
+fn raised_cosine(ph: f64) -> f64 {
+    0.5 * (1.0 - (2.0 * PI * ph).cos())
+}
+
+const WAVES: [(&str, Wave); 4] = [
+    ("square", square),
+    ("staircase", staircase),
+    ("triangle", triangle),
+    ("raised cosine", raised_cosine),
+];
+
+/// The periods tried, as fractions of the experiment's duration.
+const PERIODS: [f64; 2] = [0.125, 1.0 / 3.0];
+
+/// Share of the duration the input rests at its start value before the experiment begins.
+const REST: f64 = 0.05;
+
+/// `a + (b − a) g(phase)` after a rest at `start` and a minimum-jerk move onto the waveform.
+fn shaped(t: &[f64], start: f64, a: f64, b: f64, period: f64, g: Wave) -> Vec<f64> {
+    let (t0, dur) = (t[0], t[t.len() - 1] - t[0]);
+    let begin = t0 + REST * dur;
+    let settle = (0.15 * period).max(f64::EPSILON);
+    t.iter()
+        .map(|&ti| {
+            if ti < begin {
+                return start;
+            }
+            let ph = ((ti - begin) / period).fract();
+            let target = a + (b - a) * g(ph);
+            start + (target - start) * min_jerk((ti - begin) / settle)
+        })
+        .collect()
+}
+
+/// Every signal of the library for an input with range `[lo, hi]` and start value `start`.
+pub fn library(t: &[f64], lo: f64, hi: f64, start: f64, unit: &str) -> Vec<Signal> {
+    let dur = t[t.len() - 1] - t[0];
+    let start = start.clamp(lo, hi);
+    let mut out = Vec::new();
+    for (wname, a, b) in windows(lo, hi) {
+        for (gname, g) in WAVES {
+            for f in PERIODS {
+                let period = f * dur;
+                out.push(Signal {
+                    label: format!(
+                        "{gname} {a:.4} .. {b:.4} {unit} ({wname}), period {period:.3} s"
+                    ),
+                    values: shaped(t, start, a, b, period, g),
+                });
+            }
+        }
+    }
+    out
+}
+
+/// Constant levels for an input that accompanies another one's signal: its start value, the
+/// ends and the middle of its range.
+pub fn constants(t: &[f64], lo: f64, hi: f64, start: f64, unit: &str) -> Vec<Signal> {
+    let mut levels = vec![start.clamp(lo, hi), lo, 0.5 * (lo + hi), hi];
+    levels.dedup_by(|a, b| (*a - *b).abs() <= 1e-12 * (hi - lo).abs());
+    let mut seen: Vec<f64> = Vec::new();
+    levels
+        .into_iter()
+        .filter(|x| {
+            let new = !seen.contains(x);
+            seen.push(*x);
+            new
+        })
+        .map(|x| Signal {
+            label: format!("constant {x:.4} {unit}"),
+            values: vec![x; t.len()],
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn grid() -> Vec<f64> {
+        (0..=1000).map(|i| i as f64 * 0.01).collect()
+    }
+
+    #[test]
+    fn every_signal_starts_at_rest_and_stays_in_range() {
+        let t = grid();
+        let lib = library(&t, -2.0, 6.0, 0.0, "rad");
+        // 5 windows (the range spans zero) x 4 waves x 2 periods.
+        assert_eq!(lib.len(), 40);
+        for s in &lib {
+            assert_eq!(s.values[0], 0.0, "{}", s.label);
+            assert!(
+                s.values.iter().all(|v| (-2.0..=6.0).contains(v)),
+                "{}",
+                s.label
+            );
+            // It moves: the experiment excites something.
+            let (mn, mx) = s
+                .values
+                .iter()
+                .fold((f64::MAX, f64::MIN), |(a, b), &v| (a.min(v), b.max(v)));
+            assert!(mx - mn > 0.01, "{}", s.label);
+        }
+    }
+
+    #[test]
+    fn a_square_wave_reaches_both_ends_of_its_window() {
+        let t = grid();
+        let s = shaped(&t, 0.0, 1.0, 3.0, 2.0, square);
+        let (mn, mx) = s[100..]
+            .iter()
+            .fold((f64::MAX, f64::MIN), |(a, b), &v| (a.min(v), b.max(v)));
+        assert!(
+            (mn - 1.0).abs() < 1e-9 && (mx - 3.0).abs() < 1e-9,
+            "{mn} {mx}"
+        );
+    }
+
+    #[test]
+    fn moves_are_smooth() {
+        let t = grid();
+        for s in library(&t, 0.0, 10.0, 0.0, "m") {
+            let jump = s
+                .values
+                .windows(2)
+                .map(|w| (w[1] - w[0]).abs())
+                .fold(0.0, f64::max);
+            // Edges are spread over several samples: no sample-to-sample jump of more than
+            // 15 % of the range (a step would jump by all of its window).
+            assert!(jump < 1.5, "{}: {jump}", s.label);
+        }
+    }
+
+    #[test]
+    fn constants_are_distinct_levels() {
+        let t = grid();
+        let c = constants(&t, 0.0, 40.0, 0.0, "N");
+        let levels: Vec<f64> = c.iter().map(|s| s.values[0]).collect();
+        assert_eq!(levels, vec![0.0, 20.0, 40.0]);
+    }
+}
