@@ -142,6 +142,9 @@ def test_nothing_hidden_names_nothing(fmus, tmp_path):
     assert rep["named"] == [], rep["verdict"]
     for n, o in rep["outputs"].items():
         assert o["rmse_after"] <= 1.2 * ds["noise_sigma"][n], (n, o)
+    # A record from rest needs no initial state: none is estimated.
+    assert not any(n in rep["parameters"] for n in gm.INITIAL)
+    assert not any("does not begin at rest" in w for w in rep["warnings"])
 
 
 @pytest.mark.parametrize("hidden,seed", [((), 31), (("current_saturation",), 32),
@@ -149,8 +152,9 @@ def test_nothing_hidden_names_nothing(fmus, tmp_path):
 def test_a_record_begun_in_motion_gets_its_initial_state_estimated(fmus, tmp_path, hidden,
                                                                    seed):
     """A record that begins 1 s into the motion (time reset to 0): the FMU's [initial]
-    parameters are estimated with the base parameters, the hidden effect (or none) is named,
-    nothing else, and the state the record began in lies inside the reported intervals."""
+    parameters are estimated with the base parameters (and the report says so), the hidden
+    effect (or none) is named, nothing else, and the state the record began in lies inside the
+    reported intervals."""
     ds = gm.make(fmus["initial"], seed, hidden, skip=1.0)
     # The record begins far from rest (more than 10 noise levels in speed or angle).
     x0, sig = ds["state_at_start"], ds["noise_sigma"]
@@ -159,6 +163,7 @@ def test_a_record_begun_in_motion_gets_its_initial_state_estimated(fmus, tmp_pat
     p, rep = gap(fmus["initial"], ds, tmp_path, "moving")
     assert p.returncode == 0, p.stderr
     assert rep["named"] == list(hidden), rep["verdict"]
+    assert any("does not begin at rest" in w for w in rep["warnings"]), rep["warnings"]
     check_shrink(rep, ds)
     for name, truth in ds["state_at_start"].items():
         e = rep["parameters"][name]

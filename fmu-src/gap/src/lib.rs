@@ -19,6 +19,12 @@
 //!    previous one's values), keeping the lower sum: for a trajectory whose phase is sensitive to
 //!    the parameters (a loop near its stability limit) a long horizon's cost has many local
 //!    minima that a short one does not.
+//!    A base fit that misses the record's first samples by more than 10 standard scores means
+//!    the record does not begin in the model's initial state: the base model is calibrated
+//!    again with the parameters tagged `[initial]` (the state the model begins in), if the FMU
+//!    has any. A miss beyond a constant offset that remains lets an effect be named only if its
+//!    fit begins in the record's state, and if none does, the run stops with what to do
+//!    ([`workflow`]'s `start` module).
 //! 3. Diagnosis of the residual: RMS/noise per output and per time window, Ljung–Box whiteness,
 //!    cross-correlation with the inputs, and the operating region (quantile bins of every input
 //!    and model output, η²) that organises it best.

@@ -603,28 +603,24 @@ pub fn run<S: Simulator + ?Sized>(
         .map(|&k| nominal_all[k][..n].to_vec())
         .collect();
 
-    // --- 1. Calibrate the base model on the training part.
-    ctx.pb
-        .set_message(format!("calibrating {} base parameter(s)", fit_idx.len()));
-    let (base, calibration) = calibrate_base(&ctx, &st0).map_err(GapError::Simulation)?;
-    ctx.stage(format!(
-        "base fit: chi-square {:.1} directly; growing horizons (samples, chi-square) {:?}; kept {}",
-        calibration.direct_chi2,
-        calibration.horizons,
-        calibration.chosen.label()
-    ));
+    // --- 1. Calibrate the base model on the training part; for a record that does not begin
+    // in the model's initial state, again with the initial state the FMU exposes (`start`).
+    let Calibrated {
+        st0,
+        fit: base,
+        calibration,
+        all: base_all,
+        miss: start_miss0,
+        initial_estimated,
+        ..
+    } = calibrate_to_start(&ctx, st0, &initial_idx)?;
     let mut cur = base;
-    let base_all = ctx
-        .sim
-        .simulate(&ctx.settings(&cur.state, None, &[]), n)
-        .map_err(GapError::Simulation)?;
     let base_fit: Vec<Vec<f64>> = ctx
         .out_idx
         .iter()
         .map(|&k| base_all[k][..n].to_vec())
         .collect();
     let mut cur_full_r = ctx.residual(&base_fit, n);
-    let start_miss0 = start_disagreement(&ctx, &cur_full_r);
 
     // --- 2. Locate the disagreement.
     let mut diagnosis = vec![diagnose(&ctx, data, &base_all, &names)];
@@ -1126,6 +1122,9 @@ pub fn run<S: Simulator + ?Sized>(
     let sim_s = ctx.sim.busy_s();
     let mut warnings = bound_warnings(&parameters, &params);
     warnings.extend(offset_warnings(&outputs));
+    if let Some(miss) = &initial_estimated {
+        warnings.push(initial_state_note(&ctx, miss, &initial_idx));
+    }
     warnings.extend(far_from_data_warning(&outputs));
     Ok(GapResult {
         named: named_names,

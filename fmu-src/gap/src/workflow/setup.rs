@@ -16,9 +16,10 @@ pub(super) struct Setup {
     pub(super) fixed: Vec<(usize, f64)>,
     /// Candidate effects (those switched by `--set` excluded).
     pub(super) effects: Vec<EffectSpec>,
-    /// Parameters to calibrate (the initial-state ones last) and their values as given.
+    /// Parameters to calibrate and their values as given.
     pub(super) fit_idx: Vec<usize>,
-    /// The initial-state parameters (`[initial]`) among them.
+    /// The initial-state parameters (`[initial]`) not set and not among them: estimated only
+    /// when the record does not begin in the model's initial state (`start`).
     pub(super) initial_idx: Vec<usize>,
     pub(super) fit_start: Vec<f64>,
     /// Departures from the candidate-effect convention ([`convention_warnings`]).
@@ -120,16 +121,11 @@ pub(super) fn setup<S: Simulator + ?Sized>(
              '<effect>.enabled' with ranged Real parameters '<effect>.<name>'){why}"
         )));
     }
-    // The initial state the FMU exposes is estimated with the base parameters unless set.
-    let mut fit_idx = fit_idx;
-    for i in spec::initial_state(&params) {
-        if !fixed_has(i) && !fit_idx.contains(&i) {
-            fit_idx.push(i);
-        }
-    }
+    // The initial state the FMU exposes, estimated when the record needs it (`start`), unless
+    // set or already fitted.
     let initial_idx: Vec<usize> = spec::initial_state(&params)
         .into_iter()
-        .filter(|i| fit_idx.contains(i))
+        .filter(|&i| !fixed_has(i) && !fit_idx.contains(&i))
         .collect();
     let mut fit_start = Vec::new();
     for &i in &fit_idx {

@@ -4,9 +4,11 @@
 //! holding back a motor that the record shows already turning).
 //!
 //! Where the FMU exposes its initial state (Real parameters tagged `[initial]`, see
-//! `fmi2_types::effects`), those parameters are calibrated with the base parameters, so the
-//! model begins where the record does. Either way, the base fit's start is then checked
-//! ([`start_disagreement`]). A model may miss the start for a good reason: an effect that
+//! `fmi2_types::effects`) and the base fit misses the record's start, the base model is
+//! calibrated again with those parameters, so that it begins where the record does
+//! ([`calibrate_to_start`]; a record from rest is fitted without them). Either way, the base
+//! fit's start is then checked ([`start_disagreement`]). A model may miss the start for a good
+//! reason: an effect that
 //! moves the state it rests in (a leak shifting the pressures at rest, friction holding a
 //! loaded string). So while the start disagrees, a candidate is named only if its fit
 //! begins in the record's state ([`reproduces_start`]), and a run whose model still misses the
@@ -19,7 +21,9 @@
 //! whole trace (so that a constant output offset, such as a sensor zero error, which is
 //! reported as such, does not count): the smaller of the two, as a standard score under
 //! white noise (× √m), must exceed [`START_MAX_Z`] = 10 standard deviations, beyond noise and
-//! beyond what a parameter error leaves in the first samples. Measured (3 s at 200 Hz, 1 %
+//! beyond what a parameter error leaves in the first samples. Whether to estimate the initial
+//! state an FMU exposes is decided on the start mean alone ([`StartMiss::z_raw`]): an angle the
+//! record begins at stays as a constant offset over the whole trace. Measured (3 s at 200 Hz, 1 %
 //! noise): geared-motor records from rest 0.6–1.9, the same motor's records begun 1 s into
 //! the motion 17–110; HydraulicJoint and TwistedString records from rest without a hidden
 //! effect below 2, with a hidden leak or string compliance (which shift the state at rest) up
@@ -47,16 +51,19 @@ pub(super) struct StartMiss {
     /// Mean weighted residual over the first samples and over the whole trace (noise levels).
     pub(super) start_mean: f64,
     pub(super) trace_mean: f64,
-    /// Standard score of their difference.
+    /// Standard score of the start miss beyond the trace's constant offset (the smaller of
+    /// the start mean and its difference from the trace mean, × √m).
     pub(super) z: f64,
+    /// Standard score of the start miss itself (start mean × √m).
+    pub(super) z_raw: f64,
 }
 
-/// The output whose first `m` samples the model misses most, beyond a constant offset
-/// (`r`: weighted residual stacked by output, `k` outputs of `n` samples each).
-pub(super) fn start_miss(r: &[f64], k: usize, n: usize, m: usize) -> Option<StartMiss> {
+/// How the model misses the first `m` samples of each output (`r`: weighted residual stacked
+/// by output, `k` outputs of `n` samples each); empty for a trace too short to tell.
+fn start_misses(r: &[f64], k: usize, n: usize, m: usize) -> Vec<StartMiss> {
     let m = m.min(n / 4);
     if m == 0 {
-        return None;
+        return Vec::new();
     }
     (0..k)
         .map(|j| {
@@ -73,9 +80,120 @@ pub(super) fn start_miss(r: &[f64], k: usize, n: usize, m: usize) -> Option<Star
                 start_mean,
                 trace_mean,
                 z,
+                z_raw: start_mean * (m as f64).sqrt(),
             }
         })
+        .collect()
+}
+
+/// The output whose first `m` samples the model misses most beyond a constant offset
+/// ([`StartMiss::z`]).
+pub(super) fn start_miss(r: &[f64], k: usize, n: usize, m: usize) -> Option<StartMiss> {
+    start_misses(r, k, n, m)
+        .into_iter()
         .max_by(|a, b| a.z.abs().total_cmp(&b.z.abs()))
+}
+
+/// The base calibration as the rest of the workflow starts from it ([`calibrate_to_start`]).
+pub(super) struct Calibrated {
+    /// The parameters fitted, at their values as given (with the initial-state parameters when
+    /// they were estimated).
+    pub(super) st0: ModelState,
+    pub(super) fit: FitOut,
+    pub(super) calibration: Calibration,
+    /// Every model output of the fit over the whole trace.
+    pub(super) all: Vec<Vec<f64>>,
+    /// The fit's start miss beyond [`START_MAX_Z`] (None: it begins in the record's state).
+    pub(super) miss: Option<StartMiss>,
+    /// The same counting a constant offset too ([`StartMiss::z_raw`]): for an FMU that exposes
+    /// its initial state, an angle the record begins at looks like an offset the whole trace
+    /// keeps, and its initial-state parameter is the first explanation to try.
+    pub(super) raw_miss: Option<StartMiss>,
+    /// The start miss of the fit without the initial state, when that made the workflow
+    /// estimate it.
+    pub(super) initial_estimated: Option<StartMiss>,
+}
+
+/// Calibrates the base model from `st0` and checks its start; when the record does not begin
+/// in the model's initial state and the FMU exposes initial-state parameters (`initial`),
+/// calibrates again from the values as given with them added, so that the model begins where
+/// the record does. A record from rest is fitted without them: the extra freedom is given
+/// only where the record needs it.
+pub(super) fn calibrate_to_start<S: Simulator + ?Sized>(
+    ctx: &Ctx<'_, S>,
+    st0: ModelState,
+    initial: &[usize],
+) -> Result<Calibrated, GapError> {
+    let first = calibrate_and_check(ctx, st0)?;
+    let Some(miss) = first.raw_miss.clone().filter(|_| !initial.is_empty()) else {
+        return Ok(first);
+    };
+    let mut st0 = first.st0;
+    st0.idx.extend_from_slice(initial);
+    st0.val.extend(initial.iter().map(|&i| ctx.params[i].start));
+    ctx.stage(format!(
+        "the record does not begin in the model's initial state (z = {:.1}): calibrating again \
+         with the initial state",
+        miss.z_raw
+    ));
+    let mut again = calibrate_and_check(ctx, st0)?;
+    again.initial_estimated = Some(miss);
+    Ok(again)
+}
+
+fn calibrate_and_check<S: Simulator + ?Sized>(
+    ctx: &Ctx<'_, S>,
+    st0: ModelState,
+) -> Result<Calibrated, GapError> {
+    ctx.pb
+        .set_message(format!("calibrating {} base parameter(s)", st0.idx.len()));
+    let (fit, calibration) = calibrate_base(ctx, &st0).map_err(GapError::Simulation)?;
+    ctx.stage(format!(
+        "base fit: chi-square {:.1} directly; growing horizons (samples, chi-square) {:?}; kept {}",
+        calibration.direct_chi2,
+        calibration.horizons,
+        calibration.chosen.label()
+    ));
+    let all = ctx
+        .sim
+        .simulate(&ctx.settings(&fit.state, None, &[]), ctx.n)
+        .map_err(GapError::Simulation)?;
+    let y: Vec<Vec<f64>> = ctx
+        .out_idx
+        .iter()
+        .map(|&k| all[k][..ctx.n].to_vec())
+        .collect();
+    let r = ctx.residual(&y, ctx.n);
+    let miss = start_disagreement(ctx, &r);
+    let raw_miss = start_misses(&r, ctx.out_idx.len(), ctx.n, START_SAMPLES)
+        .into_iter()
+        .max_by(|a, b| a.z_raw.abs().total_cmp(&b.z_raw.abs()))
+        .filter(|m| m.z_raw.abs() > START_MAX_Z);
+    Ok(Calibrated {
+        st0,
+        fit,
+        calibration,
+        all,
+        miss,
+        raw_miss,
+        initial_estimated: None,
+    })
+}
+
+/// The line the report gives when the initial state was estimated ([`calibrate_to_start`]).
+pub(super) fn initial_state_note<S: Simulator + ?Sized>(
+    ctx: &Ctx<'_, S>,
+    miss: &StartMiss,
+    initial: &[usize],
+) -> String {
+    let output = &ctx.sim.inner.output_names()[ctx.out_idx[miss.output]];
+    format!(
+        "The record does not begin at rest: calibrated from rest, the model missed '{output}' \
+         over the first samples by {:.1}× its noise level. The initial state the FMU exposes \
+         ({}) was estimated with the base parameters; see their values and intervals.",
+        miss.start_mean.abs(),
+        names(&ctx.params, initial)
+    )
 }
 
 /// The base fit's miss of the record's start when it exceeds [`START_MAX_Z`] (None: the record
@@ -146,18 +264,23 @@ fn what_to_do(params: &[ParamSpec], initial: &[usize]) -> String {
                 foreign FMUs)."
             .into();
     }
-    let mut names: Vec<&str> = initial.iter().map(|&i| params[i].name.as_str()).collect();
-    if names.len() > MAX_NAMES {
-        names.truncate(MAX_NAMES);
-        names.push("…");
-    }
     format!(
         "This remains with the initial state the FMU exposes estimated ({}): a state it does \
          not expose begins elsewhere, or the record begins outside those parameters' ranges. \
          Start the record where the system is at rest, or give the FMU parameters tagged \
          [initial] for every state.",
-        names.join(", ")
+        names(params, initial)
     )
+}
+
+/// The names of `idx`, at most [`MAX_NAMES`], comma-separated.
+fn names(params: &[ParamSpec], idx: &[usize]) -> String {
+    let mut v: Vec<&str> = idx.iter().map(|&i| params[i].name.as_str()).collect();
+    if v.len() > MAX_NAMES {
+        v.truncate(MAX_NAMES);
+        v.push("…");
+    }
+    v.join(", ")
 }
 
 #[cfg(test)]
@@ -199,6 +322,10 @@ mod tests {
         }
         let m2 = start_miss(&r2, 3, n, START_SAMPLES).unwrap();
         assert!(m2.z.abs() < 4.0, "{m2:?}");
+        // Counted with its offset, the angle misses the start: for an FMU that exposes its
+        // initial state, the initial angle is tried first.
+        let raw = &start_misses(&r2, 3, n, START_SAMPLES)[2];
+        assert!(raw.z_raw > START_MAX_Z, "{raw:?}");
     }
 
     #[test]
