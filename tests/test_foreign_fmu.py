@@ -186,6 +186,16 @@ def test_a_record_begun_in_motion_without_initial_state_parameters_stops(fmus, t
     assert "named" not in p.stdout
 
 
+def test_calibration_only_of_a_record_begun_in_motion_warns(fmus, tmp_path):
+    """With --rounds 0 nothing can be named, so the start miss is a warning of the calibration,
+    not a stop."""
+    ds = gm.make(fmus["at_rest"], 41, (), skip=1.0)
+    p, rep = gap(fmus["at_rest"], ds, tmp_path, "calibrate", "--rounds", "0")
+    assert p.returncode == 0, p.stderr
+    assert rep["named"] == []
+    assert any(w.startswith(START_MISS) and "[initial]" in w for w in rep["warnings"]), rep
+
+
 def test_the_variant_from_rest_is_unaffected(fmus, tmp_path):
     """From rest, the variant without [initial] parameters gets the ordinary workflow."""
     ds = gm.make(fmus["at_rest"], 43, ("unbalanced_load",))

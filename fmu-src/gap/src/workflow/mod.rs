@@ -1037,9 +1037,16 @@ pub fn run<S: Simulator + ?Sized>(
             rounds.push(ranked);
         }
     }
+    let mut start_warning = None;
     if let Some(miss) = &start_miss0 {
         if !reproduces_start(&ctx, miss, &cur_full_r) {
-            return Err(start_error(&ctx, miss, &initial_idx, &data.time));
+            start_warning = Some(start_error(
+                &ctx,
+                miss,
+                &initial_idx,
+                &data.time,
+                cfg.rounds,
+            )?);
         }
     }
     if verdict.is_empty() {
@@ -1125,6 +1132,7 @@ pub fn run<S: Simulator + ?Sized>(
     if let Some(miss) = &initial_estimated {
         warnings.push(initial_state_note(&ctx, miss, &initial_idx));
     }
+    warnings.extend(start_warning);
     warnings.extend(far_from_data_warning(&outputs));
     Ok(GapResult {
         named: named_names,

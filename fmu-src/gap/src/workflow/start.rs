@@ -229,28 +229,35 @@ pub(super) fn reproduces_start<S: Simulator + ?Sized>(
 pub(super) const START_REASON: &str =
     "does not explain why the record begins away from the model's initial state";
 
-/// The usage error that stops a run whose record does not begin where the model begins and
-/// no candidate explains it (`miss`: the base fit's start miss; `initial`: the initial-state
-/// parameters that were estimated; `time`: the record's sample times).
+/// What stops a run whose record does not begin where the model begins and no candidate
+/// explains it (`miss`: the base fit's start miss; `initial`: the initial-state parameters that
+/// were estimated; `time`: the record's sample times). With no candidate round (`rounds` 0)
+/// nothing can be named, so the same text is a warning of the calibration instead (`Ok`).
 pub(super) fn start_error<S: Simulator + ?Sized>(
     ctx: &Ctx<'_, S>,
     miss: &StartMiss,
     initial: &[usize],
     time: &[f64],
-) -> GapError {
+    rounds: usize,
+) -> Result<String, GapError> {
     let output = &ctx.sim.inner.output_names()[ctx.out_idx[miss.output]];
     let m = START_SAMPLES.min(ctx.n / 4);
     let t_end = time.get(m.saturating_sub(1)).copied().unwrap_or(0.0);
-    GapError::Usage(format!(
+    let what = format!(
         "the record does not begin where the model begins: over its first {m} samples (to \
          t = {t_end} s) the calibrated base model misses '{output}' by {:.1}× its noise level \
-         on average, against {:.1}× over the whole trace, so this is no constant offset, and no \
-         candidate effect explains it. {} No effect is named from such a record: it would only \
-         imitate the start.",
+         on average, against {:.1}× over the whole trace, so this is no constant offset",
         miss.start_mean.abs(),
         miss.trace_mean.abs(),
-        what_to_do(&ctx.params, initial)
-    ))
+    );
+    let advice = what_to_do(&ctx.params, initial);
+    if rounds == 0 {
+        return Ok(format!("{what}; the calibration bends to it. {advice}"));
+    }
+    Err(GapError::Usage(format!(
+        "{what}, and no candidate effect explains it. {advice} No effect is named from such a \
+         record: it would only imitate the start."
+    )))
 }
 
 /// The advice of [`start_error`]: with no initial-state parameter estimated, how to give the
