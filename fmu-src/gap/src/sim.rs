@@ -98,6 +98,41 @@ impl<'a, S: Simulator + ?Sized> Counted<'a, S> {
         out
     }
 
+    /// Simulate and return the outputs `out_idx` (indices into `output_names()`), first `n`
+    /// samples each; an error names a missing output, a short column or the first non-finite
+    /// sample.
+    pub fn measured(
+        &self,
+        set: &[(usize, f64)],
+        n: usize,
+        out_idx: &[usize],
+    ) -> Result<Vec<Vec<f64>>, SimError> {
+        let all = self.simulate(set, n)?;
+        out_idx
+            .iter()
+            .map(|&k| {
+                let v = all.get(k).ok_or(SimError::Short {
+                    what: "outputs",
+                    got: all.len(),
+                    want: k + 1,
+                })?;
+                if v.len() < n {
+                    let (got, want) = (v.len(), n);
+                    return Err(SimError::Short {
+                        what: "samples",
+                        got,
+                        want,
+                    });
+                }
+                if let Some(sample) = v[..n].iter().position(|x| !x.is_finite()) {
+                    let output = self.inner.output_names()[k].clone();
+                    return Err(SimError::NonFinite { output, sample });
+                }
+                Ok(v[..n].to_vec())
+            })
+            .collect()
+    }
+
     /// Number of simulations run.
     pub fn count(&self) -> usize {
         self.count.load(Ordering::SeqCst)

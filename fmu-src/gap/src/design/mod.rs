@@ -343,22 +343,7 @@ fn measured<S: Simulator + ?Sized>(
     let mut set = plan.base.clone();
     set.extend(plan.calib.iter().map(|&(i, v, _)| (i, v)));
     set.extend_from_slice(extra);
-    let all = sim.simulate(&set, plan.n_train)?;
-    plan.out_idx
-        .iter()
-        .map(|&k| {
-            let col = all.get(k).ok_or(SimError::Short {
-                what: "outputs",
-                got: all.len(),
-                want: k + 1,
-            })?;
-            if let Some(sample) = col.iter().position(|x| !x.is_finite()) {
-                let output = sim.inner.output_names()[k].clone();
-                return Err(SimError::NonFinite { output, sample });
-            }
-            Ok(col[..plan.n_train.min(col.len())].to_vec())
-        })
-        .collect()
+    sim.measured(&set, plan.n_train, &plan.out_idx)
 }
 
 /// Each effect's visibility in one experiment (the simulator carries its inputs).

@@ -396,21 +396,28 @@ mod covariance_tests {
     }
 }
 
+/// Errors of an output whose fit ends at RMSE `rmse` with mean `mean`, noise level `sigma`
+/// (before and base fit at 10).
+#[cfg(test)]
+fn errors_after(rmse: f64, mean: f64, sigma: f64) -> OutputErrors {
+    OutputErrors {
+        rmse_before: 10.0,
+        max_before: 10.0,
+        rmse_after: rmse,
+        max_after: rmse,
+        rmse_base_fit: 10.0,
+        max_base_fit: 10.0,
+        noise_sigma: sigma,
+        mean_after: mean,
+    }
+}
+
 #[cfg(test)]
 mod offset_tests {
     use super::*;
 
     fn out(rmse: f64, mean: f64) -> OutputErrors {
-        OutputErrors {
-            rmse_before: 10.0,
-            max_before: 10.0,
-            rmse_after: rmse,
-            max_after: rmse,
-            rmse_base_fit: 10.0,
-            max_base_fit: 10.0,
-            noise_sigma: 1.0,
-            mean_after: mean,
-        }
+        errors_after(rmse, mean, 1.0)
     }
 
     #[test]
@@ -446,16 +453,7 @@ mod bound_tests {
 
     #[test]
     fn far_from_data_is_warned_about_only_above_three_times_the_noise() {
-        let o = |rmse: f64| OutputErrors {
-            rmse_before: 10.0,
-            max_before: 10.0,
-            rmse_after: rmse,
-            max_after: rmse,
-            rmse_base_fit: 10.0,
-            max_base_fit: 10.0,
-            noise_sigma: 2.0,
-            mean_after: 0.0,
-        };
+        let o = |rmse: f64| errors_after(rmse, 0.0, 2.0);
         let mut outs = BTreeMap::new();
         outs.insert("theta".to_string(), o(5.9));
         outs.insert("p".to_string(), o(2.1));

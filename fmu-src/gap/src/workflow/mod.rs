@@ -387,30 +387,7 @@ impl<S: Simulator + ?Sized> Ctx<'_, S> {
 
     /// Simulate and return the measured outputs only, first `n` samples.
     fn measured_outputs(&self, set: &[(usize, f64)], n: usize) -> Result<Vec<Vec<f64>>, SimError> {
-        let all = self.sim.simulate(set, n)?;
-        self.out_idx
-            .iter()
-            .map(|&k| {
-                let v = all.get(k).ok_or(SimError::Short {
-                    what: "outputs",
-                    got: all.len(),
-                    want: k + 1,
-                })?;
-                if v.len() < n {
-                    let (got, want) = (v.len(), n);
-                    return Err(SimError::Short {
-                        what: "samples",
-                        got,
-                        want,
-                    });
-                }
-                if let Some(sample) = v[..n].iter().position(|x| !x.is_finite()) {
-                    let output = self.sim.inner.output_names()[k].clone();
-                    return Err(SimError::NonFinite { output, sample });
-                }
-                Ok(v[..n].to_vec())
-            })
-            .collect()
+        self.sim.measured(set, n, &self.out_idx)
     }
 
     /// Weighted residual stacked by output over samples `0..n`.
