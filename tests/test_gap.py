@@ -489,3 +489,27 @@ def test_a_sensor_offset_is_reported_as_such_never_as_an_effect(tmp_path):
     assert -6 * sigma < mean < -4 * sigma, (mean, sigma)
     # the other outputs carry no such warning
     assert not [w for w in rep["warnings"] if "offset" in w and not w.startswith("theta:")]
+
+
+def test_a_sensor_offset_asked_for_is_estimated_with_its_interval(tmp_path):
+    """The data of the test above with `--offset theta`: the offset is estimated with the
+    parameters (its 95 % interval holds the true +5 noise levels), nothing is named, no offset
+    warning remains and theta's error after the fit is at its noise level. A name that is not a
+    measured output is refused."""
+    fmu_path("HydraulicJoint")
+    ds = gapgen.make("HydraulicJoint", 910001, (), duration=DURATION, rate=RATE)
+    sigma = ds["noise_sigma"]["theta"]
+    ds["outputs"]["theta"] = np.asarray(ds["outputs"]["theta"]) + 5 * sigma
+    csv = tmp_path / "offset.csv"
+    gapgen.write_csv(ds, csv, comment="test data: HydraulicJoint, no effect, theta offset +5 sigma")
+    rep = run_ok("HydraulicJoint", csv, tmp_path / "out", "--offset", "theta")
+    assert rep["named"] == [], rep["verdict"]
+    b = rep["offsets"]["theta"]
+    assert b["ci_low"] <= 5 * sigma <= b["ci_high"], (b, 5 * sigma)
+    assert b["ci_high"] - b["ci_low"] < 2 * sigma, b
+    assert list(rep["offsets"]) == ["theta"]
+    assert not [w for w in rep["warnings"] if "offset" in w], rep["warnings"]
+    assert rep["outputs"]["theta"]["rmse_after"] < 1.2 * rep["outputs"]["theta"]["noise_sigma"]
+    assert "theta" in rep["in_short"] and "offset" in rep["in_short"], rep["in_short"]
+    p = gap("HydraulicJoint", csv, tmp_path / "bad", "--offset", "theta_ref")
+    assert p.returncode == 2 and "--offset theta_ref" in p.stderr, p.stderr

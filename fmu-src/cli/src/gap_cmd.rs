@@ -36,6 +36,11 @@ pub struct Args {
     /// Fraction of the trace held out at its end to check a named effect.
     #[arg(long, default_value_t = 0.3)]
     pub holdout: f64,
+    /// Measured output whose constant offset (a sensor zero error, measured − model) is
+    /// estimated with the parameters and reported with its interval (repeatable, or a
+    /// comma-separated list).
+    #[arg(long = "offset", value_name = "OUTPUT", value_delimiter = ',')]
+    pub offsets: Vec<String>,
     /// No progress display on stderr.
     #[arg(long)]
     pub quiet: bool,
@@ -151,6 +156,7 @@ pub fn run(a: Args) -> CliResult {
         calibration_horizons: !a.no_horizons,
         profile_restart: !a.no_profile,
         trace: a.trace,
+        offsets: a.offsets.clone(),
         ..Config::default()
     };
     let sim = FmuSimulator::new(&fmu, &data).map_err(CliError::input)?;
@@ -176,6 +182,14 @@ pub fn run(a: Args) -> CliResult {
             .collect::<Vec<_>>()
             .join(", ")
     );
+    for (name, b) in &res.offsets {
+        out!(
+            "offset of {name} (measured − model): {:.4e}, 95 % interval [{:.4e}, {:.4e}]",
+            b.value,
+            b.ci_low,
+            b.ci_high
+        );
+    }
     for (name, o) in &res.outputs {
         out!(
             "  {name}: RMSE {:.4e} -> {:.4e} (noise {:.3e}), max {:.4e} -> {:.4e}",

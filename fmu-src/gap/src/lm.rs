@@ -110,7 +110,17 @@ pub struct LmOptions {
     pub broyden_steps: usize,
     /// Print every iteration on stderr (for profiling).
     pub trace: bool,
+    /// Give up once the fit cannot come down to this sum of squares: from the third iteration
+    /// on, when even `FUTILITY_FACTOR` times the decrease the undamped Gauss–Newton step
+    /// predicts would leave the sum above it (a refit that cannot reach the evidence needed
+    /// need not crawl on). `None`: never.
+    pub futile_above: Option<f64>,
 }
+
+/// How many times the Gauss–Newton predicted decrease a fit may still achieve before it is
+/// called futile (the quadratic model understates what a curved valley yields over several
+/// steps; three times leaves room for that).
+pub const FUTILITY_FACTOR: f64 = 3.0;
 
 impl Default for LmOptions {
     fn default() -> Self {
@@ -121,6 +131,7 @@ impl Default for LmOptions {
             fd_step: 1e-3,
             broyden_steps: 3,
             trace: false,
+            futile_above: None,
         }
     }
 }
@@ -135,6 +146,21 @@ pub struct LmFit {
     pub jac: DMatrix<f64>,
     pub iterations: usize,
     pub evaluations: usize,
+    /// The fit stopped because it could not reach `LmOptions::futile_above`.
+    pub futile: bool,
+}
+
+/// Decrease of the sum of squares the undamped Gauss–Newton step predicts from the Jacobian
+/// `jac` and residual `r`: `gᵀ (JᵀJ)⁻¹ g` with `g = Jᵀ r` (a pseudo-inverse for a singular
+/// `JᵀJ`).
+pub fn gauss_newton_decrease(jac: &DMatrix<f64>, r: &[f64]) -> f64 {
+    let g = jac.transpose() * DVector::from_column_slice(r);
+    let a = jac.transpose() * jac;
+    let eps = 1e-12 * a.diagonal().amax().max(1e-300);
+    match a.pseudo_inverse(eps) {
+        Ok(inv) => g.dot(&(inv * &g)).max(0.0),
+        Err(_) => f64::INFINITY,
+    }
 }
 
 /// Sum of squares of a residual vector.
@@ -209,6 +235,7 @@ pub fn levenberg_marquardt<P: Problem>(
     // `fresh`: `jac` is a finite-difference Jacobian at `z` (else a Broyden update of one).
     let mut fresh = true;
     let mut since_fd = 0;
+    let mut futile = false;
     while m > 0 && iterations < opts.max_iter {
         iterations += 1;
         tick();
@@ -330,6 +357,12 @@ pub fn levenberg_marquardt<P: Problem>(
             fresh = true;
             since_fd = 0;
         }
+        if let Some(target) = opts.futile_above {
+            if iterations >= 3 && s - FUTILITY_FACTOR * gauss_newton_decrease(&jac, &r) > target {
+                futile = true;
+                break;
+            }
+        }
     }
     if m > 0 && !fresh {
         // Intervals and screening need the Jacobian at the optimum.
@@ -344,6 +377,7 @@ pub fn levenberg_marquardt<P: Problem>(
         jac,
         iterations,
         evaluations,
+        futile,
     })
 }
 

@@ -39,6 +39,16 @@ pub fn in_short(res: &GapResult) -> String {
             hidden.join(", ")
         ));
     }
+    if !res.offsets.is_empty() {
+        s.push_str(&format!(
+            " Estimated sensor offsets (measured − model): {}.",
+            res.offsets
+                .iter()
+                .map(|(k, e)| format!("{k} {:+.4e} [{:.4e}, {:.4e}]", e.value, e.ci_low, e.ci_high))
+                .collect::<Vec<_>>()
+                .join("; ")
+        ));
+    }
     if let Some(u) = &res.unexplained {
         if res.named.is_empty() {
             s.push_str(&format!(
@@ -101,7 +111,8 @@ pub fn design_commands(
         .collect()
 }
 
-/// The JSON document: `named`, `candidates` (per round, ranked), `parameters`, `outputs`,
+/// The JSON document: `named`, `candidates` (per round, ranked), `parameters`, `offsets` (the
+/// outputs' estimated offsets, measured − model, when asked for), `outputs`,
 /// `timing`, plus the diagnosis and settings.
 pub fn to_json(res: &GapResult, fmu: &str, data: &str) -> Value {
     json!({
@@ -118,6 +129,7 @@ pub fn to_json(res: &GapResult, fmu: &str, data: &str) -> Value {
         "redone_rounds": res.redone_rounds.iter().map(|(r, g)| json!({"round": r, "base_delta_bic": g})).collect::<Vec<_>>(),
         "calibration": res.calibration,
         "parameters": res.parameters,
+        "offsets": res.offsets,
         "outputs": res.outputs,
         "timing": res.timing,
         "fixed": res.fixed,
@@ -252,6 +264,21 @@ pub fn to_markdown(res: &GapResult, fmu: &str, data: &str, plots: &[String]) -> 
             e.unit,
             g(e.start)
         );
+    }
+    if !res.offsets.is_empty() {
+        let _ = writeln!(
+            s,
+            "\n## Output offsets\n\nEstimated with the parameters (`--offset`): a constant measured − model per output, in the output's SI unit; the errors below include it.\n\n| output | offset | 95 % CI |\n|---|---|---|"
+        );
+        for (k, e) in &res.offsets {
+            let _ = writeln!(
+                s,
+                "| {k} | {} | [{}, {}] |",
+                g(e.value),
+                g(e.ci_low),
+                g(e.ci_high)
+            );
+        }
     }
     let _ = writeln!(s, "\n## Errors per output\n\n| output | noise σ | RMSE before | RMSE base fit | RMSE after | max before | max base fit | max after |\n|---|---|---|---|---|---|---|---|");
     for (k, o) in &res.outputs {

@@ -104,45 +104,67 @@ pub(super) fn calibrate_base<S: Simulator + ?Sized>(
     ctx: &Ctx<'_, S>,
     st0: &ModelState,
 ) -> Result<(FitOut, Calibration), SimError> {
-    let fit_base = |from: &ModelState, n: usize| fit_state(ctx, from, None, &[], n, 20, 1e-4);
-    let direct = fit_base(st0, ctx.n_train)?;
+    let fit_base =
+        |from: &ModelState, n: usize| fit_state(ctx, from, None, &[], n, Limits::new(20, 1e-4));
+    // The two calibrations are independent: run side by side (each is mostly one simulation at
+    // a time, so together they keep two cores busy).
+    let (direct, growing) = rayon::join(
+        || fit_base(st0, ctx.n_train),
+        || {
+            ctx.calibration_horizons
+                .then(|| grow_horizons(ctx, st0, &fit_base))
+        },
+    );
+    let direct = direct?;
     let mut cal = Calibration {
         direct_chi2: direct.fit.sse,
         horizons: Vec::new(),
         chosen: CalibrationFit::Direct,
     };
-    if !ctx.calibration_horizons {
+    let Some((horizons, growing)) = growing else {
         return Ok((direct, cal));
+    };
+    cal.horizons = horizons;
+    match growing {
+        Some(g) if g.fit.sse < direct.fit.sse => {
+            cal.chosen = CalibrationFit::GrowingHorizons;
+            Ok((g, cal))
+        }
+        _ => Ok((direct, cal)),
     }
+}
+
+/// The growing-horizon fit of [`calibrate_base`]: each horizon's (samples, chi-square), and the
+/// fit over the whole training part (None when the continuation stopped: a horizon could not be
+/// fitted, a simulation failing at some trial values, or the first one gives no anchor).
+fn grow_horizons<S: Simulator + ?Sized>(
+    ctx: &Ctx<'_, S>,
+    st0: &ModelState,
+    fit_base: &(dyn Fn(&ModelState, usize) -> Result<FitOut, SimError> + Sync),
+) -> (Vec<(usize, f64)>, Option<FitOut>) {
     let k = ctx.out_idx.len();
+    let mut horizons = Vec::new();
     let mut st = st0.clone();
     for frac in CALIBRATION_HORIZONS {
         let n_h = (ctx.n_train as f64 * frac) as usize;
         if n_h < 20 {
             continue;
         }
-        // A horizon that cannot be fitted (a simulation failing at some trial values) ends the
-        // continuation; the direct fit stands regardless.
         let Ok(f) = fit_base(&st, n_h) else {
-            return Ok((direct, cal));
+            return (horizons, None);
         };
-        let anchor = cal.horizons.is_empty();
-        cal.horizons.push((n_h, f.fit.sse));
+        let anchor = horizons.is_empty();
+        horizons.push((n_h, f.fit.sse));
         if anchor && f.fit.sse > HORIZON_ANCHOR_MAX_CHI2 * (n_h * k) as f64 {
-            return Ok((direct, cal));
+            return (horizons, None);
         }
         st = f.state;
     }
     let Ok(growing) = fit_base(&st, ctx.n_train) else {
-        return Ok((direct, cal));
+        return (horizons, None);
     };
-    cal.horizons.push((ctx.n_train, growing.fit.sse));
-    if growing.fit.sse < direct.fit.sse {
-        cal.chosen = CalibrationFit::GrowingHorizons;
-        Ok((growing, cal))
-    } else {
-        Ok((direct, cal))
-    }
+    horizons.push((ctx.n_train, growing.fit.sse));
+    (horizons, Some(growing))
 }
 
 #[cfg(test)]

@@ -31,8 +31,9 @@ pub(super) fn diagnose<S: Simulator + ?Sized>(
     let mut consistent = true;
     for (k, &oi) in ctx.out_idx.iter().enumerate() {
         let oname = names[oi].clone();
+        let b = ctx.offset_of(k, &all_out[oi][..n], n.min(ctx.n_train));
         let r: Vec<f64> = (0..n)
-            .map(|i| (all_out[oi][i] - ctx.meas[k][i]) / ctx.sigma[k])
+            .map(|i| (all_out[oi][i] + b - ctx.meas[k][i]) / ctx.sigma[k])
             .collect();
         let ratio = stats::rms(&r);
         let nw = 10.min(n / 20).max(1);

@@ -27,6 +27,7 @@ use std::time::Instant;
 mod calibrate;
 mod diagnose;
 mod evidence;
+mod offsets;
 mod refit;
 mod screen;
 mod setup;
@@ -38,6 +39,7 @@ pub use calibrate::{Calibration, CalibrationFit};
 use diagnose::*;
 pub(crate) use evidence::regress;
 use evidence::*;
+use offsets::*;
 use refit::*;
 use screen::*;
 use setup::*;
@@ -84,6 +86,9 @@ pub struct Config {
     /// Print a line per stage on stderr with the elapsed time and simulation count, and every
     /// Levenberg-Marquardt iteration (for profiling).
     pub trace: bool,
+    /// Measured outputs whose constant offset (a sensor zero error: measured − model) is
+    /// estimated with the parameters (`--offset`).
+    pub offsets: Vec<String>,
 }
 
 impl Default for Config {
@@ -100,6 +105,7 @@ impl Default for Config {
             calibration_horizons: true,
             profile_restart: true,
             trace: false,
+            offsets: Vec::new(),
         }
     }
 }
@@ -272,6 +278,9 @@ pub struct GapResult {
     /// How the base model was calibrated (direct or over growing horizons).
     pub calibration: Calibration,
     pub parameters: BTreeMap<String, Estimate>,
+    /// Estimated offsets (measured − model, in the output's SI unit) of the outputs given by
+    /// `Config::offsets`.
+    pub offsets: BTreeMap<String, Estimate>,
     pub outputs: BTreeMap<String, OutputErrors>,
     pub fixed: BTreeMap<String, f64>,
     pub diagnosis: Vec<Diagnosis>,
@@ -335,6 +344,8 @@ struct Ctx<'a, S: Simulator + ?Sized> {
     out_idx: Vec<usize>,
     meas: Vec<Vec<f64>>,
     sigma: Vec<f64>,
+    /// Per measured output: its offset is estimated (`Config::offsets`).
+    offset: Vec<bool>,
     n: usize,
     n_train: usize,
     /// ΔBIC an effect needs to be named (`Config::min_delta_bic`).
@@ -390,13 +401,49 @@ impl<S: Simulator + ?Sized> Ctx<'_, S> {
         self.sim.measured(set, n, &self.out_idx)
     }
 
-    /// Weighted residual stacked by output over samples `0..n`.
+    /// Weighted residual stacked by output over samples `0..n`; an output whose offset is
+    /// estimated has it removed as estimated over the fitted samples (`0..min(n, n_train)`:
+    /// over the training part when a training fit is carried to the whole trace).
     fn residual(&self, y: &[Vec<f64>], n: usize) -> Vec<f64> {
+        self.residual_est(y, n, n.min(self.n_train))
+    }
+
+    /// [`Ctx::residual`] with the offsets estimated over samples `0..n_est`.
+    ///
+    /// An offset enters linearly: with `r_i = (y_i − m_i) / σ` the least-squares offset is the
+    /// mean of `r` over the fitted samples, so it is eliminated in closed form (variable
+    /// projection, Golub & Pereyra 1973) and the fits, their Jacobians and the ΔBIC see the
+    /// residual with its mean removed.
+    fn residual_est(&self, y: &[Vec<f64>], n: usize, n_est: usize) -> Vec<f64> {
         let mut r = Vec::with_capacity(n * y.len());
         for (k, yk) in y.iter().enumerate() {
             r.extend((0..n).map(|i| (yk[i] - self.meas[k][i]) / self.sigma[k]));
         }
+        self.remove_offsets(&mut r, n, n_est);
         r
+    }
+
+    /// Subtract from each offset output's block of `v` (stacked by output, `n` per output) its
+    /// mean over the first `n_est` samples.
+    fn remove_offsets(&self, v: &mut [f64], n: usize, n_est: usize) {
+        let n_est = n_est.clamp(1, n.max(1));
+        for (k, _) in self.offset.iter().enumerate().filter(|(_, on)| **on) {
+            let Some(block) = v.get_mut(k * n..(k + 1) * n) else {
+                continue;
+            };
+            let mean = block[..n_est].iter().sum::<f64>() / n_est as f64;
+            block.iter_mut().for_each(|x| *x -= mean);
+        }
+    }
+
+    /// The offset of output `k` (measured − model, physical units) for model outputs `y_k`,
+    /// estimated over samples `0..n_est`; 0 for an output whose offset is not estimated.
+    fn offset_of(&self, k: usize, y_k: &[f64], n_est: usize) -> f64 {
+        if !self.offset[k] {
+            return 0.0;
+        }
+        let n_est = n_est.clamp(1, y_k.len().max(1));
+        (0..n_est).map(|i| self.meas[k][i] - y_k[i]).sum::<f64>() / n_est as f64
     }
 }
 
@@ -413,7 +460,8 @@ impl<S: Simulator + ?Sized> Problem for FitProblem<'_, '_, S> {
         let mut set = self.base.clone();
         set.extend(self.idx.iter().copied().zip(p.iter().copied()));
         let y = self.ctx.measured_outputs(&set, self.n)?;
-        Ok(self.ctx.residual(&y, self.n))
+        // Offsets estimated over the samples this fit uses (the whole trace in the final fit).
+        Ok(self.ctx.residual_est(&y, self.n, self.n))
     }
 }
 
@@ -436,21 +484,46 @@ struct FitOut {
     bounds: Vec<Bounded>,
 }
 
+/// How far one fit may go: iterations, the relative stopping tolerance, and the sum of squares
+/// below which it must be able to come to be worth continuing (`lm::LmOptions::futile_above`).
+#[derive(Clone, Copy, Debug)]
+struct Limits {
+    max_iter: usize,
+    rel_tol: f64,
+    futile_above: Option<f64>,
+}
+
+impl Limits {
+    const fn new(max_iter: usize, rel_tol: f64) -> Self {
+        Limits {
+            max_iter,
+            rel_tol,
+            futile_above: None,
+        }
+    }
+
+    /// The same limits, giving up once the sum of squares cannot come below `target`.
+    fn futile_above(self, target: f64) -> Self {
+        Limits {
+            futile_above: Some(target),
+            ..self
+        }
+    }
+}
+
 fn fit_state<S: Simulator + ?Sized>(
     ctx: &Ctx<'_, S>,
     st: &ModelState,
     extra_on: Option<usize>,
     extra: &[(usize, f64)],
     n: usize,
-    max_iter: usize,
-    rel_tol: f64,
+    limits: Limits,
 ) -> Result<FitOut, SimError> {
-    fit_state_holding(ctx, st, extra_on, extra, &[], n, max_iter, rel_tol)
+    fit_state_holding(ctx, st, extra_on, extra, &[], n, limits)
 }
 
 /// [`fit_state`] with the settings `held` applied and kept constant (a profile fit: the base
 /// parameters fitted with an effect's parameters held at given values).
-#[allow(clippy::too_many_arguments)]
 fn fit_state_holding<S: Simulator + ?Sized>(
     ctx: &Ctx<'_, S>,
     st: &ModelState,
@@ -458,8 +531,7 @@ fn fit_state_holding<S: Simulator + ?Sized>(
     extra: &[(usize, f64)],
     held: &[(usize, f64)],
     n: usize,
-    max_iter: usize,
-    rel_tol: f64,
+    limits: Limits,
 ) -> Result<FitOut, SimError> {
     let mut idx = st.idx.clone();
     let mut p0 = st.val.clone();
@@ -480,10 +552,11 @@ fn fit_state_holding<S: Simulator + ?Sized>(
     };
     let bounds = bounds_of(&ctx.params, &idx);
     let opts = LmOptions {
-        max_iter,
-        rel_tol,
+        max_iter: limits.max_iter,
+        rel_tol: limits.rel_tol,
         abs_tol: LM_ABS_TOL,
         trace: ctx.trace,
+        futile_above: limits.futile_above,
         ..Default::default()
     };
     let fit = lm::levenberg_marquardt(&problem, &bounds, &p0, opts, &|| ctx.pb.tick())?;
@@ -520,6 +593,7 @@ pub fn run<S: Simulator + ?Sized>(
         initial_idx,
         fit_start,
         convention_warnings,
+        offset,
     } = setup(sim, data, cfg)?;
 
     let meas: Vec<Vec<f64>> = data.outputs.iter().map(|(_, v)| v.clone()).collect();
@@ -551,6 +625,7 @@ pub fn run<S: Simulator + ?Sized>(
         out_idx,
         meas,
         sigma,
+        offset,
         n,
         n_train,
         min_delta_bic: cfg.min_delta_bic,
@@ -598,6 +673,14 @@ pub fn run<S: Simulator + ?Sized>(
         .map(|&k| base_all[k][..n].to_vec())
         .collect();
     let mut cur_full_r = ctx.residual(&base_fit, n);
+    let base_fit: Vec<Vec<f64>> = base_fit
+        .into_iter()
+        .enumerate()
+        .map(|(k, y)| {
+            let b = ctx.offset_of(k, &y, n_train);
+            y.into_iter().map(|v| v + b).collect()
+        })
+        .collect();
 
     // --- 2. Locate the disagreement.
     let mut diagnosis = vec![diagnose(&ctx, data, &base_all, &names)];
@@ -735,17 +818,20 @@ pub fn run<S: Simulator + ?Sized>(
         }
         // Refit whatever the linearised evidence (a dead zone or backlash is poorly linearised,
         // and an effect coupled to a base parameter can show its gain only once both move):
-        // round 1 the best `max_refit` screened candidates unless the base residuals look like
-        // noise, later rounds (reached only when the residuals still do not) the best two;
-        // beyond that, candidates whose linearised evidence reaches the naming threshold.
+        // unless the base residuals look like noise, the best two screened candidates, and
+        // in round 1 up to `max_refit` of those scoring at least `REFIT_SCORE_FRACTION` of
+        // the best; beyond that, candidates whose linearised evidence reaches the naming
+        // threshold.
         let refit_any = round > 1 || !looks_like_noise;
         let quota = if round == 1 { cfg.max_refit } else { 2 };
+        let best = order.first().map_or(0.0, |c| c.1);
         let top: Vec<(usize, f64)> = order
             .iter()
             .enumerate()
-            .filter(|(i, (e, _))| {
+            .filter(|(i, (e, score))| {
+                let close = *i < 2 || *score >= REFIT_SCORE_FRACTION * best;
                 *i < cfg.max_refit.max(1)
-                    && ((refit_any && *i < quota) || corrected[e] >= cfg.min_delta_bic)
+                    && ((refit_any && *i < quota && close) || corrected[e] >= cfg.min_delta_bic)
             })
             .map(|(_, c)| *c)
             .collect();
@@ -862,7 +948,7 @@ pub fn run<S: Simulator + ?Sized>(
             let nb = cur.state.idx.len();
             let from = cur.state.with_values(f.state.val[..nb].to_vec());
             ctx.stage(format!("round {round}: base re-check"));
-            if let Ok(b2) = fit_state(&ctx, &from, None, &[], n_train, 12, 1e-4) {
+            if let Ok(b2) = fit_state(&ctx, &from, None, &[], n_train, Limits::new(12, 1e-4)) {
                 if b2.fit.sse < cur.fit.sse - LM_ABS_TOL {
                     let y = ctx
                         .measured_outputs(&ctx.settings(&b2.state, None, &[]), n)
@@ -961,7 +1047,7 @@ pub fn run<S: Simulator + ?Sized>(
             // Polish the named model's fit (the candidate refits stop early to save
             // simulations); keep the refit if polishing fails.
             ctx.stage(format!("round {round}: polishing the fit with {name}"));
-            let (f, r) = match fit_state(&ctx, &f.state, None, &[], n_train, 20, 1e-6) {
+            let (f, r) = match fit_state(&ctx, &f.state, None, &[], n_train, POLISH_LIMITS) {
                 Ok(p) if p.fit.sse <= f.fit.sse => {
                     let y = ctx
                         .measured_outputs(&ctx.settings(&p.state, None, &[]), n)
@@ -1044,7 +1130,7 @@ pub fn run<S: Simulator + ?Sized>(
     let (fin, n_fin) = if n_train < n {
         ctx.stage("final fit on the whole trace".to_string());
         let sse_cur = lm::sse(&cur_full_r);
-        match fit_state(&ctx, &cur.state, None, &[], n, FINAL_ITERATIONS, 1e-6) {
+        match fit_state(&ctx, &cur.state, None, &[], n, FINAL_LIMITS) {
             Ok(f) if f.fit.sse < sse_cur => (f, n),
             _ => (cur, n_train),
         }
@@ -1059,6 +1145,17 @@ pub fn run<S: Simulator + ?Sized>(
         .out_idx
         .iter()
         .map(|&k| final_all[k][..n].to_vec())
+        .collect();
+    let data_names: Vec<String> = data.outputs.iter().map(|(s, _)| s.clone()).collect();
+    let offsets = offset_estimates(&ctx, &fin, n_fin, &final_y, &data_names);
+    // The fitted model as the data see it: with its estimated offsets.
+    let final_y: Vec<Vec<f64>> = final_y
+        .into_iter()
+        .enumerate()
+        .map(|(k, y)| {
+            let b = ctx.offset_of(k, &y, n_fin);
+            y.into_iter().map(|v| v + b).collect()
+        })
         .collect();
     let scale = row_scale(&fin.fit.residuals, kout);
     let parameters = estimates(
@@ -1121,6 +1218,7 @@ pub fn run<S: Simulator + ?Sized>(
         redone_rounds,
         calibration,
         parameters,
+        offsets,
         outputs,
         fixed: cfg.fixed.iter().cloned().collect(),
         diagnosis,

@@ -25,7 +25,8 @@ pub(super) fn refit<S: Simulator + ?Sized>(
     // its noise level.
     let from = cur.state.with_values(start.base.clone());
     let start = start.effect.as_slice();
-    let first = fit_state(ctx, &from, Some(e), start, n, REFIT_ITERATIONS, 5e-4);
+    let limits = refit_limits(ctx, cur, e);
+    let first = fit_state(ctx, &from, Some(e), start, n, limits);
     let at_noise =
         |f: &FitOut| (0..k).all(|j| stats::rms(&f.fit.residuals[j * n..(j + 1) * n]) <= 1.2);
     let retry_from = match (&first, alt_start) {
@@ -33,7 +34,7 @@ pub(super) fn refit<S: Simulator + ?Sized>(
         (Err(_), Some(st)) => Some(st),
         _ => None,
     };
-    let second = retry_from.map(|st| fit_state(ctx, st, Some(e), start, n, REFIT_ITERATIONS, 5e-4));
+    let second = retry_from.map(|st| fit_state(ctx, st, Some(e), start, n, limits));
     let mut failure = None;
     let best = std::iter::once(first)
         .chain(second)
@@ -53,6 +54,24 @@ pub(super) fn refit<S: Simulator + ?Sized>(
         eff.name, f.fit.iterations, f.fit.evaluations
     ));
     assess(ctx, cur, e, score, cur_full_r, f)
+}
+
+/// Limits of a candidate refit: `REFIT_ITERATIONS`, and given up once it cannot reach the
+/// evidence naming needs. Naming needs `Σ_k N_eff,k ln(RSS_k / RSS'_k) ≥ min ΔBIC + p ln N`
+/// (`visibility_needed`). With `N_eff,k ≤ N` and `ln(a / b) ≤ (a − b) / b`, the left side is at
+/// most `D / ℓ`, `D` the drop of the sum of squares and `ℓ` a lower bound of the per-sample sums
+/// `RSS'_k / N` after the refit. `ℓ` is taken as half the smaller of 1 (the noise level, which
+/// with σ estimated from the data a fit cannot undercut by much) and the current smallest
+/// `RSS_k / N`; a refit that cannot come below the current sum less `visibility_needed · ℓ`
+/// cannot be named, whatever its other checks.
+fn refit_limits<S: Simulator + ?Sized>(ctx: &Ctx<'_, S>, cur: &FitOut, e: usize) -> Limits {
+    let n = ctx.n_train;
+    let r = &cur.fit.residuals;
+    let level = (0..ctx.out_idx.len())
+        .map(|j| lm::sse(&r[j * n..(j + 1) * n]) / n as f64)
+        .fold(1.0, f64::min);
+    let drop = ctx.visibility_needed(e) * 0.5 * level;
+    Limits::new(REFIT_ITERATIONS, 5e-4).futile_above(cur.fit.sse - drop)
 }
 
 /// The candidate record of effect `e` fitted as `f` (with the current fit `cur`): its ΔBIC,
@@ -89,10 +108,8 @@ pub(super) fn assess<S: Simulator + ?Sized>(
     off_state.val.truncate(cur.state.idx.len());
     let y_off = ctx.measured_outputs(&ctx.settings(&off_state, None, &[]), n)?;
     let r_on = &f.fit.residuals;
-    let mut d = Vec::with_capacity(n * k);
-    for j in 0..k {
-        d.extend((0..n).map(|i| r_on[j * n + i] - (y_off[j][i] - ctx.meas[j][i]) / ctx.sigma[j]));
-    }
+    let r_off = ctx.residual(&y_off, n);
+    let d: Vec<f64> = r_on.iter().zip(&r_off).map(|(a, b)| a - b).collect();
     let pb = cur.state.idx.len();
     let x = DMatrix::from_fn(
         n * k,
@@ -187,9 +204,17 @@ pub(super) fn profile_restart<S: Simulator + ?Sized>(
     let profiles: Vec<(Vec<(usize, f64)>, FitOut)> = jobs
         .into_par_iter()
         .filter_map(|(pt, st)| {
-            fit_state_holding(ctx, st, Some(e), &[], pt, n, PROFILE_ITERATIONS, 1e-3)
-                .ok()
-                .map(|p| (pt.clone(), p))
+            fit_state_holding(
+                ctx,
+                st,
+                Some(e),
+                &[],
+                pt,
+                n,
+                Limits::new(PROFILE_ITERATIONS, 1e-3),
+            )
+            .ok()
+            .map(|p| (pt.clone(), p))
         })
         .collect();
     let (pt, prof) = profiles
@@ -203,7 +228,7 @@ pub(super) fn profile_restart<S: Simulator + ?Sized>(
         return None;
     }
     let from = cur.state.with_values(prof.state.val.clone());
-    fit_state(ctx, &from, Some(e), &pt, n, REFIT_ITERATIONS, 5e-4)
+    fit_state(ctx, &from, Some(e), &pt, n, refit_limits(ctx, cur, e))
         .ok()
         .filter(|g| g.fit.sse < f.fit.sse)
 }

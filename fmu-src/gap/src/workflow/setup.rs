@@ -24,6 +24,8 @@ pub(super) struct Setup {
     pub(super) fit_start: Vec<f64>,
     /// Departures from the candidate-effect convention ([`convention_warnings`]).
     pub(super) convention_warnings: Vec<String>,
+    /// Per data output column: its offset is estimated (`Config::offsets`).
+    pub(super) offset: Vec<bool>,
 }
 
 /// Resolves `cfg` against the model and checks `data`; a usage error names what does not fit.
@@ -59,6 +61,23 @@ pub(super) fn setup<S: Simulator + ?Sized>(
         }
         out_idx.push(k);
     }
+    for name in &cfg.offsets {
+        if !data.outputs.iter().any(|(s, _)| s == name) {
+            return Err(GapError::Usage(format!(
+                "--offset {name}: not a measured output (the data's outputs: {})",
+                data.outputs
+                    .iter()
+                    .map(|(s, _)| s.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )));
+        }
+    }
+    let offset: Vec<bool> = data
+        .outputs
+        .iter()
+        .map(|(s, _)| cfg.offsets.contains(s))
+        .collect();
     let mut fixed = Vec::new();
     for (name, v) in &cfg.fixed {
         fixed.push((find_param(&params, name)?, *v));
@@ -142,5 +161,6 @@ pub(super) fn setup<S: Simulator + ?Sized>(
         initial_idx,
         fit_start,
         convention_warnings,
+        offset,
     })
 }
