@@ -27,8 +27,10 @@ use std::time::Instant;
 mod calibrate;
 mod diagnose;
 mod evidence;
+mod finish;
 mod offsets;
 mod refit;
+mod rounds;
 mod screen;
 mod setup;
 mod start;
@@ -39,8 +41,10 @@ pub use calibrate::{Calibration, CalibrationFit};
 use diagnose::*;
 pub(crate) use evidence::regress;
 use evidence::*;
+use finish::*;
 use offsets::*;
 use refit::*;
+use rounds::*;
 use screen::*;
 use setup::*;
 use start::*;
@@ -666,13 +670,13 @@ pub fn run<S: Simulator + ?Sized>(
         initial_estimated,
         ..
     } = calibrate_to_start(&ctx, st0, &initial_idx)?;
-    let mut cur = base;
+    let cur = base;
     let base_fit: Vec<Vec<f64>> = ctx
         .out_idx
         .iter()
         .map(|&k| base_all[k][..n].to_vec())
         .collect();
-    let mut cur_full_r = ctx.residual(&base_fit, n);
+    let cur_full_r = ctx.residual(&base_fit, n);
     let base_fit: Vec<Vec<f64>> = base_fit
         .into_iter()
         .enumerate()
@@ -683,8 +687,8 @@ pub fn run<S: Simulator + ?Sized>(
         .collect();
 
     // --- 2. Locate the disagreement.
-    let mut diagnosis = vec![diagnose(&ctx, data, &base_all, &names)];
-    let revealing = diagnosis[0]
+    let diagnosis0 = diagnose(&ctx, data, &base_all, &names);
+    let revealing = diagnosis0
         .outputs
         .iter()
         .enumerate()
@@ -710,396 +714,21 @@ pub fn run<S: Simulator + ?Sized>(
         });
 
     // --- 3./4. Screen, refit, name; repeat.
-    let mut named_names = Vec::new();
-    let mut unexplained = None;
-    let mut rounds: Vec<Vec<Candidate>> = Vec::new();
-    let mut verdict = String::new();
-    // Residuals at the noise level and white still get the (cheap) screening: a small effect can
-    // hide under the noise in the RMS yet be plain along its own sensitivity direction. Only if
-    // no candidate's linearised ΔBIC reaches the threshold are they consistent with noise.
-    let looks_like_noise = diagnosis[0].consistent_with_noise;
-    let mut round = 0;
-    // Rounds done again, once each, from a better base found by their base re-check (below).
-    let mut redone_rounds: Vec<(usize, f64)> = Vec::new();
-    while verdict.is_empty() && round < cfg.rounds {
-        round += 1;
-        let remaining: Vec<usize> = (0..effects.len())
-            .filter(|e| !cur.state.named.contains(e))
-            .collect();
-        if remaining.is_empty() {
-            break;
-        }
-        ctx.stage(format!(
-            "round {round}: screening {} candidate effect(s)",
-            remaining.len()
-        ));
-        // The current model with its base parameters at their values as given.
-        let given = (cur.state.idx.len() >= st0.idx.len()
-            && cur.state.idx[..st0.idx.len()] == st0.idx[..])
-            .then(|| {
-                let mut v = cur.state.val.clone();
-                v[..st0.val.len()].copy_from_slice(&st0.val);
-                cur.state.with_values(v)
-            });
-        let starts = scan_starts(&ctx, &cur, &remaining, given.as_ref());
-        ctx.stage(format!("round {round}: start scan done"));
-        for (k, &e) in remaining.iter().enumerate() {
-            ctx.stage(format!(
-                "visibility of {} over its scan (range fraction: chi-square): {}",
-                effects[e].name,
-                starts[k]
-                    .scan
-                    .iter()
-                    .map(|x| format!("{:.2}: {:.1}", x.fraction, x.visibility.unwrap_or(f64::NAN)))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ));
-        }
-        let with_visibility = |mut c: Candidate| -> Candidate {
-            if let Some(k) = remaining.iter().position(|&e| effects[e].name == c.effect) {
-                let scan = &starts[k].scan;
-                let needed = ctx.visibility_needed(remaining[k]);
-                c.visibility = scan.iter().filter_map(|x| x.visibility).reduce(f64::max);
-                c.visibility_needed = needed;
-                c.detectable_from = scan
-                    .iter()
-                    .find(|x| x.visibility.is_some_and(|v| v >= needed))
-                    .map(|x| x.parameters.clone());
-                c.visibility_scan = scan.clone();
-            }
-            c
-        };
-        let screened = screen(&ctx, &cur, &remaining, &starts);
-        // Ranked by the uncorrected linearised ΔBIC; the autocorrelation-corrected one gates the
-        // refits where evidence is required.
-        let corrected: BTreeMap<usize, f64> = remaining
-            .iter()
-            .copied()
-            .zip(screened.iter().map(|s| s.1))
-            .collect();
-        let mut order: Vec<(usize, f64)> = remaining
-            .iter()
-            .copied()
-            .zip(screened.iter().map(|s| s.0))
-            .collect();
-        ctx.stage(format!("round {round}: screened"));
-        order.sort_by(|a, b| b.1.partial_cmp(&a.1).unwrap_or(std::cmp::Ordering::Equal));
-        let best_score = corrected
-            .values()
-            .copied()
-            .fold(f64::NEG_INFINITY, f64::max);
-        if round == 1 && looks_like_noise && best_score < cfg.min_delta_bic {
-            verdict = format!(
-                "no missing effect found: the calibrated base model's residuals are consistent with noise (every output within 1.2× its noise level and white; the best candidate, {}, has a linearised ΔBIC of {:.1} < {})",
-                corrected
-                    .iter()
-                    .max_by(|a, b| a.1.partial_cmp(b.1).unwrap_or(std::cmp::Ordering::Equal))
-                    .map(|c| effects[*c.0].name.as_str())
-                    .unwrap_or("none"),
-                best_score,
-                cfg.min_delta_bic
-            );
-            rounds.push(
-                order
-                    .iter()
-                    .map(|&(e, score)| {
-                        with_visibility(Candidate::screened_only(
-                            &effects[e].name,
-                            corrected[&e],
-                            score,
-                        ))
-                    })
-                    .collect(),
-            );
-            let last = rounds.last().expect("just pushed");
-            verdict.push_str(&only_screened(last, cfg.min_delta_bic));
-            verdict.push_str(&hidden_from_data(last));
-            break;
-        }
-        // Refit whatever the linearised evidence (a dead zone or backlash is poorly linearised,
-        // and an effect coupled to a base parameter can show its gain only once both move):
-        // unless the base residuals look like noise, the best two screened candidates, and
-        // in round 1 up to `max_refit` of those scoring at least `REFIT_SCORE_FRACTION` of
-        // the best; beyond that, candidates whose linearised evidence reaches the naming
-        // threshold.
-        let refit_any = round > 1 || !looks_like_noise;
-        let quota = if round == 1 { cfg.max_refit } else { 2 };
-        let best = order.first().map_or(0.0, |c| c.1);
-        let top: Vec<(usize, f64)> = order
-            .iter()
-            .enumerate()
-            .filter(|(i, (e, score))| {
-                let close = *i < 2 || *score >= REFIT_SCORE_FRACTION * best;
-                *i < cfg.max_refit.max(1)
-                    && ((refit_any && *i < quota && close) || corrected[e] >= cfg.min_delta_bic)
-            })
-            .map(|(_, c)| *c)
-            .collect();
-        ctx.stage(format!(
-            "round {round}: refitting {}",
-            top.iter()
-                .map(|(e, _)| effects[*e].name.as_str())
-                .collect::<Vec<_>>()
-                .join(", ")
-        ));
-        type Refit = Result<(Candidate, FitOut, Vec<f64>), SimError>;
-        let refits: Vec<(usize, f64, Refit)> = top
-            .par_iter()
-            .enumerate()
-            .map(|(i, &(e, score))| {
-                let alt = (round == 1 && i == 0).then_some(&st0);
-                let k = remaining
-                    .iter()
-                    .position(|&c| c == e)
-                    .expect("refitted candidates are screened ones");
-                (
-                    e,
-                    score,
-                    refit(&ctx, &cur, e, score, &cur_full_r, alt, &starts[k]),
-                )
-            })
-            .collect();
-        let mut ranked: Vec<Candidate> = Vec::new();
-        let mut fits: Vec<(String, FitOut, Vec<f64>)> = Vec::new();
-        for (e, score, res) in refits {
-            match res {
-                Ok((c, f, r)) => {
-                    fits.push((c.effect.clone(), f, r));
-                    ranked.push(c)
-                }
-                Err(m) => ranked.push(Candidate {
-                    effect: effects[e].name.clone(),
-                    delta_bic: f64::NEG_INFINITY,
-                    score,
-                    refit: true,
-                    parameters: BTreeMap::new(),
-                    magnitude: None,
-                    holdout_sse_without: None,
-                    holdout_sse_with: None,
-                    named: false,
-                    verdict: format!("refit failed: {m}"),
-                    visibility: None,
-                    visibility_needed: 0.0,
-                    detectable_from: None,
-                    visibility_scan: Vec::new(),
-                    profiled: false,
-                }),
-            }
-        }
-        // Profile restarts, only when no refit reaches the naming threshold (see
-        // `profile_restart`): every refitted candidate that falls short of it although the data
-        // could show it, and that predicts the held-out end no worse than the current model,
-        // within one standard deviation of a chi-square over the held-out samples, √(2 N_h) (or
-        // nothing is held out); one that predicts clearly worse is not worth the simulations.
-        if best_refit_delta_bic(&ranked) < cfg.min_delta_bic {
-            let n_held = (kout * (n - n_train)) as f64;
-            let eligible: Vec<usize> = (0..ranked.len())
-                .filter(|&i| {
-                    let c = &ranked[i];
-                    c.refit
-                        && c.delta_bic.is_finite()
-                        && match (c.holdout_sse_with, c.holdout_sse_without) {
-                            (Some(with), Some(without)) => with <= without + (2.0 * n_held).sqrt(),
-                            _ => true,
-                        }
-                })
-                .collect();
-            let restarted: Vec<(usize, Refit)> = eligible
-                .par_iter()
-                .filter_map(|&i| {
-                    let c = &ranked[i];
-                    let e = effects.iter().position(|x| x.name == c.effect)?;
-                    let k = remaining.iter().position(|&x| x == e)?;
-                    let (_, f, _) = fits.iter().find(|x| x.0 == c.effect)?;
-                    let g = profile_restart(&ctx, &cur, e, f, &starts[k].scan, given.as_ref())?;
-                    Some((i, assess(&ctx, &cur, e, c.score, &cur_full_r, g)))
-                })
-                .collect();
-            for (i, res) in restarted {
-                if let Ok((mut c, f, r)) = res {
-                    c.profiled = true;
-                    if let Some(x) = fits.iter_mut().find(|x| x.0 == c.effect) {
-                        *x = (c.effect.clone(), f, r);
-                    }
-                    ranked[i] = c;
-                }
-            }
-        }
-        // Base re-check: a candidate refit also re-optimises the base parameters from a new
-        // start, and a gain that the base model alone reaches from the candidate's base values
-        // is the base fit's, not the effect's. Refit the base model from the best candidate's
-        // base values; if it lowers the base sum, it becomes the current model and every
-        // candidate's ΔBIC and held-out comparison are taken against it. Only needed when some
-        // candidate reaches the naming threshold.
-        let best_refit = best_refit_delta_bic(&ranked);
-        if let Some((_, f, _)) = fits
-            .iter()
-            .filter(|_| best_refit >= cfg.min_delta_bic)
-            .max_by(|a, b| {
-                let d = |name: &str| {
-                    ranked
-                        .iter()
-                        .find(|c| c.effect == name)
-                        .map_or(f64::NEG_INFINITY, |c| c.delta_bic)
-                };
-                d(&a.0).total_cmp(&d(&b.0))
-            })
-        {
-            let nb = cur.state.idx.len();
-            let from = cur.state.with_values(f.state.val[..nb].to_vec());
-            ctx.stage(format!("round {round}: base re-check"));
-            if let Ok(b2) = fit_state(&ctx, &from, None, &[], n_train, Limits::new(12, 1e-4)) {
-                if b2.fit.sse < cur.fit.sse - LM_ABS_TOL {
-                    let y = ctx
-                        .measured_outputs(&ctx.settings(&b2.state, None, &[]), n)
-                        .map_err(GapError::Simulation)?;
-                    let base_gain = delta_bic(&cur.fit.residuals, &b2.fit.residuals, kout, 0);
-                    cur = b2;
-                    cur_full_r = ctx.residual(&y, n);
-                    let without = holdout_sse(&cur_full_r, kout, n, n_train);
-                    for c in ranked.iter_mut().filter(|c| c.refit) {
-                        if let Some((_, fc, _)) = fits.iter().find(|x| x.0 == c.effect) {
-                            let extra = fc.state.idx.len() - nb;
-                            c.delta_bic =
-                                delta_bic(&cur.fit.residuals, &fc.fit.residuals, kout, extra);
-                            c.holdout_sse_without = without;
-                        }
-                    }
-                    // The candidates were refitted from a base this much worse than the one now
-                    // found: if none of them still reaches the threshold, their refits say
-                    // nothing about the better base, so the round is screened and refitted
-                    // again from it (once per round).
-                    if base_gain >= cfg.min_delta_bic
-                        && best_refit_delta_bic(&ranked) < cfg.min_delta_bic
-                        && !redone_rounds.iter().any(|r| r.0 == round)
-                    {
-                        ctx.stage(format!(
-                            "round {round}: the base re-check improved the base fit by ΔBIC = {base_gain:.1}; the round is done again from it"
-                        ));
-                        redone_rounds.push((round, base_gain));
-                        round -= 1;
-                        continue;
-                    }
-                }
-            }
-        }
-        ranked.sort_by(|a, b| {
-            b.delta_bic
-                .partial_cmp(&a.delta_bic)
-                .unwrap_or(std::cmp::Ordering::Equal)
-        });
-        for &(e, score) in order.iter().skip(top.len()) {
-            ranked.push(Candidate::screened_only(
-                &effects[e].name,
-                corrected[&e],
-                score,
-            ));
-        }
-        if ranked.is_empty() {
-            break;
-        }
-        let mut ranked: Vec<Candidate> = ranked.into_iter().map(with_visibility).collect();
-        // Check every refitted candidate in ΔBIC order; the first passing all three criteria is
-        // named (a candidate that absorbs part of a different missing effect may top the BIC
-        // ranking yet fail on the held-out part).
-        let mut chosen = None;
-        for (i, c) in ranked.iter_mut().enumerate() {
-            if !c.refit {
-                continue;
-            }
-            let mut why = reasons(c, cfg.min_delta_bic, n_train >= n);
-            if let (Some(miss), Some((_, _, r))) =
-                (&start_miss0, fits.iter().find(|x| x.0 == c.effect))
-            {
-                if !reproduces_start(&ctx, miss, r) {
-                    why.push(START_REASON.to_string());
-                }
-            }
-            if why.is_empty() {
-                c.named = true;
-                c.verdict = format!(
-                    "named: ΔBIC = {:.1} ≥ {}, magnitude interval excludes 0, held-out error lower",
-                    c.delta_bic, cfg.min_delta_bic
-                );
-                chosen = Some(i);
-                break;
-            }
-            c.verdict = format!("not named: {}", why.join("; "));
-            if !c.detectable() {
-                c.verdict.push_str(&format!(
-                    "; these data cannot reveal it (anywhere in its range, after the base parameters readjust, at most {})",
-                    visibility_scale(c.visibility.unwrap_or(0.0), c.visibility_needed)
-                ));
-            }
-        }
-        for c in ranked
-            .iter_mut()
-            .filter(|c| c.refit && c.verdict.is_empty())
-        {
-            c.verdict = "not considered: a higher-ranked candidate was named".into();
-        }
-        if let Some(i) = chosen {
-            let name = ranked[i].effect.clone();
-            let (_, f, r) = fits
-                .into_iter()
-                .find(|(s, _, _)| *s == name)
-                .expect("fit of the named candidate");
-            // Polish the named model's fit (the candidate refits stop early to save
-            // simulations); keep the refit if polishing fails.
-            ctx.stage(format!("round {round}: polishing the fit with {name}"));
-            let (f, r) = match fit_state(&ctx, &f.state, None, &[], n_train, POLISH_LIMITS) {
-                Ok(p) if p.fit.sse <= f.fit.sse => {
-                    let y = ctx
-                        .measured_outputs(&ctx.settings(&p.state, None, &[]), n)
-                        .map_err(GapError::Simulation)?;
-                    let r = ctx.residual(&y, n);
-                    (p, r)
-                }
-                _ => (f, r),
-            };
-            ctx.stage(format!(
-                "round {round}: polished, {} simulations",
-                f.fit.evaluations
-            ));
-            cur = f;
-            cur_full_r = r;
-            named_names.push(name);
-            rounds.push(ranked);
-            // Diagnose what remains.
-            let all = ctx
-                .sim
-                .simulate(&ctx.settings(&cur.state, None, &[]), n)
-                .map_err(GapError::Simulation)?;
-            let d = diagnose(&ctx, data, &all, &names);
-            let stop = d.consistent_with_noise;
-            diagnosis.push(d);
-            if stop {
-                break;
-            }
-        } else {
-            let closest = ranked[0].effect.clone();
-            let why = if ranked[0].refit {
-                reasons(&ranked[0], cfg.min_delta_bic, n_train >= n).join("; ")
-            } else {
-                format!(
-                    "linearised ΔBIC = {:.1} < {}: not refitted",
-                    ranked[0].delta_bic, cfg.min_delta_bic
-                )
-            };
-            verdict = if named_names.is_empty() {
-                format!("no missing effect found; the closest candidate, {closest}, is left unexplained ({why})")
-            } else {
-                format!(
-                    "named {}; no further effect found; the closest remaining candidate, {closest}, is left unexplained ({why})",
-                    named_names.join(", ")
-                )
-            };
-            verdict.push_str(&only_screened(&ranked, cfg.min_delta_bic));
-            verdict.push_str(&hidden_from_data(&ranked));
-            unexplained = Some(closest);
-            rounds.push(ranked);
-        }
-    }
+    let inputs = RoundInputs {
+        cfg,
+        st0: &st0,
+        start_miss: start_miss0.as_ref(),
+    };
+    let Rounds {
+        cur,
+        cur_full_r,
+        named: named_names,
+        candidates: rounds,
+        diagnosis,
+        redone: redone_rounds,
+        mut verdict,
+        unexplained,
+    } = run_rounds(&ctx, &inputs, cur, cur_full_r, diagnosis0, data, &names)?;
     let mut start_warning = None;
     if let Some(miss) = &start_miss0 {
         if !reproduces_start(&ctx, miss, &cur_full_r) {
@@ -1121,42 +750,9 @@ pub fn run<S: Simulator + ?Sized>(
     }
 
     // --- 5. Final fit on the whole trace and the errors before/after.
-    // The held-out end has done its work (choosing which effects to name); the chosen model's
-    // parameters are then estimated from all the data, as after any model selection: a model
-    // with several friction parameters can fit the training part to the noise with values the
-    // held-out end contradicts. Its intervals come from this fit's Jacobian; it is kept only if
-    // it lowers the whole trace's sum of squares (a failed fit keeps the training-part one).
-    // `n_fin`: the samples the reported fit used.
-    let (fin, n_fin) = if n_train < n {
-        ctx.stage("final fit on the whole trace".to_string());
-        let sse_cur = lm::sse(&cur_full_r);
-        match fit_state(&ctx, &cur.state, None, &[], n, FINAL_LIMITS) {
-            Ok(f) if f.fit.sse < sse_cur => (f, n),
-            _ => (cur, n_train),
-        }
-    } else {
-        (cur, n_train)
-    };
-    let final_all = ctx
-        .sim
-        .simulate(&ctx.settings(&fin.state, None, &[]), n)
-        .map_err(GapError::Simulation)?;
-    let final_y: Vec<Vec<f64>> = ctx
-        .out_idx
-        .iter()
-        .map(|&k| final_all[k][..n].to_vec())
-        .collect();
+    let (fin, n_fin) = final_fit(&ctx, cur, &cur_full_r);
     let data_names: Vec<String> = data.outputs.iter().map(|(s, _)| s.clone()).collect();
-    let offsets = offset_estimates(&ctx, &fin, n_fin, &final_y, &data_names);
-    // The fitted model as the data see it: with its estimated offsets.
-    let final_y: Vec<Vec<f64>> = final_y
-        .into_iter()
-        .enumerate()
-        .map(|(k, y)| {
-            let b = ctx.offset_of(k, &y, n_fin);
-            y.into_iter().map(|v| v + b).collect()
-        })
-        .collect();
+    let (final_y, offsets) = final_outputs(&ctx, &fin, n_fin, &data_names)?;
     let scale = row_scale(&fin.fit.residuals, kout);
     let parameters = estimates(
         &params,
@@ -1166,38 +762,12 @@ pub fn run<S: Simulator + ?Sized>(
         &scale,
         n_fin,
     );
-    let mut outputs = BTreeMap::new();
-    let mut traces = Traces {
+    let (outputs, trace_outputs) = output_errors(&ctx, data, [&nominal, &base_fit, &final_y]);
+    let traces = Traces {
         time: data.time.clone(),
-        outputs: Vec::new(),
+        outputs: trace_outputs,
         revealing,
     };
-    for (k, (name, y)) in data.outputs.iter().enumerate() {
-        let (rb, mb) = errors(y, &nominal[k]);
-        let (ra, ma) = errors(y, &final_y[k]);
-        let (rf, mf) = errors(y, &base_fit[k]);
-        outputs.insert(
-            name.clone(),
-            OutputErrors {
-                rmse_before: rb,
-                max_before: mb,
-                rmse_after: ra,
-                max_after: ma,
-                rmse_base_fit: rf,
-                max_base_fit: mf,
-                noise_sigma: ctx.sigma[k],
-                mean_after: final_y[k].iter().zip(y).map(|(m, d)| m - d).sum::<f64>()
-                    / y.len().max(1) as f64,
-            },
-        );
-        traces.outputs.push((
-            name.clone(),
-            y.clone(),
-            nominal[k].clone(),
-            base_fit[k].clone(),
-            final_y[k].clone(),
-        ));
-    }
     ctx.pb.finish_and_clear();
     let est_s = t_est.elapsed().as_secs_f64();
     let sim_s = ctx.sim.busy_s();

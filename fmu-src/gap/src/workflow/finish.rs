@@ -1,0 +1,92 @@
+//! The end of a run: the chosen model refitted on the whole trace, its outputs as the data see
+//! them, and the errors before and after per output.
+
+use super::*;
+
+/// The final fit. The held-out end has done its work (choosing which effects to name); the
+/// chosen model's parameters are then estimated from all the data, as after any model
+/// selection: a model with several friction parameters can fit the training part to the noise
+/// with values the held-out end contradicts. Its intervals come from this fit's Jacobian; it is
+/// kept only if it lowers the whole trace's sum of squares (a failed fit keeps the
+/// training-part one, `cur` with its whole-trace residual `cur_full_r`). Returns the fit and the
+/// samples it used.
+pub(super) fn final_fit<S: Simulator + ?Sized>(
+    ctx: &Ctx<'_, S>,
+    cur: FitOut,
+    cur_full_r: &[f64],
+) -> (FitOut, usize) {
+    let (n, n_train) = (ctx.n, ctx.n_train);
+    if n_train >= n {
+        return (cur, n_train);
+    }
+    ctx.stage("final fit on the whole trace".to_string());
+    match fit_state(ctx, &cur.state, None, &[], n, FINAL_LIMITS) {
+        Ok(f) if f.fit.sse < lm::sse(cur_full_r) => (f, n),
+        _ => (cur, n_train),
+    }
+}
+
+/// Estimated output offsets by output name.
+pub(super) type Offsets = BTreeMap<String, Estimate>;
+
+/// The final model's measured outputs over the whole trace with their estimated offsets added
+/// (the model as the data see it), and the offsets with their intervals (`offsets`).
+pub(super) fn final_outputs<S: Simulator + ?Sized>(
+    ctx: &Ctx<'_, S>,
+    fin: &FitOut,
+    n_fin: usize,
+    data_names: &[String],
+) -> Result<(Vec<Vec<f64>>, Offsets), GapError> {
+    let y = ctx
+        .measured_outputs(&ctx.settings(&fin.state, None, &[]), ctx.n)
+        .map_err(GapError::Simulation)?;
+    let offsets = offset_estimates(ctx, fin, n_fin, &y, data_names);
+    let y = y
+        .into_iter()
+        .enumerate()
+        .map(|(k, yk)| {
+            let b = ctx.offset_of(k, &yk, n_fin);
+            yk.into_iter().map(|v| v + b).collect()
+        })
+        .collect();
+    Ok((y, offsets))
+}
+
+/// Errors per output of the model as given, the base fit and the final model (`models`, in
+/// that order, measured outputs in the data's order), and the traces for the plots.
+pub(super) fn output_errors<S: Simulator + ?Sized>(
+    ctx: &Ctx<'_, S>,
+    data: &Data,
+    models: [&[Vec<f64>]; 3],
+) -> (BTreeMap<String, OutputErrors>, Vec<OutputTrace>) {
+    let [nominal, base_fit, final_y] = models;
+    let mut outputs = BTreeMap::new();
+    let mut traces = Vec::new();
+    for (k, (name, y)) in data.outputs.iter().enumerate() {
+        let (rb, mb) = errors(y, &nominal[k]);
+        let (ra, ma) = errors(y, &final_y[k]);
+        let (rf, mf) = errors(y, &base_fit[k]);
+        outputs.insert(
+            name.clone(),
+            OutputErrors {
+                rmse_before: rb,
+                max_before: mb,
+                rmse_after: ra,
+                max_after: ma,
+                rmse_base_fit: rf,
+                max_base_fit: mf,
+                noise_sigma: ctx.sigma[k],
+                mean_after: final_y[k].iter().zip(y).map(|(m, d)| m - d).sum::<f64>()
+                    / y.len().max(1) as f64,
+            },
+        );
+        traces.push((
+            name.clone(),
+            y.clone(),
+            nominal[k].clone(),
+            base_fit[k].clone(),
+            final_y[k].clone(),
+        ));
+    }
+    (outputs, traces)
+}

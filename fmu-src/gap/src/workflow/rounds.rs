@@ -1,0 +1,572 @@
+//! The rounds: screen the candidates left, refit the promising ones, re-check the base, name one
+//! or say why none; from a named effect, the next round starts from the model that includes it.
+//!
+//! Each round ends in an [`Outcome`]; [`run_rounds`] decides from it whether to go on, do the
+//! round again (once, from a better base) or stop with a verdict.
+
+use super::*;
+
+/// What the rounds hand on: the current model and everything the report needs from them.
+pub(super) struct Rounds {
+    /// The current model (the base fit, then with each named effect) and its weighted residual
+    /// over the whole trace.
+    pub(super) cur: FitOut,
+    pub(super) cur_full_r: Vec<f64>,
+    pub(super) named: Vec<String>,
+    /// Candidates of each round, ranked.
+    pub(super) candidates: Vec<Vec<Candidate>>,
+    /// Diagnosis of the base fit, then after each named effect.
+    pub(super) diagnosis: Vec<Diagnosis>,
+    /// Rounds done again from a better base: (round, ΔBIC of that base over the previous).
+    pub(super) redone: Vec<(usize, f64)>,
+    /// Why the rounds stopped (empty when they ran out or the residuals became noise).
+    pub(super) verdict: String,
+    pub(super) unexplained: Option<String>,
+}
+
+/// What a round needs from the run that does not change between rounds.
+pub(super) struct RoundInputs<'r> {
+    pub(super) cfg: &'r Config,
+    /// The base parameters as given (their values before calibration).
+    pub(super) st0: &'r ModelState,
+    /// How the base fit missed the start of the record, when it did (`start`).
+    pub(super) start_miss: Option<&'r StartMiss>,
+}
+
+/// How one round ended.
+enum Outcome {
+    /// No candidate is left.
+    Exhausted,
+    /// The round named a candidate; `stop` when what remains is consistent with noise.
+    Named { stop: bool },
+    /// The base re-check improved the base fit by this ΔBIC and no candidate reaches the
+    /// threshold against it: the round is done again from the better base.
+    Redo(f64),
+    /// Nothing was named: the verdict says why.
+    Verdict(String),
+}
+
+/// The screened candidates of a round.
+struct Screened {
+    /// Candidates left (effect indices).
+    remaining: Vec<usize>,
+    /// The current model with its base parameters at their values as given.
+    given: Option<ModelState>,
+    starts: Vec<CandidateStart>,
+    /// Autocorrelation-corrected linearised ΔBIC per candidate.
+    corrected: BTreeMap<usize, f64>,
+    /// Candidates by screening score, best first.
+    order: Vec<(usize, f64)>,
+}
+
+/// A refitted candidate's fit: (effect name, fit, weighted residual over the whole trace).
+type Fitted = (String, FitOut, Vec<f64>);
+
+/// Screen, refit and name, round after round, from the base fit `cur`.
+pub(super) fn run_rounds<S: Simulator + ?Sized>(
+    ctx: &Ctx<'_, S>,
+    inp: &RoundInputs<'_>,
+    cur: FitOut,
+    cur_full_r: Vec<f64>,
+    diagnosis: Diagnosis,
+    data: &Data,
+    names: &[String],
+) -> Result<Rounds, GapError> {
+    // Residuals at the noise level and white still get the (cheap) screening: a small effect can
+    // hide under the noise in the RMS yet be plain along its own sensitivity direction. Only if
+    // no candidate's linearised ΔBIC reaches the threshold are they consistent with noise.
+    let looks_like_noise = diagnosis.consistent_with_noise;
+    let mut st = Rounds {
+        cur,
+        cur_full_r,
+        named: Vec::new(),
+        candidates: Vec::new(),
+        diagnosis: vec![diagnosis],
+        redone: Vec::new(),
+        verdict: String::new(),
+        unexplained: None,
+    };
+    let mut round = 1;
+    while round <= inp.cfg.rounds {
+        match one_round(ctx, inp, &mut st, round, looks_like_noise, data, names)? {
+            Outcome::Exhausted | Outcome::Named { stop: true } => break,
+            Outcome::Named { stop: false } => round += 1,
+            Outcome::Redo(gain) => st.redone.push((round, gain)),
+            Outcome::Verdict(v) => {
+                st.verdict = v;
+                break;
+            }
+        }
+    }
+    Ok(st)
+}
+
+/// One round from the current model in `st`.
+fn one_round<S: Simulator + ?Sized>(
+    ctx: &Ctx<'_, S>,
+    inp: &RoundInputs<'_>,
+    st: &mut Rounds,
+    round: usize,
+    looks_like_noise: bool,
+    data: &Data,
+    names: &[String],
+) -> Result<Outcome, GapError> {
+    let cfg = inp.cfg;
+    let Some(sc) = screen_round(ctx, &st.cur, inp.st0, round) else {
+        return Ok(Outcome::Exhausted);
+    };
+    let best_score = sc
+        .corrected
+        .values()
+        .copied()
+        .fold(f64::NEG_INFINITY, f64::max);
+    if round == 1 && looks_like_noise && best_score < cfg.min_delta_bic {
+        let ranked: Vec<Candidate> = sc
+            .order
+            .iter()
+            .map(|&(e, score)| {
+                with_visibility(
+                    ctx,
+                    &sc,
+                    Candidate::screened_only(&ctx.effects[e].name, sc.corrected[&e], score),
+                )
+            })
+            .collect();
+        let closest = sc
+            .corrected
+            .iter()
+            .max_by(|a, b| a.1.partial_cmp(b.1).unwrap_or(std::cmp::Ordering::Equal))
+            .map(|c| ctx.effects[*c.0].name.as_str())
+            .unwrap_or("none");
+        let mut verdict = format!(
+            "no missing effect found: the calibrated base model's residuals are consistent with noise (every output within 1.2× its noise level and white; the best candidate, {closest}, has a linearised ΔBIC of {best_score:.1} < {})",
+            cfg.min_delta_bic
+        );
+        verdict.push_str(&only_screened(&ranked, cfg.min_delta_bic));
+        verdict.push_str(&hidden_from_data(&ranked));
+        st.candidates.push(ranked);
+        return Ok(Outcome::Verdict(verdict));
+    }
+    let top = refit_choice(cfg, &sc, round, looks_like_noise);
+    ctx.stage(format!(
+        "round {round}: refitting {}",
+        top.iter()
+            .map(|(e, _)| ctx.effects[*e].name.as_str())
+            .collect::<Vec<_>>()
+            .join(", ")
+    ));
+    let (mut ranked, mut fits) = refit_all(ctx, inp, st, &sc, &top, round);
+    if let Some(gain) = recheck_base(ctx, cfg, st, &mut ranked, &fits, round)? {
+        return Ok(Outcome::Redo(gain));
+    }
+    ranked.sort_by(|a, b| {
+        b.delta_bic
+            .partial_cmp(&a.delta_bic)
+            .unwrap_or(std::cmp::Ordering::Equal)
+    });
+    for &(e, score) in sc.order.iter().skip(top.len()) {
+        ranked.push(Candidate::screened_only(
+            &ctx.effects[e].name,
+            sc.corrected[&e],
+            score,
+        ));
+    }
+    if ranked.is_empty() {
+        return Ok(Outcome::Exhausted);
+    }
+    let mut ranked: Vec<Candidate> = ranked
+        .into_iter()
+        .map(|c| with_visibility(ctx, &sc, c))
+        .collect();
+    match choose(ctx, cfg, &mut ranked, &fits, inp.start_miss) {
+        Some(i) => {
+            let name = ranked[i].effect.clone();
+            let pos = fits
+                .iter()
+                .position(|(s, _, _)| *s == name)
+                .expect("fit of the named candidate");
+            let (_, f, r) = fits.swap_remove(pos);
+            adopt(ctx, st, name, f, r, round)?;
+            st.candidates.push(ranked);
+            // Diagnose what remains.
+            let all = ctx
+                .sim
+                .simulate(&ctx.settings(&st.cur.state, None, &[]), ctx.n)
+                .map_err(GapError::Simulation)?;
+            let d = diagnose(ctx, data, &all, names);
+            let stop = d.consistent_with_noise;
+            st.diagnosis.push(d);
+            Ok(Outcome::Named { stop })
+        }
+        None => {
+            let verdict = none_named(cfg, &ranked, &st.named, ctx.n_train >= ctx.n);
+            st.unexplained = Some(ranked[0].effect.clone());
+            st.candidates.push(ranked);
+            Ok(Outcome::Verdict(verdict))
+        }
+    }
+}
+
+/// Scan and screen the candidates not yet named (None: none is left).
+fn screen_round<S: Simulator + ?Sized>(
+    ctx: &Ctx<'_, S>,
+    cur: &FitOut,
+    st0: &ModelState,
+    round: usize,
+) -> Option<Screened> {
+    let effects = &ctx.effects;
+    let remaining: Vec<usize> = (0..effects.len())
+        .filter(|e| !cur.state.named.contains(e))
+        .collect();
+    if remaining.is_empty() {
+        return None;
+    }
+    ctx.stage(format!(
+        "round {round}: screening {} candidate effect(s)",
+        remaining.len()
+    ));
+    let given = (cur.state.idx.len() >= st0.idx.len()
+        && cur.state.idx[..st0.idx.len()] == st0.idx[..])
+        .then(|| {
+            let mut v = cur.state.val.clone();
+            v[..st0.val.len()].copy_from_slice(&st0.val);
+            cur.state.with_values(v)
+        });
+    let starts = scan_starts(ctx, cur, &remaining, given.as_ref());
+    ctx.stage(format!("round {round}: start scan done"));
+    for (k, &e) in remaining.iter().enumerate() {
+        ctx.stage(format!(
+            "visibility of {} over its scan (range fraction: chi-square): {}",
+            effects[e].name,
+            starts[k]
+                .scan
+                .iter()
+                .map(|x| format!("{:.2}: {:.1}", x.fraction, x.visibility.unwrap_or(f64::NAN)))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
+    }
+    let screened = screen(ctx, cur, &remaining, &starts);
+    // Ranked by the uncorrected linearised ΔBIC; the autocorrelation-corrected one gates the
+    // refits where evidence is required.
+    let corrected: BTreeMap<usize, f64> = remaining
+        .iter()
+        .copied()
+        .zip(screened.iter().map(|s| s.1))
+        .collect();
+    let mut order: Vec<(usize, f64)> = remaining
+        .iter()
+        .copied()
+        .zip(screened.iter().map(|s| s.0))
+        .collect();
+    ctx.stage(format!("round {round}: screened"));
+    order.sort_by(|a, b| b.1.partial_cmp(&a.1).unwrap_or(std::cmp::Ordering::Equal));
+    Some(Screened {
+        remaining,
+        given,
+        starts,
+        corrected,
+        order,
+    })
+}
+
+/// The candidate with its visibility over the scan (how much the data could show of it).
+fn with_visibility<S: Simulator + ?Sized>(
+    ctx: &Ctx<'_, S>,
+    sc: &Screened,
+    mut c: Candidate,
+) -> Candidate {
+    if let Some(k) = sc
+        .remaining
+        .iter()
+        .position(|&e| ctx.effects[e].name == c.effect)
+    {
+        let scan = &sc.starts[k].scan;
+        let needed = ctx.visibility_needed(sc.remaining[k]);
+        c.visibility = scan.iter().filter_map(|x| x.visibility).reduce(f64::max);
+        c.visibility_needed = needed;
+        c.detectable_from = scan
+            .iter()
+            .find(|x| x.visibility.is_some_and(|v| v >= needed))
+            .map(|x| x.parameters.clone());
+        c.visibility_scan = scan.clone();
+    }
+    c
+}
+
+/// Which screened candidates are refitted. Whatever the linearised evidence (a dead zone or
+/// backlash is poorly linearised, and an effect coupled to a base parameter can show its gain
+/// only once both move): unless the base residuals look like noise, the best two, and in round 1
+/// up to `max_refit` of those scoring at least `REFIT_SCORE_FRACTION` of the best; beyond that,
+/// candidates whose linearised evidence reaches the naming threshold.
+fn refit_choice(
+    cfg: &Config,
+    sc: &Screened,
+    round: usize,
+    looks_like_noise: bool,
+) -> Vec<(usize, f64)> {
+    let refit_any = round > 1 || !looks_like_noise;
+    let quota = if round == 1 { cfg.max_refit } else { 2 };
+    let best = sc.order.first().map_or(0.0, |c| c.1);
+    sc.order
+        .iter()
+        .enumerate()
+        .filter(|(i, (e, score))| {
+            let close = *i < 2 || *score >= REFIT_SCORE_FRACTION * best;
+            *i < cfg.max_refit.max(1)
+                && ((refit_any && *i < quota && close) || sc.corrected[e] >= cfg.min_delta_bic)
+        })
+        .map(|(_, c)| *c)
+        .collect()
+}
+
+/// Refit the chosen candidates (in parallel), then restart from their effect's profile those
+/// that fall short when none reaches the naming threshold.
+fn refit_all<S: Simulator + ?Sized>(
+    ctx: &Ctx<'_, S>,
+    inp: &RoundInputs<'_>,
+    st: &Rounds,
+    sc: &Screened,
+    top: &[(usize, f64)],
+    round: usize,
+) -> (Vec<Candidate>, Vec<Fitted>) {
+    type Refit = Result<(Candidate, FitOut, Vec<f64>), SimError>;
+    let (cur, cur_full_r) = (&st.cur, &st.cur_full_r);
+    let k_of = |e: usize| sc.remaining.iter().position(|&c| c == e);
+    let refits: Vec<(usize, f64, Refit)> = top
+        .par_iter()
+        .enumerate()
+        .map(|(i, &(e, score))| {
+            let alt = (round == 1 && i == 0).then_some(inp.st0);
+            let k = k_of(e).expect("refitted candidates are screened ones");
+            (
+                e,
+                score,
+                refit(ctx, cur, e, score, cur_full_r, alt, &sc.starts[k]),
+            )
+        })
+        .collect();
+    let mut ranked: Vec<Candidate> = Vec::new();
+    let mut fits: Vec<Fitted> = Vec::new();
+    for (e, score, res) in refits {
+        match res {
+            Ok((c, f, r)) => {
+                fits.push((c.effect.clone(), f, r));
+                ranked.push(c)
+            }
+            Err(m) => ranked.push(Candidate {
+                refit: true,
+                verdict: format!("refit failed: {m}"),
+                ..Candidate::screened_only(&ctx.effects[e].name, f64::NEG_INFINITY, score)
+            }),
+        }
+    }
+    // Profile restarts, only when no refit reaches the naming threshold (see
+    // `profile_restart`): every refitted candidate that falls short of it although the data
+    // could show it, and that predicts the held-out end no worse than the current model,
+    // within one standard deviation of a chi-square over the held-out samples, √(2 N_h) (or
+    // nothing is held out); one that predicts clearly worse is not worth the simulations.
+    if best_refit_delta_bic(&ranked) < inp.cfg.min_delta_bic {
+        let n_held = (ctx.out_idx.len() * (ctx.n - ctx.n_train)) as f64;
+        let eligible: Vec<usize> = (0..ranked.len())
+            .filter(|&i| {
+                let c = &ranked[i];
+                c.refit
+                    && c.delta_bic.is_finite()
+                    && match (c.holdout_sse_with, c.holdout_sse_without) {
+                        (Some(with), Some(without)) => with <= without + (2.0 * n_held).sqrt(),
+                        _ => true,
+                    }
+            })
+            .collect();
+        let restarted: Vec<(usize, Refit)> = eligible
+            .par_iter()
+            .filter_map(|&i| {
+                let c = &ranked[i];
+                let e = ctx.effects.iter().position(|x| x.name == c.effect)?;
+                let k = k_of(e)?;
+                let (_, f, _) = fits.iter().find(|x| x.0 == c.effect)?;
+                let g = profile_restart(ctx, cur, e, f, &sc.starts[k].scan, sc.given.as_ref())?;
+                Some((i, assess(ctx, cur, e, c.score, cur_full_r, g)))
+            })
+            .collect();
+        for (i, res) in restarted {
+            if let Ok((mut c, f, r)) = res {
+                c.profiled = true;
+                if let Some(x) = fits.iter_mut().find(|x| x.0 == c.effect) {
+                    *x = (c.effect.clone(), f, r);
+                }
+                ranked[i] = c;
+            }
+        }
+    }
+    (ranked, fits)
+}
+
+/// Base re-check: a candidate refit also re-optimises the base parameters from a new start, and
+/// a gain that the base model alone reaches from the candidate's base values is the base fit's,
+/// not the effect's. Refit the base model from the best candidate's base values; if it lowers
+/// the base sum, it becomes the current model and every candidate's ΔBIC and held-out comparison
+/// are taken against it. Only needed when some candidate reaches the naming threshold. Returns
+/// the base's gain when the round must be done again from it: the candidates were refitted
+/// from a base this much worse, and none of them still reaches the threshold against the
+/// better one (once per round).
+fn recheck_base<S: Simulator + ?Sized>(
+    ctx: &Ctx<'_, S>,
+    cfg: &Config,
+    st: &mut Rounds,
+    ranked: &mut [Candidate],
+    fits: &[Fitted],
+    round: usize,
+) -> Result<Option<f64>, GapError> {
+    let kout = ctx.out_idx.len();
+    let best_refit = best_refit_delta_bic(ranked);
+    let delta_of = |name: &str| {
+        ranked
+            .iter()
+            .find(|c| c.effect == name)
+            .map_or(f64::NEG_INFINITY, |c| c.delta_bic)
+    };
+    let Some((_, f, _)) = fits
+        .iter()
+        .filter(|_| best_refit >= cfg.min_delta_bic)
+        .max_by(|a, b| delta_of(&a.0).total_cmp(&delta_of(&b.0)))
+    else {
+        return Ok(None);
+    };
+    let nb = st.cur.state.idx.len();
+    let from = st.cur.state.with_values(f.state.val[..nb].to_vec());
+    ctx.stage(format!("round {round}: base re-check"));
+    let Ok(b2) = fit_state(ctx, &from, None, &[], ctx.n_train, Limits::new(12, 1e-4)) else {
+        return Ok(None);
+    };
+    if b2.fit.sse >= st.cur.fit.sse - LM_ABS_TOL {
+        return Ok(None);
+    }
+    let y = ctx
+        .measured_outputs(&ctx.settings(&b2.state, None, &[]), ctx.n)
+        .map_err(GapError::Simulation)?;
+    let base_gain = delta_bic(&st.cur.fit.residuals, &b2.fit.residuals, kout, 0);
+    st.cur = b2;
+    st.cur_full_r = ctx.residual(&y, ctx.n);
+    let without = holdout_sse(&st.cur_full_r, kout, ctx.n, ctx.n_train);
+    for c in ranked.iter_mut().filter(|c| c.refit) {
+        if let Some((_, fc, _)) = fits.iter().find(|x| x.0 == c.effect) {
+            let extra = fc.state.idx.len() - nb;
+            c.delta_bic = delta_bic(&st.cur.fit.residuals, &fc.fit.residuals, kout, extra);
+            c.holdout_sse_without = without;
+        }
+    }
+    let redo = base_gain >= cfg.min_delta_bic
+        && best_refit_delta_bic(ranked) < cfg.min_delta_bic
+        && !st.redone.iter().any(|r| r.0 == round);
+    if redo {
+        ctx.stage(format!(
+            "round {round}: the base re-check improved the base fit by ΔBIC = {base_gain:.1}; the round is done again from it"
+        ));
+    }
+    Ok(redo.then_some(base_gain))
+}
+
+/// Check every refitted candidate in ΔBIC order; the first passing all criteria is named (a
+/// candidate that absorbs part of a different missing effect may top the BIC ranking yet fail on
+/// the held-out part). Writes each checked candidate's verdict; returns the named one's index.
+fn choose<S: Simulator + ?Sized>(
+    ctx: &Ctx<'_, S>,
+    cfg: &Config,
+    ranked: &mut [Candidate],
+    fits: &[Fitted],
+    start_miss: Option<&StartMiss>,
+) -> Option<usize> {
+    let mut chosen = None;
+    for (i, c) in ranked.iter_mut().enumerate() {
+        if !c.refit {
+            continue;
+        }
+        let mut why = reasons(c, cfg.min_delta_bic, ctx.n_train >= ctx.n);
+        if let (Some(miss), Some((_, _, r))) = (start_miss, fits.iter().find(|x| x.0 == c.effect)) {
+            if !reproduces_start(ctx, miss, r) {
+                why.push(START_REASON.to_string());
+            }
+        }
+        if why.is_empty() {
+            c.named = true;
+            c.verdict = format!(
+                "named: ΔBIC = {:.1} ≥ {}, magnitude interval excludes 0, held-out error lower",
+                c.delta_bic, cfg.min_delta_bic
+            );
+            chosen = Some(i);
+            break;
+        }
+        c.verdict = format!("not named: {}", why.join("; "));
+        if !c.detectable() {
+            c.verdict.push_str(&format!(
+                "; these data cannot reveal it (anywhere in its range, after the base parameters readjust, at most {})",
+                visibility_scale(c.visibility.unwrap_or(0.0), c.visibility_needed)
+            ));
+        }
+    }
+    for c in ranked
+        .iter_mut()
+        .filter(|c| c.refit && c.verdict.is_empty())
+    {
+        c.verdict = "not considered: a higher-ranked candidate was named".into();
+    }
+    chosen
+}
+
+/// Make the named candidate's fit `f` (full-trace residual `r`) the current model, after
+/// polishing it (the candidate refits stop early to save simulations; a failed polish keeps
+/// the refit).
+fn adopt<S: Simulator + ?Sized>(
+    ctx: &Ctx<'_, S>,
+    st: &mut Rounds,
+    name: String,
+    f: FitOut,
+    r: Vec<f64>,
+    round: usize,
+) -> Result<(), GapError> {
+    ctx.stage(format!("round {round}: polishing the fit with {name}"));
+    let (f, r) = match fit_state(ctx, &f.state, None, &[], ctx.n_train, POLISH_LIMITS) {
+        Ok(p) if p.fit.sse <= f.fit.sse => {
+            let y = ctx
+                .measured_outputs(&ctx.settings(&p.state, None, &[]), ctx.n)
+                .map_err(GapError::Simulation)?;
+            let r = ctx.residual(&y, ctx.n);
+            (p, r)
+        }
+        _ => (f, r),
+    };
+    ctx.stage(format!(
+        "round {round}: polished, {} simulations",
+        f.fit.evaluations
+    ));
+    st.cur = f;
+    st.cur_full_r = r;
+    st.named.push(name);
+    Ok(())
+}
+
+/// The verdict of a round that named nothing (`no_holdout`: nothing is held out).
+fn none_named(cfg: &Config, ranked: &[Candidate], named: &[String], no_holdout: bool) -> String {
+    let closest = &ranked[0].effect;
+    let why = if ranked[0].refit {
+        reasons(&ranked[0], cfg.min_delta_bic, no_holdout).join("; ")
+    } else {
+        format!(
+            "linearised ΔBIC = {:.1} < {}: not refitted",
+            ranked[0].delta_bic, cfg.min_delta_bic
+        )
+    };
+    let mut verdict = if named.is_empty() {
+        format!("no missing effect found; the closest candidate, {closest}, is left unexplained ({why})")
+    } else {
+        format!(
+            "named {}; no further effect found; the closest remaining candidate, {closest}, is left unexplained ({why})",
+            named.join(", ")
+        )
+    };
+    verdict.push_str(&only_screened(ranked, cfg.min_delta_bic));
+    verdict.push_str(&hidden_from_data(ranked));
+    verdict
+}
