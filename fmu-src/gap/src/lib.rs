@@ -52,8 +52,9 @@
 //!    by ΔBIC ≥ 10 and no candidate still reaches the threshold against it, the round is done
 //!    once more from the better base (the refits started from a worse one).
 //!    An effect is named only if ΔBIC ≥ 10, the 95 % interval of its contribution's scale excludes
-//!    0, and it lowers the error on the held-out part; its fit is then polished, and the loop
-//!    repeats (`rounds`).
+//!    0, and it lowers the error on the held-out part. If what remains is not yet noise and a
+//!    round follows, its fit is polished and the loop repeats (`rounds`); otherwise the final fit
+//!    does the polishing.
 //! 6. Final fit: the chosen model (base plus named effects) is refitted on the whole trace; its
 //!    parameters and intervals are the reported ones, its errors the "after" column.
 //! 7. Report ([`report`]: `report.json`, `report.md`) and plots ([`plots`]).

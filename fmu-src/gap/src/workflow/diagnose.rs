@@ -2,6 +2,10 @@
 
 use super::*;
 
+/// An output whose residual RMS is within this multiple of its noise level is at the noise
+/// level (with white residuals: consistent with noise).
+pub(super) const NOISE_RMS_RATIO: f64 = 1.2;
+
 pub(super) fn errors(meas: &[f64], model: &[f64]) -> (f64, f64) {
     let e: Vec<f64> = model.iter().zip(meas).map(|(a, b)| a - b).collect();
     (stats::rms(&e), stats::max_abs(&e))
@@ -72,7 +76,7 @@ pub(super) fn diagnose<S: Simulator + ?Sized>(
             .into_iter()
             .max_by(|a, b| a.2.partial_cmp(&b.2).unwrap_or(std::cmp::Ordering::Equal));
         let white = lb_p > 0.01;
-        let ok = ratio <= 1.2 && white;
+        let ok = ratio <= NOISE_RMS_RATIO && white;
         consistent &= ok;
         let mut text = format!(
             "{oname}: residual RMS {:.2}× its noise level (σ = {:.3e}); worst over t = {:.2}–{:.2} s ({:.2}×)",

@@ -147,7 +147,16 @@ fn one_round<S: Simulator + ?Sized>(
         st.candidates.push(ranked);
         return Ok(Outcome::Verdict(verdict));
     }
-    let top = refit_choice(cfg, &sc, round, looks_like_noise);
+    // After a named effect, residuals at the noise level in every output (white or not) leave
+    // nothing a poorly linearised effect could show beyond its linearised evidence.
+    let at_noise = if round == 1 {
+        looks_like_noise
+    } else {
+        st.diagnosis
+            .last()
+            .is_some_and(|d| d.outputs.iter().all(|o| o.rmse_over_noise <= NOISE_RMS_RATIO))
+    };
+    let top = refit_choice(cfg, &sc, round, at_noise);
     ctx.stage(format!(
         "round {round}: refitting {}",
         top.iter()
@@ -186,14 +195,21 @@ fn one_round<S: Simulator + ?Sized>(
                 .position(|(s, _, _)| *s == name)
                 .expect("fit of the named candidate");
             let (_, f, r) = fits.swap_remove(pos);
-            adopt(ctx, st, name, f, r, round)?;
             st.candidates.push(ranked);
-            // Diagnose what remains.
-            let all = ctx
-                .sim
-                .simulate(&ctx.settings(&st.cur.state, None, &[]), ctx.n)
-                .map_err(GapError::Simulation)?;
-            let d = diagnose(ctx, data, &all, names);
+            // Diagnose what remains. The refit stops early to save simulations; it is polished
+            // only for a next round, whose candidates are compared against it. When what
+            // remains is already noise, or no round follows, the final fit on the whole trace
+            // does that work.
+            let d = diagnose_state(ctx, &f.state, data, names)?;
+            if d.consistent_with_noise || round >= cfg.rounds {
+                st.cur = f;
+                st.cur_full_r = r;
+                st.named.push(name);
+                st.diagnosis.push(d);
+                return Ok(Outcome::Named { stop: true });
+            }
+            adopt(ctx, st, name, f, r, round)?;
+            let d = diagnose_state(ctx, &st.cur.state, data, names)?;
             let stop = d.consistent_with_noise;
             st.diagnosis.push(d);
             Ok(Outcome::Named { stop })
@@ -205,6 +221,20 @@ fn one_round<S: Simulator + ?Sized>(
             Ok(Outcome::Verdict(verdict))
         }
     }
+}
+
+/// Diagnosis of the model `state` over the whole trace.
+fn diagnose_state<S: Simulator + ?Sized>(
+    ctx: &Ctx<'_, S>,
+    state: &ModelState,
+    data: &Data,
+    names: &[String],
+) -> Result<Diagnosis, GapError> {
+    let all = ctx
+        .sim
+        .simulate(&ctx.settings(state, None, &[]), ctx.n)
+        .map_err(GapError::Simulation)?;
+    Ok(diagnose(ctx, data, &all, names))
 }
 
 /// Scan and screen the candidates not yet named (None: none is left).
@@ -296,16 +326,12 @@ fn with_visibility<S: Simulator + ?Sized>(
 
 /// Which screened candidates are refitted. Whatever the linearised evidence (a dead zone or
 /// backlash is poorly linearised, and an effect coupled to a base parameter can show its gain
-/// only once both move): unless the base residuals look like noise, the best two, and in round 1
-/// up to `max_refit` of those scoring at least `REFIT_SCORE_FRACTION` of the best; beyond that,
-/// candidates whose linearised evidence reaches the naming threshold.
-fn refit_choice(
-    cfg: &Config,
-    sc: &Screened,
-    round: usize,
-    looks_like_noise: bool,
-) -> Vec<(usize, f64)> {
-    let refit_any = round > 1 || !looks_like_noise;
+/// only once both move): unless the residuals are at the noise level (`at_noise`: round 1,
+/// consistent with noise; later rounds, every output's RMS within `NOISE_RMS_RATIO` of its
+/// noise), the best two, and up to `max_refit` of those scoring at least `REFIT_SCORE_FRACTION`
+/// of the best (round 1; later rounds, two at most); beyond that, candidates whose linearised
+/// evidence reaches the naming threshold.
+fn refit_choice(cfg: &Config, sc: &Screened, round: usize, at_noise: bool) -> Vec<(usize, f64)> {
     let quota = if round == 1 { cfg.max_refit } else { 2 };
     let best = sc.order.first().map_or(0.0, |c| c.1);
     sc.order
@@ -314,7 +340,7 @@ fn refit_choice(
         .filter(|(i, (e, score))| {
             let close = *i < 2 || *score >= REFIT_SCORE_FRACTION * best;
             *i < cfg.max_refit.max(1)
-                && ((refit_any && *i < quota && close) || sc.corrected[e] >= cfg.min_delta_bic)
+                && ((!at_noise && *i < quota && close) || sc.corrected[e] >= cfg.min_delta_bic)
         })
         .map(|(_, c)| *c)
         .collect()

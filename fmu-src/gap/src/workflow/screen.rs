@@ -13,7 +13,8 @@ use super::*;
 /// stopped refits 80 units short of the truth's minimum).
 pub(super) const LM_ABS_TOL: f64 = 1.0;
 
-/// Iteration limit of a candidate's refit (the named one is polished afterwards).
+/// Iteration limit of a candidate's refit (the named one is polished before another round, or
+/// refitted on the whole trace at the end).
 pub(super) const REFIT_ITERATIONS: usize = 15;
 
 /// A screened candidate beyond the best two is refitted only if its screening score reaches this
