@@ -110,17 +110,18 @@ pub struct LmOptions {
     pub broyden_steps: usize,
     /// Print every iteration on stderr (for profiling).
     pub trace: bool,
-    /// Give up once the fit cannot come down to this sum of squares: from the third iteration
-    /// on, when even `FUTILITY_FACTOR` times the decrease the undamped Gauss–Newton step
-    /// predicts would leave the sum above it (a refit that cannot reach the evidence needed
-    /// need not crawl on). `None`: never.
+    /// Give up once the fit cannot come down to this sum of squares within its iterations:
+    /// from the third iteration on, when even `FUTILITY_FACTOR` times the decrease the undamped
+    /// Gauss–Newton step predicts, gained in every iteration left, would leave the sum above it
+    /// (a refit that cannot reach the evidence needed need not crawl on). `None`: never.
     pub futile_above: Option<f64>,
 }
 
-/// How many times the Gauss–Newton predicted decrease a fit may still achieve before it is
-/// called futile (the quadratic model understates what a curved valley yields over several
-/// steps; three times leaves room for that).
-pub const FUTILITY_FACTOR: f64 = 3.0;
+/// How many times the Gauss–Newton predicted decrease a fit may still gain per iteration left
+/// before it is called futile. The quadratic model's decrease is what one step can gain near a
+/// minimum; along a curved valley each step gains about that much again, and far from the
+/// minimum a step can gain more; twice it leaves room for that.
+pub const FUTILITY_FACTOR: f64 = 2.0;
 
 impl Default for LmOptions {
     fn default() -> Self {
@@ -358,7 +359,9 @@ pub fn levenberg_marquardt<P: Problem>(
             since_fd = 0;
         }
         if let Some(target) = opts.futile_above {
-            if iterations >= 3 && s - FUTILITY_FACTOR * gauss_newton_decrease(&jac, &r) > target {
+            let left = opts.max_iter.saturating_sub(iterations) as f64;
+            let reach = FUTILITY_FACTOR * left * gauss_newton_decrease(&jac, &r);
+            if iterations >= 3 && s - reach > target {
                 futile = true;
                 break;
             }
@@ -440,6 +443,61 @@ mod tests {
         let fit =
             levenberg_marquardt(&pr, &b, &[1.0, 0.5, 0.0], LmOptions::default(), &|| {}).unwrap();
         assert!(fit.p[0] <= 5.0 && fit.p[0] > 4.9, "{:?}", fit.p);
+    }
+
+    /// A fit asked to come below a sum it cannot reach (the exponential decay with noise-free
+    /// data reaches 0; with a constant offset of the data it cannot go below the offset's sum)
+    /// gives up after three iterations and says so; one whose target is reachable runs on to
+    /// its optimum.
+    #[test]
+    fn gives_up_on_an_unreachable_sum_and_only_then() {
+        let t: Vec<f64> = (0..200).map(|i| i as f64 * 0.05).collect();
+        // Data = decay + a step the model cannot follow: the best sum is about 200 * 0.25.
+        let y: Vec<f64> = t
+            .iter()
+            .map(|t| 2.5 * (-1.3 * t).exp() + 0.4 + if *t > 5.0 { 0.5 } else { 0.0 })
+            .collect();
+        let pr = Decay { t, y };
+        let b = [
+            Bounded::new(1.0, Some(0.0), Some(10.0)),
+            Bounded::new(0.2, Some(0.01), Some(100.0)),
+            Bounded::new(0.0, Some(-5.0), Some(5.0)),
+        ];
+        let opts = LmOptions {
+            rel_tol: 1e-12,
+            max_iter: 50,
+            ..Default::default()
+        };
+        let free = levenberg_marquardt(&pr, &b, &[1.0, 0.2, 0.0], opts, &|| {}).unwrap();
+        assert!(!free.futile);
+        let futile = levenberg_marquardt(
+            &pr,
+            &b,
+            &[1.0, 0.2, 0.0],
+            LmOptions {
+                futile_above: Some(0.5 * free.sse),
+                ..opts
+            },
+            &|| {},
+        )
+        .unwrap();
+        assert!(
+            futile.futile && futile.iterations < free.iterations,
+            "{futile:?}"
+        );
+        let reachable = levenberg_marquardt(
+            &pr,
+            &b,
+            &[1.0, 0.2, 0.0],
+            LmOptions {
+                futile_above: Some(1.01 * free.sse),
+                ..opts
+            },
+            &|| {},
+        )
+        .unwrap();
+        assert!(!reachable.futile, "{reachable:?}");
+        assert!((reachable.sse - free.sse).abs() < 1e-6 * free.sse);
     }
 
     struct Line {

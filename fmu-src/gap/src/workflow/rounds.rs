@@ -152,9 +152,11 @@ fn one_round<S: Simulator + ?Sized>(
     let at_noise = if round == 1 {
         looks_like_noise
     } else {
-        st.diagnosis
-            .last()
-            .is_some_and(|d| d.outputs.iter().all(|o| o.rmse_over_noise <= NOISE_RMS_RATIO))
+        st.diagnosis.last().is_some_and(|d| {
+            d.outputs
+                .iter()
+                .all(|o| o.rmse_over_noise <= NOISE_RMS_RATIO)
+        })
     };
     let top = refit_choice(cfg, &sc, round, at_noise);
     ctx.stage(format!(
