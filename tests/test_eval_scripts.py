@@ -1,0 +1,38 @@
+"""Smoke runs of the long evaluations that are not part of CI in full: `scripts/gap-eval` (the
+rates at which `gap` names the right effect over many datasets) and the gap part of
+`scripts/bench` (`scripts/bench_gap.py`, `gap` against a Python workflow doing the same steps).
+Each runs on the smallest case and is checked for the lines a reader of its output relies on."""
+import os
+import re
+import subprocess
+import sys
+
+from conftest import REPO, cli_path, fmu_path
+
+
+def test_gap_eval_runs_and_summarises(tmp_path):
+    fmu_path("HydraulicJoint")
+    cli_path()
+    p = subprocess.run(
+        [str(REPO / "scripts" / "gap-eval"), "--n", "1", "--models", "HydraulicJoint",
+         "--conditions", "single1", "--duration", "2", "--rate", "100", "--seed0", "990000",
+         "--out", str(tmp_path / "eval")],
+        capture_output=True, text=True, timeout=600, cwd=REPO,
+        env={**os.environ, "GAP_EVAL_BIN": cli_path()})
+    assert p.returncode == 0, p.stderr[-2000:]
+    line = next(l for l in p.stdout.splitlines() if l.startswith("HydraulicJoint single1:"))
+    assert "1 datasets, 0 failed runs" in line, line
+    assert re.search(r"hidden effect named first [01]/1", line), line
+    assert re.search(r"wall mean [0-9.]+ s", line), line
+    assert (tmp_path / "eval" / "results.jsonl").read_text().count("\n") == 1
+
+
+def test_gap_bench_prints_its_ratio(tmp_path):
+    fmu_path("HydraulicJoint")
+    cli_path()
+    p = subprocess.run([sys.executable, str(REPO / "scripts" / "bench_gap.py"), "--quick"],
+                       capture_output=True, text=True, timeout=600, cwd=REPO)
+    assert p.returncode == 0, p.stderr[-2000:]
+    m = re.search(r"gap speedup ([0-9.]+)x against the Python workflow", p.stdout)
+    assert m and float(m.group(1)) > 0, p.stdout
+    assert re.search(r"actuator-fmu gap: [0-9.]+ s, [0-9]+ simulations", p.stdout), p.stdout
