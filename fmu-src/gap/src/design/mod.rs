@@ -18,7 +18,8 @@
 //!    each output's range in that experiment).
 //! 4. Search: each input alone runs through the signal library ([`signals`]) while the others
 //!    rest at their start values; then, from the best, every other input runs through the
-//!    library and constant levels, one input after another (coordinate search).
+//!    library and levels (reached from the start value by a minimum-jerk move), one input after
+//!    another (coordinate search).
 //!
 //! The prediction is linear in the effect's change; the refit the gap workflow then runs is not,
 //! so a design aims well above 1× and the test of a design is the gap run on data it produced.

@@ -127,12 +127,17 @@ pub fn library(t: &[f64], lo: f64, hi: f64, start: f64, unit: &str) -> Vec<Signa
     out
 }
 
-/// Constant levels for an input that accompanies another one's signal: its start value, the
-/// ends and the middle of its range.
+/// Levels for an input that accompanies another one's signal: its start value, the ends and the
+/// middle of its range. Like every signal, each rests at the start value first and moves to its
+/// level along a minimum-jerk move (over 15 % of the shorter period): an FMU initialises at its
+/// inputs' start values, and a level out of its rest state from time 0 could leave it no
+/// initial equilibrium (a TwistedString load pushing the strings slack).
 pub fn constants(t: &[f64], lo: f64, hi: f64, start: f64, unit: &str) -> Vec<Signal> {
-    let mut levels = vec![start.clamp(lo, hi), lo, 0.5 * (lo + hi), hi];
+    let start = start.clamp(lo, hi);
+    let mut levels = vec![start, lo, 0.5 * (lo + hi), hi];
     levels.dedup_by(|a, b| (*a - *b).abs() <= 1e-12 * (hi - lo).abs());
     let mut seen: Vec<f64> = Vec::new();
+    let period = PERIODS[0] * (t[t.len() - 1] - t[0]);
     levels
         .into_iter()
         .filter(|x| {
@@ -141,8 +146,8 @@ pub fn constants(t: &[f64], lo: f64, hi: f64, start: f64, unit: &str) -> Vec<Sig
             new
         })
         .map(|x| Signal {
-            label: format!("constant {x:.4} {unit}"),
-            values: vec![x; t.len()],
+            label: format!("level {x:.4} {unit}"),
+            values: shaped(t, start, x, x, period, |_| 0.0),
         })
         .collect()
 }
@@ -206,10 +211,19 @@ mod tests {
     }
 
     #[test]
-    fn constants_are_distinct_levels() {
+    fn levels_are_distinct_and_start_at_rest() {
         let t = grid();
-        let c = constants(&t, 0.0, 40.0, 0.0, "N");
-        let levels: Vec<f64> = c.iter().map(|s| s.values[0]).collect();
-        assert_eq!(levels, vec![0.0, 20.0, 40.0]);
+        let c = constants(&t, -10.0, 40.0, 0.0, "N");
+        let ends: Vec<f64> = c.iter().map(|s| *s.values.last().unwrap()).collect();
+        assert_eq!(ends, vec![0.0, -10.0, 15.0, 40.0]);
+        for s in &c {
+            assert_eq!(s.values[0], 0.0, "{}", s.label);
+            let jump = s
+                .values
+                .windows(2)
+                .map(|w| (w[1] - w[0]).abs())
+                .fold(0.0, f64::max);
+            assert!(jump < 7.5, "{}: {jump}", s.label);
+        }
     }
 }
