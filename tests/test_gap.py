@@ -471,16 +471,23 @@ def test_bad_csv_exits_2_with_location(tmp_path):
     assert p.returncode == 2 and "noout.csv:1" in p.stderr, p.stderr
 
 
-def test_a_sensor_offset_is_reported_as_such_never_as_an_effect(tmp_path):
+def theta_offset_data(tmp_path):
     """HydraulicJoint data without any effect, the joint angle read 5 noise levels too high (a
-    sensor zero error): nothing is named, and a warning names the output and the offset (the
-    mean of model − data, about −5σ), telling the user what to do."""
+    sensor zero error). Returns the CSV and theta's noise level."""
     fmu_path("HydraulicJoint")
     ds = gapgen.make("HydraulicJoint", 910001, (), duration=DURATION, rate=RATE)
     sigma = ds["noise_sigma"]["theta"]
     ds["outputs"]["theta"] = np.asarray(ds["outputs"]["theta"]) + 5 * sigma
     csv = tmp_path / "offset.csv"
     gapgen.write_csv(ds, csv, comment="test data: HydraulicJoint, no effect, theta offset +5 sigma")
+    return csv, sigma
+
+
+def test_a_sensor_offset_is_reported_as_such_never_as_an_effect(tmp_path):
+    """HydraulicJoint data without any effect, the joint angle read 5 noise levels too high (a
+    sensor zero error): nothing is named, and a warning names the output and the offset (the
+    mean of model − data, about −5σ), telling the user what to do."""
+    csv, sigma = theta_offset_data(tmp_path)
     rep = run_ok("HydraulicJoint", csv, tmp_path / "out")
     assert rep["named"] == [], rep["verdict"]
     warned = [w for w in rep["warnings"] if w.startswith("theta:") and "offset" in w]
@@ -496,12 +503,7 @@ def test_a_sensor_offset_asked_for_is_estimated_with_its_interval(tmp_path):
     parameters (its 95 % interval holds the true +5 noise levels), nothing is named, no offset
     warning remains and theta's error after the fit is at its noise level. A name that is not a
     measured output is refused."""
-    fmu_path("HydraulicJoint")
-    ds = gapgen.make("HydraulicJoint", 910001, (), duration=DURATION, rate=RATE)
-    sigma = ds["noise_sigma"]["theta"]
-    ds["outputs"]["theta"] = np.asarray(ds["outputs"]["theta"]) + 5 * sigma
-    csv = tmp_path / "offset.csv"
-    gapgen.write_csv(ds, csv, comment="test data: HydraulicJoint, no effect, theta offset +5 sigma")
+    csv, sigma = theta_offset_data(tmp_path)
     rep = run_ok("HydraulicJoint", csv, tmp_path / "out", "--offset", "theta")
     assert rep["named"] == [], rep["verdict"]
     b = rep["offsets"]["theta"]

@@ -41,15 +41,7 @@ pub(super) fn final_outputs<S: Simulator + ?Sized>(
         .measured_outputs(&ctx.settings(&fin.state, None, &[]), ctx.n)
         .map_err(GapError::Simulation)?;
     let offsets = offset_estimates(ctx, fin, n_fin, &y, data_names);
-    let y = y
-        .into_iter()
-        .enumerate()
-        .map(|(k, yk)| {
-            let b = ctx.offset_of(k, &yk, n_fin);
-            yk.into_iter().map(|v| v + b).collect()
-        })
-        .collect();
-    Ok((y, offsets))
+    Ok((ctx.with_offsets(y, n_fin), offsets))
 }
 
 /// Errors per output of the model as given, the base fit and the final model (`models`, in

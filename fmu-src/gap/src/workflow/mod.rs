@@ -449,6 +449,18 @@ impl<S: Simulator + ?Sized> Ctx<'_, S> {
         let n_est = n_est.clamp(1, y_k.len().max(1));
         (0..n_est).map(|i| self.meas[k][i] - y_k[i]).sum::<f64>() / n_est as f64
     }
+
+    /// The model's measured outputs `y` as the data see them: each with its offset, estimated
+    /// over samples `0..n_est`, added.
+    fn with_offsets(&self, y: Vec<Vec<f64>>, n_est: usize) -> Vec<Vec<f64>> {
+        y.into_iter()
+            .enumerate()
+            .map(|(k, yk)| {
+                let b = self.offset_of(k, &yk, n_est);
+                yk.into_iter().map(|v| v + b).collect()
+            })
+            .collect()
+    }
 }
 
 struct FitProblem<'c, 'a, S: Simulator + ?Sized> {
@@ -677,14 +689,7 @@ pub fn run<S: Simulator + ?Sized>(
         .map(|&k| base_all[k][..n].to_vec())
         .collect();
     let cur_full_r = ctx.residual(&base_fit, n);
-    let base_fit: Vec<Vec<f64>> = base_fit
-        .into_iter()
-        .enumerate()
-        .map(|(k, y)| {
-            let b = ctx.offset_of(k, &y, n_train);
-            y.into_iter().map(|v| v + b).collect()
-        })
-        .collect();
+    let base_fit = ctx.with_offsets(base_fit, n_train);
 
     // --- 2. Locate the disagreement.
     let diagnosis0 = diagnose(&ctx, data, &base_all, &names);
