@@ -39,6 +39,24 @@ pub fn in_short(res: &GapResult) -> String {
             hidden.join(", ")
         ));
     }
+    let weak: Vec<&str> = res
+        .candidates
+        .last()
+        .map(|r| {
+            r.iter()
+                .filter(|c| c.detectable() && c.may_hide())
+                .map(|c| c.effect.as_str())
+                .collect()
+        })
+        .unwrap_or_default();
+    if !weak.is_empty() {
+        s.push_str(&format!(
+            " Weaker than their detection limits (in the report), {} could be present unseen: \
+             `actuator-fmu design` proposes experiments that would show them at their weakest \
+             (the commands are in the report).",
+            weak.join(", ")
+        ));
+    }
     if !res.offsets.is_empty() {
         s.push_str(&format!(
             " Estimated sensor offsets (measured − model): {}.",
@@ -69,7 +87,8 @@ fn shell_word(w: &str) -> String {
     }
 }
 
-/// For every candidate of the last round these data cannot show, the `actuator-fmu design`
+/// For every candidate of the last round these data may not show (not named, and invisible at
+/// the weakest setting of its range: [`Candidate::may_hide`]), the `actuator-fmu design`
 /// command that proposes an experiment that would: the same data (grid, outputs, noise), the
 /// known settings, the named effects and the fitted values.
 pub fn design_commands(
@@ -89,7 +108,7 @@ pub fn design_commands(
     );
     round
         .iter()
-        .filter(|c| !c.detectable())
+        .filter(|c| c.may_hide())
         .map(|c| {
             let mut words = vec![
                 "actuator-fmu".to_string(),

@@ -173,6 +173,8 @@ pub(crate) fn regress(x: &DMatrix<f64>, y: &[f64]) -> (Vec<f64>, DVector<f64>) {
     (res.as_slice().to_vec(), beta)
 }
 
+/// Estimates with 95 % intervals `value ± z·σ` (σ from the Jacobian of `fit`; `z` is 1.96 unless
+/// the sum of squares is rough, see `rough`).
 pub(super) fn estimates(
     ctx_params: &[ParamSpec],
     idx: &[usize],
@@ -180,6 +182,7 @@ pub(super) fn estimates(
     bounds: &[Bounded],
     scale: &[f64],
     n: usize,
+    z: f64,
 ) -> BTreeMap<String, Estimate> {
     let cov = if idx.is_empty() {
         None
@@ -199,8 +202,8 @@ pub(super) fn estimates(
                 ctx_params[pi].name.clone(),
                 Estimate {
                     value: v,
-                    ci_low: v - Z95 * sd,
-                    ci_high: v + Z95 * sd,
+                    ci_low: v - z * sd,
+                    ci_high: v + z * sd,
                     unit: ctx_params[pi].unit.clone(),
                     start: ctx_params[pi].start,
                     at_bound: bound_hit(&ctx_params[pi], v),

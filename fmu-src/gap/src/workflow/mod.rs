@@ -30,6 +30,7 @@ mod evidence;
 mod finish;
 mod offsets;
 mod refit;
+mod rough;
 mod rounds;
 mod screen;
 mod setup;
@@ -44,6 +45,7 @@ use evidence::*;
 use finish::*;
 use offsets::*;
 use refit::*;
+use rough::*;
 use rounds::*;
 use screen::*;
 use setup::*;
@@ -180,6 +182,22 @@ impl Candidate {
     /// Whether the data can reveal this effect at all (unknown: assumed they can).
     pub fn detectable(&self) -> bool {
         self.visibility.is_none_or(|v| v >= self.visibility_needed)
+    }
+
+    /// Whether the data would reveal this effect even at the weakest setting of its range (the
+    /// first scanned setting); without a scan, as [`Candidate::detectable`].
+    pub fn detectable_at_weakest(&self) -> bool {
+        match self.visibility_scan.first().and_then(|p| p.visibility) {
+            Some(v) => v >= self.visibility_needed,
+            None => self.detectable(),
+        }
+    }
+
+    /// Not named, and the data show it only from a setting above the weakest of its range: a
+    /// weaker instance may be present unseen (`actuator-fmu design` proposes an experiment that
+    /// would reveal it at its weakest).
+    pub fn may_hide(&self) -> bool {
+        !self.named && !self.detectable_at_weakest()
     }
 }
 
@@ -736,7 +754,7 @@ pub fn run<S: Simulator + ?Sized>(
     } = run_rounds(&ctx, &inputs, cur, cur_full_r, diagnosis0, data, &names)?;
     let mut start_warning = None;
     if let Some(miss) = &start_miss0 {
-        if !reproduces_start(&ctx, miss, &cur_full_r) {
+        if !reproduces_start(&ctx, miss, &cur_full_r, false) {
             start_warning = Some(start_error(
                 &ctx,
                 miss,
@@ -759,13 +777,15 @@ pub fn run<S: Simulator + ?Sized>(
     let data_names: Vec<String> = data.outputs.iter().map(|(s, _)| s.clone()).collect();
     let (final_y, offsets) = final_outputs(&ctx, &fin, n_fin, &data_names)?;
     let scale = row_scale(&fin.fit.residuals, kout);
+    let basis = interval_basis(&ctx, &fin, n_fin, &scale);
     let parameters = estimates(
         &params,
         &fin.state.idx,
-        &fin.fit,
+        &basis.fit,
         &fin.bounds,
         &scale,
         n_fin,
+        basis.z,
     );
     let (outputs, trace_outputs) = output_errors(&ctx, data, [&nominal, &base_fit, &final_y]);
     let traces = Traces {
@@ -783,6 +803,7 @@ pub fn run<S: Simulator + ?Sized>(
     }
     warnings.extend(start_warning);
     warnings.extend(far_from_data_warning(&outputs));
+    warnings.extend(basis.roughness.map(roughness_note));
     Ok(GapResult {
         named: named_names,
         unexplained,

@@ -513,7 +513,7 @@ fn choose<S: Simulator + ?Sized>(
         }
         let mut why = reasons(c, cfg.min_delta_bic, ctx.n_train >= ctx.n);
         if let (Some(miss), Some((_, _, r))) = (start_miss, fits.iter().find(|x| x.0 == c.effect)) {
-            if !reproduces_start(ctx, miss, r) {
+            if !reproduces_start(ctx, miss, r, true) {
                 why.push(START_REASON.to_string());
             }
         }

@@ -57,6 +57,10 @@ pub(super) struct StartMiss {
     pub(super) z: f64,
     /// Standard score of the start miss itself (start mean × √m).
     pub(super) z_raw: f64,
+    /// `z` in units of the spread of the model's misfit over the rest of the trace where that
+    /// exceeds the noise level: a model that still misses an effect by 20 noise levels up and
+    /// down says nothing particular about the start by missing it by 8.
+    pub(super) z_rel: f64,
 }
 
 /// How the model misses the first `m` samples of each output (`r`: weighted residual stacked
@@ -71,6 +75,13 @@ fn start_misses(r: &[f64], k: usize, n: usize, m: usize) -> Vec<StartMiss> {
             let rj = &r[j * n..(j + 1) * n];
             let start_mean = rj[..m].iter().sum::<f64>() / m as f64;
             let trace_mean = rj.iter().sum::<f64>() / n as f64;
+            // The spread of the model's misfit over the rest of the trace (a constant miss, an
+            // offset, does not widen it), for `z_rel`.
+            let rest = &rj[m..];
+            let rest_mean = rest.iter().sum::<f64>() / rest.len().max(1) as f64;
+            let spread = (rest.iter().map(|x| (x - rest_mean).powi(2)).sum::<f64>()
+                / rest.len().max(1) as f64)
+                .sqrt();
             // The smaller of the two misses: a start that agrees, or one that only shares the
             // trace's offset, is no start miss.
             let z = start_mean.signum()
@@ -82,6 +93,7 @@ fn start_misses(r: &[f64], k: usize, n: usize, m: usize) -> Vec<StartMiss> {
                 trace_mean,
                 z,
                 z_raw: start_mean * (m as f64).sqrt(),
+                z_rel: z / spread.max(1.0),
             }
         })
         .collect()
@@ -214,16 +226,23 @@ pub(super) fn start_disagreement<S: Simulator + ?Sized>(
 
 /// Whether a model whose weighted residual is `r` begins in the record's state where the base
 /// fit did not (`base`): its start miss is within [`START_MAX_Z`] or a third of the base
-/// fit's. An effect that moves the state the model rests in (a leak shifting the pressures
+/// fit's. With `relative`, the miss is counted against the model's misfit over the rest of the
+/// trace ([`StartMiss::z_rel`]): a candidate while another effect is still missing, which the
+/// next round may add; the final model is held to the noise level. An effect that moves the state the model rests in (a leak shifting the pressures
 /// at rest) explains such a start; an effect named while the start stays unexplained would
 /// only imitate it.
 pub(super) fn reproduces_start<S: Simulator + ?Sized>(
     ctx: &Ctx<'_, S>,
     base: &StartMiss,
     r: &[f64],
+    relative: bool,
 ) -> bool {
-    start_miss(r, ctx.out_idx.len(), ctx.n, START_SAMPLES)
-        .is_none_or(|m| m.z.abs() <= START_MAX_Z.max(base.z.abs() / 3.0))
+    start_misses(r, ctx.out_idx.len(), ctx.n, START_SAMPLES)
+        .iter()
+        .all(|m| {
+            let z = if relative { m.z_rel } else { m.z };
+            z.abs() <= START_MAX_Z.max(base.z.abs() / 3.0)
+        })
 }
 
 /// Why a candidate that does not reproduce the start is not named.

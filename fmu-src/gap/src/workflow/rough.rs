@@ -1,0 +1,97 @@
+//! Intervals when the fit's sum of squares is rough: a model with a quantised or switched signal
+//! in a loop (an encoder read in counts, a relay, a controller deciding on thresholds) changes
+//! its outputs by a jump when a tiny parameter change flips one of its decisions. A
+//! finite-difference Jacobian over a step of 1e-3 then measures those jumps instead of the
+//! slope: the intervals come out far too narrow and miss the truth.
+//!
+//! At the final fit the roughness `F` (chi-square of one such jump, [`lm::roughness`]) is
+//! measured. When it matters, the Jacobian is rebuilt from secants over steps whose change is
+//! well above it ([`lm::secant_jacobian`]), and the 95 % half-width is widened from `1.96 σ` to
+//! `(1.96 + √(2F)) σ`: the fit can only place the minimum of the smooth part to within where that
+//! part rises by about the spread of the jumps (`2F`, two independent jumps), a distance
+//! `√(2F) σ` in its own metric, which adds to the statistical `1.96 σ` (triangle inequality).
+
+use super::*;
+
+/// Sign patterns probed for the roughness (two simulations each).
+const PATTERNS: usize = 3;
+
+/// Roughness below which the fit's own Jacobian and the usual `1.96 σ` stand: `√(2F)` below
+/// 5 % of 1.96, a widening no reader would notice.
+const NEGLIGIBLE: f64 = 0.5 * (0.05 * Z95) * (0.05 * Z95);
+
+/// A secant's change must reach this multiple of the roughness, so that a jump is at most about
+/// a fifth of the column's norm.
+const SECANT_TARGET: f64 = 25.0;
+
+/// The final fit's Jacobian and half-width multiplier for its intervals.
+pub(super) struct IntervalBasis {
+    pub fit: lm::LmFit,
+    /// Multiplier of the standard error for a 95 % half-width.
+    pub z: f64,
+    /// The measured roughness (chi-square of one jump), when it mattered.
+    pub roughness: Option<f64>,
+}
+
+/// Measure the roughness at the final fit `fin` (over its `n_fin` samples, rows weighted by
+/// `scale` per output) and, when it matters, the Jacobian and multiplier that account for it.
+pub(super) fn interval_basis<S: Simulator + ?Sized>(
+    ctx: &Ctx<'_, S>,
+    fin: &FitOut,
+    n_fin: usize,
+    scale: &[f64],
+) -> IntervalBasis {
+    let plain = IntervalBasis {
+        fit: fin.fit.clone(),
+        z: Z95,
+        roughness: None,
+    };
+    if fin.state.idx.is_empty() {
+        return plain;
+    }
+    let empty = ModelState {
+        named: fin.state.named.clone(),
+        idx: Vec::new(),
+        val: Vec::new(),
+    };
+    let problem = FitProblem {
+        ctx,
+        base: ctx.settings(&empty, None, &[]),
+        idx: fin.state.idx.clone(),
+        n: n_fin,
+    };
+    let r0 = &fin.fit.residuals;
+    let w: Vec<f64> = (0..r0.len())
+        .map(|i| scale[(i / n_fin.max(1)).min(scale.len() - 1)])
+        .collect();
+    let h = LmOptions::default().fd_step;
+    let f = lm::roughness(&problem, &fin.bounds, &fin.fit.z, r0, &w, h, PATTERNS);
+    if f <= NEGLIGIBLE {
+        return plain;
+    }
+    let jac = lm::secant_jacobian(
+        &problem,
+        &fin.bounds,
+        &fin.fit.z,
+        r0,
+        &w,
+        h,
+        SECANT_TARGET * f,
+    );
+    IntervalBasis {
+        fit: lm::LmFit {
+            jac,
+            ..fin.fit.clone()
+        },
+        z: Z95 + (2.0 * f).sqrt(),
+        roughness: Some(f),
+    }
+}
+
+/// The warning that tells the user the intervals account for a rough sum of squares.
+pub(super) fn roughness_note(f: f64) -> String {
+    format!(
+        "the fit's sum of squares is rough: a change of the parameters by 0.1 % alters it by about {f:.3} (chi-square) that no slope explains, as a quantised or switched signal in the model does (an encoder read in counts, a threshold). The intervals use slopes over steps well above that and are widened to ±{:.2} standard errors instead of ±1.96",
+        Z95 + (2.0 * f).sqrt()
+    )
+}
