@@ -168,6 +168,19 @@ pub struct Candidate {
     pub profiled: bool,
 }
 
+/// Whether an effect of visibility `v` (the chi-square drop it brings, linearised) is named
+/// with 95 % probability when naming needs a drop of `needed`. On noisy data the drop a refit
+/// reaches along the effect's direction is `(√v + Z)²` with `Z` standard normal (noncentral
+/// chi-square, one degree of freedom); its 5 % quantile `(√v − 1.645)²` must reach `needed`,
+/// i.e. `√v ≥ √needed + 1.645`. For `needed` 17.9 that is `v` ≥ 34.5: a visibility just at
+/// what naming needs is named only half the time.
+pub fn reliably_visible(v: f64, needed: f64) -> bool {
+    v.max(0.0).sqrt() >= needed.max(0.0).sqrt() + Z95_ONE_SIDED
+}
+
+/// One-sided 95 % standard normal quantile.
+const Z95_ONE_SIDED: f64 = 1.644_853_626_951_472_2;
+
 /// One scanned setting of a candidate's parameters.
 #[derive(Clone, Debug, Serialize)]
 pub struct VisibilityPoint {
@@ -185,10 +198,11 @@ impl Candidate {
     }
 
     /// Whether the data would reveal this effect even at the weakest setting of its range (the
-    /// first scanned setting); without a scan, as [`Candidate::detectable`].
+    /// first scanned setting) with 95 % probability ([`reliably_visible`]); without a scan, as
+    /// [`Candidate::detectable`].
     pub fn detectable_at_weakest(&self) -> bool {
         match self.visibility_scan.first().and_then(|p| p.visibility) {
-            Some(v) => v >= self.visibility_needed,
+            Some(v) => reliably_visible(v, self.visibility_needed),
             None => self.detectable(),
         }
     }

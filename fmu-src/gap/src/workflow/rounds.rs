@@ -158,7 +158,11 @@ fn one_round<S: Simulator + ?Sized>(
                 .all(|o| o.rmse_over_noise <= NOISE_RMS_RATIO)
         })
     };
-    let top = refit_choice(cfg, &sc, round, at_noise);
+    let far = st
+        .diagnosis
+        .last()
+        .is_some_and(|d| d.outputs.iter().any(|o| o.rmse_over_noise > FAR_FROM_NOISE));
+    let mut top = refit_choice(cfg, &sc, round, at_noise);
     ctx.stage(format!(
         "round {round}: refitting {}",
         top.iter()
@@ -167,6 +171,30 @@ fn one_round<S: Simulator + ?Sized>(
             .join(", ")
     ));
     let (mut ranked, mut fits) = refit_all(ctx, inp, st, &sc, &top, round);
+    // Far from the data the linearised ranking means little: when no refit reaches the naming
+    // threshold, the other candidates (up to `max_refit`) get theirs.
+    if far && ranked.iter().all(|c| c.delta_bic < cfg.min_delta_bic) {
+        let rest: Vec<(usize, f64)> = sc
+            .order
+            .iter()
+            .take(cfg.max_refit.max(1))
+            .filter(|c| !top.iter().any(|t| t.0 == c.0))
+            .copied()
+            .collect();
+        if !rest.is_empty() {
+            ctx.stage(format!(
+                "round {round}: far from the data and none named yet; refitting {}",
+                rest.iter()
+                    .map(|(e, _)| ctx.effects[*e].name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ));
+            let (r2, f2) = refit_all(ctx, inp, st, &sc, &rest, round);
+            ranked.extend(r2);
+            fits.extend(f2);
+            top.extend(rest);
+        }
+    }
     if let Some(gain) = recheck_base(ctx, cfg, st, &mut ranked, &fits, round)? {
         return Ok(Outcome::Redo(gain));
     }
@@ -175,7 +203,7 @@ fn one_round<S: Simulator + ?Sized>(
             .partial_cmp(&a.delta_bic)
             .unwrap_or(std::cmp::Ordering::Equal)
     });
-    for &(e, score) in sc.order.iter().skip(top.len()) {
+    for &(e, score) in sc.order.iter().filter(|c| !top.iter().any(|t| t.0 == c.0)) {
         ranked.push(Candidate::screened_only(
             &ctx.effects[e].name,
             sc.corrected[&e],

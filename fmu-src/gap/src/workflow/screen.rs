@@ -24,6 +24,13 @@ pub(super) const REFIT_ITERATIONS: usize = 15;
 /// tens of simulations.
 pub(super) const REFIT_SCORE_FRACTION: f64 = 1.0 / 3.0;
 
+/// An output whose residual RMS exceeds this multiple of its noise level is far from the data:
+/// the linearised screening, which extrapolates from the current model, then ranks the
+/// candidates by little more than chance (a missing effect that makes the base model miss by
+/// hundreds of noise levels has ranked fourth of five), so when the chosen refits name
+/// nothing, every other candidate up to `Config::max_refit` is refitted too.
+pub(super) const FAR_FROM_NOISE: f64 = 10.0;
+
 /// Limits of the final fit of the chosen model on the whole trace. It stops once an iteration
 /// gains less than a chi-square unit and 1e-5 of the sum: a tenth of the chi-square rise that
 /// moves a parameter across its 95 % interval (3.84) is beyond what the reported values show.

@@ -109,11 +109,63 @@ mod text_tests {
     use super::*;
 
     #[test]
+    fn reliably_visible_means_named_in_95_of_100_noisy_datasets() {
+        // Monte Carlo of the drop a one-parameter effect of visibility v brings on noisy data,
+        // (√v + Z)², against the closed-form 5 % quantile the rule uses.
+        let needed = 17.9;
+        let share = |v: f64| {
+            let mut s: u64 = 12345;
+            let mut u = || {
+                s = s
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                ((s >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+            };
+            let n = 20000;
+            (0..n)
+                .filter(|_| {
+                    let z = (-2.0 * u().ln()).sqrt() * (std::f64::consts::TAU * u()).cos();
+                    (v.sqrt() + z).powi(2) >= needed
+                })
+                .count() as f64
+                / n as f64
+        };
+        let edge = (needed.sqrt() + 1.644_853_6_f64).powi(2);
+        assert!((share(edge) - 0.95).abs() < 0.01, "{}", share(edge));
+        assert!(reliably_visible(edge * 1.001, needed) && !reliably_visible(edge * 0.999, needed));
+        // Just at the threshold an effect is named only about half the time.
+        assert!((share(needed) - 0.5).abs() < 0.05, "{}", share(needed));
+        assert!(!reliably_visible(needed, needed));
+    }
+
+    #[test]
     fn visibility_reads_as_a_multiple_of_the_threshold() {
         assert_eq!(visibility_scale(9.0, 18.0), "0.50× what naming needs");
         assert_eq!(visibility_scale(3.36e6, 18.7), "1.8e5× what naming needs");
         assert_eq!(visibility_scale(0.0, 18.7), "< 0.01× what naming needs");
         assert_eq!(visibility_scale(f64::NAN, 18.7), "unknown");
+    }
+
+    #[test]
+    fn a_candidate_shown_only_above_its_weakest_setting_may_hide_unless_named() {
+        let point = |fraction: f64, v: f64| VisibilityPoint {
+            parameters: BTreeMap::new(),
+            fraction,
+            visibility: Some(v),
+        };
+        let mut c = Candidate::screened_only("backlash", -3.0, -3.0);
+        c.visibility = Some(500.0);
+        c.visibility_needed = 18.0;
+        // Weakest setting at 1.2× what naming needs: named only about 6 times in 10.
+        c.visibility_scan = vec![point(0.0, 21.6), point(1.0, 500.0)];
+        assert!(c.detectable() && !c.detectable_at_weakest() && c.may_hide());
+        // At 3× it shows with 95 % probability: nothing hides.
+        c.visibility_scan[0].visibility = Some(54.0);
+        assert!(c.detectable_at_weakest() && !c.may_hide());
+        // Named: present, nothing to design for.
+        c.visibility_scan[0].visibility = Some(2.0);
+        c.named = true;
+        assert!(!c.may_hide());
     }
 
     #[test]
