@@ -91,7 +91,7 @@ pub(super) fn interval_basis<S: Simulator + ?Sized>(
 /// The warning that tells the user the intervals account for a rough sum of squares.
 pub(super) fn roughness_note(f: f64) -> String {
     format!(
-        "the fit's sum of squares is rough: a change of the parameters by 0.1 % alters it by about {f:.3} (chi-square) that no slope explains, as a quantised or switched signal in the model does (an encoder read in counts, a threshold). The intervals use slopes over steps well above that and are widened to ±{:.2} standard errors instead of ±1.96",
+        "The fit's sum of squares is rough: a change of the parameters by 0.1 % alters it by about {f:.3} (chi-square) that no slope explains, as a quantised or switched signal in the model does (an encoder read in counts, a threshold). The intervals use slopes over steps well above that and are widened to ±{:.2} standard errors instead of ±1.96",
         Z95 + (2.0 * f).sqrt()
     )
 }

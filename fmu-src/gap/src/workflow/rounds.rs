@@ -165,10 +165,7 @@ fn one_round<S: Simulator + ?Sized>(
     let mut top = refit_choice(cfg, &sc, round, at_noise);
     ctx.stage(format!(
         "round {round}: refitting {}",
-        top.iter()
-            .map(|(e, _)| ctx.effects[*e].name.as_str())
-            .collect::<Vec<_>>()
-            .join(", ")
+        effect_names(ctx, &top)
     ));
     let (mut ranked, mut fits) = refit_all(ctx, inp, st, &sc, &top, round);
     // Far from the data the linearised ranking means little: when no refit reaches the naming
@@ -184,10 +181,7 @@ fn one_round<S: Simulator + ?Sized>(
         if !rest.is_empty() {
             ctx.stage(format!(
                 "round {round}: far from the data and none named yet; refitting {}",
-                rest.iter()
-                    .map(|(e, _)| ctx.effects[*e].name.as_str())
-                    .collect::<Vec<_>>()
-                    .join(", ")
+                effect_names(ctx, &rest)
             ));
             let (r2, f2) = refit_all(ctx, inp, st, &sc, &rest, round);
             ranked.extend(r2);
@@ -251,6 +245,14 @@ fn one_round<S: Simulator + ?Sized>(
             Ok(Outcome::Verdict(verdict))
         }
     }
+}
+
+/// The names of the effects in `list` (effect index, score), comma-separated.
+fn effect_names<S: Simulator + ?Sized>(ctx: &Ctx<'_, S>, list: &[(usize, f64)]) -> String {
+    list.iter()
+        .map(|(e, _)| ctx.effects[*e].name.as_str())
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// Diagnosis of the model `state` over the whole trace.
