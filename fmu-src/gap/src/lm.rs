@@ -207,22 +207,23 @@ pub fn jacobian<P: Problem>(
     DMatrix::from_fn(n, z.len(), |i, j| cols[j][i])
 }
 
-/// Roughness of the weighted sum of squares at `z`: the chi-square of the part of a tiny move's
-/// change that no slope explains. For `m` deterministic sign patterns `u` (every free coordinate
-/// ±h; one at a bound stays), the second difference `d = r(z+u) + r(z−u) − 2 r(z)` cancels the
-/// linear part and, at such a small step, the curvature; what is left is the jump a model with a
-/// quantised or switched signal makes when a tiny change flips one of its decisions, independent
-/// between the two sides, so `‖W d‖²/2` estimates the chi-square of one such jump. `w` weighs each
-/// residual row. Returns the mean over the patterns (0 for a smooth model, up to its solver's
-/// noise); a failed simulation leaves its pattern out. Moré & Wild (2011), "Estimating
-/// computational noise", use the same difference table for the noise of a simulation.
+/// Roughness of the weighted sum of squares at `z`: the chi-square of the part of a move's
+/// change that no slope explains. For `patterns` deterministic sign patterns `u` (coordinate `j`
+/// moves by ±`h[j]`; one whose move would leave its bounds stays), the second difference
+/// `d = r(z+u) + r(z−u) − 2 r(z)` cancels the linear part; what is left is the curvature over
+/// the step (negligible for a tiny one) and the jumps a model with a quantised or switched signal
+/// makes when a change flips one of its decisions, independent between the two sides, so
+/// `‖W d‖²/2` estimates the chi-square of one such jump. `w` weighs each residual row. Returns the
+/// mean over the patterns (0 for a smooth model, up to its solver's noise); a failed simulation
+/// leaves its pattern out. Moré & Wild (2011), "Estimating computational noise", use the same
+/// difference table for the noise of a simulation.
 pub fn roughness<P: Problem>(
     problem: &P,
     b: &[Bounded],
     z: &[f64],
     r0: &[f64],
     w: &[f64],
-    h: f64,
+    h: &[f64],
     patterns: usize,
 ) -> f64 {
     let m = z.len();
@@ -242,9 +243,9 @@ pub fn roughness<P: Problem>(
             let (mut zp, mut zm) = (z.to_vec(), z.to_vec());
             for j in 0..m {
                 let (lo, hi) = b[j].z_bounds();
-                if z[j] - h >= lo && z[j] + h <= hi {
-                    zp[j] += h * signs(k, j);
-                    zm[j] -= h * signs(k, j);
+                if h[j].is_finite() && z[j] - h[j] >= lo && z[j] + h[j] <= hi {
+                    zp[j] += h[j] * signs(k, j);
+                    zm[j] -= h[j] * signs(k, j);
                 }
             }
             let rp = problem.residuals(&to_p(b, &zp)).ok()?;
@@ -704,7 +705,7 @@ mod tests {
         let (pr, b, z, r0) = stairs(0.0);
         let w = vec![1.0; r0.len()];
         // What is left is the curvature of exp over the step (ln coordinates): about 1e-10.
-        assert!(roughness(&pr, &b, &z, &r0, &w, 1e-3, 3) < 1e-8);
+        assert!(roughness(&pr, &b, &z, &r0, &w, &[1e-3; 2], 3) < 1e-8);
         let fd = jacobian(&pr, &b, &z, &r0, 1e-3);
         let sec = secant_jacobian(&pr, &b, &z, &r0, &w, 1e-3, 1.0);
         // Linear in p, ln-coordinates: the secant over a longer step differs from the slope by
@@ -721,7 +722,7 @@ mod tests {
         let q = 0.01;
         let (pr, b, z, r0) = stairs(q);
         let w = vec![1.0 / q; r0.len()];
-        let f = roughness(&pr, &b, &z, &r0, &w, 1e-3, 3);
+        let f = roughness(&pr, &b, &z, &r0, &w, &[1e-3; 2], 3);
         // A 0.1 % change of the line moves it by up to 0.003 = 0.3 q: a share of the samples
         // flips by one step q (chi-square 1 each in units of q; 39 measured).
         assert!(f > 10.0 && f < 200.0, "roughness {f}");

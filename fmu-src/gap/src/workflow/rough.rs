@@ -5,16 +5,18 @@
 //! slope: the intervals come out far too narrow and miss the truth.
 //!
 //! At the final fit the roughness `F` (chi-square of one such jump, [`lm::roughness`]) is
-//! measured. When it matters, the Jacobian is rebuilt from secants over steps whose change is
-//! well above it ([`lm::secant_jacobian`]), and the 95 % half-width is widened from `1.96 σ` to
+//! measured over a step of 1e-3. When it matters, the Jacobian is rebuilt from secants over
+//! steps whose change is well above it ([`lm::secant_jacobian`]), the roughness is measured again
+//! with each parameter moved by its standard error (the scale of the intervals, where more
+//! decisions flip), the larger of the two is `F`, and the 95 % half-width is widened from `1.96 σ` to
 //! `(1.96 + √(2F)) σ`: the fit can only place the minimum of the smooth part to within where that
 //! part rises by about the spread of the jumps (`2F`, two independent jumps), a distance
 //! `√(2F) σ` in its own metric, which adds to the statistical `1.96 σ` (triangle inequality).
 
 use super::*;
 
-/// Sign patterns probed for the roughness (two simulations each).
-const PATTERNS: usize = 3;
+/// Sign patterns probed for the roughness at each scale (two simulations each).
+const PATTERNS: usize = 4;
 
 /// Roughness below which the fit's own Jacobian and the usual `1.96 σ` stand: `√(2F)` below
 /// 5 % of 1.96, a widening no reader would notice.
@@ -64,9 +66,18 @@ pub(super) fn interval_basis<S: Simulator + ?Sized>(
     let w: Vec<f64> = (0..r0.len())
         .map(|i| scale[(i / n_fin.max(1)).min(scale.len() - 1)])
         .collect();
+    let m = fin.state.idx.len();
     let h = LmOptions::default().fd_step;
-    let f = lm::roughness(&problem, &fin.bounds, &fin.fit.z, r0, &w, h, PATTERNS);
-    if f <= NEGLIGIBLE {
+    let f0 = lm::roughness(
+        &problem,
+        &fin.bounds,
+        &fin.fit.z,
+        r0,
+        &w,
+        &vec![h; m],
+        PATTERNS,
+    );
+    if f0 <= NEGLIGIBLE {
         return plain;
     }
     let jac = lm::secant_jacobian(
@@ -76,8 +87,16 @@ pub(super) fn interval_basis<S: Simulator + ?Sized>(
         r0,
         &w,
         h,
-        SECANT_TARGET * f,
+        SECANT_TARGET * f0,
     );
+    // The same at the scale of the intervals: each coordinate moved by its standard error. A
+    // jump there (and the curvature over that step) is what the quadratic model behind the
+    // interval misses; a tiny step may flip no decision at all.
+    let sd: Vec<f64> = covariance(&jac, scale, n_fin)
+        .map(|c| (0..m).map(|j| c[(j, j)].max(0.0).sqrt()).collect())
+        .unwrap_or_else(|| vec![f64::INFINITY; m]);
+    let f1 = lm::roughness(&problem, &fin.bounds, &fin.fit.z, r0, &w, &sd, PATTERNS);
+    let f = f0.max(f1);
     IntervalBasis {
         fit: lm::LmFit {
             jac,
@@ -91,7 +110,7 @@ pub(super) fn interval_basis<S: Simulator + ?Sized>(
 /// The warning that tells the user the intervals account for a rough sum of squares.
 pub(super) fn roughness_note(f: f64) -> String {
     format!(
-        "The fit's sum of squares is rough: a change of the parameters by 0.1 % alters it by about {f:.3} (chi-square) that no slope explains, as a quantised or switched signal in the model does (an encoder read in counts, a threshold). The intervals use slopes over steps well above that and are widened to ±{:.2} standard errors instead of ±1.96",
+        "The fit's sum of squares is rough: a change of the parameters (by 0.1 %, or by their standard errors) alters it by about {f:.3} (chi-square) that no slope explains, as a quantised or switched signal in the model does (an encoder read in counts, a threshold). The intervals use slopes over steps well above that and are widened to ±{:.2} standard errors instead of ±1.96",
         Z95 + (2.0 * f).sqrt()
     )
 }
