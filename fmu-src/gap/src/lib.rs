@@ -54,12 +54,17 @@
 //!    An effect is named only if ΔBIC ≥ 10, the 95 % interval of its contribution's scale excludes
 //!    0, and it lowers the error on the held-out part. If what remains is not yet noise and a
 //!    round follows, its fit is polished and the loop repeats (`rounds`); otherwise the final fit
-//!    does the polishing.
+//!    does the polishing. In a later round whose residuals are not white noise, when the two
+//!    refitted candidates reach nothing, the others are refitted too (a named friction can
+//!    mimic most of a strand hysteresis, and the linearisation about it misjudges the rest).
+//!    Once the residuals are noise, the candidates left are screened against the final model
+//!    (a last round): their visibility there is what the data show beyond the named effects.
 //! 6. Final fit: the chosen model (base plus named effects) is refitted on the whole trace; its
 //!    parameters and intervals are the reported ones, its errors the "after" column.
 //! 7. Report ([`report`]: `report.json`, `report.md`) and plots ([`plots`]).
 //!
-//! For a candidate the data cannot reveal, [`design`] proposes an experiment (an input signal
+//! For a candidate the data cannot reveal at its weakest setting, or whose refit was inconclusive
+//! (0 < ΔBIC < 10), [`design`] proposes an experiment (an input signal
 //! within the inputs' ranges) under which it would show at the weakest setting of its range.
 
 pub mod design;

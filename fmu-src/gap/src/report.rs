@@ -44,7 +44,7 @@ pub fn in_short(res: &GapResult) -> String {
         .last()
         .map(|r| {
             r.iter()
-                .filter(|c| c.detectable() && c.may_hide())
+                .filter(|c| c.detectable() && c.may_hide() && !c.inconclusive)
                 .map(|c| c.effect.as_str())
                 .collect()
         })
@@ -55,6 +55,24 @@ pub fn in_short(res: &GapResult) -> String {
              `actuator-fmu design` proposes experiments that would show them at their weakest \
              (the commands are in the report).",
             weak.join(", ")
+        ));
+    }
+    let unsettled: Vec<String> = res
+        .candidates
+        .last()
+        .map(|r| {
+            r.iter()
+                .filter(|c| c.detectable() && c.may_hide() && c.inconclusive)
+                .map(|c| format!("{} (ΔBIC {:.1})", c.effect, c.delta_bic))
+                .collect()
+        })
+        .unwrap_or_default();
+    if !unsettled.is_empty() {
+        s.push_str(&format!(
+            " The data hint at {} without showing it (below the naming threshold): \
+             `actuator-fmu design` proposes an experiment that would settle it (the commands are \
+             in the report).",
+            unsettled.join(", ")
         ));
     }
     if !res.offsets.is_empty() {
@@ -264,7 +282,7 @@ pub fn to_markdown(res: &GapResult, fmu: &str, data: &str, plots: &[String]) -> 
     }
     let designs = design_commands(res, fmu, data);
     if !designs.is_empty() {
-        let _ = writeln!(s, "## Experiments that would show what these data cannot\n\nEach command proposes an input (within the FMU's input ranges) under which the effect would be visible at the weakest setting of its range, with the predicted visibility; run the experiment, then `gap` on its data.\n");
+        let _ = writeln!(s, "## Experiments that would show what these data cannot, or do not settle\n\nEach command proposes an input (within the FMU's input ranges) under which the effect would be visible at the weakest setting of its range, with the predicted visibility; run the experiment, then `gap` on its data.\n");
         for (e, cmd) in &designs {
             let _ = writeln!(s, "- {e}:\n\n  ```sh\n  {cmd}\n  ```\n");
         }

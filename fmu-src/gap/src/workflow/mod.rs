@@ -166,6 +166,9 @@ pub struct Candidate {
     /// The refit fell short of the evidence and was restarted from the best point of the
     /// effect's profile (see `profile_restart`), which fitted better.
     pub profiled: bool,
+    /// Refitted and not named, with some evidence short of the threshold (0 < ΔBIC < min ΔBIC):
+    /// the data neither show the effect nor rule it out at its fitted strength.
+    pub inconclusive: bool,
 }
 
 /// Whether an effect of visibility `v` (the chi-square drop it brings, linearised) is named
@@ -207,11 +210,11 @@ impl Candidate {
         }
     }
 
-    /// Not named, and the data show it only from a setting above the weakest of its range: a
-    /// weaker instance may be present unseen (`actuator-fmu design` proposes an experiment that
-    /// would reveal it at its weakest).
+    /// Not named, and the data show it only from a setting above the weakest of its range, or
+    /// its refit was inconclusive: a weaker instance may be present unseen, or this one
+    /// (`actuator-fmu design` proposes an experiment that would reveal it at its weakest).
     pub fn may_hide(&self) -> bool {
-        !self.named && !self.detectable_at_weakest()
+        !self.named && (!self.detectable_at_weakest() || self.inconclusive)
     }
 }
 
@@ -234,6 +237,7 @@ impl Candidate {
             detectable_from: None,
             visibility_scan: Vec::new(),
             profiled: false,
+            inconclusive: false,
         }
     }
 }

@@ -149,6 +149,7 @@ pub(super) fn assess<S: Simulator + ?Sized>(
             detectable_from: None,
             visibility_scan: Vec::new(),
             profiled: false,
+            inconclusive: false,
         },
         f,
         r_full,

@@ -166,6 +166,11 @@ mod text_tests {
         c.visibility_scan[0].visibility = Some(2.0);
         c.named = true;
         assert!(!c.may_hide());
+        // Shown at its weakest, but its refit was inconclusive: the data do not settle it.
+        c.named = false;
+        c.visibility_scan[0].visibility = Some(54.0);
+        c.inconclusive = true;
+        assert!(c.detectable_at_weakest() && c.may_hide());
     }
 
     #[test]
