@@ -207,6 +207,90 @@ pub fn jacobian<P: Problem>(
     DMatrix::from_fn(n, z.len(), |i, j| cols[j][i])
 }
 
+/// Most an interval end is moved out by [`interval_ends`], in multiples of the linearised one.
+pub const MAX_END_WIDENING: f64 = 4.0;
+
+/// Probes of each interval end along the sum of squares.
+const END_PROBES: usize = 4;
+
+/// The ends of the linearised intervals checked against the weighted sum of squares itself.
+///
+/// At a minimum `z` with covariance `cov` (in `z`, rows weighted by `w`), moving coordinate `j`
+/// by `t` standard errors along `d_j = cov[:, j] / σ_j` (the others readjusting by their
+/// regression on it, the first-order path of its profile) raises the sum by `t²` if the sum is
+/// quadratic. Where it rises less (a flatter or bending valley, or a lower point: the fit stopped
+/// short of the minimum), the end moves out to where the rise reaches `t²`, extrapolating the
+/// measured rise (quadratically, or along the secant of the last two probes; at most doubling per
+/// probe, at most [`MAX_END_WIDENING`] `t`).
+/// Returns per coordinate the (lower, upper) multipliers of `σ_j`, each at least `t`: an interval
+/// is only ever widened. A coordinate without a finite standard error keeps `t`; a failed
+/// simulation ends that probe with the multiplier reached.
+pub fn interval_ends<P: Problem>(
+    problem: &P,
+    b: &[Bounded],
+    z: &[f64],
+    r0: &[f64],
+    w: &[f64],
+    cov: &DMatrix<f64>,
+    t: f64,
+) -> Vec<(f64, f64)> {
+    let m = z.len();
+    let chi = |r: &[f64]| -> f64 { r.iter().zip(w).map(|(r, w)| (w * r).powi(2)).sum() };
+    let c0 = chi(r0);
+    let side = |j: usize, sign: f64| -> f64 {
+        let sd = cov[(j, j)].sqrt();
+        if !(sd.is_finite() && sd > 0.0) || (0..m).any(|i| !cov[(i, j)].is_finite()) {
+            return t;
+        }
+        let mut k = t;
+        let mut last: Option<(f64, f64)> = None;
+        for _ in 0..END_PROBES {
+            let zz: Vec<f64> = (0..m)
+                .map(|i| {
+                    let (lo, hi) = b[i].z_bounds();
+                    (z[i] + sign * k * cov[(i, j)] / sd).clamp(lo, hi)
+                })
+                .collect();
+            let rise = match problem.residuals(&to_p(b, &zz)) {
+                Ok(r) if r.len() == r0.len() && r.iter().all(|v| v.is_finite()) => chi(&r) - c0,
+                _ => break,
+            };
+            if rise >= t * t {
+                // Past the end: back to where the rise crosses t², interpolated linearly in k²
+                // from the last probe short of it (exact for a quadratic rise).
+                if let Some((k1, r1)) = last {
+                    let k2 = k1 * k1 + (t * t - r1) * (k * k - k1 * k1) / (rise - r1);
+                    k = k2.sqrt().clamp(k1, k);
+                }
+                break;
+            }
+            if k >= MAX_END_WIDENING * t {
+                break;
+            }
+            // Quadratic extrapolation from the start, or the secant through the last two probes
+            // where it reaches further (a valley that keeps flattening), at most doubling.
+            let quadratic = if rise > 0.0 {
+                k * (t * t / rise).sqrt()
+            } else {
+                2.0 * k
+            };
+            let secant = last
+                .filter(|&(k1, r1)| rise > r1 && k > k1)
+                .map_or(0.0, |(k1, r1)| k + (t * t - rise) * (k - k1) / (rise - r1));
+            last = Some((k, rise));
+            k = quadratic.max(secant).min(2.0 * k).min(MAX_END_WIDENING * t);
+        }
+        k
+    };
+    (0..2 * m)
+        .into_par_iter()
+        .map(|q| side(q / 2, if q % 2 == 0 { -1.0 } else { 1.0 }))
+        .collect::<Vec<f64>>()
+        .chunks(2)
+        .map(|c| (c[0], c[1]))
+        .collect()
+}
+
 /// Roughness of the weighted sum of squares at `z`: the chi-square of the part of a move's
 /// change that no slope explains. For `patterns` deterministic sign patterns `u` (coordinate `j`
 /// moves by ±`h[j]`; one whose move would leave its bounds stays), the second difference
@@ -734,4 +818,81 @@ mod tests {
         assert!(norm(&fd) > 2.0, "finite difference {}", norm(&fd));
         assert!((norm(&sec) - 1.0).abs() < 0.25, "secant {}", norm(&sec));
     }
+
+    /// One residual `a f(p − c)` in a linear coordinate (z = p).
+    struct Valley {
+        a: f64,
+        c: f64,
+        f: fn(f64) -> f64,
+    }
+    impl Problem for Valley {
+        fn residuals(&self, p: &[f64]) -> Result<Vec<f64>, SimError> {
+            Ok(vec![self.a * (self.f)(p[0] - self.c)])
+        }
+    }
+
+    fn ends(v: &Valley, t: f64) -> (f64, f64) {
+        let b = [Bounded {
+            lo: -100.0,
+            hi: 100.0,
+            coord: Coord::Linear(1.0),
+        }];
+        let r0 = v.residuals(&[0.0]).unwrap();
+        // Covariance of the quadratic model at p = 0: 1 / (a f'(0))² with f'(0) = 1.
+        let cov = DMatrix::from_element(1, 1, 1.0 / (v.a * v.a));
+        interval_ends(v, &b, &[0.0], &r0, &[1.0], &cov, t)[0]
+    }
+
+    #[test]
+    fn interval_ends_of_a_quadratic_sum_stay_and_of_a_flattening_one_move_out() {
+        // Quadratic: the rise at t standard errors is t²; nothing moves.
+        let (lo, hi) = ends(
+            &Valley {
+                a: 2.0,
+                c: 0.0,
+                f: |x| x,
+            },
+            Z,
+        );
+        assert!(
+            (lo - Z).abs() < 1e-12 && (hi - Z).abs() < 1e-12,
+            "{lo} {hi}"
+        );
+        // 4 tanh²(p) rises to 3.84 at p = atanh(0.98) = 2.298, 4.60 standard errors (σ = 0.5);
+        // the linearised end 1.96 σ rises only to 2.27.
+        let exact = 0.98_f64.atanh() / 0.5;
+        let (lo, hi) = ends(
+            &Valley {
+                a: 2.0,
+                c: 0.0,
+                f: f64::tanh,
+            },
+            Z,
+        );
+        for k in [lo, hi] {
+            assert!(
+                k > 0.85 * exact && k <= MAX_END_WIDENING * Z,
+                "{k} against {exact}"
+            );
+        }
+    }
+
+    #[test]
+    fn an_interval_end_beyond_a_lower_point_moves_out_on_that_side_only() {
+        // The fit stopped at p = 0 short of the minimum at 0.3 (σ = 0.5): upwards the sum first
+        // falls, downwards it rises faster than t².
+        let (lo, hi) = ends(
+            &Valley {
+                a: 2.0,
+                c: 0.3,
+                f: |x| x,
+            },
+            Z,
+        );
+        assert_eq!(lo, Z);
+        // Exact upper end: 4 (p − 0.3)² − 0.36 = 3.84 at p = 1.325, 2.65 standard errors.
+        assert!(hi > 2.6 && hi < 2.8, "{hi}");
+    }
+
+    const Z: f64 = 1.96;
 }

@@ -182,7 +182,7 @@ pub(super) fn estimates(
     bounds: &[Bounded],
     scale: &[f64],
     n: usize,
-    z: f64,
+    ends: &[(f64, f64)],
 ) -> BTreeMap<String, Estimate> {
     let cov = if idx.is_empty() {
         None
@@ -202,8 +202,8 @@ pub(super) fn estimates(
                 ctx_params[pi].name.clone(),
                 Estimate {
                     value: v,
-                    ci_low: v - z * sd,
-                    ci_high: v + z * sd,
+                    ci_low: v - ends[j].0 * sd,
+                    ci_high: v + ends[j].1 * sd,
                     unit: ctx_params[pi].unit.clone(),
                     start: ctx_params[pi].start,
                     at_bound: bound_hit(&ctx_params[pi], v),

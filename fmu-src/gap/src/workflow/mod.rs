@@ -803,7 +803,7 @@ pub fn run<S: Simulator + ?Sized>(
         &fin.bounds,
         &scale,
         n_fin,
-        basis.z,
+        &basis.ends,
     );
     let (outputs, trace_outputs) = output_errors(&ctx, data, [&nominal, &base_fit, &final_y]);
     let traces = Traces {

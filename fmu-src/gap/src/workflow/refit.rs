@@ -90,7 +90,15 @@ pub(super) fn assess<S: Simulator + ?Sized>(
     let eff = &ctx.effects[e];
     let dbic = delta_bic(&cur.fit.residuals, &f.fit.residuals, k, eff.params.len());
     let scale = row_scale(&f.fit.residuals, k);
-    let all_est = estimates(&ctx.params, &f.state.idx, &f.fit, &f.bounds, &scale, n, Z95);
+    let all_est = estimates(
+        &ctx.params,
+        &f.state.idx,
+        &f.fit,
+        &f.bounds,
+        &scale,
+        n,
+        &vec![(Z95, Z95); f.state.idx.len()],
+    );
     let parameters: BTreeMap<String, Estimate> = eff
         .params
         .iter()

@@ -12,6 +12,12 @@
 //! `(1.96 + √(2F)) σ`: the fit can only place the minimum of the smooth part to within where that
 //! part rises by about the spread of the jumps (`2F`, two independent jumps), a distance
 //! `√(2F) σ` in its own metric, which adds to the statistical `1.96 σ` (triangle inequality).
+//!
+//! Rough or smooth, each interval's ends are then checked against the sum of squares itself
+//! ([`lm::interval_ends`]): along the first-order path of the parameter's profile, an end where
+//! the sum rises less than the quadratic model says (a flatter or bending valley, or a fit that
+//! stopped short of the minimum) moves out to where it rises by as much. A 95 % interval is thus
+//! never narrower than its likelihood-ratio end along that path.
 
 use super::*;
 
@@ -26,11 +32,12 @@ const NEGLIGIBLE: f64 = 0.5 * (0.05 * Z95) * (0.05 * Z95);
 /// a fifth of the column's norm.
 const SECANT_TARGET: f64 = 25.0;
 
-/// The final fit's Jacobian and half-width multiplier for its intervals.
+/// The final fit's Jacobian and half-width multipliers for its intervals.
 pub(super) struct IntervalBasis {
     pub fit: lm::LmFit,
-    /// Multiplier of the standard error for a 95 % half-width.
-    pub z: f64,
+    /// Per fitted parameter, the (lower, upper) multipliers of its standard error once the ends
+    /// are checked against the sum of squares ([`lm::interval_ends`]; each at least `z`).
+    pub ends: Vec<(f64, f64)>,
     /// The measured roughness (chi-square of one jump), when it mattered.
     pub roughness: Option<f64>,
 }
@@ -43,13 +50,13 @@ pub(super) fn interval_basis<S: Simulator + ?Sized>(
     n_fin: usize,
     scale: &[f64],
 ) -> IntervalBasis {
-    let plain = IntervalBasis {
-        fit: fin.fit.clone(),
-        z: Z95,
-        roughness: None,
-    };
-    if fin.state.idx.is_empty() {
-        return plain;
+    let m = fin.state.idx.len();
+    if m == 0 {
+        return IntervalBasis {
+            fit: fin.fit.clone(),
+            ends: Vec::new(),
+            roughness: None,
+        };
     }
     let empty = ModelState {
         named: fin.state.named.clone(),
@@ -66,7 +73,6 @@ pub(super) fn interval_basis<S: Simulator + ?Sized>(
     let w: Vec<f64> = (0..r0.len())
         .map(|i| scale[(i / n_fin.max(1)).min(scale.len() - 1)])
         .collect();
-    let m = fin.state.idx.len();
     let h = LmOptions::default().fd_step;
     let f0 = lm::roughness(
         &problem,
@@ -77,15 +83,43 @@ pub(super) fn interval_basis<S: Simulator + ?Sized>(
         &vec![h; m],
         PATTERNS,
     );
-    if f0 <= NEGLIGIBLE {
-        return plain;
+    let (jac, z, roughness) = if f0 <= NEGLIGIBLE {
+        (fin.fit.jac.clone(), Z95, None)
+    } else {
+        rough_jacobian(&problem, fin, n_fin, scale, &w, f0)
+    };
+    let ends = match covariance(&jac, scale, n_fin) {
+        Some(cov) => lm::interval_ends(&problem, &fin.bounds, &fin.fit.z, r0, &w, &cov, z),
+        None => vec![(z, z); m],
+    };
+    IntervalBasis {
+        fit: lm::LmFit {
+            jac,
+            ..fin.fit.clone()
+        },
+        ends,
+        roughness,
     }
+}
+
+/// On a rough sum of squares (roughness `f0` over a tiny step): the secant Jacobian, the
+/// widened multiplier and the roughness `F` that sets it.
+fn rough_jacobian<S: Simulator + ?Sized>(
+    problem: &FitProblem<'_, '_, S>,
+    fin: &FitOut,
+    n_fin: usize,
+    scale: &[f64],
+    w: &[f64],
+    f0: f64,
+) -> (DMatrix<f64>, f64, Option<f64>) {
+    let (m, r0) = (fin.state.idx.len(), &fin.fit.residuals);
+    let h = LmOptions::default().fd_step;
     let jac = lm::secant_jacobian(
-        &problem,
+        problem,
         &fin.bounds,
         &fin.fit.z,
         r0,
-        &w,
+        w,
         h,
         SECANT_TARGET * f0,
     );
@@ -95,16 +129,9 @@ pub(super) fn interval_basis<S: Simulator + ?Sized>(
     let sd: Vec<f64> = covariance(&jac, scale, n_fin)
         .map(|c| (0..m).map(|j| c[(j, j)].max(0.0).sqrt()).collect())
         .unwrap_or_else(|| vec![f64::INFINITY; m]);
-    let f1 = lm::roughness(&problem, &fin.bounds, &fin.fit.z, r0, &w, &sd, PATTERNS);
+    let f1 = lm::roughness(problem, &fin.bounds, &fin.fit.z, r0, w, &sd, PATTERNS);
     let f = f0.max(f1);
-    IntervalBasis {
-        fit: lm::LmFit {
-            jac,
-            ..fin.fit.clone()
-        },
-        z: Z95 + (2.0 * f).sqrt(),
-        roughness: Some(f),
-    }
+    (jac, Z95 + (2.0 * f).sqrt(), Some(f))
 }
 
 /// The warning that tells the user the intervals account for a rough sum of squares.

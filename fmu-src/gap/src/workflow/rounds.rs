@@ -173,13 +173,14 @@ fn one_round<S: Simulator + ?Sized>(
     // Far from the data the linearised ranking means little, and after a named effect so does a
     // linearisation about a model that already mimics part of the next effect (a friction fitted
     // in place of strand hysteresis): when residuals beyond noise remain and no refit reaches the
-    // naming threshold, the other candidates (up to `max_refit`) get theirs.
+    // naming threshold, the other candidates (up to `max_refit`; near the data, those whose scan
+    // says the data could show them) get theirs.
     if (far || (round > 1 && !at_noise)) && ranked.iter().all(|c| c.delta_bic < cfg.min_delta_bic) {
         let rest: Vec<(usize, f64)> = sc
             .order
             .iter()
             .take(cfg.max_refit.max(1))
-            .filter(|c| !top.iter().any(|t| t.0 == c.0))
+            .filter(|c| !top.iter().any(|t| t.0 == c.0) && (far || could_show(ctx, &sc, c.0)))
             .copied()
             .collect();
         if !rest.is_empty() {
@@ -366,6 +367,21 @@ fn screen_round<S: Simulator + ?Sized>(
         corrected,
         order,
     })
+}
+
+/// Whether some scanned setting of effect `e` reaches the naming threshold (unknown: yes): a
+/// refit of one that cannot cannot name it.
+fn could_show<S: Simulator + ?Sized>(ctx: &Ctx<'_, S>, sc: &Screened, e: usize) -> bool {
+    let needed = ctx.visibility_needed(e);
+    sc.remaining
+        .iter()
+        .position(|&c| c == e)
+        .map(|k| &sc.starts[k].scan)
+        .filter(|scan| scan.iter().any(|x| x.visibility.is_some()))
+        .is_none_or(|scan| {
+            scan.iter()
+                .any(|x| x.visibility.is_some_and(|v| v >= needed))
+        })
 }
 
 /// The candidate with its visibility over the scan (how much the data could show of it).
