@@ -1,6 +1,6 @@
 //! `report.json` (for scripts and CI) and `report.md` (for the engineer) of one gap run.
 
-use crate::workflow::GapResult;
+use crate::workflow::{Candidate, GapResult};
 use serde_json::{json, Value};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -21,16 +21,7 @@ pub fn in_short(res: &GapResult) -> String {
             res.named.join(", ")
         )
     };
-    let hidden: Vec<&str> = res
-        .candidates
-        .last()
-        .map(|r| {
-            r.iter()
-                .filter(|c| !c.detectable())
-                .map(|c| c.effect.as_str())
-                .collect()
-        })
-        .unwrap_or_default();
+    let hidden = last_round(res, |c| (!c.detectable()).then(|| c.effect.clone()));
     if !hidden.is_empty() {
         s.push_str(&format!(
             " These data cannot show {} even at full strength: testing for it needs other \
@@ -39,16 +30,9 @@ pub fn in_short(res: &GapResult) -> String {
             hidden.join(", ")
         ));
     }
-    let weak: Vec<&str> = res
-        .candidates
-        .last()
-        .map(|r| {
-            r.iter()
-                .filter(|c| c.detectable() && c.may_hide() && !c.inconclusive)
-                .map(|c| c.effect.as_str())
-                .collect()
-        })
-        .unwrap_or_default();
+    let weak = last_round(res, |c| {
+        (c.detectable() && c.may_hide() && !c.inconclusive).then(|| c.effect.clone())
+    });
     if !weak.is_empty() {
         s.push_str(&format!(
             " Weaker than their detection limits (in the report), {} could be present unseen: \
@@ -57,16 +41,10 @@ pub fn in_short(res: &GapResult) -> String {
             weak.join(", ")
         ));
     }
-    let unsettled: Vec<String> = res
-        .candidates
-        .last()
-        .map(|r| {
-            r.iter()
-                .filter(|c| c.detectable() && c.may_hide() && c.inconclusive)
-                .map(|c| format!("{} (ΔBIC {:.1})", c.effect, c.delta_bic))
-                .collect()
-        })
-        .unwrap_or_default();
+    let unsettled = last_round(res, |c| {
+        (c.detectable() && c.may_hide() && c.inconclusive)
+            .then(|| format!("{} (ΔBIC {:.1})", c.effect, c.delta_bic))
+    });
     if !unsettled.is_empty() {
         s.push_str(&format!(
             " The data hint at {} without showing it (below the naming threshold): \
@@ -93,6 +71,14 @@ pub fn in_short(res: &GapResult) -> String {
         }
     }
     s
+}
+
+/// What `keep` makes of the candidates of the last round it keeps, in their order.
+fn last_round(res: &GapResult, keep: impl Fn(&Candidate) -> Option<String>) -> Vec<String> {
+    res.candidates
+        .last()
+        .map(|r| r.iter().filter_map(&keep).collect())
+        .unwrap_or_default()
 }
 
 /// A word of a shell command, quoted when it holds anything but plain characters.

@@ -372,16 +372,16 @@ fn screen_round<S: Simulator + ?Sized>(
 /// Whether some scanned setting of effect `e` reaches the naming threshold (unknown: yes): a
 /// refit of one that cannot cannot name it.
 fn could_show<S: Simulator + ?Sized>(ctx: &Ctx<'_, S>, sc: &Screened, e: usize) -> bool {
-    let needed = ctx.visibility_needed(e);
     sc.remaining
         .iter()
         .position(|&c| c == e)
-        .map(|k| &sc.starts[k].scan)
-        .filter(|scan| scan.iter().any(|x| x.visibility.is_some()))
-        .is_none_or(|scan| {
-            scan.iter()
-                .any(|x| x.visibility.is_some_and(|v| v >= needed))
-        })
+        .and_then(|k| max_visibility(&sc.starts[k].scan))
+        .is_none_or(|v| v >= ctx.visibility_needed(e))
+}
+
+/// The largest visibility over a candidate's scan (None: no setting has one).
+fn max_visibility(scan: &[VisibilityPoint]) -> Option<f64> {
+    scan.iter().filter_map(|x| x.visibility).reduce(f64::max)
 }
 
 /// The candidate with its visibility over the scan (how much the data could show of it).
@@ -397,7 +397,7 @@ fn with_visibility<S: Simulator + ?Sized>(
     {
         let scan = &sc.starts[k].scan;
         let needed = ctx.visibility_needed(sc.remaining[k]);
-        c.visibility = scan.iter().filter_map(|x| x.visibility).reduce(f64::max);
+        c.visibility = max_visibility(scan);
         c.visibility_needed = needed;
         c.detectable_from = scan
             .iter()
