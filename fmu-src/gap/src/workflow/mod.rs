@@ -26,6 +26,7 @@ use std::time::Instant;
 
 mod calibrate;
 mod diagnose;
+mod ends;
 mod evidence;
 mod finish;
 mod offsets;
@@ -40,6 +41,7 @@ mod verdict;
 use calibrate::*;
 pub use calibrate::{Calibration, CalibrationFit};
 use diagnose::*;
+use ends::*;
 pub(crate) use evidence::regress;
 use evidence::*;
 use finish::*;
@@ -791,7 +793,7 @@ pub fn run<S: Simulator + ?Sized>(
     }
 
     // --- 5. Final fit on the whole trace and the errors before/after.
-    let (fin, n_fin) = final_fit(&ctx, cur, &cur_full_r);
+    let (fin, n_fin) = final_fit(&ctx, cur, &cur_full_r, &st0);
     let data_names: Vec<String> = data.outputs.iter().map(|(s, _)| s.clone()).collect();
     let (final_y, offsets) = final_outputs(&ctx, &fin, n_fin, &data_names)?;
     let scale = row_scale(&fin.fit.residuals, kout);

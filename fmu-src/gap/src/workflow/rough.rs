@@ -89,7 +89,10 @@ pub(super) fn interval_basis<S: Simulator + ?Sized>(
         rough_jacobian(&problem, fin, n_fin, scale, &w, f0)
     };
     let ends = match covariance(&jac, scale, n_fin) {
-        Some(cov) => lm::interval_ends(&problem, &fin.bounds, &fin.fit.z, r0, &w, &cov, z),
+        Some(cov) => {
+            let ends = lm::interval_ends(&problem, &fin.bounds, &fin.fit.z, r0, &w, &cov, z);
+            profile_ends(ctx, fin, n_fin, &problem, &w, &cov, z, ends)
+        }
         None => vec![(z, z); m],
     };
     IntervalBasis {

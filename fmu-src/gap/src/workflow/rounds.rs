@@ -324,13 +324,7 @@ fn screen_round<S: Simulator + ?Sized>(
         "round {round}: screening {} candidate effect(s)",
         remaining.len()
     ));
-    let given = (cur.state.idx.len() >= st0.idx.len()
-        && cur.state.idx[..st0.idx.len()] == st0.idx[..])
-        .then(|| {
-            let mut v = cur.state.val.clone();
-            v[..st0.val.len()].copy_from_slice(&st0.val);
-            cur.state.with_values(v)
-        });
+    let given = with_base(&cur.state, st0);
     let starts = scan_starts(ctx, cur, &remaining, given.as_ref());
     ctx.stage(format!("round {round}: start scan done"));
     for (k, &e) in remaining.iter().enumerate() {
