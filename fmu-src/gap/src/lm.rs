@@ -16,6 +16,7 @@
 use crate::sim::SimError;
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Coordinate map of one parameter.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -404,6 +405,78 @@ pub fn secant_jacobian<P: Problem>(
     DMatrix::from_fn(n, z.len(), |i, j| cols[j][i])
 }
 
+/// One evaluated trial point of the fit: its residuals and sum of squares, or a failure (the
+/// simulation failed, a residual is not finite, or the length is wrong).
+enum Trial {
+    Finite(Vec<f64>, f64),
+    Failed,
+}
+
+fn trial<P: Problem>(problem: &P, b: &[Bounded], zn: &[f64], len: usize) -> Trial {
+    match problem.residuals(&to_p(b, zn)) {
+        Ok(rn) if rn.len() == len && rn.iter().all(|v| v.is_finite()) => {
+            let sn = sse(&rn);
+            Trial::Finite(rn, sn)
+        }
+        _ => Trial::Failed,
+    }
+}
+
+/// The damped Gauss–Newton point from `z` with damping `lambda` (normal matrix `a`, gradient
+/// `g`), inside the bounds. Active set: a parameter at a bound whose step would leave the range
+/// is held there and the step re-solved for the others, until no further one would leave (a
+/// projected Newton step; clamping the full step instead rarely lowers the sum, and the
+/// gradient sign alone would also hold a parameter that the coupled step moves inward, as along
+/// the valley of two compensating parameters). `None` when the damped matrix is not positive
+/// definite.
+fn damped_step(
+    a: &DMatrix<f64>,
+    g: &DVector<f64>,
+    b: &[Bounded],
+    z: &[f64],
+    lambda: f64,
+) -> Option<Vec<f64>> {
+    let m = z.len();
+    let mut held = vec![false; m];
+    let delta = loop {
+        let mut mm = a.clone();
+        let mut gg = g.clone();
+        for k in 0..m {
+            mm[(k, k)] += lambda * a[(k, k)].max(1e-12) + 1e-12;
+        }
+        for k in (0..m).filter(|&k| held[k]) {
+            #[allow(clippy::needless_range_loop)]
+            for j in 0..m {
+                mm[(k, j)] = 0.0;
+                mm[(j, k)] = 0.0;
+            }
+            mm[(k, k)] = 1.0;
+            gg[k] = 0.0;
+        }
+        let ch = mm.cholesky()?;
+        let d = ch.solve(&(-&gg));
+        let mut more = false;
+        for k in 0..m {
+            let (lo, hi) = b[k].z_bounds();
+            if !held[k] && ((z[k] <= lo && d[k] < 0.0) || (z[k] >= hi && d[k] > 0.0)) {
+                held[k] = true;
+                more = true;
+            }
+        }
+        if !more {
+            break d;
+        }
+    };
+    Some(
+        (0..m)
+            .map(|k| {
+                let (lo, hi) = b[k].z_bounds();
+                (z[k] + delta[k]).clamp(lo, hi)
+            })
+            .collect(),
+    )
+}
+
 /// Minimise Σ r² over the bounded parameters starting at `p0`. `tick` is called once per
 /// iteration (progress reporting).
 pub fn levenberg_marquardt<P: Problem>(
@@ -441,61 +514,50 @@ pub fn levenberg_marquardt<P: Problem>(
         let g = jac.transpose() * DVector::from_column_slice(&r);
         let mut accepted = None;
         let tries = if fresh { 12 } else { 3 };
-        for _ in 0..tries {
-            // Active set: a parameter at a bound whose step would leave the range is held there
-            // and the step re-solved for the others, until no further one would leave (a
-            // projected Newton step; clamping the full step instead rarely lowers the sum, and
-            // the gradient sign alone would also hold a parameter that the coupled step moves
-            // inward, as along the valley of two compensating parameters).
-            let mut held = vec![false; m];
-            let delta = loop {
-                let mut mm = a.clone();
-                let mut gg = g.clone();
-                for k in 0..m {
-                    mm[(k, k)] += lambda * a[(k, k)].max(1e-12) + 1e-12;
-                }
-                for k in (0..m).filter(|&k| held[k]) {
-                    #[allow(clippy::needless_range_loop)]
-                    for j in 0..m {
-                        mm[(k, j)] = 0.0;
-                        mm[(j, k)] = 0.0;
-                    }
-                    mm[(k, k)] = 1.0;
-                    gg[k] = 0.0;
-                }
-                let Some(ch) = mm.cholesky() else {
-                    break None;
-                };
-                let d = ch.solve(&(-&gg));
-                let mut more = false;
-                for k in 0..m {
-                    let (lo, hi) = b[k].z_bounds();
-                    if !held[k] && ((z[k] <= lo && d[k] < 0.0) || (z[k] >= hi && d[k] > 0.0)) {
-                        held[k] = true;
-                        more = true;
-                    }
-                }
-                if !more {
-                    break Some(d);
-                }
-            };
-            let Some(delta) = delta else {
+        // A trial evaluated ahead (see below): its damping, point and result.
+        let mut ahead: Option<(f64, Vec<f64>, Trial)> = None;
+        for attempt in 0..tries {
+            let Some(zn) = damped_step(&a, &g, b, &z, lambda) else {
                 lambda *= 10.0;
                 continue;
             };
-            let zn: Vec<f64> = (0..m)
-                .map(|k| {
-                    let (lo, hi) = b[k].z_bounds();
-                    (z[k] + delta[k]).clamp(lo, hi)
-                })
-                .collect();
             if zn == z {
                 break;
             }
             evaluations += 1;
-            match problem.residuals(&to_p(b, &zn)) {
-                Ok(rn) if rn.len() == r.len() && rn.iter().all(|v| v.is_finite()) => {
-                    let sn = sse(&rn);
+            let result = match ahead.take() {
+                Some((l, za, t)) if l == lambda && za == zn => t,
+                _ => {
+                    // While this trial runs, the one a rejection would try next (damping ×4)
+                    // runs on an idle thread, if there is one: the sequence of trials, and so
+                    // the fit, is the same as one at a time. It is skipped once this trial is
+                    // accepted before it starts.
+                    let next = (attempt + 1 < tries && lambda * 4.0 <= 1e12)
+                        .then(|| damped_step(&a, &g, b, &z, lambda * 4.0))
+                        .flatten()
+                        .filter(|zb| *zb != z);
+                    let done = AtomicBool::new(false);
+                    let (t, tb) = rayon::join(
+                        || {
+                            let t = trial(problem, b, &zn, r.len());
+                            if matches!(&t, Trial::Finite(_, sn) if *sn < s) {
+                                done.store(true, Ordering::SeqCst);
+                            }
+                            t
+                        },
+                        || {
+                            let zb = next.as_ref()?;
+                            (!done.load(Ordering::SeqCst)).then(|| trial(problem, b, zb, r.len()))
+                        },
+                    );
+                    if let (Some(zb), Some(tb)) = (next, tb) {
+                        ahead = Some((lambda * 4.0, zb, tb));
+                    }
+                    t
+                }
+            };
+            match result {
+                Trial::Finite(rn, sn) => {
                     if sn < s {
                         lambda = (lambda / 3.0).max(1e-9);
                         accepted = Some((zn, rn, sn));
@@ -503,7 +565,7 @@ pub fn levenberg_marquardt<P: Problem>(
                     }
                     lambda *= 4.0;
                 }
-                _ => lambda *= 10.0,
+                Trial::Failed => lambda *= 10.0,
             }
             if lambda > 1e12 {
                 break;
