@@ -99,7 +99,7 @@ pub(super) fn profile_ends<S: Simulator + ?Sized>(
         let f = fit_state_holding(ctx, &st, None, &[], &held, n_fin, limits).ok()?;
         Some((chi(&f.fit.residuals) - c0, f.state.val))
     };
-    sides
+    let moved: Vec<f64> = sides
         .par_iter()
         .zip(&axis)
         .map(|(&(j, sign, k, sd, k_bound), &rise)| {
@@ -143,8 +143,27 @@ pub(super) fn profile_ends<S: Simulator + ?Sized>(
             }
             last.0
         })
-        .collect::<Vec<f64>>()
-        .chunks(2)
-        .map(|c| (c[0], c[1]))
-        .collect()
+        .collect();
+    ctx.stage(format!(
+        "interval ends against the profile (95 % level {:.1}): axis rises {:?}; {}; multipliers \
+         {:?} -> {:?}",
+        t * t,
+        axis.iter()
+            .map(|r| r.map(|r| (r * 10.0).round() / 10.0))
+            .collect::<Vec<_>>(),
+        if thorough {
+            "flat valley, every end checked by a held fit"
+        } else {
+            "no flat end"
+        },
+        sides
+            .iter()
+            .map(|s| (s.2 * 100.0).round() / 100.0)
+            .collect::<Vec<_>>(),
+        moved
+            .iter()
+            .map(|k| (k * 100.0).round() / 100.0)
+            .collect::<Vec<_>>(),
+    ));
+    moved.chunks(2).map(|c| (c[0], c[1])).collect()
 }
