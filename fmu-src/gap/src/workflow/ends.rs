@@ -123,25 +123,9 @@ pub(super) fn profile_ends<S: Simulator + ?Sized>(
                     _ => return k,
                 }
             }
-            for _ in 0..MAX_HELD_FITS {
-                if last.0 >= k_bound {
-                    return k_bound.max(k);
-                }
-                let k2 = (GROWTH * last.0).min(k_bound);
-                let Some((rise2, v)) = held(j, sign, sd, k2, &others) else {
-                    return last.0;
-                };
-                if rise2 >= t * t {
-                    // Linear in k² between the last point below t² and this one (exact for a
-                    // quadratic profile).
-                    let (k1, r1) = last;
-                    let k_sq = k1 * k1 + (t * t - r1) * (k2 * k2 - k1 * k1) / (rise2 - r1);
-                    return k_sq.max(0.0).sqrt().clamp(k1, k2);
-                }
-                others = v;
-                last = (k2, rise2);
-            }
-            last.0
+            move_out(last, k, k_bound, t, others, |k2, from| {
+                held(j, sign, sd, k2, from)
+            })
         })
         .collect();
     ctx.stage(format!(
@@ -166,4 +150,90 @@ pub(super) fn profile_ends<S: Simulator + ?Sized>(
             .collect::<Vec<_>>(),
     ));
     moved.chunks(2).map(|c| (c[0], c[1])).collect()
+}
+
+/// The profile search of one end: from `last` (multiplier, rise below `t²`), the end moves out
+/// by [`GROWTH`] per step up to `k_bound`, each step's rise from `held(k, from)` (a fit of the
+/// others started at `from`, returning its rise and values), until the rise reaches `t²`; the end
+/// is then interpolated linearly in k² between the last two steps (exact for a quadratic
+/// profile). Returns the multiplier, at least `k`; a failed fit keeps the last one reached.
+fn move_out(
+    mut last: (f64, f64),
+    k: f64,
+    k_bound: f64,
+    t: f64,
+    mut others: Vec<f64>,
+    held: impl Fn(f64, &[f64]) -> Option<(f64, Vec<f64>)>,
+) -> f64 {
+    for _ in 0..MAX_HELD_FITS {
+        if last.0 >= k_bound {
+            return k_bound.max(k);
+        }
+        let k2 = (GROWTH * last.0).min(k_bound);
+        let Some((rise2, v)) = held(k2, &others) else {
+            return last.0;
+        };
+        if rise2 >= t * t {
+            let (k1, r1) = last;
+            let k_sq = k1 * k1 + (t * t - r1) * (k2 * k2 - k1 * k1) / (rise2 - r1);
+            return k_sq.max(0.0).sqrt().clamp(k1, k2);
+        }
+        others = v;
+        last = (k2, rise2);
+    }
+    last.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_quadratic_profile_ends_where_it_reaches_the_level() {
+        // Profile rise (k / 5)² (a standard error five times the linearised one): the end at
+        // t = 1.96 is 9.8, reached exactly by the interpolation in k².
+        let held = |k: f64, _: &[f64]| Some(((k / 5.0).powi(2), Vec::new()));
+        let k = move_out(
+            (1.96, (1.96f64 / 5.0).powi(2)),
+            1.96,
+            1e9,
+            1.96,
+            Vec::new(),
+            held,
+        );
+        assert!((k - 9.8).abs() < 1e-9, "{k}");
+    }
+
+    #[test]
+    fn a_flat_profile_ends_at_the_bound_and_a_failed_fit_keeps_the_last_end() {
+        let flat = |_: f64, _: &[f64]| Some((0.5, Vec::new()));
+        assert_eq!(
+            move_out((2.0, 0.5), 2.0, 30.0, 1.96, Vec::new(), flat),
+            30.0
+        );
+        // Beyond the steps allowed: the last step reached (2 × 4⁴).
+        assert_eq!(
+            move_out((2.0, 0.5), 2.0, 1e9, 1.96, Vec::new(), flat),
+            512.0
+        );
+        let failing = |k: f64, _: &[f64]| (k < 10.0).then(|| (0.5, Vec::new()));
+        assert_eq!(
+            move_out((2.0, 0.5), 2.0, 1e9, 1.96, Vec::new(), failing),
+            8.0
+        );
+    }
+
+    #[test]
+    fn each_step_starts_from_the_previous_steps_values() {
+        let seen = std::sync::Mutex::new(Vec::new());
+        let held = |k: f64, from: &[f64]| {
+            seen.lock().unwrap().push(from.to_vec());
+            Some(((k / 20.0).powi(2), vec![k]))
+        };
+        move_out((2.0, 0.01), 2.0, 1e9, 1.96, vec![-1.0], held);
+        assert_eq!(
+            *seen.lock().unwrap(),
+            vec![vec![-1.0], vec![8.0], vec![32.0]]
+        );
+    }
 }
