@@ -175,6 +175,25 @@ pub fn to_p(b: &[Bounded], z: &[f64]) -> Vec<f64> {
     b.iter().zip(z).map(|(b, &z)| b.to_p(z)).collect()
 }
 
+/// The residuals at the coordinates `z` when they are usable: the simulation ran and gave `len`
+/// finite values (None otherwise).
+pub fn residuals_at<P: Problem>(
+    problem: &P,
+    b: &[Bounded],
+    z: &[f64],
+    len: usize,
+) -> Option<Vec<f64>> {
+    problem
+        .residuals(&to_p(b, z))
+        .ok()
+        .filter(|r| r.len() == len && r.iter().all(|v| v.is_finite()))
+}
+
+/// Sum of squares of the residuals `r` weighted row by row by `w`: `Σ (w_i r_i)²`.
+pub fn weighted_sse(r: &[f64], w: &[f64]) -> f64 {
+    r.iter().zip(w).map(|(r, w)| (w * r).powi(2)).sum()
+}
+
 /// Forward-difference Jacobian d r / d z, columns in parallel. A step that would leave the bounds
 /// or whose simulation fails is taken backwards; a column that fails both ways is zero.
 pub fn jacobian<P: Problem>(
@@ -197,10 +216,8 @@ pub fn jacobian<P: Problem>(
                 }
                 let mut zz = z.to_vec();
                 zz[j] = zj;
-                if let Ok(r) = problem.residuals(&to_p(b, &zz)) {
-                    if r.len() == n && r.iter().all(|v| v.is_finite()) {
-                        return r.iter().zip(r0).map(|(a, c)| (a - c) / d).collect();
-                    }
+                if let Some(r) = residuals_at(problem, b, &zz, n) {
+                    return r.iter().zip(r0).map(|(a, c)| (a - c) / d).collect();
                 }
             }
             vec![0.0; n]
@@ -237,8 +254,7 @@ pub fn interval_ends<P: Problem>(
     t: f64,
 ) -> Vec<(f64, f64)> {
     let m = z.len();
-    let chi = |r: &[f64]| -> f64 { r.iter().zip(w).map(|(r, w)| (w * r).powi(2)).sum() };
-    let c0 = chi(r0);
+    let c0 = weighted_sse(r0, w);
     let side = |j: usize, sign: f64| -> f64 {
         let sd = cov[(j, j)].sqrt();
         if !(sd.is_finite() && sd > 0.0) || (0..m).any(|i| !cov[(i, j)].is_finite()) {
@@ -253,10 +269,10 @@ pub fn interval_ends<P: Problem>(
                     (z[i] + sign * k * cov[(i, j)] / sd).clamp(lo, hi)
                 })
                 .collect();
-            let rise = match problem.residuals(&to_p(b, &zz)) {
-                Ok(r) if r.len() == r0.len() && r.iter().all(|v| v.is_finite()) => chi(&r) - c0,
-                _ => break,
+            let Some(r) = residuals_at(problem, b, &zz, r0.len()) else {
+                break;
             };
+            let rise = weighted_sse(&r, w) - c0;
             if rise >= t * t {
                 // Past the end: back to where the rise crosses t², interpolated linearly in k²
                 // from the last probe short of it (exact for a quadratic rise).
@@ -385,13 +401,11 @@ pub fn secant_jacobian<P: Problem>(
                 let mut zz = z.to_vec();
                 zz[j] = (z[j] + d).clamp(lo, hi);
                 let step = zz[j] - z[j];
-                if let Ok(r) = problem.residuals(&to_p(b, &zz)) {
-                    if step != 0.0 && r.len() == n && r.iter().all(|v| v.is_finite()) {
-                        let c: f64 = (0..n).map(|i| (w[i] * (r[i] - r0[i])).powi(2)).sum();
-                        best = r.iter().zip(r0).map(|(a, c0)| (a - c0) / step).collect();
-                        if c >= target {
-                            break;
-                        }
+                if let Some(r) = residuals_at(problem, b, &zz, n).filter(|_| step != 0.0) {
+                    let c: f64 = (0..n).map(|i| (w[i] * (r[i] - r0[i])).powi(2)).sum();
+                    best = r.iter().zip(r0).map(|(a, c0)| (a - c0) / step).collect();
+                    if c >= target {
+                        break;
                     }
                 }
                 if h >= h_max {
@@ -405,21 +419,15 @@ pub fn secant_jacobian<P: Problem>(
     DMatrix::from_fn(n, z.len(), |i, j| cols[j][i])
 }
 
-/// One evaluated trial point of the fit: its residuals and sum of squares, or a failure (the
-/// simulation failed, a residual is not finite, or the length is wrong).
-enum Trial {
-    Finite(Vec<f64>, f64),
-    Failed,
-}
+/// An evaluated trial point of the fit: its residuals and sum of squares, None when they are
+/// not usable ([`residuals_at`]).
+type Trial = Option<(Vec<f64>, f64)>;
 
 fn trial<P: Problem>(problem: &P, b: &[Bounded], zn: &[f64], len: usize) -> Trial {
-    match problem.residuals(&to_p(b, zn)) {
-        Ok(rn) if rn.len() == len && rn.iter().all(|v| v.is_finite()) => {
-            let sn = sse(&rn);
-            Trial::Finite(rn, sn)
-        }
-        _ => Trial::Failed,
-    }
+    residuals_at(problem, b, zn, len).map(|rn| {
+        let sn = sse(&rn);
+        (rn, sn)
+    })
 }
 
 /// The damped Gauss–Newton point from `z` with damping `lambda` (normal matrix `a`, gradient
@@ -540,7 +548,7 @@ pub fn levenberg_marquardt<P: Problem>(
                     let (t, tb) = rayon::join(
                         || {
                             let t = trial(problem, b, &zn, r.len());
-                            if matches!(&t, Trial::Finite(_, sn) if *sn < s) {
+                            if t.as_ref().is_some_and(|(_, sn)| *sn < s) {
                                 done.store(true, Ordering::SeqCst);
                             }
                             t
@@ -557,7 +565,7 @@ pub fn levenberg_marquardt<P: Problem>(
                 }
             };
             match result {
-                Trial::Finite(rn, sn) => {
+                Some((rn, sn)) => {
                     if sn < s {
                         lambda = (lambda / 3.0).max(1e-9);
                         accepted = Some((zn, rn, sn));
@@ -565,7 +573,7 @@ pub fn levenberg_marquardt<P: Problem>(
                     }
                     lambda *= 4.0;
                 }
-                Trial::Failed => lambda *= 10.0,
+                None => lambda *= 10.0,
             }
             if lambda > 1e12 {
                 break;

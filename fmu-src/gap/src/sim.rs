@@ -9,7 +9,7 @@
 use crate::spec::ParamSpec;
 use std::collections::VecDeque;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::Mutex;
 use std::time::Instant;
 
 /// A model that can be simulated on the measured time grid. Implementations hold the measured
@@ -69,7 +69,7 @@ const MEMORY_VALUES: usize = 4 << 20;
 type Key = Vec<(usize, u64)>;
 
 /// One remembered result: its settings, its length in samples, its outputs.
-type Remembered = (Key, usize, Arc<Vec<Vec<f64>>>);
+type Remembered = (Key, usize, Vec<Vec<f64>>);
 
 /// Counts simulations and the wall time during which any is running, and remembers recent
 /// results (see the module documentation).
@@ -99,7 +99,7 @@ impl<'a, S: Simulator + ?Sized> Counted<'a, S> {
     fn recall(&self, key: &Key, n: usize) -> Option<Vec<Vec<f64>>> {
         let mem = self.memory.lock().unwrap_or_else(|e| e.into_inner());
         let (_, _, out) = mem.iter().find(|(k, len, _)| k == key && *len == n)?;
-        Some(out.as_ref().clone())
+        Some(out.clone())
     }
 
     /// Remember a result, forgetting the oldest beyond [`MEMORY_VALUES`].
@@ -110,7 +110,7 @@ impl<'a, S: Simulator + ?Sized> Counted<'a, S> {
         }
         let mut mem = self.memory.lock().unwrap_or_else(|e| e.into_inner());
         mem.retain(|(k, len, _)| !(k == &key && *len == n));
-        mem.push_back((key, n, Arc::new(out.to_vec())));
+        mem.push_back((key, n, out.to_vec()));
         while mem.iter().map(|(_, _, o)| size(o)).sum::<usize>() > MEMORY_VALUES {
             mem.pop_front();
         }

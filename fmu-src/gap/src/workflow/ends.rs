@@ -49,8 +49,7 @@ pub(super) fn profile_ends<S: Simulator + ?Sized>(
     ends: Vec<(f64, f64)>,
 ) -> Vec<(f64, f64)> {
     let m = ends.len();
-    let chi = |r: &[f64]| -> f64 { r.iter().zip(w).map(|(r, w)| (w * r).powi(2)).sum() };
-    let c0 = chi(&fin.fit.residuals);
+    let c0 = lm::weighted_sse(&fin.fit.residuals, w);
     let z = &fin.fit.z;
     // Per end: parameter, direction, multiplier, standard error, multiplier at the bound.
     let sides: Vec<(usize, f64, f64, f64, f64)> = (0..m)
@@ -75,12 +74,8 @@ pub(super) fn profile_ends<S: Simulator + ?Sized>(
             }
             let mut zz = z.clone();
             zz[j] = at(j, sign, sd, k);
-            match problem.residuals(&lm::to_p(&fin.bounds, &zz)) {
-                Ok(r) if r.len() == fin.fit.residuals.len() && r.iter().all(|v| v.is_finite()) => {
-                    Some(chi(&r) - c0)
-                }
-                _ => None,
-            }
+            lm::residuals_at(problem, &fin.bounds, &zz, fin.fit.residuals.len())
+                .map(|r| lm::weighted_sse(&r, w) - c0)
         })
         .collect();
     let thorough = axis.iter().any(|r| r.is_some_and(|r| r < t * t));
@@ -97,7 +92,7 @@ pub(super) fn profile_ends<S: Simulator + ?Sized>(
         let held = [(fin.state.idx[j], fin.bounds[j].to_p(at(j, sign, sd, k)))];
         let limits = Limits::new(HELD_FIT_ITERATIONS, 1e-4);
         let f = fit_state_holding(ctx, &st, None, &[], &held, n_fin, limits).ok()?;
-        Some((chi(&f.fit.residuals) - c0, f.state.val))
+        Some((lm::weighted_sse(&f.fit.residuals, w) - c0, f.state.val))
     };
     let moved: Vec<f64> = sides
         .par_iter()

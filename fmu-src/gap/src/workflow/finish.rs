@@ -34,7 +34,7 @@ pub(super) fn final_fit<S: Simulator + ?Sized>(
     }
     ctx.stage("final fit on the whole trace".to_string());
     let restart = wandered(&cur, st0)
-        .then(|| with_base(&cur.state, st0))
+        .then(|| cur.state.with_base(st0))
         .flatten();
     let (a, b) = rayon::join(
         || fit_state(ctx, &cur.state, None, &[], n, FINAL_LIMITS).ok(),
@@ -72,16 +72,6 @@ fn wandered(cur: &FitOut, st0: &ModelState) -> bool {
             lm::Coord::Linear(_) => WANDERED_LINEAR,
         };
         (b.to_z(cur.state.val[j]) - b.to_z(v0)).abs() > limit
-    })
-}
-
-/// `state` with its base parameters (those of `st0`) at `st0`'s values, when it lists them first.
-pub(super) fn with_base(state: &ModelState, st0: &ModelState) -> Option<ModelState> {
-    let k = st0.idx.len();
-    (state.idx.len() >= k && state.idx[..k] == st0.idx[..]).then(|| {
-        let mut v = state.val.clone();
-        v[..k].copy_from_slice(&st0.val);
-        state.with_values(v)
     })
 }
 

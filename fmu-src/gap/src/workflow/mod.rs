@@ -376,6 +376,17 @@ impl ModelState {
             val,
         }
     }
+
+    /// The same with its base parameters (those of `st0`) at `st0`'s values, when it lists them
+    /// first.
+    fn with_base(&self, st0: &ModelState) -> Option<ModelState> {
+        let k = st0.idx.len();
+        (self.idx.len() >= k && self.idx[..k] == st0.idx[..]).then(|| {
+            let mut v = self.val.clone();
+            v[..k].copy_from_slice(&st0.val);
+            self.with_values(v)
+        })
+    }
 }
 
 struct Ctx<'a, S: Simulator + ?Sized> {

@@ -324,7 +324,7 @@ fn screen_round<S: Simulator + ?Sized>(
         "round {round}: screening {} candidate effect(s)",
         remaining.len()
     ));
-    let given = with_base(&cur.state, st0);
+    let given = cur.state.with_base(st0);
     let starts = scan_starts(ctx, cur, &remaining, given.as_ref());
     ctx.stage(format!("round {round}: start scan done"));
     for (k, &e) in remaining.iter().enumerate() {

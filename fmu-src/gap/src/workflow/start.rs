@@ -96,8 +96,7 @@ fn start_misses(r: &[f64], k: usize, n: usize, m: usize) -> Vec<StartMiss> {
                 z,
                 z_raw: start_mean * (m as f64).sqrt(),
                 z_rel: z / spread.max(1.0),
-                rest_rms: (rest.iter().map(|x| x * x).sum::<f64>() / rest.len().max(1) as f64)
-                    .sqrt(),
+                rest_rms: stats::rms(rest),
             }
         })
         .collect()
