@@ -111,6 +111,11 @@ pub struct LmOptions {
     pub broyden_steps: usize,
     /// Print every iteration on stderr (for profiling).
     pub trace: bool,
+    /// End with a finite-difference Jacobian at the optimum (else [`LmFit::jac`] may be a
+    /// Broyden update; [`refresh_jacobian`] makes it one later, with the same values). A fit
+    /// whose Jacobian nobody reads (a profile point, or one of rival fits until the winner is
+    /// known) skips its `m` simulations.
+    pub final_jacobian: bool,
     /// Give up once the fit cannot come down to this sum of squares within its iterations:
     /// from the third iteration on, when even `FUTILITY_FACTOR` times the decrease the undamped
     /// Gauss–Newton step predicts, gained in every iteration left, would leave the sum above it
@@ -133,12 +138,14 @@ impl Default for LmOptions {
             fd_step: 1e-3,
             broyden_steps: 3,
             trace: false,
+            final_jacobian: true,
             futile_above: None,
         }
     }
 }
 
-/// Result of a fit. `jac` is the finite-difference d(residual)/dz at the optimum.
+/// Result of a fit. `jac` is the finite-difference d(residual)/dz at the optimum when
+/// `jac_fresh` (always, unless `LmOptions::final_jacobian` was false).
 #[derive(Clone, Debug)]
 pub struct LmFit {
     pub p: Vec<f64>,
@@ -146,6 +153,7 @@ pub struct LmFit {
     pub residuals: Vec<f64>,
     pub sse: f64,
     pub jac: DMatrix<f64>,
+    pub jac_fresh: bool,
     pub iterations: usize,
     pub evaluations: usize,
     /// The fit stopped because it could not reach `LmOptions::futile_above`.
@@ -224,6 +232,18 @@ pub fn jacobian<P: Problem>(
         })
         .collect();
     DMatrix::from_fn(n, z.len(), |i, j| cols[j][i])
+}
+
+/// Make `fit.jac` the finite-difference Jacobian at its optimum if it is not already (a fit
+/// run without `LmOptions::final_jacobian`): the same values that fit would have ended with
+/// (`fd_step` as in its options).
+pub fn refresh_jacobian<P: Problem>(problem: &P, b: &[Bounded], fit: &mut LmFit, fd_step: f64) {
+    if fit.jac_fresh {
+        return;
+    }
+    fit.evaluations += fit.z.len();
+    fit.jac = jacobian(problem, b, &fit.z, &fit.residuals, fd_step);
+    fit.jac_fresh = true;
 }
 
 /// Most an interval end is moved out by [`interval_ends`], in multiples of the linearised one.
@@ -634,10 +654,11 @@ pub fn levenberg_marquardt<P: Problem>(
             }
         }
     }
-    if m > 0 && !fresh {
+    if m > 0 && !fresh && opts.final_jacobian {
         // Intervals and screening need the Jacobian at the optimum.
         evaluations += m;
         jac = jacobian(problem, b, &z, &r, opts.fd_step);
+        fresh = true;
     }
     Ok(LmFit {
         p: to_p(b, &z),
@@ -645,6 +666,7 @@ pub fn levenberg_marquardt<P: Problem>(
         residuals: r,
         sse: s,
         jac,
+        jac_fresh: fresh || m == 0,
         iterations,
         evaluations,
         futile,
@@ -695,6 +717,43 @@ mod tests {
         assert!((fit.p[0] - 2.5).abs() < 1e-4, "{:?}", fit.p);
         assert!((fit.p[1] - 1.3).abs() < 1e-4, "{:?}", fit.p);
         assert!((fit.p[2] - 0.4).abs() < 1e-4, "{:?}", fit.p);
+    }
+
+    /// A fit ended without its Jacobian and refreshed later is the fit that ended with it: the
+    /// same point, the same Jacobian, the same count of evaluations. The data are noisy so that
+    /// the fit stops on an updated (Broyden) Jacobian, the case in which the two differ.
+    #[test]
+    fn a_jacobian_made_later_is_the_one_the_fit_would_have_ended_with() {
+        let t: Vec<f64> = (0..200).map(|i| i as f64 * 0.05).collect();
+        let y = t
+            .iter()
+            .enumerate()
+            .map(|(i, t)| 2.5 * (-1.3 * t).exp() + 0.4 + 0.01 * ((i * 7919) % 13) as f64)
+            .collect();
+        let pr = Decay { t, y };
+        let b = [
+            Bounded::new(1.0, Some(0.0), Some(10.0)),
+            Bounded::new(0.2, Some(0.01), Some(100.0)),
+            Bounded::new(0.0, Some(-5.0), Some(5.0)),
+        ];
+        let fit = |final_jacobian| {
+            let opts = LmOptions {
+                max_iter: 6,
+                final_jacobian,
+                ..Default::default()
+            };
+            levenberg_marquardt(&pr, &b, &[1.0, 0.2, 0.0], opts, &|| {}).unwrap()
+        };
+        let (with, mut later) = (fit(true), fit(false));
+        assert!(
+            with.jac_fresh && !later.jac_fresh,
+            "the fit ended on a fresh Jacobian"
+        );
+        assert_ne!(with.jac, later.jac);
+        refresh_jacobian(&pr, &b, &mut later, LmOptions::default().fd_step);
+        assert!(later.jac_fresh);
+        assert_eq!((&with.z, &with.jac), (&later.z, &later.jac));
+        assert_eq!(with.evaluations, later.evaluations);
     }
 
     #[test]

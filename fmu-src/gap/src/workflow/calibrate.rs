@@ -104,8 +104,9 @@ pub(super) fn calibrate_base<S: Simulator + ?Sized>(
     ctx: &Ctx<'_, S>,
     st0: &ModelState,
 ) -> Result<(FitOut, Calibration), SimError> {
-    let fit_base =
-        |from: &ModelState, n: usize| fit_state(ctx, from, None, &[], n, Limits::new(20, 1e-4));
+    // The Jacobian at the optimum is made only for the fit kept.
+    let limits = Limits::new(20, 1e-4).without_final_jacobian();
+    let fit_base = |from: &ModelState, n: usize| fit_state(ctx, from, None, &[], n, limits);
     // The two calibrations are independent: run side by side (each is mostly one simulation at
     // a time, so together they keep two cores busy).
     let (direct, growing) = rayon::join(
@@ -115,23 +116,26 @@ pub(super) fn calibrate_base<S: Simulator + ?Sized>(
                 .then(|| grow_horizons(ctx, st0, &fit_base))
         },
     );
-    let direct = direct?;
+    let mut direct = direct?;
     let mut cal = Calibration {
         direct_chi2: direct.fit.sse,
         horizons: Vec::new(),
         chosen: CalibrationFit::Direct,
     };
     let Some((horizons, growing)) = growing else {
+        ensure_jacobian(ctx, &mut direct, ctx.n_train);
         return Ok((direct, cal));
     };
     cal.horizons = horizons;
-    match growing {
+    let mut kept = match growing {
         Some(g) if g.fit.sse < direct.fit.sse => {
             cal.chosen = CalibrationFit::GrowingHorizons;
-            Ok((g, cal))
+            g
         }
-        _ => Ok((direct, cal)),
-    }
+        _ => direct,
+    };
+    ensure_jacobian(ctx, &mut kept, ctx.n_train);
+    Ok((kept, cal))
 }
 
 /// The growing-horizon fit of [`calibrate_base`]: each horizon's (samples, chi-square), and the

@@ -90,7 +90,7 @@ pub(super) fn profile_ends<S: Simulator + ?Sized>(
             val: from.to_vec(),
         };
         let held = [(fin.state.idx[j], fin.bounds[j].to_p(at(j, sign, sd, k)))];
-        let limits = Limits::new(HELD_FIT_ITERATIONS, 1e-4);
+        let limits = Limits::new(HELD_FIT_ITERATIONS, 1e-4).without_final_jacobian();
         let f = fit_state_holding(ctx, &st, None, &[], &held, n_fin, limits).ok()?;
         Some((lm::weighted_sse(&f.fit.residuals, w) - c0, f.state.val))
     };

@@ -36,11 +36,12 @@ pub(super) fn final_fit<S: Simulator + ?Sized>(
     let restart = wandered(&cur, st0)
         .then(|| cur.state.with_base(st0))
         .flatten();
+    let limits = FINAL_LIMITS.without_final_jacobian();
     let (a, b) = rayon::join(
-        || fit_state(ctx, &cur.state, None, &[], n, FINAL_LIMITS).ok(),
+        || fit_state(ctx, &cur.state, None, &[], n, limits).ok(),
         || {
             let st = restart.as_ref()?;
-            fit_state(ctx, st, None, &[], n, FINAL_LIMITS).ok()
+            fit_state(ctx, st, None, &[], n, limits).ok()
         },
     );
     let best = match (a, b) {
@@ -55,7 +56,10 @@ pub(super) fn final_fit<S: Simulator + ?Sized>(
         (None, b) => b,
     };
     match best {
-        Some(f) if f.fit.sse < lm::sse(cur_full_r) => (f, n),
+        Some(mut f) if f.fit.sse < lm::sse(cur_full_r) => {
+            ensure_jacobian(ctx, &mut f, n);
+            (f, n)
+        }
         _ => (cur, n_train),
     }
 }

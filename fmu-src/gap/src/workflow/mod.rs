@@ -556,6 +556,8 @@ struct Limits {
     max_iter: usize,
     rel_tol: f64,
     futile_above: Option<f64>,
+    /// `lm::LmOptions::final_jacobian`.
+    final_jacobian: bool,
 }
 
 impl Limits {
@@ -564,6 +566,16 @@ impl Limits {
             max_iter,
             rel_tol,
             futile_above: None,
+            final_jacobian: true,
+        }
+    }
+
+    /// The same limits for a fit whose Jacobian is not read, or made later by
+    /// [`ensure_jacobian`] only if the fit is kept.
+    const fn without_final_jacobian(self) -> Self {
+        Limits {
+            final_jacobian: false,
+            ..self
         }
     }
 
@@ -622,6 +634,7 @@ fn fit_state_holding<S: Simulator + ?Sized>(
         abs_tol: LM_ABS_TOL,
         trace: ctx.trace,
         futile_above: limits.futile_above,
+        final_jacobian: limits.final_jacobian,
         ..Default::default()
     };
     let fit = lm::levenberg_marquardt(&problem, &bounds, &p0, opts, &|| ctx.pb.tick())?;
@@ -638,6 +651,32 @@ fn fit_state_holding<S: Simulator + ?Sized>(
         fit,
         bounds,
     })
+}
+
+/// The finite-difference Jacobian at the optimum of `f` (a fit of `fit_state` over `n`
+/// samples, effects in `f.state.named` on, nothing held) if it ended without one: the values
+/// the fit would have ended with.
+fn ensure_jacobian<S: Simulator + ?Sized>(ctx: &Ctx<'_, S>, f: &mut FitOut, n: usize) {
+    if f.fit.jac_fresh {
+        return;
+    }
+    let empty = ModelState {
+        named: f.state.named.clone(),
+        idx: Vec::new(),
+        val: Vec::new(),
+    };
+    let problem = FitProblem {
+        ctx,
+        base: ctx.settings(&empty, None, &[]),
+        idx: f.state.idx.clone(),
+        n,
+    };
+    lm::refresh_jacobian(
+        &problem,
+        &f.bounds,
+        &mut f.fit,
+        LmOptions::default().fd_step,
+    );
 }
 
 /// Run the workflow on `data` with the simulator `sim`.

@@ -25,7 +25,7 @@ pub(super) fn refit<S: Simulator + ?Sized>(
     // its noise level.
     let from = cur.state.with_values(start.base.clone());
     let start = start.effect.as_slice();
-    let limits = refit_limits(ctx, cur, e);
+    let limits = refit_limits(ctx, cur, e).without_final_jacobian();
     let first = fit_state(ctx, &from, Some(e), start, n, limits);
     let at_noise =
         |f: &FitOut| (0..k).all(|j| stats::rms(&f.fit.residuals[j * n..(j + 1) * n]) <= 1.2);
@@ -45,10 +45,11 @@ pub(super) fn refit<S: Simulator + ?Sized>(
                 .partial_cmp(&b.fit.sse)
                 .unwrap_or(std::cmp::Ordering::Equal)
         });
-    let f = best.ok_or_else(|| SimError::Refit {
+    let mut f = best.ok_or_else(|| SimError::Refit {
         effect: eff.name.clone(),
         cause: Box::new(failure.unwrap_or(SimError::NonFiniteStart)),
     })?;
+    ensure_jacobian(ctx, &mut f, n);
     ctx.stage(format!(
         "refit {}: {} iterations, {} simulations",
         eff.name, f.fit.iterations, f.fit.evaluations
@@ -220,7 +221,7 @@ pub(super) fn profile_restart<S: Simulator + ?Sized>(
                 &[],
                 pt,
                 n,
-                Limits::new(PROFILE_ITERATIONS, 1e-3),
+                Limits::new(PROFILE_ITERATIONS, 1e-3).without_final_jacobian(),
             )
             .ok()
             .map(|p| (pt.clone(), p))

@@ -541,12 +541,14 @@ fn recheck_base<S: Simulator + ?Sized>(
     let nb = st.cur.state.idx.len();
     let from = st.cur.state.with_values(f.state.val[..nb].to_vec());
     ctx.stage(format!("round {round}: base re-check"));
-    let Ok(b2) = fit_state(ctx, &from, None, &[], ctx.n_train, Limits::new(12, 1e-4)) else {
+    let limits = Limits::new(12, 1e-4).without_final_jacobian();
+    let Ok(mut b2) = fit_state(ctx, &from, None, &[], ctx.n_train, limits) else {
         return Ok(None);
     };
     if b2.fit.sse >= st.cur.fit.sse - LM_ABS_TOL {
         return Ok(None);
     }
+    ensure_jacobian(ctx, &mut b2, ctx.n_train);
     let y = ctx
         .measured_outputs(&ctx.settings(&b2.state, None, &[]), ctx.n)
         .map_err(GapError::Simulation)?;
@@ -632,8 +634,10 @@ fn adopt<S: Simulator + ?Sized>(
     round: usize,
 ) -> Result<(), GapError> {
     ctx.stage(format!("round {round}: polishing the fit with {name}"));
-    let (f, r) = match fit_state(ctx, &f.state, None, &[], ctx.n_train, POLISH_LIMITS) {
-        Ok(p) if p.fit.sse <= f.fit.sse => {
+    let limits = POLISH_LIMITS.without_final_jacobian();
+    let (f, r) = match fit_state(ctx, &f.state, None, &[], ctx.n_train, limits) {
+        Ok(mut p) if p.fit.sse <= f.fit.sse => {
+            ensure_jacobian(ctx, &mut p, ctx.n_train);
             let y = ctx
                 .measured_outputs(&ctx.settings(&p.state, None, &[]), ctx.n)
                 .map_err(GapError::Simulation)?;
