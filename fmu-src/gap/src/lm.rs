@@ -692,16 +692,21 @@ mod tests {
         }
     }
 
+    /// Bounds of the decay's amplitude (linear), rate (logarithmic) and offset (linear).
+    fn decay_bounds() -> [Bounded; 3] {
+        [
+            Bounded::new(1.0, Some(0.0), Some(10.0)),
+            Bounded::new(0.2, Some(0.01), Some(100.0)),
+            Bounded::new(0.0, Some(-5.0), Some(5.0)),
+        ]
+    }
+
     #[test]
     fn fits_an_exponential_decay_from_a_poor_start() {
         let t: Vec<f64> = (0..200).map(|i| i as f64 * 0.05).collect();
         let y = t.iter().map(|t| 2.5 * (-1.3 * t).exp() + 0.4).collect();
         let pr = Decay { t, y };
-        let b = [
-            Bounded::new(1.0, Some(0.0), Some(10.0)),
-            Bounded::new(0.2, Some(0.01), Some(100.0)),
-            Bounded::new(0.0, Some(-5.0), Some(5.0)),
-        ];
+        let b = decay_bounds();
         assert_eq!(b[1].coord, Coord::Log);
         let fit = levenberg_marquardt(
             &pr,
@@ -731,11 +736,7 @@ mod tests {
             .map(|(i, t)| 2.5 * (-1.3 * t).exp() + 0.4 + 0.01 * ((i * 7919) % 13) as f64)
             .collect();
         let pr = Decay { t, y };
-        let b = [
-            Bounded::new(1.0, Some(0.0), Some(10.0)),
-            Bounded::new(0.2, Some(0.01), Some(100.0)),
-            Bounded::new(0.0, Some(-5.0), Some(5.0)),
-        ];
+        let b = decay_bounds();
         let fit = |final_jacobian| {
             let opts = LmOptions {
                 max_iter: 6,
@@ -784,11 +785,7 @@ mod tests {
             .map(|t| 2.5 * (-1.3 * t).exp() + 0.4 + if *t > 5.0 { 0.5 } else { 0.0 })
             .collect();
         let pr = Decay { t, y };
-        let b = [
-            Bounded::new(1.0, Some(0.0), Some(10.0)),
-            Bounded::new(0.2, Some(0.01), Some(100.0)),
-            Bounded::new(0.0, Some(-5.0), Some(5.0)),
-        ];
+        let b = decay_bounds();
         let opts = LmOptions {
             rel_tol: 1e-12,
             max_iter: 50,

@@ -520,6 +520,24 @@ struct FitProblem<'c, 'a, S: Simulator + ?Sized> {
     n: usize,
 }
 
+impl<'c, 'a, S: Simulator + ?Sized> FitProblem<'c, 'a, S> {
+    /// The problem a fit of `f`'s parameters over `n` samples solves: its effects on, nothing
+    /// held.
+    fn of(ctx: &'c Ctx<'a, S>, f: &FitOut, n: usize) -> Self {
+        let effects_on = ModelState {
+            named: f.state.named.clone(),
+            idx: Vec::new(),
+            val: Vec::new(),
+        };
+        FitProblem {
+            ctx,
+            base: ctx.settings(&effects_on, None, &[]),
+            idx: f.state.idx.clone(),
+            n,
+        }
+    }
+}
+
 impl<S: Simulator + ?Sized> Problem for FitProblem<'_, '_, S> {
     fn residuals(&self, p: &[f64]) -> Result<Vec<f64>, SimError> {
         let mut set = self.base.clone();
@@ -660,17 +678,7 @@ fn ensure_jacobian<S: Simulator + ?Sized>(ctx: &Ctx<'_, S>, f: &mut FitOut, n: u
     if f.fit.jac_fresh {
         return;
     }
-    let empty = ModelState {
-        named: f.state.named.clone(),
-        idx: Vec::new(),
-        val: Vec::new(),
-    };
-    let problem = FitProblem {
-        ctx,
-        base: ctx.settings(&empty, None, &[]),
-        idx: f.state.idx.clone(),
-        n,
-    };
+    let problem = FitProblem::of(ctx, f, n);
     lm::refresh_jacobian(
         &problem,
         &f.bounds,

@@ -58,17 +58,7 @@ pub(super) fn interval_basis<S: Simulator + ?Sized>(
             roughness: None,
         };
     }
-    let empty = ModelState {
-        named: fin.state.named.clone(),
-        idx: Vec::new(),
-        val: Vec::new(),
-    };
-    let problem = FitProblem {
-        ctx,
-        base: ctx.settings(&empty, None, &[]),
-        idx: fin.state.idx.clone(),
-        n: n_fin,
-    };
+    let problem = FitProblem::of(ctx, fin, n_fin);
     let r0 = &fin.fit.residuals;
     let w: Vec<f64> = (0..r0.len())
         .map(|i| scale[(i / n_fin.max(1)).min(scale.len() - 1)])
