@@ -654,23 +654,22 @@ pub fn levenberg_marquardt<P: Problem>(
             }
         }
     }
-    if m > 0 && !fresh && opts.final_jacobian {
-        // Intervals and screening need the Jacobian at the optimum.
-        evaluations += m;
-        jac = jacobian(problem, b, &z, &r, opts.fd_step);
-        fresh = true;
-    }
-    Ok(LmFit {
+    let mut fit = LmFit {
         p: to_p(b, &z),
         z,
         residuals: r,
         sse: s,
         jac,
-        jac_fresh: fresh || m == 0,
+        jac_fresh: fresh,
         iterations,
         evaluations,
         futile,
-    })
+    };
+    if opts.final_jacobian {
+        // Intervals and screening need the Jacobian at the optimum.
+        refresh_jacobian(problem, b, &mut fit, opts.fd_step);
+    }
+    Ok(fit)
 }
 
 #[cfg(test)]
