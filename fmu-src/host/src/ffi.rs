@@ -2,6 +2,7 @@
 
 use crate::error::{LogRecord, Status};
 use libloading::Library;
+use std::collections::VecDeque;
 use std::ffi::{c_char, c_int, c_void, CStr};
 use std::path::Path;
 use std::sync::Mutex;
@@ -36,11 +37,15 @@ pub struct LogEnv {
     pub data: *mut c_void,
 }
 
+/// Most messages an instance's sink keeps: the newest, since an error's own message comes
+/// last (an FMU logging every step would otherwise fill the sink before its error).
+pub const MAX_LOG_RECORDS: usize = 10_000;
+
 /// Messages collected for one instance.
 #[derive(Default)]
 pub struct LogSink {
-    /// Messages not yet taken.
-    pub records: Mutex<Vec<LogRecord>>,
+    /// Messages not yet taken, the newest [`MAX_LOG_RECORDS`] of them.
+    pub records: Mutex<VecDeque<LogRecord>>,
     /// Also print each message to stderr.
     pub echo: bool,
 }
@@ -98,9 +103,10 @@ pub extern "C" fn log_sink(
             );
         }
         if let Ok(mut r) = sink.records.lock() {
-            if r.len() < 10_000 {
-                r.push(record);
+            if r.len() >= MAX_LOG_RECORDS {
+                r.pop_front();
             }
+            r.push_back(record);
         }
     });
 }

@@ -16,7 +16,9 @@ const FMI2_COSIMULATION: c_int = 1;
 pub struct InstanceOptions {
     /// `visible`
     pub visible: bool,
-    /// `loggingOn`
+    /// `loggingOn`. Off by default, as in FMPy: an FMU's debug messages (ours log every step when
+    /// it is on) cost time in every call, and error messages arrive without it (the standard's
+    /// `logStatusError` is not debug logging; ours and the Reference FMUs log errors either way).
     pub logging_on: bool,
     /// Print every logged message to stderr as it arrives.
     pub echo_log: bool,
@@ -26,7 +28,7 @@ impl Default for InstanceOptions {
     fn default() -> Self {
         InstanceOptions {
             visible: false,
-            logging_on: true,
+            logging_on: false,
             echo_log: false,
         }
     }
@@ -121,7 +123,7 @@ impl Fmu {
         };
         if component.is_null() {
             let messages =
-                std::mem::take(&mut *log.records.lock().unwrap_or_else(|e| e.into_inner()));
+                std::mem::take(&mut *log.records.lock().unwrap_or_else(|e| e.into_inner())).into();
             return Err(HostError::Instantiate { messages });
         }
         Ok(Instance {
@@ -144,7 +146,7 @@ impl<'a> Instance<'a> {
 
     /// Takes (and clears) every message logged so far.
     pub fn take_log(&mut self) -> Vec<LogRecord> {
-        std::mem::take(&mut *self.log.records.lock().unwrap_or_else(|e| e.into_inner()))
+        std::mem::take(&mut *self.log.records.lock().unwrap_or_else(|e| e.into_inner())).into()
     }
 
     /// Converts a raw status: OK/Warning pass (warnings stay in the log), anything else becomes

@@ -386,6 +386,26 @@ fn fmu_is_send_and_sync_and_instance_is_send() {
 }
 
 #[test]
+fn an_error_after_many_logged_lines_keeps_its_own_message() {
+    // An FMU logging every step fills the host's bounded log long before it fails: the error's
+    // message, logged last, is the one that must survive.
+    let dir = tempfile::tempdir().unwrap();
+    let path = common::build_fmu(dir.path(), "Chatty", &["-DCHATTY"], &common::fixture_md());
+    let fmu = Fmu::open(&path).unwrap();
+    let mut inst = fmu.instantiate("chatty").unwrap();
+    inst.setup_experiment(None, 0.0, None).unwrap();
+    inst.enter_initialization_mode().unwrap();
+    inst.exit_initialization_mode().unwrap();
+    let steps = host::ffi::MAX_LOG_RECORDS + 5;
+    for k in 0..steps {
+        inst.do_step(k as f64 * 1e-3, 1e-3, true).unwrap();
+    }
+    let e = inst.do_step(steps as f64 * 1e-3, -1.0, true).unwrap_err();
+    assert!(e.to_string().contains("step size must be > 0"), "{e}");
+    assert_eq!(e.messages().len(), host::ffi::MAX_LOG_RECORDS);
+}
+
+#[test]
 fn simulator_recovers_after_a_failed_run() {
     let (_d, fmu) = dummy();
     let mut sim = Simulator::new(&fmu).unwrap();
