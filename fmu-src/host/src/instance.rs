@@ -11,8 +11,8 @@ use std::sync::atomic::Ordering;
 /// `fmi2CoSimulation` for fmi2Instantiate's fmuType.
 const FMI2_COSIMULATION: c_int = 1;
 
-/// Options of [`Fmu::instantiate_with`].
-#[derive(Clone, Debug)]
+/// Options of [`Fmu::instantiate_with`] (default: all off).
+#[derive(Clone, Debug, Default)]
 pub struct InstanceOptions {
     /// `visible`
     pub visible: bool,
@@ -24,15 +24,6 @@ pub struct InstanceOptions {
     pub echo_log: bool,
 }
 
-impl Default for InstanceOptions {
-    fn default() -> Self {
-        InstanceOptions {
-            visible: false,
-            logging_on: false,
-            echo_log: false,
-        }
-    }
-}
 
 /// A saved FMU state (fmi2FMUstate), freed with the instance that made it.
 pub struct FmuStateHandle {
