@@ -24,7 +24,6 @@ pub struct InstanceOptions {
     pub echo_log: bool,
 }
 
-
 /// A saved FMU state (fmi2FMUstate), freed with the instance that made it.
 pub struct FmuStateHandle {
     raw: FmuState,
