@@ -195,6 +195,42 @@ def test_debug_logging_categories(osc):
     assert len(osc.messages) == n  # nothing logged with logging off
 
 
+def _tolerances_after_init(name, tolerance, reals=None):
+    """rtol and atol as fmi2GetReal shows them after initialization, with `tolerance` passed to
+    fmi2SetupExperiment (None: not defined); also the status of that call."""
+    h = Harness(fmu_path(name))
+    assert h.instantiate()
+    try:
+        defined = tolerance is not None
+        st = h.call("SetupExperiment", int(defined), c_double(tolerance if defined else 0.0),
+                    c_double(0.0), 0, c_double(0.0))
+        assert h.call("EnterInitializationMode") == OK
+        if reals:
+            assert h.set_real(list(reals), list(reals.values())) == OK
+        assert h.call("ExitInitializationMode") == OK
+        assert h.do_step(0.0, 1e-3) == OK
+        status, values = h.get_real(["rtol", "atol"])
+        assert status == OK
+        return st, values, h.messages
+    finally:
+        h.free()
+
+
+@pytest.mark.parametrize("name", PRODUCTS)
+def test_the_importers_tolerance_reaches_the_solver_unless_the_user_set_one(name):
+    """FMI 2.0.4 section 4.2.1: a tolerance defined in fmi2SetupExperiment is the one the FMU's
+    solver should use. It replaces rtol and atol left at their start values (1e-6), clamped
+    into their ranges; a value the user set wins; an unusable tolerance is a warning."""
+    assert _tolerances_after_init(name, None)[:2] == (OK, [1e-6, 1e-6])
+    assert _tolerances_after_init(name, 1e-4)[:2] == (OK, [1e-4, 1e-4])
+    assert _tolerances_after_init(name, 0.5)[:2] == (OK, [1e-2, 1e-2])  # the range's end
+    st, tol, _ = _tolerances_after_init(name, 1e-4, reals={"rtol": 1e-8})
+    assert (st, tol) == (OK, [1e-8, 1e-4])
+    st, tol, msgs = _tolerances_after_init(name, -1.0)
+    assert (st, tol) == (WARNING, [1e-6, 1e-6])
+    assert any("tolerance -1 is not a positive number" in m[2] for m in msgs), msgs
+
+
 def test_unsupported_functions_error_with_reason(osc):
     assert osc.initialize() == OK
     vr = (c_uint * 1)(osc.vr["x"])

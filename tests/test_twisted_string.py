@@ -435,6 +435,23 @@ def test_energy_balance_closes_within_rtol(internal):
     assert np.max(np.abs(r + res["E_dissipated"])) / throughput > 0.1
 
 
+def test_energy_balance_follows_the_importers_tolerance():
+    """The energy residual is the solver's error: with rtol left at its start value, the
+    relative tolerance an importer passes (FMPy's relative_tolerance) sets it, within that
+    tolerance times the throughput and smaller for a tighter one."""
+    prm = dict(ALL_EFFECTS, load_mass=97 / G, internal_controller=True)
+    inputs = varied_inputs(3.0, seed=8)
+    rel = {}
+    for tol in (1e-4, 1e-8):
+        res = simulate_fmu(FMU, start_time=0.0, stop_time=3.0, step_size=1e-3,
+                           output_interval=1e-3, start_values=prm, input=fmpy_input(inputs),
+                           output=OUTPUT_NAMES, relative_tolerance=tol)
+        r, throughput = balance_residual(res)
+        rel[tol] = np.max(np.abs(r)) / throughput
+        assert rel[tol] < tol, f"tolerance {tol}: |r|/throughput = {rel[tol]:.3e}"
+    assert rel[1e-8] < 0.1 * rel[1e-4], rel
+
+
 def test_energy_terms_at_rest_and_in_closed_form():
     """At rest nothing moves: every energy integral stays 0. E_stored(0) in closed form: the load
     hangs at p0 below L0, so gravity + spring potential (m g + F0)(L0 - p0) + k (L0 - p0)^2/2 plus

@@ -256,15 +256,16 @@ pub unsafe fn set_debug_logging<M: Model>(
 
 pub unsafe fn setup_experiment<M: Model>(
     c: Fmi2Component,
-    _tolerance_defined: Fmi2Boolean,
-    _tolerance: Fmi2Real,
+    tolerance_defined: Fmi2Boolean,
+    tolerance: Fmi2Real,
     start_time: Fmi2Real,
     stop_time_defined: Fmi2Boolean,
     stop_time: Fmi2Real,
 ) -> Fmi2Status {
     with_component::<M>(c, "fmi2SetupExperiment", |comp| {
         let stop = (stop_time_defined != 0).then_some(stop_time);
-        comp.instance.setup_experiment(start_time, stop)
+        let tolerance = (tolerance_defined != 0).then_some(tolerance);
+        comp.instance.setup_experiment(start_time, stop, tolerance)
     })
 }
 

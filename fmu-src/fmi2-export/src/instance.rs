@@ -93,12 +93,13 @@ pub struct Snapshot<M: Model> {
     time: f64,
     start_time: f64,
     stop_time: Option<f64>,
+    tolerance: Option<f64>,
     vars: Vec<f64>,
     model: M,
 }
 
 /// Format of serialized FMU states: a new layout gets a new number.
-const SERIAL_MAGIC: &[u8; 8] = b"AFMUST02";
+const SERIAL_MAGIC: &[u8; 8] = b"AFMUST03";
 
 /// Fixed-width little-endian encoding: f64 values are written bit for bit.
 fn bincode_options() -> impl bincode::Options {
@@ -108,6 +109,20 @@ fn bincode_options() -> impl bincode::Options {
         .with_little_endian()
 }
 
+/// The importer's tolerance into the model's tolerance parameters
+/// ([`Model::EXPERIMENT_TOLERANCE`]) that are still at their start values, clamped into their
+/// ranges; `fmi2GetReal` then shows the tolerance in use.
+fn experiment_tolerance<M: Model>(vars: &mut [f64], tolerance: f64) {
+    for &vr in M::EXPERIMENT_TOLERANCE {
+        let v = &M::variables()[vr];
+        if vars[vr] == v.start {
+            let lo = v.min.unwrap_or(f64::MIN_POSITIVE);
+            let hi = v.max.unwrap_or(f64::MAX);
+            vars[vr] = tolerance.clamp(lo, hi);
+        }
+    }
+}
+
 /// One FMU instance.
 pub struct Instance<M: Model> {
     pub name: String,
@@ -115,6 +130,8 @@ pub struct Instance<M: Model> {
     pub time: f64,
     pub start_time: f64,
     pub stop_time: Option<f64>,
+    /// The relative tolerance of `fmi2SetupExperiment`, when the importer defined a usable one.
+    pub tolerance: Option<f64>,
     /// Values of all variables, indexed by value reference (Booleans 0.0/1.0).
     pub vars: Vec<f64>,
     pub model: M,
@@ -145,6 +162,7 @@ impl<M: Model> Instance<M> {
             time: 0.0,
             start_time: 0.0,
             stop_time: None,
+            tolerance: None,
             last_good: vars.clone(),
             vars,
             model: M::new(),
@@ -227,7 +245,12 @@ impl<M: Model> Instance<M> {
     }
 
     /// `fmi2SetupExperiment`.
-    pub fn setup_experiment(&mut self, start: f64, stop: Option<f64>) -> Status {
+    pub fn setup_experiment(
+        &mut self,
+        start: f64,
+        stop: Option<f64>,
+        tolerance: Option<f64>,
+    ) -> Status {
         const F: &str = "fmi2SetupExperiment";
         if let Err(s) = self.check_state(F, allowed::SETUP) {
             return s;
@@ -246,8 +269,24 @@ impl<M: Model> Instance<M> {
         self.start_time = start;
         self.time = start;
         self.stop_time = stop;
-        self.event(format!("experiment set up: start {start}, stop {stop:?}"));
-        Status::Ok
+        self.event(format!(
+            "experiment set up: start {start}, stop {stop:?}, tolerance {tolerance:?}"
+        ));
+        self.tolerance = None;
+        match tolerance {
+            Some(t) if !(t > 0.0 && t.is_finite()) => {
+                self.push_log(
+                    Status::Warning,
+                    "logStatusWarning",
+                    format!("{F}: tolerance {t} is not a positive number; ignored"),
+                );
+                Status::Warning
+            }
+            t => {
+                self.tolerance = t;
+                Status::Ok
+            }
+        }
     }
 
     /// `fmi2EnterInitializationMode`.
@@ -290,6 +329,9 @@ impl<M: Model> Instance<M> {
     fn initialize_model(&mut self, func: &str) -> Result<(), Status> {
         self.check_parameters(func)?;
         let mut vars = self.vars.clone();
+        if let Some(t) = self.tolerance {
+            experiment_tolerance::<M>(&mut vars, t);
+        }
         let mut model = M::new();
         match model.initialize(&mut vars, self.start_time) {
             Ok(()) => {
@@ -339,6 +381,7 @@ impl<M: Model> Instance<M> {
         self.time = 0.0;
         self.start_time = 0.0;
         self.stop_time = None;
+        self.tolerance = None;
         self.init_outputs_stale = true;
         self.state = MachineState::Instantiated;
         self.event("reset".to_string());
@@ -587,6 +630,7 @@ impl<M: Model> Instance<M> {
             time: self.time,
             start_time: self.start_time,
             stop_time: self.stop_time,
+            tolerance: self.tolerance,
             vars: self.vars.clone(),
             model: self.model.clone(),
         }
@@ -598,6 +642,7 @@ impl<M: Model> Instance<M> {
         self.time = s.time;
         self.start_time = s.start_time;
         self.stop_time = s.stop_time;
+        self.tolerance = s.tolerance;
         self.vars.copy_from_slice(&s.vars);
         self.last_good.copy_from_slice(&s.vars);
         self.model = s.model.clone();

@@ -38,6 +38,12 @@ pub trait Model: Clone + Send + serde::Serialize + serde::de::DeserializeOwned +
     /// are in `documentation/licenses/`.
     const LICENSE: &'static str = "MIT (see documentation/licenses/)";
 
+    /// Value references of the Real parameters that take the relative tolerance an importer passes
+    /// to `fmi2SetupExperiment` (clamped into their range) when it defines one and the parameter is
+    /// still at its start value: a solver's tolerances. A value set by the user wins; without a
+    /// tolerance from the importer the parameters keep their values.
+    const EXPERIMENT_TOLERANCE: &'static [usize] = &[];
+
     /// Every variable once; value reference = index.
     fn variables() -> &'static [Variable];
     /// HTML fragment for `documentation/index.html`: equations, sources, derivations, choices.

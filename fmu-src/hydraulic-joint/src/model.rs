@@ -222,6 +222,7 @@ impl Model for HydraulicJoint {
         CHL cylinders with D1FP spool valves, series springs, Bowden cables, pulley and link, \
         with the paper's 40 Hz position controller";
     const DEFAULT_STOP_TIME: f64 = 2.0;
+    const EXPERIMENT_TOLERANCE: &'static [usize] = &[V::RTOL as usize, V::ATOL as usize];
 
     fn variables() -> &'static [Variable] {
         VARIABLES

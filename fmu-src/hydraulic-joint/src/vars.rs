@@ -90,8 +90,8 @@ fmi2_export::declare_variables! {
     CONTROLLER_DEADBAND_LOW => Variable::parameter("controller_deadband_low", -1.8, "V", "Dead band lower edge the controller compensates").range(-5.0, 0.0),
     CONTROLLER_DEADBAND_HIGH => Variable::parameter("controller_deadband_high", 1.5, "V", "Dead band upper edge the controller compensates").range(0.0, 5.0),
     // ---- solver
-    RTOL => Variable::parameter("rtol", 1e-6, "1", "Relative tolerance of the integrator").range(1e-12, 1e-2),
-    ATOL => Variable::parameter("atol", 1e-6, "1", "Absolute tolerance, times the nominal scale of each state").range(1e-12, 1e-2),
+    RTOL => Variable::parameter("rtol", 1e-6, "1", "Relative tolerance of the integrator; left at its start value, the tolerance the importer passes to fmi2SetupExperiment").range(1e-12, 1e-2),
+    ATOL => Variable::parameter("atol", 1e-6, "1", "Absolute tolerance, times the nominal scale of each state; left at its start value, the tolerance the importer passes to fmi2SetupExperiment").range(1e-12, 1e-2),
     // ---- candidate effects (off by default)
     SEAL_FRICTION_ENABLED => Variable::flag("seal_friction.enabled", false, "Coulomb + Stribeck + viscous piston seal friction with stiction"),
     SEAL_FRICTION_COULOMB => Variable::parameter("seal_friction.coulomb", 40.0, "N", "Coulomb seal friction force Fc").range(5.0, 200.0),

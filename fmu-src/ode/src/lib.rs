@@ -10,7 +10,8 @@
 //!   it, otherwise forward differences with scaled increments. After a rejected step the Jacobian
 //!   (and `f(t, y)`, `df/dt`) of the same point is reused; only the LU is redone for the new `h`.
 //! * Step-size control: Gustafsson predictive controller with safety factor and growth limits
-//!   (Hairer & Wanner II, IV.8, eq. (8.21)); a per-call attempt limit, a minimum step size and
+//!   (Hairer & Wanner II, IV.8, eq. (8.21)); a restart after a discontinuity begins where the
+//!   previous restart's first step ended up ([`Integrator::reset_step_size`]); a per-call attempt limit, a minimum step size and
 //!   non-finite detection turn every failure into an [`OdeError`], never a panic or a hang.
 //! * Deterministic: an [`Integrator`] is `Clone + Serialize + Deserialize`; a clone or a serde
 //!   round trip continued from the same `y` produces bit-identical results (work buffers are not
@@ -131,6 +132,10 @@ pub struct Integrator {
     /// Predictive controller memory: last accepted step size and its error (0: none).
     h_acc: f64,
     err_acc: f64,
+    /// Step size the error of the first accepted step after the last restart called for (0:
+    /// none yet): where the next restart begins.
+    #[serde(default)]
+    h_restart: f64,
     stats: Stats,
     #[serde(skip)]
     work: Work,
@@ -148,6 +153,7 @@ impl Integrator {
             h_next: None,
             h_acc: 0.0,
             err_acc: 0.0,
+            h_restart: 0.0,
             stats: Stats::default(),
             work: Work::default(),
         }
@@ -200,7 +206,13 @@ impl Integrator {
         self.h_next
     }
 
-    /// Forget the step-size history (call after a discontinuity such as a controller sample update).
+    /// Restart the step-size selection (call after a discontinuity such as a controller sample
+    /// update): the predictive controller's history is forgotten, and the next step begins at the
+    /// size the error of the first step after the previous restart called for (at the estimate
+    /// from `(t, y)` the first time). The estimate alone is `0.01 ||y|| / ||f||`, independent of
+    /// the tolerance: in a stiff model it is far below what the tolerance allows, and growing back
+    /// from it by at most `FAC_MAX` per step made every restart cost several steps, more the
+    /// looser the tolerance (TwistedString at rtol 1e-3 took twice the steps of rtol 1e-6).
     pub fn reset_step_size(&mut self) {
         self.h_next = None;
         self.h_acc = 0.0;
@@ -273,9 +285,19 @@ impl Integrator {
         if !all_finite(&w.f0) {
             return Err(OdeError::NonFinite { t });
         }
+        // A restart (no step proposed) begins at the step the error of the first step after the
+        // previous restart called for; the first start of all at the estimate from (t, y).
+        let mut restarting = false;
         let mut h = match self.h_next {
             Some(h) if h > 0.0 && h.is_finite() => h,
-            _ => self.initial_step(y, &w.f0),
+            _ => {
+                restarting = true;
+                if self.h_restart > 0.0 {
+                    self.h_restart
+                } else {
+                    self.initial_step(y, &w.f0)
+                }
+            }
         };
         h = h.min(self.h_max());
         let mut need_jac = true;
@@ -363,6 +385,11 @@ impl Integrator {
                     if fac_g.is_finite() {
                         h_new = h / fac.max(fac_g);
                     }
+                }
+                if restarting {
+                    // What the elementary controller proposes after this step (growth capped).
+                    self.h_restart = h / fac;
+                    restarting = false;
                 }
                 self.h_acc = h;
                 self.err_acc = err.max(1e-2);

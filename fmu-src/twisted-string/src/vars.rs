@@ -102,9 +102,9 @@ fmi2_export::declare_variables! {
         "Hysteresis band of the position loop on the motor angle (eq. 20-21: 2 deg)").range(0.0, 1.0).display("deg"),
     CONTROLLER_POSITION_PERIOD => Variable::parameter("controller_position_period", 1e-3, "s",
         "Sample period of the position loop (sbRIO; choice: 1 kHz)").range(1e-4, 0.1),
-    RTOL => Variable::parameter("rtol", 1e-6, "1", "Relative tolerance of the ODE solver").range(1e-12, 1e-2),
+    RTOL => Variable::parameter("rtol", 1e-6, "1", "Relative tolerance of the ODE solver; left at its start value, the tolerance the importer passes to fmi2SetupExperiment").range(1e-12, 1e-2),
     ATOL => Variable::parameter("atol", 1e-6, "1",
-        "Absolute tolerance (dimensionless): state k gets atol*nominal_k, nominals i 1 A, theta 1 rad, omega 10 rad/s, p 1 cm, v 1 cm/s, z_i 1e-3 A.s, z_w 1 rad").range(1e-14, 1e-2),
+        "Absolute tolerance (dimensionless): state k gets atol*nominal_k, nominals i 1 A, theta 1 rad, omega 10 rad/s, p 1 cm, v 1 cm/s, z_i 1e-3 A.s, z_w 1 rad; left at its start value, the tolerance the importer passes to fmi2SetupExperiment").range(1e-14, 1e-2),
     // ---- candidate effects ------------------------------------------------------------------
     STRING_COMPLIANCE_ENABLED => Variable::flag("string_compliance.enabled", false,
         "String elongation Delta L = a1 theta_M + a2 theta_M^2 + a3 F_L (eq. 10, Table 3; theta_M motor angle)"),
