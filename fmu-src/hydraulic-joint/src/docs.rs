@@ -277,7 +277,8 @@ atmospheric pressure 101325 Pa. Each keeps the right-hand side continuously diff
 
 <h2>Solver</h2>
 <p>L-stable Rosenbrock (crate <code>ode</code>, Rodas5P) with relative tolerance <code>rtol</code> and
-absolute tolerance <code>atol</code> times each state's nominal scale: theta 0.01 rad, omega
+absolute tolerance <code>atol</code> (both, left at their start value 1e-6, the tolerance the importer
+passes to fmi2SetupExperiment, clamped into their range) times each state's nominal scale: theta 0.01 rad, omega
 0.01 rad/s, x 1 mm, piston speed 1 cm/s, pressures 1e5 Pa, oil integrals 1e-8 m3, spool 0.01 V
 and 10 V/s, remembered speed 1 cm/s (at the default atol 1e-6 all are about 1e5 times finer than
 the 1e-3-of-range agreement with the reference; a 1 mm/s speed scale cost up to 18 % more steps

@@ -287,7 +287,8 @@ Large strokes far from zero twist still show only the offset b/2.</p>
 from F<sub>L</sub>(p<sub>0</sub>) = m g + F<sub>load</sub> + F<sub>s</sub>(p<sub>0</sub>) at zero twist (a = 0, L = p),
 solved for x = (p<sub>0</sub> &minus; L<sub>0</sub>)/c by Newton. Integrator: the
 workspace's Rosenbrock solver (Rodas5P) with rtol = <code>rtol</code> and absolute tolerances
-atol&middot;nominal: i 1 A, &theta;<sub>m</sub> 1 rad, &omega;<sub>m</sub> 10 rad/s, p 1 cm, v 1 cm/s,
+atol&middot;nominal (<code>rtol</code> and <code>atol</code>, left at their start value 10<sup>-6</sup>, take the
+tolerance the importer passes to fmi2SetupExperiment, clamped into their range): i 1 A, &theta;<sub>m</sub> 1 rad, &omega;<sub>m</sub> 10 rad/s, p 1 cm, v 1 cm/s,
 z<sub>i</sub> 10<sup>-3</sup> A&middot;s, z<sub>&omega;</sub> 1 rad, energy integrals 1 J (with <code>gear_backlash</code>
 also &delta; 10<sup>-2</sup> rad, &omega;<sub>t</sub> 1 rad/s). The solver's error norm is
 the RMS over all 10 components; so that the three nearly error-free energy quadratures do not loosen the
