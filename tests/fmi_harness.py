@@ -93,8 +93,9 @@ class Harness:
         n = len(vrs)
         return self.call("SetBoolean", (c_uint * n)(*vrs), n, (c_int * n)(*[int(v) for v in values]))
 
-    def setup(self, start=0.0, stop=None):
-        return self.call("SetupExperiment", 0, 0.0, start, 1 if stop is not None else 0, stop or 0.0)
+    def setup(self, start=0.0, stop=None, tolerance=None):
+        return self.call("SetupExperiment", 1 if tolerance is not None else 0, tolerance or 0.0,
+                         start, 1 if stop is not None else 0, stop or 0.0)
 
     def initialize(self, reals=None, booleans=None, start=0.0):
         assert self.setup(start) == OK

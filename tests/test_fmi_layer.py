@@ -201,9 +201,7 @@ def _tolerances_after_init(name, tolerance, reals=None):
     h = Harness(fmu_path(name))
     assert h.instantiate()
     try:
-        defined = tolerance is not None
-        st = h.call("SetupExperiment", int(defined), c_double(tolerance if defined else 0.0),
-                    c_double(0.0), 0, c_double(0.0))
+        st = h.setup(tolerance=tolerance)
         assert h.call("EnterInitializationMode") == OK
         if reals:
             assert h.set_real(list(reals), list(reals.values())) == OK

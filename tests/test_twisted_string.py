@@ -47,11 +47,12 @@ def fmpy_input(inputs):
     return np.array(rows, dtype=dtype)
 
 
-def sim(params=None, inputs=None, t_end=1.0, dt=1e-3):
-    """Simulate the FMU with FMPy at communication step dt; returns the structured result."""
+def sim(params=None, inputs=None, t_end=1.0, dt=1e-3, tolerance=None):
+    """Simulate the FMU with FMPy at communication step dt (FMPy's relative_tolerance
+    `tolerance`, None: its default); returns the structured result."""
     return simulate_fmu(FMU, start_time=0.0, stop_time=t_end, step_size=dt, output_interval=dt,
                         start_values=dict(params or {}), input=fmpy_input(inputs),
-                        output=OUTPUT_NAMES)
+                        output=OUTPUT_NAMES, relative_tolerance=tolerance)
 
 
 def load_reference(name):
@@ -443,9 +444,7 @@ def test_energy_balance_follows_the_importers_tolerance():
     inputs = varied_inputs(3.0, seed=8)
     rel = {}
     for tol in (1e-4, 1e-8):
-        res = simulate_fmu(FMU, start_time=0.0, stop_time=3.0, step_size=1e-3,
-                           output_interval=1e-3, start_values=prm, input=fmpy_input(inputs),
-                           output=OUTPUT_NAMES, relative_tolerance=tol)
+        res = sim(prm, inputs, t_end=3.0, tolerance=tol)
         r, throughput = balance_residual(res)
         rel[tol] = np.max(np.abs(r)) / throughput
         assert rel[tol] < tol, f"tolerance {tol}: |r|/throughput = {rel[tol]:.3e}"
