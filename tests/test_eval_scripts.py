@@ -30,9 +30,11 @@ def test_gap_eval_runs_and_summarises(tmp_path):
 def test_gap_bench_prints_its_ratio(tmp_path):
     fmu_path("HydraulicJoint")
     cli_path()
-    p = subprocess.run([sys.executable, str(REPO / "scripts" / "bench_gap.py"), "--quick"],
+    p = subprocess.run([sys.executable, str(REPO / "scripts" / "bench_gap.py"), "--smoke"],
                        capture_output=True, text=True, timeout=600, cwd=REPO)
     assert p.returncode == 0, p.stderr[-2000:]
     m = re.search(r"gap speedup ([0-9.]+)x against the Python workflow", p.stdout)
     assert m and float(m.group(1)) > 0, p.stdout
     assert re.search(r"actuator-fmu gap: [0-9.]+ s, [0-9]+ simulations", p.stdout), p.stdout
+    m = re.search(r"gap per simulation ([0-9.]+)x", p.stdout)
+    assert m and float(m.group(1)) > 0, p.stdout
