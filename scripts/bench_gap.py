@@ -118,14 +118,13 @@ def main():
           f"in-process {bare:.2f} s, same run)", flush=True)
     py = PythonWorkflow(ds, MODEL).run()
     print(f"gap speedup {py['seconds'] / wall:.1f}x against the Python workflow doing the "
-          f"workflow's first steps (FMPy + SciPy: calibrate {', '.join(names)}, screen every candidate, refit the "
-          f"best ({py['best']}), held-out check: {py['seconds']:.1f} s, {py['simulations']} "
+          f"workflow's first steps (FMPy + SciPy: calibrate {', '.join(names)}, screen every "
+          f"candidate, refit the best ({py['best']}), held-out check: {py['seconds']:.1f} s, "
+          f"{py['simulations']} "
           f"simulations; actuator-fmu gap: {wall:.1f} s, {timing['simulations']} simulations, "
           f"with a second round, the base re-check and the final fit for the intervals)",
           flush=True)
-    # The two workflows run different numbers of simulations (gap adds a second round, the base
-    # re-check and the final fit with its intervals), so the engine's share of the ratio is shown
-    # apart: wall time per simulation of each, fitting included.
+    # Per simulation (see the module documentation): each side's whole wall time, fitting included.
     gap_ms = 1e3 * wall / max(timing["simulations"], 1)
     py_ms = 1e3 * py["seconds"] / max(py["simulations"], 1)
     print(f"gap per simulation {py_ms / gap_ms:.1f}x (wall per simulation: Python {py_ms:.0f} ms, "
