@@ -19,7 +19,7 @@ MAY_USE = {
     "ode": set(),
     "packager": set(),
     "fmi2-export": {"fmi2-types"},
-    "host": {"fmi2-types"},
+    "host": {"fmi2-types", "ode"},
     "gap": {"fmi2-types", "host"},
     "cli": {"fmi2-types", "host", "gap"},
     "bench": {"host"},

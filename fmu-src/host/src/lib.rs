@@ -18,13 +18,14 @@ pub mod ffi;
 mod fmu;
 mod instance;
 pub mod md;
+mod me;
 pub mod python;
 mod simulate;
 pub mod validate;
 pub mod watch;
 
 pub use error::{shown, HostError, LogRecord, Result, Status};
-pub use fmu::{file_uri, Extracted, Fmu, OpenOptions, LIB_SUFFIX, PLATFORM};
+pub use fmu::{file_uri, Extracted, Fmu, Interface, OpenOptions, LIB_SUFFIX, PLATFORM};
 pub use instance::{FmuStateHandle, Instance, InstanceOptions};
 pub use md::ModelDescription;
 pub use simulate::{
