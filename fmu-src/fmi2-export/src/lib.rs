@@ -8,11 +8,13 @@
 pub mod ffi;
 pub mod html;
 pub mod instance;
+pub mod me;
 pub mod units;
 pub mod variables;
 pub mod xml;
 
 pub use instance::{Instance, MachineState, Status};
+pub use me::ModelExchange;
 pub use variables::{Causality, Initial, Values, ValuesMut, VarId, VarType, Variability, Variable};
 
 /// A Co-Simulation model. The layer owns the values of all variables (`vars`, in table order:
