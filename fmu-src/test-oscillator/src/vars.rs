@@ -15,4 +15,6 @@ declare_variables! {
     X => Variable::output("x", "m", "Position").display("mm"),
     V => Variable::output("v", "m/s", "Velocity"),
     ENERGY => Variable::output("energy", "J", "Kinetic plus spring energy"),
+    DER_X => Variable::local("der(x)", "m/s", "Derivative of the position (Model Exchange state x)"),
+    DER_V => Variable::local("der(v)", "m/s2", "Derivative of the velocity (Model Exchange state v)"),
 }
