@@ -172,12 +172,12 @@ fn bincode_options() -> impl bincode::Options {
 /// ([`Model::EXPERIMENT_TOLERANCE`]) that are still at their start values, clamped into their
 /// ranges; `fmi2GetReal` then shows the tolerance in use.
 fn experiment_tolerance<M: Model>(vars: &mut [f64], tolerance: f64) {
-    for &vr in M::EXPERIMENT_TOLERANCE {
-        let v = &M::variables()[vr];
-        if vars[vr] == v.start {
+    for &i in M::EXPERIMENT_TOLERANCE {
+        let v = &M::variables()[i];
+        if vars[i] == v.start {
             let lo = v.min.unwrap_or(f64::MIN_POSITIVE);
             let hi = v.max.unwrap_or(f64::MAX);
-            vars[vr] = tolerance.clamp(lo, hi);
+            vars[i] = tolerance.clamp(lo, hi);
         }
     }
 }
@@ -191,7 +191,7 @@ pub struct Instance<M: Model> {
     pub stop_time: Option<f64>,
     /// The relative tolerance of `fmi2SetupExperiment`, when the importer defined a usable one.
     pub tolerance: Option<f64>,
-    /// Values of all variables, indexed by value reference (Booleans 0.0/1.0).
+    /// Values of all variables, in table order (Booleans 0.0/1.0).
     pub vars: Vec<f64>,
     pub model: M,
     /// Model Exchange or Co-Simulation, fixed at instantiation.
@@ -393,8 +393,8 @@ impl<M: Model> Instance<M> {
 
     /// Check every Real parameter against its bounds, every value for finiteness.
     fn check_parameters(&mut self, func: &str) -> Result<(), Status> {
-        for (vr, v) in M::variables().iter().enumerate() {
-            let x = self.vars[vr];
+        for (i, v) in M::variables().iter().enumerate() {
+            let x = self.vars[i];
             if !x.is_finite() {
                 return Err(self.error(func, format!("'{}' = {x} is not finite", v.name)));
             }
@@ -493,27 +493,28 @@ impl<M: Model> Instance<M> {
         Status::Ok
     }
 
-    /// Check a list of value references against the table and the expected type.
-    fn check_refs(&mut self, func: &str, vrs: &[u32], ty: VarType) -> Result<(), Status> {
+    /// Check a list of value references against the table and the expected type; returns the
+    /// position in the table (storage index) of each.
+    fn check_refs(&mut self, func: &str, vrs: &[u32], ty: VarType) -> Result<Vec<usize>, Status> {
         let vars = M::variables();
+        let mut indices = Vec::with_capacity(vrs.len());
         for &vr in vrs {
-            match vars.get(vr as usize) {
-                None => {
-                    return Err(self.error(func, format!("unknown value reference {vr}")));
-                }
-                Some(v) if v.vtype != ty => {
-                    return Err(self.error(
-                        func,
-                        format!(
-                            "value reference {vr} ('{}') is {:?}, not {ty:?}",
-                            v.name, v.vtype
-                        ),
-                    ));
-                }
-                Some(_) => {}
+            let Some(i) = crate::variables::index_of(vars, vr) else {
+                return Err(self.error(func, format!("unknown value reference {vr}")));
+            };
+            let v = &vars[i];
+            if v.vtype != ty {
+                return Err(self.error(
+                    func,
+                    format!(
+                        "value reference {vr} ('{}') is {:?}, not {ty:?}",
+                        v.name, v.vtype
+                    ),
+                ));
             }
+            indices.push(i);
         }
-        Ok(())
+        Ok(indices)
     }
 
     /// Shared part of the getters: state, references, fresh outputs in initialization mode.
@@ -522,23 +523,24 @@ impl<M: Model> Instance<M> {
         func: &str,
         vrs: &[u32],
         ty: VarType,
-    ) -> Result<(), Status> {
+    ) -> Result<Vec<usize>, Status> {
         self.check_state(func, allowed::GET)?;
-        self.check_refs(func, vrs, ty)?;
+        let indices = self.check_refs(func, vrs, ty)?;
         if self.state == MachineState::InitializationMode && self.init_outputs_stale {
             self.initialize_model(func)?;
         }
         self.refresh_me_outputs();
-        Ok(())
+        Ok(indices)
     }
 
     /// `fmi2GetReal` (also `fmi2GetInteger`/`fmi2GetBoolean` through `ty`): fills `out`.
     pub fn get_values(&mut self, func: &str, ty: VarType, vrs: &[u32], out: &mut [f64]) -> Status {
-        if let Err(s) = self.prepare_get(func, vrs, ty) {
-            return s;
-        }
-        for (o, &vr) in out.iter_mut().zip(vrs) {
-            *o = self.vars[vr as usize];
+        let indices = match self.prepare_get(func, vrs, ty) {
+            Ok(indices) => indices,
+            Err(s) => return s,
+        };
+        for (o, &i) in out.iter_mut().zip(&indices) {
+            *o = self.vars[i];
         }
         Status::Ok
     }
@@ -549,15 +551,16 @@ impl<M: Model> Instance<M> {
         if let Err(s) = self.check_state(func, allowed::SET) {
             return s;
         }
-        if let Err(s) = self.check_refs(func, vrs, ty) {
-            return s;
-        }
+        let indices = match self.check_refs(func, vrs, ty) {
+            Ok(indices) => indices,
+            Err(s) => return s,
+        };
         let table = M::variables();
         let initialized = self.running();
         let continuous_time = self.state == MachineState::ContinuousTimeMode;
         let mut status = Status::Ok;
-        for (&vr, &x) in vrs.iter().zip(values) {
-            let v = &table[vr as usize];
+        for ((&vr, &i), &x) in vrs.iter().zip(&indices).zip(values) {
+            let v = &table[i];
             let settable = if initialized {
                 v.settable_after_init()
             } else {
@@ -615,16 +618,16 @@ impl<M: Model> Instance<M> {
             }
         };
         let tuned = initialized
-            && vrs
+            && indices
                 .iter()
-                .any(|&vr| table[vr as usize].causality == Causality::Parameter);
+                .any(|&i| table[i].causality == Causality::Parameter);
         if tuned {
-            if let Err(s) = self.tune(func, vrs, values, value) {
+            if let Err(s) = self.tune(func, &indices, values, value) {
                 return s;
             }
         }
-        for (&vr, &x) in vrs.iter().zip(values) {
-            self.vars[vr as usize] = value(x);
+        for (&i, &x) in indices.iter().zip(values) {
+            self.vars[i] = value(x);
         }
         if initialized {
             self.me_outputs_stale = self.interface == Interface::ModelExchange;
@@ -639,14 +642,14 @@ impl<M: Model> Instance<M> {
     fn tune(
         &mut self,
         func: &str,
-        vrs: &[u32],
+        indices: &[usize],
         values: &[f64],
         value: impl Fn(f64) -> f64,
     ) -> Result<(), Status> {
         let table = M::variables();
         let mut candidate = self.vars.clone();
-        for (&vr, &x) in vrs.iter().zip(values) {
-            let v = &table[vr as usize];
+        for (&i, &x) in indices.iter().zip(values) {
+            let v = &table[i];
             if v.min.is_some_and(|m| x < m) || v.max.is_some_and(|m| x > m) {
                 let (lo, hi) = (
                     v.min.unwrap_or(f64::NEG_INFINITY),
@@ -655,7 +658,7 @@ impl<M: Model> Instance<M> {
                 let m = format!("'{}' = {x} is outside its range [{lo}, {hi}]", v.name);
                 return Err(self.error(func, m));
             }
-            candidate[vr as usize] = value(x);
+            candidate[i] = value(x);
         }
         match self.model.tune(&candidate) {
             Ok(()) => {
@@ -711,12 +714,12 @@ impl<M: Model> Instance<M> {
         }
         match self.model.do_step(&mut self.vars, current, h) {
             Ok(()) => {
-                if let Some((vr, v)) = M::variables()
+                if let Some((i, v)) = M::variables()
                     .iter()
                     .enumerate()
-                    .find(|(vr, _)| !self.vars[*vr].is_finite())
+                    .find(|(i, _)| !self.vars[*i].is_finite())
                 {
-                    let value = self.vars[vr];
+                    let value = self.vars[i];
                     self.vars.copy_from_slice(&self.last_good);
                     self.state = MachineState::Error;
                     return self.error(

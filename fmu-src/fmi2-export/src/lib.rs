@@ -19,8 +19,8 @@ pub use instance::{Instance, Interface, MachineState, Status};
 pub use me::{MeVTable, ModelExchange};
 pub use variables::{Causality, Initial, Values, ValuesMut, VarId, VarType, Variability, Variable};
 
-/// A Co-Simulation model. The layer owns the values of all variables (`vars`, indexed by value
-/// reference, Booleans as 0.0/1.0) and the FMI state machine; the model owns its physical state.
+/// A Co-Simulation model. The layer owns the values of all variables (`vars`, in table order:
+/// `V::X as usize`, Booleans as 0.0/1.0) and the FMI state machine; the model owns its physical state.
 pub trait Model: Clone + Send + serde::Serialize + serde::de::DeserializeOwned + 'static {
     /// `modelName` and `modelIdentifier`.
     const NAME: &'static str;
@@ -42,13 +42,13 @@ pub trait Model: Clone + Send + serde::Serialize + serde::de::DeserializeOwned +
     /// are in `documentation/licenses/`.
     const LICENSE: &'static str = "MIT (see documentation/licenses/)";
 
-    /// Value references of the Real parameters that take the relative tolerance an importer passes
+    /// Positions in the table (`V::X as usize`) of the Real parameters that take the relative tolerance an importer passes
     /// to `fmi2SetupExperiment` (clamped into their range) when it defines one and the parameter is
     /// still at its start value: a solver's tolerances. A value set by the user wins; without a
     /// tolerance from the importer the parameters keep their values.
     const EXPERIMENT_TOLERANCE: &'static [usize] = &[];
 
-    /// Every variable once; value reference = index.
+    /// Every variable once, each with its declared value reference.
     fn variables() -> &'static [Variable];
     /// HTML fragment for `documentation/index.html`: equations, sources, derivations, choices.
     fn documentation_html() -> String;

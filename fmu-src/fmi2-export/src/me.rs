@@ -9,8 +9,9 @@ use crate::{Model, ModelError};
 ///
 /// State and derivative variables are ordinary variables of the table: each state is a
 /// continuous Real (an output where the model has one, else a local) and its derivative a
-/// continuous Real local named `der(<state>)`. Their value references are listed by
-/// [`ModelExchange::state_variables`] in the order of the state vector `x`.
+/// continuous Real local named `der(<state>)`. Their positions in the table (`V::X as usize`,
+/// the index into `vars`) are listed by [`ModelExchange::state_variables`] in the order of the
+/// state vector `x`.
 ///
 /// Call sequence the layer guarantees (FMI 2.0.4 section 3.2.3): [`Model::initialize`] at
 /// `fmi2ExitInitializationMode` (it builds the initial state and writes every output, exactly as
@@ -29,8 +30,8 @@ pub trait ModelExchange: Model {
     /// Number of event indicators (state events). Smooth models have none.
     const EVENT_INDICATORS: usize = 0;
 
-    /// `(state value reference, derivative value reference)` per state, in the order of `x`.
-    /// Length [`ModelExchange::STATES`].
+    /// `(state, derivative)` as positions in the table (`V::X as usize`) per state, in the
+    /// order of `x`. Length [`ModelExchange::STATES`].
     fn state_variables() -> &'static [(usize, usize)];
 
     /// The continuous state vector `x` (length `STATES`) from the model's state.
@@ -141,7 +142,9 @@ impl<M> MeVTable<M> {
         for &(x, dx) in self.state_variables {
             for vr in [x, dx] {
                 match vars.get(vr) {
-                    None => problems.push(format!("state/derivative value reference {vr} unknown")),
+                    None => {
+                        problems.push(format!("state/derivative position {vr} not in the table"))
+                    }
                     Some(v)
                         if v.vtype != VarType::Real || v.variability != Variability::Continuous =>
                     {

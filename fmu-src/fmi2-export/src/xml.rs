@@ -154,14 +154,14 @@ fn write_description<M: Model>(guid: &str) -> String {
     ev(Event::Empty(de));
 
     ev(Event::Start(BytesStart::new("ModelVariables")));
-    for (vr, v) in vars.iter().enumerate() {
+    for (i, v) in vars.iter().enumerate() {
         ev(Event::Comment(quick_xml::events::BytesText::new(&format!(
             " index {} ",
-            vr + 1
+            i + 1
         ))));
         let mut sv = BytesStart::new("ScalarVariable");
         sv.push_attribute(("name", v.name));
-        sv.push_attribute(("valueReference", vr.to_string().as_str()));
+        sv.push_attribute(("valueReference", v.value_reference.to_string().as_str()));
         if !v.description.is_empty() {
             sv.push_attribute(("description", v.description));
         }
@@ -179,7 +179,7 @@ fn write_description<M: Model>(guid: &str) -> String {
             if let Some(d) = v.display_unit {
                 t.push_attribute(("displayUnit", d));
             }
-            if let Some(&(x, _)) = states.iter().find(|(_, d)| *d == vr) {
+            if let Some(&(x, _)) = states.iter().find(|(_, d)| *d == i) {
                 t.push_attribute(("derivative", (x + 1).to_string().as_str()));
             }
         }
