@@ -43,6 +43,8 @@ pub mod allowed {
         StepCanceled,
         Terminated,
         Error,
+        EventMode,
+        ContinuousTimeMode,
     ]);
     pub const ENTER_INIT: u32 = m(&[Instantiated]);
     pub const EXIT_INIT: u32 = m(&[InitializationMode]);
@@ -61,6 +63,9 @@ fn state_name(s: MachineState) -> &'static str {
         MachineState::StepFailed | MachineState::StepCanceled => "Step Discarded",
         MachineState::Terminated => "Terminated",
         MachineState::Error => "the error state (after fmi3Error)",
+        // Model Exchange states of the shared instance, never entered by Co-Simulation.
+        MachineState::EventMode => "Event Mode",
+        MachineState::ContinuousTimeMode => "Continuous-Time Mode",
     }
 }
 
