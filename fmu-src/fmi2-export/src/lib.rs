@@ -1,4 +1,5 @@
-//! Generic FMI 2.0 Co-Simulation export layer.
+//! Generic FMI 2.0 export layer: Co-Simulation, and Model Exchange for a model that also
+//! implements [`ModelExchange`].
 //!
 //! A model implements [`Model`] (pure Rust, no C pointers) and declares its variables once with
 //! [`declare_variables!`]; [`export_model!`] emits every `fmi2*` C function over it. From the same
@@ -9,12 +10,13 @@ pub mod ffi;
 pub mod html;
 pub mod instance;
 pub mod me;
+pub mod me_instance;
 pub mod units;
 pub mod variables;
 pub mod xml;
 
-pub use instance::{Instance, MachineState, Status};
-pub use me::ModelExchange;
+pub use instance::{Instance, Interface, MachineState, Status};
+pub use me::{MeVTable, ModelExchange};
 pub use variables::{Causality, Initial, Values, ValuesMut, VarId, VarType, Variability, Variable};
 
 /// A Co-Simulation model. The layer owns the values of all variables (`vars`, in table order:
@@ -66,6 +68,13 @@ pub trait Model: Clone + Send + serde::Serialize + serde::de::DeserializeOwned +
             &[],
             "this model applies no parameter change after initialization",
         ))
+    }
+
+    /// The Model Exchange interface: `Some(MeVTable::of::<Self>())` for a model that implements
+    /// [`ModelExchange`] (the FMU then offers `<ModelExchange>` beside `<CoSimulation>`), `None`
+    /// (the default) for a Co-Simulation-only model.
+    fn model_exchange() -> Option<MeVTable<Self>> {
+        None
     }
 }
 

@@ -217,8 +217,14 @@ impl Variable {
     }
 
     /// The candidate effect this variable belongs to, if its name is `<effect>.<name>`.
+    /// The derivative `der(<effect>.<name>)` of a state belongs to the state's effect.
     pub fn effect(&self) -> Option<&'static str> {
-        self.name.split_once('.').map(|(effect, _)| effect)
+        let name = self
+            .name
+            .strip_prefix("der(")
+            .and_then(|n| n.strip_suffix(')'))
+            .unwrap_or(self.name);
+        name.split_once('.').map(|(effect, _)| effect)
     }
 }
 

@@ -15,4 +15,6 @@ declare_variables! {
     X = 8 => Variable::output("x", "m", "Position").display("mm"),
     V = 9 => Variable::output("v", "m/s", "Velocity"),
     ENERGY = 10 => Variable::output("energy", "J", "Kinetic plus spring energy"),
+    DER_X = 11 => Variable::local("der(x)", "m/s", "Derivative of the position (Model Exchange state x)"),
+    DER_V = 12 => Variable::local("der(v)", "m/s2", "Derivative of the velocity (Model Exchange state v)"),
 }
