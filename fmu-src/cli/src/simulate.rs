@@ -51,7 +51,7 @@ pub struct Args {
 
 /// A round step that divides `span` into 500 to 1000 steps (FMPy's `auto_interval`, so both
 /// tools record the same grid for an FMU without a DefaultExperiment step).
-fn auto_interval(span: f64) -> f64 {
+pub(crate) fn auto_interval(span: f64) -> f64 {
     if !(span > 0.0 && span.is_finite()) {
         return 1.0;
     }
@@ -76,6 +76,16 @@ fn auto_interval(span: f64) -> f64 {
 
 /// Runs `simulate`.
 pub fn run(a: Args) -> CliResult {
+    if host::fmi_version_of(&a.fmu).map_err(CliError::input)? == host::FmiVersion::Fmi3 {
+        if a.interface == Some(crate::common::InterfaceArg::Me) {
+            return Err(CliError::input(format!(
+                "{}: FMI 3.0 Model Exchange is not supported yet (--interface cs runs its \
+                 Co-Simulation interface)",
+                a.fmu.display()
+            )));
+        }
+        return crate::simulate3::run(a);
+    }
     let mut inputs = vec![a.fmu.as_path()];
     inputs.extend(a.data.as_deref());
     refuse_overwriting(&a.out, &inputs)?;

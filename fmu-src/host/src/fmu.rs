@@ -2,6 +2,7 @@
 
 use crate::error::{HostError, Result};
 use crate::ffi::{self, Functions};
+use crate::kind::Interface;
 use crate::md::ModelDescription;
 use libloading::Library;
 use std::io::Read;
@@ -23,9 +24,22 @@ pub struct Extracted {
     _tempdir: Option<tempfile::TempDir>,
 }
 
-impl Extracted {
-    /// Extracts `path` (an `.fmu` zip, or an already extracted directory) and parses its
-    /// `modelDescription.xml`.
+/// An FMU's files on disk and the text of its `modelDescription.xml`, before the description is
+/// parsed: what every FMI version shares (extraction with its bounds, the size and encoding of
+/// the description).
+pub struct Unpacked {
+    /// Where the archive was opened from.
+    pub path: PathBuf,
+    /// Root of the extracted tree (holds modelDescription.xml).
+    pub dir: PathBuf,
+    /// The text of `modelDescription.xml`.
+    pub xml: String,
+    pub(crate) tempdir: Option<tempfile::TempDir>,
+}
+
+impl Unpacked {
+    /// Extracts `path` (an `.fmu` zip, or an already extracted directory) and reads its
+    /// `modelDescription.xml` (at most 64 MiB, UTF-8).
     pub fn open(path: impl AsRef<Path>) -> Result<Self> {
         let path = path.as_ref().to_path_buf();
         let meta = std::fs::metadata(&path).map_err(|source| HostError::Io {
@@ -64,7 +78,68 @@ impl Extracted {
             column: 0,
             message: format!("not UTF-8: {e}"),
         })?;
-        if let Some(v) = fmi_version(&xml).filter(|v| !v.starts_with("2.")) {
+        Ok(Unpacked {
+            path,
+            dir,
+            xml,
+            tempdir,
+        })
+    }
+
+    /// The `fmiVersion` of the root element (read without parsing the rest).
+    pub fn fmi_version(&self) -> Option<&str> {
+        fmi_version(&self.xml)
+    }
+
+    /// `file` for messages about the description: `<fmu>!modelDescription.xml`.
+    pub fn description_file(&self) -> String {
+        format!("{}!modelDescription.xml", self.path.display())
+    }
+}
+
+/// Checks that `id`, a `modelIdentifier`, is a C identifier (`clause` cites the standard's
+/// rule): it names the library and prefixes the functions, and anything else, such as `../x` or
+/// an absolute path, could name a library outside the FMU.
+pub(crate) fn check_c_identifier(id: &str, fmu: &Path, clause: &str) -> Result<()> {
+    let mut chars = id.chars();
+    let first_ok = chars
+        .next()
+        .is_some_and(|c| c.is_ascii_alphabetic() || c == '_');
+    if !first_ok || !chars.all(|c| c.is_ascii_alphanumeric() || c == '_') {
+        let shown: String = id.chars().take(60).flat_map(char::escape_debug).collect();
+        return Err(HostError::Archive {
+            path: fmu.to_path_buf(),
+            message: format!("modelIdentifier \"{shown}\" is not a C identifier ({clause})"),
+        });
+    }
+    Ok(())
+}
+
+/// Path of `binaries/<platform>/<id>.so` under `dir`, refused when it resolves outside the FMU
+/// (a symbolic link in an extracted directory given as the FMU must not lead the loader out).
+pub(crate) fn binary_under(dir: &Path, fmu: &Path, platform: &str, id: &str) -> Result<PathBuf> {
+    let path = dir
+        .join("binaries")
+        .join(platform)
+        .join(format!("{id}.{LIB_SUFFIX}"));
+    if let (Ok(real), Ok(root)) = (path.canonicalize(), dir.canonicalize()) {
+        if !real.starts_with(&root) {
+            return Err(HostError::Archive {
+                path: fmu.to_path_buf(),
+                message: format!("binaries/{platform}/{id}.{LIB_SUFFIX} resolves outside the FMU"),
+            });
+        }
+    }
+    Ok(path)
+}
+
+impl Extracted {
+    /// Extracts `path` (an `.fmu` zip, or an already extracted directory) and parses its
+    /// `modelDescription.xml`.
+    pub fn open(path: impl AsRef<Path>) -> Result<Self> {
+        let unpacked = Unpacked::open(path)?;
+        let path = unpacked.path.clone();
+        if let Some(v) = unpacked.fmi_version().filter(|v| !v.starts_with("2.")) {
             let major = v.split('.').next().unwrap_or(v);
             return Err(HostError::Unsupported {
                 path: path.clone(),
@@ -79,12 +154,12 @@ impl Extracted {
             });
         }
         let model_description =
-            ModelDescription::parse(&xml, &format!("{}!modelDescription.xml", path.display()))?;
+            ModelDescription::parse(&unpacked.xml, &unpacked.description_file())?;
         Ok(Extracted {
             path,
-            dir,
+            dir: unpacked.dir,
             model_description,
-            _tempdir: tempdir,
+            _tempdir: unpacked.tempdir,
         })
     }
 
@@ -117,29 +192,16 @@ impl Extracted {
             path: self.path.clone(),
             message: match interface {
                 Interface::CoSimulation => {
-                    "modelDescription.xml has no <CoSimulation> element \
-                                            (not a Co-Simulation FMU)"
+                    "modelDescription.xml has no <CoSimulation> element (not a Co-Simulation FMU)"
                 }
                 Interface::ModelExchange => {
-                    "modelDescription.xml has no <ModelExchange> element \
-                                             (not a Model Exchange FMU)"
+                    "modelDescription.xml has no <ModelExchange> element (not a Model Exchange \
+                     FMU)"
                 }
             }
             .into(),
         })?;
-        let mut chars = id.chars();
-        let first_ok = chars
-            .next()
-            .is_some_and(|c| c.is_ascii_alphabetic() || c == '_');
-        if !first_ok || !chars.all(|c| c.is_ascii_alphanumeric() || c == '_') {
-            let shown: String = id.chars().take(60).flat_map(char::escape_debug).collect();
-            return Err(HostError::Archive {
-                path: self.path.clone(),
-                message: format!(
-                    "modelIdentifier \"{shown}\" is not a C identifier (FMI 2.0.4 section 2.2.1)"
-                ),
-            });
-        }
+        check_c_identifier(id, &self.path, "FMI 2.0.4 section 2.2.1")?;
         Ok(id)
     }
 
@@ -151,24 +213,7 @@ impl Extracted {
     /// [`Self::binary_path`] of the library of `interface`.
     pub fn binary_path_for(&self, interface: Interface) -> Result<PathBuf> {
         let id = self.model_identifier_for(interface)?;
-        let path = self
-            .dir
-            .join("binaries")
-            .join(PLATFORM)
-            .join(format!("{id}.{LIB_SUFFIX}"));
-        // A symbolic link (in an extracted directory given as the FMU) must not lead the loader
-        // outside the FMU either.
-        if let (Ok(real), Ok(root)) = (path.canonicalize(), self.dir.canonicalize()) {
-            if !real.starts_with(&root) {
-                return Err(HostError::Archive {
-                    path: self.path.clone(),
-                    message: format!(
-                        "binaries/{PLATFORM}/{id}.{LIB_SUFFIX} resolves outside the FMU"
-                    ),
-                });
-            }
-        }
-        Ok(path)
+        binary_under(&self.dir, &self.path, PLATFORM, id)
     }
 
     /// `file://` URI of the resources folder, as fmi2Instantiate expects.
@@ -179,7 +224,7 @@ impl Extracted {
 
 /// The `fmiVersion` attribute of the root element, read before the full parse so that an FMU of
 /// another standard version gets one clear message rather than schema errors.
-fn fmi_version(xml: &str) -> Option<&str> {
+pub fn fmi_version(xml: &str) -> Option<&str> {
     let root = &xml[xml.find("<fmiModelDescription")?..];
     let root = &root[..root.find('>')?];
     let at = root.find("fmiVersion")?;
@@ -298,15 +343,6 @@ pub struct OpenOptions {
     pub python: Option<PathBuf>,
     /// The interface to run (None: [`Extracted::default_interface`]).
     pub interface: Option<Interface>,
-}
-
-/// The FMI interface an instance is made for (`fmi2Type` of fmi2Instantiate).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Interface {
-    /// Co-Simulation: the FMU integrates itself (`fmi2DoStep`).
-    CoSimulation,
-    /// Model Exchange: the host integrates the FMU's derivatives.
-    ModelExchange,
 }
 
 impl Fmu {

@@ -2,7 +2,8 @@
 
 use crate::error::{HostError, LogRecord, Result, Status};
 use crate::ffi::{self, CallbackFunctions, Component, FmuState, LogEnv, LogSink, RawStatus};
-use crate::fmu::{Fmu, Interface};
+use crate::fmu::Fmu;
+use crate::kind::Interface;
 use crate::watch::{self, Call};
 use ffi::Fmi2Boolean;
 use std::ffi::{c_char, c_int, c_void, CString};

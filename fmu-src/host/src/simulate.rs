@@ -1,8 +1,9 @@
 //! High-level simulation: start values by name, input series, fixed communication step.
 
 use crate::error::{HostError, Result, Status};
-use crate::fmu::{Fmu, Interface};
+use crate::fmu::Fmu;
 use crate::instance::Instance;
+use crate::kind::Interface;
 use crate::md::{Causality, ModelDescription, ScalarVariable, VarKind, Variability};
 
 /// Columns of text: (variable name, one value per row).
