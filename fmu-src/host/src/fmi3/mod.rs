@@ -8,9 +8,9 @@
 //! - [`simulate3`]: a whole Co-Simulation run from start values and input columns.
 
 pub mod ffi;
-mod instance;
+pub(crate) mod instance;
 pub mod md;
-mod simulate;
+pub(crate) mod simulate;
 pub mod value;
 
 pub use instance::{unsupported, Fmu3, Instance3, StepOutcome, PLATFORM_TUPLE};
