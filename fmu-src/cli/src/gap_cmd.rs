@@ -2,10 +2,9 @@
 //! [--rounds N] [--set NAME=VALUE ...]`: the gap workflow (crate `gap`).
 
 use crate::common::{numeric_sets, CliError, CliResult};
-use gap::fmu::FmuSimulator;
+use crate::open::AnyFmu;
 use gap::{Config, Data, GapError};
 use host::csv::{read_csv, CsvError};
-use host::Fmu;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `gap`.
@@ -135,7 +134,7 @@ pub fn run(a: Args) -> CliResult {
     let opts = host::OpenOptions {
         python: a.python.clone(),
     };
-    let fmu = Fmu::open_with(&a.fmu, &opts).map_err(CliError::input)?;
+    let fmu = AnyFmu::open(&a.fmu, &opts)?;
     let md = fmu.model_description();
     let fixed = numeric_sets(md, &a.set, "gap")?;
     let data = load_data(md, &a.data)?;
@@ -159,7 +158,7 @@ pub fn run(a: Args) -> CliResult {
         offsets: a.offsets.clone(),
         ..Config::default()
     };
-    let sim = FmuSimulator::new(&fmu, &data).map_err(CliError::input)?;
+    let sim = fmu.simulator(&data).map_err(CliError::input)?;
     let res = gap::run(&sim, &data, &cfg).map_err(|e| match e {
         GapError::Usage(m) => CliError::input(m),
         GapError::Simulation(m) => CliError::failure(format!("simulation failed: {m}")),
