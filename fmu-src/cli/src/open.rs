@@ -31,6 +31,13 @@ impl AnyFmu {
                 Fmu::open_with(path, opts).map_err(CliError::input)?,
             )),
             FmiVersion::Fmi3 => {
+                if opts.interface == Some(host::Interface::ModelExchange) {
+                    return Err(CliError::input(format!(
+                        "{}: FMI 3.0 Model Exchange is not supported yet (--interface cs runs \
+                         its Co-Simulation interface)",
+                        path.display()
+                    )));
+                }
                 let fmu = Fmu3::open(path).map_err(CliError::input)?;
                 let view = Box::new(fmi2_view(fmu.model_description()));
                 AnyFmu::Fmi3 {
