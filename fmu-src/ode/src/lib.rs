@@ -19,6 +19,7 @@
 //! * No heap allocation inside [`Integrator::integrate`] once the buffers exist for the dimension.
 
 mod clock;
+pub mod math;
 mod tableau;
 
 pub use clock::{SampleClock, Segments};
@@ -370,7 +371,7 @@ impl Integrator {
             let err = (sum / n as f64).sqrt();
             // err may be NaN (0/0 with zero tolerances): treat as too large.
             let fac = if err.is_finite() {
-                (libm::pow(err, q) / SAFETY).clamp(1.0 / FAC_MAX, 1.0 / FAC_MIN)
+                (math::pow(err, q) / SAFETY).clamp(1.0 / FAC_MAX, 1.0 / FAC_MIN)
             } else {
                 1.0 / FAC_MIN
             };
@@ -380,7 +381,7 @@ impl Integrator {
                 // Accepted.
                 if self.h_acc > 0.0 {
                     // Gustafsson predictive controller (Hairer-Wanner II, IV.8, (8.21)).
-                    let fac_g = ((self.h_acc / h) * libm::pow(err * err / self.err_acc, q)
+                    let fac_g = ((self.h_acc / h) * math::pow(err * err / self.err_acc, q)
                         / SAFETY)
                         .clamp(1.0 / FAC_MAX, 1.0 / FAC_MIN);
                     if fac_g.is_finite() {
