@@ -18,6 +18,7 @@ from conftest import REPO, cli_path, fmu_path
 
 sys.path.insert(0, str(REPO / "examples"))
 import gapgen  # noqa: E402
+import regenerate  # noqa: E402
 
 DURATION, RATE = 3.0, 200.0
 FAR_WARNING = "The final model is still far from the data"
@@ -44,6 +45,20 @@ def run_ok(model, csv, out, *args, env=None):
     assert p.returncode == 0, p.stderr + p.stdout
     with open(out / "report.json") as f:
         return json.load(f)
+
+
+@pytest.mark.parametrize("row", regenerate.manifest(), ids=lambda r: r[0])
+def test_bundled_examples_match_the_fmu(row):
+    """Each bundled record is the current FMU's output at the recorded truth plus noise of the
+    recorded level: the RMSE between the record and FMPy's re-simulation is that noise level
+    (ratio 1 up to sampling error, about 1 +- 0.02 for 2,000 samples). A physics change that
+    leaves a stale showcase behind fails here; `python examples/regenerate.py` renews them."""
+    model, data, _gap_args, generator_args = row
+    fmu_path(model)
+    assert generator_args, f"{data}: manifest.tsv gives no gapgen.py arguments to remake it"
+    ratios = regenerate.misfit(data)
+    stale = {n: round(r, 2) for n, r in ratios.items() if r > 1.5}
+    assert not stale, f"{data} no longer matches dist/{model}.fmu at its truth: {stale}"
 
 
 def check_report_shape(rep, ds):

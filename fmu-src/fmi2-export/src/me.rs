@@ -1,0 +1,167 @@
+//! The Model Exchange side of a model: what the FMI 2.0 ME functions (standard chapter 3) need
+//! besides [`Model`]. The importer integrates the continuous states with its own solver; the model
+//! supplies their derivatives, its outputs at any (t, x), and its sampled controllers as time
+//! events. The model's Co-Simulation code (`Model::do_step`) is untouched by this trait.
+
+use crate::{Model, ModelError};
+
+/// A model that an importer's solver can integrate (FMI 2.0 Model Exchange).
+///
+/// State and derivative variables are ordinary variables of the table: each state is a
+/// continuous Real (an output where the model has one, else a local) and its derivative a
+/// continuous Real local named `der(<state>)`. Their positions in the table (`V::X as usize`,
+/// the index into `vars`) are listed by [`ModelExchange::state_variables`] in the order of the
+/// state vector `x`.
+///
+/// Call sequence the layer guarantees (FMI 2.0.4 section 3.2.3): [`Model::initialize`] at
+/// `fmi2ExitInitializationMode` (it builds the initial state and writes every output, exactly as
+/// in Co-Simulation), then repeatedly: `set_states`/input changes, [`derivatives`],
+/// [`me_outputs`]; at a time event [`event_update`] (repeated until it reports no change, as in
+/// event iteration), after which [`next_time_event`] is asked.
+///
+/// [`derivatives`]: ModelExchange::derivatives
+/// [`me_outputs`]: ModelExchange::me_outputs
+/// [`event_update`]: ModelExchange::event_update
+/// [`next_time_event`]: ModelExchange::next_time_event
+pub trait ModelExchange: Model {
+    /// Number of continuous states: fixed for the model (the largest over all effect settings);
+    /// a state an effect does not use keeps its value and has derivative 0.
+    const STATES: usize;
+    /// Number of event indicators (state events). Smooth models have none.
+    const EVENT_INDICATORS: usize = 0;
+
+    /// `(state, derivative)` as positions in the table (`V::X as usize`) per state, in the
+    /// order of `x`. Length [`ModelExchange::STATES`].
+    fn state_variables() -> &'static [(usize, usize)];
+
+    /// The continuous state vector `x` (length `STATES`) from the model's state.
+    fn states(&self, x: &mut [f64]);
+
+    /// Set the continuous states from `x` (length `STATES`); the discrete (controller) state is
+    /// untouched.
+    fn set_states(&mut self, x: &[f64]);
+
+    /// Nominal magnitudes of the states (the importer's absolute tolerance scale). Default 1.
+    fn nominals(&self, n: &mut [f64]) {
+        n.fill(1.0);
+    }
+
+    /// `dx/dt` at time `t` for the current states, inputs read from `vars`, discrete
+    /// (controller) state from `self`. Must not change anything.
+    fn derivatives(&self, vars: &[f64], t: f64, dx: &mut [f64]) -> Result<(), ModelError>;
+
+    /// Write every output, every state and derivative variable and every other computed
+    /// variable into `vars`, from the states, the inputs in `vars` and the discrete state.
+    fn me_outputs(&self, vars: &mut [f64], t: f64);
+
+    /// Time of the next time event (the next controller tick) after the last event update,
+    /// `None` when there is none.
+    fn next_time_event(&self) -> Option<f64> {
+        None
+    }
+
+    /// Event mode at time `t` (a time event reached, a state event, or an input changed in
+    /// event mode): update the discrete state (e.g. the sampled controller's tick at `t` if it
+    /// is due) and the discrete outputs in `vars`. Returns whether any discrete value changed
+    /// (the layer then calls it again until it returns `false`, event iteration).
+    fn event_update(&mut self, vars: &mut [f64], t: f64) -> Result<bool, ModelError> {
+        let _ = (vars, t);
+        Ok(false)
+    }
+
+    /// Event indicators `z` (length `EVENT_INDICATORS`): a sign change is a state event.
+    fn event_indicators(&self, vars: &[f64], t: f64, z: &mut [f64]) {
+        let _ = (vars, t, z);
+    }
+}
+
+/// [`ModelExchange::derivatives`] as a function pointer.
+pub type DerivativesFn<M> = fn(&M, &[f64], f64, &mut [f64]) -> Result<(), ModelError>;
+
+/// The [`ModelExchange`] functions of a model as plain function pointers, so that the generic
+/// layer (bound on [`Model`] only) can run Model Exchange for the models that provide it. A model
+/// implementing [`ModelExchange`] returns `Some(MeVTable::of::<Self>())` from
+/// [`Model::model_exchange`].
+pub struct MeVTable<M> {
+    /// [`ModelExchange::STATES`].
+    pub states: usize,
+    /// [`ModelExchange::EVENT_INDICATORS`].
+    pub event_indicators: usize,
+    /// [`ModelExchange::state_variables`].
+    pub state_variables: &'static [(usize, usize)],
+    pub get_states: fn(&M, &mut [f64]),
+    pub set_states: fn(&mut M, &[f64]),
+    pub nominals: fn(&M, &mut [f64]),
+    pub derivatives: DerivativesFn<M>,
+    pub outputs: fn(&M, &mut [f64], f64),
+    pub next_time_event: fn(&M) -> Option<f64>,
+    pub event_update: fn(&mut M, &mut [f64], f64) -> Result<bool, ModelError>,
+    pub indicators: fn(&M, &[f64], f64, &mut [f64]),
+}
+
+impl<M> Clone for MeVTable<M> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+
+impl<M> Copy for MeVTable<M> {}
+
+impl<M: ModelExchange> MeVTable<M> {
+    /// The table of `M`'s [`ModelExchange`] implementation.
+    pub fn of() -> Self {
+        MeVTable {
+            states: M::STATES,
+            event_indicators: M::EVENT_INDICATORS,
+            state_variables: M::state_variables(),
+            get_states: M::states,
+            set_states: M::set_states,
+            nominals: M::nominals,
+            derivatives: M::derivatives,
+            outputs: M::me_outputs,
+            next_time_event: M::next_time_event,
+            event_update: M::event_update,
+            indicators: M::event_indicators,
+        }
+    }
+}
+
+impl<M> MeVTable<M> {
+    /// Problems of the declared state and derivative variables (empty when consistent): the
+    /// count, each a continuous Real of the table, each derivative a local.
+    pub fn check(&self, vars: &[crate::Variable]) -> Vec<String> {
+        use crate::{Causality, VarType, Variability};
+        let mut problems = Vec::new();
+        if self.state_variables.len() != self.states {
+            problems.push(format!(
+                "{} state variables declared for {} states",
+                self.state_variables.len(),
+                self.states
+            ));
+        }
+        for &(x, dx) in self.state_variables {
+            for vr in [x, dx] {
+                match vars.get(vr) {
+                    None => {
+                        problems.push(format!("state/derivative position {vr} not in the table"))
+                    }
+                    Some(v)
+                        if v.vtype != VarType::Real || v.variability != Variability::Continuous =>
+                    {
+                        problems.push(format!("'{}' is not a continuous Real", v.name))
+                    }
+                    Some(_) => {}
+                }
+            }
+            if let (Some(s), Some(d)) = (vars.get(x), vars.get(dx)) {
+                if d.causality != Causality::Local || d.name != format!("der({})", s.name) {
+                    problems.push(format!(
+                        "derivative of '{}' must be the local 'der({})', not '{}'",
+                        s.name, s.name, d.name
+                    ));
+                }
+            }
+        }
+        problems
+    }
+}
