@@ -3,7 +3,7 @@
 The platform's libm picks its code paths by CPU (glibc: FMA or not) and differs on Windows and
 macOS, so the FMUs compute transcendental functions with the `libm` crate compiled into the
 binary (workspace clippy.toml forbids `f64::exp` and the like in FMU code). Checked here:
-- no binary of a shipped FMU imports a transcendental function from the platform;
+- no binary of a shipped FMU (FMI 2.0 and 3.0) imports a transcendental function from the platform;
 - both FMUs (every candidate effect off, and on) give bit-identical outputs with glibc's default
   code paths and with its FMA/AVX2 paths switched off (GLIBC_TUNABLES);
 - tests/test_platforms.py: the win64 DLL under Wine gives the linux64 binary's bits.
@@ -19,7 +19,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import fmu_path
+from conftest import fmu3_path, fmu_path
 
 MODELS = ["HydraulicJoint", "TwistedString"]
 # C99 <math.h> transcendental functions (and their float/long double forms): none may be imported.
@@ -47,9 +47,10 @@ def imported_symbols(binary: Path) -> set:
     return {n[1:] if data != b"\x7fELF" and n.startswith("_") else n for n in names}
 
 
+@pytest.mark.parametrize("version", ["2.0", "3.0"])
 @pytest.mark.parametrize("model", MODELS)
-def test_no_binary_imports_the_platforms_math(model, tmp_path):
-    with zipfile.ZipFile(fmu_path(model)) as z:
+def test_no_binary_imports_the_platforms_math(model, version, tmp_path):
+    with zipfile.ZipFile(fmu_path(model) if version == "2.0" else fmu3_path(model)) as z:
         binaries = [n for n in z.namelist() if n.startswith("binaries/") and not n.endswith("/")]
         z.extractall(tmp_path, binaries)
     assert len(binaries) >= 3, binaries
