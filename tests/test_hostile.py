@@ -251,6 +251,28 @@ def test_an_interrupted_run_removes_its_temporary_files(tmp_path, sig):
     assert not (tmp_path / "o.csv").exists()
 
 
+def test_ctrl_c_while_simulate_writes_its_output_leaves_no_partial_file(tmp_path):
+    """A run writing a large result (2 million rows, some 50 MB), SIGINT to its process group
+    (Ctrl-C in a shell) once the temporary output file exists next to the output: the worker
+    dies while writing; the supervisor removes the file the worker listed before creating it."""
+    out = tmp_path / "o.csv"
+    dahlquist = Path(__file__).resolve().parent / "fixtures" / "reference-fmus" / "Dahlquist.fmu"
+    p = subprocess.Popen([cli_path(), "simulate", dahlquist, "--stop", "2", "--step", "1e-6",
+                          "--out", out], stderr=subprocess.PIPE, text=True,
+                         start_new_session=True)
+    deadline = time.monotonic() + 60
+    partial = []
+    while not partial and p.poll() is None and time.monotonic() < deadline:
+        partial = [q for q in tmp_path.iterdir() if q.name.endswith(".partial")]
+        time.sleep(0.002)
+    assert partial, "the temporary output file was never seen"
+    time.sleep(0.05)  # writing now
+    os.killpg(p.pid, signal.SIGINT)
+    _, err = p.communicate(timeout=20)
+    assert p.returncode == 130, (p.returncode, err)
+    assert list(tmp_path.iterdir()) == [], list(tmp_path.iterdir())
+
+
 def test_validate_leaves_no_temporary_files_even_when_the_probe_crashes(tmp_path):
     fmu = failing_copy(tmp_path)
     res = run_in(tmp_path / "tmp", "validate", fmu)
