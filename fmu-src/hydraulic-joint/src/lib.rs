@@ -4,10 +4,11 @@
 //!
 //! Modules: [`physics`] (pure equations), [`controller`] (the 40 Hz position controller),
 //! [`plant`] (state vector and right-hand side), [`vars`] (variable table), [`model`] (the
-//! FMI model), [`docs`] (the HTML documentation with derivations and parameter tables).
+//! FMI model), [`me`] (its Model Exchange side), [`docs`] (the HTML documentation with derivations and parameter tables).
 
 pub mod controller;
 pub mod docs;
+pub mod me;
 pub mod model;
 pub mod physics;
 pub mod plant;
