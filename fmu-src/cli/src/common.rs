@@ -47,13 +47,19 @@ impl CliError {
 pub fn run_error(context: &str, e: host::HostError) -> CliError {
     use host::HostError;
     let setup = match &e {
-        HostError::Instantiate { .. } | HostError::Unsupported { .. } => true,
+        HostError::Instantiate { .. }
+        | HostError::InstantiateNull { .. }
+        | HostError::Unsupported { .. } => true,
         HostError::Fmi { function, .. } => matches!(
             *function,
             "fmi2Instantiate"
                 | "fmi2SetupExperiment"
                 | "fmi2EnterInitializationMode"
                 | "fmi2ExitInitializationMode"
+                | "fmi3EnterConfigurationMode"
+                | "fmi3ExitConfigurationMode"
+                | "fmi3EnterInitializationMode"
+                | "fmi3ExitInitializationMode"
         ),
         HostError::Request(_) | HostError::UnknownVariable(_) => true,
         _ => false,

@@ -14,6 +14,7 @@ mod design;
 mod gap_cmd;
 mod probe;
 mod simulate;
+mod simulate3;
 mod supervise;
 mod validate;
 

@@ -41,7 +41,7 @@ pub struct Args {
 
 /// A round step that divides `span` into 500 to 1000 steps (FMPy's `auto_interval`, so both
 /// tools record the same grid for an FMU without a DefaultExperiment step).
-fn auto_interval(span: f64) -> f64 {
+pub(crate) fn auto_interval(span: f64) -> f64 {
     if !(span > 0.0 && span.is_finite()) {
         return 1.0;
     }
@@ -66,6 +66,9 @@ fn auto_interval(span: f64) -> f64 {
 
 /// Runs `simulate`.
 pub fn run(a: Args) -> CliResult {
+    if host::fmi_version_of(&a.fmu).map_err(CliError::input)? == host::FmiVersion::Fmi3 {
+        return crate::simulate3::run(a);
+    }
     let mut inputs = vec![a.fmu.as_path()];
     inputs.extend(a.data.as_deref());
     refuse_overwriting(&a.out, &inputs)?;

@@ -23,6 +23,8 @@ const WORDS: usize = 4;
 /// Size of the shared file.
 pub const FILE_BYTES: usize = SLOTS * WORDS * 8;
 const IN_CALL: u64 = 1 << 63;
+/// Set with [`IN_CALL`] when the call is to an FMI 3.0 binary: the same [`Call`]s, named `fmi3*`.
+const FMI3: u64 = 1 << 62;
 const NO_TIME: u64 = u64::MAX;
 
 /// The FMI functions (and library loading) a slot can name.
@@ -93,7 +95,7 @@ impl Call {
             Call::FmuState,
             Call::Other,
         ];
-        ALL.into_iter().find(|c| *c as u64 == w & !IN_CALL)
+        ALL.into_iter().find(|c| *c as u64 == w & !(IN_CALL | FMI3))
     }
 }
 
@@ -136,6 +138,16 @@ fn slot(page: &'static [AtomicU64]) -> &'static [AtomicU64] {
 /// returned guard is dropped.
 #[must_use = "the call is marked as finished when the guard drops"]
 pub fn enter(call: Call, t: Option<f64>) -> Guard {
+    mark(call as u64, t)
+}
+
+/// [`enter`] for a call to an FMI 3.0 binary (the supervisor names it `fmi3DoStep`, ...).
+#[must_use = "the call is marked as finished when the guard drops"]
+pub fn enter3(call: Call, t: Option<f64>) -> Guard {
+    mark(call as u64 | FMI3, t)
+}
+
+fn mark(word: u64, t: Option<f64>) -> Guard {
     let Some(page) = PAGE.get() else {
         return Guard(None);
     };
@@ -144,7 +156,7 @@ pub fn enter(call: Call, t: Option<f64>) -> Guard {
     if let Some(t) = t {
         s[2].store(t.to_bits(), Relaxed);
     }
-    s[1].store(call as u64 | IN_CALL, Relaxed);
+    s[1].store(word | IN_CALL, Relaxed);
     Guard(Some(s))
 }
 
@@ -170,11 +182,17 @@ pub struct InCall {
     pub call: Call,
     /// The simulation time of the last fmi2DoStep (or setup), if any.
     pub time: Option<f64>,
+    /// The call is to an FMI 3.0 binary.
+    pub fmi3: bool,
 }
 
 impl std::fmt::Display for InCall {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{}", self.call.name())?;
+        if self.fmi3 {
+            write!(f, "{}", self.call.name().replacen("fmi2", "fmi3", 1))?;
+        } else {
+            write!(f, "{}", self.call.name())?;
+        }
         if let Some(t) = self.time {
             write!(f, " at t = {t} s")?;
         }
@@ -224,6 +242,7 @@ impl Monitor {
                     seq: w[0].load(Relaxed),
                     call: Call::from_word(word)?,
                     time: (t != NO_TIME).then(|| f64::from_bits(t)),
+                    fmi3: word & FMI3 != 0,
                 })
             })
             .collect();
@@ -250,6 +269,9 @@ mod tests {
         assert_eq!(seen[0].to_string(), "fmi2DoStep at t = 0.25 s");
         drop(g);
         assert!(monitor.in_calls().is_empty());
+        let g = enter3(Call::DoStep, Some(0.5));
+        assert_eq!(monitor.in_calls()[0].to_string(), "fmi3DoStep at t = 0.5 s");
+        drop(g);
         // another thread gets its own slot
         let h = std::thread::spawn(|| {
             let _g = enter(Call::Instantiate, None);

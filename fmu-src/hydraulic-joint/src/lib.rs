@@ -17,4 +17,5 @@ pub mod vars;
 pub use model::HydraulicJoint;
 pub use vars::{V, VARIABLES};
 
+#[cfg(feature = "fmi2")]
 fmi2_export::export_model!(HydraulicJoint);

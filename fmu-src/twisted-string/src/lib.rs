@@ -17,4 +17,5 @@ pub mod vars;
 pub use model::TwistedString;
 pub use vars::{V, VARIABLES};
 
+#[cfg(feature = "fmi2")]
 fmi2_export::export_model!(TwistedString);
