@@ -15,9 +15,7 @@
 
 use crate::controller::controller_update;
 use crate::model::HydraulicJoint;
-use crate::plant::{
-    spool, Plant, NOMINAL_BASE, NOMINAL_MEMORY, NOMINAL_SPOOL, TH, VRET, VSUP,
-};
+use crate::plant::{spool, Plant, NOMINAL_BASE, NOMINAL_MEMORY, NOMINAL_SPOOL, TH, VRET, VSUP};
 use crate::vars::V;
 use fmi2_export::{ModelError, ModelExchange, Values, ValuesMut};
 use ode::SampleClock;
@@ -48,7 +46,10 @@ const STATE_VARIABLES: [(usize, usize); STATES] = [
     (V::SPOOL_LEFT as usize, V::DER_SPOOL_LEFT as usize),
     (V::SPOOL_RATE_LEFT as usize, V::DER_SPOOL_RATE_LEFT as usize),
     (V::SPOOL_RIGHT as usize, V::DER_SPOOL_RIGHT as usize),
-    (V::SPOOL_RATE_RIGHT as usize, V::DER_SPOOL_RATE_RIGHT as usize),
+    (
+        V::SPOOL_RATE_RIGHT as usize,
+        V::DER_SPOOL_RATE_RIGHT as usize,
+    ),
     (V::V_MEMORY_LEFT as usize, V::DER_V_MEMORY_LEFT as usize),
     (V::V_MEMORY_RIGHT as usize, V::DER_V_MEMORY_RIGHT as usize),
 ];
