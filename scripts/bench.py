@@ -1,6 +1,6 @@
 """Driver of scripts/bench (see there). Prints one line per model:
-`<Model> speedup <N>x (...)`, one per Model Exchange fixture: `<Fixture> ME speedup <N>x (...)`,
-then the gap workflow lines."""
+`<Model> speedup <N>x (...)`, then the cost of the deterministic math per model, one line per
+Model Exchange fixture: `<Fixture> ME speedup <N>x (...)`, then the gap workflow lines."""
 import json
 import math
 import subprocess
@@ -33,14 +33,15 @@ def scenario(model):
     return {"theta_motor_ref": (t, ref)}
 
 
-def run_fmu(model, inputs, out_csv, repeat, rtol):
+def run_fmu(model, inputs, out_csv, repeat, rtol, fmu=None):
     with tempfile.NamedTemporaryFile("w", suffix=".csv", delete=False) as f:
         names = list(inputs)
         f.write(",".join(["time"] + names) + "\n")
         t = inputs[names[0]][0]
         for k in range(len(t)):
             f.write(",".join(repr(float(x)) for x in [t[k]] + [inputs[n][1][k] for n in names]) + "\n")
-    cmd = [str(REPO / "target/release/fmu-bench"), str(REPO / f"dist/{model}.fmu"), "--inputs", f.name,
+    fmu = fmu or REPO / f"dist/{model}.fmu"
+    cmd = [str(REPO / "target/release/fmu-bench"), str(fmu), "--inputs", f.name,
            "--stop", str(T_END), "--step", str(DT), "--repeat", str(repeat), "--out", str(out_csv),
            "--set", f"rtol={rtol}", "--set", f"atol={rtol}"]
     timing = json.loads(subprocess.run(cmd, check=True, capture_output=True, text=True).stdout)
@@ -105,6 +106,29 @@ def bench_model(model):
           f"({m_py:.1e} {mw_py}): {verdict})", flush=True)
 
 
+def bench_math(model):
+    """The cost of the deterministic math (the `libm` crate, `ode::math`): the same FMU built
+    twice on this machine, once as shipped and once with the feature `platform-math` (the
+    platform's libm), run alternately on the same inputs at rtol 1e-6."""
+    fmus = {kind: REPO / f"target/bench-math/{model}-{kind}.fmu" for kind in ("libm", "platform")}
+    if not all(p.exists() for p in fmus.values()):
+        print(f"{model} deterministic math: peer FMUs missing (scripts/bench builds them)")
+        return
+    inputs = scenario(model)
+    times = {kind: [] for kind in fmus}
+    outputs = {}
+    with tempfile.TemporaryDirectory() as d:
+        for _ in range(2 if QUICK else 3):
+            for kind, fmu in fmus.items():
+                t, outputs[kind] = run_fmu(model, inputs, Path(d) / f"{kind}.csv", 3, 1e-6, fmu)
+                times[kind].append(t)
+    t_libm, t_platform = min(times["libm"]), min(times["platform"])
+    diff = max(float(np.max(np.abs(outputs["libm"][n] - outputs["platform"][n])))
+               / (float(np.ptp(outputs["platform"][n])) or 1.0) for n in outputs["platform"])
+    print(f"{model} deterministic math cost {t_libm / t_platform:.3f}x (libm crate "
+          f"{t_libm * 1e3:.1f} ms against the platform's libm {t_platform * 1e3:.1f} ms, the same "
+          f"{T_END:g} s run at rtol 1e-6, best of alternating runs; outputs differ by at most "
+          f"{diff:.1e} of their range)", flush=True)
 ME_FIXTURES = (("VanDerPol", 20.0, 0.01), ("BouncingBall", 3.0, 0.01))
 ME_RTOL = 1e-6
 
@@ -166,6 +190,8 @@ def bench_gap():
 if __name__ == "__main__":
     for m in ("HydraulicJoint", "TwistedString"):
         bench_model(m)
+    for m in ("HydraulicJoint", "TwistedString"):
+        bench_math(m)
     for fixture in ME_FIXTURES:
         bench_me(*fixture)
     bench_gap()
