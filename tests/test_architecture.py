@@ -22,7 +22,7 @@ MAY_USE = {
     "fmi3-export": {"fmi2-export"},
     "hydraulic-joint-fmi3": {"fmi3-export", "hydraulic-joint"},
     "twisted-string-fmi3": {"fmi3-export", "twisted-string"},
-    "host": {"fmi2-types"},
+    "host": {"fmi2-types", "ode"},
     "gap": {"fmi2-types", "host"},
     "cli": {"fmi2-types", "host", "gap"},
     "bench": {"host"},

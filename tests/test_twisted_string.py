@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from fmpy import read_model_description, simulate_fmu
 
-from conftest import fmu_path
+from conftest import fmu3_path, fmu_path
 from fmi_harness import ERROR, Harness
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -22,6 +22,8 @@ sys.path.insert(0, os.path.join(HERE, "reference"))
 import twisted_string_ref as ref  # noqa: E402
 
 FMU = fmu_path("TwistedString")
+# The FMI 3.0 archive (the same model code); the paper-number tests run on it too (RUNS below).
+FMU3 = fmu3_path("TwistedString")
 MD = read_model_description(FMU)
 VARS = {v.name: v for v in MD.modelVariables}
 OUTPUT_NAMES = [v.name for v in MD.modelVariables if v.causality == "output"]
@@ -49,15 +51,17 @@ def fmpy_input(inputs):
 
 CS, ME = "CoSimulation", "ModelExchange"
 INTERFACES = (CS, ME)
+# The paper-number tests run on every archive and interface: (archive, FMPy's fmi_type).
+RUNS = {"fmi2-cs": (FMU, CS), "fmi3-cs": (FMU3, CS), "fmi2-me": (FMU, ME)}
 
 
-def sim(params=None, inputs=None, t_end=1.0, dt=1e-3, tolerance=None, interface=CS):
-    """Simulate the FMU with FMPy at communication step dt (FMPy's relative_tolerance
-    `tolerance`, None: its default); returns the structured result. With interface ME, FMPy's
-    CVode integrates the Model Exchange interface and the result holds the output points dt
-    apart only (not the events in between)."""
+def sim(params=None, inputs=None, t_end=1.0, dt=1e-3, tolerance=None, fmu=FMU, interface=CS):
+    """Simulate the FMU (by default the FMI 2.0 archive) with FMPy at communication step dt
+    (FMPy's relative_tolerance `tolerance`, None: its default); returns the structured result.
+    With interface ME, FMPy's CVode integrates the Model Exchange interface and the result holds
+    the output points dt apart only (not the events in between)."""
     extra = {"record_events": False} if interface == ME else {}
-    return simulate_fmu(FMU, start_time=0.0, stop_time=t_end, step_size=dt, output_interval=dt,
+    return simulate_fmu(fmu, start_time=0.0, stop_time=t_end, step_size=dt, output_interval=dt,
                         start_values=dict(params or {}), input=fmpy_input(inputs),
                         output=OUTPUT_NAMES, relative_tolerance=tolerance, fmi_type=interface,
                         **extra)
@@ -219,24 +223,25 @@ LOADS_OF = {CS: LOADS, ME: (23, 124)}
 _STAIRCASES = {}
 
 
-def staircase_rows(interface):
+def staircase_rows(run):
     """Quasi-static twist 0..6000 deg (7 levels) under the paper loads, string_compliance on: the
-    rows at the end of each hold, per load (computed once per interface)."""
-    if interface not in _STAIRCASES:
+    rows at the end of each hold, per load (computed once per run of RUNS)."""
+    if run not in _STAIRCASES:
+        fmu, interface = RUNS[run]
         levels = [DEG1000 * k for k in range(1, 7)]
         hold = 1.5
         out = {}
         for F in LOADS_OF[interface]:
             res = sim({"load_mass": F / G, "string_compliance.enabled": True},
                       {"theta_motor_ref": staircase(levels, hold)}, t_end=hold * 7, dt=1e-3,
-                      interface=interface)
+                      fmu=fmu, interface=interface)
             idx = [int(round((k + 1) * hold / 1e-3)) - 1 for k in range(7)]  # end of each hold
             out[F] = res[idx]
-        _STAIRCASES[interface] = out
-    return _STAIRCASES[interface]
+        _STAIRCASES[run] = out
+    return _STAIRCASES[run]
 
 
-@pytest.fixture(scope="module", params=INTERFACES)
+@pytest.fixture(scope="module", params=sorted(RUNS))
 def staircases(request):
     return staircase_rows(request.param)
 
@@ -277,8 +282,8 @@ def test_position_step_settles_and_stays_in_band(interface):
         assert np.all(np.abs(e) < 2.0 + ENCODER_DEG), e
 
 
-@pytest.mark.parametrize("interface", INTERFACES)
-def test_average_speed_at_8000rpm(interface):
+@pytest.mark.parametrize("run", sorted(RUNS))
+def test_average_speed_at_8000rpm(run):
     """Section 6: over motor angle 335.1 -> 2011 rad at the 8000 rpm limit the actuator moves at
     {1.58, 1.53, 1.53, 1.45, 1.42} cm/s for the five loads (slower for heavier loads): the measured
     length changes {31.5, 30.5, 30.5, 29.0, 28.5} mm over the 2.0 s that 1675.9 rad take at 8000 rpm.
@@ -287,11 +292,11 @@ def test_average_speed_at_8000rpm(interface):
     Model Exchange: the lightest and the heaviest load."""
     paper = dict(zip(LOADS, (1.58, 1.53, 1.53, 1.45, 1.42)))
     speeds = []
-    for F in LOADS_OF[interface]:
+    for F in LOADS_OF[RUNS[run][1]]:
         # settle at 335.1 rad, then command beyond 2011 rad so that 2011 is passed at full speed
         res = sim({"load_mass": F / G, "string_compliance.enabled": True},
                   {"theta_motor_ref": ([0, 1.5, 1.5], [DEG1000, DEG1000, 2100.0])}, t_end=4.0,
-                  interface=interface)
+                  fmu=RUNS[run][0], interface=RUNS[run][1])
         th, p, t = res["theta_motor"], res["p"], res["time"]
         k0 = int(np.argmax((t >= 1.5) & (th > DEG1000 + 0.5)))
         k1 = int(np.argmax(th >= DEG6000))
@@ -522,7 +527,7 @@ def test_model_exchange_staircase_agrees_with_co_simulation():
     """At the end of each hold of the Table 2 staircase the two interfaces agree: the position
     loop stops at the same encoder count and p, the string force and the stiffness agree to
     1e-6 of their value (the move starts one sample earlier in Model Exchange, section 11)."""
-    cs, me = staircase_rows(CS), staircase_rows(ME)
+    cs, me = staircase_rows("fmi2-cs"), staircase_rows("fmi2-me")
     for F in LOADS_OF[ME]:
         assert np.array_equal(me[F]["theta_motor_measured"], cs[F]["theta_motor_measured"]), F
         for name in ("p", "F_string", "stiffness", "theta_motor"):

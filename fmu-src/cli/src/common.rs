@@ -11,7 +11,26 @@ macro_rules! out {
 }
 
 use host::md::ModelDescription;
-use host::Value;
+use host::{Interface, Value};
+
+/// `--interface`: which FMI interface of the FMU runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum InterfaceArg {
+    /// Co-Simulation: the FMU integrates itself.
+    Cs,
+    /// Model Exchange: the host integrates the FMU with its Rosenbrock solver.
+    Me,
+}
+
+impl InterfaceArg {
+    /// The host's interface for the option (None: Co-Simulation where offered, else ME).
+    pub fn host(arg: Option<InterfaceArg>) -> Option<Interface> {
+        arg.map(|a| match a {
+            InterfaceArg::Cs => Interface::CoSimulation,
+            InterfaceArg::Me => Interface::ModelExchange,
+        })
+    }
+}
 
 /// An error that ends the program with `code` after printing `message`.
 #[derive(Debug)]

@@ -55,6 +55,11 @@ pub struct Args {
     /// Print every stage (elapsed time, simulation count) and every fit iteration on stderr.
     #[arg(long)]
     pub trace: bool,
+    /// FMI interface to run: cs (Co-Simulation) or me (Model Exchange, integrated by the host
+    /// with its stiff Rosenbrock solver, events located). Default: cs where the FMU offers it,
+    /// else me.
+    #[arg(long, value_enum, value_name = "cs|me")]
+    pub interface: Option<crate::common::InterfaceArg>,
     /// Longest one FMU call may take [s] before the run is stopped as hung (0: no limit).
     #[arg(long, default_value_t = 60.0, value_name = "SECONDS")]
     pub timeout: f64,
@@ -134,6 +139,7 @@ pub fn run(a: Args) -> CliResult {
     refuse_writing_over_inputs(&a)?;
     let opts = host::OpenOptions {
         python: a.python.clone(),
+        interface: crate::common::InterfaceArg::host(a.interface),
     };
     let fmu = Fmu::open_with(&a.fmu, &opts).map_err(CliError::input)?;
     let md = fmu.model_description();

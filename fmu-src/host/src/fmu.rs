@@ -2,6 +2,7 @@
 
 use crate::error::{HostError, Result};
 use crate::ffi::{self, Functions};
+use crate::kind::Interface;
 use crate::md::ModelDescription;
 use libloading::Library;
 use std::io::Read;
@@ -166,24 +167,52 @@ impl Extracted {
     /// 2.0.4 section 2.2.1: it names the library and prefixes the functions): anything else,
     /// such as `../x` or an absolute path, could name a library outside the FMU.
     pub fn model_identifier(&self) -> Result<&str> {
-        let id = self
-            .model_description
-            .co_simulation
-            .as_ref()
-            .map(|c| c.model_identifier.as_str())
-            .ok_or_else(|| HostError::Archive {
-                path: self.path.clone(),
-                message:
+        self.model_identifier_for(Interface::CoSimulation)
+    }
+
+    /// The interface a run uses when none is asked for: Co-Simulation where the FMU offers it,
+    /// else Model Exchange.
+    pub fn default_interface(&self) -> Interface {
+        let md = &self.model_description;
+        if md.co_simulation.is_none() && md.model_exchange.is_some() {
+            Interface::ModelExchange
+        } else {
+            Interface::CoSimulation
+        }
+    }
+
+    /// [`Self::model_identifier`] of the element of `interface`.
+    pub fn model_identifier_for(&self, interface: Interface) -> Result<&str> {
+        let md = &self.model_description;
+        let id = match interface {
+            Interface::CoSimulation => md.co_simulation.as_ref().map(|c| &c.model_identifier),
+            Interface::ModelExchange => md.model_exchange.as_ref(),
+        };
+        let id = id.map(String::as_str).ok_or_else(|| HostError::Archive {
+            path: self.path.clone(),
+            message: match interface {
+                Interface::CoSimulation => {
                     "modelDescription.xml has no <CoSimulation> element (not a Co-Simulation FMU)"
-                        .into(),
-            })?;
+                }
+                Interface::ModelExchange => {
+                    "modelDescription.xml has no <ModelExchange> element (not a Model Exchange \
+                     FMU)"
+                }
+            }
+            .into(),
+        })?;
         check_c_identifier(id, &self.path, "FMI 2.0.4 section 2.2.1")?;
         Ok(id)
     }
 
     /// Path of the binary for this platform: `binaries/linux64/<modelIdentifier>.so`.
     pub fn binary_path(&self) -> Result<PathBuf> {
-        let id = self.model_identifier()?;
+        self.binary_path_for(Interface::CoSimulation)
+    }
+
+    /// [`Self::binary_path`] of the library of `interface`.
+    pub fn binary_path_for(&self, interface: Interface) -> Result<PathBuf> {
+        let id = self.model_identifier_for(interface)?;
         binary_under(&self.dir, &self.path, PLATFORM, id)
     }
 
@@ -297,6 +326,8 @@ pub fn file_uri(path: &Path) -> String {
 /// `canBeInstantiatedOnlyOncePerProcess`).
 pub struct Fmu {
     pub(crate) functions: Functions,
+    /// The interface its instances are made for.
+    interface: Interface,
     /// Instances alive now (for `canBeInstantiatedOnlyOncePerProcess`).
     pub(crate) live_instances: std::sync::atomic::AtomicUsize,
     // Field order matters: the library is unloaded before the extracted files are removed.
@@ -310,6 +341,8 @@ pub struct OpenOptions {
     /// The Python interpreter whose runtime a binary that needs one (PythonFMU) gets; None:
     /// `python3` on PATH.
     pub python: Option<PathBuf>,
+    /// The interface to run (None: [`Extracted::default_interface`]).
+    pub interface: Option<Interface>,
 }
 
 impl Fmu {
@@ -322,7 +355,10 @@ impl Fmu {
     /// [`Fmu::open`] with options.
     pub fn open_with(path: impl AsRef<Path>, opts: &OpenOptions) -> Result<Fmu> {
         let extracted = Extracted::open(path)?;
-        let bin = extracted.binary_path()?;
+        let interface = opts
+            .interface
+            .unwrap_or_else(|| extracted.default_interface());
+        let bin = extracted.binary_path_for(interface)?;
         if !bin.is_file() {
             return Err(HostError::Archive {
                 path: extracted.path.clone(),
@@ -346,13 +382,20 @@ impl Fmu {
         // SAFETY: loading an FMU's binary is the purpose of the host; the FMU is trusted.
         let library = unsafe { ffi::load_library(&bin) }.map_err(bad)?;
         // SAFETY: the symbols are FMI 2.0 functions with the standard signatures.
-        let functions = unsafe { ffi::resolve(&library) }.map_err(bad)?;
+        let me = interface == Interface::ModelExchange;
+        let functions = unsafe { ffi::resolve_for(&library, me) }.map_err(bad)?;
         Ok(Fmu {
             functions,
+            interface,
             live_instances: std::sync::atomic::AtomicUsize::new(0),
             _library: library,
             extracted,
         })
+    }
+
+    /// The interface its instances are made for.
+    pub fn interface(&self) -> Interface {
+        self.interface
     }
 
     /// The parsed `modelDescription.xml`.

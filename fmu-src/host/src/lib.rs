@@ -20,6 +20,7 @@ mod fmu;
 mod instance;
 pub mod kind;
 pub mod md;
+mod me;
 pub mod python;
 mod simulate;
 pub mod validate;

@@ -57,6 +57,31 @@ pub enum Call {
     FmuState,
     /// Any other FMI function.
     Other,
+    /// fmi2SetTime
+    SetTime,
+    /// fmi2SetContinuousStates
+    SetContinuousStates,
+    /// fmi2GetContinuousStates
+    GetContinuousStates,
+    /// fmi2GetDerivatives
+    GetDerivatives,
+    /// fmi2GetEventIndicators
+    GetEventIndicators,
+    /// fmi2EnterEventMode
+    EnterEventMode,
+    /// fmi2NewDiscreteStates
+    NewDiscreteStates,
+    /// fmi2EnterContinuousTimeMode
+    EnterContinuousTimeMode,
+    /// fmi2CompletedIntegratorStep
+    CompletedIntegratorStep,
+    /// fmi2GetNominalsOfContinuousStates
+    GetNominals,
+    /// fmi2GetDirectionalDerivative
+    DirectionalDerivative,
+    /// The host's own Model Exchange integration between FMU calls (the time is the last one
+    /// an FMU call was marked with).
+    HostIntegration,
 }
 
 impl Call {
@@ -76,11 +101,35 @@ impl Call {
             Call::FreeInstance => "fmi2FreeInstance",
             Call::FmuState => "an FMU-state function",
             Call::Other => "an FMI function",
+            Call::SetTime => "fmi2SetTime",
+            Call::SetContinuousStates => "fmi2SetContinuousStates",
+            Call::GetContinuousStates => "fmi2GetContinuousStates",
+            Call::GetDerivatives => "fmi2GetDerivatives",
+            Call::GetEventIndicators => "fmi2GetEventIndicators",
+            Call::EnterEventMode => "fmi2EnterEventMode",
+            Call::NewDiscreteStates => "fmi2NewDiscreteStates",
+            Call::EnterContinuousTimeMode => "fmi2EnterContinuousTimeMode",
+            Call::CompletedIntegratorStep => "fmi2CompletedIntegratorStep",
+            Call::GetNominals => "fmi2GetNominalsOfContinuousStates",
+            Call::DirectionalDerivative => "fmi2GetDirectionalDerivative",
+            Call::HostIntegration => "the host's Model Exchange integration",
         }
     }
 
     fn from_word(w: u64) -> Option<Call> {
-        const ALL: [Call; 13] = [
+        const ALL: [Call; 25] = [
+            Call::SetTime,
+            Call::SetContinuousStates,
+            Call::GetContinuousStates,
+            Call::GetDerivatives,
+            Call::GetEventIndicators,
+            Call::EnterEventMode,
+            Call::NewDiscreteStates,
+            Call::EnterContinuousTimeMode,
+            Call::CompletedIntegratorStep,
+            Call::GetNominals,
+            Call::DirectionalDerivative,
+            Call::HostIntegration,
             Call::Load,
             Call::Instantiate,
             Call::SetupExperiment,
@@ -156,17 +205,18 @@ fn mark(word: u64, t: Option<f64>) -> Guard {
     if let Some(t) = t {
         s[2].store(t.to_bits(), Relaxed);
     }
-    s[1].store(word | IN_CALL, Relaxed);
-    Guard(Some(s))
+    let outer = s[1].swap(word | IN_CALL, Relaxed);
+    Guard(Some((s, outer)))
 }
 
-/// Clears the in-call mark of its slot when dropped.
-pub struct Guard(Option<&'static [AtomicU64]>);
+/// Restores its slot's mark as it was before [`enter`] when dropped: cleared, or the enclosing
+/// mark when calls nest (an FMU call inside the host's integration loop).
+pub struct Guard(Option<(&'static [AtomicU64], u64)>);
 
 impl Drop for Guard {
     fn drop(&mut self) {
-        if let Some(s) = self.0 {
-            s[1].fetch_and(!IN_CALL, Relaxed);
+        if let Some((s, outer)) = self.0 {
+            s[1].store(outer, Relaxed);
         }
     }
 }

@@ -234,6 +234,26 @@ impl Integrator {
         t1: f64,
         y: &mut [f64],
     ) -> Result<(), OdeError> {
+        self.integrate_observed(sys, t0, t1, y, |_, _| false)
+            .map(|_| ())
+    }
+
+    /// [`Self::integrate`] with an observer called after every accepted step with the step's
+    /// end `(t, y)`; when it returns true the integration stops there and the time reached is
+    /// returned (otherwise `t1`). The next call continues with the step size the controller
+    /// proposed. An observer that always returns false gives exactly the steps and results of
+    /// [`Self::integrate`] (it is the same loop). Made for importers that check event
+    /// indicators or an FMU's `completedIntegratorStep` after each step.
+    ///
+    /// On error `y` holds the last accepted state (the time is in the error).
+    pub fn integrate_observed<S: OdeSystem>(
+        &mut self,
+        sys: &S,
+        t0: f64,
+        t1: f64,
+        y: &mut [f64],
+        observe: impl FnMut(f64, &[f64]) -> bool,
+    ) -> Result<f64, OdeError> {
         let n = sys.dim();
         if y.len() != n {
             return Err(OdeError::InvalidInput("y.len() != sys.dim()"));
@@ -257,17 +277,18 @@ impl Integrator {
             return Err(OdeError::NonFinite { t: t0 });
         }
         if n == 0 || t1 == t0 {
-            return Ok(());
+            return Ok(t1);
         }
         let tab = self.method.tableau();
         self.work.ensure(n, tab.stages);
         let mut w = std::mem::take(&mut self.work);
-        let r = self.run(sys, tab, &mut w, t0, t1, y);
+        let r = self.run(sys, tab, &mut w, t0, t1, y, observe);
         self.work = w;
         r
     }
 
     /// The step loop (see the crate documentation).
+    #[allow(clippy::too_many_arguments)]
     fn run<S: OdeSystem>(
         &mut self,
         sys: &S,
@@ -276,7 +297,8 @@ impl Integrator {
         t0: f64,
         t1: f64,
         y: &mut [f64],
-    ) -> Result<(), OdeError> {
+        mut observe: impl FnMut(f64, &[f64]) -> bool,
+    ) -> Result<f64, OdeError> {
         let n = y.len();
         let m = implicit_dim(sys, n);
         let mut t = t0;
@@ -316,7 +338,7 @@ impl Integrator {
                 if !all_finite(y) {
                     return Err(OdeError::NonFinite { t });
                 }
-                return Ok(());
+                return Ok(t1);
             }
             if attempts >= self.max_steps {
                 return Err(OdeError::TooManySteps { t });
@@ -400,6 +422,7 @@ impl Integrator {
                 self.stats.steps += 1;
                 y.copy_from_slice(&w.ynew);
                 t = if last { t1 } else { t + h };
+                let stop = observe(t, y);
                 if last {
                     // Do not let a final step shortened to hit t1 shrink the next call's
                     // first step: the controller proposed h_proposed before shortening.
@@ -407,7 +430,11 @@ impl Integrator {
                         h_new = h_new.max(h_proposed);
                     }
                     self.h_next = Some(h_new.min(self.h_max()));
-                    return Ok(());
+                    return Ok(t1);
+                }
+                if stop {
+                    self.h_next = Some(h_new.min(self.h_max()));
+                    return Ok(t);
                 }
                 sys.rhs(t, y, &mut w.f0);
                 self.stats.rhs_evals += 1;
