@@ -444,6 +444,7 @@ Co-Simulation) of each output's range; against Co-Simulation with every effect o
 2&middot;10<sup>-5</sup> (open loop through zero twist) and 10<sup>-4</sup> (closed loop) of range, energy balance
 within 1.3&middot;10<sup>-5</sup> of the throughput; at the ends of the Table 2 staircase the same encoder counts and
 p, string force and stiffness within 10<sup>-7</sup> relative; the paper's band, speeds, Table 2 and stiffness
-trend hold in both interfaces. The importer's solver handles about 10 times the events of a Co-Simulation
-step sequence (one per millisecond), so Model Exchange costs about 10 times the CPU under FMPy.</p>
+trend hold in both interfaces. With a time event every millisecond FMPy's CVode restarts 1000 times per
+simulated second: Model Exchange takes about 10 times the time of Co-Simulation there (2.3 s against
+0.26 s for a 4.5 s position step).</p>
 "#;
