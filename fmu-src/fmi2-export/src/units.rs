@@ -88,6 +88,8 @@ pub static KNOWN: &[UnitDef] = &[
     UnitDef { name: "N.m.s/rad", base: b(1, 2, -1, 0, -1), display: &[] },
     UnitDef { name: "N.m/A", base: b(1, 2, -2, -1, 0), display: &[du("mN.m/A", 1e3)] },
     UnitDef { name: "V", base: b(1, 2, -3, -1, 0), display: &[] },
+    UnitDef { name: "V/s", base: b(1, 2, -4, -1, 0), display: &[] },
+    UnitDef { name: "V/s2", base: b(1, 2, -5, -1, 0), display: &[] },
     UnitDef { name: "V/m", base: b(1, 1, -3, -1, 0), display: &[] },
     UnitDef { name: "V.s/rad", base: b(1, 2, -2, -1, -1), display: &[] },
     UnitDef { name: "V.s/m", base: b(1, 1, -2, -1, 0), display: &[] },
