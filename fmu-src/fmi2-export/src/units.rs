@@ -94,6 +94,8 @@ pub static KNOWN: &[UnitDef] = &[
     UnitDef { name: "V.s/rad", base: b(1, 2, -2, -1, -1), display: &[] },
     UnitDef { name: "V.s/m", base: b(1, 1, -2, -1, 0), display: &[] },
     UnitDef { name: "A", base: b(0, 0, 0, 1, 0), display: &[du("mA", 1e3)] },
+    UnitDef { name: "A/s", base: b(0, 0, -1, 1, 0), display: &[] },
+    UnitDef { name: "A.s", base: b(0, 0, 1, 1, 0), display: &[] },
     UnitDef { name: "Ohm", base: b(1, 2, -3, -2, 0), display: &[] },
     UnitDef { name: "H", base: b(1, 2, -2, -2, 0), display: &[du("mH", 1e3)] },
     UnitDef { name: "W", base: b(1, 2, -3, 0, 0), display: &[] },
