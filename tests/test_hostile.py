@@ -76,12 +76,12 @@ def test_an_fmi3_fmu_is_refused_by_the_commands_that_do_not_run_fmi3(tmp_path):
     fmu = rewrite_fmu(fmu_path("Oscillator"), tmp_path / "fmi3.fmu",
                       lambda md: md.replace('fmiVersion="2.0"', 'fmiVersion="3.0"'))
     data = data_csv(tmp_path / "d.csv")
-    for args in (["gap", fmu, "--data", data, "--out", tmp_path / "g"],
-                 ["validate", fmu]):
-        assert_one_bounded_message(run(*args), "FMI 3.0 is not supported by this command")
-    # simulate reads it as FMI 3.0: an FMI 2.0 description relabelled lacks what 3.0 requires
-    res = run("simulate", fmu, "--data", data, "--out", tmp_path / "o.csv")
-    assert_one_bounded_message(res, "lacks the required attribute instantiationToken")
+    assert_one_bounded_message(run("validate", fmu), "FMI 3.0 is not supported by this command")
+    # simulate and gap read it as FMI 3.0: an FMI 2.0 description relabelled lacks what 3.0
+    # requires
+    for args in (["simulate", fmu, "--data", data, "--out", tmp_path / "o.csv"],
+                 ["gap", fmu, "--data", data, "--out", tmp_path / "g"]):
+        assert_one_bounded_message(run(*args), "lacks the required attribute instantiationToken")
 
 
 @pytest.mark.parametrize("which", ["data", "fmu"])
