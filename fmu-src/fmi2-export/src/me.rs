@@ -77,13 +77,28 @@ pub trait ModelExchange: Model {
         Ok(false)
     }
 
+    /// Whether [`ModelExchange::state_jacobian`] is implemented: the FMU then declares
+    /// `providesDirectionalDerivative="true"` for Model Exchange.
+    const PROVIDES_JACOBIAN: bool = false;
+
+    /// The Jacobian of the derivatives with respect to the states at the current states, inputs
+    /// from `vars`: `jac[i * STATES + j] = d(dx_i)/d(x_j)` (row-major, `STATES x STATES`).
+    /// Called only when [`ModelExchange::PROVIDES_JACOBIAN`]; must not change anything.
+    fn state_jacobian(&self, vars: &[f64], t: f64, jac: &mut [f64]) -> Result<(), ModelError> {
+        let _ = (vars, t, jac);
+        Err(ModelError::parameters(
+            &[],
+            "this model provides no Jacobian",
+        ))
+    }
+
     /// Event indicators `z` (length `EVENT_INDICATORS`): a sign change is a state event.
     fn event_indicators(&self, vars: &[f64], t: f64, z: &mut [f64]) {
         let _ = (vars, t, z);
     }
 }
 
-/// [`ModelExchange::derivatives`] as a function pointer.
+/// [`ModelExchange::derivatives`] (and [`ModelExchange::state_jacobian`]) as a function pointer.
 pub type DerivativesFn<M> = fn(&M, &[f64], f64, &mut [f64]) -> Result<(), ModelError>;
 
 /// The [`ModelExchange`] functions of a model as plain function pointers, so that the generic
@@ -107,6 +122,9 @@ pub struct MeVTable<M> {
     pub next_time_event: fn(&M) -> Option<f64>,
     pub event_update: fn(&mut M, &mut [f64], f64) -> Result<bool, ModelError>,
     pub indicators: fn(&M, &[f64], f64, &mut [f64]),
+    /// [`ModelExchange::PROVIDES_JACOBIAN`].
+    pub provides_jacobian: bool,
+    pub state_jacobian: DerivativesFn<M>,
 }
 
 impl<M> Clone for MeVTable<M> {
@@ -133,6 +151,8 @@ impl<M: ModelExchange> MeVTable<M> {
             next_time_event: M::next_time_event,
             event_update: M::event_update,
             indicators: M::event_indicators,
+            provides_jacobian: M::PROVIDES_JACOBIAN,
+            state_jacobian: M::state_jacobian,
         }
     }
 }

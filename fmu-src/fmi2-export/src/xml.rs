@@ -71,7 +71,14 @@ fn write_description<M: Model>(guid: &str) -> String {
             ("canNotUseMemoryManagementFunctions", "true"),
             ("canGetAndSetFMUstate", "true"),
             ("canSerializeFMUstate", "true"),
-            ("providesDirectionalDerivative", "false"),
+            (
+                "providesDirectionalDerivative",
+                if me.is_some_and(|me| me.provides_jacobian) {
+                    "true"
+                } else {
+                    "false"
+                },
+            ),
         ] {
             e.push_attribute((k, v));
         }

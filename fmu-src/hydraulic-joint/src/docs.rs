@@ -314,6 +314,13 @@ list them in their dependencies; every output lists every state. The right-hand 
 by the regularisations above (no discontinuity remains), so the model has no event indicators.
 Step inputs should be given to the importer as events (FMPy: the jump's time repeated), or its
 solver integrates across the jump with the old value.</p>
+<p>Directional derivatives (<code>providesDirectionalDerivative</code>, Model Exchange): the
+derivatives with respect to the states come from the analytic Jacobian of the Solver section,
+mapped to the 18 states (the oil integrals are quadratures: their columns are 0); entries with an
+output as unknown or an input as known are central differences of the same equations (step 6e-6
+of the variable's magnitude or nominal). Tested against central differences of
+<code>fmi2GetDerivatives</code> at rest, moving, and in the end stop with a slack cable, every
+effect on: within 1e-6 of each row's scale.</p>
 <p>Agreement (<code>tests/test_model_exchange_hydraulic_joint.py</code>): FMPy's CVode on the Model
 Exchange interface and this FMU's own solver in Co-Simulation, both at the default tolerance
 1e-6, agree within 2e-4 of each output's range on the catching reach (with and without every

@@ -168,6 +168,38 @@ impl ModelExchange for HydraulicJoint {
         Ok(())
     }
 
+    const PROVIDES_JACOBIAN: bool = true;
+
+    /// The plant's analytic Jacobian (the one its own integrator uses), mapped to the state
+    /// vector; the oil integrals are quadratures (their columns are 0).
+    fn state_jacobian(&self, vars: &[f64], t: f64, jac: &mut [f64]) -> Result<(), ModelError> {
+        let Some((p, d)) = &self.params else {
+            return Err(ModelError::NotInitialized);
+        };
+        let plant = Plant {
+            p,
+            d,
+            u: self.me_commands(vars),
+            tau_ext: Values(vars).real(V::TAU_EXT),
+        };
+        let mut full = nalgebra::DMatrix::zeros(d.dim, d.dim);
+        if !ode::OdeSystem::jacobian(&plant, t, &self.y, &mut full) {
+            return Err(ModelError::parameters(
+                &[],
+                "the plant has no analytic Jacobian",
+            ));
+        }
+        let mut map = self.state_map();
+        map.extend([(VSUP, VSUP), (VRET, VRET)]);
+        jac.fill(0.0);
+        for &(pi, xi) in &map {
+            for &(pj, xj) in &map {
+                jac[xi * STATES + xj] = full[(pi, pj)];
+            }
+        }
+        Ok(())
+    }
+
     fn me_outputs(&self, vars: &mut [f64], t: f64) {
         let tau = Values(vars).real(V::TAU_EXT);
         self.write_outputs_with(vars, self.me_commands(vars), tau);
