@@ -1,6 +1,8 @@
 //! Calibration of the base model: directly and over growing horizons ([`calibrate_base`]).
 
-use super::*;
+use super::{ensure_jacobian, fit_state, Ctx, FitOut, Limits, ModelState};
+use crate::sim::{SimError, Simulator};
+use serde::Serialize;
 
 /// Horizons of the growing-horizon calibration before the whole training part, as fractions of
 /// it ([`calibrate_base`]).

@@ -1,6 +1,9 @@
 //! Diagnosis of a round: where and when the residuals exceed the noise.
 
-use super::*;
+use super::{Ctx, Data, Diagnosis, OutputDiagnosis};
+use crate::sim::Simulator;
+use crate::stats;
+use rayon::iter::{IntoParallelRefIterator, ParallelIterator};
 
 /// An output whose residual RMS is within this multiple of its noise level is at the noise
 /// level (with white residuals: consistent with noise).

@@ -17,7 +17,11 @@
 //! point's values, following the valley), until the profile reaches `t²` (the end interpolated
 //! in the squared distance) or the parameter's bound.
 
-use super::*;
+use super::{fit_state_holding, Ctx, FitOut, FitProblem, Limits, ModelState};
+use crate::lm;
+use crate::sim::Simulator;
+use nalgebra::DMatrix;
+use rayon::iter::{IndexedParallelIterator, IntoParallelRefIterator, ParallelIterator};
 
 /// Held fits of the profile search per end; each moves the end out by [`GROWTH`].
 const MAX_HELD_FITS: usize = 4;

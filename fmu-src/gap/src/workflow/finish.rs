@@ -1,7 +1,16 @@
 //! The end of a run: the chosen model refitted on the whole trace, its outputs as the data see
 //! them, and the errors before and after per output.
 
-use super::*;
+use super::diagnose::errors;
+use super::offsets::offset_estimates;
+use super::screen::FINAL_LIMITS;
+use super::{
+    ensure_jacobian, fit_state, Ctx, Data, Estimate, FitOut, GapError, ModelState, OutputErrors,
+    OutputTrace,
+};
+use crate::lm;
+use crate::sim::Simulator;
+use std::collections::BTreeMap;
 
 /// How far (in its fitting coordinate) a base parameter may end from where the calibration
 /// started it before the final fit is also tried from that start: a factor of 3 for a

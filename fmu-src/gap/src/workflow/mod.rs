@@ -13,14 +13,20 @@
 //! rows of output `k` are multiplied by `(σ_k / s_k) √(N_eff,k / N)` where `s_k` is the residual RMS,
 //! so `Cov(z) = (J̃ᵀ J̃)⁻¹` and 95 % Wald intervals follow by the delta method.
 
-use crate::lm::{self, Bounded, LmOptions, Problem};
+use crate::lm::{Bounded, LmOptions, Problem};
 use crate::sim::{Counted, SimError, Simulator};
-use crate::spec::{self, EffectSpec, ParamKind, ParamSpec};
-use crate::stats;
+use crate::spec::{EffectSpec, ParamSpec};
+use crate::{lm, stats};
+use diagnose::diagnose;
+use evidence::{bound_warnings, estimates, far_from_data_warning, offset_warnings, row_scale};
+use finish::{final_fit, final_outputs, output_errors};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use nalgebra::{DMatrix, DVector};
-use rayon::prelude::*;
+use rough::{interval_basis, roughness_note};
+use rounds::{run_rounds, RoundInputs, Rounds};
+use screen::LM_ABS_TOL;
 use serde::Serialize;
+use setup::{setup, Setup};
+use start::{calibrate_to_start, initial_state_note, reproduces_start, start_error, Calibrated};
 use std::collections::BTreeMap;
 use std::time::Instant;
 
@@ -38,22 +44,9 @@ mod setup;
 mod start;
 mod verdict;
 
-use calibrate::*;
 pub use calibrate::{Calibration, CalibrationFit};
-use diagnose::*;
-use ends::*;
 pub(crate) use evidence::regress;
-use evidence::*;
-use finish::*;
-use offsets::*;
-use refit::*;
-use rough::*;
-use rounds::*;
-use screen::*;
-use setup::*;
-use start::*;
 pub use verdict::visibility_scale;
-use verdict::*;
 
 /// z value of a two-sided 95 % interval.
 pub const Z95: f64 = 1.959_963_984_540_054;

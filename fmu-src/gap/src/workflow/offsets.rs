@@ -2,7 +2,13 @@
 //! measured output, eliminated from every fit in closed form ([`Ctx::residual_est`]) and
 //! reported here with its 95 % interval.
 
-use super::*;
+use super::evidence::{covariance, row_scale};
+use super::{Ctx, Estimate, FitOut, Z95};
+use crate::lm::LmOptions;
+use crate::sim::Simulator;
+use nalgebra::DMatrix;
+use rayon::iter::{IntoParallelIterator, ParallelIterator};
+use std::collections::BTreeMap;
 
 /// The offset (measured − model) of every output whose offset is estimated, at the final fit
 /// `fin` over samples `0..n_fit`, with `y` the model's measured outputs there.

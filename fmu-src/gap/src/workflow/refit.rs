@@ -1,7 +1,17 @@
 //! Refit of the promising candidates, their assessment, and the profile restart of a refit
 //! stuck short of the naming threshold.
 
-use super::*;
+use super::evidence::{covariance, delta_bic, estimates, holdout_sse, row_scale};
+use super::screen::{CandidateStart, REFIT_ITERATIONS};
+use super::{
+    ensure_jacobian, find_param, fit_state, fit_state_holding, Candidate, Ctx, Estimate, FitOut,
+    Limits, ModelState, VisibilityPoint, Z95,
+};
+use crate::sim::{SimError, Simulator};
+use crate::{lm, stats};
+use nalgebra::DMatrix;
+use rayon::iter::{IntoParallelIterator, ParallelIterator};
+use std::collections::BTreeMap;
 
 /// Refit the current model plus effect `e` on the training part; compute its ΔBIC, parameter and
 /// magnitude intervals and held-out error. Returns the candidate, its fit and its full-trace

@@ -19,7 +19,12 @@
 //! stopped short of the minimum) moves out to where it rises by as much. A 95 % interval is thus
 //! never narrower than its likelihood-ratio end along that path.
 
-use super::*;
+use super::ends::profile_ends;
+use super::evidence::covariance;
+use super::{Ctx, FitOut, FitProblem, Z95};
+use crate::lm::{self, LmOptions};
+use crate::sim::Simulator;
+use nalgebra::DMatrix;
 
 /// Sign patterns probed for the roughness at each scale (two simulations each).
 const PATTERNS: usize = 4;

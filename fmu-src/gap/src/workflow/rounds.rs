@@ -4,7 +4,22 @@
 //! Each round ends in an [`Outcome`]; [`run_rounds`] decides from it whether to go on, do the
 //! round again (once, from a better base) or stop with a verdict.
 
-use super::*;
+use super::diagnose::diagnose;
+use super::evidence::{best_refit_delta_bic, delta_bic, holdout_sse};
+use super::refit::{assess, profile_restart, refit};
+use super::screen::{
+    scan_starts, screen, CandidateStart, FAR_FROM_NOISE, LM_ABS_TOL, POLISH_LIMITS,
+    REFIT_SCORE_FRACTION,
+};
+use super::start::{reproduces_start, StartMiss, START_REASON};
+use super::verdict::{hidden_from_data, only_screened, reasons};
+use super::{
+    ensure_jacobian, fit_state, visibility_scale, Candidate, Config, Ctx, Data, Diagnosis, FitOut,
+    GapError, Limits, ModelState, VisibilityPoint,
+};
+use crate::sim::{SimError, Simulator};
+use rayon::iter::{IndexedParallelIterator, IntoParallelRefIterator, ParallelIterator};
+use std::collections::BTreeMap;
 
 /// What the rounds hand on: the current model and everything the report needs from them.
 pub(super) struct Rounds {

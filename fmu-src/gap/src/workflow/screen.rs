@@ -5,7 +5,12 @@
 //! candidate, the change the effect makes at its start values and the sensitivities to each of its
 //! parameters there; the statistic is the linearised ΔBIC of the augmented regression.
 
-use super::*;
+use super::evidence::{delta_bic, delta_bic_naive};
+use super::{regress, Ctx, FitOut, Limits, ModelState, VisibilityPoint};
+use crate::lm::{self, Bounded};
+use crate::sim::Simulator;
+use nalgebra::{DMatrix, DVector};
+use rayon::iter::{IndexedParallelIterator, IntoParallelRefIterator, ParallelIterator};
 
 /// Absolute stopping floor of every fit, in units of the weighted sum of squares (chi-square):
 /// a fit still gaining more than this per step continues even when the gain is a small fraction

@@ -1,7 +1,10 @@
 //! Setup: check the data against the model and resolve the configuration into indices (outputs
 //! compared, known settings, candidate effects, parameters to calibrate and their starts).
 
-use super::*;
+use super::verdict::convention_warnings;
+use super::{find_param, Config, Data, GapError};
+use crate::sim::Simulator;
+use crate::spec::{self, EffectSpec, ParamKind, ParamSpec};
 
 /// The run's inputs resolved against the model.
 pub(super) struct Setup {

@@ -33,7 +33,11 @@
 //! Dropping a settling window instead would not do: an angle (any integrated state) keeps the
 //! difference it began with for ever, and the fit bends to it over the whole trace.
 
-use super::*;
+use super::calibrate::calibrate_base;
+use super::{Calibration, Ctx, FitOut, GapError, ModelState};
+use crate::sim::Simulator;
+use crate::spec::ParamSpec;
+use crate::stats;
 
 /// Samples at the start of the record that are compared ([`start_miss`]).
 pub(super) const START_SAMPLES: usize = 3;
@@ -328,6 +332,7 @@ fn names(params: &[ParamSpec], idx: &[usize]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::ParamSpec;
 
     /// Pseudo-random standard normal samples (deterministic; Box–Muller on an LCG).
     fn noise(n: usize, seed: u64) -> Vec<f64> {
