@@ -1,8 +1,8 @@
-//! The [`Simulator`] of an FMI 2.0 Co-Simulation FMU through the `host` crate: the measured
+//! The [`GridModel`] of an FMI 2.0 Co-Simulation FMU through the `host` crate: the measured
 //! inputs drive it (linearly interpolated at the communication points), the communication step
 //! is the data's sample interval, and the outputs are compared at the data's times.
 
-use crate::sim::{SimError, Simulator};
+use crate::sim::{GridModel, SimError};
 use crate::spec::{ParamKind, ParamSpec};
 use crate::workflow::{Data, GapError};
 use host::md::{Causality, VarKind, Variability};
@@ -108,7 +108,7 @@ impl<'a> FmuSimulator<'a> {
     }
 }
 
-impl Simulator for FmuSimulator<'_> {
+impl GridModel for FmuSimulator<'_> {
     fn params(&self) -> &[ParamSpec] {
         &self.params
     }

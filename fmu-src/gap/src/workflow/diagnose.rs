@@ -1,7 +1,7 @@
 //! Diagnosis of a round: where and when the residuals exceed the noise.
 
 use super::{Ctx, Data, Diagnosis, OutputDiagnosis};
-use crate::sim::Simulator;
+use crate::sim::GridModel;
 use crate::stats;
 use rayon::iter::{IntoParallelRefIterator, ParallelIterator};
 
@@ -15,7 +15,7 @@ pub(super) fn errors(meas: &[f64], model: &[f64]) -> (f64, f64) {
 }
 
 /// Diagnose the residual of the current model over the whole trace.
-pub(super) fn diagnose<S: Simulator + ?Sized>(
+pub(super) fn diagnose<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     data: &Data,
     all_out: &[Vec<f64>],

@@ -19,7 +19,7 @@
 
 use super::{fit_state_holding, Ctx, FitOut, FitProblem, Limits, ModelState};
 use crate::lm;
-use crate::sim::Simulator;
+use crate::sim::GridModel;
 use nalgebra::DMatrix;
 use rayon::iter::{IndexedParallelIterator, IntoParallelRefIterator, ParallelIterator};
 
@@ -42,7 +42,7 @@ const HELD_FIT_ITERATIONS: usize = 5;
 /// their ranges), and every end is then checked by a fit of the others with its parameter held
 /// there.
 #[allow(clippy::too_many_arguments)]
-pub(super) fn profile_ends<S: Simulator + ?Sized>(
+pub(super) fn profile_ends<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     fin: &FitOut,
     n_fin: usize,

@@ -5,7 +5,7 @@
 use super::evidence::{covariance, row_scale};
 use super::{Ctx, Estimate, FitOut, Z95};
 use crate::lm::LmOptions;
-use crate::sim::Simulator;
+use crate::sim::GridModel;
 use nalgebra::DMatrix;
 use rayon::iter::{IntoParallelIterator, ParallelIterator};
 use std::collections::BTreeMap;
@@ -20,7 +20,7 @@ use std::collections::BTreeMap;
 /// the per-output mean of `∂r_raw/∂z`, taken by one forward difference per parameter (the step
 /// of the fit's Jacobian). The interval thus carries the uncertainty of the parameters the
 /// offset trades against, not only that of a mean.
-pub(super) fn offset_estimates<S: Simulator + ?Sized>(
+pub(super) fn offset_estimates<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     fin: &FitOut,
     n_fit: usize,

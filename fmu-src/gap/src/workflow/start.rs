@@ -35,7 +35,7 @@
 
 use super::calibrate::calibrate_base;
 use super::{Calibration, Ctx, FitOut, GapError, ModelState};
-use crate::sim::Simulator;
+use crate::sim::GridModel;
 use crate::spec::ParamSpec;
 use crate::stats;
 
@@ -139,7 +139,7 @@ pub(super) struct Calibrated {
 /// calibrates again from the values as given with them added, so that the model begins where
 /// the record does. A record from rest is fitted without them: the extra freedom is given
 /// only where the record needs it.
-pub(super) fn calibrate_to_start<S: Simulator + ?Sized>(
+pub(super) fn calibrate_to_start<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     st0: ModelState,
     initial: &[usize],
@@ -161,7 +161,7 @@ pub(super) fn calibrate_to_start<S: Simulator + ?Sized>(
     Ok(again)
 }
 
-fn calibrate_and_check<S: Simulator + ?Sized>(
+fn calibrate_and_check<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     st0: ModelState,
 ) -> Result<Calibrated, GapError> {
@@ -201,7 +201,7 @@ fn calibrate_and_check<S: Simulator + ?Sized>(
 }
 
 /// The line the report gives when the initial state was estimated ([`calibrate_to_start`]).
-pub(super) fn initial_state_note<S: Simulator + ?Sized>(
+pub(super) fn initial_state_note<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     miss: &StartMiss,
     initial: &[usize],
@@ -218,7 +218,7 @@ pub(super) fn initial_state_note<S: Simulator + ?Sized>(
 
 /// The base fit's miss of the record's start when it exceeds [`START_MAX_Z`] (None: the record
 /// begins in the model's state); `r`: the base fit's weighted residual over the whole trace.
-pub(super) fn start_disagreement<S: Simulator + ?Sized>(
+pub(super) fn start_disagreement<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     r: &[f64],
 ) -> Option<StartMiss> {
@@ -242,7 +242,7 @@ pub(super) fn start_disagreement<S: Simulator + ?Sized>(
 /// it goes on, which is no sign of a record begun in motion. An effect that moves the state
 /// the model rests in (a leak shifting the pressures at rest) explains such a start; an effect
 /// named while the start stays unexplained would only imitate it.
-pub(super) fn reproduces_start<S: Simulator + ?Sized>(
+pub(super) fn reproduces_start<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     base: &StartMiss,
     r: &[f64],
@@ -272,7 +272,7 @@ pub(super) const START_REASON: &str =
 /// explains it (`miss`: the base fit's start miss; `initial`: the initial-state parameters that
 /// were estimated; `time`: the record's sample times). With no candidate round (`rounds` 0)
 /// nothing can be named, so the same text is a warning of the calibration instead (`Ok`).
-pub(super) fn start_error<S: Simulator + ?Sized>(
+pub(super) fn start_error<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     miss: &StartMiss,
     initial: &[usize],
