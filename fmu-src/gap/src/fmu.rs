@@ -5,6 +5,7 @@
 use crate::sim::{GridModel, SimError};
 use crate::spec::{ParamKind, ParamSpec};
 use crate::workflow::{Data, GapError};
+use host::csv::sample_interval;
 use host::md::{Causality, VarKind, Variability};
 use host::{Fmu, InputSeries, SimulationRequest, Value};
 use std::sync::Mutex;
@@ -18,16 +19,6 @@ pub struct FmuSimulator<'a> {
     step: f64,
     inputs: InputSeries,
     pool: Mutex<Vec<host::Simulator<'a>>>,
-}
-
-/// The sample interval of a time grid: the median of its differences.
-pub fn sample_interval(time: &[f64]) -> Option<f64> {
-    let mut d: Vec<f64> = time.windows(2).map(|w| w[1] - w[0]).collect();
-    if d.is_empty() {
-        return None;
-    }
-    d.sort_by(f64::total_cmp);
-    Some(d[d.len() / 2])
 }
 
 impl<'a> FmuSimulator<'a> {

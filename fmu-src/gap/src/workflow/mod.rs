@@ -757,21 +757,9 @@ pub fn run<S: GridModel + ?Sized>(
     let ending = finish(&ctx, data, &st0, (cur, &cur_full_r), [&nominal, &base_fit])?;
     ctx.pb.finish_and_clear();
     let est_s = t_est.elapsed().as_secs_f64();
-    let mut warnings = bound_warnings(&ending.parameters, &ctx.params);
-    warnings.extend(offset_warnings(&ending.outputs));
-    if let Some(miss) = &initial_estimated {
-        warnings.push(initial_state_note(&ctx, miss, &initial_idx));
-    }
-    warnings.extend(start_warning);
-    warnings.extend(far_from_data_warning(&ending.outputs));
-    warnings.extend(ending.roughness.map(roughness_note));
-    let timing = Timing {
-        total_s: t_start.elapsed().as_secs_f64(),
-        simulate_s: ctx.sim.busy_s(),
-        fit_s: (est_s - ctx.sim.busy_s()).max(0.0),
-        simulations: ctx.sim.count(),
-        threads: rayon::current_num_threads(),
-    };
+    let initial_note = initial_estimated.map(|m| initial_state_note(&ctx, &m, &initial_idx));
+    let warnings = run_warnings(&ctx, &ending, initial_note, start_warning);
+    let timing = timing(&ctx, t_start, est_s);
     let Ending {
         parameters,
         offsets,
@@ -803,6 +791,35 @@ pub fn run<S: GridModel + ?Sized>(
             revealing,
         },
     })
+}
+
+/// The report's warnings, in the order a reader meets them: parameters on a bound, offsets,
+/// the initial state estimated, a start the final model does not reproduce, a final model
+/// still far from the data, a rough sum of squares.
+fn run_warnings<S: GridModel + ?Sized>(
+    ctx: &Ctx<'_, S>,
+    ending: &Ending,
+    initial_note: Option<String>,
+    start_warning: Option<String>,
+) -> Vec<String> {
+    let mut warnings = bound_warnings(&ending.parameters, &ctx.params);
+    warnings.extend(offset_warnings(&ending.outputs));
+    warnings.extend(initial_note);
+    warnings.extend(start_warning);
+    warnings.extend(far_from_data_warning(&ending.outputs));
+    warnings.extend(ending.roughness.map(roughness_note));
+    warnings
+}
+
+/// Wall time of the run, split into simulating and the rest of the estimation (`est_s`).
+fn timing<S: GridModel + ?Sized>(ctx: &Ctx<'_, S>, t_start: Instant, est_s: f64) -> Timing {
+    Timing {
+        total_s: t_start.elapsed().as_secs_f64(),
+        simulate_s: ctx.sim.busy_s(),
+        fit_s: (est_s - ctx.sim.busy_s()).max(0.0),
+        simulations: ctx.sim.count(),
+        threads: rayon::current_num_threads(),
+    }
 }
 
 /// The fraction of the trace held out at its end (`Config::holdout`, kept within 0..0.9).
