@@ -89,6 +89,27 @@ def test_simulate_and_gap_step_a_grid_identically(tmp_path, jitter):
                                      rel=1e-9 if jitter else 1e-13, abs=0), name
 
 
+@pytest.mark.parametrize("rho", [0.9, 0.97])
+def test_correlated_noise_alone_is_neither_refused_nor_named(tmp_path, rho):
+    """A clean HydraulicJoint record (no hidden effect) with AR(1) noise of 1 % of each range: the
+    noise level estimated from the data's differences is then the fast part's (a quarter of the
+    marginal level at 0.9), which made the start test refuse the record (exit 2). gap estimates
+    the coefficient from the calibrated residual and reports it; nothing is named."""
+    fmu_path("HydraulicJoint")
+    # 4 s at 250 Hz, as scripts/gap-eval's records: at 0.97 a shorter record holds too few
+    # effective samples to tell the noise's coefficient from its differences.
+    ds = gapgen.make("HydraulicJoint", 1, (), ar=rho, duration=4.0, rate=250.0)
+    csv = tmp_path / "ar.csv"
+    gapgen.write_csv(ds, csv)
+    rep = run_ok("HydraulicJoint", csv, tmp_path / "out")
+    assert rep["named"] == []
+    for name, o in rep["outputs"].items():
+        assert o["noise_ar1"] == pytest.approx(rho, abs=0.06), name
+        # The marginal level, as generated (sampling error of a 4 s record at this rho).
+        assert o["noise_sigma"] == pytest.approx(ds["noise_sigma"][name], rel=0.35), name
+    assert any("noise is correlated" in w for w in rep["warnings"])
+
+
 def check_report_shape(rep, ds):
     for key in ("named", "candidates", "parameters", "outputs", "timing", "redone_rounds",
                 "calibration"):

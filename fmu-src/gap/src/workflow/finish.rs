@@ -130,6 +130,7 @@ pub(super) fn output_errors<S: GridModel + ?Sized>(
                 rmse_base_fit: rf,
                 max_base_fit: mf,
                 noise_sigma: ctx.sigma[k],
+                noise_ar1: ctx.rho[k],
                 mean_after: final_y[k].iter().zip(y).map(|(m, d)| m - d).sum::<f64>()
                     / y.len().max(1) as f64,
             },

@@ -2,7 +2,7 @@
 //!
 //! Notation: `K` measured outputs, `N` samples, weighted residual `r = (y_model − y_meas) / σ_k`
 //! stacked output by output (row `k N + i`). `σ_k` is the noise level of output `k` estimated from
-//! the data (`stats::noise_sigma`). Fits use the first `(1 − holdout)` of the trace; the last part
+//! the data (`stats::noise_sigma`), the marginal level of correlated noise (`noise`). Fits use the first `(1 − holdout)` of the trace; the last part
 //! is held out to check that a named effect generalises.
 //!
 //! Model comparison uses the profile likelihood with one unknown noise variance per output and an
@@ -35,6 +35,7 @@ mod diagnose;
 mod ends;
 mod evidence;
 mod finish;
+mod noise;
 mod offsets;
 mod refit;
 mod rough;
@@ -277,7 +278,9 @@ pub struct OutputErrors {
     /// Base model (effects off) after calibration.
     pub rmse_base_fit: f64,
     pub max_base_fit: f64,
+    /// Noise level (marginal standard deviation) and the noise's AR(1) coefficient (0: white).
     pub noise_sigma: f64,
+    pub noise_ar1: f64,
     /// Mean of (model − measured) after the final fit: a constant offset, such as a sensor zero
     /// error, shows here.
     pub mean_after: f64,
@@ -398,7 +401,10 @@ struct Ctx<'a, S: GridModel + ?Sized> {
     fixed: Vec<(usize, f64)>,
     out_idx: Vec<usize>,
     meas: Vec<Vec<f64>>,
+    /// Per measured output: the noise level (marginal standard deviation) and the AR(1)
+    /// coefficient of the noise (0: white), see `noise`.
     sigma: Vec<f64>,
+    rho: Vec<f64>,
     /// Per measured output: its offset is estimated (`Config::offsets`).
     offset: Vec<bool>,
     n: usize,
@@ -708,7 +714,9 @@ pub fn run<S: GridModel + ?Sized>(
     let nominal = measured_part(&ctx, &simulate_all(&ctx, &st0)?);
 
     // --- 1. Calibrate the base model on the training part; for a record that does not begin
-    // in the model's initial state, again with the initial state the FMU exposes (`start`).
+    // in the model's initial state, again with the initial state the FMU exposes (`start`);
+    // for correlated noise, again with its marginal level (`noise`).
+    let (ctx, calibrated) = calibrate_with_noise_model(ctx, st0, &initial_idx)?;
     let Calibrated {
         st0,
         fit: base,
@@ -717,7 +725,7 @@ pub fn run<S: GridModel + ?Sized>(
         miss: start_miss0,
         initial_estimated,
         ..
-    } = calibrate_to_start(&ctx, st0, &initial_idx)?;
+    } = calibrated;
     let base_fit = measured_part(&ctx, &base_all);
     let cur_full_r = ctx.residual(&base_fit, ctx.n);
     let base_fit = ctx.with_offsets(base_fit, ctx.n_train);
@@ -806,6 +814,11 @@ fn run_warnings<S: GridModel + ?Sized>(
     warnings.extend(offset_warnings(&ending.outputs));
     warnings.extend(initial_note);
     warnings.extend(start_warning);
+    warnings.extend(noise::correlated_noise_note(
+        &ctx.rho,
+        ctx.sim.inner.output_names(),
+        &ctx.out_idx,
+    ));
     warnings.extend(far_from_data_warning(&ending.outputs));
     warnings.extend(ending.roughness.map(roughness_note));
     warnings
@@ -820,6 +833,37 @@ fn timing<S: GridModel + ?Sized>(ctx: &Ctx<'_, S>, t_start: Instant, est_s: f64)
         simulations: ctx.sim.count(),
         threads: rayon::current_num_threads(),
     }
+}
+
+/// The base calibration ([`calibrate_to_start`]), then the noise model from its residual
+/// (`noise`): where an output's noise is correlated, its level becomes the marginal one, its
+/// AR(1) coefficient is carried by the statistics, and the base model is calibrated again
+/// with those weights. White noise everywhere leaves the first calibration as it is.
+fn calibrate_with_noise_model<'a, S: GridModel + ?Sized>(
+    ctx: Ctx<'a, S>,
+    st0: ModelState,
+    initial_idx: &[usize],
+) -> Result<(Ctx<'a, S>, Calibrated), GapError> {
+    let first = calibrate_to_start(&ctx, st0.clone(), initial_idx)?;
+    let r = ctx.residual(&measured_part(&ctx, &first.all), ctx.n);
+    let n = ctx.n;
+    let fits: Vec<noise::NoiseFit> = (0..ctx.out_idx.len())
+        .map(|k| noise::noise_fit(&r[k * n..(k + 1) * n]))
+        .collect();
+    if fits.iter().all(|f| f.rho == 0.0) {
+        return Ok((ctx, first));
+    }
+    let rho = fits.iter().map(|f| f.rho).collect();
+    let sigma = ctx
+        .sigma
+        .iter()
+        .zip(&fits)
+        .map(|(s, f)| s * f.level)
+        .collect();
+    let ctx = Ctx { sigma, rho, ..ctx };
+    ctx.stage("calibrating again with the correlated noise's level".to_string());
+    let again = calibrate_to_start(&ctx, st0, initial_idx)?;
+    Ok((ctx, again))
 }
 
 /// The fraction of the trace held out at its end (`Config::holdout`, kept within 0..0.9).
@@ -881,6 +925,7 @@ fn context<'a, S: GridModel + ?Sized>(
         effects,
         fixed,
         out_idx,
+        rho: vec![0.0; meas.len()],
         meas,
         sigma,
         offset,
