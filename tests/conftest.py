@@ -24,6 +24,16 @@ def fmu_path(name: str) -> str:
     return str(path)
 
 
+def fmu3_path(name: str) -> str:
+    """Path of the FMI 3.0 archive dist/fmi3/`name`.fmu; runs scripts/build once when missing."""
+    path = DIST / "fmi3" / f"{name}.fmu"
+    if not path.exists():
+        subprocess.run([str(REPO / "scripts" / "build")], check=True)
+    if not path.exists():
+        raise FileNotFoundError(f"{path} was not built by scripts/build")
+    return str(path)
+
+
 def cli_path() -> str:
     """Path of the release `actuator-fmu` binary (built by scripts/build)."""
     if not CLI.exists():

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from fmpy import read_model_description, simulate_fmu
 
-from conftest import fmu_path
+from conftest import fmu3_path, fmu_path
 from fmi_harness import ERROR, Harness
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -22,6 +22,8 @@ sys.path.insert(0, os.path.join(HERE, "reference"))
 import twisted_string_ref as ref  # noqa: E402
 
 FMU = fmu_path("TwistedString")
+# The paper-number tests also run on the FMI 3.0 archive (the same model code).
+VERSIONS = {"fmi2": FMU, "fmi3": fmu3_path("TwistedString")}
 MD = read_model_description(FMU)
 VARS = {v.name: v for v in MD.modelVariables}
 OUTPUT_NAMES = [v.name for v in MD.modelVariables if v.causality == "output"]
@@ -47,10 +49,10 @@ def fmpy_input(inputs):
     return np.array(rows, dtype=dtype)
 
 
-def sim(params=None, inputs=None, t_end=1.0, dt=1e-3, tolerance=None):
-    """Simulate the FMU with FMPy at communication step dt (FMPy's relative_tolerance
-    `tolerance`, None: its default); returns the structured result."""
-    return simulate_fmu(FMU, start_time=0.0, stop_time=t_end, step_size=dt, output_interval=dt,
+def sim(params=None, inputs=None, t_end=1.0, dt=1e-3, tolerance=None, fmu=FMU):
+    """Simulate the FMU (by default the FMI 2.0 archive) with FMPy at communication step dt
+    (FMPy's relative_tolerance `tolerance`, None: its default); returns the structured result."""
+    return simulate_fmu(fmu, start_time=0.0, stop_time=t_end, step_size=dt, output_interval=dt,
                         start_values=dict(params or {}), input=fmpy_input(inputs),
                         output=OUTPUT_NAMES, relative_tolerance=tolerance)
 
@@ -181,15 +183,17 @@ def staircase(levels, hold):
     return (t, v)
 
 
-@pytest.fixture(scope="module")
-def staircases():
-    """Quasi-static twist 0..6000 deg (7 levels) under each paper load, string_compliance on."""
+@pytest.fixture(scope="module", params=sorted(VERSIONS))
+def staircases(request):
+    """Quasi-static twist 0..6000 deg (7 levels) under each paper load, string_compliance on;
+    once per archive (FMI 2.0, FMI 3.0)."""
     levels = [DEG1000 * k for k in range(1, 7)]
     hold = 1.5
     out = {}
     for F in LOADS:
         res = sim({"load_mass": F / G, "string_compliance.enabled": True},
-                  {"theta_motor_ref": staircase(levels, hold)}, t_end=hold * 7, dt=1e-3)
+                  {"theta_motor_ref": staircase(levels, hold)}, t_end=hold * 7, dt=1e-3,
+                  fmu=VERSIONS[request.param])
         idx = [int(round((k + 1) * hold / 1e-3)) - 1 for k in range(7)]  # end of each hold
         out[F] = res[idx]
     return out
@@ -229,7 +233,8 @@ def test_position_step_settles_and_stays_in_band():
         assert np.all(np.abs(e) < 2.0 + ENCODER_DEG), e
 
 
-def test_average_speed_at_8000rpm():
+@pytest.mark.parametrize("version", sorted(VERSIONS))
+def test_average_speed_at_8000rpm(version):
     """Section 6: over motor angle 335.1 -> 2011 rad at the 8000 rpm limit the actuator moves at
     {1.58, 1.53, 1.53, 1.45, 1.42} cm/s for the five loads (slower for heavier loads): the measured
     length changes {31.5, 30.5, 30.5, 29.0, 28.5} mm over the 2.0 s that 1675.9 rad take at 8000 rpm.
@@ -240,7 +245,8 @@ def test_average_speed_at_8000rpm():
     for F in LOADS:
         # settle at 335.1 rad, then command beyond 2011 rad so that 2011 is passed at full speed
         res = sim({"load_mass": F / G, "string_compliance.enabled": True},
-                  {"theta_motor_ref": ([0, 1.5, 1.5], [DEG1000, DEG1000, 2100.0])}, t_end=4.0)
+                  {"theta_motor_ref": ([0, 1.5, 1.5], [DEG1000, DEG1000, 2100.0])}, t_end=4.0,
+                  fmu=VERSIONS[version])
         th, p, t = res["theta_motor"], res["p"], res["time"]
         k0 = int(np.argmax((t >= 1.5) & (th > DEG1000 + 0.5)))
         k1 = int(np.argmax(th >= DEG6000))

@@ -256,7 +256,7 @@ impl<M: Model> Driver<M> {
         let (n, ty, g, f) = match bad % 8 {
             0 => (std::ptr::null(), 1, guid.as_ptr(), &*self.cb as *const _),
             1 => (c"".as_ptr(), 1, guid.as_ptr(), &*self.cb as *const _),
-            2 => (name.as_ptr(), 0, guid.as_ptr(), &*self.cb as *const _),
+            2 => (name.as_ptr(), 2, guid.as_ptr(), &*self.cb as *const _),
             3 => (name.as_ptr(), 1, c"{nope}".as_ptr(), &*self.cb as *const _),
             4 => (name.as_ptr(), 1, std::ptr::null(), &*self.cb as *const _),
             5 => (name.as_ptr(), 1, guid.as_ptr(), std::ptr::null()),

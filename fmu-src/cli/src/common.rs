@@ -11,7 +11,26 @@ macro_rules! out {
 }
 
 use host::md::ModelDescription;
-use host::Value;
+use host::{Interface, Value};
+
+/// `--interface`: which FMI interface of the FMU runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum InterfaceArg {
+    /// Co-Simulation: the FMU integrates itself.
+    Cs,
+    /// Model Exchange: the host integrates the FMU with its Rosenbrock solver.
+    Me,
+}
+
+impl InterfaceArg {
+    /// The host's interface for the option (None: Co-Simulation where offered, else ME).
+    pub fn host(arg: Option<InterfaceArg>) -> Option<Interface> {
+        arg.map(|a| match a {
+            InterfaceArg::Cs => Interface::CoSimulation,
+            InterfaceArg::Me => Interface::ModelExchange,
+        })
+    }
+}
 
 /// An error that ends the program with `code` after printing `message`.
 #[derive(Debug)]
@@ -47,13 +66,19 @@ impl CliError {
 pub fn run_error(context: &str, e: host::HostError) -> CliError {
     use host::HostError;
     let setup = match &e {
-        HostError::Instantiate { .. } | HostError::Unsupported { .. } => true,
+        HostError::Instantiate { .. }
+        | HostError::InstantiateNull { .. }
+        | HostError::Unsupported { .. } => true,
         HostError::Fmi { function, .. } => matches!(
             *function,
             "fmi2Instantiate"
                 | "fmi2SetupExperiment"
                 | "fmi2EnterInitializationMode"
                 | "fmi2ExitInitializationMode"
+                | "fmi3EnterConfigurationMode"
+                | "fmi3ExitConfigurationMode"
+                | "fmi3EnterInitializationMode"
+                | "fmi3ExitInitializationMode"
         ),
         HostError::Request(_) | HostError::UnknownVariable(_) => true,
         _ => false,

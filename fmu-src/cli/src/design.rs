@@ -4,11 +4,10 @@
 
 use crate::common::{numeric_sets, CliError, CliResult};
 use crate::gap_cmd::load_data;
+use crate::open::AnyFmu;
 use gap::design::{self, Design, DesignConfig, InputSpec, Noise};
-use gap::fmu::FmuSimulator;
 use gap::GapError;
 use host::md::{Causality, ModelDescription, VarKind};
-use host::Fmu;
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -57,6 +56,11 @@ pub struct Args {
     /// No progress display (accepted for symmetry with gap; design prints only its summary).
     #[arg(long)]
     pub quiet: bool,
+    /// FMI interface to run: cs (Co-Simulation) or me (Model Exchange, integrated by the host
+    /// with its stiff Rosenbrock solver, events located). Default: cs where the FMU offers it,
+    /// else me.
+    #[arg(long, value_enum, value_name = "cs|me")]
+    pub interface: Option<crate::common::InterfaceArg>,
     /// Longest one FMU call may take [s] before the run is stopped as hung (0: no limit).
     #[arg(long, default_value_t = 60.0, value_name = "SECONDS")]
     pub timeout: f64,
@@ -237,11 +241,12 @@ pub fn run(a: Args) -> CliResult {
     crate::common::refuse_overwriting(&a.out, &inputs)?;
     let opts = host::OpenOptions {
         python: a.python.clone(),
+        interface: crate::common::InterfaceArg::host(a.interface),
     };
-    let fmu = Fmu::open_with(&a.fmu, &opts).map_err(CliError::input)?;
+    let fmu = AnyFmu::open(&a.fmu, &opts)?;
     let md = fmu.model_description();
     let cfg = experiment(&a, md)?;
-    let d = design::design(|data| FmuSimulator::new(&fmu, data), &cfg).map_err(|e| match e {
+    let d = design::design(|data| fmu.simulator(data), &cfg).map_err(|e| match e {
         GapError::Usage(m) => CliError::input(m),
         GapError::Simulation(m) => CliError::failure(format!("simulation failed: {m}")),
     })?;

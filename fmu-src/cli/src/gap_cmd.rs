@@ -2,10 +2,9 @@
 //! [--rounds N] [--set NAME=VALUE ...]`: the gap workflow (crate `gap`).
 
 use crate::common::{numeric_sets, CliError, CliResult};
-use gap::fmu::FmuSimulator;
+use crate::open::AnyFmu;
 use gap::{Config, Data, GapError};
 use host::csv::{read_csv, CsvError};
-use host::Fmu;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `gap`.
@@ -55,6 +54,11 @@ pub struct Args {
     /// Print every stage (elapsed time, simulation count) and every fit iteration on stderr.
     #[arg(long)]
     pub trace: bool,
+    /// FMI interface to run: cs (Co-Simulation) or me (Model Exchange, integrated by the host
+    /// with its stiff Rosenbrock solver, events located). Default: cs where the FMU offers it,
+    /// else me.
+    #[arg(long, value_enum, value_name = "cs|me")]
+    pub interface: Option<crate::common::InterfaceArg>,
     /// Longest one FMU call may take [s] before the run is stopped as hung (0: no limit).
     #[arg(long, default_value_t = 60.0, value_name = "SECONDS")]
     pub timeout: f64,
@@ -134,8 +138,9 @@ pub fn run(a: Args) -> CliResult {
     refuse_writing_over_inputs(&a)?;
     let opts = host::OpenOptions {
         python: a.python.clone(),
+        interface: crate::common::InterfaceArg::host(a.interface),
     };
-    let fmu = Fmu::open_with(&a.fmu, &opts).map_err(CliError::input)?;
+    let fmu = AnyFmu::open(&a.fmu, &opts)?;
     let md = fmu.model_description();
     let fixed = numeric_sets(md, &a.set, "gap")?;
     let data = load_data(md, &a.data)?;
@@ -159,7 +164,7 @@ pub fn run(a: Args) -> CliResult {
         offsets: a.offsets.clone(),
         ..Config::default()
     };
-    let sim = FmuSimulator::new(&fmu, &data).map_err(CliError::input)?;
+    let sim = fmu.simulator(&data).map_err(CliError::input)?;
     let res = gap::run(&sim, &data, &cfg).map_err(|e| match e {
         GapError::Usage(m) => CliError::input(m),
         GapError::Simulation(m) => CliError::failure(format!("simulation failed: {m}")),

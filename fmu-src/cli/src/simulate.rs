@@ -1,4 +1,5 @@
-//! `actuator-fmu simulate FMU --data in.csv [--stop T] [--step H] [--set NAME=VALUE ...] --out out.csv`
+//! `actuator-fmu simulate FMU --data in.csv [--stop T] [--step H] [--set NAME=VALUE ...]
+//! [--interface cs|me] --out out.csv`
 
 use crate::common::{parse_sets, refuse_overwriting, run_error, CliError, CliResult};
 use host::csv::{read_csv_for, write_csv_text};
@@ -30,6 +31,15 @@ pub struct Args {
     /// Output CSV: time and every output.
     #[arg(long)]
     pub out: PathBuf,
+    /// Relative tolerance: passed to fmi2SetupExperiment, and the host's integrator tolerance
+    /// for Model Exchange (default: the DefaultExperiment's, else 1e-5 as FMPy).
+    #[arg(long, value_name = "RTOL")]
+    pub tolerance: Option<f64>,
+    /// FMI interface to run: cs (Co-Simulation) or me (Model Exchange, integrated by the host
+    /// with its stiff Rosenbrock solver, events located). Default: cs where the FMU offers it,
+    /// else me.
+    #[arg(long, value_enum, value_name = "cs|me")]
+    pub interface: Option<crate::common::InterfaceArg>,
     /// Longest one FMU call may take [s] before the run is stopped as hung (0: no limit).
     #[arg(long, default_value_t = 60.0, value_name = "SECONDS")]
     pub timeout: f64,
@@ -41,7 +51,7 @@ pub struct Args {
 
 /// A round step that divides `span` into 500 to 1000 steps (FMPy's `auto_interval`, so both
 /// tools record the same grid for an FMU without a DefaultExperiment step).
-fn auto_interval(span: f64) -> f64 {
+pub(crate) fn auto_interval(span: f64) -> f64 {
     if !(span > 0.0 && span.is_finite()) {
         return 1.0;
     }
@@ -66,11 +76,22 @@ fn auto_interval(span: f64) -> f64 {
 
 /// Runs `simulate`.
 pub fn run(a: Args) -> CliResult {
+    if host::fmi_version_of(&a.fmu).map_err(CliError::input)? == host::FmiVersion::Fmi3 {
+        if a.interface == Some(crate::common::InterfaceArg::Me) {
+            return Err(CliError::input(format!(
+                "{}: FMI 3.0 Model Exchange is not supported yet (--interface cs runs its \
+                 Co-Simulation interface)",
+                a.fmu.display()
+            )));
+        }
+        return crate::simulate3::run(a);
+    }
     let mut inputs = vec![a.fmu.as_path()];
     inputs.extend(a.data.as_deref());
     refuse_overwriting(&a.out, &inputs)?;
     let opts = host::OpenOptions {
         python: a.python.clone(),
+        interface: crate::common::InterfaceArg::host(a.interface),
     };
     let fmu = Fmu::open_with(&a.fmu, &opts).map_err(CliError::input)?;
     let md = fmu.model_description();
@@ -124,18 +145,29 @@ pub fn run(a: Args) -> CliResult {
             "--stop {stop} is before the start time {start}"
         )));
     }
+    if let Some(tol) = a.tolerance.filter(|t| !(*t > 0.0 && t.is_finite())) {
+        return Err(CliError::input(format!(
+            "--tolerance must be a positive number, got {tol}"
+        )));
+    }
     let req = SimulationRequest {
         start_values,
         inputs,
+        record_events: true,
+        tolerance: a.tolerance,
         ..SimulationRequest::new(start, stop, step)
     };
     let res = simulate(&fmu, &req).map_err(|e| run_error(&a.fmu.display().to_string(), e))?;
     write_csv_text(&a.out, &res.time, &res.names, &res.columns, &res.text)
         .map_err(|e| CliError::input(format!("{}: cannot write: {e}", a.out.display())))?;
     if let Some(t) = res.ended_by_fmu {
+        let how = match fmu.interface() {
+            host::Interface::CoSimulation => "fmi2DoStep returned fmi2Discard with fmi2Terminated",
+            host::Interface::ModelExchange => "it set terminateSimulation",
+        };
         eprintln!(
-            "{}: the FMU ended the simulation at t = {t} (fmi2DoStep returned fmi2Discard with \
-             fmi2Terminated); {} rows up to that time written to {}",
+            "{}: the FMU ended the simulation at t = {t} ({how}); {} rows up to that time \
+             written to {}",
             a.fmu.display(),
             res.time.len(),
             a.out.display()

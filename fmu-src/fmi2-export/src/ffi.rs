@@ -6,7 +6,8 @@
 
 #![allow(clippy::missing_safety_doc, clippy::too_many_arguments)]
 
-use crate::instance::{allowed, Instance, Snapshot, Status};
+use crate::instance::{allowed, Instance, Interface, Snapshot, Status};
+use crate::me_instance::EventInfo;
 use crate::{Model, VarType};
 use std::collections::BTreeSet;
 use std::ffi::{c_int, CStr, CString};
@@ -20,8 +21,20 @@ pub use fmi2_types::c::{
     FmuState as Fmi2FmuState, Integer as Fmi2Integer, RawStatus as Fmi2Status, Real as Fmi2Real,
     StatusKind as Fmi2StatusKind, ValueReference as Fmi2ValueReference,
     CO_SIMULATION as FMI2_COSIMULATION, DISCARD as FMI2_DISCARD, ERROR as FMI2_ERROR,
-    OK as FMI2_OK,
+    MODEL_EXCHANGE as FMI2_MODEL_EXCHANGE, OK as FMI2_OK,
 };
+
+/// `fmi2EventInfo` of `fmi2FunctionTypes.h`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Fmi2EventInfo {
+    pub new_discrete_states_needed: Fmi2Boolean,
+    pub terminate_simulation: Fmi2Boolean,
+    pub nominals_of_continuous_states_changed: Fmi2Boolean,
+    pub values_of_continuous_states_changed: Fmi2Boolean,
+    pub next_event_time_defined: Fmi2Boolean,
+    pub next_event_time: Fmi2Real,
+}
 
 const MAGIC: u64 = 0x4146_4d55_4932_4353; // "AFMUI2CS"
 
@@ -155,7 +168,8 @@ pub fn get_version() -> Fmi2String {
     c"2.0".as_ptr()
 }
 
-/// `fmi2Instantiate`: Co-Simulation only; the GUID must match the model description.
+/// `fmi2Instantiate`: Co-Simulation, or Model Exchange for a model that provides it; the GUID
+/// must match the model description.
 pub unsafe fn instantiate<M: Model>(
     instance_name: Fmi2String,
     fmu_type: Fmi2Type,
@@ -185,12 +199,24 @@ pub unsafe fn instantiate<M: Model>(
         if instance_name.is_null() || name_str.is_empty() {
             return fail("fmi2Instantiate: instanceName must be a non-empty string".into());
         }
-        if fmu_type != FMI2_COSIMULATION {
-            return fail(format!(
-                "fmi2Instantiate: {} supports Co-Simulation (fmuType 1) only, not fmuType {fmu_type}",
-                M::NAME
-            ));
-        }
+        let has_me = M::model_exchange().is_some();
+        let interface = match fmu_type {
+            FMI2_COSIMULATION => Interface::CoSimulation,
+            FMI2_MODEL_EXCHANGE if has_me => Interface::ModelExchange,
+            _ if has_me => {
+                return fail(format!(
+                    "fmi2Instantiate: {} supports Model Exchange (fmuType 0) and Co-Simulation \
+                     (fmuType 1), not fmuType {fmu_type}",
+                    M::NAME
+                ))
+            }
+            _ => {
+                return fail(format!(
+                    "fmi2Instantiate: {} supports Co-Simulation (fmuType 1) only, not fmuType {fmu_type}",
+                    M::NAME
+                ))
+            }
+        };
         let expected = crate::xml::guid::<M>();
         match c_str(guid) {
             Some(g) if g == expected => {}
@@ -200,9 +226,14 @@ pub unsafe fn instantiate<M: Model>(
                 ))
             }
         }
+        let Some(instance) =
+            Instance::with_interface(name_str, expected, logging_on != 0, interface)
+        else {
+            return fail("fmi2Instantiate: Model Exchange is not provided".into());
+        };
         let comp = Box::new(Component::<M> {
             magic: MAGIC,
-            instance: Instance::new(name_str, expected, logging_on != 0),
+            instance,
             logger,
             environment: env,
             name,
@@ -481,10 +512,7 @@ pub unsafe fn set_fmu_state<M: Model>(c: Fmi2Component, state: Fmi2FmuState) -> 
             return s;
         }
         match own_state(comp, state) {
-            Some(p) => {
-                comp.instance.restore(&*p);
-                Status::Ok
-            }
+            Some(p) => comp.instance.restore(&*p),
             None => comp
                 .instance
                 .error(F, "FMUstate is NULL or not a state of this instance"),
@@ -708,7 +736,148 @@ pub unsafe fn get_boolean_status<M: Model>(
     status_value::<M, _>(c, "fmi2GetBooleanStatus", kind, 3, value, |_| 0)
 }
 
-/// Export every FMI 2.0 Co-Simulation function for model type `$model` from this `cdylib`.
+/// `fmi2SetTime`.
+pub unsafe fn set_time<M: Model>(c: Fmi2Component, t: Fmi2Real) -> Fmi2Status {
+    with_component::<M>(c, "fmi2SetTime", |comp| comp.instance.set_time(t))
+}
+
+/// `fmi2SetContinuousStates`.
+pub unsafe fn set_continuous_states<M: Model>(
+    c: Fmi2Component,
+    x: *const Fmi2Real,
+    nx: usize,
+) -> Fmi2Status {
+    const F: &str = "fmi2SetContinuousStates";
+    with_component::<M>(c, F, |comp| match slice(x, nx) {
+        Some(x) => comp.instance.set_continuous_states(x),
+        None => comp.instance.error(F, "x is NULL"),
+    })
+}
+
+/// `fmi2EnterEventMode`.
+pub unsafe fn enter_event_mode<M: Model>(c: Fmi2Component) -> Fmi2Status {
+    with_component::<M>(c, "fmi2EnterEventMode", |comp| {
+        comp.instance.enter_event_mode()
+    })
+}
+
+/// `fmi2EnterContinuousTimeMode`.
+pub unsafe fn enter_continuous_time_mode<M: Model>(c: Fmi2Component) -> Fmi2Status {
+    with_component::<M>(c, "fmi2EnterContinuousTimeMode", |comp| {
+        comp.instance.enter_continuous_time_mode()
+    })
+}
+
+/// `fmi2NewDiscreteStates`.
+pub unsafe fn new_discrete_states<M: Model>(
+    c: Fmi2Component,
+    info: *mut Fmi2EventInfo,
+) -> Fmi2Status {
+    const F: &str = "fmi2NewDiscreteStates";
+    with_component::<M>(c, F, |comp| {
+        if info.is_null() {
+            return comp.instance.error(F, "fmi2eventInfo is NULL");
+        }
+        let mut e = EventInfo::default();
+        let s = comp.instance.new_discrete_states(&mut e);
+        if s == Status::Ok {
+            *info = Fmi2EventInfo {
+                new_discrete_states_needed: e.new_discrete_states_needed as Fmi2Boolean,
+                terminate_simulation: e.terminate_simulation as Fmi2Boolean,
+                nominals_of_continuous_states_changed: e.nominals_of_continuous_states_changed
+                    as Fmi2Boolean,
+                values_of_continuous_states_changed: e.values_of_continuous_states_changed
+                    as Fmi2Boolean,
+                next_event_time_defined: e.next_event_time.is_some() as Fmi2Boolean,
+                next_event_time: e.next_event_time.unwrap_or(0.0),
+            };
+        }
+        s
+    })
+}
+
+/// `fmi2CompletedIntegratorStep`.
+pub unsafe fn completed_integrator_step<M: Model>(
+    c: Fmi2Component,
+    _no_set_prior: Fmi2Boolean,
+    enter_event_mode: *mut Fmi2Boolean,
+    terminate_simulation: *mut Fmi2Boolean,
+) -> Fmi2Status {
+    const F: &str = "fmi2CompletedIntegratorStep";
+    with_component::<M>(c, F, |comp| {
+        if enter_event_mode.is_null() || terminate_simulation.is_null() {
+            return comp
+                .instance
+                .error(F, "enterEventMode or terminateSimulation is NULL");
+        }
+        let (s, event, terminate) = comp.instance.completed_integrator_step();
+        if s == Status::Ok {
+            *enter_event_mode = event as Fmi2Boolean;
+            *terminate_simulation = terminate as Fmi2Boolean;
+        }
+        s
+    })
+}
+
+/// Shared body of the four functions that fill a real array of the model's size.
+unsafe fn get_array<M: Model>(
+    c: Fmi2Component,
+    func: &'static str,
+    p: *mut Fmi2Real,
+    n: usize,
+    get: impl FnOnce(&mut Instance<M>, &mut [f64]) -> Status,
+) -> Fmi2Status {
+    with_component::<M>(c, func, |comp| match slice_mut(p, n) {
+        Some(out) => get(&mut comp.instance, out),
+        None => comp.instance.error(func, "the array is NULL"),
+    })
+}
+
+/// `fmi2GetDerivatives`.
+pub unsafe fn get_derivatives<M: Model>(
+    c: Fmi2Component,
+    dx: *mut Fmi2Real,
+    nx: usize,
+) -> Fmi2Status {
+    get_array::<M>(c, "fmi2GetDerivatives", dx, nx, |i, out| {
+        i.get_derivatives(out)
+    })
+}
+
+/// `fmi2GetEventIndicators`.
+pub unsafe fn get_event_indicators<M: Model>(
+    c: Fmi2Component,
+    z: *mut Fmi2Real,
+    ni: usize,
+) -> Fmi2Status {
+    get_array::<M>(c, "fmi2GetEventIndicators", z, ni, |i, out| {
+        i.get_event_indicators(out)
+    })
+}
+
+/// `fmi2GetContinuousStates`.
+pub unsafe fn get_continuous_states<M: Model>(
+    c: Fmi2Component,
+    x: *mut Fmi2Real,
+    nx: usize,
+) -> Fmi2Status {
+    get_array::<M>(c, "fmi2GetContinuousStates", x, nx, |i, out| {
+        i.get_continuous_states(out)
+    })
+}
+
+/// `fmi2GetNominalsOfContinuousStates`.
+pub unsafe fn get_nominals_of_continuous_states<M: Model>(
+    c: Fmi2Component,
+    n: *mut Fmi2Real,
+    nx: usize,
+) -> Fmi2Status {
+    get_array::<M>(c, "fmi2GetNominalsOfContinuousStates", n, nx, |i, out| {
+        i.get_nominals(out)
+    })
+}
+
+/// Export every FMI 2.0 function (Model Exchange and Co-Simulation) for model type `$model` from this `cdylib`.
 #[macro_export]
 macro_rules! export_model {
     ($model:ty) => {
@@ -991,6 +1160,74 @@ macro_rules! export_model {
                 get_boolean_status::<M>(c, k, v)
             }
             #[no_mangle]
+            pub unsafe extern "C" fn fmi2SetTime(c: Fmi2Component, t: Fmi2Real) -> Fmi2Status {
+                set_time::<M>(c, t)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2SetContinuousStates(
+                c: Fmi2Component,
+                x: *const Fmi2Real,
+                nx: usize,
+            ) -> Fmi2Status {
+                set_continuous_states::<M>(c, x, nx)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2EnterEventMode(c: Fmi2Component) -> Fmi2Status {
+                enter_event_mode::<M>(c)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2NewDiscreteStates(
+                c: Fmi2Component,
+                info: *mut Fmi2EventInfo,
+            ) -> Fmi2Status {
+                new_discrete_states::<M>(c, info)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2EnterContinuousTimeMode(c: Fmi2Component) -> Fmi2Status {
+                enter_continuous_time_mode::<M>(c)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2CompletedIntegratorStep(
+                c: Fmi2Component,
+                no_set_prior: Fmi2Boolean,
+                enter_event_mode: *mut Fmi2Boolean,
+                terminate: *mut Fmi2Boolean,
+            ) -> Fmi2Status {
+                completed_integrator_step::<M>(c, no_set_prior, enter_event_mode, terminate)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2GetDerivatives(
+                c: Fmi2Component,
+                dx: *mut Fmi2Real,
+                nx: usize,
+            ) -> Fmi2Status {
+                get_derivatives::<M>(c, dx, nx)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2GetEventIndicators(
+                c: Fmi2Component,
+                z: *mut Fmi2Real,
+                ni: usize,
+            ) -> Fmi2Status {
+                get_event_indicators::<M>(c, z, ni)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2GetContinuousStates(
+                c: Fmi2Component,
+                x: *mut Fmi2Real,
+                nx: usize,
+            ) -> Fmi2Status {
+                get_continuous_states::<M>(c, x, nx)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2GetNominalsOfContinuousStates(
+                c: Fmi2Component,
+                n: *mut Fmi2Real,
+                nx: usize,
+            ) -> Fmi2Status {
+                get_nominals_of_continuous_states::<M>(c, n, nx)
+            }
+            #[no_mangle]
             pub unsafe extern "C" fn fmi2GetStringStatus(
                 c: Fmi2Component,
                 k: Fmi2StatusKind,
@@ -1003,7 +1240,11 @@ macro_rules! export_model {
             /// causality/variability/initial) and the candidate-effect convention.
             #[test]
             fn variable_table_is_consistent() {
-                let problems = $crate::xml::check_table(<M as $crate::Model>::variables());
+                let vars = <M as $crate::Model>::variables();
+                let mut problems = $crate::xml::check_table(vars);
+                if let Some(me) = <M as $crate::Model>::model_exchange() {
+                    problems.extend(me.check(vars));
+                }
                 assert!(problems.is_empty(), "{problems:#?}");
             }
         }

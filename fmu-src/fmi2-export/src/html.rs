@@ -52,8 +52,8 @@ pub fn documentation<M: Model>() -> String {
     for (title, keep) in groups {
         let rows: Vec<_> = M::variables()
             .iter()
-            .enumerate()
-            .filter(|(_, v)| keep(v))
+            .filter(|v| keep(v))
+            .map(|v| (v.value_reference, v))
             .collect();
         if rows.is_empty() {
             continue;

@@ -1,19 +1,21 @@
-//! The FMI 2.0 Co-Simulation instance as safe Rust: the state machine, variable access with all
-//! argument checks, stepping and FMU states. The C glue in [`crate::ffi`] only converts pointers.
+//! The FMI 2.0 instance as safe Rust: the state machines of Co-Simulation and Model Exchange,
+//! variable access with all argument checks, stepping and FMU states (the Model Exchange
+//! functions are in [`crate::me_instance`]). The C glue in [`crate::ffi`] only converts pointers.
 //!
 //! Every operation returns a [`Status`] and queues its messages in [`Instance::log`]; the C glue
 //! passes them to the environment's logger. A rejected call (wrong state, bad argument) changes
 //! nothing; a failed step leaves the outputs of the last good communication point and moves the
 //! instance to [`MachineState::Error`], from which `fmi2Reset` or `fmi2SetFMUstate` recover.
 
-use crate::{Causality, Model, VarType, Variability};
+use crate::{Causality, MeVTable, Model, VarType, Variability};
 use bincode::Options as _;
 use serde::{Deserialize, Serialize};
 
 pub use fmi2_types::Status;
 
-/// States of the FMI 2.0 Co-Simulation state machine (standard section 4.2.4); each is one bit so
-/// a function's allowed states are a mask.
+/// States of the FMI 2.0 state machines, Co-Simulation (standard section 4.2.4) and Model
+/// Exchange (section 3.2.3: `EventMode`, `ContinuousTimeMode`); each is one bit so a function's
+/// allowed states are a mask. An instance only ever enters the states of its interface.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[repr(u32)]
 pub enum MachineState {
@@ -24,9 +26,31 @@ pub enum MachineState {
     StepCanceled = 16,
     Terminated = 32,
     Error = 64,
+    EventMode = 128,
+    ContinuousTimeMode = 256,
 }
 
-/// Allowed-state masks, one per group of functions (standard figure 8 / table in 4.2.4).
+impl MachineState {
+    /// Whether an instance of `interface` can be in this state.
+    pub fn belongs_to(self, interface: Interface) -> bool {
+        use MachineState::*;
+        match self {
+            StepComplete | StepFailed | StepCanceled => interface == Interface::CoSimulation,
+            EventMode | ContinuousTimeMode => interface == Interface::ModelExchange,
+            Instantiated | InitializationMode | Terminated | Error => true,
+        }
+    }
+}
+
+/// The interface type an instance was created for (`fmuType` of `fmi2Instantiate`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Interface {
+    ModelExchange,
+    CoSimulation,
+}
+
+/// Allowed-state masks, one per group of functions (standard tables of sections 3.2.3 and
+/// 4.2.4); a mask shared by both interfaces lists the states of each.
 pub mod allowed {
     use super::MachineState::*;
     const fn m(states: &[super::MachineState]) -> u32 {
@@ -47,11 +71,13 @@ pub mod allowed {
         StepCanceled,
         Terminated,
         Error,
+        EventMode,
+        ContinuousTimeMode,
     ]);
     pub const SETUP: u32 = m(&[Instantiated]);
     pub const ENTER_INIT: u32 = m(&[Instantiated]);
     pub const EXIT_INIT: u32 = m(&[InitializationMode]);
-    pub const TERMINATE: u32 = m(&[StepComplete, StepFailed]);
+    pub const TERMINATE: u32 = m(&[StepComplete, StepFailed, EventMode, ContinuousTimeMode]);
     pub const GET: u32 = m(&[
         InitializationMode,
         StepComplete,
@@ -59,10 +85,43 @@ pub mod allowed {
         StepCanceled,
         Terminated,
         Error,
+        EventMode,
+        ContinuousTimeMode,
     ]);
-    pub const SET: u32 = m(&[Instantiated, InitializationMode, StepComplete]);
+    /// fmi2SetReal; Integer and Boolean variables are not set in Continuous-Time Mode (checked
+    /// per variable: only continuous inputs are).
+    pub const SET: u32 = m(&[
+        Instantiated,
+        InitializationMode,
+        StepComplete,
+        EventMode,
+        ContinuousTimeMode,
+    ]);
     pub const DO_STEP: u32 = m(&[StepComplete]);
     pub const STATUS: u32 = m(&[StepComplete, StepFailed, StepCanceled, Terminated]);
+    // Model Exchange only (FMI 2.0.4 section 3.2.3).
+    pub const ENTER_EVENT_MODE: u32 = m(&[EventMode, ContinuousTimeMode]);
+    pub const NEW_DISCRETE_STATES: u32 = m(&[EventMode]);
+    pub const ENTER_CONTINUOUS_TIME_MODE: u32 = m(&[EventMode]);
+    pub const COMPLETED_INTEGRATOR_STEP: u32 = m(&[ContinuousTimeMode]);
+    pub const SET_TIME: u32 = m(&[EventMode, ContinuousTimeMode]);
+    pub const SET_CONTINUOUS_STATES: u32 = m(&[ContinuousTimeMode]);
+    pub const GET_EVENT_INDICATORS: u32 = m(&[
+        InitializationMode,
+        EventMode,
+        ContinuousTimeMode,
+        Terminated,
+        Error,
+    ]);
+    pub const GET_CONTINUOUS_STATES: u32 = GET_EVENT_INDICATORS;
+    pub const GET_DERIVATIVES: u32 = m(&[EventMode, ContinuousTimeMode, Terminated, Error]);
+    pub const GET_NOMINALS: u32 = m(&[
+        Instantiated,
+        EventMode,
+        ContinuousTimeMode,
+        Terminated,
+        Error,
+    ]);
 }
 
 /// The log categories declared in `LogCategories`, in this order.
@@ -113,12 +172,12 @@ fn bincode_options() -> impl bincode::Options {
 /// ([`Model::EXPERIMENT_TOLERANCE`]) that are still at their start values, clamped into their
 /// ranges; `fmi2GetReal` then shows the tolerance in use.
 fn experiment_tolerance<M: Model>(vars: &mut [f64], tolerance: f64) {
-    for &vr in M::EXPERIMENT_TOLERANCE {
-        let v = &M::variables()[vr];
-        if vars[vr] == v.start {
+    for &i in M::EXPERIMENT_TOLERANCE {
+        let v = &M::variables()[i];
+        if vars[i] == v.start {
             let lo = v.min.unwrap_or(f64::MIN_POSITIVE);
             let hi = v.max.unwrap_or(f64::MAX);
-            vars[vr] = tolerance.clamp(lo, hi);
+            vars[i] = tolerance.clamp(lo, hi);
         }
     }
 }
@@ -132,9 +191,15 @@ pub struct Instance<M: Model> {
     pub stop_time: Option<f64>,
     /// The relative tolerance of `fmi2SetupExperiment`, when the importer defined a usable one.
     pub tolerance: Option<f64>,
-    /// Values of all variables, indexed by value reference (Booleans 0.0/1.0).
+    /// Values of all variables, in table order (Booleans 0.0/1.0).
     pub vars: Vec<f64>,
     pub model: M,
+    /// Model Exchange or Co-Simulation, fixed at instantiation.
+    pub interface: Interface,
+    /// The model's Model Exchange functions, when it has them.
+    pub(crate) me: Option<MeVTable<M>>,
+    /// Model Exchange: time, states or inputs changed since the outputs were last computed.
+    pub(crate) me_outputs_stale: bool,
     /// Outputs of the last good communication point, restored when a step fails.
     last_good: Vec<f64>,
     /// In initialization mode: outputs must be recomputed before they are read.
@@ -153,10 +218,13 @@ fn start_values<M: Model>() -> Vec<f64> {
 }
 
 impl<M: Model> Instance<M> {
-    /// `fmi2Instantiate` after the C arguments are checked.
+    /// `fmi2Instantiate` (Co-Simulation) after the C arguments are checked.
     pub fn new(name: &str, guid: String, logging_on: bool) -> Self {
         let vars = start_values::<M>();
         Instance {
+            interface: Interface::CoSimulation,
+            me: M::model_exchange(),
+            me_outputs_stale: false,
             name: name.to_string(),
             state: MachineState::Instantiated,
             time: 0.0,
@@ -171,6 +239,30 @@ impl<M: Model> Instance<M> {
             log: Vec::new(),
             guid,
         }
+    }
+
+    /// `fmi2Instantiate` with `fmuType` `interface`; `None` for Model Exchange when the model
+    /// does not provide it.
+    pub fn with_interface(
+        name: &str,
+        guid: String,
+        logging_on: bool,
+        interface: Interface,
+    ) -> Option<Self> {
+        let mut instance = Self::new(name, guid, logging_on);
+        if interface == Interface::ModelExchange && instance.me.is_none() {
+            return None;
+        }
+        instance.interface = interface;
+        Some(instance)
+    }
+
+    /// Whether the instance is initialized and running (Step mode, Event or Continuous-Time Mode).
+    pub fn running(&self) -> bool {
+        matches!(
+            self.state,
+            MachineState::StepComplete | MachineState::EventMode | MachineState::ContinuousTimeMode
+        )
     }
 
     /// Queue a message; filtered by the enabled categories when the logger is called.
@@ -201,7 +293,7 @@ impl<M: Model> Instance<M> {
         Status::Error
     }
 
-    fn event(&mut self, message: String) {
+    pub(crate) fn event(&mut self, message: String) {
         if self.log_enabled[2] {
             self.push_log(Status::Ok, "logEvents", message);
         }
@@ -301,8 +393,8 @@ impl<M: Model> Instance<M> {
 
     /// Check every Real parameter against its bounds, every value for finiteness.
     fn check_parameters(&mut self, func: &str) -> Result<(), Status> {
-        for (vr, v) in M::variables().iter().enumerate() {
-            let x = self.vars[vr];
+        for (i, v) in M::variables().iter().enumerate() {
+            let x = self.vars[i];
             if !x.is_finite() {
                 return Err(self.error(func, format!("'{}' = {x} is not finite", v.name)));
             }
@@ -356,7 +448,19 @@ impl<M: Model> Instance<M> {
         }
         self.time = self.start_time;
         self.last_good.copy_from_slice(&self.vars);
-        self.state = MachineState::StepComplete;
+        // Model Exchange continues in Event Mode (FMI 2.0.4 section 3.2.3), where the importer
+        // asks fmi2NewDiscreteStates for the discrete state at the start time.
+        self.state = match self.interface {
+            Interface::CoSimulation => {
+                self.write_derivatives();
+                self.last_good.copy_from_slice(&self.vars);
+                MachineState::StepComplete
+            }
+            Interface::ModelExchange => {
+                self.me_outputs_stale = true;
+                MachineState::EventMode
+            }
+        };
         self.event(format!("initialized at t = {}", self.time));
         Status::Ok
     }
@@ -383,51 +487,60 @@ impl<M: Model> Instance<M> {
         self.stop_time = None;
         self.tolerance = None;
         self.init_outputs_stale = true;
+        self.me_outputs_stale = false;
         self.state = MachineState::Instantiated;
         self.event("reset".to_string());
         Status::Ok
     }
 
-    /// Check a list of value references against the table and the expected type.
-    fn check_refs(&mut self, func: &str, vrs: &[u32], ty: VarType) -> Result<(), Status> {
+    /// Check a list of value references against the table and the expected type; returns the
+    /// position in the table (storage index) of each.
+    fn check_refs(&mut self, func: &str, vrs: &[u32], ty: VarType) -> Result<Vec<usize>, Status> {
         let vars = M::variables();
+        let mut indices = Vec::with_capacity(vrs.len());
         for &vr in vrs {
-            match vars.get(vr as usize) {
-                None => {
-                    return Err(self.error(func, format!("unknown value reference {vr}")));
-                }
-                Some(v) if v.vtype != ty => {
-                    return Err(self.error(
-                        func,
-                        format!(
-                            "value reference {vr} ('{}') is {:?}, not {ty:?}",
-                            v.name, v.vtype
-                        ),
-                    ));
-                }
-                Some(_) => {}
+            let Some(i) = crate::variables::index_of(vars, vr) else {
+                return Err(self.error(func, format!("unknown value reference {vr}")));
+            };
+            let v = &vars[i];
+            if v.vtype != ty {
+                return Err(self.error(
+                    func,
+                    format!(
+                        "value reference {vr} ('{}') is {:?}, not {ty:?}",
+                        v.name, v.vtype
+                    ),
+                ));
             }
+            indices.push(i);
         }
-        Ok(())
+        Ok(indices)
     }
 
     /// Shared part of the getters: state, references, fresh outputs in initialization mode.
-    fn prepare_get(&mut self, func: &str, vrs: &[u32], ty: VarType) -> Result<(), Status> {
+    pub(crate) fn prepare_get(
+        &mut self,
+        func: &str,
+        vrs: &[u32],
+        ty: VarType,
+    ) -> Result<Vec<usize>, Status> {
         self.check_state(func, allowed::GET)?;
-        self.check_refs(func, vrs, ty)?;
+        let indices = self.check_refs(func, vrs, ty)?;
         if self.state == MachineState::InitializationMode && self.init_outputs_stale {
             self.initialize_model(func)?;
         }
-        Ok(())
+        self.refresh_me_outputs();
+        Ok(indices)
     }
 
     /// `fmi2GetReal` (also `fmi2GetInteger`/`fmi2GetBoolean` through `ty`): fills `out`.
     pub fn get_values(&mut self, func: &str, ty: VarType, vrs: &[u32], out: &mut [f64]) -> Status {
-        if let Err(s) = self.prepare_get(func, vrs, ty) {
-            return s;
-        }
-        for (o, &vr) in out.iter_mut().zip(vrs) {
-            *o = self.vars[vr as usize];
+        let indices = match self.prepare_get(func, vrs, ty) {
+            Ok(indices) => indices,
+            Err(s) => return s,
+        };
+        for (o, &i) in out.iter_mut().zip(&indices) {
+            *o = self.vars[i];
         }
         Status::Ok
     }
@@ -438,19 +551,26 @@ impl<M: Model> Instance<M> {
         if let Err(s) = self.check_state(func, allowed::SET) {
             return s;
         }
-        if let Err(s) = self.check_refs(func, vrs, ty) {
-            return s;
-        }
+        let indices = match self.check_refs(func, vrs, ty) {
+            Ok(indices) => indices,
+            Err(s) => return s,
+        };
         let table = M::variables();
-        let initialized = self.state == MachineState::StepComplete;
+        let initialized = self.running();
+        let continuous_time = self.state == MachineState::ContinuousTimeMode;
         let mut status = Status::Ok;
-        for (&vr, &x) in vrs.iter().zip(values) {
-            let v = &table[vr as usize];
+        for ((&vr, &i), &x) in vrs.iter().zip(&indices).zip(values) {
+            let v = &table[i];
             let settable = if initialized {
                 v.settable_after_init()
             } else {
                 v.settable_before_init()
             };
+            // Continuous-Time Mode: continuous inputs only (FMI 2.0.4 section 3.2.3).
+            let settable = settable
+                && !(continuous_time
+                    && (v.causality != Causality::Input
+                        || v.variability != Variability::Continuous));
             if !settable {
                 let why = match (v.causality, v.variability) {
                     (Causality::Parameter, Variability::Fixed) => {
@@ -498,18 +618,20 @@ impl<M: Model> Instance<M> {
             }
         };
         let tuned = initialized
-            && vrs
+            && indices
                 .iter()
-                .any(|&vr| table[vr as usize].causality == Causality::Parameter);
+                .any(|&i| table[i].causality == Causality::Parameter);
         if tuned {
-            if let Err(s) = self.tune(func, vrs, values, value) {
+            if let Err(s) = self.tune(func, &indices, values, value) {
                 return s;
             }
         }
-        for (&vr, &x) in vrs.iter().zip(values) {
-            self.vars[vr as usize] = value(x);
+        for (&i, &x) in indices.iter().zip(values) {
+            self.vars[i] = value(x);
         }
-        if self.state != MachineState::StepComplete {
+        if initialized {
+            self.me_outputs_stale = self.interface == Interface::ModelExchange;
+        } else {
             self.init_outputs_stale = true;
         }
         status
@@ -520,14 +642,14 @@ impl<M: Model> Instance<M> {
     fn tune(
         &mut self,
         func: &str,
-        vrs: &[u32],
+        indices: &[usize],
         values: &[f64],
         value: impl Fn(f64) -> f64,
     ) -> Result<(), Status> {
         let table = M::variables();
         let mut candidate = self.vars.clone();
-        for (&vr, &x) in vrs.iter().zip(values) {
-            let v = &table[vr as usize];
+        for (&i, &x) in indices.iter().zip(values) {
+            let v = &table[i];
             if v.min.is_some_and(|m| x < m) || v.max.is_some_and(|m| x > m) {
                 let (lo, hi) = (
                     v.min.unwrap_or(f64::NEG_INFINITY),
@@ -536,7 +658,7 @@ impl<M: Model> Instance<M> {
                 let m = format!("'{}' = {x} is outside its range [{lo}, {hi}]", v.name);
                 return Err(self.error(func, m));
             }
-            candidate[vr as usize] = value(x);
+            candidate[i] = value(x);
         }
         match self.model.tune(&candidate) {
             Ok(()) => {
@@ -592,12 +714,12 @@ impl<M: Model> Instance<M> {
         }
         match self.model.do_step(&mut self.vars, current, h) {
             Ok(()) => {
-                if let Some((vr, v)) = M::variables()
+                if let Some((i, v)) = M::variables()
                     .iter()
                     .enumerate()
-                    .find(|(vr, _)| !self.vars[*vr].is_finite())
+                    .find(|(i, _)| !self.vars[*i].is_finite())
                 {
-                    let value = self.vars[vr];
+                    let value = self.vars[i];
                     self.vars.copy_from_slice(&self.last_good);
                     self.state = MachineState::Error;
                     return self.error(
@@ -606,6 +728,7 @@ impl<M: Model> Instance<M> {
                     );
                 }
                 self.time = current + h;
+                self.write_derivatives();
                 self.last_good.copy_from_slice(&self.vars);
                 if self.log_enabled[3] {
                     self.push_log(Status::Ok, "logAll", format!("step to t = {}", self.time));
@@ -636,8 +759,16 @@ impl<M: Model> Instance<M> {
         }
     }
 
-    /// `fmi2SetFMUstate`.
-    pub fn restore(&mut self, s: &Snapshot<M>) {
+    /// `fmi2SetFMUstate`: refuses (nothing changed) a state saved by an instance of the other
+    /// interface type in a state this one cannot be in.
+    pub fn restore(&mut self, s: &Snapshot<M>) -> Status {
+        if !s.state.belongs_to(self.interface) {
+            let (state, interface) = (s.state, self.interface);
+            return self.error(
+                "fmi2SetFMUstate",
+                format!("the FMU state was saved in {state:?}, which a {interface:?} instance cannot be in"),
+            );
+        }
         self.state = s.state;
         self.time = s.time;
         self.start_time = s.start_time;
@@ -647,7 +778,9 @@ impl<M: Model> Instance<M> {
         self.last_good.copy_from_slice(&s.vars);
         self.model = s.model.clone();
         self.init_outputs_stale = true;
+        self.me_outputs_stale = self.interface == Interface::ModelExchange;
         self.event(format!("FMU state restored at t = {}", s.time));
+        Status::Ok
     }
 
     /// Bytes of `fmi2SerializeFMUstate`: the format magic, the GUID (length-prefixed), the

@@ -1,4 +1,5 @@
-//! Generic FMI 2.0 Co-Simulation export layer.
+//! Generic FMI 2.0 export layer: Co-Simulation, and Model Exchange for a model that also
+//! implements [`ModelExchange`].
 //!
 //! A model implements [`Model`] (pure Rust, no C pointers) and declares its variables once with
 //! [`declare_variables!`]; [`export_model!`] emits every `fmi2*` C function over it. From the same
@@ -9,16 +10,17 @@ pub mod ffi;
 pub mod html;
 pub mod instance;
 pub mod me;
+pub mod me_instance;
 pub mod units;
 pub mod variables;
 pub mod xml;
 
-pub use instance::{Instance, MachineState, Status};
-pub use me::ModelExchange;
+pub use instance::{Instance, Interface, MachineState, Status};
+pub use me::{MeVTable, ModelExchange};
 pub use variables::{Causality, Initial, Values, ValuesMut, VarId, VarType, Variability, Variable};
 
-/// A Co-Simulation model. The layer owns the values of all variables (`vars`, indexed by value
-/// reference, Booleans as 0.0/1.0) and the FMI state machine; the model owns its physical state.
+/// A Co-Simulation model. The layer owns the values of all variables (`vars`, in table order:
+/// `V::X as usize`, Booleans as 0.0/1.0) and the FMI state machine; the model owns its physical state.
 pub trait Model: Clone + Send + serde::Serialize + serde::de::DeserializeOwned + 'static {
     /// `modelName` and `modelIdentifier`.
     const NAME: &'static str;
@@ -40,13 +42,13 @@ pub trait Model: Clone + Send + serde::Serialize + serde::de::DeserializeOwned +
     /// are in `documentation/licenses/`.
     const LICENSE: &'static str = "MIT (see documentation/licenses/)";
 
-    /// Value references of the Real parameters that take the relative tolerance an importer passes
+    /// Positions in the table (`V::X as usize`) of the Real parameters that take the relative tolerance an importer passes
     /// to `fmi2SetupExperiment` (clamped into their range) when it defines one and the parameter is
     /// still at its start value: a solver's tolerances. A value set by the user wins; without a
     /// tolerance from the importer the parameters keep their values.
     const EXPERIMENT_TOLERANCE: &'static [usize] = &[];
 
-    /// Every variable once; value reference = index.
+    /// Every variable once, each with its declared value reference.
     fn variables() -> &'static [Variable];
     /// HTML fragment for `documentation/index.html`: equations, sources, derivations, choices.
     fn documentation_html() -> String;
@@ -66,6 +68,13 @@ pub trait Model: Clone + Send + serde::Serialize + serde::de::DeserializeOwned +
             &[],
             "this model applies no parameter change after initialization",
         ))
+    }
+
+    /// The Model Exchange interface: `Some(MeVTable::of::<Self>())` for a model that implements
+    /// [`ModelExchange`] (the FMU then offers `<ModelExchange>` beside `<CoSimulation>`), `None`
+    /// (the default) for a Co-Simulation-only model.
+    fn model_exchange() -> Option<MeVTable<Self>> {
+        None
     }
 }
 

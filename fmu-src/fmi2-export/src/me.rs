@@ -9,8 +9,9 @@ use crate::{Model, ModelError};
 ///
 /// State and derivative variables are ordinary variables of the table: each state is a
 /// continuous Real (an output where the model has one, else a local) and its derivative a
-/// continuous Real local named `der(<state>)`. Their value references are listed by
-/// [`ModelExchange::state_variables`] in the order of the state vector `x`.
+/// continuous Real local named `der(<state>)`. Their positions in the table (`V::X as usize`,
+/// the index into `vars`) are listed by [`ModelExchange::state_variables`] in the order of the
+/// state vector `x`.
 ///
 /// Call sequence the layer guarantees (FMI 2.0.4 section 3.2.3): [`Model::initialize`] at
 /// `fmi2ExitInitializationMode` (it builds the initial state and writes every output, exactly as
@@ -29,8 +30,8 @@ pub trait ModelExchange: Model {
     /// Number of event indicators (state events). Smooth models have none.
     const EVENT_INDICATORS: usize = 0;
 
-    /// `(state value reference, derivative value reference)` per state, in the order of `x`.
-    /// Length [`ModelExchange::STATES`].
+    /// `(state, derivative)` as positions in the table (`V::X as usize`) per state, in the
+    /// order of `x`. Length [`ModelExchange::STATES`].
     fn state_variables() -> &'static [(usize, usize)];
 
     /// The continuous state vector `x` (length `STATES`) from the model's state.
@@ -71,5 +72,96 @@ pub trait ModelExchange: Model {
     /// Event indicators `z` (length `EVENT_INDICATORS`): a sign change is a state event.
     fn event_indicators(&self, vars: &[f64], t: f64, z: &mut [f64]) {
         let _ = (vars, t, z);
+    }
+}
+
+/// [`ModelExchange::derivatives`] as a function pointer.
+pub type DerivativesFn<M> = fn(&M, &[f64], f64, &mut [f64]) -> Result<(), ModelError>;
+
+/// The [`ModelExchange`] functions of a model as plain function pointers, so that the generic
+/// layer (bound on [`Model`] only) can run Model Exchange for the models that provide it. A model
+/// implementing [`ModelExchange`] returns `Some(MeVTable::of::<Self>())` from
+/// [`Model::model_exchange`].
+pub struct MeVTable<M> {
+    /// [`ModelExchange::STATES`].
+    pub states: usize,
+    /// [`ModelExchange::EVENT_INDICATORS`].
+    pub event_indicators: usize,
+    /// [`ModelExchange::state_variables`].
+    pub state_variables: &'static [(usize, usize)],
+    pub get_states: fn(&M, &mut [f64]),
+    pub set_states: fn(&mut M, &[f64]),
+    pub nominals: fn(&M, &mut [f64]),
+    pub derivatives: DerivativesFn<M>,
+    pub outputs: fn(&M, &mut [f64], f64),
+    pub next_time_event: fn(&M) -> Option<f64>,
+    pub event_update: fn(&mut M, &mut [f64], f64) -> Result<bool, ModelError>,
+    pub indicators: fn(&M, &[f64], f64, &mut [f64]),
+}
+
+impl<M> Clone for MeVTable<M> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+
+impl<M> Copy for MeVTable<M> {}
+
+impl<M: ModelExchange> MeVTable<M> {
+    /// The table of `M`'s [`ModelExchange`] implementation.
+    pub fn of() -> Self {
+        MeVTable {
+            states: M::STATES,
+            event_indicators: M::EVENT_INDICATORS,
+            state_variables: M::state_variables(),
+            get_states: M::states,
+            set_states: M::set_states,
+            nominals: M::nominals,
+            derivatives: M::derivatives,
+            outputs: M::me_outputs,
+            next_time_event: M::next_time_event,
+            event_update: M::event_update,
+            indicators: M::event_indicators,
+        }
+    }
+}
+
+impl<M> MeVTable<M> {
+    /// Problems of the declared state and derivative variables (empty when consistent): the
+    /// count, each a continuous Real of the table, each derivative a local.
+    pub fn check(&self, vars: &[crate::Variable]) -> Vec<String> {
+        use crate::{Causality, VarType, Variability};
+        let mut problems = Vec::new();
+        if self.state_variables.len() != self.states {
+            problems.push(format!(
+                "{} state variables declared for {} states",
+                self.state_variables.len(),
+                self.states
+            ));
+        }
+        for &(x, dx) in self.state_variables {
+            for vr in [x, dx] {
+                match vars.get(vr) {
+                    None => {
+                        problems.push(format!("state/derivative position {vr} not in the table"))
+                    }
+                    Some(v)
+                        if v.vtype != VarType::Real || v.variability != Variability::Continuous =>
+                    {
+                        problems.push(format!("'{}' is not a continuous Real", v.name))
+                    }
+                    Some(_) => {}
+                }
+            }
+            if let (Some(s), Some(d)) = (vars.get(x), vars.get(dx)) {
+                if d.causality != Causality::Local || d.name != format!("der({})", s.name) {
+                    problems.push(format!(
+                        "derivative of '{}' must be the local 'der({})', not '{}'",
+                        s.name, s.name, d.name
+                    ));
+                }
+            }
+        }
+        problems
     }
 }

@@ -5,10 +5,14 @@
 /// shared with the host (the exporter writes Real, Integer and Boolean variables only).
 pub use fmi2_types::{Causality, Initial, VarKind as VarType, Variability};
 
-/// One scalar variable. Its value reference is its index in the model's table.
+/// One scalar variable. Its value reference is declared in the model's table and never moves;
+/// its position in the table (the index into the value vector) is storage only.
 #[derive(Clone, Copy, Debug)]
 pub struct Variable {
     pub name: &'static str,
+    /// The value reference of the C API and `modelDescription.xml`, set by
+    /// [`declare_variables!`] from the table.
+    pub value_reference: u32,
     pub vtype: VarType,
     pub causality: Causality,
     pub variability: Variability,
@@ -39,6 +43,7 @@ impl Variable {
     ) -> Self {
         Variable {
             name,
+            value_reference: 0,
             vtype,
             causality,
             variability,
@@ -174,6 +179,12 @@ impl Variable {
         self
     }
 
+    /// The value reference (set by [`declare_variables!`] from the table's `ID = vr` entry).
+    pub const fn with_value_reference(mut self, vr: u32) -> Self {
+        self.value_reference = vr;
+        self
+    }
+
     pub const fn display(mut self, display_unit: &'static str) -> Self {
         self.display_unit = Some(display_unit);
         self
@@ -206,29 +217,44 @@ impl Variable {
     }
 
     /// The candidate effect this variable belongs to, if its name is `<effect>.<name>`.
+    /// The derivative `der(<effect>.<name>)` of a state belongs to the state's effect.
     pub fn effect(&self) -> Option<&'static str> {
-        self.name.split_once('.').map(|(effect, _)| effect)
+        let name = self
+            .name
+            .strip_prefix("der(")
+            .and_then(|n| n.strip_suffix(')'))
+            .unwrap_or(self.name);
+        name.split_once('.').map(|(effect, _)| effect)
     }
 }
 
-/// Declare a model's variables once. Generates `pub enum V` whose discriminants are the value
-/// references, and `pub static VARIABLES: &[Variable]` in the same order.
+/// Declare a model's variables once, each with its value reference. Generates `pub enum V`
+/// whose discriminants are the positions in the table (the storage index into the value
+/// vector), and `pub static VARIABLES: &[Variable]` in the same order, each carrying its
+/// declared value reference. The value references are the interface (C API, model
+/// description): a new variable takes a new number anywhere in the table, an existing one keeps
+/// its number. A duplicate value reference fails to compile.
 ///
 /// ```ignore
 /// fmi2_export::declare_variables! {
-///     THETA => Variable::output("theta", "rad", "Link angle").display("deg"),
+///     THETA = 12 => Variable::output("theta", "rad", "Link angle").display("deg"),
 /// }
 /// ```
 #[macro_export]
 macro_rules! declare_variables {
-    ($($id:ident => $spec:expr),* $(,)?) => {
-        /// Value references of the model's variables (index into [`VARIABLES`]).
+    ($($id:ident = $vr:literal => $spec:expr),* $(,)?) => {
+        /// The model's variables: each discriminant is the position in [`VARIABLES`] (storage
+        /// index); the value reference is [`VARIABLES`]`[i].value_reference`.
         #[allow(non_camel_case_types, clippy::upper_case_acronyms, dead_code)]
         #[derive(Clone, Copy, Debug, PartialEq, Eq)]
         #[repr(usize)]
         pub enum V { $($id),* }
-        /// The model's variable table, indexed by value reference.
-        pub static VARIABLES: &[$crate::Variable] = &[$($spec),*];
+        /// The model's variable table, in declaration order.
+        pub static VARIABLES: &[$crate::Variable] = &[$($spec.with_value_reference($vr)),*];
+        const _: () = assert!(
+            $crate::variables::references_unique(&[$($vr),*]),
+            "declare_variables!: two variables share a value reference"
+        );
         impl $crate::variables::VarId for V {
             fn index(self) -> usize {
                 self as usize
@@ -237,9 +263,49 @@ macro_rules! declare_variables {
     };
 }
 
+/// True when no value reference occurs twice (evaluated at compile time by
+/// [`declare_variables!`]), so a table with a duplicate does not build:
+///
+/// ```compile_fail
+/// fmi2_export::declare_variables! {
+///     A = 1 => fmi2_export::Variable::output("a", "m", "first"),
+///     B = 1 => fmi2_export::Variable::output("b", "m", "second"),
+/// }
+/// ```
+///
+/// ```
+/// fmi2_export::declare_variables! {
+///     A = 1 => fmi2_export::Variable::output("a", "m", "first"),
+///     B = 0 => fmi2_export::Variable::output("b", "m", "second"),
+/// }
+/// ```
+pub const fn references_unique(vrs: &[u32]) -> bool {
+    let mut i = 0;
+    while i < vrs.len() {
+        let mut j = i + 1;
+        while j < vrs.len() {
+            if vrs[i] == vrs[j] {
+                return false;
+            }
+            j += 1;
+        }
+        i += 1;
+    }
+    true
+}
+
+/// The position in `table` (storage index) of the variable with value reference `vr`.
+/// Tables numbered densely from 0 answer at once; others by a scan.
+pub fn index_of(table: &[Variable], vr: u32) -> Option<usize> {
+    match table.get(vr as usize) {
+        Some(v) if v.value_reference == vr => Some(vr as usize),
+        _ => table.iter().position(|v| v.value_reference == vr),
+    }
+}
+
 /// An identifier of a model's variable table (the `V` that [`declare_variables!`] generates).
 pub trait VarId: Copy {
-    /// The value reference, which is the index into the table and the value vector.
+    /// The position in the table: the index into the value vector (not the value reference).
     fn index(self) -> usize;
 }
 
@@ -272,5 +338,32 @@ impl ValuesMut<'_> {
     /// Sets one value.
     pub fn set(&mut self, v: impl VarId, x: f64) {
         self.0[v.index()] = x;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    crate::declare_variables! {
+        A = 7 => Variable::parameter("a", 1.0, "m", "first"),
+        B = 2 => Variable::output("b", "m", "second"),
+    }
+
+    #[test]
+    fn a_duplicate_reference_is_detected() {
+        assert!(references_unique(&[0, 1, 2, 7]));
+        assert!(!references_unique(&[0, 1, 2, 1]));
+        assert!(references_unique(&[]));
+    }
+
+    #[test]
+    fn the_declared_reference_is_kept_and_found() {
+        assert_eq!(VARIABLES[V::A as usize].value_reference, 7);
+        assert_eq!(VARIABLES[V::B as usize].value_reference, 2);
+        assert_eq!(index_of(VARIABLES, 7), Some(0));
+        assert_eq!(index_of(VARIABLES, 2), Some(1));
+        assert_eq!(index_of(VARIABLES, 0), None);
+        assert_eq!(index_of(VARIABLES, 1), None);
     }
 }

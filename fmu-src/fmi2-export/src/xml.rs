@@ -38,6 +38,9 @@ fn used_units(vars: &[Variable]) -> Vec<&'static units::UnitDef> {
 fn write_description<M: Model>(guid: &str) -> String {
     let mut w = Writer::new_with_indent(Vec::new(), b' ', 2);
     let vars = M::variables();
+    let me = M::model_exchange();
+    let states: &[(usize, usize)] = me.map_or(&[], |me| me.state_variables);
+    let event_indicators = me.map_or(0, |me| me.event_indicators);
     let mut ev = |e: Event| w.write_event(e).expect("writing to a Vec cannot fail");
     ev(Event::Decl(BytesDecl::new("1.0", Some("UTF-8"), None)));
 
@@ -52,8 +55,28 @@ fn write_description<M: Model>(guid: &str) -> String {
     root.push_attribute(("license", M::LICENSE));
     root.push_attribute(("generationTool", "actuator-fmu fmi2-export"));
     root.push_attribute(("variableNamingConvention", "structured"));
-    root.push_attribute(("numberOfEventIndicators", "0"));
+    root.push_attribute((
+        "numberOfEventIndicators",
+        event_indicators.to_string().as_str(),
+    ));
     ev(Event::Start(root));
+
+    if me.is_some() {
+        let mut e = BytesStart::new("ModelExchange");
+        for (k, v) in [
+            ("modelIdentifier", M::NAME),
+            ("needsExecutionTool", "false"),
+            ("completedIntegratorStepNotNeeded", "true"),
+            ("canBeInstantiatedOnlyOncePerProcess", "false"),
+            ("canNotUseMemoryManagementFunctions", "true"),
+            ("canGetAndSetFMUstate", "true"),
+            ("canSerializeFMUstate", "true"),
+            ("providesDirectionalDerivative", "false"),
+        ] {
+            e.push_attribute((k, v));
+        }
+        ev(Event::Empty(e));
+    }
 
     let mut cs = BytesStart::new("CoSimulation");
     for (k, v) in [
@@ -131,14 +154,14 @@ fn write_description<M: Model>(guid: &str) -> String {
     ev(Event::Empty(de));
 
     ev(Event::Start(BytesStart::new("ModelVariables")));
-    for (vr, v) in vars.iter().enumerate() {
+    for (i, v) in vars.iter().enumerate() {
         ev(Event::Comment(quick_xml::events::BytesText::new(&format!(
             " index {} ",
-            vr + 1
+            i + 1
         ))));
         let mut sv = BytesStart::new("ScalarVariable");
         sv.push_attribute(("name", v.name));
-        sv.push_attribute(("valueReference", vr.to_string().as_str()));
+        sv.push_attribute(("valueReference", v.value_reference.to_string().as_str()));
         if !v.description.is_empty() {
             sv.push_attribute(("description", v.description));
         }
@@ -155,6 +178,9 @@ fn write_description<M: Model>(guid: &str) -> String {
             }
             if let Some(d) = v.display_unit {
                 t.push_attribute(("displayUnit", d));
+            }
+            if let Some(&(x, _)) = states.iter().find(|(_, d)| *d == i) {
+                t.push_attribute(("derivative", (x + 1).to_string().as_str()));
             }
         }
         if v.vtype != VarType::Boolean {
@@ -182,16 +208,29 @@ fn write_description<M: Model>(guid: &str) -> String {
     let outputs: Vec<usize> = (0..vars.len())
         .filter(|&i| vars[i].causality == Causality::Output)
         .collect();
+    let derivatives: Vec<usize> = states.iter().map(|&(_, d)| d).collect();
+    // FMI 2.0.4 section 2.2.8: outputs and continuous-time states and state derivatives with
+    // initial approx or calculated, and calculated parameters, ordered by index.
+    let is_state = |i: usize| states.iter().any(|&(x, d)| x == i || d == i);
     let initial_unknowns: Vec<usize> = (0..vars.len())
         .filter(|&i| {
             let v = &vars[i];
-            (v.causality == Causality::Output
-                && matches!(v.initial, Some(Initial::Calculated) | Some(Initial::Approx)))
+            let calculated = matches!(v.initial, Some(Initial::Calculated) | Some(Initial::Approx));
+            ((v.causality == Causality::Output || is_state(i)) && calculated)
                 || v.causality == Causality::CalculatedParameter
         })
         .collect();
+    // Outputs depend on the continuous states (Model Exchange) and on no input directly: an
+    // input changes the outputs through the derivatives (and, in Co-Simulation, only at the
+    // next step), so no importer sees an algebraic loop.
+    let output_dependencies: String = states
+        .iter()
+        .map(|&(x, _)| (x + 1).to_string())
+        .collect::<Vec<_>>()
+        .join(" ");
     for (tag, list) in [
         ("Outputs", &outputs),
+        ("Derivatives", &derivatives),
         ("InitialUnknowns", &initial_unknowns),
     ] {
         if list.is_empty() {
@@ -201,11 +240,10 @@ fn write_description<M: Model>(guid: &str) -> String {
         for &i in list {
             let mut u = BytesStart::new("Unknown");
             u.push_attribute(("index", (i + 1).to_string().as_str()));
-            // Outputs are computed in fmi2DoStep only: none depends directly on an input (an
-            // input set between steps changes no output before the next step), so the list is
-            // empty. Initial unknowns keep the default (every known), which is always correct.
+            // Derivatives and initial unknowns keep the default (every known), which is always
+            // correct.
             if tag == "Outputs" {
-                u.push_attribute(("dependencies", ""));
+                u.push_attribute(("dependencies", output_dependencies.as_str()));
             }
             ev(Event::Empty(u));
         }

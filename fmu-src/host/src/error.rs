@@ -61,6 +61,16 @@ fn fmt_messages(messages: &[LogRecord]) -> String {
     format!(" (FMU log: {earlier}{})", joined.join("; "))
 }
 
+/// The status as the function's FMI version spells it (`fmi3Discard` from `fmi3DoStep`).
+fn status_name(function: &str, status: Status) -> String {
+    let name = status.to_string();
+    if function.starts_with("fmi3") {
+        name.replacen("fmi2", "fmi3", 1)
+    } else {
+        name
+    }
+}
+
 /// Every failure of the host.
 #[derive(Debug, thiserror::Error)]
 pub enum HostError {
@@ -101,7 +111,7 @@ pub enum HostError {
         message: String,
     },
     /// An FMI function returned a status other than fmi2OK/fmi2Warning.
-    #[error("{function} returned {status}{}", fmt_messages(messages))]
+    #[error("{function} returned {}{}", status_name(function, *status), fmt_messages(messages))]
     Fmi {
         /// Name of the FMI function, e.g. `fmi2DoStep`.
         function: &'static str,
@@ -113,6 +123,14 @@ pub enum HostError {
     /// `fmi2Instantiate` returned NULL.
     #[error("fmi2Instantiate returned NULL{}", fmt_messages(messages))]
     Instantiate {
+        /// Messages the FMU logged during the call.
+        messages: Vec<LogRecord>,
+    },
+    /// An FMI 3.0 instantiation function returned NULL.
+    #[error("{function} returned NULL{}", fmt_messages(messages))]
+    InstantiateNull {
+        /// The function, e.g. `fmi3InstantiateCoSimulation`.
+        function: &'static str,
         /// Messages the FMU logged during the call.
         messages: Vec<LogRecord>,
     },
@@ -144,7 +162,9 @@ impl HostError {
     /// Messages the FMU logged during the failing call.
     pub fn messages(&self) -> &[LogRecord] {
         match self {
-            HostError::Fmi { messages, .. } | HostError::Instantiate { messages } => messages,
+            HostError::Fmi { messages, .. }
+            | HostError::Instantiate { messages }
+            | HostError::InstantiateNull { messages, .. } => messages,
             _ => &[],
         }
     }

@@ -172,6 +172,77 @@ pub struct Functions {
         Option<unsafe extern "C" fn(C, Vr, usize, *const c_int, *const f64) -> RawStatus>,
     pub get_real_output_derivatives:
         Option<unsafe extern "C" fn(C, Vr, usize, *const c_int, *mut f64) -> RawStatus>,
+    /// The Model Exchange functions, when the binary exports all of them.
+    pub me: Option<MeFunctions>,
+}
+
+/// `fmi2EventInfo` (fmi2FunctionTypes.h), filled by `fmi2NewDiscreteStates`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default)]
+#[allow(missing_docs)]
+pub struct EventInfo {
+    pub new_discrete_states_needed: Fmi2Boolean,
+    pub terminate_simulation: Fmi2Boolean,
+    pub nominals_of_continuous_states_changed: Fmi2Boolean,
+    pub values_of_continuous_states_changed: Fmi2Boolean,
+    pub next_event_time_defined: Fmi2Boolean,
+    pub next_event_time: f64,
+}
+
+/// The FMI 2.0 Model Exchange functions (FMI 2.0.4 section 3.2).
+#[derive(Clone, Copy)]
+#[allow(missing_docs)]
+pub struct MeFunctions {
+    pub enter_event_mode: unsafe extern "C" fn(C) -> RawStatus,
+    pub new_discrete_states: unsafe extern "C" fn(C, *mut EventInfo) -> RawStatus,
+    pub enter_continuous_time_mode: unsafe extern "C" fn(C) -> RawStatus,
+    pub completed_integrator_step:
+        unsafe extern "C" fn(C, Fmi2Boolean, *mut Fmi2Boolean, *mut Fmi2Boolean) -> RawStatus,
+    pub set_time: unsafe extern "C" fn(C, f64) -> RawStatus,
+    pub set_continuous_states: unsafe extern "C" fn(C, *const f64, usize) -> RawStatus,
+    pub get_derivatives: unsafe extern "C" fn(C, *mut f64, usize) -> RawStatus,
+    pub get_event_indicators: unsafe extern "C" fn(C, *mut f64, usize) -> RawStatus,
+    pub get_continuous_states: unsafe extern "C" fn(C, *mut f64, usize) -> RawStatus,
+    pub get_nominals_of_continuous_states: unsafe extern "C" fn(C, *mut f64, usize) -> RawStatus,
+}
+
+/// The functions only the Model Exchange interface has (FMI 2.0.4 section 3.2).
+pub const FMI2_ME_FUNCTIONS: &[&str] = &[
+    "fmi2EnterEventMode",
+    "fmi2NewDiscreteStates",
+    "fmi2EnterContinuousTimeMode",
+    "fmi2CompletedIntegratorStep",
+    "fmi2SetTime",
+    "fmi2SetContinuousStates",
+    "fmi2GetDerivatives",
+    "fmi2GetEventIndicators",
+    "fmi2GetContinuousStates",
+    "fmi2GetNominalsOfContinuousStates",
+];
+
+/// Stands in for `fmi2DoStep` in a binary without it (Model Exchange only): never called on a
+/// Model Exchange instance; returns fmi2Error should anything call it.
+unsafe extern "C" fn absent_do_step(_: C, _: f64, _: f64, _: Fmi2Boolean) -> RawStatus {
+    fmi2_types::c::ERROR
+}
+
+/// The Model Exchange table, when every function of it is exported.
+///
+/// # Safety
+/// `lib` must be an FMI 2.0 binary whose exports have the standard signatures.
+unsafe fn resolve_me(lib: &Library) -> Option<MeFunctions> {
+    Some(MeFunctions {
+        enter_event_mode: sym(lib, "fmi2EnterEventMode")?,
+        new_discrete_states: sym(lib, "fmi2NewDiscreteStates")?,
+        enter_continuous_time_mode: sym(lib, "fmi2EnterContinuousTimeMode")?,
+        completed_integrator_step: sym(lib, "fmi2CompletedIntegratorStep")?,
+        set_time: sym(lib, "fmi2SetTime")?,
+        set_continuous_states: sym(lib, "fmi2SetContinuousStates")?,
+        get_derivatives: sym(lib, "fmi2GetDerivatives")?,
+        get_event_indicators: sym(lib, "fmi2GetEventIndicators")?,
+        get_continuous_states: sym(lib, "fmi2GetContinuousStates")?,
+        get_nominals_of_continuous_states: sym(lib, "fmi2GetNominalsOfContinuousStates")?,
+    })
 }
 
 /// Looks up `name` in `lib` as a function pointer of type `T`.
@@ -224,6 +295,31 @@ pub unsafe fn load_library(path: &Path) -> Result<Library, LoadError> {
 /// # Safety
 /// `lib` must be an FMI 2.0 binary whose exports have the standard signatures.
 pub unsafe fn resolve(lib: &Library) -> Result<Functions, LoadError> {
+    resolve_for(lib, false)
+}
+
+/// [`resolve`] for the interface used: with `model_exchange`, the Model Exchange functions are
+/// required and `fmi2DoStep` is not (an ME-only binary need not export it).
+///
+/// # Safety
+/// `lib` must be an FMI 2.0 binary whose exports have the standard signatures.
+pub unsafe fn resolve_for(lib: &Library, model_exchange: bool) -> Result<Functions, LoadError> {
+    let me = resolve_me(lib);
+    if model_exchange && me.is_none() {
+        let absent = FMI2_ME_FUNCTIONS
+            .iter()
+            // SAFETY: only the address is looked up, never called.
+            .find(|n| sym::<*const c_void>(lib, n).is_none());
+        return Err(LoadError::MissingFunction(
+            absent.copied().unwrap_or("fmi2SetTime"),
+        ));
+    }
+    type DoStep = unsafe extern "C" fn(C, f64, f64, Fmi2Boolean) -> RawStatus;
+    let do_step = match sym::<DoStep>(lib, "fmi2DoStep") {
+        Some(f) => f,
+        None if model_exchange => absent_do_step as DoStep,
+        None => return Err(LoadError::MissingFunction("fmi2DoStep")),
+    };
     macro_rules! req {
         ($name:literal) => {
             sym(lib, $name).ok_or(LoadError::MissingFunction($name))?
@@ -254,7 +350,7 @@ pub unsafe fn resolve(lib: &Library) -> Result<Functions, LoadError> {
         serialized_fmu_state_size: sym(lib, "fmi2SerializedFMUstateSize"),
         serialize_fmu_state: sym(lib, "fmi2SerializeFMUstate"),
         deserialize_fmu_state: sym(lib, "fmi2DeSerializeFMUstate"),
-        do_step: req!("fmi2DoStep"),
+        do_step,
         cancel_step: sym(lib, "fmi2CancelStep"),
         get_status: sym(lib, "fmi2GetStatus"),
         get_real_status: sym(lib, "fmi2GetRealStatus"),
@@ -264,5 +360,6 @@ pub unsafe fn resolve(lib: &Library) -> Result<Functions, LoadError> {
         get_directional_derivative: sym(lib, "fmi2GetDirectionalDerivative"),
         set_real_input_derivatives: sym(lib, "fmi2SetRealInputDerivatives"),
         get_real_output_derivatives: sym(lib, "fmi2GetRealOutputDerivatives"),
+        me,
     })
 }

@@ -2,6 +2,7 @@
 
 use crate::error::{HostError, Result};
 use crate::ffi::{self, Functions};
+use crate::kind::Interface;
 use crate::md::ModelDescription;
 use libloading::Library;
 use std::io::Read;
@@ -23,9 +24,22 @@ pub struct Extracted {
     _tempdir: Option<tempfile::TempDir>,
 }
 
-impl Extracted {
-    /// Extracts `path` (an `.fmu` zip, or an already extracted directory) and parses its
-    /// `modelDescription.xml`.
+/// An FMU's files on disk and the text of its `modelDescription.xml`, before the description is
+/// parsed: what every FMI version shares (extraction with its bounds, the size and encoding of
+/// the description).
+pub struct Unpacked {
+    /// Where the archive was opened from.
+    pub path: PathBuf,
+    /// Root of the extracted tree (holds modelDescription.xml).
+    pub dir: PathBuf,
+    /// The text of `modelDescription.xml`.
+    pub xml: String,
+    pub(crate) tempdir: Option<tempfile::TempDir>,
+}
+
+impl Unpacked {
+    /// Extracts `path` (an `.fmu` zip, or an already extracted directory) and reads its
+    /// `modelDescription.xml` (at most 64 MiB, UTF-8).
     pub fn open(path: impl AsRef<Path>) -> Result<Self> {
         let path = path.as_ref().to_path_buf();
         let meta = std::fs::metadata(&path).map_err(|source| HostError::Io {
@@ -64,7 +78,68 @@ impl Extracted {
             column: 0,
             message: format!("not UTF-8: {e}"),
         })?;
-        if let Some(v) = fmi_version(&xml).filter(|v| !v.starts_with("2.")) {
+        Ok(Unpacked {
+            path,
+            dir,
+            xml,
+            tempdir,
+        })
+    }
+
+    /// The `fmiVersion` of the root element (read without parsing the rest).
+    pub fn fmi_version(&self) -> Option<&str> {
+        fmi_version(&self.xml)
+    }
+
+    /// `file` for messages about the description: `<fmu>!modelDescription.xml`.
+    pub fn description_file(&self) -> String {
+        format!("{}!modelDescription.xml", self.path.display())
+    }
+}
+
+/// Checks that `id`, a `modelIdentifier`, is a C identifier (`clause` cites the standard's
+/// rule): it names the library and prefixes the functions, and anything else, such as `../x` or
+/// an absolute path, could name a library outside the FMU.
+pub(crate) fn check_c_identifier(id: &str, fmu: &Path, clause: &str) -> Result<()> {
+    let mut chars = id.chars();
+    let first_ok = chars
+        .next()
+        .is_some_and(|c| c.is_ascii_alphabetic() || c == '_');
+    if !first_ok || !chars.all(|c| c.is_ascii_alphanumeric() || c == '_') {
+        let shown: String = id.chars().take(60).flat_map(char::escape_debug).collect();
+        return Err(HostError::Archive {
+            path: fmu.to_path_buf(),
+            message: format!("modelIdentifier \"{shown}\" is not a C identifier ({clause})"),
+        });
+    }
+    Ok(())
+}
+
+/// Path of `binaries/<platform>/<id>.so` under `dir`, refused when it resolves outside the FMU
+/// (a symbolic link in an extracted directory given as the FMU must not lead the loader out).
+pub(crate) fn binary_under(dir: &Path, fmu: &Path, platform: &str, id: &str) -> Result<PathBuf> {
+    let path = dir
+        .join("binaries")
+        .join(platform)
+        .join(format!("{id}.{LIB_SUFFIX}"));
+    if let (Ok(real), Ok(root)) = (path.canonicalize(), dir.canonicalize()) {
+        if !real.starts_with(&root) {
+            return Err(HostError::Archive {
+                path: fmu.to_path_buf(),
+                message: format!("binaries/{platform}/{id}.{LIB_SUFFIX} resolves outside the FMU"),
+            });
+        }
+    }
+    Ok(path)
+}
+
+impl Extracted {
+    /// Extracts `path` (an `.fmu` zip, or an already extracted directory) and parses its
+    /// `modelDescription.xml`.
+    pub fn open(path: impl AsRef<Path>) -> Result<Self> {
+        let unpacked = Unpacked::open(path)?;
+        let path = unpacked.path.clone();
+        if let Some(v) = unpacked.fmi_version().filter(|v| !v.starts_with("2.")) {
             let major = v.split('.').next().unwrap_or(v);
             return Err(HostError::Unsupported {
                 path: path.clone(),
@@ -79,12 +154,12 @@ impl Extracted {
             });
         }
         let model_description =
-            ModelDescription::parse(&xml, &format!("{}!modelDescription.xml", path.display()))?;
+            ModelDescription::parse(&unpacked.xml, &unpacked.description_file())?;
         Ok(Extracted {
             path,
-            dir,
+            dir: unpacked.dir,
             model_description,
-            _tempdir: tempdir,
+            _tempdir: unpacked.tempdir,
         })
     }
 
@@ -92,54 +167,53 @@ impl Extracted {
     /// 2.0.4 section 2.2.1: it names the library and prefixes the functions): anything else,
     /// such as `../x` or an absolute path, could name a library outside the FMU.
     pub fn model_identifier(&self) -> Result<&str> {
-        let id = self
-            .model_description
-            .co_simulation
-            .as_ref()
-            .map(|c| c.model_identifier.as_str())
-            .ok_or_else(|| HostError::Archive {
-                path: self.path.clone(),
-                message:
-                    "modelDescription.xml has no <CoSimulation> element (not a Co-Simulation FMU)"
-                        .into(),
-            })?;
-        let mut chars = id.chars();
-        let first_ok = chars
-            .next()
-            .is_some_and(|c| c.is_ascii_alphabetic() || c == '_');
-        if !first_ok || !chars.all(|c| c.is_ascii_alphanumeric() || c == '_') {
-            let shown: String = id.chars().take(60).flat_map(char::escape_debug).collect();
-            return Err(HostError::Archive {
-                path: self.path.clone(),
-                message: format!(
-                    "modelIdentifier \"{shown}\" is not a C identifier (FMI 2.0.4 section 2.2.1)"
-                ),
-            });
+        self.model_identifier_for(Interface::CoSimulation)
+    }
+
+    /// The interface a run uses when none is asked for: Co-Simulation where the FMU offers it,
+    /// else Model Exchange.
+    pub fn default_interface(&self) -> Interface {
+        let md = &self.model_description;
+        if md.co_simulation.is_none() && md.model_exchange.is_some() {
+            Interface::ModelExchange
+        } else {
+            Interface::CoSimulation
         }
+    }
+
+    /// [`Self::model_identifier`] of the element of `interface`.
+    pub fn model_identifier_for(&self, interface: Interface) -> Result<&str> {
+        let md = &self.model_description;
+        let id = match interface {
+            Interface::CoSimulation => md.co_simulation.as_ref().map(|c| &c.model_identifier),
+            Interface::ModelExchange => md.model_exchange.as_ref(),
+        };
+        let id = id.map(String::as_str).ok_or_else(|| HostError::Archive {
+            path: self.path.clone(),
+            message: match interface {
+                Interface::CoSimulation => {
+                    "modelDescription.xml has no <CoSimulation> element (not a Co-Simulation FMU)"
+                }
+                Interface::ModelExchange => {
+                    "modelDescription.xml has no <ModelExchange> element (not a Model Exchange \
+                     FMU)"
+                }
+            }
+            .into(),
+        })?;
+        check_c_identifier(id, &self.path, "FMI 2.0.4 section 2.2.1")?;
         Ok(id)
     }
 
     /// Path of the binary for this platform: `binaries/linux64/<modelIdentifier>.so`.
     pub fn binary_path(&self) -> Result<PathBuf> {
-        let id = self.model_identifier()?;
-        let path = self
-            .dir
-            .join("binaries")
-            .join(PLATFORM)
-            .join(format!("{id}.{LIB_SUFFIX}"));
-        // A symbolic link (in an extracted directory given as the FMU) must not lead the loader
-        // outside the FMU either.
-        if let (Ok(real), Ok(root)) = (path.canonicalize(), self.dir.canonicalize()) {
-            if !real.starts_with(&root) {
-                return Err(HostError::Archive {
-                    path: self.path.clone(),
-                    message: format!(
-                        "binaries/{PLATFORM}/{id}.{LIB_SUFFIX} resolves outside the FMU"
-                    ),
-                });
-            }
-        }
-        Ok(path)
+        self.binary_path_for(Interface::CoSimulation)
+    }
+
+    /// [`Self::binary_path`] of the library of `interface`.
+    pub fn binary_path_for(&self, interface: Interface) -> Result<PathBuf> {
+        let id = self.model_identifier_for(interface)?;
+        binary_under(&self.dir, &self.path, PLATFORM, id)
     }
 
     /// `file://` URI of the resources folder, as fmi2Instantiate expects.
@@ -150,7 +224,7 @@ impl Extracted {
 
 /// The `fmiVersion` attribute of the root element, read before the full parse so that an FMU of
 /// another standard version gets one clear message rather than schema errors.
-fn fmi_version(xml: &str) -> Option<&str> {
+pub fn fmi_version(xml: &str) -> Option<&str> {
     let root = &xml[xml.find("<fmiModelDescription")?..];
     let root = &root[..root.find('>')?];
     let at = root.find("fmiVersion")?;
@@ -252,6 +326,8 @@ pub fn file_uri(path: &Path) -> String {
 /// `canBeInstantiatedOnlyOncePerProcess`).
 pub struct Fmu {
     pub(crate) functions: Functions,
+    /// The interface its instances are made for.
+    interface: Interface,
     /// Instances alive now (for `canBeInstantiatedOnlyOncePerProcess`).
     pub(crate) live_instances: std::sync::atomic::AtomicUsize,
     // Field order matters: the library is unloaded before the extracted files are removed.
@@ -265,6 +341,8 @@ pub struct OpenOptions {
     /// The Python interpreter whose runtime a binary that needs one (PythonFMU) gets; None:
     /// `python3` on PATH.
     pub python: Option<PathBuf>,
+    /// The interface to run (None: [`Extracted::default_interface`]).
+    pub interface: Option<Interface>,
 }
 
 impl Fmu {
@@ -277,7 +355,10 @@ impl Fmu {
     /// [`Fmu::open`] with options.
     pub fn open_with(path: impl AsRef<Path>, opts: &OpenOptions) -> Result<Fmu> {
         let extracted = Extracted::open(path)?;
-        let bin = extracted.binary_path()?;
+        let interface = opts
+            .interface
+            .unwrap_or_else(|| extracted.default_interface());
+        let bin = extracted.binary_path_for(interface)?;
         if !bin.is_file() {
             return Err(HostError::Archive {
                 path: extracted.path.clone(),
@@ -301,13 +382,20 @@ impl Fmu {
         // SAFETY: loading an FMU's binary is the purpose of the host; the FMU is trusted.
         let library = unsafe { ffi::load_library(&bin) }.map_err(bad)?;
         // SAFETY: the symbols are FMI 2.0 functions with the standard signatures.
-        let functions = unsafe { ffi::resolve(&library) }.map_err(bad)?;
+        let me = interface == Interface::ModelExchange;
+        let functions = unsafe { ffi::resolve_for(&library, me) }.map_err(bad)?;
         Ok(Fmu {
             functions,
+            interface,
             live_instances: std::sync::atomic::AtomicUsize::new(0),
             _library: library,
             extracted,
         })
+    }
+
+    /// The interface its instances are made for.
+    pub fn interface(&self) -> Interface {
+        self.interface
     }
 
     /// The parsed `modelDescription.xml`.

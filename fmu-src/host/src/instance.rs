@@ -3,6 +3,7 @@
 use crate::error::{HostError, LogRecord, Result, Status};
 use crate::ffi::{self, CallbackFunctions, Component, FmuState, LogEnv, LogSink, RawStatus};
 use crate::fmu::Fmu;
+use crate::kind::Interface;
 use crate::watch::{self, Call};
 use ffi::Fmi2Boolean;
 use std::ffi::{c_char, c_int, c_void, CString};
@@ -10,6 +11,8 @@ use std::sync::atomic::Ordering;
 
 /// `fmi2CoSimulation` for fmi2Instantiate's fmuType.
 const FMI2_COSIMULATION: c_int = 1;
+/// `fmi2ModelExchange` for fmi2Instantiate's fmuType.
+const FMI2_MODEL_EXCHANGE: c_int = 0;
 
 /// Options of [`Fmu::instantiate_with`] (default: all off).
 #[derive(Clone, Debug, Default)]
@@ -31,8 +34,8 @@ pub struct FmuStateHandle {
 
 /// A live instance of an [`Fmu`]. Not `Sync`; `Send` so it can move to a worker thread.
 pub struct Instance<'a> {
-    fmu: &'a Fmu,
-    component: Component,
+    pub(crate) fmu: &'a Fmu,
+    pub(crate) component: Component,
     // Boxed so their addresses stay fixed while the FMU holds pointers to them.
     _callbacks: Box<CallbackFunctions>,
     _env: Box<LogEnv>,
@@ -103,7 +106,10 @@ impl Fmu {
         let component = unsafe {
             (self.functions.instantiate)(
                 cname.as_ptr(),
-                FMI2_COSIMULATION,
+                match self.interface() {
+                    Interface::CoSimulation => FMI2_COSIMULATION,
+                    Interface::ModelExchange => FMI2_MODEL_EXCHANGE,
+                },
                 guid.as_ptr(),
                 uri.as_ptr(),
                 &*callbacks,
@@ -141,7 +147,7 @@ impl<'a> Instance<'a> {
 
     /// Converts a raw status: OK/Warning pass (warnings stay in the log), anything else becomes
     /// [`HostError::Fmi`] carrying the messages logged during the call.
-    fn check(&mut self, function: &'static str, raw: RawStatus) -> Result<Status> {
+    pub(crate) fn check(&mut self, function: &'static str, raw: RawStatus) -> Result<Status> {
         let status = Status::from_raw(raw);
         if status.is_success() {
             Ok(status)
@@ -583,6 +589,6 @@ fn check_len(a: usize, b: usize) -> Result<()> {
     }
 }
 
-fn missing(name: &str) -> HostError {
+pub(crate) fn missing(name: &str) -> HostError {
     HostError::Request(format!("the FMU binary does not export {name}"))
 }

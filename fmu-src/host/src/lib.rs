@@ -15,17 +15,22 @@ pub mod binary;
 pub mod csv;
 mod error;
 pub mod ffi;
+pub mod fmi3;
 mod fmu;
 mod instance;
+pub mod kind;
 pub mod md;
+mod me;
 pub mod python;
 mod simulate;
 pub mod validate;
 pub mod watch;
+mod xml;
 
 pub use error::{shown, HostError, LogRecord, Result, Status};
-pub use fmu::{file_uri, Extracted, Fmu, OpenOptions, LIB_SUFFIX, PLATFORM};
+pub use fmu::{file_uri, Extracted, Fmu, OpenOptions, Unpacked, LIB_SUFFIX, PLATFORM};
 pub use instance::{FmuStateHandle, Instance, InstanceOptions};
+pub use kind::{fmi_version_of, FmiVersion, Interface};
 pub use md::ModelDescription;
 pub use simulate::{
     communication_points, hold_index, interpolate, simulate, InputSeries, SimulationRequest,

@@ -250,6 +250,10 @@ pub struct ModelDescription {
     pub co_simulation: Option<CoSimulation>,
     /// `modelIdentifier` of `<ModelExchange>` if present.
     pub model_exchange: Option<String>,
+    /// `providesDirectionalDerivative` of `<ModelExchange>`.
+    pub me_provides_directional_derivative: bool,
+    /// `completedIntegratorStepNotNeeded` of `<ModelExchange>`.
+    pub me_completed_integrator_step_not_needed: bool,
     /// `<UnitDefinitions>`
     pub unit_definitions: Vec<Unit>,
     /// `<TypeDefinitions>`
@@ -517,6 +521,12 @@ impl<'a> Parser<'a> {
             ("fmiModelDescription", "CoSimulation") => self.co_simulation(&a)?,
             ("fmiModelDescription", "ModelExchange") => {
                 self.md.model_exchange = Some(self.required(&a, "modelIdentifier")?);
+                self.md.me_provides_directional_derivative = self
+                    .boolean(&a, "providesDirectionalDerivative")?
+                    .unwrap_or(false);
+                self.md.me_completed_integrator_step_not_needed = self
+                    .boolean(&a, "completedIntegratorStepNotNeeded")?
+                    .unwrap_or(false);
             }
             ("UnitDefinitions", "Unit") => {
                 let name = self.required(&a, "name")?;

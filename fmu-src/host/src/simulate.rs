@@ -3,6 +3,7 @@
 use crate::error::{HostError, Result, Status};
 use crate::fmu::Fmu;
 use crate::instance::Instance;
+use crate::kind::Interface;
 use crate::md::{Causality, ModelDescription, ScalarVariable, VarKind, Variability};
 
 /// Columns of text: (variable name, one value per row).
@@ -90,8 +91,12 @@ pub struct SimulationRequest {
     pub inputs: InputSeries,
     /// Variables to record; empty means every output.
     pub outputs: Vec<String>,
-    /// Tolerance passed to fmi2SetupExperiment (None: not defined).
+    /// Tolerance passed to fmi2SetupExperiment (None: not defined); for Model Exchange also
+    /// the integrator's relative tolerance (None: the DefaultExperiment's, else 1e-5 as FMPy).
     pub tolerance: Option<f64>,
+    /// Model Exchange: also record before and after each event (two rows at its time), as
+    /// FMPy's `record_events`. Co-Simulation records the communication points only.
+    pub record_events: bool,
 }
 
 impl SimulationRequest {
@@ -105,6 +110,7 @@ impl SimulationRequest {
             inputs: InputSeries::default(),
             outputs: Vec::new(),
             tolerance: None,
+            record_events: false,
         }
     }
 }
@@ -291,6 +297,9 @@ pub fn simulate(fmu: &Fmu, req: &SimulationRequest) -> Result<SimulationResult> 
 }
 
 fn run_on(inst: &mut Instance<'_>, req: &SimulationRequest) -> Result<SimulationResult> {
+    if inst.fmu().interface() == Interface::ModelExchange {
+        return crate::me::fmi2::run_on(inst, req);
+    }
     let md = inst.fmu().model_description();
     let times = communication_points(req.start_time, req.stop_time, req.step)?;
     // Resolve everything before touching the FMU.
@@ -363,7 +372,7 @@ pub const MAX_RECORDED_VALUES: usize = 1 << 27;
 
 /// Start values grouped by type, checked against the model description.
 #[derive(Default)]
-struct StartValues {
+pub(crate) struct StartValues {
     reals: (Vec<u32>, Vec<f64>),
     ints: (Vec<u32>, Vec<i32>),
     bools: (Vec<u32>, Vec<bool>),
@@ -371,7 +380,7 @@ struct StartValues {
 }
 
 impl StartValues {
-    fn resolve(md: &ModelDescription, values: &[(String, Value)]) -> Result<Self> {
+    pub(crate) fn resolve(md: &ModelDescription, values: &[(String, Value)]) -> Result<Self> {
         let mut s = StartValues::default();
         for (name, value) in values {
             let v = lookup(md, name)?;
@@ -403,7 +412,7 @@ impl StartValues {
         Ok(s)
     }
 
-    fn apply(&self, inst: &mut Instance<'_>) -> Result<()> {
+    pub(crate) fn apply(&self, inst: &mut Instance<'_>) -> Result<()> {
         if !self.reals.0.is_empty() {
             inst.set_real(&self.reals.0, &self.reals.1)?;
         }
@@ -427,7 +436,7 @@ fn push<T>(to: &mut (Vec<u32>, Vec<T>), vr: u32, x: T) {
 }
 
 /// How an input column reaches the FMU.
-#[derive(Clone, Copy, PartialEq)]
+#[derive(Clone, Copy, PartialEq, Debug)]
 enum Apply {
     /// Continuous Real: linear interpolation.
     Interpolate,
@@ -436,7 +445,7 @@ enum Apply {
 }
 
 /// The inputs of a run: value references by type, one set call per type per point.
-struct InputPlan<'r> {
+pub(crate) struct InputPlan<'r> {
     series: &'r InputSeries,
     /// (vr, column, how) of Real inputs, set together.
     reals: Vec<(u32, usize, Apply)>,
@@ -448,10 +457,53 @@ struct InputPlan<'r> {
     real_buf: Vec<f64>,
     interp_cursor: usize,
     hold_cursor: usize,
+    /// Times at which a discrete input changes or the time axis repeats (a jump), ascending.
+    input_events: Vec<f64>,
+}
+
+/// The input events of `series` as FMPy's `Input.findEvents` finds them: the time of a repeated
+/// row time, and the row time at which a held (discrete) input changes its value.
+fn input_events(plan: &InputPlan<'_>, series: &InputSeries) -> Vec<f64> {
+    let t = &series.time;
+    let mut events: Vec<f64> = t
+        .windows(2)
+        .filter(|w| w[0] == w[1])
+        .map(|w| w[0])
+        .collect();
+    let held = plan
+        .reals
+        .iter()
+        .filter(|r| r.2 == Apply::Hold)
+        .map(|r| r.1)
+        .chain(plan.ints.iter().chain(&plan.bools).map(|r| r.1));
+    for col in held {
+        let v = &series.columns[col].1;
+        events.extend((1..v.len()).filter(|&i| v[i] != v[i - 1]).map(|i| t[i]));
+    }
+    for &(_, col) in &plan.strings {
+        let v = &series.text[col].1;
+        events.extend((1..v.len()).filter(|&i| v[i] != v[i - 1]).map(|i| t[i]));
+    }
+    events.sort_by(f64::total_cmp);
+    events.dedup();
+    events
+}
+
+impl InputPlan<'_> {
+    /// The first input event after `t` (not within 1e-9 relative of it); infinite: none.
+    pub(crate) fn next_event(&self, t: f64) -> f64 {
+        let close = |e: f64| (e - t).abs() <= 1e-9 * e.abs().max(t.abs());
+        let from = self.input_events.partition_point(|&e| e <= t);
+        self.input_events[from..]
+            .iter()
+            .copied()
+            .find(|&e| !close(e))
+            .unwrap_or(f64::INFINITY)
+    }
 }
 
 impl<'r> InputPlan<'r> {
-    fn new(md: &ModelDescription, series: &'r InputSeries) -> Result<Self> {
+    pub(crate) fn new(md: &ModelDescription, series: &'r InputSeries) -> Result<Self> {
         let mut plan = InputPlan {
             series,
             reals: Vec::new(),
@@ -462,6 +514,7 @@ impl<'r> InputPlan<'r> {
             real_buf: Vec::new(),
             interp_cursor: 0,
             hold_cursor: 0,
+            input_events: Vec::new(),
         };
         let names = series.columns.iter().map(|(n, c)| (n, c.len()));
         let text_names = series.text.iter().map(|(n, c)| (n, c.len()));
@@ -499,13 +552,26 @@ impl<'r> InputPlan<'r> {
         if !(series.columns.is_empty() && series.text.is_empty()) && series.time.is_empty() {
             return Err(HostError::Request("input series has no samples".into()));
         }
+        plan.input_events = input_events(&plan, series);
         plan.real_vrs = plan.reals.iter().map(|r| r.0).collect();
         plan.real_buf = vec![0.0; plan.reals.len()];
         Ok(plan)
     }
 
     /// Sets every input to its value at `t`.
-    fn apply(&mut self, inst: &mut Instance<'_>, t: f64) -> Result<()> {
+    pub(crate) fn apply(&mut self, inst: &mut Instance<'_>, t: f64) -> Result<()> {
+        self.apply_some(inst, t, true, true)
+    }
+
+    /// Sets the continuous Real inputs (`continuous`) and the discrete ones (`discrete`) to
+    /// their values at `t`: Model Exchange sets the discrete inputs in Event Mode only.
+    pub(crate) fn apply_some(
+        &mut self,
+        inst: &mut Instance<'_>,
+        t: f64,
+        continuous: bool,
+        discrete: bool,
+    ) -> Result<()> {
         let s = self.series;
         if s.time.is_empty() {
             return Ok(());
@@ -523,8 +589,24 @@ impl<'r> InputPlan<'r> {
             };
         }
         self.interp_cursor = next;
-        if !self.reals.is_empty() {
-            inst.set_real(&self.real_vrs, &self.real_buf)?;
+        if continuous && discrete {
+            if !self.reals.is_empty() {
+                inst.set_real(&self.real_vrs, &self.real_buf)?;
+            }
+        } else {
+            let want = if continuous {
+                Apply::Interpolate
+            } else {
+                Apply::Hold
+            };
+            for (x, &(vr, _, how)) in self.real_buf.iter().zip(&self.reals) {
+                if how == want {
+                    inst.set_real(&[vr], &[*x])?;
+                }
+            }
+        }
+        if !discrete {
+            return Ok(());
         }
         for &(vr, col) in &self.ints {
             inst.set_integer(&[vr], &[held_integer(s.columns[col].1[row])])?;
@@ -545,7 +627,7 @@ fn held_integer(x: f64) -> i32 {
 }
 
 /// Outputs read after each step, by type.
-struct Recorder {
+pub(crate) struct Recorder {
     names: Vec<String>,
     by_type: ByType,
     vrs: [Vec<u32>; 4],
@@ -557,7 +639,7 @@ struct Recorder {
 }
 
 impl Recorder {
-    fn new(md: &ModelDescription, names: Vec<String>, capacity: usize) -> Result<Self> {
+    pub(crate) fn new(md: &ModelDescription, names: Vec<String>, capacity: usize) -> Result<Self> {
         let mut by_type = ByType::default();
         for (j, name) in names.iter().enumerate() {
             let v = lookup(md, name)?;
@@ -588,7 +670,12 @@ impl Recorder {
         })
     }
 
-    fn record(&mut self, inst: &mut Instance<'_>) -> Result<()> {
+    /// Number of recorded variables.
+    pub(crate) fn width(&self) -> usize {
+        self.names.len()
+    }
+
+    pub(crate) fn record(&mut self, inst: &mut Instance<'_>) -> Result<()> {
         let t = &self.by_type;
         if !self.vrs[0].is_empty() {
             inst.get_real(&self.vrs[0], &mut self.rbuf)?;
@@ -618,7 +705,7 @@ impl Recorder {
     }
 
     /// (numeric names, their columns, String columns), each in the order asked for.
-    fn finish(self) -> (Vec<String>, Vec<Vec<f64>>, TextColumns) {
+    pub(crate) fn finish(self) -> (Vec<String>, Vec<Vec<f64>>, TextColumns) {
         let is_text: Vec<bool> = (0..self.names.len())
             .map(|j| self.by_type.string.iter().any(|&(k, _)| k == j))
             .collect();

@@ -12,7 +12,9 @@
 use memmap2::{MmapMut, MmapOptions};
 use std::cell::Cell;
 use std::fs::OpenOptions;
-use std::path::Path;
+use std::io::Write;
+use std::os::unix::ffi::OsStrExt;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering::Relaxed};
 use std::sync::OnceLock;
 
@@ -23,6 +25,8 @@ const WORDS: usize = 4;
 /// Size of the shared file.
 pub const FILE_BYTES: usize = SLOTS * WORDS * 8;
 const IN_CALL: u64 = 1 << 63;
+/// Set with [`IN_CALL`] when the call is to an FMI 3.0 binary: the same [`Call`]s, named `fmi3*`.
+const FMI3: u64 = 1 << 62;
 const NO_TIME: u64 = u64::MAX;
 
 /// The FMI functions (and library loading) a slot can name.
@@ -55,6 +59,31 @@ pub enum Call {
     FmuState,
     /// Any other FMI function.
     Other,
+    /// fmi2SetTime
+    SetTime,
+    /// fmi2SetContinuousStates
+    SetContinuousStates,
+    /// fmi2GetContinuousStates
+    GetContinuousStates,
+    /// fmi2GetDerivatives
+    GetDerivatives,
+    /// fmi2GetEventIndicators
+    GetEventIndicators,
+    /// fmi2EnterEventMode
+    EnterEventMode,
+    /// fmi2NewDiscreteStates
+    NewDiscreteStates,
+    /// fmi2EnterContinuousTimeMode
+    EnterContinuousTimeMode,
+    /// fmi2CompletedIntegratorStep
+    CompletedIntegratorStep,
+    /// fmi2GetNominalsOfContinuousStates
+    GetNominals,
+    /// fmi2GetDirectionalDerivative
+    DirectionalDerivative,
+    /// The host's own Model Exchange integration between FMU calls (the time is the last one
+    /// an FMU call was marked with).
+    HostIntegration,
 }
 
 impl Call {
@@ -74,11 +103,35 @@ impl Call {
             Call::FreeInstance => "fmi2FreeInstance",
             Call::FmuState => "an FMU-state function",
             Call::Other => "an FMI function",
+            Call::SetTime => "fmi2SetTime",
+            Call::SetContinuousStates => "fmi2SetContinuousStates",
+            Call::GetContinuousStates => "fmi2GetContinuousStates",
+            Call::GetDerivatives => "fmi2GetDerivatives",
+            Call::GetEventIndicators => "fmi2GetEventIndicators",
+            Call::EnterEventMode => "fmi2EnterEventMode",
+            Call::NewDiscreteStates => "fmi2NewDiscreteStates",
+            Call::EnterContinuousTimeMode => "fmi2EnterContinuousTimeMode",
+            Call::CompletedIntegratorStep => "fmi2CompletedIntegratorStep",
+            Call::GetNominals => "fmi2GetNominalsOfContinuousStates",
+            Call::DirectionalDerivative => "fmi2GetDirectionalDerivative",
+            Call::HostIntegration => "the host's Model Exchange integration",
         }
     }
 
     fn from_word(w: u64) -> Option<Call> {
-        const ALL: [Call; 13] = [
+        const ALL: [Call; 25] = [
+            Call::SetTime,
+            Call::SetContinuousStates,
+            Call::GetContinuousStates,
+            Call::GetDerivatives,
+            Call::GetEventIndicators,
+            Call::EnterEventMode,
+            Call::NewDiscreteStates,
+            Call::EnterContinuousTimeMode,
+            Call::CompletedIntegratorStep,
+            Call::GetNominals,
+            Call::DirectionalDerivative,
+            Call::HostIntegration,
             Call::Load,
             Call::Instantiate,
             Call::SetupExperiment,
@@ -93,11 +146,13 @@ impl Call {
             Call::FmuState,
             Call::Other,
         ];
-        ALL.into_iter().find(|c| *c as u64 == w & !IN_CALL)
+        ALL.into_iter().find(|c| *c as u64 == w & !(IN_CALL | FMI3))
     }
 }
 
 static PAGE: OnceLock<&'static [AtomicU64]> = OnceLock::new();
+/// Where this process lists the temporary output files it creates (see [`register_output`]).
+static OUTPUTS: OnceLock<PathBuf> = OnceLock::new();
 static NEXT_SLOT: AtomicUsize = AtomicUsize::new(0);
 thread_local! {
     static SLOT: Cell<Option<usize>> = const { Cell::new(None) };
@@ -117,7 +172,44 @@ pub fn attach(path: &Path) -> std::io::Result<()> {
     let words =
         unsafe { std::slice::from_raw_parts(map.as_mut_ptr().cast::<AtomicU64>(), FILE_BYTES / 8) };
     let _ = PAGE.set(words);
+    let _ = OUTPUTS.set(outputs_list(path));
     Ok(())
+}
+
+/// The list of temporary output files beside the watch file at `watch`.
+fn outputs_list(watch: &Path) -> PathBuf {
+    watch.with_extension("outputs")
+}
+
+/// Records that this process is about to create the temporary output file `path` (outside the
+/// supervisor's scratch directory, next to the file it will replace), before it exists: when the
+/// process dies before renaming it (Ctrl-C while writing, SIGKILL), the supervisor removes it
+/// ([`remove_outputs`]). Without [`attach`] nothing is recorded.
+pub fn register_output(path: &Path) -> std::io::Result<()> {
+    let Some(list) = OUTPUTS.get() else {
+        return Ok(());
+    };
+    let mut entry = path.as_os_str().as_bytes().to_vec();
+    entry.push(0);
+    // One write(2) of the whole entry to a file opened for appending: the supervisor reads
+    // whole entries even if this process dies right after.
+    OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(list)?
+        .write_all(&entry)
+}
+
+/// The supervisor's side of [`register_output`]: removes every listed file the child of the
+/// watch file `watch` left behind (a completed output was renamed away and is not touched).
+pub fn remove_outputs(watch: &Path) {
+    let Ok(list) = std::fs::read(outputs_list(watch)) else {
+        return;
+    };
+    for entry in list.split(|b| *b == 0).filter(|e| !e.is_empty()) {
+        let path = Path::new(std::ffi::OsStr::from_bytes(entry));
+        let _ = std::fs::remove_file(path);
+    }
 }
 
 fn slot(page: &'static [AtomicU64]) -> &'static [AtomicU64] {
@@ -136,6 +228,16 @@ fn slot(page: &'static [AtomicU64]) -> &'static [AtomicU64] {
 /// returned guard is dropped.
 #[must_use = "the call is marked as finished when the guard drops"]
 pub fn enter(call: Call, t: Option<f64>) -> Guard {
+    mark(call as u64, t)
+}
+
+/// [`enter`] for a call to an FMI 3.0 binary (the supervisor names it `fmi3DoStep`, ...).
+#[must_use = "the call is marked as finished when the guard drops"]
+pub fn enter3(call: Call, t: Option<f64>) -> Guard {
+    mark(call as u64 | FMI3, t)
+}
+
+fn mark(word: u64, t: Option<f64>) -> Guard {
     let Some(page) = PAGE.get() else {
         return Guard(None);
     };
@@ -144,17 +246,18 @@ pub fn enter(call: Call, t: Option<f64>) -> Guard {
     if let Some(t) = t {
         s[2].store(t.to_bits(), Relaxed);
     }
-    s[1].store(call as u64 | IN_CALL, Relaxed);
-    Guard(Some(s))
+    let outer = s[1].swap(word | IN_CALL, Relaxed);
+    Guard(Some((s, outer)))
 }
 
-/// Clears the in-call mark of its slot when dropped.
-pub struct Guard(Option<&'static [AtomicU64]>);
+/// Restores its slot's mark as it was before [`enter`] when dropped: cleared, or the enclosing
+/// mark when calls nest (an FMU call inside the host's integration loop).
+pub struct Guard(Option<(&'static [AtomicU64], u64)>);
 
 impl Drop for Guard {
     fn drop(&mut self) {
-        if let Some(s) = self.0 {
-            s[1].fetch_and(!IN_CALL, Relaxed);
+        if let Some((s, outer)) = self.0 {
+            s[1].store(outer, Relaxed);
         }
     }
 }
@@ -170,11 +273,17 @@ pub struct InCall {
     pub call: Call,
     /// The simulation time of the last fmi2DoStep (or setup), if any.
     pub time: Option<f64>,
+    /// The call is to an FMI 3.0 binary.
+    pub fmi3: bool,
 }
 
 impl std::fmt::Display for InCall {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{}", self.call.name())?;
+        if self.fmi3 {
+            write!(f, "{}", self.call.name().replacen("fmi2", "fmi3", 1))?;
+        } else {
+            write!(f, "{}", self.call.name())?;
+        }
         if let Some(t) = self.time {
             write!(f, " at t = {t} s")?;
         }
@@ -224,6 +333,7 @@ impl Monitor {
                     seq: w[0].load(Relaxed),
                     call: Call::from_word(word)?,
                     time: (t != NO_TIME).then(|| f64::from_bits(t)),
+                    fmi3: word & FMI3 != 0,
                 })
             })
             .collect();
@@ -250,6 +360,9 @@ mod tests {
         assert_eq!(seen[0].to_string(), "fmi2DoStep at t = 0.25 s");
         drop(g);
         assert!(monitor.in_calls().is_empty());
+        let g = enter3(Call::DoStep, Some(0.5));
+        assert_eq!(monitor.in_calls()[0].to_string(), "fmi3DoStep at t = 0.5 s");
+        drop(g);
         // another thread gets its own slot
         let h = std::thread::spawn(|| {
             let _g = enter(Call::Instantiate, None);

@@ -19,6 +19,7 @@
 //! * No heap allocation inside [`Integrator::integrate`] once the buffers exist for the dimension.
 
 mod clock;
+pub mod math;
 mod tableau;
 
 pub use clock::{SampleClock, Segments};
@@ -234,6 +235,26 @@ impl Integrator {
         t1: f64,
         y: &mut [f64],
     ) -> Result<(), OdeError> {
+        self.integrate_observed(sys, t0, t1, y, |_, _| false)
+            .map(|_| ())
+    }
+
+    /// [`Self::integrate`] with an observer called after every accepted step with the step's
+    /// end `(t, y)`; when it returns true the integration stops there and the time reached is
+    /// returned (otherwise `t1`). The next call continues with the step size the controller
+    /// proposed. An observer that always returns false gives exactly the steps and results of
+    /// [`Self::integrate`] (it is the same loop). Made for importers that check event
+    /// indicators or an FMU's `completedIntegratorStep` after each step.
+    ///
+    /// On error `y` holds the last accepted state (the time is in the error).
+    pub fn integrate_observed<S: OdeSystem>(
+        &mut self,
+        sys: &S,
+        t0: f64,
+        t1: f64,
+        y: &mut [f64],
+        observe: impl FnMut(f64, &[f64]) -> bool,
+    ) -> Result<f64, OdeError> {
         let n = sys.dim();
         if y.len() != n {
             return Err(OdeError::InvalidInput("y.len() != sys.dim()"));
@@ -257,17 +278,18 @@ impl Integrator {
             return Err(OdeError::NonFinite { t: t0 });
         }
         if n == 0 || t1 == t0 {
-            return Ok(());
+            return Ok(t1);
         }
         let tab = self.method.tableau();
         self.work.ensure(n, tab.stages);
         let mut w = std::mem::take(&mut self.work);
-        let r = self.run(sys, tab, &mut w, t0, t1, y);
+        let r = self.run(sys, tab, &mut w, t0, t1, y, observe);
         self.work = w;
         r
     }
 
     /// The step loop (see the crate documentation).
+    #[allow(clippy::too_many_arguments)]
     fn run<S: OdeSystem>(
         &mut self,
         sys: &S,
@@ -276,7 +298,8 @@ impl Integrator {
         t0: f64,
         t1: f64,
         y: &mut [f64],
-    ) -> Result<(), OdeError> {
+        mut observe: impl FnMut(f64, &[f64]) -> bool,
+    ) -> Result<f64, OdeError> {
         let n = y.len();
         let m = implicit_dim(sys, n);
         let mut t = t0;
@@ -316,7 +339,7 @@ impl Integrator {
                 if !all_finite(y) {
                     return Err(OdeError::NonFinite { t });
                 }
-                return Ok(());
+                return Ok(t1);
             }
             if attempts >= self.max_steps {
                 return Err(OdeError::TooManySteps { t });
@@ -370,7 +393,7 @@ impl Integrator {
             let err = (sum / n as f64).sqrt();
             // err may be NaN (0/0 with zero tolerances): treat as too large.
             let fac = if err.is_finite() {
-                (err.powf(q) / SAFETY).clamp(1.0 / FAC_MAX, 1.0 / FAC_MIN)
+                (math::pow(err, q) / SAFETY).clamp(1.0 / FAC_MAX, 1.0 / FAC_MIN)
             } else {
                 1.0 / FAC_MIN
             };
@@ -380,7 +403,8 @@ impl Integrator {
                 // Accepted.
                 if self.h_acc > 0.0 {
                     // Gustafsson predictive controller (Hairer-Wanner II, IV.8, (8.21)).
-                    let fac_g = ((self.h_acc / h) * (err * err / self.err_acc).powf(q) / SAFETY)
+                    let fac_g = ((self.h_acc / h) * math::pow(err * err / self.err_acc, q)
+                        / SAFETY)
                         .clamp(1.0 / FAC_MAX, 1.0 / FAC_MIN);
                     if fac_g.is_finite() {
                         h_new = h / fac.max(fac_g);
@@ -400,6 +424,7 @@ impl Integrator {
                 self.stats.steps += 1;
                 y.copy_from_slice(&w.ynew);
                 t = if last { t1 } else { t + h };
+                let stop = observe(t, y);
                 if last {
                     // Do not let a final step shortened to hit t1 shrink the next call's
                     // first step: the controller proposed h_proposed before shortening.
@@ -407,7 +432,11 @@ impl Integrator {
                         h_new = h_new.max(h_proposed);
                     }
                     self.h_next = Some(h_new.min(self.h_max()));
-                    return Ok(());
+                    return Ok(t1);
+                }
+                if stop {
+                    self.h_next = Some(h_new.min(self.h_max()));
+                    return Ok(t);
                 }
                 sys.rhs(t, y, &mut w.f0);
                 self.stats.rhs_evals += 1;
@@ -433,8 +462,9 @@ impl Integrator {
         let (mut d0, mut d1) = (0.0, 0.0);
         for i in 0..y.len() {
             let sc = self.atol[i] + self.rtol * y[i].abs();
-            d0 += (y[i] / sc).powi(2);
-            d1 += (f0[i] / sc).powi(2);
+            let (ys, fs) = (y[i] / sc, f0[i] / sc);
+            d0 += ys * ys;
+            d1 += fs * fs;
         }
         let (d0, d1) = ((d0 / n).sqrt(), (d1 / n).sqrt());
         let h = if d0 < 1e-5 || d1 < 1e-5 || !d0.is_finite() || !d1.is_finite() {

@@ -19,7 +19,8 @@ struct Args {
     #[arg(long)]
     model_dir: PathBuf,
     /// A compiled shared library as `PLATFORM=PATH` (FMI 2.0 platform names: linux64, win64,
-    /// darwin64), stored as `binaries/PLATFORM/<identifier>.<so|dll|dylib>`. Repeatable. For
+    /// darwin64; FMI 3.0 platform tuples: x86_64-linux, aarch64-linux, x86_64-windows,
+    /// x86_64-darwin, aarch64-darwin), stored as `binaries/PLATFORM/<identifier>.<so|dll|dylib>`. Repeatable. For
     /// darwin64, `PATH+PATH` joins single-architecture dylibs into one universal binary.
     #[arg(long, required = true)]
     binary: Vec<String>,
@@ -78,9 +79,11 @@ fn package(args: &Args) -> Result<(), String> {
             .split_once('=')
             .ok_or_else(|| format!("--binary {spec}: expected PLATFORM=PATH"))?;
         let ext = match platform {
-            "linux64" => "so",
-            "win64" => "dll",
-            "darwin64" => "dylib",
+            // FMI 2.0 platform names, then the FMI 3.0 platform tuples (FMI 3.0.2 section 2.5.1.1:
+            // one folder per architecture, no universal binary).
+            "linux64" | "x86_64-linux" | "aarch64-linux" => "so",
+            "win64" | "x86_64-windows" => "dll",
+            "darwin64" | "x86_64-darwin" | "aarch64-darwin" => "dylib",
             other => return Err(format!("--binary {spec}: unknown platform '{other}'")),
         };
         let slices = paths

@@ -1,7 +1,8 @@
-//! The FMI model: parameters copied at initialization, RK4 sub-steps, outputs.
+//! The FMI model: parameters copied at initialization, RK4 sub-steps (Co-Simulation), the
+//! right-hand side `(x, v)' = (v, (F - c v - k x) / m)` (Model Exchange), outputs.
 
 use crate::vars::{V, VARIABLES};
-use fmi2_export::{Model, ModelError, Values, ValuesMut, Variable};
+use fmi2_export::{MeVTable, Model, ModelError, ModelExchange, Values, ValuesMut, Variable};
 use serde::{Deserialize, Serialize};
 
 /// The physical state; parameters copied at initialization.
@@ -72,6 +73,10 @@ impl Model for Oscillator {
         Ok(())
     }
 
+    fn model_exchange() -> Option<MeVTable<Self>> {
+        Some(MeVTable::of())
+    }
+
     fn do_step(&mut self, vars: &mut [f64], t: f64, h: f64) -> Result<(), ModelError> {
         if t + h >= self.fail_at {
             return Err(ModelError::Step {
@@ -102,6 +107,59 @@ impl Model for Oscillator {
         }
         self.outputs(vars);
         Ok(())
+    }
+}
+
+/// Model Exchange: states `(x, v)`; a locked mass has derivative 0; `fail_at` fails the
+/// derivative evaluation from that time on (the error path of `fmi2GetDerivatives`).
+impl ModelExchange for Oscillator {
+    const STATES: usize = 2;
+
+    fn state_variables() -> &'static [(usize, usize)] {
+        const S: [(usize, usize); 2] = [
+            (V::X as usize, V::DER_X as usize),
+            (V::V as usize, V::DER_V as usize),
+        ];
+        &S
+    }
+
+    fn states(&self, x: &mut [f64]) {
+        x.copy_from_slice(&[self.x, self.v]);
+    }
+
+    fn set_states(&mut self, x: &[f64]) {
+        (self.x, self.v) = (x[0], x[1]);
+    }
+
+    fn nominals(&self, n: &mut [f64]) {
+        n.fill(1e-2);
+    }
+
+    fn derivatives(&self, vars: &[f64], t: f64, dx: &mut [f64]) -> Result<(), ModelError> {
+        if t >= self.fail_at {
+            return Err(ModelError::Step {
+                t,
+                h: 0.0,
+                reason: format!("deliberate failure: fail_at = {} reached", self.fail_at),
+            });
+        }
+        if self.locked {
+            dx.fill(0.0);
+        } else {
+            let f = Values(vars).real(V::FORCE);
+            dx.copy_from_slice(&[self.v, self.accel(self.x, self.v, f)]);
+        }
+        Ok(())
+    }
+
+    fn me_outputs(&self, vars: &mut [f64], t: f64) {
+        self.outputs(vars);
+        let mut dx = [0.0; 2];
+        if self.derivatives(vars, t, &mut dx).is_ok() {
+            let mut out = ValuesMut(vars);
+            out.set(V::DER_X, dx[0]);
+            out.set(V::DER_V, dx[1]);
+        }
     }
 }
 

@@ -133,3 +133,33 @@ S fmi2DoStep(C c, double t, double h, int no_prior) {
 #endif
     return real_do_step(c, t, h, no_prior);
 }
+
+/* Model Exchange: forwarded; with -DME_FAIL_AT=T, fmi2GetDerivatives crashes once the time set
+ * by fmi2SetTime is at or after T (a foreign ME FMU failing inside the host's integration). */
+typedef struct { int a, b, c, d, e; double t; } EventInfo;
+FWD(S, fmi2EnterEventMode, (C c), (c))
+FWD(S, fmi2NewDiscreteStates, (C c, EventInfo *i), (c, i))
+FWD(S, fmi2EnterContinuousTimeMode, (C c), (c))
+FWD(S, fmi2CompletedIntegratorStep, (C c, int n, int *e, int *t), (c, n, e, t))
+FWD(S, fmi2SetContinuousStates, (C c, const double *x, size_t n), (c, x, n))
+FWD(S, fmi2GetEventIndicators, (C c, double *z, size_t n), (c, z, n))
+FWD(S, fmi2GetContinuousStates, (C c, double *x, size_t n), (c, x, n))
+FWD(S, fmi2GetNominalsOfContinuousStates, (C c, double *x, size_t n), (c, x, n))
+
+static double me_time;
+static S (*real_set_time)(C, double), (*real_get_derivatives)(C, double *, size_t);
+S fmi2SetTime(C c, double t) {
+    LOAD(real_set_time, "fmi2SetTime");
+    me_time = t;
+    return real_set_time(c, t);
+}
+S fmi2GetDerivatives(C c, double *dx, size_t n) {
+    LOAD(real_get_derivatives, "fmi2GetDerivatives");
+#ifdef ME_FAIL_AT
+    if (me_time >= ME_FAIL_AT) {
+        volatile int *null = NULL;
+        *null = 42;
+    }
+#endif
+    return real_get_derivatives(c, dx, n);
+}

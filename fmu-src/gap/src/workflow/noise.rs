@@ -89,8 +89,8 @@ pub(super) fn noise_fit(r: &[f64]) -> NoiseFit {
     // with it within three of those when the residual is noise, and exceeds it when a smooth
     // misfit dominates.
     let agree = (rho_a - rho_d).abs() <= 6.0 / (r.len() as f64).sqrt();
-    let noise_like = rms <= 1.5 * marginal_factor(rho_d)
-        || (agree && rms <= 1.5 * marginal_factor(rho_a));
+    let noise_like =
+        rms <= 1.5 * marginal_factor(rho_d) || (agree && rms <= 1.5 * marginal_factor(rho_a));
     if !noise_like {
         return white;
     }

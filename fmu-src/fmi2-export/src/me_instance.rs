@@ -1,0 +1,277 @@
+//! The Model Exchange functions of [`Instance`] (FMI 2.0.4 section 3.2): time and states set by
+//! the importer's integrator, derivatives, event indicators, and the event mode in which the
+//! model's sampled controllers tick (time events). Every call checks the state machine first
+//! and changes nothing when it refuses.
+
+use crate::instance::{allowed, Instance, Interface, MachineState, Status};
+use crate::{MeVTable, Model};
+
+/// Event iterations of one `fmi2NewDiscreteStates` call before the model is declared to chatter.
+const MAX_EVENT_ITERATIONS: usize = 100;
+
+/// `fmi2EventInfo` as safe Rust.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct EventInfo {
+    pub new_discrete_states_needed: bool,
+    pub terminate_simulation: bool,
+    pub nominals_of_continuous_states_changed: bool,
+    pub values_of_continuous_states_changed: bool,
+    pub next_event_time: Option<f64>,
+}
+
+impl<M: Model> Instance<M> {
+    /// The Model Exchange table, or a logged error when the instance is not a Model Exchange one.
+    fn me_table(&mut self, func: &str, mask: u32) -> Result<MeVTable<M>, Status> {
+        let Some(me) = self
+            .me
+            .filter(|_| self.interface == Interface::ModelExchange)
+        else {
+            return Err(self.error(
+                func,
+                "a Model Exchange function called on a Co-Simulation instance",
+            ));
+        };
+        self.check_state(func, mask)?;
+        Ok(me)
+    }
+
+    /// Check that the importer's array length `n` is the number the model has.
+    fn check_len(
+        &mut self,
+        func: &str,
+        what: &str,
+        n: usize,
+        expected: usize,
+    ) -> Result<(), Status> {
+        if n == expected {
+            Ok(())
+        } else {
+            Err(self.error(func, format!("{what} is {n}, the model has {expected}")))
+        }
+    }
+
+    /// Model Exchange: recompute outputs, states and derivatives in `vars` when time, states or
+    /// inputs changed since the last computation.
+    pub(crate) fn refresh_me_outputs(&mut self) {
+        if !self.me_outputs_stale || !self.running() {
+            return;
+        }
+        if let Some(me) = self.me {
+            (me.outputs)(&self.model, &mut self.vars, self.time);
+        }
+        self.me_outputs_stale = false;
+    }
+
+    /// Co-Simulation of a model with Model Exchange: the derivative variables at the
+    /// communication point (the other outputs are the step's). A model that cannot evaluate them
+    /// leaves them unchanged.
+    pub(crate) fn write_derivatives(&mut self) {
+        let Some(me) = self.me else { return };
+        let mut dx = vec![0.0; me.states];
+        if (me.derivatives)(&self.model, &self.vars, self.time, &mut dx).is_ok() {
+            for (&(_, d), v) in me.state_variables.iter().zip(dx) {
+                self.vars[d] = v;
+            }
+        }
+    }
+
+    /// `fmi2SetTime`.
+    pub fn set_time(&mut self, t: f64) -> Status {
+        const F: &str = "fmi2SetTime";
+        if let Err(s) = self.me_table(F, allowed::SET_TIME) {
+            return s;
+        }
+        if !t.is_finite() {
+            return self.error(F, format!("time {t} is not finite"));
+        }
+        self.time = t;
+        self.me_outputs_stale = true;
+        Status::Ok
+    }
+
+    /// `fmi2SetContinuousStates`: all values finite, else nothing changes.
+    pub fn set_continuous_states(&mut self, x: &[f64]) -> Status {
+        const F: &str = "fmi2SetContinuousStates";
+        let me = match self.me_table(F, allowed::SET_CONTINUOUS_STATES) {
+            Ok(me) => me,
+            Err(s) => return s,
+        };
+        if let Err(s) = self.check_len(F, "nx", x.len(), me.states) {
+            return s;
+        }
+        if let Some(i) = x.iter().position(|v| !v.is_finite()) {
+            let name = M::variables()[me.state_variables[i].0].name;
+            return self.error(F, format!("state '{name}' = {} is not finite", x[i]));
+        }
+        (me.set_states)(&mut self.model, x);
+        self.me_outputs_stale = true;
+        Status::Ok
+    }
+
+    /// `fmi2EnterEventMode`.
+    pub fn enter_event_mode(&mut self) -> Status {
+        if let Err(s) = self.me_table("fmi2EnterEventMode", allowed::ENTER_EVENT_MODE) {
+            return s;
+        }
+        self.state = MachineState::EventMode;
+        Status::Ok
+    }
+
+    /// `fmi2EnterContinuousTimeMode`.
+    pub fn enter_continuous_time_mode(&mut self) -> Status {
+        const F: &str = "fmi2EnterContinuousTimeMode";
+        if let Err(s) = self.me_table(F, allowed::ENTER_CONTINUOUS_TIME_MODE) {
+            return s;
+        }
+        self.state = MachineState::ContinuousTimeMode;
+        Status::Ok
+    }
+
+    /// `fmi2NewDiscreteStates`: the model's event update at the current time, iterated until
+    /// no discrete value changes (at most [`MAX_EVENT_ITERATIONS`] times); a failure moves the
+    /// instance to the error state with the model's values of before the call.
+    pub fn new_discrete_states(&mut self, info: &mut EventInfo) -> Status {
+        const F: &str = "fmi2NewDiscreteStates";
+        let me = match self.me_table(F, allowed::NEW_DISCRETE_STATES) {
+            Ok(me) => me,
+            Err(s) => return s,
+        };
+        self.refresh_me_outputs();
+        let mut model = self.model.clone();
+        let mut vars = self.vars.clone();
+        let mut before = vec![0.0; me.states];
+        (me.get_states)(&model, &mut before);
+        let mut settled = false;
+        for _ in 0..MAX_EVENT_ITERATIONS {
+            match (me.event_update)(&mut model, &mut vars, self.time) {
+                Ok(true) => {}
+                Ok(false) => {
+                    settled = true;
+                    break;
+                }
+                Err(e) => {
+                    self.state = MachineState::Error;
+                    return self.error(F, format!("event at t = {}: {e}", self.time));
+                }
+            }
+        }
+        if !settled {
+            self.state = MachineState::Error;
+            let t = self.time;
+            return self.error(
+                F,
+                format!("event at t = {t}: discrete states still change after {MAX_EVENT_ITERATIONS} iterations"),
+            );
+        }
+        let mut after = vec![0.0; me.states];
+        (me.get_states)(&model, &mut after);
+        self.model = model;
+        self.vars = vars;
+        self.me_outputs_stale = true;
+        let next = (me.next_time_event)(&self.model).filter(|t| t.is_finite());
+        *info = EventInfo {
+            new_discrete_states_needed: false,
+            terminate_simulation: false,
+            nominals_of_continuous_states_changed: false,
+            values_of_continuous_states_changed: before
+                .iter()
+                .zip(&after)
+                .any(|(a, b)| a.to_bits() != b.to_bits()),
+            next_event_time: next,
+        };
+        if let Some(t) = next {
+            self.event(format!(
+                "event at t = {}: next time event at {t}",
+                self.time
+            ));
+        }
+        Status::Ok
+    }
+
+    /// `fmi2CompletedIntegratorStep`: no step events, no termination requested; returns
+    /// `(enterEventMode, terminateSimulation)`.
+    pub fn completed_integrator_step(&mut self) -> (Status, bool, bool) {
+        const F: &str = "fmi2CompletedIntegratorStep";
+        match self.me_table(F, allowed::COMPLETED_INTEGRATOR_STEP) {
+            Ok(_) => (Status::Ok, false, false),
+            Err(s) => (s, false, false),
+        }
+    }
+
+    /// `fmi2GetDerivatives`: a failure or a value that is not finite is an error of the call
+    /// (the instance keeps its state: the importer may retry with other states, e.g. a smaller
+    /// step).
+    pub fn get_derivatives(&mut self, dx: &mut [f64]) -> Status {
+        const F: &str = "fmi2GetDerivatives";
+        let me = match self.me_table(F, allowed::GET_DERIVATIVES) {
+            Ok(me) => me,
+            Err(s) => return s,
+        };
+        if let Err(s) = self.check_len(F, "nx", dx.len(), me.states) {
+            return s;
+        }
+        let mut out = vec![0.0; me.states];
+        if let Err(e) = (me.derivatives)(&self.model, &self.vars, self.time, &mut out) {
+            return self.error(F, format!("at t = {}: {e}", self.time));
+        }
+        if let Some(i) = out.iter().position(|v| !v.is_finite()) {
+            let name = M::variables()[me.state_variables[i].1].name;
+            let t = self.time;
+            return self.error(F, format!("'{name}' = {} at t = {t} is not finite", out[i]));
+        }
+        dx.copy_from_slice(&out);
+        Status::Ok
+    }
+
+    /// `fmi2GetEventIndicators`.
+    pub fn get_event_indicators(&mut self, z: &mut [f64]) -> Status {
+        const F: &str = "fmi2GetEventIndicators";
+        let me = match self.me_table(F, allowed::GET_EVENT_INDICATORS) {
+            Ok(me) => me,
+            Err(s) => return s,
+        };
+        if let Err(s) = self.check_len(F, "ni", z.len(), me.event_indicators) {
+            return s;
+        }
+        (me.indicators)(&self.model, &self.vars, self.time, z);
+        Status::Ok
+    }
+
+    /// `fmi2GetContinuousStates` (in initialization mode: the initial states of the current
+    /// parameters and start values).
+    pub fn get_continuous_states(&mut self, x: &mut [f64]) -> Status {
+        const F: &str = "fmi2GetContinuousStates";
+        let me = match self.me_table(F, allowed::GET_CONTINUOUS_STATES) {
+            Ok(me) => me,
+            Err(s) => return s,
+        };
+        if let Err(s) = self.check_len(F, "nx", x.len(), me.states) {
+            return s;
+        }
+        if let Err(s) = self.prepare_get(F, &[], crate::VarType::Real) {
+            return s;
+        }
+        (me.get_states)(&self.model, x);
+        Status::Ok
+    }
+
+    /// `fmi2GetNominalsOfContinuousStates`: the model's nominals, 1 where one is not a positive
+    /// finite number.
+    pub fn get_nominals(&mut self, n: &mut [f64]) -> Status {
+        const F: &str = "fmi2GetNominalsOfContinuousStates";
+        let me = match self.me_table(F, allowed::GET_NOMINALS) {
+            Ok(me) => me,
+            Err(s) => return s,
+        };
+        if let Err(s) = self.check_len(F, "nx", n.len(), me.states) {
+            return s;
+        }
+        (me.nominals)(&self.model, n);
+        for v in n.iter_mut() {
+            if !(v.is_finite() && *v > 0.0) {
+                *v = 1.0;
+            }
+        }
+        Status::Ok
+    }
+}

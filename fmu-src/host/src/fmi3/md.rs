@@ -1,0 +1,842 @@
+//! Typed `modelDescription.xml` of FMI 3.0 (FMI 3.0.2 section 2.4) and its parser.
+//!
+//! Why the host's own quick-xml parser rather than the `fmi-schema` crate (rust-fmi, which reads
+//! FMI 2.0 and 3.0 into serde structures through `hard_xml`):
+//! - `validate` reports each finding with the line of its element; `hard_xml`'s structures keep
+//!   no positions, and its strict mode refuses the whole file at the first unknown attribute or
+//!   element, where a validator wants every problem of the file, each located.
+//! - Hostile input is bounded the same way for both versions (the 64 MiB limit before reading,
+//!   values checked against their type's range, every message naming file, line and attribute
+//!   with the offending text cut short): with `fmi-schema` the FMI 3.0 path would answer
+//!   malformed input with another crate's messages.
+//! - The host already owns an FMI 2.0 parser on the same reader ([`crate::xml`]); a second
+//!   dependency tree (`hard_xml`, `xmlparser`, `fmi-schema`'s own release cycle, a 0.x API) for
+//!   the same job would add maintenance without removing any.
+//!
+//! Like the FMI 2.0 parser, this one is strict about syntax (malformed XML, attributes that do
+//! not parse as their type, start values outside their type's range) and leaves the semantic
+//! rules (combinations of causality and variability, complete `<ModelStructure>`) to `validate`.
+
+use super::value::{Type3, Values};
+use crate::error::HostError;
+use crate::xml::{Ancestors, Attrs, Doc, Visitor};
+
+pub use fmi2_types::{Initial, Variability};
+
+/// `causality` of an FMI 3.0 variable (FMI 3.0.2 section 2.4.7.4; default `local`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[serde(rename_all = "camelCase")]
+#[allow(missing_docs)]
+pub enum Causality3 {
+    StructuralParameter,
+    Parameter,
+    CalculatedParameter,
+    Input,
+    Output,
+    Local,
+    Independent,
+}
+
+impl Causality3 {
+    /// Parses the attribute's spelling.
+    pub fn parse(s: &str) -> Option<Causality3> {
+        Some(match s {
+            "structuralParameter" => Causality3::StructuralParameter,
+            "parameter" => Causality3::Parameter,
+            "calculatedParameter" => Causality3::CalculatedParameter,
+            "input" => Causality3::Input,
+            "output" => Causality3::Output,
+            "local" => Causality3::Local,
+            "independent" => Causality3::Independent,
+            _ => return None,
+        })
+    }
+
+    /// The attribute's spelling.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Causality3::StructuralParameter => "structuralParameter",
+            Causality3::Parameter => "parameter",
+            Causality3::CalculatedParameter => "calculatedParameter",
+            Causality3::Input => "input",
+            Causality3::Output => "output",
+            Causality3::Local => "local",
+            Causality3::Independent => "independent",
+        }
+    }
+}
+
+impl std::fmt::Display for Causality3 {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// `<Dimension>` of an array variable: a fixed size or a structural parameter's value.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Dimension {
+    /// `start`: the fixed size.
+    pub start: Option<u64>,
+    /// `valueReference` of the structural parameter (or constant) giving the size.
+    pub value_reference: Option<u32>,
+    /// Line of the tag.
+    pub line: usize,
+}
+
+/// One variable of `<ModelVariables>`.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Variable3 {
+    /// `name`
+    pub name: String,
+    /// `valueReference`
+    pub value_reference: u32,
+    /// `description`
+    pub description: Option<String>,
+    /// The type element.
+    pub ty: Type3,
+    /// `causality` (default local applied)
+    pub causality: Causality3,
+    /// `variability` (default applied: continuous for Float32/Float64, discrete otherwise)
+    pub variability: Variability,
+    /// True when `variability` was written.
+    pub variability_given: bool,
+    /// `initial` as written.
+    pub initial: Option<Initial>,
+    /// `declaredType`
+    pub declared_type: Option<String>,
+    /// `start` (numbers, Booleans: the attribute's tokens; String, Binary: the `<Start>`
+    /// elements), row-major for arrays.
+    pub start: Option<Values>,
+    /// `min` (numeric types)
+    pub min: Option<f64>,
+    /// `max` (numeric types)
+    pub max: Option<f64>,
+    /// `nominal` (Float types)
+    pub nominal: Option<f64>,
+    /// `unit` (Float types)
+    pub unit: Option<String>,
+    /// `displayUnit` (Float types)
+    pub display_unit: Option<String>,
+    /// `quantity`
+    pub quantity: Option<String>,
+    /// `derivative`: value reference of the state this is the derivative of.
+    pub derivative: Option<u32>,
+    /// `clocks`: value references of the clocks this variable belongs to.
+    pub clocks: Vec<u32>,
+    /// `<Dimension>`s in order (empty: a scalar).
+    pub dimensions: Vec<Dimension>,
+    /// `intervalVariability` (Clock)
+    pub interval_variability: Option<String>,
+    /// Line of the tag.
+    pub line: usize,
+}
+
+impl Variable3 {
+    /// True for an array (it has `<Dimension>`s).
+    pub fn is_array(&self) -> bool {
+        !self.dimensions.is_empty()
+    }
+
+    /// The effective `initial`: as written, else the default of FMI 3.0.2 section 2.4.7.5
+    /// (exact for constants and (structural) parameters, calculated for calculated parameters,
+    /// outputs and locals, none for inputs and the independent variable).
+    pub fn effective_initial(&self) -> Option<Initial> {
+        if self.initial.is_some() {
+            return self.initial;
+        }
+        match (self.causality, self.variability) {
+            (Causality3::Independent | Causality3::Input, _) => None,
+            (_, Variability::Constant) => Some(Initial::Exact),
+            (Causality3::Parameter | Causality3::StructuralParameter, _) => Some(Initial::Exact),
+            _ => Some(Initial::Calculated),
+        }
+    }
+}
+
+/// An interface element (`<ModelExchange>`, `<CoSimulation>`, `<ScheduledExecution>`).
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct Interface3 {
+    /// `modelIdentifier`
+    pub model_identifier: String,
+    /// Capability flags written, with their values (e.g. `canGetAndSetFMUState`).
+    pub flags: Vec<(String, bool)>,
+    /// `fixedInternalStepSize` (CoSimulation)
+    pub fixed_internal_step_size: Option<f64>,
+    /// `maxOutputDerivativeOrder` (CoSimulation)
+    pub max_output_derivative_order: Option<u32>,
+    /// Line of the tag.
+    pub line: usize,
+}
+
+impl Interface3 {
+    /// The value of a capability flag (default false).
+    pub fn flag(&self, name: &str) -> bool {
+        self.flags.iter().any(|(n, v)| n == name && *v)
+    }
+}
+
+/// The boolean capability flags of the interface elements (FMI 3.0.2 section 2.4.5).
+const INTERFACE_FLAGS: [&str; 14] = [
+    "needsExecutionTool",
+    "canBeInstantiatedOnlyOncePerProcess",
+    "canGetAndSetFMUState",
+    "canSerializeFMUState",
+    "providesDirectionalDerivatives",
+    "providesAdjointDerivatives",
+    "providesPerElementDependencies",
+    "needsCompletedIntegratorStep",
+    "providesEvaluateDiscreteStates",
+    "canHandleVariableCommunicationStepSize",
+    "hasEventMode",
+    "providesIntermediateUpdate",
+    "mightReturnEarlyFromDoStep",
+    "canReturnEarlyAfterIntermediateUpdate",
+];
+
+/// A type definition (`<Float64Type>`, `<EnumerationType>`, ...).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct TypeDefinition3 {
+    /// `name`
+    pub name: String,
+    /// The base type.
+    pub ty: Type3,
+    /// `unit`
+    pub unit: Option<String>,
+    /// `min`
+    pub min: Option<f64>,
+    /// `max`
+    pub max: Option<f64>,
+    /// `<Item name value>` of an EnumerationType.
+    pub items: Vec<(String, i64)>,
+    /// Line of the tag.
+    pub line: usize,
+}
+
+/// `<Unit>` of `<UnitDefinitions>` (name and line; FMI 3.0 units as FMI 2.0's).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Unit3 {
+    /// `name`
+    pub name: String,
+    /// Line of the tag.
+    pub line: usize,
+}
+
+/// An element of `<ModelStructure>`.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Unknown3 {
+    /// `valueReference`
+    pub value_reference: u32,
+    /// `dependencies` (None when absent: depends on everything).
+    pub dependencies: Option<Vec<u32>>,
+    /// `dependenciesKind`
+    pub dependencies_kind: Option<Vec<String>>,
+    /// Line of the tag.
+    pub line: usize,
+}
+
+/// `<ModelStructure>`.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct ModelStructure3 {
+    /// `<Output>`
+    pub outputs: Vec<Unknown3>,
+    /// `<ContinuousStateDerivative>`
+    pub continuous_state_derivatives: Vec<Unknown3>,
+    /// `<ClockedState>`
+    pub clocked_states: Vec<Unknown3>,
+    /// `<InitialUnknown>`
+    pub initial_unknowns: Vec<Unknown3>,
+    /// `<EventIndicator>`
+    pub event_indicators: Vec<Unknown3>,
+}
+
+/// `<DefaultExperiment>`.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct DefaultExperiment3 {
+    /// `startTime`
+    pub start_time: Option<f64>,
+    /// `stopTime`
+    pub stop_time: Option<f64>,
+    /// `tolerance`
+    pub tolerance: Option<f64>,
+    /// `stepSize`
+    pub step_size: Option<f64>,
+}
+
+/// The parsed FMI 3.0 `modelDescription.xml`.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct ModelDescription3 {
+    /// `fmiVersion`
+    pub fmi_version: String,
+    /// `modelName`
+    pub model_name: String,
+    /// `instantiationToken`
+    pub instantiation_token: String,
+    /// `description`
+    pub description: Option<String>,
+    /// `generationTool`
+    pub generation_tool: Option<String>,
+    /// `<ModelExchange>`
+    pub model_exchange: Option<Interface3>,
+    /// `<CoSimulation>`
+    pub co_simulation: Option<Interface3>,
+    /// `<ScheduledExecution>`
+    pub scheduled_execution: Option<Interface3>,
+    /// `<UnitDefinitions>`
+    pub units: Vec<Unit3>,
+    /// `<TypeDefinitions>`
+    pub type_definitions: Vec<TypeDefinition3>,
+    /// `<LogCategories>` names.
+    pub log_categories: Vec<String>,
+    /// `<DefaultExperiment>`
+    pub default_experiment: Option<DefaultExperiment3>,
+    /// `<ModelVariables>` in file order.
+    pub variables: Vec<Variable3>,
+    /// `<ModelStructure>`
+    pub model_structure: ModelStructure3,
+}
+
+/// Most elements one array variable may have, counted from its fixed dimensions or its
+/// structural parameters' start values: far above any real model, far below what exhausts
+/// memory when the host allocates the buffers to read it.
+pub const MAX_ARRAY_ELEMENTS: u64 = 1 << 24;
+
+impl ModelDescription3 {
+    /// Parses the text of an FMI 3.0 `modelDescription.xml`; `file` names it in errors.
+    pub fn parse(xml: &str, file: &str) -> Result<Self, HostError> {
+        let doc = Doc::new(xml, file);
+        let mut p = Parser3 {
+            md: ModelDescription3::default(),
+            current: None,
+            saw_root: false,
+        };
+        doc.walk(&mut p)?;
+        if !p.saw_root {
+            return Err(doc.err(1, "no <fmiModelDescription> root element"));
+        }
+        Ok(p.md)
+    }
+
+    /// The variable called `name`.
+    pub fn variable(&self, name: &str) -> Option<&Variable3> {
+        self.variables.iter().find(|v| v.name == name)
+    }
+
+    /// The variable with value reference `vr` (FMI 3.0 value references are unique).
+    pub fn by_vr(&self, vr: u32) -> Option<&Variable3> {
+        self.variables.iter().find(|v| v.value_reference == vr)
+    }
+
+    /// Variables with causality `c`, in file order.
+    pub fn with_causality(&self, c: Causality3) -> impl Iterator<Item = &Variable3> {
+        self.variables.iter().filter(move |v| v.causality == c)
+    }
+
+    /// The shape of `v` from the start values of its dimensions (structural parameters at their
+    /// start values); empty for a scalar. Err names a dimension that refers to no integer
+    /// variable with a start, or a size beyond [`MAX_ARRAY_ELEMENTS`].
+    pub fn shape(&self, v: &Variable3) -> Result<Vec<usize>, String> {
+        self.shape_with(v, &|vr| self.start_size(vr))
+    }
+
+    /// [`shape`](Self::shape) with the sizes of structural parameters from `size_of` (their
+    /// values after `--set`, or as the FMU reports them).
+    pub fn shape_with(
+        &self,
+        v: &Variable3,
+        size_of: &dyn Fn(u32) -> Option<u64>,
+    ) -> Result<Vec<usize>, String> {
+        let mut total: u64 = 1;
+        let mut shape = Vec::with_capacity(v.dimensions.len());
+        for d in &v.dimensions {
+            let n = match (d.start, d.value_reference) {
+                (Some(n), _) => n,
+                (None, Some(vr)) => size_of(vr).ok_or_else(|| {
+                    format!(
+                        "'{}': <Dimension valueReference=\"{vr}\"> (line {}) refers to no \
+                         integer variable with a start value",
+                        v.name, d.line
+                    )
+                })?,
+                (None, None) => {
+                    return Err(format!(
+                        "'{}': <Dimension> (line {}) has neither start nor valueReference",
+                        v.name, d.line
+                    ))
+                }
+            };
+            total = total.saturating_mul(n);
+            if total > MAX_ARRAY_ELEMENTS {
+                return Err(format!(
+                    "'{}' would have more than {MAX_ARRAY_ELEMENTS} elements",
+                    v.name
+                ));
+            }
+            shape.push(n as usize);
+        }
+        Ok(shape)
+    }
+
+    /// The start value of the integer variable `vr`, as an array size.
+    fn start_size(&self, vr: u32) -> Option<u64> {
+        let v = self.by_vr(vr)?;
+        if !v.ty.is_integer() || v.is_array() {
+            return None;
+        }
+        let x = v.start.as_ref()?.number(0)?;
+        (x >= 0.0).then_some(x as u64)
+    }
+}
+
+struct Parser3 {
+    md: ModelDescription3,
+    /// The variable whose element is open (children: Dimension, Start, Alias).
+    current: Option<Variable3>,
+    saw_root: bool,
+}
+
+impl Visitor for Parser3 {
+    fn element(&mut self, doc: &Doc<'_>, path: Ancestors<'_>, a: Attrs) -> Result<(), HostError> {
+        let parent = path.last().map(String::as_str).unwrap_or("");
+        match (parent, a.element.as_str()) {
+            ("", "fmiModelDescription") => self.root(doc, &a)?,
+            ("", other) => {
+                return Err(doc.err(
+                    a.line,
+                    format!(
+                        "root element is <{}>, expected <fmiModelDescription>",
+                        crate::error::shown(other, 40)
+                    ),
+                ))
+            }
+            (
+                "fmiModelDescription",
+                kind @ ("ModelExchange" | "CoSimulation" | "ScheduledExecution"),
+            ) => {
+                let i = interface(doc, &a)?;
+                let slot = match kind {
+                    "ModelExchange" => &mut self.md.model_exchange,
+                    "CoSimulation" => &mut self.md.co_simulation,
+                    _ => &mut self.md.scheduled_execution,
+                };
+                *slot = Some(i);
+            }
+            ("UnitDefinitions", "Unit") => self.md.units.push(Unit3 {
+                name: doc.required(&a, "name")?,
+                line: a.line,
+            }),
+            ("TypeDefinitions", kind) => self.type_definition(doc, kind, &a)?,
+            ("EnumerationType", "Item") => {
+                let name = doc.required(&a, "name")?;
+                let value = doc
+                    .parse::<i64>(&a, "value", "an integer")?
+                    .ok_or_else(|| doc.err(a.line, "<Item> lacks the required attribute value"))?;
+                if let Some(t) = self.md.type_definitions.last_mut() {
+                    t.items.push((name, value));
+                }
+            }
+            ("LogCategories", "Category") => self.md.log_categories.push(doc.required(&a, "name")?),
+            ("fmiModelDescription", "DefaultExperiment") => {
+                self.md.default_experiment = Some(DefaultExperiment3 {
+                    start_time: doc.real(&a, "startTime")?,
+                    stop_time: doc.real(&a, "stopTime")?,
+                    tolerance: doc.real(&a, "tolerance")?,
+                    step_size: doc.real(&a, "stepSize")?,
+                });
+            }
+            ("ModelVariables", kind) => self.variable(doc, kind, &a)?,
+            (_, "Dimension") if path.len() >= 2 && path[path.len() - 2] == "ModelVariables" => {
+                let d = Dimension {
+                    start: doc.parse::<u64>(&a, "start", "an unsigned integer")?,
+                    value_reference: doc.parse::<u32>(&a, "valueReference", "a value reference")?,
+                    line: a.line,
+                };
+                if let Some(v) = self.current.as_mut() {
+                    v.dimensions.push(d);
+                }
+            }
+            (kind @ ("String" | "Binary"), "Start")
+                if path.len() >= 2 && path[path.len() - 2] == "ModelVariables" =>
+            {
+                let text = doc.required(&a, "value")?;
+                let ty = Type3::parse(kind).unwrap_or(Type3::String);
+                let one = Values::parse(ty, &text)
+                    .map_err(|e| doc.err(a.line, format!("<Start value=\"...\">: {e}")))?;
+                if let Some(v) = self.current.as_mut() {
+                    match v.start.as_mut() {
+                        Some(s) => s.extend_from(&one),
+                        None => v.start = Some(one),
+                    }
+                }
+            }
+            ("ModelStructure", kind) => self.unknown(doc, kind, &a)?,
+            _ => {}
+        }
+        Ok(())
+    }
+
+    fn end(&mut self, path: Ancestors<'_>, name: &str) {
+        if path.last().map(String::as_str) == Some("ModelVariables") && Type3::parse(name).is_some()
+        {
+            if let Some(v) = self.current.take() {
+                self.md.variables.push(v);
+            }
+        }
+    }
+}
+
+impl Parser3 {
+    fn root(&mut self, doc: &Doc<'_>, a: &Attrs) -> Result<(), HostError> {
+        self.saw_root = true;
+        let md = &mut self.md;
+        md.fmi_version = a.get("fmiVersion").unwrap_or("").to_string();
+        md.model_name = a.get("modelName").unwrap_or("").to_string();
+        md.instantiation_token = doc.required(a, "instantiationToken")?;
+        md.description = a.get("description").map(str::to_string);
+        md.generation_tool = a.get("generationTool").map(str::to_string);
+        Ok(())
+    }
+
+    fn type_definition(&mut self, doc: &Doc<'_>, kind: &str, a: &Attrs) -> Result<(), HostError> {
+        let Some(ty) = Type3::parse_definition(kind) else {
+            return Err(doc.err(
+                a.line,
+                format!(
+                    "<TypeDefinitions> has unknown element <{}>",
+                    crate::error::shown(kind, 40)
+                ),
+            ));
+        };
+        self.md.type_definitions.push(TypeDefinition3 {
+            name: doc.required(a, "name")?,
+            ty,
+            unit: a.get("unit").map(str::to_string),
+            min: doc.real(a, "min")?,
+            max: doc.real(a, "max")?,
+            items: Vec::new(),
+            line: a.line,
+        });
+        Ok(())
+    }
+
+    fn variable(&mut self, doc: &Doc<'_>, kind: &str, a: &Attrs) -> Result<(), HostError> {
+        let Some(ty) = Type3::parse(kind) else {
+            return Err(doc.err(
+                a.line,
+                format!(
+                    "<ModelVariables> has unknown element <{}>",
+                    crate::error::shown(kind, 40)
+                ),
+            ));
+        };
+        let name = doc.required(a, "name")?;
+        let shown = crate::error::shown(&name, 60);
+        let vr = doc.required(a, "valueReference")?;
+        let value_reference = vr.trim().parse::<u32>().map_err(|_| {
+            doc.err(
+                a.line,
+                format!(
+                    "variable '{shown}': valueReference=\"{}\" is not an unsigned 32-bit integer",
+                    crate::error::shown(&vr, 40)
+                ),
+            )
+        })?;
+        let enum_attr = |key: &str, parse: &dyn Fn(&str) -> bool| -> Result<(), HostError> {
+            match a.get(key) {
+                Some(o) if !parse(o) => Err(doc.err(
+                    a.line,
+                    format!(
+                        "variable '{shown}': unknown {key} \"{}\"",
+                        crate::error::shown(o, 40)
+                    ),
+                )),
+                _ => Ok(()),
+            }
+        };
+        enum_attr("causality", &|s| Causality3::parse(s).is_some())?;
+        enum_attr("variability", &|s| Variability::parse(s).is_some())?;
+        enum_attr("initial", &|s| Initial::parse(s).is_some())?;
+        let default_variability = if ty.is_float() {
+            Variability::Continuous
+        } else {
+            Variability::Discrete
+        };
+        // Numeric and Boolean starts are an attribute; String and Binary starts are <Start>
+        // children, read when they come.
+        let start = match (ty, a.get("start")) {
+            (Type3::String | Type3::Binary | Type3::Clock, _) | (_, None) => None,
+            (_, Some(s)) => Some(
+                Values::parse(ty, s)
+                    .map_err(|e| doc.err(a.line, format!("variable '{shown}': start: {e}")))?,
+            ),
+        };
+        let clocks = match a.get("clocks") {
+            None => Vec::new(),
+            Some(s) => s
+                .split_whitespace()
+                .map(|t| t.parse::<u32>())
+                .collect::<Result<_, _>>()
+                .map_err(|_| {
+                    doc.err(
+                        a.line,
+                        format!("variable '{shown}': clocks is not a list of value references"),
+                    )
+                })?,
+        };
+        self.current = Some(Variable3 {
+            value_reference,
+            description: a.get("description").map(str::to_string),
+            ty,
+            causality: a
+                .get("causality")
+                .and_then(Causality3::parse)
+                .unwrap_or(Causality3::Local),
+            variability: a
+                .get("variability")
+                .and_then(Variability::parse)
+                .unwrap_or(default_variability),
+            variability_given: a.get("variability").is_some(),
+            initial: a.get("initial").and_then(Initial::parse),
+            declared_type: a.get("declaredType").map(str::to_string),
+            start,
+            min: doc.real(a, "min")?,
+            max: doc.real(a, "max")?,
+            nominal: doc.real(a, "nominal")?,
+            unit: a.get("unit").map(str::to_string),
+            display_unit: a.get("displayUnit").map(str::to_string),
+            quantity: a.get("quantity").map(str::to_string),
+            derivative: doc.parse::<u32>(a, "derivative", "a value reference")?,
+            clocks,
+            dimensions: Vec::new(),
+            interval_variability: a.get("intervalVariability").map(str::to_string),
+            line: a.line,
+            name,
+        });
+        Ok(())
+    }
+
+    fn unknown(&mut self, doc: &Doc<'_>, kind: &str, a: &Attrs) -> Result<(), HostError> {
+        let ms = &mut self.md.model_structure;
+        let list = match kind {
+            "Output" => &mut ms.outputs,
+            "ContinuousStateDerivative" => &mut ms.continuous_state_derivatives,
+            "ClockedState" => &mut ms.clocked_states,
+            "InitialUnknown" => &mut ms.initial_unknowns,
+            "EventIndicator" => &mut ms.event_indicators,
+            other => {
+                return Err(doc.err(
+                    a.line,
+                    format!(
+                        "<ModelStructure> has unknown element <{}>",
+                        crate::error::shown(other, 40)
+                    ),
+                ))
+            }
+        };
+        let value_reference = doc
+            .parse::<u32>(a, "valueReference", "a value reference")?
+            .ok_or_else(|| {
+                doc.err(
+                    a.line,
+                    format!("<{kind}> lacks the required attribute valueReference"),
+                )
+            })?;
+        let dependencies = match a.get("dependencies") {
+            None => None,
+            Some(s) => Some(
+                s.split_whitespace()
+                    .map(|t| t.parse::<u32>())
+                    .collect::<Result<Vec<_>, _>>()
+                    .map_err(|_| {
+                        doc.err(
+                            a.line,
+                            format!("<{kind}> dependencies is not a list of value references"),
+                        )
+                    })?,
+            ),
+        };
+        list.push(Unknown3 {
+            value_reference,
+            dependencies,
+            dependencies_kind: a
+                .get("dependenciesKind")
+                .map(|s| s.split_whitespace().map(str::to_string).collect()),
+            line: a.line,
+        });
+        Ok(())
+    }
+}
+
+fn interface(doc: &Doc<'_>, a: &Attrs) -> Result<Interface3, HostError> {
+    let mut flags = Vec::new();
+    for key in INTERFACE_FLAGS {
+        if let Some(v) = doc.boolean(a, key)? {
+            flags.push((key.to_string(), v));
+        }
+    }
+    Ok(Interface3 {
+        model_identifier: doc.required(a, "modelIdentifier")?,
+        flags,
+        fixed_internal_step_size: doc.real(a, "fixedInternalStepSize")?,
+        max_output_derivative_order: doc.parse::<u32>(
+            a,
+            "maxOutputDerivativeOrder",
+            "an unsigned integer",
+        )?,
+        line: a.line,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const SAMPLE: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
+<fmiModelDescription fmiVersion="3.0" modelName="M" instantiationToken="{abc}">
+  <CoSimulation modelIdentifier="M" canHandleVariableCommunicationStepSize="true"
+    fixedInternalStepSize="0.1" hasEventMode="false"/>
+  <ScheduledExecution modelIdentifier="M"/>
+  <TypeDefinitions>
+    <EnumerationType name="Color"><Item name="red" value="1"/><Item name="blue" value="2"/></EnumerationType>
+  </TypeDefinitions>
+  <DefaultExperiment startTime="0" stopTime="2" stepSize="0.5"/>
+  <ModelVariables>
+    <Float64 name="time" valueReference="0" causality="independent" variability="continuous"/>
+    <UInt64 name="n" valueReference="1" causality="structuralParameter" variability="tunable" start="3"/>
+    <Float64 name="A" valueReference="2" causality="parameter" variability="tunable" start="1 2 3 4 5 6">
+      <Dimension start="2"/>
+      <Dimension valueReference="1"/>
+    </Float64>
+    <Float32 name="f" valueReference="3" causality="input" start="0.5"/>
+    <Int8 name="i8" valueReference="4" causality="output" min="-3" max="3"/>
+    <Boolean name="b" valueReference="5" causality="input" start="true"/>
+    <String name="s" valueReference="6" causality="parameter" variability="fixed"><Start value="a b"/></String>
+    <Binary name="bin" valueReference="7" causality="input"><Start value="0aff"/></Binary>
+    <Enumeration name="c" valueReference="8" declaredType="Color" causality="output"/>
+    <Clock name="clk" valueReference="9" causality="input" intervalVariability="triggered"/>
+    <Float64 name="x" valueReference="10" clocks="9"/>
+    <Float64 name="der(x)" valueReference="11" derivative="10"/>
+  </ModelVariables>
+  <ModelStructure>
+    <Output valueReference="4" dependencies="3 5"/>
+    <ContinuousStateDerivative valueReference="11"/>
+    <InitialUnknown valueReference="4"/>
+  </ModelStructure>
+</fmiModelDescription>
+"#;
+
+    #[test]
+    fn parses_every_part_of_an_fmi3_description() {
+        let md = ModelDescription3::parse(SAMPLE, "md.xml").unwrap();
+        assert_eq!(md.fmi_version, "3.0");
+        assert_eq!(md.instantiation_token, "{abc}");
+        let cs = md.co_simulation.as_ref().unwrap();
+        assert_eq!(cs.model_identifier, "M");
+        assert!(cs.flag("canHandleVariableCommunicationStepSize"));
+        assert!(!cs.flag("hasEventMode") && !cs.flag("canGetAndSetFMUState"));
+        assert_eq!(cs.fixed_internal_step_size, Some(0.1));
+        assert!(md.scheduled_execution.is_some() && md.model_exchange.is_none());
+        assert_eq!(
+            md.type_definitions[0].items,
+            vec![("red".to_string(), 1), ("blue".to_string(), 2)]
+        );
+        assert_eq!(md.variables.len(), 12);
+        let a = md.variable("A").unwrap();
+        assert_eq!(a.ty, Type3::Float64);
+        assert_eq!(a.dimensions.len(), 2);
+        assert_eq!(md.shape(a).unwrap(), vec![2, 3]);
+        assert_eq!(
+            a.start,
+            Some(Values::Float64(vec![1.0, 2.0, 3.0, 4.0, 5.0, 6.0]))
+        );
+        let n = md.variable("n").unwrap();
+        assert_eq!(n.causality, Causality3::StructuralParameter);
+        assert_eq!(n.effective_initial(), Some(Initial::Exact));
+        let f = md.variable("f").unwrap();
+        assert_eq!(
+            (f.variability, f.start.clone()),
+            (Variability::Continuous, Some(Values::Float32(vec![0.5])))
+        );
+        let i8v = md.variable("i8").unwrap();
+        assert_eq!(
+            (i8v.variability, i8v.min, i8v.max),
+            (Variability::Discrete, Some(-3.0), Some(3.0))
+        );
+        assert_eq!(i8v.effective_initial(), Some(Initial::Calculated));
+        assert_eq!(
+            md.variable("s").unwrap().start,
+            Some(Values::String(vec!["a b".into()]))
+        );
+        assert_eq!(
+            md.variable("bin").unwrap().start,
+            Some(Values::Binary(vec![vec![10, 255]]))
+        );
+        assert_eq!(
+            md.variable("c").unwrap().declared_type.as_deref(),
+            Some("Color")
+        );
+        let clk = md.variable("clk").unwrap();
+        assert_eq!(
+            (clk.ty, clk.interval_variability.as_deref()),
+            (Type3::Clock, Some("triggered"))
+        );
+        assert_eq!(md.variable("x").unwrap().clocks, vec![9]);
+        assert_eq!(md.variable("der(x)").unwrap().derivative, Some(10));
+        assert_eq!(md.model_structure.outputs[0].dependencies, Some(vec![3, 5]));
+        assert_eq!(md.model_structure.continuous_state_derivatives.len(), 1);
+        assert_eq!(md.model_structure.initial_unknowns[0].line, 30);
+        assert_eq!(md.variable("A").unwrap().line, 13);
+    }
+
+    fn err_of(xml: &str) -> String {
+        ModelDescription3::parse(xml, "md.xml")
+            .unwrap_err()
+            .to_string()
+    }
+
+    #[test]
+    fn bad_values_are_errors_naming_line_and_attribute() {
+        let head =
+            "<fmiModelDescription fmiVersion=\"3.0\" instantiationToken=\"t\">\n<ModelVariables>\n";
+        let e = err_of(&format!(
+            "{head}<Int8 name=\"a\" valueReference=\"1\" start=\"200\"/></ModelVariables></fmiModelDescription>"
+        ));
+        assert!(
+            e.starts_with("md.xml:3:") && e.contains("outside the range of Int8"),
+            "{e}"
+        );
+        let e = err_of(&format!(
+            "{head}<Float64 name=\"a\" valueReference=\"-1\"/></ModelVariables></fmiModelDescription>"
+        ));
+        assert!(e.contains("valueReference"), "{e}");
+        let e = err_of(&format!(
+            "{head}<Real name=\"a\" valueReference=\"1\"/></ModelVariables></fmiModelDescription>"
+        ));
+        assert!(e.contains("unknown element <Real>"), "{e}");
+        let e = err_of(&format!(
+            "{head}<Float64 name=\"a\" valueReference=\"1\" causality=\"outptu\"/></ModelVariables></fmiModelDescription>"
+        ));
+        assert!(e.contains("unknown causality \"outptu\""), "{e}");
+        let e = err_of(&format!(
+            "{head}<Binary name=\"a\" valueReference=\"1\"><Start value=\"xyz\"/></Binary></ModelVariables></fmiModelDescription>"
+        ));
+        assert!(e.contains("hexadecimal"), "{e}");
+        let e = err_of("<fmiModelDescription fmiVersion=\"3.0\"/>");
+        assert!(e.contains("instantiationToken"), "{e}");
+        let e = err_of("<fmiModelDescription fmiVersion=\"3.0\" instantiationToken=\"t\"><CoSimulation modelIdentifier=\"M\" hasEventMode=\"maybe\"/></fmiModelDescription>");
+        assert!(e.contains("hasEventMode=\"maybe\" is not a boolean"), "{e}");
+    }
+
+    #[test]
+    fn array_sizes_are_bounded_and_dimensions_must_resolve() {
+        let xml = r#"<fmiModelDescription fmiVersion="3.0" instantiationToken="t"><ModelVariables>
+            <UInt64 name="n" valueReference="1" causality="structuralParameter" variability="fixed" start="100000000"/>
+            <Float64 name="big" valueReference="2" causality="output"><Dimension valueReference="1"/><Dimension start="1000"/></Float64>
+            <Float64 name="dangling" valueReference="3" causality="output"><Dimension valueReference="99"/></Float64>
+            </ModelVariables></fmiModelDescription>"#;
+        let md = ModelDescription3::parse(xml, "md.xml").unwrap();
+        let e = md.shape(md.variable("big").unwrap()).unwrap_err();
+        assert!(e.contains("more than"), "{e}");
+        let e = md.shape(md.variable("dangling").unwrap()).unwrap_err();
+        assert!(e.contains("valueReference=\"99\""), "{e}");
+    }
+}

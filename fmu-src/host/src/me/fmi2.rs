@@ -1,0 +1,326 @@
+//! The FMI 2.0 binding of the Model Exchange loop: the `fmi2*` Model Exchange calls on an
+//! [`Instance`] made with `fmi2ModelExchange`, and a whole run from a [`SimulationRequest`].
+
+use crate::error::{HostError, Result, Status};
+use crate::ffi::{EventInfo as RawEventInfo, Fmi2Boolean, MeFunctions};
+use crate::instance::{missing, Instance};
+use crate::md::ModelDescription;
+use crate::me::{self, Ending, Environment, EventInfo, ModelExchange, Settings, StepOutcome};
+use crate::simulate::{
+    communication_points, InputPlan, Recorder, SimulationRequest, SimulationResult, StartValues,
+    MAX_RECORDED_VALUES,
+};
+use crate::watch::{self, Call};
+
+/// An FMI 2.0 Model Exchange instance with its state and derivative value references.
+pub struct Fmi2Me<'i, 'a> {
+    inst: &'i mut Instance<'a>,
+    f: MeFunctions,
+    /// Value references of the states, in the order of `<Derivatives>` (FMI 2.0.4 section
+    /// 2.2.8: that order is the order of the continuous-state vector).
+    state_vrs: Vec<u32>,
+    /// Value references of the derivatives, same order.
+    derivative_vrs: Vec<u32>,
+    indicators: usize,
+    needs_step: bool,
+    directional: bool,
+    /// The time of the last `fmi2SetTime` (for the call marks).
+    time: f64,
+}
+
+impl<'i, 'a> Fmi2Me<'i, 'a> {
+    /// Binds `inst`, which must have been instantiated as Model Exchange.
+    pub fn new(inst: &'i mut Instance<'a>) -> Result<Self> {
+        let fmu = inst.fmu;
+        let f = fmu
+            .functions
+            .me
+            .ok_or_else(|| missing("the Model Exchange functions"))?;
+        let md = fmu.model_description();
+        let (state_vrs, derivative_vrs) = state_references(md)?;
+        Ok(Fmi2Me {
+            f,
+            state_vrs,
+            derivative_vrs,
+            indicators: md.number_of_event_indicators.unwrap_or(0) as usize,
+            needs_step: !md.me_completed_integrator_step_not_needed,
+            directional: md.me_provides_directional_derivative
+                && fmu.functions.get_directional_derivative.is_some(),
+            time: 0.0,
+            inst,
+        })
+    }
+
+    fn call(&mut self, name: &'static str, raw: crate::ffi::RawStatus) -> Result<Status> {
+        self.inst.check(name, raw)
+    }
+}
+
+/// (state, derivative) value references from `<ModelStructure><Derivatives>`: each derivative
+/// names its state with the `derivative` attribute (1-based index into ModelVariables).
+fn state_references(md: &ModelDescription) -> Result<(Vec<u32>, Vec<u32>)> {
+    let bad = |m: String| HostError::Request(format!("Model Exchange: {m}"));
+    let mut states = Vec::new();
+    let mut derivatives = Vec::new();
+    for u in &md.model_structure.derivatives {
+        let d = md
+            .model_variables
+            .get(u.index.wrapping_sub(1))
+            .ok_or_else(|| bad(format!("<Derivatives> index {} is no variable", u.index)))?;
+        let s = d
+            .derivative
+            .and_then(|k| md.model_variables.get(k.wrapping_sub(1)))
+            .ok_or_else(|| {
+                bad(format!(
+                    "derivative '{}' does not name its state (derivative attribute)",
+                    d.name
+                ))
+            })?;
+        states.push(s.value_reference);
+        derivatives.push(d.value_reference);
+    }
+    Ok((states, derivatives))
+}
+
+fn flag(b: Fmi2Boolean) -> bool {
+    b != 0
+}
+
+impl ModelExchange for Fmi2Me<'_, '_> {
+    fn states(&self) -> usize {
+        self.state_vrs.len()
+    }
+
+    fn indicators(&self) -> usize {
+        self.indicators
+    }
+
+    fn set_time(&mut self, t: f64) -> Result<()> {
+        self.time = t;
+        let _w = watch::enter(Call::SetTime, Some(t));
+        // SAFETY: live Model Exchange instance of this binary.
+        let raw = unsafe { (self.f.set_time)(self.inst.component, t) };
+        self.call("fmi2SetTime", raw).map(drop)
+    }
+
+    fn set_states(&mut self, x: &[f64]) -> Result<()> {
+        let _w = watch::enter(Call::SetContinuousStates, Some(self.time));
+        // SAFETY: x has x.len() elements.
+        let raw =
+            unsafe { (self.f.set_continuous_states)(self.inst.component, x.as_ptr(), x.len()) };
+        self.call("fmi2SetContinuousStates", raw).map(drop)
+    }
+
+    fn get_states(&mut self, x: &mut [f64]) -> Result<()> {
+        let _w = watch::enter(Call::GetContinuousStates, Some(self.time));
+        // SAFETY: x has x.len() elements.
+        let raw =
+            unsafe { (self.f.get_continuous_states)(self.inst.component, x.as_mut_ptr(), x.len()) };
+        self.call("fmi2GetContinuousStates", raw).map(drop)
+    }
+
+    fn get_derivatives(&mut self, dx: &mut [f64]) -> Result<bool> {
+        let _w = watch::enter(Call::GetDerivatives, Some(self.time));
+        // SAFETY: dx has dx.len() elements.
+        let raw =
+            unsafe { (self.f.get_derivatives)(self.inst.component, dx.as_mut_ptr(), dx.len()) };
+        match self.call("fmi2GetDerivatives", raw) {
+            Ok(_) => Ok(true),
+            // FMI 2.0.4 section 3.2.2: fmi2Discard from a derivative evaluation asks the
+            // integrator for a smaller step.
+            Err(e) if e.status() == Some(Status::Discard) => Ok(false),
+            Err(e) => Err(e),
+        }
+    }
+
+    fn get_event_indicators(&mut self, z: &mut [f64]) -> Result<()> {
+        let _w = watch::enter(Call::GetEventIndicators, Some(self.time));
+        // SAFETY: z has z.len() elements.
+        let raw =
+            unsafe { (self.f.get_event_indicators)(self.inst.component, z.as_mut_ptr(), z.len()) };
+        self.call("fmi2GetEventIndicators", raw).map(drop)
+    }
+
+    fn get_nominals(&mut self, x: &mut [f64]) -> Result<()> {
+        let _w = watch::enter(Call::GetNominals, Some(self.time));
+        // SAFETY: x has x.len() elements.
+        let raw = unsafe {
+            (self.f.get_nominals_of_continuous_states)(self.inst.component, x.as_mut_ptr(), x.len())
+        };
+        self.call("fmi2GetNominalsOfContinuousStates", raw)
+            .map(drop)
+    }
+
+    fn enter_event_mode(&mut self) -> Result<()> {
+        let _w = watch::enter(Call::EnterEventMode, Some(self.time));
+        // SAFETY: live Model Exchange instance of this binary.
+        let raw = unsafe { (self.f.enter_event_mode)(self.inst.component) };
+        self.call("fmi2EnterEventMode", raw).map(drop)
+    }
+
+    fn new_discrete_states(&mut self) -> Result<EventInfo> {
+        let mut info = RawEventInfo::default();
+        let _w = watch::enter(Call::NewDiscreteStates, Some(self.time));
+        // SAFETY: info is a valid fmi2EventInfo.
+        let raw = unsafe { (self.f.new_discrete_states)(self.inst.component, &mut info) };
+        self.call("fmi2NewDiscreteStates", raw)?;
+        Ok(EventInfo {
+            new_discrete_states_needed: flag(info.new_discrete_states_needed),
+            terminate_simulation: flag(info.terminate_simulation),
+            nominals_changed: flag(info.nominals_of_continuous_states_changed),
+            values_changed: flag(info.values_of_continuous_states_changed),
+            next_event_time: flag(info.next_event_time_defined).then_some(info.next_event_time),
+        })
+    }
+
+    fn enter_continuous_time_mode(&mut self) -> Result<()> {
+        let _w = watch::enter(Call::EnterContinuousTimeMode, Some(self.time));
+        // SAFETY: live Model Exchange instance of this binary.
+        let raw = unsafe { (self.f.enter_continuous_time_mode)(self.inst.component) };
+        self.call("fmi2EnterContinuousTimeMode", raw).map(drop)
+    }
+
+    fn completed_integrator_step(&mut self) -> Result<StepOutcome> {
+        let (mut enter, mut terminate): (Fmi2Boolean, Fmi2Boolean) = (0, 0);
+        let _w = watch::enter(Call::CompletedIntegratorStep, Some(self.time));
+        // SAFETY: valid out pointers. noSetFMUStatePriorToCurrentPoint: the host never goes back.
+        let raw = unsafe {
+            (self.f.completed_integrator_step)(self.inst.component, 1, &mut enter, &mut terminate)
+        };
+        self.call("fmi2CompletedIntegratorStep", raw)?;
+        Ok(StepOutcome {
+            enter_event_mode: flag(enter),
+            terminate_simulation: flag(terminate),
+        })
+    }
+
+    fn needs_completed_integrator_step(&self) -> bool {
+        self.needs_step
+    }
+
+    fn provides_directional_derivative(&self) -> bool {
+        self.directional
+    }
+
+    fn state_derivative_column(&mut self, j: usize, out: &mut [f64]) -> Result<()> {
+        let f = self
+            .inst
+            .fmu
+            .functions
+            .get_directional_derivative
+            .ok_or_else(|| missing("fmi2GetDirectionalDerivative"))?;
+        let known = [self.state_vrs[j]];
+        let seed = [1.0];
+        if out.len() != self.derivative_vrs.len() {
+            return Err(HostError::Request(
+                "Jacobian column of the wrong length".into(),
+            ));
+        }
+        let _w = watch::enter(Call::DirectionalDerivative, Some(self.time));
+        // SAFETY: vUnknown_ref/dvUnknown have out.len() elements, vKnown_ref/dvKnown one.
+        let raw = unsafe {
+            f(
+                self.inst.component,
+                self.derivative_vrs.as_ptr(),
+                self.derivative_vrs.len(),
+                known.as_ptr(),
+                1,
+                seed.as_ptr(),
+                out.as_mut_ptr(),
+            )
+        };
+        self.call("fmi2GetDirectionalDerivative", raw).map(drop)
+    }
+}
+
+/// Inputs and recording of an FMI 2.0 run.
+struct Fmi2Environment<'r> {
+    inputs: InputPlan<'r>,
+    recorder: Recorder,
+    time: Vec<f64>,
+}
+
+impl Environment<Fmi2Me<'_, '_>> for Fmi2Environment<'_> {
+    fn apply_continuous_inputs(&mut self, fmu: &mut Fmi2Me<'_, '_>, t: f64) -> Result<()> {
+        self.inputs.apply_some(fmu.inst, t, true, false)
+    }
+
+    fn apply_discrete_inputs(&mut self, fmu: &mut Fmi2Me<'_, '_>, t: f64) -> Result<()> {
+        self.inputs.apply_some(fmu.inst, t, false, true)
+    }
+
+    fn next_input_event(&self, t: f64) -> f64 {
+        self.inputs.next_event(t)
+    }
+
+    fn record(&mut self, fmu: &mut Fmi2Me<'_, '_>, t: f64) -> Result<()> {
+        if self.time.len() >= MAX_RECORDED_VALUES / self.recorder.width().max(1) {
+            return Err(HostError::Request(format!(
+                "Model Exchange: more than {} rows recorded (events at a rate the output \
+                 cannot hold)",
+                self.time.len()
+            )));
+        }
+        self.recorder.record(fmu.inst)?;
+        self.time.push(t);
+        Ok(())
+    }
+}
+
+/// Simulates `req` on `inst` (instantiated as Model Exchange): initialization, then
+/// [`me::run`].
+pub fn run_on(inst: &mut Instance<'_>, req: &SimulationRequest) -> Result<SimulationResult> {
+    let md = inst.fmu().model_description();
+    let points = communication_points(req.start_time, req.stop_time, req.step)?;
+    let starts = StartValues::resolve(md, &req.start_values)?;
+    let mut inputs = InputPlan::new(md, &req.inputs)?;
+    let out_names: Vec<String> = if req.outputs.is_empty() {
+        md.output_names()
+    } else {
+        req.outputs.clone()
+    };
+    let recorder = Recorder::new(md, out_names, points.len())?;
+    let rtol = req
+        .tolerance
+        .or(md.default_experiment.as_ref().and_then(|d| d.tolerance))
+        .unwrap_or(1e-5);
+    if !(rtol > 0.0 && rtol.is_finite()) {
+        return Err(HostError::Request(format!(
+            "Model Exchange: the tolerance must be > 0, got {rtol}"
+        )));
+    }
+    starts.apply(inst)?;
+    inputs.apply(inst, req.start_time)?;
+    inst.setup_experiment(req.tolerance, req.start_time, Some(req.stop_time))?;
+    inst.enter_initialization_mode()?;
+    inst.exit_initialization_mode()?;
+    let mut env = Fmi2Environment {
+        inputs,
+        recorder,
+        time: Vec::with_capacity(points.len()),
+    };
+    let settings = Settings {
+        start: req.start_time,
+        stop: req.stop_time,
+        interval: req.step,
+        rtol,
+        record_events: req.record_events,
+    };
+    let ending = {
+        let mut fmu = Fmi2Me::new(inst)?;
+        fmu.time = req.start_time;
+        me::run(&mut fmu, &mut env, &settings)?
+    };
+    let _ = inst.terminate();
+    let (names, columns, text) = env.recorder.finish();
+    Ok(SimulationResult {
+        ended_by_fmu: match ending {
+            Ending::Stop => None,
+            Ending::Terminated(t) => Some(t),
+        },
+        time: env.time,
+        names,
+        columns,
+        text,
+    })
+}

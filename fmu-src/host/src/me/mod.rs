@@ -1,0 +1,586 @@
+//! Model Exchange: the host integrates the FMU's continuous states with the `ode` crate's
+//! Rosenbrock integrator and handles its events (FMI 2.0.4 section 3.2.3, the pseudo-code of
+//! `fmi2ModelExchange`; FMPy's `simulateME` records the same rows).
+//!
+//! The loop is written against [`ModelExchange`], the few calls it needs, so that a binding of
+//! another FMI version plugs in; [`fmi2`] binds it to an FMI 2.0 [`crate::Instance`].
+//!
+//! - **Time events**: each integration segment ends exactly at the FMU's `nextEventTime`, at a
+//!   change of a discrete input (an input event) or at the next output point.
+//! - **State events**: after every accepted step the event indicators are compared with those at
+//!   the step's start; a change of domain (`z > 0` against `z <= 0`, FMI 2.0.4 section 3.1; an
+//!   indicator exactly 0 after an event takes its domain from its next nonzero value, as CVode
+//!   does) is located by re-integration: the Illinois variant of regula falsi on the indicator
+//!   that changed first, each trial point reached by integrating from the bracket's left end with
+//!   the same tolerances, until the bracket is narrower than [`ROOT_TIME_TOLERANCE`] relative to
+//!   the time. The event is handled at the bracket's right end, where the indicator has changed.
+//!   Re-integration (rather than the step's interpolant) gives every trial point the solver's
+//!   full error control and needs no change to the integrator's steps.
+//! - **Step events**: `completedIntegratorStep` after every accepted step (unless the FMU
+//!   declares it not needed); `enterEventMode` ends the segment there.
+//! - **Event iteration**: `newDiscreteStates` until no new discrete states are needed; a
+//!   terminate request ends the run (its rows up to then are kept).
+//! - **Jacobian**: from `fmi2GetDirectionalDerivative` (one seed per state) when the FMU provides
+//!   directional derivatives, otherwise forward differences by the integrator.
+//! - **Recording**: at the start, every output point, and (with `record_events`) before and after
+//!   every event at the same time, as FMPy's `simulate_fmu(record_events=True)` does.
+
+pub mod fmi2;
+
+use crate::error::{HostError, Result};
+use crate::watch::{self, Call};
+use nalgebra::DMatrix;
+use ode::{Integrator, OdeSystem};
+use std::cell::RefCell;
+
+/// Width of the located bracket of a state event, relative to `max(1, |t|)`.
+pub const ROOT_TIME_TOLERANCE: f64 = 1e-12;
+/// Most trial points one state event's location takes.
+const MAX_ROOT_ITERATIONS: usize = 200;
+/// Most event iterations (`newDiscreteStates` calls) at one time before the FMU is taken to
+/// loop without end.
+const MAX_EVENT_ITERATIONS: usize = 10_000;
+/// Most events at one time instant in a row (an event that re-triggers itself).
+const MAX_EVENTS_AT_ONE_TIME: usize = 1_000;
+
+/// What `newDiscreteStates` reports (`fmi2EventInfo`).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct EventInfo {
+    /// Another event iteration is needed.
+    pub new_discrete_states_needed: bool,
+    /// The FMU asks to end the simulation.
+    pub terminate_simulation: bool,
+    /// The nominals of the continuous states changed.
+    pub nominals_changed: bool,
+    /// The values of the continuous states changed.
+    pub values_changed: bool,
+    /// The next time event, if any.
+    pub next_event_time: Option<f64>,
+}
+
+/// What `completedIntegratorStep` reports.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StepOutcome {
+    /// The FMU asks for an event now (a step event).
+    pub enter_event_mode: bool,
+    /// The FMU asks to end the simulation.
+    pub terminate_simulation: bool,
+}
+
+/// The calls of a Model Exchange FMU the integration loop makes, whatever the FMI version.
+/// Each marks itself in [`crate::watch`] with the call and time.
+pub trait ModelExchange {
+    /// Number of continuous states.
+    fn states(&self) -> usize;
+    /// Number of event indicators.
+    fn indicators(&self) -> usize;
+    /// `setTime`
+    fn set_time(&mut self, t: f64) -> Result<()>;
+    /// `setContinuousStates`
+    fn set_states(&mut self, x: &[f64]) -> Result<()>;
+    /// `getContinuousStates`
+    fn get_states(&mut self, x: &mut [f64]) -> Result<()>;
+    /// `getDerivatives`; `Ok(false)` when the FMU discards the point (fmi2Discard: the
+    /// integrator retries with a smaller step).
+    fn get_derivatives(&mut self, dx: &mut [f64]) -> Result<bool>;
+    /// `getEventIndicators`
+    fn get_event_indicators(&mut self, z: &mut [f64]) -> Result<()>;
+    /// `getNominalsOfContinuousStates`
+    fn get_nominals(&mut self, x: &mut [f64]) -> Result<()>;
+    /// `enterEventMode`
+    fn enter_event_mode(&mut self) -> Result<()>;
+    /// `newDiscreteStates` (FMI 3.0: `updateDiscreteStates`)
+    fn new_discrete_states(&mut self) -> Result<EventInfo>;
+    /// `enterContinuousTimeMode`
+    fn enter_continuous_time_mode(&mut self) -> Result<()>;
+    /// `completedIntegratorStep`
+    fn completed_integrator_step(&mut self) -> Result<StepOutcome>;
+    /// Whether `completedIntegratorStep` must be called.
+    fn needs_completed_integrator_step(&self) -> bool;
+    /// Whether [`Self::state_derivative_column`] is available.
+    fn provides_directional_derivative(&self) -> bool;
+    /// Column `j` of the Jacobian of the derivatives with respect to the states (a directional
+    /// derivative with the unit seed `e_j`).
+    fn state_derivative_column(&mut self, j: usize, out: &mut [f64]) -> Result<()>;
+}
+
+/// What the run does besides calling the FMU: inputs and recording.
+pub trait Environment<M> {
+    /// Sets the continuous inputs at `t` (allowed in Continuous-Time Mode).
+    fn apply_continuous_inputs(&mut self, fmu: &mut M, t: f64) -> Result<()>;
+    /// Sets the discrete inputs at `t` (in Event Mode).
+    fn apply_discrete_inputs(&mut self, fmu: &mut M, t: f64) -> Result<()>;
+    /// The first time after `t` at which a discrete input changes (infinite: none).
+    fn next_input_event(&self, t: f64) -> f64;
+    /// Records the outputs at `t`.
+    fn record(&mut self, fmu: &mut M, t: f64) -> Result<()>;
+}
+
+/// The grid and tolerance of a run.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Settings {
+    /// Start time (the FMU is initialized there).
+    pub start: f64,
+    /// Stop time.
+    pub stop: f64,
+    /// Output interval: rows at `start + k * interval`.
+    pub interval: f64,
+    /// Relative tolerance; the absolute one is it times each state's nominal.
+    pub rtol: f64,
+    /// Also record before and after each event.
+    pub record_events: bool,
+}
+
+/// How a run ended.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Ending {
+    /// At the stop time.
+    Stop,
+    /// The FMU asked to terminate at this time.
+    Terminated(f64),
+}
+
+/// `math.isclose` with its default relative tolerance 1e-9, as FMPy compares times.
+fn isclose(a: f64, b: f64) -> bool {
+    a == b || (a.is_finite() && b.is_finite() && (a - b).abs() <= 1e-9 * a.abs().max(b.abs()))
+}
+
+/// Runs the loop from the Event Mode the FMU is in after initialization to the stop time.
+pub fn run<M: ModelExchange, E: Environment<M>>(
+    fmu: &mut M,
+    env: &mut E,
+    s: &Settings,
+) -> Result<Ending> {
+    let _integration = watch::enter(Call::HostIntegration, Some(s.start));
+    let mut time = s.start;
+    let info = event_iteration(fmu)?;
+    if info.terminate_simulation {
+        env.record(fmu, time)?;
+        return Ok(Ending::Terminated(time));
+    }
+    let mut next_event_time = info.next_event_time;
+    fmu.enter_continuous_time_mode()?;
+    let n = fmu.states();
+    let mut x = vec![0.0; n];
+    fmu.get_states(&mut x)?;
+    let mut integrator = Integrator::new(s.rtol, absolute_tolerances(fmu, s.rtol)?);
+    // CVode's limit in FMPy's ME run: no step beyond a fiftieth of the interval.
+    integrator.set_max_step((s.stop - s.start) / 50.0);
+    let mut n_steps: u64 = 0;
+    let mut next_regular = time;
+    let mut events_here = (time, 0usize);
+    loop {
+        if s.record_events || isclose(time, next_regular) {
+            env.record(fmu, time)?;
+        }
+        if time > s.stop || isclose(time, s.stop) {
+            return Ok(Ending::Stop);
+        }
+        next_regular = s.start + (n_steps + 1) as f64 * s.interval;
+        let mut target = next_regular;
+        let input_event_time = env.next_input_event(time);
+        if target > input_event_time && !isclose(target, input_event_time) {
+            target = input_event_time;
+        }
+        if let Some(te) = next_event_time {
+            if target > te && !isclose(target, te) {
+                target = te;
+            }
+        }
+        if target > s.stop && !isclose(target, s.stop) {
+            target = s.stop;
+        }
+        let seg = integrate_segment(fmu, env, &mut integrator, time, target, &mut x)?;
+        time = seg.time;
+        fmu.set_time(time)?;
+        env.apply_continuous_inputs(fmu, time)?;
+        if isclose(time, next_regular) {
+            n_steps += 1;
+        }
+        if seg.terminate {
+            return Ok(Ending::Terminated(time));
+        }
+        let reached = seg.time == target;
+        let input_event = reached && isclose(target, input_event_time);
+        let time_event = reached && next_event_time.is_some_and(|te| isclose(target, te));
+        if !(input_event || time_event || seg.state_event || seg.step_event) {
+            continue;
+        }
+        events_here = if events_here.0 == time {
+            (time, events_here.1 + 1)
+        } else {
+            (time, 1)
+        };
+        if events_here.1 > MAX_EVENTS_AT_ONE_TIME {
+            return Err(HostError::Request(format!(
+                "Model Exchange: more than {MAX_EVENTS_AT_ONE_TIME} events at t = {time} \
+                 (an event that triggers itself again)"
+            )));
+        }
+        if s.record_events {
+            env.record(fmu, time)?;
+        }
+        fmu.enter_event_mode()?;
+        if input_event {
+            env.apply_discrete_inputs(fmu, time)?;
+        }
+        let info = event_iteration(fmu)?;
+        if info.terminate_simulation {
+            return Ok(Ending::Terminated(time));
+        }
+        next_event_time = info.next_event_time;
+        fmu.enter_continuous_time_mode()?;
+        if info.values_changed {
+            fmu.get_states(&mut x)?;
+        }
+        if info.nominals_changed {
+            integrator.set_tolerances(s.rtol, absolute_tolerances(fmu, s.rtol)?);
+        }
+        // The right-hand side may jump at an event: the step size starts anew.
+        integrator.reset_step_size();
+    }
+}
+
+/// `newDiscreteStates` until no further iteration is needed or the FMU asks to terminate.
+fn event_iteration<M: ModelExchange>(fmu: &mut M) -> Result<EventInfo> {
+    for _ in 0..MAX_EVENT_ITERATIONS {
+        let info = fmu.new_discrete_states()?;
+        if !info.new_discrete_states_needed || info.terminate_simulation {
+            return Ok(info);
+        }
+    }
+    Err(HostError::Request(format!(
+        "Model Exchange: the event iteration did not converge in {MAX_EVENT_ITERATIONS} \
+         calls of newDiscreteStates"
+    )))
+}
+
+/// `rtol * |nominal_i|` for each state (CVode's choice in FMPy), nominals that are not positive
+/// and finite taken as 1.
+fn absolute_tolerances<M: ModelExchange>(fmu: &mut M, rtol: f64) -> Result<Vec<f64>> {
+    let mut nominal = vec![1.0; fmu.states()];
+    if !nominal.is_empty() {
+        fmu.get_nominals(&mut nominal)?;
+    }
+    Ok(nominal
+        .into_iter()
+        .map(|v| {
+            let v = v.abs();
+            rtol * if v > 0.0 && v.is_finite() { v } else { 1.0 }
+        })
+        .collect())
+}
+
+/// Where an integration segment ended.
+struct Segment {
+    time: f64,
+    state_event: bool,
+    step_event: bool,
+    terminate: bool,
+}
+
+/// The FMU and its environment as an [`OdeSystem`]: the right-hand side sets time, continuous
+/// inputs and states and gets the derivatives. The first error is kept (the FMU is not called
+/// again) and NaN returned, which stops the integrator.
+struct System<'m, M, E> {
+    inner: RefCell<(&'m mut M, &'m mut E)>,
+    error: RefCell<Option<HostError>>,
+    n: usize,
+    directional: bool,
+}
+
+impl<M: ModelExchange, E: Environment<M>> System<'_, M, E> {
+    fn failed(&self) -> bool {
+        self.error.borrow().is_some()
+    }
+
+    fn keep(&self, e: HostError) {
+        self.error.borrow_mut().get_or_insert(e);
+    }
+
+    /// Sets `(t, y)` and the continuous inputs at `t`.
+    fn set_point(&self, t: f64, y: &[f64]) -> Result<()> {
+        let mut guard = self.inner.borrow_mut();
+        let (fmu, env) = &mut *guard;
+        fmu.set_time(t)?;
+        env.apply_continuous_inputs(fmu, t)?;
+        fmu.set_states(y)
+    }
+
+    fn derivatives(&self, t: f64, y: &[f64], dydt: &mut [f64]) -> Result<bool> {
+        self.set_point(t, y)?;
+        self.inner.borrow_mut().0.get_derivatives(dydt)
+    }
+
+    fn indicators(&self, t: f64, y: &[f64], z: &mut [f64]) -> Result<()> {
+        self.set_point(t, y)?;
+        self.inner.borrow_mut().0.get_event_indicators(z)
+    }
+}
+
+impl<M: ModelExchange, E: Environment<M>> OdeSystem for System<'_, M, E> {
+    fn dim(&self) -> usize {
+        self.n
+    }
+
+    fn rhs(&self, t: f64, y: &[f64], dydt: &mut [f64]) {
+        if !self.failed() {
+            match self.derivatives(t, y, dydt) {
+                Ok(true) => return,
+                Ok(false) => {}
+                Err(e) => self.keep(e),
+            }
+        }
+        dydt.iter_mut().for_each(|v| *v = f64::NAN);
+    }
+
+    fn jacobian(&self, t: f64, y: &[f64], jac: &mut DMatrix<f64>) -> bool {
+        if !self.directional || self.failed() {
+            return false;
+        }
+        let mut column = vec![0.0; self.n];
+        let columns = (|| -> Result<()> {
+            self.set_point(t, y)?;
+            let mut guard = self.inner.borrow_mut();
+            for j in 0..self.n {
+                guard.0.state_derivative_column(j, &mut column)?;
+                jac.column_mut(j).copy_from_slice(&column);
+            }
+            Ok(())
+        })();
+        match columns {
+            Ok(()) => true,
+            Err(e) => {
+                self.keep(e);
+                jac.fill(f64::NAN);
+                true
+            }
+        }
+    }
+}
+
+/// Domain of each event indicator: `Some(z > 0)`, or None for an indicator exactly 0 (after an
+/// event) until it leaves 0.
+fn domains(z: &[f64], before: &[Option<bool>]) -> Vec<Option<bool>> {
+    z.iter()
+        .zip(before)
+        .map(|(&v, &b)| {
+            if v == 0.0 {
+                b.filter(|p| !p)
+            } else {
+                Some(v > 0.0)
+            }
+        })
+        .collect()
+}
+
+/// Indices whose domain changed from `before` to the values `z`.
+fn crossed(before: &[Option<bool>], z: &[f64]) -> Vec<usize> {
+    before
+        .iter()
+        .zip(z)
+        .enumerate()
+        .filter_map(|(i, (b, &v))| match b {
+            Some(p) if (v > 0.0) != *p => Some(i),
+            _ => None,
+        })
+        .collect()
+}
+
+/// The last accepted point before a state event, and the first after it.
+struct Bracket {
+    ta: f64,
+    ya: Vec<f64>,
+    za: Vec<f64>,
+    tb: f64,
+    yb: Vec<f64>,
+    zb: Vec<f64>,
+}
+
+/// Integrates from `t0` towards `t1`, checking the event indicators and calling
+/// `completedIntegratorStep` after every accepted step; a state event is located.
+fn integrate_segment<M: ModelExchange, E: Environment<M>>(
+    fmu: &mut M,
+    env: &mut E,
+    integrator: &mut Integrator,
+    t0: f64,
+    t1: f64,
+    x: &mut [f64],
+) -> Result<Segment> {
+    let nz = fmu.indicators();
+    let needs_step = fmu.needs_completed_integrator_step();
+    let directional = fmu.provides_directional_derivative();
+    let n = x.len();
+    let sys = System {
+        inner: RefCell::new((fmu, env)),
+        error: RefCell::new(None),
+        n,
+        directional,
+    };
+    let mut z = vec![0.0; nz];
+    if nz > 0 {
+        sys.indicators(t0, x, &mut z)?;
+    }
+    let mut domain = domains(&z, &vec![None; nz]);
+    let (mut ta, mut ya, mut za) = (t0, x.to_vec(), z.clone());
+    let mut bracket = None;
+    let mut step = StepOutcome::default();
+    let observed = integrator.integrate_observed(&sys, t0, t1, x, |t, y| {
+        if sys.failed() {
+            return true;
+        }
+        let checked = (|| -> Result<bool> {
+            if nz > 0 {
+                sys.indicators(t, y, &mut z)?;
+                if !crossed(&domain, &z).is_empty() {
+                    bracket = Some(Bracket {
+                        ta,
+                        ya: ya.clone(),
+                        za: za.clone(),
+                        tb: t,
+                        yb: y.to_vec(),
+                        zb: z.clone(),
+                    });
+                    return Ok(true);
+                }
+                domain = domains(&z, &domain);
+            }
+            if needs_step {
+                sys.set_point(t, y)?;
+                step = sys.inner.borrow_mut().0.completed_integrator_step()?;
+                if step.enter_event_mode || step.terminate_simulation {
+                    return Ok(true);
+                }
+            }
+            (ta, za) = (t, z.clone());
+            ya.copy_from_slice(y);
+            Ok(false)
+        })();
+        checked.unwrap_or_else(|e| {
+            sys.keep(e);
+            true
+        })
+    });
+    if let Some(e) = sys.error.borrow_mut().take() {
+        return Err(e);
+    }
+    let mut reached = observed.map_err(|e| ode_error(e, t0))?;
+    let mut state_event = false;
+    if let Some(b) = bracket {
+        let (t, y) = locate(&sys, integrator, &domain, b)?;
+        reached = t;
+        x.copy_from_slice(&y);
+        state_event = true;
+        sys.set_point(t, &y)?;
+        if needs_step {
+            step = sys.inner.borrow_mut().0.completed_integrator_step()?;
+        }
+    } else {
+        sys.set_point(reached, x)?;
+    }
+    Ok(Segment {
+        time: reached,
+        state_event,
+        step_event: step.enter_event_mode,
+        terminate: step.terminate_simulation,
+    })
+}
+
+fn ode_error(e: ode::OdeError, t0: f64) -> HostError {
+    HostError::Request(format!(
+        "Model Exchange integration from t = {t0} failed: {e}"
+    ))
+}
+
+/// Locates the first change of domain in `b` (Illinois regula falsi on the indicator whose
+/// linear estimate comes first, every trial point integrated from the bracket's left end).
+/// Returns the bracket's right end once it is narrow enough: the indicator has changed there.
+fn locate<M: ModelExchange, E: Environment<M>>(
+    sys: &System<'_, M, E>,
+    integrator: &Integrator,
+    domain: &[Option<bool>],
+    mut b: Bracket,
+) -> Result<(f64, Vec<f64>)> {
+    let mut z = vec![0.0; b.za.len()];
+    // Illinois: the retained end's value is halved when the same end is kept twice in a row.
+    let (mut wa, mut wb) = (1.0, 1.0);
+    let mut last_kept = 0i8;
+    for _ in 0..MAX_ROOT_ITERATIONS {
+        let width = b.tb - b.ta;
+        if width <= ROOT_TIME_TOLERANCE * b.tb.abs().max(1.0) {
+            break;
+        }
+        let i = first_crossing(domain, &b);
+        let (fa, fb) = (wa * b.za[i], wb * b.zb[i]);
+        let mut t = if fa != fb {
+            b.ta - fa * width / (fb - fa)
+        } else {
+            f64::NAN
+        };
+        if !(t > b.ta && t < b.tb) {
+            t = b.ta + 0.5 * width;
+            if !(t > b.ta && t < b.tb) {
+                break;
+            }
+        }
+        let mut y = b.ya.clone();
+        let mut trial = integrator.clone();
+        trial
+            .integrate(sys, b.ta, t, &mut y)
+            .map_err(|e| ode_error(e, b.ta))?;
+        if let Some(e) = sys.error.borrow_mut().take() {
+            return Err(e);
+        }
+        sys.indicators(t, &y, &mut z)?;
+        if crossed(domain, &z).is_empty() {
+            (b.ta, b.ya, b.za) = (t, y, z.clone());
+            wa = 1.0;
+            wb = if last_kept == 1 { wb * 0.5 } else { 1.0 };
+            last_kept = 1;
+        } else {
+            (b.tb, b.yb, b.zb) = (t, y, z.clone());
+            wb = 1.0;
+            wa = if last_kept == -1 { wa * 0.5 } else { 1.0 };
+            last_kept = -1;
+        }
+    }
+    Ok((b.tb, b.yb))
+}
+
+/// The changed indicator whose linear interpolation over the bracket crosses first.
+fn first_crossing(domain: &[Option<bool>], b: &Bracket) -> usize {
+    let mut best = (f64::INFINITY, 0);
+    for i in crossed(domain, &b.zb) {
+        let (za, zb) = (b.za[i], b.zb[i]);
+        let s = if za != zb { za / (za - zb) } else { 0.0 };
+        if s < best.0 {
+            best = (s, i);
+        }
+    }
+    best.1
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_indicator_leaving_zero_after_an_event_is_no_crossing() {
+        let d = domains(&[0.0, 1.0, -1.0], &[None, None, None]);
+        assert_eq!(d, vec![None, Some(true), Some(false)]);
+        // 0 -> positive: adopted, not crossed; positive -> 0 and negative -> positive: crossed
+        assert!(crossed(&d, &[0.5, 1.0, -1.0]).is_empty());
+        assert_eq!(crossed(&d, &[0.5, 0.0, 2.0]), vec![1, 2]);
+        // negative -> 0 stays in the domain z <= 0
+        assert!(crossed(&d, &[0.0, 1.0, 0.0]).is_empty());
+        assert_eq!(domains(&[0.0, 0.0, 0.0], &d), vec![None, None, Some(false)]);
+    }
+
+    #[test]
+    fn isclose_is_relative() {
+        assert!(isclose(1.0, 1.0 + 1e-12));
+        assert!(!isclose(1.0, 1.0 + 1e-6));
+        assert!(isclose(0.0, 0.0));
+        assert!(!isclose(1.0, f64::INFINITY));
+    }
+}

@@ -1,0 +1,225 @@
+"""The FMI 3.0 Co-Simulation archives dist/fmi3/<Model>.fmu.
+
+- `fmpy validate` finds no problem (FMI 3.0 schema and FMPy's checks);
+- every binary, under each of the five FMI 3.0 platform tuples, exports exactly the 75 functions
+  of the standard's header fmi3Functions.h (read from FMPy's copy, not from our code) and no
+  fmi2* function; the FMI 2.0 binaries export no fmi3* function; the Linux ones need GLIBC 2.17
+  at most;
+- simulated by FMPy through FMI 3.0, each model gives bit for bit the outputs of its FMI 2.0
+  archive on the same inputs (the same model code), with the importer's tolerance honoured alike;
+- an FMU state survives serialization and a damaged serialized state is refused; a bad value
+  reference or a wrong type gives fmi3Error and leaves the instance usable; the functions of
+  features not offered answer fmi3Error.
+macOS binaries are read (llvm-nm), not run; the Windows DLL's exports are read (llvm-readobj).
+"""
+import re
+import shutil
+import subprocess
+import zipfile
+from pathlib import Path
+
+import fmpy
+import numpy as np
+import pytest
+from fmpy.fmi1 import FMICallException
+from fmpy.fmi3 import FMU3Slave
+from fmpy.validation import validate_fmu
+
+from conftest import fmu3_path, fmu_path
+
+MODELS = ["HydraulicJoint", "TwistedString"]
+PLATFORMS = {"x86_64-linux": "so", "aarch64-linux": "so", "x86_64-windows": "dll",
+             "x86_64-darwin": "dylib", "aarch64-darwin": "dylib"}
+ERROR = 3
+HEADER = Path(fmpy.__file__).parent / "c-code" / "fmi3Functions.h"
+FMI3_ALL = sorted(set(re.findall(r"^#define (fmi3\w+)\s+fmi3FullName", HEADER.read_text(), re.M)))
+# (input, values over time, outputs) per model: the set point moved during the run.
+RUNS = {
+    "HydraulicJoint": ("theta_ref", lambda t: 0.5 * np.sin(2 * np.pi * t)),
+    "TwistedString": ("theta_motor_ref", lambda t: 600.0 * t),
+}
+
+
+def test_the_header_lists_75_functions():
+    assert len(FMI3_ALL) == 75, FMI3_ALL
+
+
+@pytest.mark.parametrize("model", MODELS)
+def test_fmpy_validate_finds_no_problem(model):
+    assert validate_fmu(fmu3_path(model)) == []
+
+
+def exports(path: Path):
+    """The functions a shared library exports: ELF dynamic symbols, Mach-O external symbols
+    (without the leading underscore), PE export table."""
+    data = path.read_bytes()
+    if data[:2] == b"MZ":
+        text = subprocess.run(["llvm-readobj", "--coff-exports", str(path)], check=True,
+                              capture_output=True, text=True).stdout
+        return sorted(re.findall(r"Name: (\S+)", text))
+    flags = ["-D"] if data[:4] == b"\x7fELF" else ["--extern-only"]
+    text = subprocess.run(["llvm-nm", *flags, "--defined-only", "--format=just-symbols",
+                           str(path)], check=True, capture_output=True, text=True).stdout
+    names = [n.removeprefix("_") if data[:4] != b"\x7fELF" else n for n in text.split()]
+    return sorted(n for n in names if n.startswith("fmi"))
+
+
+@pytest.mark.parametrize("model", MODELS)
+def test_each_binary_exports_exactly_the_fmi3_functions(model, tmp_path):
+    if not (shutil.which("llvm-nm") and shutil.which("llvm-readobj")):
+        pytest.fail("llvm-nm and llvm-readobj are needed (Debian package llvm)")
+    with zipfile.ZipFile(fmu3_path(model)) as z:
+        binaries = sorted(n for n in z.namelist() if n.startswith("binaries/"))
+        assert binaries == sorted(f"binaries/{p}/{model}.{e}" for p, e in PLATFORMS.items())
+        z.extractall(tmp_path)
+    for b in binaries:
+        assert exports(tmp_path / b) == FMI3_ALL, b
+
+
+@pytest.mark.parametrize("model", MODELS)
+def test_the_fmi2_binaries_export_no_fmi3_function(model, tmp_path):
+    with zipfile.ZipFile(fmu_path(model)) as z:
+        binaries = [n for n in z.namelist() if n.startswith("binaries/")]
+        z.extractall(tmp_path)
+    for b in binaries:
+        names = exports(tmp_path / b)
+        assert names and not [n for n in names if n.startswith("fmi3")], b
+
+
+@pytest.mark.parametrize("model", MODELS)
+@pytest.mark.parametrize("platform", ["x86_64-linux", "aarch64-linux"])
+def test_linux_binaries_need_glibc_2_17_at_most(model, platform, tmp_path):
+    so = tmp_path / "lib.so"
+    so.write_bytes(zipfile.ZipFile(fmu3_path(model)).read(f"binaries/{platform}/{model}.so"))
+    text = subprocess.run(["objdump", "-T", str(so)], capture_output=True, text=True).stdout
+    versions = {tuple(int(x) for x in v.split(".")) for v in re.findall(r"GLIBC_([0-9.]+)", text)}
+    assert versions and max(versions) <= (2, 17), sorted(versions)
+
+
+def simulate(path, model, tolerance=None, t_end=1.0, dt=1e-3):
+    name, signal = RUNS[model]
+    t = np.arange(int(round(t_end / dt)) + 1) * dt
+    inp = np.zeros(len(t), dtype=[("time", float), (name, float)])
+    inp["time"], inp[name] = t, signal(t)
+    return fmpy.simulate_fmu(path, fmi_type="CoSimulation", stop_time=t_end, step_size=dt,
+                             output_interval=dt, input=inp, relative_tolerance=tolerance)
+
+
+@pytest.mark.parametrize("model", MODELS)
+def test_fmi3_gives_the_fmi2_outputs_bit_for_bit(model):
+    fmi2 = simulate(fmu_path(model), model)
+    fmi3 = simulate(fmu3_path(model), model)
+    outputs = [n for n in fmi2.dtype.names if n != "time"]
+    assert outputs and set(outputs) <= set(fmi3.dtype.names)
+    assert np.array_equal(fmi2["time"], fmi3["time"])
+    for n in outputs:
+        assert np.array_equal(fmi2[n], fmi3[n]), n
+
+
+def test_the_importers_tolerance_is_honoured_as_in_fmi2():
+    """TwistedString hands the importer's tolerance to its solver: a loose tolerance changes the
+    trace, and changes it identically through fmi3EnterInitializationMode and
+    fmi2SetupExperiment."""
+    loose3 = simulate(fmu3_path("TwistedString"), "TwistedString", tolerance=1e-3)
+    loose2 = simulate(fmu_path("TwistedString"), "TwistedString", tolerance=1e-3)
+    tight3 = simulate(fmu3_path("TwistedString"), "TwistedString", tolerance=1e-9)
+    assert np.array_equal(loose3["p"], loose2["p"])
+    assert not np.array_equal(loose3["p"], tight3["p"])
+
+
+@pytest.fixture
+def instance():
+    """An initialized FMI 3.0 HydraulicJoint instance in Step Mode, with its variables."""
+    path = fmu3_path("HydraulicJoint")
+    md = fmpy.read_model_description(path)
+    fmu = FMU3Slave(guid=md.guid, unzipDirectory=fmpy.extract(path),
+                    modelIdentifier=md.coSimulation.modelIdentifier, instanceName="t")
+    fmu.instantiate(logMessage=lambda *args: None)
+    fmu.enterInitializationMode(startTime=0.0)
+    fmu.exitInitializationMode()
+    yield fmu, {v.name: v.valueReference for v in md.modelVariables}
+    fmu.terminate()
+    fmu.freeInstance()
+
+
+def steps(fmu, vr, t0, n, h=1e-3):
+    out = []
+    for k in range(n):
+        fmu.setFloat64([vr["theta_ref"]], [0.3])
+        flags = fmu.doStep(t0 + k * h, h)
+        assert flags[:3] == (False, False, False) and flags[3] == pytest.approx(t0 + (k + 1) * h)
+        out.append(fmu.getFloat64([vr["theta"], vr["p1_left"], vr["time"]]))
+    assert out[-1][2] == pytest.approx(t0 + n * h)  # `time` reads the time reached
+    return np.array(out)
+
+
+def test_fmu_state_round_trip_and_a_damaged_state_is_refused(instance):
+    fmu, vr = instance
+    steps(fmu, vr, 0.0, 50)
+    blob = fmu.serializeFMUState(fmu.getFMUState())
+    first = steps(fmu, vr, 0.05, 50)
+    state = fmu.deserializeFMUState(blob)
+    fmu.setFMUState(state)
+    assert np.array_equal(steps(fmu, vr, 0.05, 50), first)
+    damaged = bytearray(blob)
+    damaged[len(damaged) // 2] ^= 0x01
+    with pytest.raises(FMICallException) as e:
+        fmu.deserializeFMUState(bytes(damaged))
+    assert e.value.status == ERROR
+    with pytest.raises(FMICallException):
+        fmu.deserializeFMUState(blob[:-1])
+    fmu.freeFMUState(state)
+
+
+def test_bad_references_and_types_give_fmi3error_not_a_crash(instance):
+    fmu, vr = instance
+    calls = [
+        lambda: fmu.getFloat64([999_999]),  # unknown reference
+        lambda: fmu.getFloat64([vr["internal_controller"]]),  # a Boolean
+        lambda: fmu.getBoolean([vr["theta"]]),  # a Float64
+        lambda: fmu.getInt8([vr["theta"]]),  # no Int8 variables
+        lambda: fmu.setFloat64([vr["time"]], [1.0]),  # the independent variable
+        lambda: fmu.setFloat64([vr["theta"]], [1.0]),  # an output
+        lambda: fmu.setFloat64([vr["load_radius"]], [0.2]),  # fixed after initialization
+        lambda: fmu.doStep(0.5, 1e-3),  # not the current time
+        lambda: fmu.enterStepMode(),  # no Event Mode
+        lambda: fmu.getDirectionalDerivative([vr["theta"]], [vr["theta_ref"]], [1.0]),
+    ]
+    for call in calls:
+        with pytest.raises(FMICallException) as e:
+            call()
+        assert e.value.status == ERROR
+    assert fmu.getFloat32([]) == []  # an empty request of a type without variables is fine
+    steps(fmu, vr, 0.0, 3)  # the instance is still usable
+
+
+def test_a_tunable_parameter_acts_from_the_next_step(instance):
+    """load_mass is tunable: set in Step Mode it is accepted and changes the motion from the next
+    step on, compared with the same steps from the same FMU state without the change."""
+    fmu, vr = instance
+    steps(fmu, vr, 0.0, 100)
+    state = fmu.getFMUState()
+    same = steps(fmu, vr, 0.1, 200)
+    fmu.setFMUState(state)
+    fmu.setFloat64([vr["load_mass"]], [8.0])
+    assert fmu.getFloat64([vr["load_mass"]]) == [8.0]
+    heavy = steps(fmu, vr, 0.1, 200)
+    assert not np.allclose(heavy[-50:, 0], same[-50:, 0])
+    fmu.setFMUState(state)
+    assert np.array_equal(steps(fmu, vr, 0.1, 200), same)
+    fmu.freeFMUState(state)
+
+
+def test_model_exchange_and_event_mode_are_refused():
+    path = fmu3_path("TwistedString")
+    md = fmpy.read_model_description(path)
+    lib = FMU3Slave(guid=md.guid, unzipDirectory=fmpy.extract(path),
+                    modelIdentifier=md.coSimulation.modelIdentifier)
+    messages = []
+    lib.logMessage = fmpy.fmi3.fmi3LogMessageCallback(lambda env, s, c, m: messages.append(m))
+    none = lib.fmi3InstantiateModelExchange(b"me", md.guid.encode(), b"", False, False, None,
+                                            lib.logMessage)
+    assert not none and b"Model Exchange" in messages[-1]
+    with pytest.raises(Exception, match="instantiate"):
+        lib.instantiate(eventModeUsed=True, logMessage=lambda *a: None)
+    lib.freeLibrary()

@@ -1,0 +1,226 @@
+"""The host on FMI 3.0 FMUs: the Modelica Reference-FMUs v0.0.41 built as FMI 3.0
+(tests/fixtures/reference-fmus-fmi3/, BSD-2, with their licence and build notes).
+
+- `simulate` of every fixture offering Co-Simulation agrees with
+  `fmpy.simulate_fmu(fmi_type='CoSimulation')` (an independent importer) on the same inputs and
+  communication grid: Floats within 1e-6 relative, discrete values exactly; arrays are one column
+  each, elements row-major separated by spaces (as FMPy's and the Reference-FMUs' CSV files).
+- An FMU that ends the run (Stair: terminateSimulation from fmi3DoStep) stops cleanly with its
+  rows up to the last successful time; Scheduled Execution (Clocks) is refused naming it.
+- Hostile FMI 3.0 descriptions (a modelIdentifier that is a path, an oversized file) are refused
+  before anything is loaded.
+"""
+import csv
+import shutil
+import subprocess
+import sys
+import zipfile
+
+import numpy as np
+import pytest
+
+from conftest import REPO, cli_path
+
+fmpy = pytest.importorskip("fmpy")
+
+REF3 = REPO / "tests" / "fixtures" / "reference-fmus-fmi3"
+CS_MODELS = ["Dahlquist", "VanDerPol", "Stair", "Resource", "StateSpace"]
+linux_only = pytest.mark.skipif(sys.platform != "linux" or not hasattr(np, "float64"),
+                                reason="the fixtures hold x86_64-linux binaries only")
+
+
+def run(*args):
+    return subprocess.run([cli_path(), *map(str, args)], capture_output=True, text=True, timeout=120)
+
+
+def read_csv(path):
+    with open(path, newline="") as f:
+        rows = list(csv.reader(f))
+    return rows[0], rows[1:]
+
+
+def state_space_inputs(t):
+    """A continuous Float64 array input u (3 elements), changing between rows."""
+    return np.stack([np.sin(3 * t), np.cos(2 * t), 0.5 * t], axis=1)
+
+
+def write_array_input(path, t, u, per_element):
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        if per_element:
+            w.writerow(["time", "u[1]", "u[2]", "u[3]"])
+            w.writerows([repr(float(ti)), *map(repr, map(float, ui))] for ti, ui in zip(t, u))
+        else:
+            w.writerow(["time", "u"])
+            w.writerows([repr(float(ti)), " ".join(map(repr, map(float, ui)))] for ti, ui in zip(t, u))
+
+
+def compare(out_csv, ref, md):
+    header, rows = read_csv(out_csv)
+    ours = {name: [row[j] for row in rows] for j, name in enumerate(header)}
+    assert len(rows) == len(ref), (len(rows), len(ref))
+    np.testing.assert_allclose([float(x) for x in ours["time"]], ref["time"], rtol=1e-12, atol=1e-12)
+    floats = {v.name for v in md.modelVariables
+              if v.type in ("Float32", "Float64") and v.variability == "continuous"}
+    for name in ref.dtype.names[1:]:
+        got = np.array([[float(x) for x in cell.split()] for cell in ours[name]])
+        want = np.asarray(ref[name], dtype=float).reshape(got.shape)
+        if name in floats:
+            np.testing.assert_allclose(got, want, rtol=1e-6, atol=1e-12 * max(1.0, np.abs(want).max()),
+                                       err_msg=name)
+        else:
+            assert np.array_equal(got, want), (name, got[:12], want[:12])
+
+
+@linux_only
+@pytest.mark.parametrize("model", CS_MODELS)
+def test_simulate_agrees_with_fmpy_co_simulation(model, tmp_path):
+    fmu = REF3 / f"{model}.fmu"
+    md = fmpy.read_model_description(str(fmu))
+    stop = float(md.defaultExperiment.stopTime)
+    step = float(md.defaultExperiment.stepSize or 0.1)
+    args = ["simulate", fmu, "--stop", stop, "--step", step, "--out", tmp_path / "out.csv"]
+    kw = dict(fmi_type="CoSimulation", start_time=0.0, stop_time=stop, output_interval=step)
+    if model == "StateSpace":
+        t = np.round(np.arange(0.0, stop + 1e-9, 0.25), 10)
+        u = state_space_inputs(t)
+        write_array_input(tmp_path / "in.csv", t, u, per_element=False)
+        args[2:2] = ["--data", tmp_path / "in.csv"]
+        sig = np.zeros(len(t), dtype=[("time", float), ("u", float, (3,))])
+        sig["time"], sig["u"] = t, u
+        kw["input"] = sig
+    r = run(*args)
+    assert r.returncode == 0, r.stderr
+    compare(tmp_path / "out.csv", fmpy.simulate_fmu(str(fmu), **kw), md)
+
+
+@linux_only
+def test_array_inputs_may_come_one_column_per_element(tmp_path):
+    fmu = REF3 / "StateSpace.fmu"
+    t = np.round(np.arange(0.0, 1.0 + 1e-9, 0.1), 10)
+    u = state_space_inputs(t)
+    outs = []
+    for per_element in (False, True):
+        write_array_input(tmp_path / "in.csv", t, u, per_element)
+        out = tmp_path / f"out{per_element}.csv"
+        r = run("simulate", fmu, "--data", tmp_path / "in.csv", "--out", out)
+        assert r.returncode == 0, r.stderr
+        outs.append(out.read_text())
+    assert outs[0] == outs[1]
+    # an element missing from the per-element columns is named
+    (tmp_path / "bad.csv").write_text("time,u[1],u[3]\n0,1,2\n1,1,2\n")
+    r = run("simulate", fmu, "--data", tmp_path / "bad.csv", "--out", tmp_path / "o.csv")
+    assert r.returncode == 2 and "element 2" in r.stderr, r.stderr
+
+
+@linux_only
+def test_structural_parameters_are_set_in_configuration_mode_and_resize_the_arrays(tmp_path):
+    fmu = REF3 / "StateSpace.fmu"
+    # with m = 2 the input u has 2 elements: 3 values are refused before the FMU is called
+    r = run("simulate", fmu, "--set", "m=2", "--set", "u=1 2 3", "--out", tmp_path / "o.csv")
+    assert r.returncode == 2 and "'u' has 2 element(s), 3 value(s) given" in r.stderr, r.stderr
+    # StateSpace v0.0.41 refuses every fmi3SetUInt64 of one value (its ASSERT_NVALUES counts
+    # the element it has just read), but only after checking the state: its message shows
+    # the call came in Configuration Mode (FMPy sets it outside and gets "can only be set in
+    # Configuration Mode")
+    r = run("simulate", fmu, "--set", "m=2", "--set", "u=1 2", "--out", tmp_path / "o.csv")
+    assert "fmi3SetUInt64 returned fmi3Error" in r.stderr, r.stderr
+    assert "Configuration Mode" not in r.stderr and "Expected nValues" in r.stderr, r.stderr
+
+
+@linux_only
+def test_an_fmu_that_ends_the_run_stops_cleanly_at_its_last_successful_time(tmp_path):
+    out = tmp_path / "stair.csv"
+    r = run("simulate", REF3 / "Stair.fmu", "--out", out)
+    assert r.returncode == 0, r.stderr
+    assert "ended the simulation at t = 9" in r.stderr and "fmi3DoStep" in r.stderr, r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1, r.stderr
+    header, rows = read_csv(out)
+    assert header == ["time", "counter"]
+    assert float(rows[-1][0]) == 9.0 and rows[-1][1] == "10", rows[-3:]
+
+
+@linux_only
+def test_scheduled_execution_is_refused_naming_what_is_unsupported(tmp_path):
+    r = run("simulate", REF3 / "Clocks.fmu", "--out", tmp_path / "o.csv")
+    assert r.returncode == 2, r.stderr
+    assert "Scheduled Execution is not supported" in r.stderr, r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1 and not (tmp_path / "o.csv").exists()
+
+
+def rewrite(src, dst, edit):
+    with zipfile.ZipFile(src) as zin, zipfile.ZipFile(dst, "w", zipfile.ZIP_DEFLATED) as zout:
+        for item in zin.infolist():
+            data = zin.read(item.filename)
+            if item.filename == "modelDescription.xml":
+                data = edit(data.decode()).encode()
+            zout.writestr(item, data)
+    return dst
+
+
+def test_hostile_fmi3_descriptions_are_refused_before_anything_is_loaded(tmp_path):
+    fmu = rewrite(REF3 / "Dahlquist.fmu", tmp_path / "path.fmu",
+                  lambda md: md.replace('modelIdentifier="Dahlquist"', 'modelIdentifier="../../x"'))
+    r = run("simulate", fmu, "--out", tmp_path / "o.csv")
+    assert r.returncode == 2 and "is not a C identifier" in r.stderr, r.stderr
+    # above 64 MiB: refused by size, before parsing (a comment padded to 65 MiB compresses to
+    # some 65 kB)
+    fmu = rewrite(REF3 / "Dahlquist.fmu", tmp_path / "huge.fmu",
+                  lambda md: md.replace("<ModelVariables>", "<!--" + " " * (65 << 20) + "-->\n<ModelVariables>"))
+    r = run("simulate", fmu, "--out", tmp_path / "o.csv")
+    assert r.returncode == 2 and "larger than" in r.stderr, r.stderr
+    # a start value outside its type's range: one located message
+    fmu = rewrite(REF3 / "Stair.fmu", tmp_path / "range.fmu",
+                  lambda md: md.replace('start="1" max="10"', 'start="99999999999" max="10"'))
+    r = run("simulate", fmu, "--out", tmp_path / "o.csv")
+    assert r.returncode == 2 and "outside the range of Int32" in r.stderr, r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1, r.stderr
+
+
+CRASH_C = r'''
+#include <stddef.h>
+#define STUB(name) int name(void) { return 0; }
+STUB(fmi3GetVersion) STUB(fmi3SetDebugLogging) STUB(fmi3EnterInitializationMode)
+STUB(fmi3ExitInitializationMode) STUB(fmi3EnterEventMode) STUB(fmi3Terminate) STUB(fmi3Reset)
+STUB(fmi3GetFloat32) STUB(fmi3GetInt8) STUB(fmi3GetUInt8) STUB(fmi3GetInt16)
+STUB(fmi3GetUInt16) STUB(fmi3GetInt32) STUB(fmi3GetUInt32) STUB(fmi3GetInt64) STUB(fmi3GetUInt64)
+STUB(fmi3GetBoolean) STUB(fmi3GetString) STUB(fmi3GetBinary) STUB(fmi3GetClock)
+STUB(fmi3SetFloat32) STUB(fmi3SetFloat64) STUB(fmi3SetInt8) STUB(fmi3SetUInt8) STUB(fmi3SetInt16)
+STUB(fmi3SetUInt16) STUB(fmi3SetInt32) STUB(fmi3SetUInt32) STUB(fmi3SetInt64) STUB(fmi3SetUInt64)
+STUB(fmi3SetBoolean) STUB(fmi3SetString) STUB(fmi3SetBinary) STUB(fmi3SetClock)
+static int instance;
+void *fmi3InstantiateCoSimulation(void) { return &instance; }
+void fmi3FreeInstance(void *i) { (void)i; }
+int fmi3GetFloat64(void *i, const unsigned *vr, size_t nvr, double *v, size_t n) {
+    for (size_t k = 0; k < n; k++) v[k] = 0.5; return 0; }
+int fmi3DoStep(void *i, double t, double h) { if (t >= 0.3) *(volatile int *)0 = 1; return 0; }
+'''
+
+CRASH_MD = '''<?xml version="1.0" encoding="UTF-8"?>
+<fmiModelDescription fmiVersion="3.0" modelName="Crash" instantiationToken="{0}">
+  <CoSimulation modelIdentifier="Crash"/>
+  <DefaultExperiment startTime="0" stopTime="1" stepSize="0.1"/>
+  <ModelVariables>
+    <Float64 name="time" valueReference="0" causality="independent" variability="continuous"/>
+    <Float64 name="y" valueReference="1" causality="output"/>
+  </ModelVariables>
+  <ModelStructure><Output valueReference="1"/></ModelStructure>
+</fmiModelDescription>
+'''
+
+
+@linux_only
+def test_a_crash_in_fmi3_do_step_is_reported_with_the_call_and_time(tmp_path):
+    if shutil.which("gcc") is None:
+        pytest.fail("gcc is needed to build the crashing FMU")
+    (tmp_path / "crash.c").write_text(CRASH_C)
+    lib = tmp_path / "Crash.so"
+    subprocess.run(["gcc", "-shared", "-fPIC", "-o", lib, tmp_path / "crash.c"], check=True)
+    fmu = tmp_path / "Crash.fmu"
+    with zipfile.ZipFile(fmu, "w") as z:
+        z.writestr("modelDescription.xml", CRASH_MD)
+        z.write(lib, "binaries/x86_64-linux/Crash.so")
+    r = run("simulate", fmu, "--out", tmp_path / "o.csv")
+    assert r.returncode == 2, r.stderr
+    assert "crashed (SIGSEGV) in fmi3DoStep at t = 0.3" in r.stderr, r.stderr
+    assert not (tmp_path / "o.csv").exists()
