@@ -23,6 +23,8 @@ import regenerate  # noqa: E402
 DURATION, RATE = 3.0, 200.0
 FAR_WARNING = "The final model is still far from the data"
 ROUGH_WARNING = "The fit's sum of squares is rough"
+DISAGREEMENT_WARNING = "A disagreement remains that no candidate explains"
+NOISE_NOTE = "The measurement noise is correlated"
 
 
 def generate(tmp_path, model, name, seed, hidden=(), **kw):
@@ -110,6 +112,27 @@ def test_correlated_noise_alone_is_neither_refused_nor_named(tmp_path, rho):
     assert any("noise is correlated" in w for w in rep["warnings"])
 
 
+def test_a_sensor_gain_error_is_reported_as_a_disagreement_no_candidate_explains(tmp_path):
+    """A mechanism outside the candidate list (the theta sensor reads 6 % high): the report must
+    not say that nothing is missing or that the residuals are noise; it says that a disagreement
+    remains, on which output, and that its shape is a gain error of about +6 %."""
+    fmu_path("HydraulicJoint")
+    ds = gapgen.make("HydraulicJoint", 7, (), duration=4.0, rate=250.0)
+    ds["outputs"]["theta"] = ds["outputs"]["theta"] + 0.06 * ds["clean"]["theta"]
+    csv = tmp_path / "gain.csv"
+    gapgen.write_csv(ds, csv)
+    rep = run_ok("HydraulicJoint", csv, tmp_path / "out")
+    for text in (rep["verdict"], rep["in_short"]):
+        assert "no missing effect found" not in text and "consistent with noise" not in text, text
+    assert "disagreement remains" in rep["verdict"], rep["verdict"]
+    d = rep["disagreement"]
+    assert [o["output"] for o in d["outputs"]] == ["theta"], d
+    shape = d["outputs"][0]["shapes"][0]
+    assert shape["kind"] == "gain" and shape["value"] == pytest.approx(0.06, abs=0.015), shape
+    assert d["outputs"][0]["windows"], d
+    assert any("gain error of +" in w for w in rep["warnings"]), rep["warnings"]
+
+
 def check_report_shape(rep, ds):
     for key in ("named", "candidates", "parameters", "outputs", "timing", "redone_rounds",
                 "calibration"):
@@ -129,9 +152,21 @@ def check_report_shape(rep, ds):
     # A warning names each parameter that ended on a bound of its range, and only those.
     on_bound = sorted(k for k, e in rep["parameters"].items() if e["at_bound"])
     # (Warnings about an output, such as a constant offset, start with the output's name.)
-    bound_warnings = [w for w in rep["warnings"] if not w.startswith((FAR_WARNING, ROUGH_WARNING))
+    bound_warnings = [w for w in rep["warnings"]
+                      if not w.startswith((FAR_WARNING, ROUGH_WARNING, DISAGREEMENT_WARNING,
+                                           NOISE_NOTE))
                       and w.split(":")[0] not in rep["outputs"]]
     assert sorted(w.split()[0] for w in bound_warnings) == on_bound
+    # A disagreement is reported for every output above 1.5x its noise (and for outputs above
+    # 1.2x whose residual is not white), never below 1.2x; and then the verdict never says that
+    # nothing is missing.
+    ratios = {k: o["rmse_after"] / o["noise_sigma"] for k, o in rep["outputs"].items()}
+    flagged = {o["output"] for o in (rep["disagreement"] or {"outputs": []})["outputs"]}
+    assert {k for k, r in ratios.items() if r > 1.5} <= flagged, (ratios, flagged)
+    assert all(ratios[k] > 1.2 for k in flagged), (ratios, flagged)
+    if flagged:
+        assert "no missing effect found" not in rep["verdict"] + rep["in_short"]
+        assert any(w.startswith(DISAGREEMENT_WARNING) for w in rep["warnings"])
     # The far-from-data warning is there exactly when some output ends above 3x its noise.
     far = any(o["rmse_after"] > 3 * o["noise_sigma"] for o in rep["outputs"].values())
     assert far == any(w.startswith(FAR_WARNING) for w in rep["warnings"])
@@ -683,7 +718,8 @@ def test_a_sensor_offset_is_reported_as_such_never_as_an_effect(tmp_path):
     mean = rep["outputs"]["theta"]["mean_after"]
     assert -6 * sigma < mean < -4 * sigma, (mean, sigma)
     # the other outputs carry no such warning
-    assert not [w for w in rep["warnings"] if "offset" in w and not w.startswith("theta:")]
+    assert not [w for w in rep["warnings"]
+                if "offset" in w and not w.startswith(("theta:", DISAGREEMENT_WARNING))]
 
 
 def test_a_sensor_offset_asked_for_is_estimated_with_its_interval(tmp_path):

@@ -32,6 +32,7 @@ use std::time::Instant;
 
 mod calibrate;
 mod diagnose;
+mod disagreement;
 mod ends;
 mod evidence;
 mod finish;
@@ -46,6 +47,7 @@ mod start;
 mod verdict;
 
 pub use calibrate::{Calibration, CalibrationFit};
+pub use disagreement::{Disagreement, OutputDisagreement, Shape, DISAGREEMENT_RATIO};
 pub(crate) use evidence::regress;
 pub use verdict::visibility_scale;
 
@@ -304,6 +306,9 @@ pub struct GapResult {
     pub named: Vec<String>,
     pub unexplained: Option<String>,
     pub verdict: String,
+    /// Outputs the final model still misses by more than `DISAGREEMENT_RATIO` × their noise
+    /// level: where, and the simple shapes fitted to the residual.
+    pub disagreement: Option<Disagreement>,
     /// Things the user should know about the fit (parameters on bounds).
     pub warnings: Vec<String>,
     /// Departures of the FMU from the candidate-effect convention, each naming its variable
@@ -766,7 +771,10 @@ pub fn run<S: GridModel + ?Sized>(
     ctx.pb.finish_and_clear();
     let est_s = t_est.elapsed().as_secs_f64();
     let initial_note = initial_estimated.map(|m| initial_state_note(&ctx, &m, &initial_idx));
-    let warnings = run_warnings(&ctx, &ending, initial_note, start_warning);
+    let disagreement =
+        disagreement::disagreement(&data.time, &ending.trace_outputs, &ending.outputs);
+    let mut warnings = run_warnings(&ctx, &ending, initial_note, start_warning);
+    warnings.extend(disagreement.as_ref().map(|d| d.text.clone()));
     let timing = timing(&ctx, t_start, est_s);
     let Ending {
         parameters,
@@ -776,7 +784,8 @@ pub fn run<S: GridModel + ?Sized>(
         ..
     } = ending;
     Ok(GapResult {
-        verdict: verdict_text(verdict, &named),
+        verdict: verdict_text(verdict, &named, disagreement.as_ref()),
+        disagreement,
         named,
         unexplained,
         warnings,
@@ -994,14 +1003,27 @@ fn revealing_variable(
     Some((k, name.clone(), v))
 }
 
-/// The verdict line: the rounds' own when they gave one, else what was named.
-fn verdict_text(verdict: String, named: &[String]) -> String {
-    if !verdict.is_empty() {
+/// The verdict line: the rounds' own when they gave one, else what was named. While the final
+/// model still disagrees with the data, it never says that nothing is missing or that the
+/// residuals are noise: it says that a disagreement remains that no candidate explains.
+fn verdict_text(verdict: String, named: &[String], disagreement: Option<&Disagreement>) -> String {
+    let verdict = if !verdict.is_empty() {
         verdict
     } else if named.is_empty() {
         "no missing effect found".to_string()
     } else {
         format!("named {}", named.join(", "))
+    };
+    let Some(d) = disagreement else {
+        return verdict;
+    };
+    let remains = disagreement::verdict_words(d);
+    if verdict.contains("consistent with noise") {
+        remains
+    } else if let Some(rest) = verdict.strip_prefix("no missing effect found") {
+        format!("{remains}{rest}")
+    } else {
+        format!("{verdict}; {remains}")
     }
 }
 
