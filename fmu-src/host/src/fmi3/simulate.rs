@@ -245,6 +245,7 @@ impl StartValues3 {
                 )));
             }
             let x = Values::parse(v.ty, text)
+                .and_then(|x| check_magnitude(&x).map(|_| x))
                 .map_err(|e| HostError::Request(format!("'{name}': {e}")))?;
             check_range(v, &x)?;
             let to = if v.causality == Causality3::StructuralParameter {
@@ -295,6 +296,27 @@ impl StartValues3 {
         }
         Ok(())
     }
+}
+
+/// Largest magnitude of a Float input or start value: as for FMI 2.0 data, beyond it squares
+/// overflow in the workflows that compare outputs.
+const MAX_MAGNITUDE: f64 = 1e100;
+
+/// Refuses NaN, infinities and Float values beyond [`MAX_MAGNITUDE`].
+fn check_magnitude(x: &Values) -> Result<(), String> {
+    if !matches!(x, Values::Float32(_) | Values::Float64(_)) {
+        return Ok(());
+    }
+    for i in 0..x.len() {
+        let n = x.number(i).unwrap_or(0.0);
+        if !n.is_finite() || n.abs() > MAX_MAGNITUDE {
+            return Err(format!(
+                "{} is not a finite number within +-{MAX_MAGNITUDE:e}",
+                x.text(i)
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// Refuses a numeric value outside the variable's declared min/max.
@@ -483,7 +505,8 @@ fn input_rows(
     used: &mut [bool],
 ) -> Result<Option<Vec<Values>>> {
     let parse = |text: &str, what: &str, row: usize| {
-        Values::parse(v.ty, text)
+        let x = Values::parse(v.ty, text);
+        x.and_then(|x| check_magnitude(&x).map(|_| x))
             .map_err(|e| HostError::Request(format!("input '{what}', row {}: {e}", row + 1)))
     };
     if let Some(j) = series.columns.iter().position(|(c, _)| *c == v.name) {
