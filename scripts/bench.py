@@ -1,5 +1,6 @@
 """Driver of scripts/bench (see there). Prints one line per model:
-`<Model> speedup <N>x (...)`, then the gap workflow lines."""
+`<Model> speedup <N>x (...)`, then the cost of the deterministic math per model, one line per
+Model Exchange fixture: `<Fixture> ME speedup <N>x (...)`, then the gap workflow lines."""
 import json
 import math
 import subprocess
@@ -32,14 +33,15 @@ def scenario(model):
     return {"theta_motor_ref": (t, ref)}
 
 
-def run_fmu(model, inputs, out_csv, repeat, rtol):
+def run_fmu(model, inputs, out_csv, repeat, rtol, fmu=None):
     with tempfile.NamedTemporaryFile("w", suffix=".csv", delete=False) as f:
         names = list(inputs)
         f.write(",".join(["time"] + names) + "\n")
         t = inputs[names[0]][0]
         for k in range(len(t)):
             f.write(",".join(repr(float(x)) for x in [t[k]] + [inputs[n][1][k] for n in names]) + "\n")
-    cmd = [str(REPO / "target/release/fmu-bench"), str(REPO / f"dist/{model}.fmu"), "--inputs", f.name,
+    fmu = fmu or REPO / f"dist/{model}.fmu"
+    cmd = [str(REPO / "target/release/fmu-bench"), str(fmu), "--inputs", f.name,
            "--stop", str(T_END), "--step", str(DT), "--repeat", str(repeat), "--out", str(out_csv),
            "--set", f"rtol={rtol}", "--set", f"atol={rtol}"]
     timing = json.loads(subprocess.run(cmd, check=True, capture_output=True, text=True).stdout)
@@ -104,6 +106,79 @@ def bench_model(model):
           f"({m_py:.1e} {mw_py}): {verdict})", flush=True)
 
 
+def bench_math(model):
+    """The cost of the deterministic math (the `libm` crate, `ode::math`): the same FMU built
+    twice on this machine, once as shipped and once with the feature `platform-math` (the
+    platform's libm), run alternately on the same inputs at rtol 1e-6."""
+    fmus = {kind: REPO / f"target/bench-math/{model}-{kind}.fmu" for kind in ("libm", "platform")}
+    if not all(p.exists() for p in fmus.values()):
+        print(f"{model} deterministic math: peer FMUs missing (scripts/bench builds them)")
+        return
+    inputs = scenario(model)
+    times = {kind: [] for kind in fmus}
+    outputs = {}
+    with tempfile.TemporaryDirectory() as d:
+        for _ in range(2 if QUICK else 3):
+            for kind, fmu in fmus.items():
+                t, outputs[kind] = run_fmu(model, inputs, Path(d) / f"{kind}.csv", 3, 1e-6, fmu)
+                times[kind].append(t)
+    t_libm, t_platform = min(times["libm"]), min(times["platform"])
+    diff = max(float(np.max(np.abs(outputs["libm"][n] - outputs["platform"][n])))
+               / (float(np.ptp(outputs["platform"][n])) or 1.0) for n in outputs["platform"])
+    print(f"{model} deterministic math cost {t_libm / t_platform:.3f}x (libm crate "
+          f"{t_libm * 1e3:.1f} ms against the platform's libm {t_platform * 1e3:.1f} ms, the same "
+          f"{T_END:g} s run at rtol 1e-6, best of alternating runs; outputs differ by at most "
+          f"{diff:.1e} of their range)", flush=True)
+ME_FIXTURES = (("VanDerPol", 20.0, 0.01), ("BouncingBall", 3.0, 0.01))
+ME_RTOL = 1e-6
+
+
+def fmpy_me(fmu, stop, step, rtol, repeat=5):
+    """Median time of FMPy's ModelExchange run (CVode) on one instance reused between runs, as
+    fmu-bench reuses its instance, and the last result."""
+    import fmpy
+    from fmpy.fmi2 import FMU2Model
+    md = fmpy.read_model_description(fmu)
+    unzipped = fmpy.extract(fmu)
+    instance = FMU2Model(guid=md.guid, unzipDirectory=unzipped,
+                         modelIdentifier=md.modelExchange.modelIdentifier, instanceName="bench")
+    instance.instantiate()
+    times, res = [], None
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        res = fmpy.simulate_fmu(unzipped, model_description=md, fmi_type="ModelExchange",
+                                stop_time=stop, output_interval=step, relative_tolerance=rtol,
+                                record_events=False, fmu_instance=instance)
+        times.append(time.perf_counter() - t0)
+        instance.reset()
+    instance.freeInstance()
+    return sorted(times)[len(times) // 2], res
+
+
+def bench_me(model, stop, step):
+    """The host's Model Exchange run (Rodas5P over the FMU's derivatives, events located) of a
+    Reference-FMU against FMPy's CVode run of the same FMU at the same relative tolerance, both
+    scored against FMPy at rtol 1e-10 (worst max error relative to range)."""
+    fmu = str(REPO / "tests" / "fixtures" / "reference-fmus" / f"{model}.fmu")
+    t_py, out_py = fmpy_me(fmu, stop, step, ME_RTOL)
+    _, truth = fmpy_me(fmu, stop, step, 1e-10, repeat=1)
+    with tempfile.TemporaryDirectory() as d:
+        out_csv = Path(d) / "me.csv"
+        cmd = [str(REPO / "target/release/fmu-bench"), fmu, "--me", "--tolerance", str(ME_RTOL),
+               "--stop", str(stop), "--step", str(step), "--repeat", "5", "--out", str(out_csv)]
+        timing = json.loads(subprocess.run(cmd, check=True, capture_output=True, text=True).stdout)
+        ours = np.genfromtxt(out_csv, delimiter=",", names=True)
+    names = [n for n in truth.dtype.names if n != "time"]
+    tr = {n: truth[n] for n in names}
+    _, _, e_me, w_me = rel_errors({n: ours[n] for n in names}, tr)
+    _, _, e_py, w_py = rel_errors({n: out_py[n] for n in names}, tr)
+    t_me = timing["median_s"]
+    print(f"{model} ME speedup {t_py / t_me:.0f}x (host Model Exchange, Rodas5P rtol {ME_RTOL:g}: "
+          f"{t_me * 1e3:.2f} ms; FMPy CVode rtol {ME_RTOL:g}: {t_py * 1e3:.1f} ms; {stop:g} s at "
+          f"{step:g} s output steps; max error vs FMPy rtol 1e-10 relative to range: host "
+          f"{e_me:.1e} {w_me}, CVode {e_py:.1e} {w_py})", flush=True)
+
+
 def bench_gap():
     script = REPO / "scripts" / "bench_gap.py"
     if script.exists():
@@ -115,4 +190,8 @@ def bench_gap():
 if __name__ == "__main__":
     for m in ("HydraulicJoint", "TwistedString"):
         bench_model(m)
+    for m in ("HydraulicJoint", "TwistedString"):
+        bench_math(m)
+    for fixture in ME_FIXTURES:
+        bench_me(*fixture)
     bench_gap()

@@ -77,6 +77,12 @@ ensure_wine() {
     command -v x86_64-w64-mingw32-gcc >/dev/null || apt_install gcc-mingw-w64-x86-64
 }
 
+# LLVM's binary tools (llvm-nm, llvm-objdump), which read the ELF, PE and Mach-O binaries the
+# platform and determinism tests inspect.
+ensure_llvm_tools() {
+    command -v llvm-nm >/dev/null && command -v llvm-objdump >/dev/null || { log "apt-get install llvm"; apt_install llvm; }
+}
+
 # apt-get install, as root or through sudo.
 apt_install() {
     local sudo=()

@@ -73,9 +73,15 @@ def test_model_follows_the_checklist(crate):
 
 
 def test_the_models_have_the_same_files():
-    files = {c: sorted(p.name for p in (SRC / c / "src").glob("*.rs")) for c in MODELS}
+    """The same modules in every actuator crate; `me.rs` (the Model Exchange side) in exactly
+    those whose model offers Model Exchange."""
+    files = {c: sorted(p.name for p in (SRC / c / "src").glob("*.rs") if p.name != "me.rs")
+             for c in MODELS}
     actuators = [c for c in MODELS if c != "test-oscillator"]
     assert len({tuple(files[c]) for c in actuators}) == 1, files
+    for c in actuators:
+        offers = "fn model_exchange()" in (SRC / c / "src" / "model.rs").read_text()
+        assert (SRC / c / "src" / "me.rs").is_file() == offers, c
 
 
 def test_every_path_on_the_map_exists():

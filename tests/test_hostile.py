@@ -76,12 +76,12 @@ def test_an_fmi3_fmu_is_refused_by_the_commands_that_do_not_run_fmi3(tmp_path):
     fmu = rewrite_fmu(fmu_path("Oscillator"), tmp_path / "fmi3.fmu",
                       lambda md: md.replace('fmiVersion="2.0"', 'fmiVersion="3.0"'))
     data = data_csv(tmp_path / "d.csv")
-    for args in (["gap", fmu, "--data", data, "--out", tmp_path / "g"],
-                 ["validate", fmu]):
-        assert_one_bounded_message(run(*args), "FMI 3.0 is not supported by this command")
-    # simulate reads it as FMI 3.0: an FMI 2.0 description relabelled lacks what 3.0 requires
-    res = run("simulate", fmu, "--data", data, "--out", tmp_path / "o.csv")
-    assert_one_bounded_message(res, "lacks the required attribute instantiationToken")
+    assert_one_bounded_message(run("validate", fmu), "FMI 3.0 is not supported by this command")
+    # simulate and gap read it as FMI 3.0: an FMI 2.0 description relabelled lacks what 3.0
+    # requires
+    for args in (["simulate", fmu, "--data", data, "--out", tmp_path / "o.csv"],
+                 ["gap", fmu, "--data", data, "--out", tmp_path / "g"]):
+        assert_one_bounded_message(run(*args), "lacks the required attribute instantiationToken")
 
 
 @pytest.mark.parametrize("which", ["data", "fmu"])
@@ -249,6 +249,28 @@ def test_an_interrupted_run_removes_its_temporary_files(tmp_path, sig):
     assert "interrupted" in err and len(err.strip().splitlines()) == 1, err
     assert list(tmp.iterdir()) == []
     assert not (tmp_path / "o.csv").exists()
+
+
+def test_ctrl_c_while_simulate_writes_its_output_leaves_no_partial_file(tmp_path):
+    """A run writing a large result (2 million rows, some 50 MB), SIGINT to its process group
+    (Ctrl-C in a shell) once the temporary output file exists next to the output: the worker
+    dies while writing; the supervisor removes the file the worker listed before creating it."""
+    out = tmp_path / "o.csv"
+    dahlquist = Path(__file__).resolve().parent / "fixtures" / "reference-fmus" / "Dahlquist.fmu"
+    p = subprocess.Popen([cli_path(), "simulate", dahlquist, "--stop", "2", "--step", "1e-6",
+                          "--out", out], stderr=subprocess.PIPE, text=True,
+                         start_new_session=True)
+    deadline = time.monotonic() + 60
+    partial = []
+    while not partial and p.poll() is None and time.monotonic() < deadline:
+        partial = [q for q in tmp_path.iterdir() if q.name.endswith(".partial")]
+        time.sleep(0.002)
+    assert partial, "the temporary output file was never seen"
+    time.sleep(0.05)  # writing now
+    os.killpg(p.pid, signal.SIGINT)
+    _, err = p.communicate(timeout=20)
+    assert p.returncode == 130, (p.returncode, err)
+    assert list(tmp_path.iterdir()) == [], list(tmp_path.iterdir())
 
 
 def test_validate_leaves_no_temporary_files_even_when_the_probe_crashes(tmp_path):

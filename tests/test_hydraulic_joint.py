@@ -36,6 +36,9 @@ import hydraulic_joint_ref as ref  # noqa: E402
 OUTPUTS = ref.OUTPUTS
 EFFECTS = ["seal_friction", "valve_overlap", "internal_leakage", "cable_friction",
            "entrained_air", "valve_dynamics"]
+# The FMU's interface types: its own integrator (Co-Simulation) and FMPy's CVode integrating the
+# model's states (Model Exchange); the cheapest paper tests run on both.
+INTERFACES = ["CoSimulation", "ModelExchange"]
 
 
 @pytest.fixture(scope="module")
@@ -44,13 +47,14 @@ def fmu():
     return extract(fmu_path("HydraulicJoint"))
 
 
-@pytest.fixture(scope="module", params=["fmi2", "fmi3"])
-def paper_fmu(request, fmu):
-    """The paper-number tests run on both archives: the FMI 2.0 one and the FMI 3.0 one (the same
-    model code behind another C interface)."""
-    if request.param == "fmi2":
-        return fmu
-    return extract(fmu3_path("HydraulicJoint"))
+@pytest.fixture(scope="module", params=["fmi2-cs", "fmi2-me", "fmi3-cs"])
+def paper(request, fmu):
+    """(FMU directory, interface type) for the paper-number tests, which run on every interface
+    the archives offer: FMI 2.0 Co-Simulation and Model Exchange (FMPy's CVode integrating the
+    model's states), FMI 3.0 Co-Simulation (the same model code behind another C interface)."""
+    if request.param == "fmi3-cs":
+        return extract(fmu3_path("HydraulicJoint")), "CoSimulation"
+    return fmu, INTERFACES[request.param == "fmi2-me"]
 
 
 @pytest.fixture(scope="module")
@@ -58,8 +62,20 @@ def md(fmu):
     return read_model_description(fmu)
 
 
-def run(fmu, params=None, inputs=None, t_end=1.0, dt=1e-3, outputs=OUTPUTS):
-    """Simulate with inputs given on the communication grid (name -> array, len n+1)."""
+def on_grid(res, t):
+    """The rows of a Model Exchange result at the times `t`: FMPy records an event's time twice
+    (before and after it); the first is the value a Co-Simulation step ending there reports."""
+    _, first = np.unique(np.round(res["time"], 9), return_index=True)
+    res = res[first]
+    assert len(res) == len(t) and np.allclose(res["time"], t, rtol=0, atol=1e-9)
+    return res
+
+
+def run(fmu, params=None, inputs=None, t_end=1.0, dt=1e-3, outputs=OUTPUTS,
+        interface="CoSimulation"):
+    """Simulate with inputs given on the communication grid (name -> array, len n+1), held over
+    each step (Co-Simulation) or interpolated between grid points (Model Exchange: use inputs
+    that are constant or act at sample instants only, as theta_ref)."""
     n = int(round(t_end / dt))
     t = np.arange(n + 1) * dt
     inp = None
@@ -68,8 +84,9 @@ def run(fmu, params=None, inputs=None, t_end=1.0, dt=1e-3, outputs=OUTPUTS):
         inp["time"] = t
         for k, v in inputs.items():
             inp[k] = v
-    return simulate_fmu(fmu, start_values=params or {}, input=inp, output=outputs,
-                        stop_time=t_end, step_size=dt, output_interval=dt)
+    res = simulate_fmu(fmu, fmi_type=interface, start_values=params or {}, input=inp,
+                       output=outputs, stop_time=t_end, step_size=dt, output_interval=dt)
+    return res if interface == "CoSimulation" else on_grid(res, t)
 
 
 def min_jerk(t):
@@ -129,7 +146,7 @@ def test_matches_reference(fmu, path):
 # ---- paper findings --------------------------------------------------------------------------
 
 
-def bench_speed(fmu, u, side="left"):
+def bench_speed(fmu, interface, u, side="left"):
     """Fig. 6 bench: cables detached, open loop, step U on one valve at t = 0; mean and max
     |speed| between 20 and 60 ms after the step."""
     dt = 1e-3
@@ -137,33 +154,33 @@ def bench_speed(fmu, u, side="left"):
     other = "right" if side == "left" else "left"
     res = run(fmu, {"internal_controller": False, "cables_attached": False},
               {f"u_{side}": np.full(n + 1, u), f"u_{other}": np.zeros(n + 1)}, t_end=n * dt, dt=dt,
-              outputs=[f"v_{side}", f"v_{other}"])
+              outputs=[f"v_{side}", f"v_{other}"], interface=interface)
     v = res[f"v_{side}"][20:61]
     assert np.all(np.abs(res[f"v_{other}"]) == 0.0)
     return float(np.mean(v)), float(np.max(np.abs(v)))
 
 
 @pytest.mark.parametrize("u", [-1.75, -1.0, -0.3, 0.0, 0.4, 1.0, 1.45])
-def test_fig6_dead_band_no_motion(paper_fmu, u):
-    _, vmax = bench_speed(paper_fmu, u)
+def test_fig6_dead_band_no_motion(paper, u):
+    _, vmax = bench_speed(*paper, u)
     assert vmax < 1e-3, f"U = {u} V moves the free piston at {vmax} m/s (dead band -1.8..1.5 V)"
 
 
 @pytest.mark.parametrize("u", [-2.5, -2.0, 2.0, 2.5])
-def test_fig6_motion_outside_dead_band(paper_fmu, u):
-    v, _ = bench_speed(paper_fmu, u)
+def test_fig6_motion_outside_dead_band(paper, u):
+    v, _ = bench_speed(*paper, u)
     assert abs(v) > 1e-3 and math.copysign(1.0, v) == math.copysign(1.0, u)
 
 
 @pytest.mark.parametrize("u", [3.0, 5.0, 7.5, 10.0])
-def test_fig6_extending_faster_than_retracting(paper_fmu, u):
+def test_fig6_extending_faster_than_retracting(paper, u):
     """Paper: 'the velocity is higher when the fluid is flowing to the piston side'."""
-    vp, _ = bench_speed(paper_fmu, u)
-    vm, _ = bench_speed(paper_fmu, -u)
+    vp, _ = bench_speed(*paper, u)
+    vm, _ = bench_speed(*paper, -u)
     assert vp > 0 > vm
     assert vp > 1.1 * abs(vm), (vp, vm)
     # same on the right valve (both valves are identical)
-    vr, _ = bench_speed(paper_fmu, u, side="right")
+    vr, _ = bench_speed(*paper, u, side="right")
     assert abs(vr - vp) <= 1e-9 * abs(vp)
 
 
@@ -180,7 +197,7 @@ def catching_metrics(res, dt):
     return err, lag50, lag_fit
 
 
-def test_catching_reach_lag_and_peak_error(paper_fmu):
+def test_catching_reach_lag_and_peak_error(paper):
     """Paper sec. V: at 40 Hz the joint lags the catching trajectory by about 0.125 s with a
     maximum error of 10 degrees. The trajectory of the biomechanical model is not given (figures
     missing), so a minimum-jerk 45 deg / 1 s reach stands in for it. Tolerances: lag
@@ -188,7 +205,8 @@ def test_catching_reach_lag_and_peak_error(paper_fmu):
     states it to the degree for a trajectory we can only approximate)."""
     dt, T = 1e-3, 2.0
     t = np.arange(int(round(T / dt)) + 1) * dt
-    res = run(paper_fmu, {}, {"theta_ref": min_jerk(t)}, t_end=T, dt=dt)
+    fmu, interface = paper
+    res = run(fmu, {}, {"theta_ref": min_jerk(t)}, t_end=T, dt=dt, interface=interface)
     err, lag50, lag_fit = catching_metrics(res, dt)
     assert 8.0 <= err <= 12.0, err
     assert 0.100 <= lag50 <= 0.150, lag50

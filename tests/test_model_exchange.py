@@ -69,11 +69,11 @@ class Me(Harness):
         info = EventInfo()
         return self.call("NewDiscreteStates", byref(info)), info
 
-    def start(self, reals=None):
+    def start(self, reals=None, booleans=None):
         """Instantiate for Model Exchange, initialize, settle the initial event, and enter
         Continuous-Time Mode."""
         assert self.instantiate(fmu_type=0)
-        assert self.initialize(reals) == OK
+        assert self.initialize(reals, booleans) == OK
         s, info = self.new_discrete_states()
         assert s == OK and not info.newDiscreteStatesNeeded
         assert self.call("EnterContinuousTimeMode") == OK

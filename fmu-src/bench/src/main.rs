@@ -29,12 +29,24 @@ struct Args {
     /// Where to write the outputs of the last run.
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Run the FMU's Model Exchange interface (integrated by the host) instead of its
+    /// Co-Simulation one.
+    #[arg(long)]
+    me: bool,
+    /// Relative tolerance (fmi2SetupExperiment; the host's integrator for --me).
+    #[arg(long)]
+    tolerance: Option<f64>,
 }
 
 fn run(args: &Args) -> Result<serde_json::Value, String> {
-    let fmu = Fmu::open(&args.fmu).map_err(|e| e.to_string())?;
+    let opts = host::OpenOptions {
+        interface: args.me.then_some(host::Interface::ModelExchange),
+        ..Default::default()
+    };
+    let fmu = Fmu::open_with(&args.fmu, &opts).map_err(|e| e.to_string())?;
     let md = fmu.model_description();
     let mut req = SimulationRequest::new(0.0, args.stop, args.step);
+    req.tolerance = args.tolerance;
     for s in &args.set {
         let (name, value) = s
             .split_once('=')

@@ -4,11 +4,10 @@
 
 use crate::common::{numeric_sets, CliError, CliResult};
 use crate::gap_cmd::load_data;
+use crate::open::AnyFmu;
 use gap::design::{self, Design, DesignConfig, InputSpec, Noise};
-use gap::fmu::FmuSimulator;
 use gap::GapError;
 use host::md::{Causality, ModelDescription, VarKind};
-use host::Fmu;
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -244,10 +243,10 @@ pub fn run(a: Args) -> CliResult {
         python: a.python.clone(),
         interface: crate::common::InterfaceArg::host(a.interface),
     };
-    let fmu = Fmu::open_with(&a.fmu, &opts).map_err(CliError::input)?;
+    let fmu = AnyFmu::open(&a.fmu, &opts)?;
     let md = fmu.model_description();
     let cfg = experiment(&a, md)?;
-    let d = design::design(|data| FmuSimulator::new(&fmu, data), &cfg).map_err(|e| match e {
+    let d = design::design(|data| fmu.simulator(data), &cfg).map_err(|e| match e {
         GapError::Usage(m) => CliError::input(m),
         GapError::Simulation(m) => CliError::failure(format!("simulation failed: {m}")),
     })?;

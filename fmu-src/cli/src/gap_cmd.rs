@@ -2,10 +2,9 @@
 //! [--rounds N] [--set NAME=VALUE ...]`: the gap workflow (crate `gap`).
 
 use crate::common::{numeric_sets, CliError, CliResult};
-use gap::fmu::FmuSimulator;
+use crate::open::AnyFmu;
 use gap::{Config, Data, GapError};
 use host::csv::{read_csv, CsvError};
-use host::Fmu;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `gap`.
@@ -141,7 +140,7 @@ pub fn run(a: Args) -> CliResult {
         python: a.python.clone(),
         interface: crate::common::InterfaceArg::host(a.interface),
     };
-    let fmu = Fmu::open_with(&a.fmu, &opts).map_err(CliError::input)?;
+    let fmu = AnyFmu::open(&a.fmu, &opts)?;
     let md = fmu.model_description();
     let fixed = numeric_sets(md, &a.set, "gap")?;
     let data = load_data(md, &a.data)?;
@@ -165,7 +164,7 @@ pub fn run(a: Args) -> CliResult {
         offsets: a.offsets.clone(),
         ..Config::default()
     };
-    let sim = FmuSimulator::new(&fmu, &data).map_err(CliError::input)?;
+    let sim = fmu.simulator(&data).map_err(CliError::input)?;
     let res = gap::run(&sim, &data, &cfg).map_err(|e| match e {
         GapError::Usage(m) => CliError::input(m),
         GapError::Simulation(m) => CliError::failure(format!("simulation failed: {m}")),

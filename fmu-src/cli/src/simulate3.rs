@@ -52,8 +52,14 @@ pub fn run(a: Args) -> CliResult {
             "--stop {stop} is before the start time {start}"
         )));
     }
+    if let Some(tol) = a.tolerance.filter(|t| !(*t > 0.0 && t.is_finite())) {
+        return Err(CliError::input(format!(
+            "--tolerance must be a positive number, got {tol}"
+        )));
+    }
     let req = Request3 {
         start_values,
+        tolerance: a.tolerance,
         inputs,
         ..Request3::new(start, stop, step)
     };

@@ -55,7 +55,10 @@ pub fn run(s: Supervision) -> CliResult {
         .spawn()
         .map_err(|e| CliError::input(format!("cannot start the worker process: {e}")))?;
     let outcome = watch(&mut child, &monitor, &s, &interrupted);
-    drop(scratch); // removes everything the child left, whatever happened
+    // The temporary output files the child made next to its outputs and did not rename (it was
+    // interrupted or crashed while writing); then everything it left in the scratch directory.
+    host::watch::remove_outputs(&watch_path);
+    drop(scratch);
     outcome
 }
 

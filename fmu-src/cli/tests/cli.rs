@@ -1,5 +1,8 @@
 //! End-to-end tests of the `actuator-fmu` binary on the host's test FMU (compiled from
 //! fmu-src/host/tests/fixtures, including deliberately broken variants).
+// Test references use the platform libm: an implementation independent of the `libm` crate
+// the FMU code uses (workspace clippy.toml).
+#![allow(clippy::disallowed_methods)]
 
 #[path = "../../host/tests/common/mod.rs"]
 mod common;

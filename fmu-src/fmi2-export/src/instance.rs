@@ -200,6 +200,8 @@ pub struct Instance<M: Model> {
     pub(crate) me: Option<MeVTable<M>>,
     /// Model Exchange: time, states or inputs changed since the outputs were last computed.
     pub(crate) me_outputs_stale: bool,
+    /// Scratch for the states and derivatives written after each Co-Simulation step.
+    pub(crate) me_scratch: Vec<f64>,
     /// Outputs of the last good communication point, restored when a step fails.
     last_good: Vec<f64>,
     /// In initialization mode: outputs must be recomputed before they are read.
@@ -225,6 +227,7 @@ impl<M: Model> Instance<M> {
             interface: Interface::CoSimulation,
             me: M::model_exchange(),
             me_outputs_stale: false,
+            me_scratch: vec![0.0; 2 * M::model_exchange().map_or(0, |me| me.states)],
             name: name.to_string(),
             state: MachineState::Instantiated,
             time: 0.0,

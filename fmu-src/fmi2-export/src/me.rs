@@ -34,6 +34,14 @@ pub trait ModelExchange: Model {
     /// order of `x`. Length [`ModelExchange::STATES`].
     fn state_variables() -> &'static [(usize, usize)];
 
+    /// Inputs an output depends on directly in Model Exchange (an input set in Continuous-Time
+    /// Mode changes the output at once), as `(output, inputs)` positions in the table; the
+    /// model description lists them with the states in the output's `dependencies`. Default:
+    /// none (outputs depend on the states only).
+    fn output_feedthrough() -> &'static [(usize, &'static [usize])] {
+        &[]
+    }
+
     /// The continuous state vector `x` (length `STATES`) from the model's state.
     fn states(&self, x: &mut [f64]);
 
@@ -89,6 +97,8 @@ pub struct MeVTable<M> {
     pub event_indicators: usize,
     /// [`ModelExchange::state_variables`].
     pub state_variables: &'static [(usize, usize)],
+    /// [`ModelExchange::output_feedthrough`].
+    pub output_feedthrough: &'static [(usize, &'static [usize])],
     pub get_states: fn(&M, &mut [f64]),
     pub set_states: fn(&mut M, &[f64]),
     pub nominals: fn(&M, &mut [f64]),
@@ -114,6 +124,7 @@ impl<M: ModelExchange> MeVTable<M> {
             states: M::STATES,
             event_indicators: M::EVENT_INDICATORS,
             state_variables: M::state_variables(),
+            output_feedthrough: M::output_feedthrough(),
             get_states: M::states,
             set_states: M::set_states,
             nominals: M::nominals,
@@ -159,6 +170,16 @@ impl<M> MeVTable<M> {
                         "derivative of '{}' must be the local 'der({})', not '{}'",
                         s.name, s.name, d.name
                     ));
+                }
+            }
+        }
+        for &(o, inputs) in self.output_feedthrough {
+            if vars.get(o).map(|v| v.causality) != Some(Causality::Output) {
+                problems.push(format!("feedthrough: position {o} is not an output"));
+            }
+            for &i in inputs {
+                if vars.get(i).map(|v| v.causality) != Some(Causality::Input) {
+                    problems.push(format!("feedthrough: position {i} is not an input"));
                 }
             }
         }

@@ -62,17 +62,24 @@ impl<M: Model> Instance<M> {
         self.me_outputs_stale = false;
     }
 
-    /// Co-Simulation of a model with Model Exchange: the derivative variables at the
-    /// communication point (the other outputs are the step's). A model that cannot evaluate them
-    /// leaves them unchanged.
+    /// Co-Simulation of a model with Model Exchange: the state and derivative variables at the
+    /// communication point (a state that is an output already holds the same value; the other
+    /// outputs are the step's). A model that cannot evaluate the derivatives leaves them
+    /// unchanged. Allocation-free after instantiation (scratch of `2 STATES`).
     pub(crate) fn write_derivatives(&mut self) {
         let Some(me) = self.me else { return };
-        let mut dx = vec![0.0; me.states];
-        if (me.derivatives)(&self.model, &self.vars, self.time, &mut dx).is_ok() {
-            for (&(_, d), v) in me.state_variables.iter().zip(dx) {
-                self.vars[d] = v;
+        let mut scratch = std::mem::take(&mut self.me_scratch);
+        scratch.resize(2 * me.states, 0.0);
+        let (x, dx) = scratch.split_at_mut(me.states);
+        (me.get_states)(&self.model, x);
+        let ok = (me.derivatives)(&self.model, &self.vars, self.time, dx).is_ok();
+        for (k, &(s, d)) in me.state_variables.iter().enumerate() {
+            self.vars[s] = x[k];
+            if ok {
+                self.vars[d] = dx[k];
             }
         }
+        self.me_scratch = scratch;
     }
 
     /// `fmi2SetTime`.

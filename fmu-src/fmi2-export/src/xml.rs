@@ -220,14 +220,20 @@ fn write_description<M: Model>(guid: &str) -> String {
                 || v.causality == Causality::CalculatedParameter
         })
         .collect();
-    // Outputs depend on the continuous states (Model Exchange) and on no input directly: an
-    // input changes the outputs through the derivatives (and, in Co-Simulation, only at the
-    // next step), so no importer sees an algebraic loop.
-    let output_dependencies: String = states
-        .iter()
-        .map(|&(x, _)| (x + 1).to_string())
-        .collect::<Vec<_>>()
-        .join(" ");
+    // Outputs depend on the continuous states (Model Exchange) and on the inputs the model
+    // names as direct feedthrough (Model Exchange only: in Co-Simulation an input changes no
+    // output before the next step); without Model Exchange on nothing.
+    let feedthrough = me.map_or(&[][..], |me| me.output_feedthrough);
+    let output_dependencies = |output: usize| -> String {
+        let mut deps: Vec<usize> = states.iter().map(|&(x, _)| x).collect();
+        for (_, inputs) in feedthrough.iter().filter(|(o, _)| *o == output) {
+            deps.extend(inputs.iter().copied());
+        }
+        deps.sort_unstable();
+        deps.dedup();
+        let deps: Vec<String> = deps.iter().map(|i| (i + 1).to_string()).collect();
+        deps.join(" ")
+    };
     for (tag, list) in [
         ("Outputs", &outputs),
         ("Derivatives", &derivatives),
@@ -243,7 +249,7 @@ fn write_description<M: Model>(guid: &str) -> String {
             // Derivatives and initial unknowns keep the default (every known), which is always
             // correct.
             if tag == "Outputs" {
-                u.push_attribute(("dependencies", output_dependencies.as_str()));
+                u.push_attribute(("dependencies", output_dependencies(i).as_str()));
             }
             ev(Event::Empty(u));
         }

@@ -1,23 +1,57 @@
-//! The [`Simulator`] of an FMI 2.0 Co-Simulation FMU through the `host` crate: the measured
-//! inputs drive it (linearly interpolated at the communication points), the communication step
-//! is the data's sample interval, and the outputs are compared at the data's times.
+//! The [`Simulator`] of an FMI 2.0 or FMI 3.0 Co-Simulation FMU through the `host` crate: the
+//! measured inputs drive it (linearly interpolated at the communication points), the
+//! communication step is the data's sample interval, and the outputs are compared at the data's
+//! times. Both versions are read through the FMI 2.0-shaped description (for FMI 3.0, its
+//! scalar variables: `host::fmi3::fmi2_view`), so the conventions (Boolean `<effect>.enabled`,
+//! Real `<effect>.<name>`, `[calibrate]`) are read the same way.
 
 use crate::sim::{SimError, Simulator};
 use crate::spec::{ParamKind, ParamSpec};
 use crate::workflow::{Data, GapError};
-use host::md::{Causality, VarKind, Variability};
-use host::{Fmu, InputSeries, SimulationRequest, Value};
+use host::csv::format_number;
+use host::fmi3::{Fmu3, Inputs3, Request3, Simulator3};
+use host::md::{Causality, ModelDescription, VarKind, Variability};
+use host::{Fmu, InputSeries, SimulationRequest, SimulationResult, Value};
 use std::sync::Mutex;
+
+/// The FMU a [`FmuSimulator`] runs, with a pool of reusable instances.
+enum Backend<'a> {
+    Fmi2 {
+        fmu: &'a Fmu,
+        pool: Mutex<Vec<host::Simulator<'a>>>,
+    },
+    Fmi3 {
+        fmu: &'a Fmu3,
+        pool: Mutex<Vec<Simulator3<'a>>>,
+        /// The measured inputs as FMI 3.0 input columns.
+        inputs: Inputs3,
+    },
+}
+
+/// Takes an instance from `pool` (or makes one), runs `run` on it and puts it back.
+fn pooled<S>(
+    pool: &Mutex<Vec<S>>,
+    make: impl FnOnce() -> host::Result<S>,
+    run: impl FnOnce(&mut S) -> host::Result<SimulationResult>,
+) -> Result<SimulationResult, SimError> {
+    let popped = pool.lock().unwrap_or_else(|e| e.into_inner()).pop();
+    let mut sim = match popped {
+        Some(s) => s,
+        None => make()?,
+    };
+    let res = run(&mut sim).map_err(SimError::from);
+    pool.lock().unwrap_or_else(|e| e.into_inner()).push(sim);
+    res
+}
 
 /// An FMU with the measured inputs and time grid.
 pub struct FmuSimulator<'a> {
-    fmu: &'a Fmu,
+    backend: Backend<'a>,
     params: Vec<ParamSpec>,
     outputs: Vec<String>,
     time: Vec<f64>,
     step: f64,
     inputs: InputSeries,
-    pool: Mutex<Vec<host::Simulator<'a>>>,
 }
 
 /// The sample interval of a time grid: the median of its differences.
@@ -34,7 +68,37 @@ impl<'a> FmuSimulator<'a> {
     /// Settable variables are the parameters (fixed or tunable) and the inputs (whose start
     /// value applies when the data have no column for them).
     pub fn new(fmu: &'a Fmu, data: &Data) -> Result<Self, GapError> {
-        let md = fmu.model_description();
+        let backend = Backend::Fmi2 {
+            fmu,
+            pool: Mutex::new(Vec::new()),
+        };
+        Self::with_backend(backend, fmu.model_description(), data)
+    }
+
+    /// [`FmuSimulator::new`] for an FMI 3.0 FMU; `view` is `host::fmi3::fmi2_view` of its
+    /// description (its scalar variables, which the workflow sets and compares).
+    pub fn new3(fmu: &'a Fmu3, view: &ModelDescription, data: &Data) -> Result<Self, GapError> {
+        let inputs = Inputs3 {
+            time: data.time.clone(),
+            columns: data
+                .inputs
+                .iter()
+                .map(|(n, c)| (n.clone(), c.iter().map(|&x| format_number(x)).collect()))
+                .collect(),
+        };
+        let backend = Backend::Fmi3 {
+            fmu,
+            pool: Mutex::new(Vec::new()),
+            inputs,
+        };
+        Self::with_backend(backend, view, data)
+    }
+
+    fn with_backend(
+        backend: Backend<'a>,
+        md: &ModelDescription,
+        data: &Data,
+    ) -> Result<Self, GapError> {
         let mut params = Vec::new();
         for v in &md.model_variables {
             let settable = (v.causality == Causality::Parameter
@@ -69,7 +133,7 @@ impl<'a> FmuSimulator<'a> {
         let step = sample_interval(&data.time)
             .ok_or_else(|| GapError::Usage("the data need at least two rows".into()))?;
         Ok(FmuSimulator {
-            fmu,
+            backend,
             params,
             // The workflow compares numbers: String outputs are not simulated for it.
             outputs: md
@@ -84,7 +148,6 @@ impl<'a> FmuSimulator<'a> {
                 columns: data.inputs.clone(),
                 ..Default::default()
             },
-            pool: Mutex::new(Vec::new()),
         })
     }
 
@@ -106,6 +169,40 @@ impl<'a> FmuSimulator<'a> {
         req.inputs = self.inputs.clone();
         req
     }
+
+    /// The FMI 3.0 request for `set` over the first `n` samples: the same start values as
+    /// text (Booleans `true`/`false`, integers without a fraction).
+    fn request3(&self, set: &[(usize, f64)], n: usize, inputs: &Inputs3) -> Request3 {
+        let mut req = Request3::new(self.time[0], self.time[n.max(2) - 1], self.step);
+        req.start_values = set
+            .iter()
+            .map(|&(i, v)| {
+                let p = &self.params[i];
+                let text = match p.kind {
+                    ParamKind::Boolean => (v >= 0.5).to_string(),
+                    ParamKind::Integer => format_number(v.round()),
+                    ParamKind::Real => format_number(v),
+                };
+                (p.name.clone(), text)
+            })
+            .collect();
+        req.inputs = inputs.clone();
+        req.outputs = self.outputs.clone();
+        req
+    }
+
+    fn run(&self, set: &[(usize, f64)], n: usize) -> Result<SimulationResult, SimError> {
+        match &self.backend {
+            Backend::Fmi2 { fmu, pool } => {
+                let req = self.request(set, n);
+                pooled(pool, || host::Simulator::new(fmu), |s| s.run(&req))
+            }
+            Backend::Fmi3 { fmu, pool, inputs } => {
+                let req = self.request3(set, n, inputs);
+                pooled(pool, || Simulator3::new(fmu), |s| s.run(&req))
+            }
+        }
+    }
 }
 
 impl Simulator for FmuSimulator<'_> {
@@ -118,18 +215,7 @@ impl Simulator for FmuSimulator<'_> {
     }
 
     fn simulate(&self, set: &[(usize, f64)], n: usize) -> Result<Vec<Vec<f64>>, SimError> {
-        let req = self.request(set, n);
-        let popped = self.pool.lock().unwrap_or_else(|e| e.into_inner()).pop();
-        let mut sim = match popped {
-            Some(s) => s,
-            None => host::Simulator::new(self.fmu)?,
-        };
-        let res = sim.run(&req).map_err(SimError::from);
-        self.pool
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .push(sim);
-        let res = res?;
+        let res = self.run(set, n)?;
         // Outputs at the data's times: the communication points are start + k h, which match a
         // uniform grid; any other grid is interpolated.
         let t = &self.time[..n];

@@ -597,7 +597,16 @@ pub fn write_atomically(
     let tmp = tempfile::Builder::new()
         .prefix(".actuator-fmu-")
         .suffix(".partial")
-        .tempfile_in(dir)?;
+        .make_in(dir, |p| {
+            // Listed for the supervisor before it exists: a worker killed while writing
+            // (Ctrl-C) cannot remove it itself.
+            crate::watch::register_output(p)?;
+            std::fs::OpenOptions::new()
+                .read(true)
+                .write(true)
+                .create_new(true)
+                .open(p)
+        })?;
     write(tmp.as_file())?;
     tmp.as_file().sync_all()?;
     tmp.persist(path).map_err(|e| e.error)?;

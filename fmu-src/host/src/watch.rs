@@ -12,7 +12,9 @@
 use memmap2::{MmapMut, MmapOptions};
 use std::cell::Cell;
 use std::fs::OpenOptions;
-use std::path::Path;
+use std::io::Write;
+use std::os::unix::ffi::OsStrExt;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering::Relaxed};
 use std::sync::OnceLock;
 
@@ -149,6 +151,8 @@ impl Call {
 }
 
 static PAGE: OnceLock<&'static [AtomicU64]> = OnceLock::new();
+/// Where this process lists the temporary output files it creates (see [`register_output`]).
+static OUTPUTS: OnceLock<PathBuf> = OnceLock::new();
 static NEXT_SLOT: AtomicUsize = AtomicUsize::new(0);
 thread_local! {
     static SLOT: Cell<Option<usize>> = const { Cell::new(None) };
@@ -168,7 +172,44 @@ pub fn attach(path: &Path) -> std::io::Result<()> {
     let words =
         unsafe { std::slice::from_raw_parts(map.as_mut_ptr().cast::<AtomicU64>(), FILE_BYTES / 8) };
     let _ = PAGE.set(words);
+    let _ = OUTPUTS.set(outputs_list(path));
     Ok(())
+}
+
+/// The list of temporary output files beside the watch file at `watch`.
+fn outputs_list(watch: &Path) -> PathBuf {
+    watch.with_extension("outputs")
+}
+
+/// Records that this process is about to create the temporary output file `path` (outside the
+/// supervisor's scratch directory, next to the file it will replace), before it exists: when the
+/// process dies before renaming it (Ctrl-C while writing, SIGKILL), the supervisor removes it
+/// ([`remove_outputs`]). Without [`attach`] nothing is recorded.
+pub fn register_output(path: &Path) -> std::io::Result<()> {
+    let Some(list) = OUTPUTS.get() else {
+        return Ok(());
+    };
+    let mut entry = path.as_os_str().as_bytes().to_vec();
+    entry.push(0);
+    // One write(2) of the whole entry to a file opened for appending: the supervisor reads
+    // whole entries even if this process dies right after.
+    OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(list)?
+        .write_all(&entry)
+}
+
+/// The supervisor's side of [`register_output`]: removes every listed file the child of the
+/// watch file `watch` left behind (a completed output was renamed away and is not touched).
+pub fn remove_outputs(watch: &Path) {
+    let Ok(list) = std::fs::read(outputs_list(watch)) else {
+        return;
+    };
+    for entry in list.split(|b| *b == 0).filter(|e| !e.is_empty()) {
+        let path = Path::new(std::ffi::OsStr::from_bytes(entry));
+        let _ = std::fs::remove_file(path);
+    }
 }
 
 fn slot(page: &'static [AtomicU64]) -> &'static [AtomicU64] {

@@ -1,13 +1,18 @@
 //! HydraulicJoint FMU: the NEUROexos agonist/antagonist hydraulic shoulder joint
 //! (paper: "Description, Characterization and Assessment of a Bio-Inspired Shoulder Joint-First
-//! Link Robot for Neuro-Robotic Applications"), exported as an FMI 2.0 Co-Simulation FMU.
+//! Link Robot for Neuro-Robotic Applications"), exported as an FMI 2.0 FMU for Co-Simulation
+//! and Model Exchange.
 //!
 //! Modules: [`physics`] (pure equations), [`controller`] (the 40 Hz position controller),
 //! [`plant`] (state vector and right-hand side), [`vars`] (variable table), [`model`] (the
-//! FMI model), [`docs`] (the HTML documentation with derivations and parameter tables).
+//! FMI model), [`me`] (its Model Exchange side), [`docs`] (the HTML documentation with
+//! derivations and parameter tables).
+// Unit tests use the platform libm as an independent reference (workspace clippy.toml).
+#![cfg_attr(test, allow(clippy::disallowed_methods))]
 
 pub mod controller;
 pub mod docs;
+pub mod me;
 pub mod model;
 pub mod physics;
 pub mod plant;

@@ -11,20 +11,20 @@ use serde::{Deserialize, Serialize};
 /// The HydraulicJoint model state (serialized whole for fmi2GetFMUstate).
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct HydraulicJoint {
-    params: Option<(Params, Derived)>,
-    y: Vec<f64>,
-    integrator: Option<Integrator>,
+    pub(crate) params: Option<(Params, Derived)>,
+    pub(crate) y: Vec<f64>,
+    pub(crate) integrator: Option<Integrator>,
     /// Voltages held at the valves [V].
-    u_held: [f64; 2],
+    pub(crate) u_held: [f64; 2],
     /// External torque of the previous step (a change resets the step size history).
-    tau_held: f64,
+    pub(crate) tau_held: f64,
     /// Index of the next controller sample `t0 + k/f`.
-    next_sample: u64,
+    pub(crate) next_sample: u64,
     /// Oil supplied and returned since initialization [m3 at 0 gauge]: the sums of the ODE
     /// states `VSUP`, `VRET` over the integration calls (they restart at 0 in each call so
     /// their relative tolerance applies to the increment, not to the growing total).
-    oil: [f64; 2],
-    t0: f64,
+    pub(crate) oil: [f64; 2],
+    pub(crate) t0: f64,
 }
 
 /// Read every parameter from the variable values.
@@ -102,7 +102,7 @@ impl HydraulicJoint {
 
     /// Valve voltages when no controller sample is due: the inputs (open loop) or the held
     /// controller output.
-    fn open_loop_commands(vars: &[f64]) -> [f64; 2] {
+    pub(crate) fn open_loop_commands(vars: &[f64]) -> [f64; 2] {
         let v = Values(vars);
         [
             v.real(V::U_LEFT).clamp(-U_MAX, U_MAX),
@@ -112,12 +112,17 @@ impl HydraulicJoint {
 
     /// Write every output from the current state and held commands.
     fn write_outputs(&mut self, vars: &mut [f64]) {
+        self.write_outputs_with(vars, self.u_held, self.tau_held);
+    }
+
+    /// Write every output from the current state with valve commands `u` and torque `tau`.
+    pub(crate) fn write_outputs_with(&self, vars: &mut [f64], u: [f64; 2], tau: f64) {
         let Some((p, d)) = &self.params else { return };
         let plant = Plant {
             p,
             d,
-            u: self.u_held,
-            tau_ext: self.tau_held,
+            u,
+            tau_ext: tau,
         };
         let y = &self.y;
         let l = plant.piston(0, y);
@@ -159,7 +164,7 @@ impl HydraulicJoint {
             set(vars, vp2, y[b + 3]);
             set(vars, vf, a.force);
             set(vars, vt, a.t_joint);
-            set(vars, vu, self.u_held[i]);
+            set(vars, vu, u[i]);
             set(vars, vq, a.q_supply);
         }
     }
@@ -197,7 +202,7 @@ impl HydraulicJoint {
 
     /// Mean piston offset from the rest position `(x_L + x_R)/2 - x0` [m], the co-contraction
     /// loop's measurement (piston potentiometers).
-    fn mean_piston_offset(&self) -> f64 {
+    pub(crate) fn mean_piston_offset(&self) -> f64 {
         match &self.params {
             Some((_, d)) => 0.5 * (self.y[piston(0)] + self.y[piston(1)]) - d.x0,
             None => 0.0,
@@ -230,6 +235,10 @@ impl Model for HydraulicJoint {
 
     fn documentation_html() -> String {
         crate::docs::html()
+    }
+
+    fn model_exchange() -> Option<fmi2_export::MeVTable<Self>> {
+        Some(fmi2_export::MeVTable::of())
     }
 
     fn new() -> Self {

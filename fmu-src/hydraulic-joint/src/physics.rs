@@ -131,9 +131,9 @@ pub fn seal_friction(
     v_eps: f64,
 ) -> (f64, f64, f64) {
     let r = v_m / vs;
-    let e = (-r * r).exp();
+    let e = ode::math::exp(-r * r);
     let level = fc + fex * e;
-    let th = (v / v_eps).tanh();
+    let th = ode::math::tanh(v / v_eps);
     (
         level * th + sigma * v,
         level * (1.0 - th * th) / v_eps + sigma,
@@ -230,7 +230,7 @@ pub fn spool_accel(xv: f64, vv: f64, u: f64, omega: f64, zeta: f64) -> f64 {
 /// angle (`bowden_wrap_angle`; only the product is identifiable from data) (Kaneko et al.,
 /// IEEE TRA 1991; Agrawal et al. 2010).
 pub fn capstan_joint_tension(t_piston: f64, mu_phi: f64, v_slide: f64, v_eps: f64) -> f64 {
-    t_piston * (-mu_phi * (v_slide / v_eps).tanh()).exp()
+    t_piston * ode::math::exp(-mu_phi * ode::math::tanh(v_slide / v_eps))
 }
 
 /// Compressibility of the oil in a chamber at gauge pressure `p` [Pa]: effective bulk modulus
@@ -250,7 +250,7 @@ pub fn oil_state(p: f64, beta: f64) -> OilState {
     OilState {
         beta,
         dbeta: 0.0,
-        r: (p / beta).exp(),
+        r: ode::math::exp(p / beta),
     }
 }
 
@@ -268,9 +268,9 @@ pub fn mixture_volume(p: f64, beta: f64, x0: f64, p_atm: f64, kappa: f64) -> [f6
     let pa = 0.5 * (q + s);
     let pa1 = 0.5 * (1.0 + q / s);
     let pa2 = 0.5 * eps * eps / (s * s * s);
-    let e = (-p / beta).exp();
+    let e = ode::math::exp(-p / beta);
     let n = 1.0 / kappa;
-    let x = x0 * (p_atm / pa).powf(n);
+    let x = x0 * ode::math::pow(p_atm / pa, n);
     // d/dp of x(pa(p)) = -n x / pa * pa1
     let x1 = -n * x / pa * pa1;
     let x2 = n * (n + 1.0) * x / (pa * pa) * pa1 * pa1 - n * x / pa * pa2;

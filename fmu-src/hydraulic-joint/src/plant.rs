@@ -254,19 +254,26 @@ impl Params {
     /// which outputs are compared. (A piston-speed scale of 1 mm/s, needed by the memoryless
     /// stiction model, cost up to 18 % more steps for no gain in accuracy.)
     pub fn atol_vector(&self, d: &Derived) -> Vec<f64> {
-        let mut nominal = vec![
-            0.01, 0.01, 1e-3, 1e-2, 1e5, 1e5, 1e-3, 1e-2, 1e5, 1e5, 1e-8, 1e-8,
-        ];
+        let mut nominal = NOMINAL_BASE.to_vec();
         if d.spool {
-            nominal.extend_from_slice(&[0.01, 10.0, 0.01, 10.0]);
+            nominal.extend_from_slice(&NOMINAL_SPOOL);
         }
         if d.mem.is_some() {
-            nominal.extend_from_slice(&[1e-2, 1e-2]);
+            nominal.extend_from_slice(&NOMINAL_MEMORY);
         }
         debug_assert_eq!(nominal.len(), d.dim);
         nominal.iter().map(|n| n * self.atol).collect()
     }
 }
+
+/// Nominal scales of the base states `theta .. Vr` (see [`Params::atol_vector`]).
+pub const NOMINAL_BASE: [f64; 12] = [
+    0.01, 0.01, 1e-3, 1e-2, 1e5, 1e5, 1e-3, 1e-2, 1e5, 1e5, 1e-8, 1e-8,
+];
+/// Nominal scales of the spool states `xv_L, vv_L, xv_R, vv_R`.
+pub const NOMINAL_SPOOL: [f64; 4] = [0.01, 10.0, 0.01, 10.0];
+/// Nominal scales of the remembered piston speeds `vm_L, vm_R`.
+pub const NOMINAL_MEMORY: [f64; 2] = [1e-2, 1e-2];
 
 /// Everything computed from a state, for the right-hand side and for the outputs.
 #[derive(Clone, Copy, Debug, Default)]

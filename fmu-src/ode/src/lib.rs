@@ -19,6 +19,7 @@
 //! * No heap allocation inside [`Integrator::integrate`] once the buffers exist for the dimension.
 
 mod clock;
+pub mod math;
 mod tableau;
 
 pub use clock::{SampleClock, Segments};
@@ -392,7 +393,7 @@ impl Integrator {
             let err = (sum / n as f64).sqrt();
             // err may be NaN (0/0 with zero tolerances): treat as too large.
             let fac = if err.is_finite() {
-                (err.powf(q) / SAFETY).clamp(1.0 / FAC_MAX, 1.0 / FAC_MIN)
+                (math::pow(err, q) / SAFETY).clamp(1.0 / FAC_MAX, 1.0 / FAC_MIN)
             } else {
                 1.0 / FAC_MIN
             };
@@ -402,7 +403,8 @@ impl Integrator {
                 // Accepted.
                 if self.h_acc > 0.0 {
                     // Gustafsson predictive controller (Hairer-Wanner II, IV.8, (8.21)).
-                    let fac_g = ((self.h_acc / h) * (err * err / self.err_acc).powf(q) / SAFETY)
+                    let fac_g = ((self.h_acc / h) * math::pow(err * err / self.err_acc, q)
+                        / SAFETY)
                         .clamp(1.0 / FAC_MAX, 1.0 / FAC_MIN);
                     if fac_g.is_finite() {
                         h_new = h / fac.max(fac_g);
@@ -460,8 +462,9 @@ impl Integrator {
         let (mut d0, mut d1) = (0.0, 0.0);
         for i in 0..y.len() {
             let sc = self.atol[i] + self.rtol * y[i].abs();
-            d0 += (y[i] / sc).powi(2);
-            d1 += (f0[i] / sc).powi(2);
+            let (ys, fs) = (y[i] / sc, f0[i] / sc);
+            d0 += ys * ys;
+            d1 += fs * fs;
         }
         let (d0, d1) = ((d0 / n).sqrt(), (d1 / n).sqrt());
         let h = if d0 < 1e-5 || d1 < 1e-5 || !d0.is_finite() || !d1.is_finite() {

@@ -21,15 +21,16 @@ pub const MAX_SAMPLES_PER_STEP: f64 = 2e5;
 /// Model state serialized by fmi2GetFMUstate (everything needed to continue bit-identically).
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct TwistedString {
-    par: Params,
-    y: [f64; DIM],
+    pub(crate) par: Params,
+    pub(crate) y: [f64; DIM],
     integ: ode::Integrator,
-    pos: PositionLoop,
-    t0: f64,
-    theta_meas: f64,
+    pub(crate) pos: PositionLoop,
+    pub(crate) t0: f64,
+    pub(crate) theta_meas: f64,
     last_inputs: Option<(f64, f64, f64)>,
-    /// Work of F_load since the start [J] (exact per step: F_load is held, W += F_load dp).
-    w_external: f64,
+    /// Work of F_load since the start [J] (exact per step: F_load is held, W += F_load dp; in
+    /// Model Exchange an ODE state, the integral of F_load v).
+    pub(crate) w_external: f64,
 }
 
 /// State indices of the energy quadratures (integrated from 0 in each integration call).
@@ -161,8 +162,27 @@ impl TwistedString {
         )
     }
 
-    /// Write every output from the current state.
-    fn write_outputs(&self, vars: &mut [f64], inp: Inputs) {
+    /// One sample of the position loop (the next one due): the encoder reads the motor angle,
+    /// the P law with its band gives the speed set point, held until the next sample. Returns
+    /// whether the set point changed.
+    pub(crate) fn position_sample(&mut self, theta_ref: f64) -> bool {
+        self.theta_meas = encoder_quantize(self.y[ix::THETA], self.par.encoder_cpt);
+        let w = position_loop(
+            theta_ref,
+            self.theta_meas,
+            self.par.position_p,
+            self.par.position_band,
+            self.par.speed_limit,
+        );
+        let changed = w != self.pos.omega_ref;
+        self.pos.omega_ref = w;
+        self.pos.next_sample += 1;
+        changed
+    }
+
+    /// Write every output from the current state, and the states that are not outputs and the
+    /// derivative of every state (the Model Exchange variables, `crate::me`).
+    pub(crate) fn write_outputs(&self, vars: &mut [f64], inp: Inputs) {
         let q = &self.par;
         let plant = Plant { par: q, inp };
         let y = &self.y;
@@ -199,9 +219,10 @@ impl TwistedString {
         set(V::E_DISSIPATED, y[ix::E_LOSS] + y[ix::E_KIN]);
         set(V::E_STORED, plant::stored_energy(q, y));
         set(V::E_STRING_KINEMATIC, y[ix::E_KIN]);
+        crate::me::write_state_variables(&mut out, y, &aux, inp.f_load);
     }
 
-    fn make_inputs(&self, vars: &[f64]) -> Inputs {
+    pub(crate) fn make_inputs(&self, vars: &[f64]) -> Inputs {
         let (theta_ref, voltage, f_load) = Self::inputs(vars);
         Inputs {
             theta_ref,
@@ -281,6 +302,10 @@ impl Model for TwistedString {
         Ok(())
     }
 
+    fn model_exchange() -> Option<fmi2_export::MeVTable<Self>> {
+        Some(fmi2_export::MeVTable::of())
+    }
+
     /// The tunable parameters (load mass, controller gains and limits) act from the next step;
     /// the state and the controller's integrators are kept, the step-size history restarts.
     fn tune(&mut self, vars: &[f64]) -> Result<(), ModelError> {
@@ -334,21 +359,11 @@ impl Model for TwistedString {
             if let (true, Some(clock)) = (self.par.internal_controller, clock) {
                 // process every sample instant reached (k*Ts <= tc within the clock's tolerance)
                 while clock.is_due(self.pos.next_sample, tc) {
-                    self.theta_meas = encoder_quantize(self.y[ix::THETA], self.par.encoder_cpt);
-                    let w = position_loop(
-                        inputs.0,
-                        self.theta_meas,
-                        self.par.position_p,
-                        self.par.position_band,
-                        self.par.speed_limit,
-                    );
                     // A new speed set point is a jump of the speed-loop error: restart the
                     // step-size selection there (see the comment at the top of do_step).
-                    if w != self.pos.omega_ref {
+                    if self.position_sample(inputs.0) {
                         self.integ.reset_step_size();
                     }
-                    self.pos.omega_ref = w;
-                    self.pos.next_sample += 1;
                 }
             }
             if tc >= t_end {

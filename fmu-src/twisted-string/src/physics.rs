@@ -224,7 +224,7 @@ pub fn twist_torque(t: f64, a: f64, da: f64, l: f64) -> f64 {
 /// Eq. 19: helix slope `alpha = acos(F_L / (n F_i)) = atan2(theta r, p)`.
 #[inline]
 pub fn helix_slope(p: f64, a: f64) -> f64 {
-    a.atan2(p)
+    ode::math::atan2(a, p)
 }
 
 /// Eq. 13 read as a transmission: `dp/dtheta_t` at constant tension. From `p^2 + a^2 = L^2` with
@@ -272,7 +272,7 @@ pub fn motor_torque(kt: f64, i: f64) -> f64 {
 pub fn gear_efficiency_factor(power_out: f64, eta: f64, p_w: f64) -> (f64, f64) {
     let mean = 0.5 * (1.0 / eta + eta);
     let half = 0.5 * (1.0 / eta - eta);
-    let th = (power_out / p_w).tanh();
+    let th = ode::math::tanh(power_out / p_w);
     (mean + half * th, half * (1.0 - th * th) / p_w)
 }
 
@@ -301,7 +301,7 @@ pub fn guide_friction(v: f64, c: f64) -> f64 {
 /// Coulomb smoothed over `omega_s` [rad/s], viscous `b`. Returns (tau, dtau/domega).
 #[inline]
 pub fn motor_friction(omega: f64, coulomb: f64, viscous: f64, omega_s: f64) -> (f64, f64) {
-    let th = (omega / omega_s).tanh();
+    let th = ode::math::tanh(omega / omega_s);
     (
         coulomb * th + viscous * omega,
         coulomb * (1.0 - th * th) / omega_s + viscous,
@@ -314,7 +314,7 @@ pub fn motor_friction(omega: f64, coulomb: f64, viscous: f64, omega_s: f64) -> (
 /// (tau_h, dtau_h/dT, dtau_h/domega_t) for fixed a'.
 #[inline]
 pub fn strand_friction(t: f64, da: f64, omega_t: f64, mu: f64, omega_h: f64) -> (f64, f64, f64) {
-    let th = (omega_t / omega_h).tanh();
+    let th = ode::math::tanh(omega_t / omega_h);
     (
         mu * t * da * th,
         mu * da * th,
@@ -334,7 +334,7 @@ pub fn load_acceleration(mass: f64, f_ext: f64, f_spring: f64, f_axial: f64, f_f
 /// spring whose force is `pos(s / c)` is `c Phi(s / c)` (zero at s = 0, slightly negative when slack).
 #[inline]
 pub fn smooth_pos_primitive(x: f64, w: f64) -> f64 {
-    0.25 * (x * x + x * (x * x + w * w).sqrt() + w * w * (x / w).asinh())
+    0.25 * (x * x + x * (x * x + w * w).sqrt() + w * w * ode::math::asinh(x / w))
 }
 
 /// Kinetic energy `J omega^2 / 2` (rotor) or `m v^2 / 2` (load), and magnetic energy `L i^2 / 2`.

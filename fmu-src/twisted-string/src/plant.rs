@@ -512,7 +512,7 @@ impl Plant<'_> {
         let mut tau_h = 0.0;
         let mut d_tau_h = zero;
         if let Some(mu) = q.hysteresis {
-            let th = (omega_t / HYSTERESIS_SPEED_WIDTH).tanh();
+            let th = ode::math::tanh(omega_t / HYSTERESIS_SPEED_WIDTH);
             tau_h = mu * tension * da * th;
             tau_out += tau_h;
             for kk in 0..DIM {

@@ -2,7 +2,7 @@
 //! unit, range, start and description, declared once. Names and value references are a fixed
 //! interface: a new variable takes a new value reference.
 
-use fmi2_export::Variable;
+use fmi2_export::{Variability, Variable};
 
 /// 8000 rpm in rad/s: maximum permissible input speed of the GP 26 A gearhead (paper sec. 6).
 pub const RPM8000: f64 = 8000.0 * std::f64::consts::PI / 30.0;
@@ -46,8 +46,9 @@ fmi2_export::declare_variables! {
     F_AXIAL = 15 => Variable::output("F_axial", "N", "Axial force of the bundle on the load F_L = T cos(alpha)"),
     V_LOAD = 16 => Variable::output("v_load", "m/s", "Load velocity dp/dt").display("mm/s"),
     VOLTAGE_MOTOR = 17 => Variable::output("voltage_motor", "V", "Armature voltage applied (controller output or input)"),
-    OMEGA_REF = 18 => Variable::output("omega_ref", "rad/s", "Speed set point from the position loop (held between samples)").display("rpm"),
-    THETA_MOTOR_MEASURED = 19 => Variable::output("theta_motor_measured", "rad", "Encoder angle (1000 CPT read 4x) at the last position-loop sample (internal_controller only, else 0)").display("deg"),
+    // The position loop's outputs change only at its samples (time events in Model Exchange).
+    OMEGA_REF = 18 => discrete(Variable::output("omega_ref", "rad/s", "Speed set point from the position loop (held between samples)").display("rpm")),
+    THETA_MOTOR_MEASURED = 19 => discrete(Variable::output("theta_motor_measured", "rad", "Encoder angle (1000 CPT read 4x) at the last position-loop sample (internal_controller only, else 0)").display("deg")),
     // ---- base parameters ---------------------------------------------------------------------
     LOAD_MASS = 20 => Variable::parameter("load_mass", 23.0 / 9.81, "kg",
         "[calibrate] Hanging load incl. moving bracket; the paper's loads 23/39/54/97/124 N are F/9.81").range(0.1, 20.0).tunable(),
@@ -146,4 +147,35 @@ fmi2_export::declare_variables! {
         "Stored energy: L i^2/2 + J omega^2/2 + m v^2/2 + gravity and spring potential (0 at p = L0) + elastic string energy"),
     E_STRING_KINEMATIC = 66 => Variable::output("E_string_kinematic", "J",
         "Part of E_dissipated: work absorbed (>0) or released (<0) by the non-conservative string_compliance law (eq. 10 twist lengthening, elongation by the load); 0 with string_compliance off"),
+    // ---- Model Exchange: states that are not outputs, and the derivative of every state ------
+    // (documentation section "Model Exchange")
+    CURRENT_INTEGRAL = 67 => Variable::local("current_integral", "A.s",
+        "State z_i = int (i_ref - i) dt of the current PI, with anti-windup (internal_controller only, else 0)"),
+    SPEED_INTEGRAL = 68 => Variable::local("speed_integral", "rad",
+        "State z_w = int (omega_ref - omega_motor) dt of the speed PI, with anti-windup (internal_controller only, else 0)"),
+    BACKLASH_POSITION = 69 => Variable::local("backlash_position", "rad",
+        "State delta = theta_motor / N - theta_twist: position of the gearhead output in the backlash gap (gear_backlash only, else 0)").display("deg"),
+    OMEGA_TWIST = 70 => Variable::local("omega_twist", "rad/s",
+        "State omega_t: speed of the gearhead output (gear_backlash only, else 0)").display("rpm"),
+    DER_CURRENT = 71 => Variable::local("der(current)", "A/s", "Derivative of current"),
+    DER_THETA_MOTOR = 72 => Variable::local("der(theta_motor)", "rad/s", "Derivative of theta_motor"),
+    DER_OMEGA_MOTOR = 73 => Variable::local("der(omega_motor)", "rad/s2", "Derivative of omega_motor"),
+    DER_P = 74 => Variable::local("der(p)", "m/s", "Derivative of p"),
+    DER_V_LOAD = 75 => Variable::local("der(v_load)", "m/s2", "Derivative of v_load"),
+    DER_CURRENT_INTEGRAL = 76 => Variable::local("der(current_integral)", "A", "Derivative of current_integral"),
+    DER_SPEED_INTEGRAL = 77 => Variable::local("der(speed_integral)", "rad/s", "Derivative of speed_integral"),
+    DER_E_ELECTRICAL = 78 => Variable::local("der(E_electrical)", "W", "Derivative of E_electrical: electrical power voltage_motor * current"),
+    DER_E_DISSIPATED = 79 => Variable::local("der(E_dissipated)", "W", "Derivative of E_dissipated: dissipated power"),
+    DER_E_STRING_KINEMATIC = 80 => Variable::local("der(E_string_kinematic)", "W", "Derivative of E_string_kinematic"),
+    DER_BACKLASH_POSITION = 81 => Variable::local("der(backlash_position)", "rad/s", "Derivative of backlash_position"),
+    DER_OMEGA_TWIST = 82 => Variable::local("der(omega_twist)", "rad/s2", "Derivative of omega_twist"),
+    DER_W_EXTERNAL = 83 => Variable::local("der(W_external)", "W", "Derivative of W_external: power F_load * v_load"),
+}
+
+/// An output whose value changes only at the position loop's samples (`variability="discrete"`).
+const fn discrete(v: Variable) -> Variable {
+    Variable {
+        variability: Variability::Discrete,
+        ..v
+    }
 }

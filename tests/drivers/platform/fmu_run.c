@@ -43,7 +43,8 @@ static void logger(void *env, const char *name, int status, const char *cat, con
 
 int main(int argc, char **argv) {
     if (argc < 8) {
-        fprintf(stderr, "usage: %s LIBRARY GUID STOP STEP INPUT_VR INPUT_VALUE OUTPUT_VR...\n", argv[0]);
+        fprintf(stderr, "usage: %s LIBRARY GUID STOP STEP INPUT_VR INPUT_VALUE [+BOOLEAN_VR...] OUTPUT_VR...\n"
+                        "  +VR: a Boolean parameter set true before initialization\n", argv[0]);
         return 2;
     }
     void *lib = LOAD(argv[1]);
@@ -54,6 +55,7 @@ int main(int argc, char **argv) {
     void (*free_instance)(comp_t);
     int (*set_real)(comp_t, const unsigned *, size_t, const double *);
     int (*get_real)(comp_t, const unsigned *, size_t, double *);
+    int (*set_boolean)(comp_t, const unsigned *, size_t, const int *);
     int (*do_step)(comp_t, double, double, int);
     NEED(instantiate, "fmi2Instantiate");
     NEED(setup, "fmi2SetupExperiment");
@@ -63,19 +65,29 @@ int main(int argc, char **argv) {
     NEED(free_instance, "fmi2FreeInstance");
     NEED(set_real, "fmi2SetReal");
     NEED(get_real, "fmi2GetReal");
+    NEED(set_boolean, "fmi2SetBoolean");
     NEED(do_step, "fmi2DoStep");
 
     double stop = atof(argv[3]), h = atof(argv[4]), u = atof(argv[6]);
     unsigned in_vr = (unsigned)strtoul(argv[5], NULL, 10);
-    size_t n = (size_t)(argc - 7);
+    size_t nb = 0;
+    while (7 + (int)nb < argc && argv[7 + nb][0] == '+') nb++;
+    size_t n = (size_t)(argc - 7) - nb;
+    unsigned *bools = calloc(nb + 1, sizeof *bools);
+    int *trues = calloc(nb + 1, sizeof *trues);
     unsigned *vrs = calloc(n, sizeof *vrs);
     double *y = calloc(n, sizeof *y);
-    for (size_t k = 0; k < n; k++) vrs[k] = (unsigned)strtoul(argv[7 + k], NULL, 10);
+    for (size_t k = 0; k < nb; k++) {
+        bools[k] = (unsigned)strtoul(argv[7 + k] + 1, NULL, 10);
+        trues[k] = 1;
+    }
+    for (size_t k = 0; k < n; k++) vrs[k] = (unsigned)strtoul(argv[7 + nb + k], NULL, 10);
 
     callbacks_t cb = {logger, calloc, free, NULL, NULL};
     comp_t c = instantiate("run", 1, argv[2], "file:///tmp", &cb, 0, 0);
     if (!c) { fprintf(stderr, "fmi2Instantiate returned NULL\n"); return 1; }
-    if (setup(c, 0, 0.0, 0.0, 1, stop) || enter(c) || set_real(c, &in_vr, 1, &u) || exit_init(c)) {
+    if (setup(c, 0, 0.0, 0.0, 1, stop) || enter(c) || set_real(c, &in_vr, 1, &u)
+        || (nb && set_boolean(c, bools, nb, trues)) || exit_init(c)) {
         fprintf(stderr, "initialization failed\n");
         return 1;
     }
@@ -92,6 +104,8 @@ int main(int argc, char **argv) {
     }
     terminate(c);
     free_instance(c);
+    free(bools);
+    free(trues);
     free(vrs);
     free(y);
     return 0;

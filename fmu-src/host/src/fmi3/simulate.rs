@@ -72,7 +72,53 @@ const MAX_RECORDED_VALUES: usize = crate::simulate::MAX_RECORDED_VALUES;
 
 /// Simulates `req` on a fresh instance of `fmu`.
 pub fn simulate3(fmu: &Fmu3, req: &Request3) -> Result<SimulationResult> {
-    let md = fmu.model_description();
+    let mut inst = fmu.instantiate("host")?;
+    run_on(&mut inst, req)
+}
+
+/// Reusable simulation driver: one instance, reset between runs (fmi3Reset), so repeated
+/// simulations (calibration) do not pay for instantiation. If a reset fails, the instance is
+/// freed and a new one made.
+pub struct Simulator3<'a> {
+    fmu: &'a Fmu3,
+    instance: Option<Instance3<'a>>,
+    used: bool,
+}
+
+impl<'a> Simulator3<'a> {
+    /// Instantiates the FMU once.
+    pub fn new(fmu: &'a Fmu3) -> Result<Self> {
+        Ok(Simulator3 {
+            fmu,
+            instance: Some(fmu.instantiate("host")?),
+            used: false,
+        })
+    }
+
+    /// Runs one simulation; the instance is reset before every run but the first.
+    pub fn run(&mut self, req: &Request3) -> Result<SimulationResult> {
+        if self.used {
+            let reset = match self.instance.as_mut() {
+                Some(inst) => inst.reset().map(|_| ()),
+                None => Err(HostError::Request("no instance".into())),
+            };
+            if let Err(e) = reset {
+                self.instance = None;
+                self.instance = Some(self.fmu.instantiate("host").map_err(|_| e)?);
+            }
+        }
+        self.used = true;
+        let inst = self
+            .instance
+            .as_mut()
+            .ok_or_else(|| HostError::Request("no instance".into()))?;
+        let _ = inst.take_log();
+        run_on(inst, req)
+    }
+}
+
+fn run_on(inst: &mut Instance3<'_>, req: &Request3) -> Result<SimulationResult> {
+    let md = inst.fmu().model_description();
     let times = communication_points(req.start_time, req.stop_time, req.step)?;
     let starts = StartValues3::resolve(md, &req.start_values)?;
     let sizes = |vr: u32| starts.size_of(md, vr);
@@ -94,20 +140,19 @@ pub fn simulate3(fmu: &Fmu3, req: &Request3) -> Result<SimulationResult> {
         )));
     }
 
-    let mut inst = fmu.instantiate("host")?;
-    starts.apply(&mut inst)?;
-    inputs.apply(&mut inst, req.start_time)?;
+    starts.apply(inst)?;
+    inputs.apply(inst, req.start_time)?;
     inst.enter_initialization_mode(req.tolerance, req.start_time, Some(req.stop_time))?;
     inst.exit_initialization_mode()?;
 
     let mut time = Vec::with_capacity(times.len());
-    rec.record(&mut inst)?;
+    rec.record(inst)?;
     time.push(times[0]);
     let mut ended_by_fmu = None;
     for k in 0..times.len().saturating_sub(1) {
         let (t, t1) = (times[k], times[k + 1]);
         if k > 0 {
-            inputs.apply(&mut inst, t)?;
+            inputs.apply(inst, t)?;
         }
         let out = inst.do_step(t, t1 - t, true)?;
         if out.terminate {
@@ -115,13 +160,13 @@ pub fn simulate3(fmu: &Fmu3, req: &Request3) -> Result<SimulationResult> {
             // end the run; the results are valid up to lastSuccessfulTime.
             let last = out.last_successful_time;
             if last > t && last.is_finite() {
-                rec.record(&mut inst)?;
+                rec.record(inst)?;
                 time.push(last.min(t1));
             }
             ended_by_fmu = Some(*time.last().unwrap_or(&t));
             break;
         }
-        rec.record(&mut inst)?;
+        rec.record(inst)?;
         time.push(t1);
     }
     let _ = inst.terminate();

@@ -1,0 +1,285 @@
+//! Model Exchange: the plant's states for the importer's solver, the 40 Hz controller as time
+//! events (documentation, 'Model Exchange').
+//!
+//! The state vector has a fixed length of 18 whatever the effects: the twelve base states
+//! `theta, omega, x_L, v_L, p1_L, p2_L, x_R, v_R, p1_R, p2_R, V_supplied, V_returned`, then the
+//! spools `xv_L, vv_L, xv_R, vv_R` (`valve_dynamics`) and the remembered piston speeds
+//! `vm_L, vm_R` (`seal_friction`); a state of an effect that is off stays 0 with derivative 0.
+//! The oil integrals are the totals since initialization (the Co-Simulation integrator restarts
+//! them at each call and accumulates them in the model).
+//!
+//! Valve commands: with `internal_controller` the controller's output is held between its
+//! samples `t0 + k/f`, each a time event at which the controller runs on the state there (as in
+//! Co-Simulation); open loop the commands are the inputs `u_left`, `u_right` (saturated), which
+//! act at once, so `u_valve_*` and `Q_*` depend on them directly.
+
+use crate::controller::controller_update;
+use crate::model::HydraulicJoint;
+use crate::plant::{spool, Plant, NOMINAL_BASE, NOMINAL_MEMORY, NOMINAL_SPOOL, TH, VRET, VSUP};
+use crate::vars::V;
+use fmi2_export::{ModelError, ModelExchange, Values, ValuesMut};
+use ode::SampleClock;
+
+/// Length of the Model Exchange state vector.
+pub const STATES: usize = 18;
+/// Position of the spool states in the Model Exchange state vector.
+const X_SPOOL: usize = 12;
+/// Position of the remembered piston speeds in the Model Exchange state vector.
+const X_MEMORY: usize = 16;
+/// Length of the plant's state with every effect on.
+const PLANT_MAX: usize = 18;
+
+/// `(state, derivative)` positions in the table, in the order of the state vector.
+const STATE_VARIABLES: [(usize, usize); STATES] = [
+    (V::THETA as usize, V::DER_THETA as usize),
+    (V::OMEGA as usize, V::DER_OMEGA as usize),
+    (V::X_LEFT as usize, V::DER_X_LEFT as usize),
+    (V::V_LEFT as usize, V::DER_V_LEFT as usize),
+    (V::P1_LEFT as usize, V::DER_P1_LEFT as usize),
+    (V::P2_LEFT as usize, V::DER_P2_LEFT as usize),
+    (V::X_RIGHT as usize, V::DER_X_RIGHT as usize),
+    (V::V_RIGHT as usize, V::DER_V_RIGHT as usize),
+    (V::P1_RIGHT as usize, V::DER_P1_RIGHT as usize),
+    (V::P2_RIGHT as usize, V::DER_P2_RIGHT as usize),
+    (V::V_SUPPLIED as usize, V::DER_V_SUPPLIED as usize),
+    (V::V_RETURNED as usize, V::DER_V_RETURNED as usize),
+    (V::SPOOL_LEFT as usize, V::DER_SPOOL_LEFT as usize),
+    (V::SPOOL_RATE_LEFT as usize, V::DER_SPOOL_RATE_LEFT as usize),
+    (V::SPOOL_RIGHT as usize, V::DER_SPOOL_RIGHT as usize),
+    (
+        V::SPOOL_RATE_RIGHT as usize,
+        V::DER_SPOOL_RATE_RIGHT as usize,
+    ),
+    (V::V_MEMORY_LEFT as usize, V::DER_V_MEMORY_LEFT as usize),
+    (V::V_MEMORY_RIGHT as usize, V::DER_V_MEMORY_RIGHT as usize),
+];
+
+/// Outputs that follow an input at once in Model Exchange (open loop: the valve command is the
+/// input; with the spool lag on only `u_valve_*` does, but the list is static).
+const FEEDTHROUGH: [(usize, &[usize]); 4] = [
+    (V::U_VALVE_LEFT as usize, &[V::U_LEFT as usize]),
+    (V::Q_LEFT as usize, &[V::U_LEFT as usize]),
+    (V::U_VALVE_RIGHT as usize, &[V::U_RIGHT as usize]),
+    (V::Q_RIGHT as usize, &[V::U_RIGHT as usize]),
+];
+
+impl HydraulicJoint {
+    /// Valve commands in Model Exchange: the held controller output, or the inputs open loop.
+    fn me_commands(&self, vars: &[f64]) -> [f64; 2] {
+        match &self.params {
+            Some((p, _)) if !p.internal_controller => Self::open_loop_commands(vars),
+            _ => self.u_held,
+        }
+    }
+
+    /// Positions `(plant, state vector)` of the plant states present with the current effects.
+    fn state_map(&self) -> Vec<(usize, usize)> {
+        let Some((_, d)) = &self.params else {
+            return Vec::new();
+        };
+        let mut map: Vec<(usize, usize)> = (0..VSUP).map(|i| (i, i)).collect();
+        if d.spool {
+            map.extend((0..4).map(|i| (spool(0) + i, X_SPOOL + i)));
+        }
+        if let Some(m) = d.mem {
+            map.extend((0..2).map(|i| (m + i, X_MEMORY + i)));
+        }
+        map
+    }
+
+    /// The controller's sample clock (`None` open loop or before initialization).
+    fn clock(&self) -> Result<Option<SampleClock>, ModelError> {
+        let Some((p, _)) = &self.params else {
+            return Ok(None);
+        };
+        if !p.internal_controller {
+            return Ok(None);
+        }
+        SampleClock::new(self.t0, 1.0 / p.ctrl.rate)
+            .map(Some)
+            .ok_or_else(|| {
+                ModelError::parameter(
+                    "controller_rate",
+                    format!("{} Hz gives no sample period", p.ctrl.rate),
+                )
+            })
+    }
+}
+
+impl ModelExchange for HydraulicJoint {
+    const STATES: usize = STATES;
+
+    fn state_variables() -> &'static [(usize, usize)] {
+        &STATE_VARIABLES
+    }
+
+    fn output_feedthrough() -> &'static [(usize, &'static [usize])] {
+        &FEEDTHROUGH
+    }
+
+    fn states(&self, x: &mut [f64]) {
+        x.fill(0.0);
+        for (i, j) in self.state_map() {
+            x[j] = self.y[i];
+        }
+        if self.params.is_some() {
+            // the totals: the plant's VSUP, VRET of the last integration call are in `oil`
+            x[VSUP] = self.oil[0];
+            x[VRET] = self.oil[1];
+        }
+    }
+
+    fn set_states(&mut self, x: &[f64]) {
+        if self.params.is_none() {
+            return;
+        }
+        for (i, j) in self.state_map() {
+            self.y[i] = x[j];
+        }
+        self.oil = [x[VSUP], x[VRET]];
+        self.y[VSUP] = 0.0;
+        self.y[VRET] = 0.0;
+    }
+
+    fn nominals(&self, n: &mut [f64]) {
+        n[..X_SPOOL].copy_from_slice(&NOMINAL_BASE);
+        n[X_SPOOL..X_MEMORY].copy_from_slice(&NOMINAL_SPOOL);
+        n[X_MEMORY..].copy_from_slice(&NOMINAL_MEMORY);
+    }
+
+    fn derivatives(&self, vars: &[f64], _t: f64, dx: &mut [f64]) -> Result<(), ModelError> {
+        let Some((p, d)) = &self.params else {
+            return Err(ModelError::NotInitialized);
+        };
+        let plant = Plant {
+            p,
+            d,
+            u: self.me_commands(vars),
+            tau_ext: Values(vars).real(V::TAU_EXT),
+        };
+        let mut dy = [0.0; PLANT_MAX];
+        plant.eval(&self.y, &mut dy[..d.dim]);
+        dx.fill(0.0);
+        for (i, j) in self.state_map() {
+            dx[j] = dy[i];
+        }
+        dx[VSUP] = dy[VSUP];
+        dx[VRET] = dy[VRET];
+        Ok(())
+    }
+
+    fn me_outputs(&self, vars: &mut [f64], t: f64) {
+        let tau = Values(vars).real(V::TAU_EXT);
+        self.write_outputs_with(vars, self.me_commands(vars), tau);
+        let (mut x, mut dx) = ([0.0; STATES], [0.0; STATES]);
+        self.states(&mut x);
+        let ok = self.derivatives(vars, t, &mut dx).is_ok();
+        for (k, &(s, der)) in STATE_VARIABLES.iter().enumerate() {
+            vars[s] = x[k];
+            if ok {
+                vars[der] = dx[k];
+            }
+        }
+    }
+
+    fn next_time_event(&self) -> Option<f64> {
+        let clock = self.clock().ok()??;
+        Some(clock.time(self.next_sample))
+    }
+
+    /// The controller sample due at `t` (at most one update, on the state at `t`, however many
+    /// instants lie at or before it: as at the start of a Co-Simulation step).
+    fn event_update(&mut self, vars: &mut [f64], t: f64) -> Result<bool, ModelError> {
+        let Some(clock) = self.clock()? else {
+            return Ok(false);
+        };
+        if !clock.is_due(self.next_sample, t) {
+            return Ok(false);
+        }
+        let Some((p, _)) = &self.params else {
+            return Ok(false);
+        };
+        let ctrl = p.ctrl;
+        let theta_ref = Values(vars).real(V::THETA_REF);
+        let (l, r) = controller_update(theta_ref, self.y[TH], self.mean_piston_offset(), &ctrl);
+        self.next_sample = clock.after_due(self.next_sample, t);
+        let changed = [l, r] != self.u_held;
+        self.u_held = [l, r];
+        let mut out = ValuesMut(vars);
+        out.set(V::U_VALVE_LEFT, l);
+        out.set(V::U_VALVE_RIGHT, r);
+        Ok(changed)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::plant::{piston, OM};
+    use crate::vars::VARIABLES;
+    use fmi2_export::Model;
+
+    fn initialized(setup: impl Fn(&mut [f64])) -> (HydraulicJoint, Vec<f64>) {
+        let mut vars: Vec<f64> = VARIABLES.iter().map(|v| v.start).collect();
+        setup(&mut vars);
+        let mut m = HydraulicJoint::new();
+        m.initialize(&mut vars, 0.0).unwrap();
+        (m, vars)
+    }
+
+    #[test]
+    fn states_round_trip_with_every_effect() {
+        let (mut m, vars) = initialized(|v| {
+            v[V::VALVE_DYNAMICS_ENABLED as usize] = 1.0;
+            v[V::SEAL_FRICTION_ENABLED as usize] = 1.0;
+        });
+        let x: Vec<f64> = (0..STATES).map(|i| 1.0 + i as f64).collect();
+        m.set_states(&x);
+        let mut back = [0.0; STATES];
+        m.states(&mut back);
+        assert_eq!(back.to_vec(), x);
+        // the plant's right-hand side at the same state, mapped
+        let mut dx = [0.0; STATES];
+        m.derivatives(&vars, 0.0, &mut dx).unwrap();
+        assert_eq!(dx[TH], x[OM]);
+        assert_eq!(dx[piston(0)], x[piston(0) + 1]);
+        assert_eq!(dx[X_SPOOL], x[X_SPOOL + 1]);
+    }
+
+    #[test]
+    fn unused_states_stay_zero_with_derivative_zero() {
+        let (m, vars) = initialized(|_| {});
+        let mut x = [1.0; STATES];
+        m.states(&mut x);
+        assert!(x[X_SPOOL..].iter().all(|&v| v == 0.0));
+        let mut dx = [1.0; STATES];
+        m.derivatives(&vars, 0.0, &mut dx).unwrap();
+        assert!(dx[X_SPOOL..].iter().all(|&v| v == 0.0));
+        // at rest every derivative vanishes (the initial state is an equilibrium)
+        assert!(dx.iter().all(|v| v.abs() < 1e-9), "{dx:?}");
+    }
+
+    #[test]
+    fn controller_ticks_are_time_events() {
+        let (mut m, mut vars) = initialized(|_| {});
+        assert_eq!(m.next_time_event(), Some(0.0));
+        vars[V::THETA_REF as usize] = 0.3;
+        assert!(m.event_update(&mut vars, 0.0).unwrap());
+        assert!(!m.event_update(&mut vars, 0.0).unwrap());
+        assert_eq!(m.next_time_event(), Some(1.0 / 40.0));
+        assert!(vars[V::U_VALVE_LEFT as usize] != 0.0);
+        // not due before the tick: nothing changes
+        assert!(!m.event_update(&mut vars, 0.02).unwrap());
+        assert_eq!(m.next_time_event(), Some(1.0 / 40.0));
+    }
+
+    #[test]
+    fn open_loop_has_no_time_events_and_follows_the_inputs() {
+        let (m, mut vars) = initialized(|v| v[V::INTERNAL_CONTROLLER as usize] = 0.0);
+        assert_eq!(m.next_time_event(), None);
+        vars[V::U_LEFT as usize] = 12.0;
+        m.me_outputs(&mut vars, 0.0);
+        assert_eq!(vars[V::U_VALVE_LEFT as usize], 10.0);
+        assert!(vars[V::Q_LEFT as usize] > 0.0);
+    }
+}
