@@ -314,7 +314,9 @@ def test_values_outside_their_type_are_refused_with_their_row(all_types, tmp_pat
                                   ("UInt64_input", "-1", "outside the range of UInt64"),
                                   ("Boolean_input", "maybe", "not a Boolean"),
                                   ("Binary_input", "abc", "hexadecimal"),
-                                  ("Matrix_input", "1 2 3", "3 value(s) for 4 element(s)")):
+                                  ("Matrix_input", "1 2 3", "3 value(s) for 4 element(s)"),
+                                  ("Float64_input", "NaN", "not a finite number"),
+                                  ("Matrix_input", "1 2 1e300 4", "not a finite number")):
         (tmp_path / "in.csv").write_text(f"time,{column}\n0,{cell}\n1,{cell}\n")
         r = run("simulate", all_types, "--data", tmp_path / "in.csv", "--out", tmp_path / "o.csv")
         assert r.returncode == 2 and message in r.stderr and "row 1" in r.stderr, (column, r.stderr)

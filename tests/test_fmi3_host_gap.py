@@ -4,7 +4,8 @@ the FMI 2.0 implementation; the description is the hand-written one with Real ->
 
 The measured-style data come from FMPy running the FMI 2.0 build (tests/geared_motor.py), so the
 FMI 3.0 path of the host (description, binding, runs) is what the workflow goes through, and it
-must name the hidden effect as it does in the FMI 2.0 build (tests/test_foreign_fmu.py).
+must name the hidden effect as it does in the FMI 2.0 build (tests/test_foreign_fmu.py). The
+FMI 3.0 Model Exchange path goes under `gap` too (a Reference-FMU calibrated).
 """
 import json
 import subprocess
@@ -119,3 +120,20 @@ def test_design_proposes_the_same_experiment_for_both_builds(fmus, tmp_path):
         texts.append(out.read_text().split("\n", 1)[1])
     assert texts[0] == texts[1]
     assert "coulomb_friction" in texts[1]
+
+
+def test_gap_calibrates_an_fmi3_model_exchange_fmu(tmp_path):
+    """The FMI 3.0 Model Exchange path (the host integrating the FMU) under the gap workflow:
+    Dahlquist's k recovered from FMPy's CVode trajectory with k = 1.5 (start 1)."""
+    fmu = REPO / "tests" / "fixtures" / "reference-fmus-fmi3" / "Dahlquist.fmu"
+    r = fmpy.simulate_fmu(str(fmu), fmi_type="ModelExchange", stop_time=3.0, output_interval=0.05,
+                          start_values={"k": 1.5})
+    with open(tmp_path / "d.csv", "w") as f:
+        f.write("time,x\n" + "".join(f"{t!r},{x!r}\n" for t, x in zip(r["time"].tolist(), r["x"].tolist())))
+    p = subprocess.run([cli_path(), "gap", str(fmu), "--interface", "me", "--data", str(tmp_path / "d.csv"),
+                        "--out", str(tmp_path / "g"), "--fit", "k", "--quiet"],
+                       capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0, p.stderr
+    rep = json.loads((tmp_path / "g" / "report.json").read_text())
+    assert rep["named"] == []
+    assert abs(rep["parameters"]["k"]["value"] - 1.5) < 1e-3, rep["parameters"]["k"]

@@ -46,6 +46,8 @@ class Me(Harness):
         "GetEventIndicators": [POINTER(c_double), c_size_t],
         "GetContinuousStates": [POINTER(c_double), c_size_t],
         "GetNominalsOfContinuousStates": [POINTER(c_double), c_size_t],
+        "GetDirectionalDerivative": [POINTER(c_uint), c_size_t, POINTER(c_uint), c_size_t,
+                                     POINTER(c_double), POINTER(c_double)],
     }
 
     def __init__(self, fmu_file):
@@ -61,6 +63,15 @@ class Me(Harness):
         n = self.nx if n is None else n
         out = (c_double * max(n, 1))()
         return self.call(name, out, n), list(out)[:n]
+
+    def directional(self, unknowns, knowns, dv):
+        """(status, dz) of fmi2GetDirectionalDerivative by variable names."""
+        u = [self.vr[n] for n in unknowns]
+        k = [self.vr[n] for n in knowns]
+        dz = (c_double * len(u))()
+        s = self.call("GetDirectionalDerivative", (c_uint * len(u))(*u), len(u),
+                      (c_uint * len(k))(*k), len(k), (c_double * len(k))(*dv), dz)
+        return s, list(dz)
 
     def set_states(self, x):
         return self.call("SetContinuousStates", (c_double * len(x))(*x), len(x))
@@ -169,6 +180,8 @@ def test_interfaces_stay_apart():
     assert h.call("SetTime", c_double(0.5)) == ERROR
     assert "Co-Simulation instance" in h.last_error()
     assert h.array("GetDerivatives")[0] == ERROR
+    assert h.directional(["der(x)"], ["x"], [1.0])[0] == ERROR
+    assert "providesDirectionalDerivative" in h.last_error()
     # In Co-Simulation the derivative variables are the right-hand side at each communication
     # point: der(x) is v.
     assert h.do_step(0.0, 1e-2) == OK
@@ -215,3 +228,27 @@ def test_failed_derivative_evaluation_is_an_error(me):
     assert me.call("SetTime", c_double(0.05)) == OK
     assert me.array("GetDerivatives")[0] == ERROR
     assert "fail_at" in me.last_error()
+
+
+def test_directional_derivatives_are_the_jacobian(me):
+    """d(der(x), der(v))/d(x, v) = [[0, 1], [-k/m, -c/m]] (closed form), along any direction;
+    outputs and inputs by the layer's central differences: d(energy)/dx = k x, d(der(v))/dF =
+    1/m."""
+    assert me.md.modelExchange.providesDirectionalDerivative
+    assert not me.md.coSimulation.providesDirectionalDerivative
+    me.start()
+    assert me.set_states([0.004, -0.3]) == OK
+    s, dz = me.directional(["der(x)", "der(v)"], ["x", "v"], [2.0, -1.0])
+    assert s == OK and dz == [-1.0, -K / M * 2.0 + C / M]
+    s, (de, dv) = me.directional(["energy", "der(v)"], ["x", "force"], [1.0, 0.0])
+    assert s == OK and abs(de - K * 0.004) < 1e-9 and dv == -K / M
+    s, (dvf,) = me.directional(["der(v)"], ["force"], [1.0])
+    assert s == OK and abs(dvf - 1.0 / M) < 1e-9
+    # wrong roles are refused, naming the variable
+    assert me.directional(["force"], ["v"], [1.0])[0] == ERROR and "'force'" in me.last_error()
+    assert me.directional(["x"], ["energy"], [1.0])[0] == ERROR and "'energy'" in me.last_error()
+    # an output that is a state: dx/dv = 0, dx/dx = 1
+    s, (dx,) = me.directional(["x"], ["v", "x"], [1.0, 0.5])
+    assert s == OK and abs(dx - 0.5) < 1e-9
+    assert me.directional(["der(x)"], ["mass"], [1.0])[0] == ERROR
+    assert "'mass'" in me.last_error()

@@ -14,7 +14,7 @@ use std::path::Path;
 pub enum AnyFmu {
     /// FMI 2.0 Co-Simulation.
     Fmi2(Box<Fmu>),
-    /// FMI 3.0 Co-Simulation with the view of its scalar variables.
+    /// FMI 3.0 (Co-Simulation or Model Exchange) with the view of its scalar variables.
     Fmi3 {
         /// The FMU.
         fmu: Box<Fmu3>,
@@ -31,14 +31,7 @@ impl AnyFmu {
                 Fmu::open_with(path, opts).map_err(CliError::input)?,
             )),
             FmiVersion::Fmi3 => {
-                if opts.interface == Some(host::Interface::ModelExchange) {
-                    return Err(CliError::input(format!(
-                        "{}: FMI 3.0 Model Exchange is not supported yet (--interface cs runs \
-                         its Co-Simulation interface)",
-                        path.display()
-                    )));
-                }
-                let fmu = Fmu3::open(path).map_err(CliError::input)?;
+                let fmu = Fmu3::open_with(path, opts.interface).map_err(CliError::input)?;
                 let view = Box::new(fmi2_view(fmu.model_description()));
                 AnyFmu::Fmi3 {
                     fmu: Box::new(fmu),

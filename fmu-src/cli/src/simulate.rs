@@ -77,13 +77,6 @@ pub(crate) fn auto_interval(span: f64) -> f64 {
 /// Runs `simulate`.
 pub fn run(a: Args) -> CliResult {
     if host::fmi_version_of(&a.fmu).map_err(CliError::input)? == host::FmiVersion::Fmi3 {
-        if a.interface == Some(crate::common::InterfaceArg::Me) {
-            return Err(CliError::input(format!(
-                "{}: FMI 3.0 Model Exchange is not supported yet (--interface cs runs its \
-                 Co-Simulation interface)",
-                a.fmu.display()
-            )));
-        }
         return crate::simulate3::run(a);
     }
     let mut inputs = vec![a.fmu.as_path()];

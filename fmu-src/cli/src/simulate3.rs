@@ -12,7 +12,8 @@ pub fn run(a: Args) -> CliResult {
     let mut inputs = vec![a.fmu.as_path()];
     inputs.extend(a.data.as_deref());
     refuse_overwriting(&a.out, &inputs)?;
-    let fmu = Fmu3::open(&a.fmu).map_err(CliError::input)?;
+    let interface = crate::common::InterfaceArg::host(a.interface);
+    let fmu = Fmu3::open_with(&a.fmu, interface).map_err(CliError::input)?;
     let md = fmu.model_description();
     let start_values = parse_sets3(md, &a.set)?;
     let de = md.default_experiment.clone().unwrap_or_default();
@@ -61,6 +62,7 @@ pub fn run(a: Args) -> CliResult {
         start_values,
         tolerance: a.tolerance,
         inputs,
+        record_events: true,
         ..Request3::new(start, stop, step)
     };
     let res = simulate3(&fmu, &req).map_err(|e| run_error(&a.fmu.display().to_string(), e))?;
@@ -68,9 +70,13 @@ pub fn run(a: Args) -> CliResult {
         .map_err(|e| CliError::input(format!("{}: cannot write: {e}", a.out.display())))?;
     if let Some(t) = res.ended_by_fmu {
         eprintln!(
-            "{}: the FMU ended the simulation at t = {t} (fmi3DoStep returned \
-             terminateSimulation); {} rows up to that time written to {}",
+            "{}: the FMU ended the simulation at t = {t} ({} returned terminateSimulation); {} \
+             rows up to that time written to {}",
             a.fmu.display(),
+            match fmu.interface() {
+                host::Interface::CoSimulation => "fmi3DoStep",
+                host::Interface::ModelExchange => "the Model Exchange FMU",
+            },
             res.time.len(),
             a.out.display()
         );

@@ -877,6 +877,31 @@ pub unsafe fn get_nominals_of_continuous_states<M: Model>(
     })
 }
 
+/// `fmi2GetDirectionalDerivative`: Model Exchange of a model with an analytic Jacobian only.
+pub unsafe fn get_directional_derivative<M: Model>(
+    c: Fmi2Component,
+    unknowns: *const Fmi2ValueReference,
+    n_unknown: usize,
+    knowns: *const Fmi2ValueReference,
+    n_known: usize,
+    dv_known: *const Fmi2Real,
+    dv_unknown: *mut Fmi2Real,
+) -> Fmi2Status {
+    const F: &str = "fmi2GetDirectionalDerivative";
+    with_component::<M>(c, F, |comp| {
+        let arrays = (
+            slice(unknowns, n_unknown),
+            slice(knowns, n_known),
+            slice(dv_known, n_known),
+            slice_mut(dv_unknown, n_unknown),
+        );
+        let (Some(u), Some(k), Some(dv), Some(dz)) = arrays else {
+            return comp.instance.error(F, "an array argument is NULL");
+        };
+        comp.instance.get_directional_derivative(u, k, dv, dz)
+    })
+}
+
 /// Export every FMI 2.0 function (Model Exchange and Co-Simulation) for model type `$model` from this `cdylib`.
 #[macro_export]
 macro_rules! export_model {
@@ -1069,17 +1094,15 @@ macro_rules! export_model {
             #[no_mangle]
             pub unsafe extern "C" fn fmi2GetDirectionalDerivative(
                 c: Fmi2Component,
-                _u: *const Fmi2ValueReference,
-                _nu: usize,
-                _z: *const Fmi2ValueReference,
-                _nz: usize,
-                _dv: *const Fmi2Real,
-                _dz: *mut Fmi2Real,
+                unknowns: *const Fmi2ValueReference,
+                n_unknown: usize,
+                knowns: *const Fmi2ValueReference,
+                n_known: usize,
+                dv_known: *const Fmi2Real,
+                dv_unknown: *mut Fmi2Real,
             ) -> Fmi2Status {
-                unsupported::<M>(
-                    c,
-                    "fmi2GetDirectionalDerivative",
-                    "not provided (providesDirectionalDerivative=\"false\")",
+                get_directional_derivative::<M>(
+                    c, unknowns, n_unknown, knowns, n_known, dv_known, dv_unknown,
                 )
             }
             #[no_mangle]

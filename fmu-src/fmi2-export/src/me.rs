@@ -42,6 +42,13 @@ pub trait ModelExchange: Model {
         &[]
     }
 
+    /// Per state, in the order of `x`: the states and inputs (positions in the table) its
+    /// derivative depends on, under any parameter setting; the model description lists them as
+    /// the `dependencies` of `<Derivatives>`. `None` (default): every state and input.
+    fn derivative_dependencies() -> Option<&'static [&'static [usize]]> {
+        None
+    }
+
     /// The continuous state vector `x` (length `STATES`) from the model's state.
     fn states(&self, x: &mut [f64]);
 
@@ -77,13 +84,28 @@ pub trait ModelExchange: Model {
         Ok(false)
     }
 
+    /// Whether [`ModelExchange::state_jacobian`] is implemented: the FMU then declares
+    /// `providesDirectionalDerivative="true"` for Model Exchange.
+    const PROVIDES_JACOBIAN: bool = false;
+
+    /// The Jacobian of the derivatives with respect to the states at the current states, inputs
+    /// from `vars`: `jac[i * STATES + j] = d(dx_i)/d(x_j)` (row-major, `STATES x STATES`).
+    /// Called only when [`ModelExchange::PROVIDES_JACOBIAN`]; must not change anything.
+    fn state_jacobian(&self, vars: &[f64], t: f64, jac: &mut [f64]) -> Result<(), ModelError> {
+        let _ = (vars, t, jac);
+        Err(ModelError::parameters(
+            &[],
+            "this model provides no Jacobian",
+        ))
+    }
+
     /// Event indicators `z` (length `EVENT_INDICATORS`): a sign change is a state event.
     fn event_indicators(&self, vars: &[f64], t: f64, z: &mut [f64]) {
         let _ = (vars, t, z);
     }
 }
 
-/// [`ModelExchange::derivatives`] as a function pointer.
+/// [`ModelExchange::derivatives`] (and [`ModelExchange::state_jacobian`]) as a function pointer.
 pub type DerivativesFn<M> = fn(&M, &[f64], f64, &mut [f64]) -> Result<(), ModelError>;
 
 /// The [`ModelExchange`] functions of a model as plain function pointers, so that the generic
@@ -99,6 +121,8 @@ pub struct MeVTable<M> {
     pub state_variables: &'static [(usize, usize)],
     /// [`ModelExchange::output_feedthrough`].
     pub output_feedthrough: &'static [(usize, &'static [usize])],
+    /// [`ModelExchange::derivative_dependencies`].
+    pub derivative_dependencies: Option<&'static [&'static [usize]]>,
     pub get_states: fn(&M, &mut [f64]),
     pub set_states: fn(&mut M, &[f64]),
     pub nominals: fn(&M, &mut [f64]),
@@ -107,6 +131,9 @@ pub struct MeVTable<M> {
     pub next_time_event: fn(&M) -> Option<f64>,
     pub event_update: fn(&mut M, &mut [f64], f64) -> Result<bool, ModelError>,
     pub indicators: fn(&M, &[f64], f64, &mut [f64]),
+    /// [`ModelExchange::PROVIDES_JACOBIAN`].
+    pub provides_jacobian: bool,
+    pub state_jacobian: DerivativesFn<M>,
 }
 
 impl<M> Clone for MeVTable<M> {
@@ -125,6 +152,7 @@ impl<M: ModelExchange> MeVTable<M> {
             event_indicators: M::EVENT_INDICATORS,
             state_variables: M::state_variables(),
             output_feedthrough: M::output_feedthrough(),
+            derivative_dependencies: M::derivative_dependencies(),
             get_states: M::states,
             set_states: M::set_states,
             nominals: M::nominals,
@@ -133,6 +161,8 @@ impl<M: ModelExchange> MeVTable<M> {
             next_time_event: M::next_time_event,
             event_update: M::event_update,
             indicators: M::event_indicators,
+            provides_jacobian: M::PROVIDES_JACOBIAN,
+            state_jacobian: M::state_jacobian,
         }
     }
 }
@@ -169,6 +199,24 @@ impl<M> MeVTable<M> {
                     problems.push(format!(
                         "derivative of '{}' must be the local 'der({})', not '{}'",
                         s.name, s.name, d.name
+                    ));
+                }
+            }
+        }
+        if let Some(deps) = self.derivative_dependencies {
+            if deps.len() != self.states {
+                problems.push(format!(
+                    "derivative dependencies for {} states, the model has {}",
+                    deps.len(),
+                    self.states
+                ));
+            }
+            for &i in deps.iter().flat_map(|d| d.iter()) {
+                let is_state = self.state_variables.iter().any(|&(x, _)| x == i);
+                let is_input = vars.get(i).map(|v| v.causality) == Some(Causality::Input);
+                if !(is_state || is_input) {
+                    problems.push(format!(
+                        "derivative dependency: position {i} is neither a state nor an input"
                     ));
                 }
             }

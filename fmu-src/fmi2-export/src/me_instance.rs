@@ -282,3 +282,195 @@ impl<M: Model> Instance<M> {
         Status::Ok
     }
 }
+
+/// What a variable of a directional derivative is, by its position in the state vector.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Role {
+    /// The state `x_k` (a known) or the derivative `dx_k` (an unknown).
+    State(usize),
+    /// An input (a known) or an output (an unknown): a position in the table.
+    Variable(usize),
+}
+
+/// Relative step of the central differences of [`Instance::get_directional_derivative`] for
+/// what the analytic Jacobian does not cover: about the cube root of the machine epsilon, where
+/// truncation and rounding errors of a central difference balance.
+const CENTRAL_STEP: f64 = 6e-6;
+
+impl<M: Model> Instance<M> {
+    /// Positions of `vrs` with their roles: unknowns are derivatives or outputs, knowns states
+    /// or inputs (FMI 2.0.4 section 3.2.1, fmi2GetDirectionalDerivative in Model Exchange).
+    fn roles(
+        &mut self,
+        func: &str,
+        me: &MeVTable<M>,
+        vrs: &[u32],
+        known: bool,
+    ) -> Result<Vec<Role>, Status> {
+        let table = M::variables();
+        let mut roles = Vec::with_capacity(vrs.len());
+        for &vr in vrs {
+            let Some(i) = crate::variables::index_of(table, vr) else {
+                return Err(self.error(func, format!("unknown value reference {vr}")));
+            };
+            let k = me
+                .state_variables
+                .iter()
+                .position(|&(x, d)| if known { x == i } else { d == i });
+            let causality = if known {
+                crate::Causality::Input
+            } else {
+                crate::Causality::Output
+            };
+            match k {
+                Some(k) => roles.push(Role::State(k)),
+                None if table[i].causality == causality => roles.push(Role::Variable(i)),
+                None => {
+                    let what = if known {
+                        "a state or an input"
+                    } else {
+                        "a derivative or an output"
+                    };
+                    let name = table[i].name;
+                    return Err(self.error(
+                        func,
+                        format!("'{name}' (value reference {vr}) is not {what}"),
+                    ));
+                }
+            }
+        }
+        Ok(roles)
+    }
+
+    /// The unknowns' values at the current time with the known `j` moved by `delta`.
+    fn unknowns_at(
+        &self,
+        me: &MeVTable<M>,
+        unknowns: &[Role],
+        known: Role,
+        delta: f64,
+    ) -> Result<Vec<f64>, crate::ModelError> {
+        let mut model = self.model.clone();
+        let mut vars = self.vars.clone();
+        match known {
+            Role::State(k) => {
+                let mut x = vec![0.0; me.states];
+                (me.get_states)(&model, &mut x);
+                x[k] += delta;
+                (me.set_states)(&mut model, &x);
+            }
+            Role::Variable(i) => vars[i] += delta,
+        }
+        let mut dx = vec![0.0; me.states];
+        (me.derivatives)(&model, &vars, self.time, &mut dx)?;
+        (me.outputs)(&model, &mut vars, self.time);
+        Ok(unknowns
+            .iter()
+            .map(|u| match *u {
+                Role::State(k) => dx[k],
+                Role::Variable(i) => vars[i],
+            })
+            .collect())
+    }
+
+    /// The current value of a known and its step for a central difference.
+    fn central_step(&self, me: &MeVTable<M>, known: Role) -> f64 {
+        let (value, scale) = match known {
+            Role::State(k) => {
+                let mut x = vec![0.0; me.states];
+                let mut n = vec![1.0; me.states];
+                (me.get_states)(&self.model, &mut x);
+                (me.nominals)(&self.model, &mut n);
+                (x[k], n[k])
+            }
+            Role::Variable(i) => (self.vars[i], 1.0),
+        };
+        CENTRAL_STEP * value.abs().max(scale)
+    }
+
+    /// `fmi2GetDirectionalDerivative` (Model Exchange): `dz = J dv` for the unknowns
+    /// (derivatives, outputs) with respect to the knowns (states, inputs) at the current time,
+    /// states and inputs. Derivatives with respect to states come from the model's analytic
+    /// Jacobian; every other entry is a central difference of the model's equations (step
+    /// [`CENTRAL_STEP`] times the known's magnitude or nominal). Nothing changes.
+    pub fn get_directional_derivative(
+        &mut self,
+        unknowns: &[u32],
+        knowns: &[u32],
+        dv: &[f64],
+        dz: &mut [f64],
+    ) -> Status {
+        const F: &str = "fmi2GetDirectionalDerivative";
+        if self.interface == Interface::CoSimulation {
+            return self.error(
+                F,
+                "not provided in Co-Simulation (providesDirectionalDerivative=\"false\")",
+            );
+        }
+        let me = match self.me_table(F, allowed::DIRECTIONAL_DERIVATIVE) {
+            Ok(me) => me,
+            Err(s) => return s,
+        };
+        if !me.provides_jacobian {
+            return self.error(F, "not provided (providesDirectionalDerivative=\"false\")");
+        }
+        if let Some(v) = dv.iter().find(|v| !v.is_finite()) {
+            return self.error(F, format!("dvKnown holds {v}, not a finite number"));
+        }
+        let (u_roles, k_roles) = match (
+            self.roles(F, &me, unknowns, false),
+            self.roles(F, &me, knowns, true),
+        ) {
+            (Ok(u), Ok(k)) => (u, k),
+            (Err(s), _) | (_, Err(s)) => return s,
+        };
+        self.refresh_me_outputs();
+        let n = me.states;
+        let mut jac = Vec::new();
+        if k_roles.iter().any(|k| matches!(k, Role::State(_)))
+            && u_roles.iter().any(|u| matches!(u, Role::State(_)))
+        {
+            jac = vec![0.0; n * n];
+            if let Err(e) = (me.state_jacobian)(&self.model, &self.vars, self.time, &mut jac) {
+                return self.error(F, format!("at t = {}: {e}", self.time));
+            }
+        }
+        let mut out = vec![0.0; u_roles.len()];
+        for (&known, &v) in k_roles.iter().zip(dv) {
+            if v == 0.0 {
+                continue;
+            }
+            let analytic = |u: &Role| match (*u, known) {
+                (Role::State(i), Role::State(j)) => Some(jac[i * n + j]),
+                _ => None,
+            };
+            let column: Vec<f64> = if u_roles.iter().all(|u| analytic(u).is_some()) {
+                u_roles.iter().filter_map(analytic).collect()
+            } else {
+                let h = self.central_step(&me, known);
+                let difference = self
+                    .unknowns_at(&me, &u_roles, known, h)
+                    .and_then(|hi| Ok((hi, self.unknowns_at(&me, &u_roles, known, -h)?)));
+                match difference {
+                    Ok((hi, lo)) => u_roles
+                        .iter()
+                        .zip(hi.iter().zip(&lo))
+                        .map(|(u, (a, b))| analytic(u).unwrap_or((a - b) / (2.0 * h)))
+                        .collect(),
+                    Err(e) => return self.error(F, format!("at t = {}: {e}", self.time)),
+                }
+            };
+            for (o, c) in out.iter_mut().zip(column) {
+                *o += c * v;
+            }
+        }
+        if let Some(i) = out.iter().position(|v| !v.is_finite()) {
+            return self.error(
+                F,
+                format!("the derivative of unknown {} is not finite", unknowns[i]),
+            );
+        }
+        dz.copy_from_slice(&out);
+        Status::Ok
+    }
+}

@@ -280,7 +280,12 @@ pub struct InCall {
 impl std::fmt::Display for InCall {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         if self.fmi3 {
-            write!(f, "{}", self.call.name().replacen("fmi2", "fmi3", 1))?;
+            // FMI 3.0 renamed two of the Model Exchange functions.
+            match self.call {
+                Call::GetDerivatives => write!(f, "fmi3GetContinuousStateDerivatives")?,
+                Call::NewDiscreteStates => write!(f, "fmi3UpdateDiscreteStates")?,
+                call => write!(f, "{}", call.name().replacen("fmi2", "fmi3", 1))?,
+            }
         } else {
             write!(f, "{}", self.call.name())?;
         }
@@ -345,6 +350,37 @@ impl Monitor {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn model_exchange_calls_are_named_as_each_version_names_them() {
+        let at = |call, fmi3| {
+            InCall {
+                slot: 0,
+                seq: 0,
+                call,
+                time: Some(0.5),
+                fmi3,
+            }
+            .to_string()
+        };
+        assert_eq!(
+            at(Call::GetDerivatives, false),
+            "fmi2GetDerivatives at t = 0.5 s"
+        );
+        assert_eq!(
+            at(Call::GetDerivatives, true),
+            "fmi3GetContinuousStateDerivatives at t = 0.5 s"
+        );
+        assert_eq!(
+            at(Call::NewDiscreteStates, true),
+            "fmi3UpdateDiscreteStates at t = 0.5 s"
+        );
+        assert_eq!(at(Call::SetTime, true), "fmi3SetTime at t = 0.5 s");
+        for w in 1..=25 {
+            let call = Call::from_word(w).expect("every call has a word");
+            assert_eq!(Call::from_word(call as u64 | IN_CALL | FMI3), Some(call));
+        }
+    }
 
     #[test]
     fn a_call_in_progress_is_seen_with_its_time_and_cleared_on_return() {

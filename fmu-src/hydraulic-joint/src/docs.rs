@@ -310,10 +310,25 @@ with the set point <code>theta_ref</code> there, and its valve commands (<code>u
 <code>u_valve_right</code>) are held until the next sample. A set point changed between samples
 acts at the next one. Open loop the valve commands are the inputs <code>u_left</code>,
 <code>u_right</code> (saturated) and act at once, so <code>u_valve_*</code> and <code>Q_*</code>
-list them in their dependencies; every output lists every state. The right-hand side is smooth
+list them in their dependencies; every output lists every state. <code>&lt;Derivatives&gt;</code>
+lists what each derivative depends on under any setting: <code>der(theta)</code> on omega;
+<code>der(omega)</code> on theta, omega, both piston positions (cable tensions; omega for the
+capstan) and <code>tau_ext</code>; a piston's <code>der(v)</code> on theta, its position, speed,
+pressures and remembered speed; its pressures' derivatives on its position, speed, pressures,
+spool and valve input; the oil integrals on the four pressures, both spools and both valve
+inputs; a spool's rate on its position, rate and valve input; a remembered speed on the piston
+speed and itself (<code>tests/test_model_exchange_hydraulic_joint.py</code> moves every other
+state and input and finds the derivative unchanged to the bit). The right-hand side is smooth
 by the regularisations above (no discontinuity remains), so the model has no event indicators.
 Step inputs should be given to the importer as events (FMPy: the jump's time repeated), or its
 solver integrates across the jump with the old value.</p>
+<p>Directional derivatives (<code>providesDirectionalDerivative</code>, Model Exchange): the
+derivatives with respect to the states come from the analytic Jacobian of the Solver section,
+mapped to the 18 states (the oil integrals are quadratures: their columns are 0); entries with an
+output as unknown or an input as known are central differences of the same equations (step 6e-6
+of the variable's magnitude or nominal). Tested against central differences of
+<code>fmi2GetDerivatives</code> at rest, moving, and in the end stop with a slack cable, every
+effect on: within 1e-6 of each row's scale.</p>
 <p>Agreement (<code>tests/test_model_exchange_hydraulic_joint.py</code>): FMPy's CVode on the Model
 Exchange interface and this FMU's own solver in Co-Simulation, both at the default tolerance
 1e-6, agree within 2e-4 of each output's range on the catching reach (with and without every

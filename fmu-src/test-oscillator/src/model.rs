@@ -152,6 +152,18 @@ impl ModelExchange for Oscillator {
         Ok(())
     }
 
+    const PROVIDES_JACOBIAN: bool = true;
+
+    /// `d(x, v)'/d(x, v) = [[0, 1], [-k/m, -c/m]]` (0 when locked).
+    fn state_jacobian(&self, _vars: &[f64], _t: f64, jac: &mut [f64]) -> Result<(), ModelError> {
+        if self.locked {
+            jac.fill(0.0);
+        } else {
+            jac.copy_from_slice(&[0.0, 1.0, -self.k / self.m, -self.c / self.m]);
+        }
+        Ok(())
+    }
+
     fn me_outputs(&self, vars: &mut [f64], t: f64) {
         self.outputs(vars);
         let mut dx = [0.0; 2];

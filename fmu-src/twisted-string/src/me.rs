@@ -249,6 +249,18 @@ impl ModelExchange for TwistedString {
         Ok(changed)
     }
 
+    const PROVIDES_JACOBIAN: bool = true;
+
+    /// The plant's analytic Jacobian through the state maps ([`jacobian`]).
+    fn state_jacobian(&self, vars: &[f64], _t: f64, jac: &mut [f64]) -> Result<(), ModelError> {
+        let x = pack(&self.y, self.w_external);
+        let j = jacobian(&self.par, self.make_inputs(vars), &x);
+        for (out, row) in jac.chunks_exact_mut(STATES).zip(&j) {
+            out.copy_from_slice(row);
+        }
+        Ok(())
+    }
+
     fn event_indicators(&self, _vars: &[f64], _t: f64, z: &mut [f64]) {
         z[0] = twist_indicator(&self.par, &self.y);
     }

@@ -57,6 +57,17 @@ pub type InstantiateCoSimulation = unsafe extern "C" fn(
     Option<IntermediateUpdate3>,
 ) -> I;
 
+/// `fmi3InstantiateModelExchangeTYPE`
+pub type InstantiateModelExchange = unsafe extern "C" fn(
+    *const c_char,
+    *const c_char,
+    *const c_char,
+    Bool3,
+    Bool3,
+    *mut c_void,
+    Option<LogMessage3>,
+) -> I;
+
 /// `fmi3DoStepTYPE`
 pub type DoStep = unsafe extern "C" fn(
     I,
@@ -118,6 +129,9 @@ pub struct Functions3 {
     pub set_fmu_state: Option<unsafe extern "C" fn(I, FmuState3) -> RawStatus3>,
     pub free_fmu_state: Option<unsafe extern "C" fn(I, *mut FmuState3) -> RawStatus3>,
     pub do_step: Option<DoStep>,
+    pub instantiate_model_exchange: Option<InstantiateModelExchange>,
+    /// The Model Exchange functions, when the binary exports all of them.
+    pub me: Option<crate::me::fmi3::MeFunctions3>,
 }
 
 /// Names of the functions every FMI 3.0 binary must export whatever its interfaces (FMI 3.0.2
@@ -173,7 +187,7 @@ pub const FMI3_COMMON_FUNCTIONS: [&str; 44] = [
 ///
 /// # Safety
 /// `T` must be the correct function pointer type for the symbol.
-unsafe fn sym<T: Copy>(lib: &Library, name: &str) -> Option<T> {
+pub(crate) unsafe fn sym<T: Copy>(lib: &Library, name: &str) -> Option<T> {
     let mut n = name.as_bytes().to_vec();
     n.push(0);
     lib.get::<T>(&n).ok().map(|s| *s)
@@ -231,6 +245,8 @@ pub unsafe fn resolve(lib: &Library) -> Result<Functions3, crate::ffi::LoadError
         set_fmu_state: sym(lib, "fmi3SetFMUState"),
         free_fmu_state: sym(lib, "fmi3FreeFMUState"),
         do_step: sym(lib, "fmi3DoStep"),
+        instantiate_model_exchange: sym(lib, "fmi3InstantiateModelExchange"),
+        me: crate::me::fmi3::resolve(lib),
     })
 }
 

@@ -7,6 +7,7 @@ use super::value::{Type3, Values};
 use crate::error::{HostError, LogRecord, Result, Status};
 use crate::ffi::LogSink;
 use crate::fmu::{binary_under, check_c_identifier, Unpacked};
+use crate::kind::Interface;
 use crate::watch::{self, Call};
 use libloading::Library;
 use std::ffi::{c_char, c_void, CStr, CString};
@@ -36,6 +37,8 @@ const IDENTIFIER_CLAUSE: &str =
 /// An opened FMI 3.0 FMU: extracted tree, parsed description, loaded Co-Simulation binary.
 pub struct Fmu3 {
     pub(crate) functions: Functions3,
+    /// The interface its instances are made for.
+    interface: Interface,
     live_instances: AtomicUsize,
     model_description: ModelDescription3,
     // Field order matters: the library is unloaded before the extracted files are removed.
@@ -48,6 +51,12 @@ impl Fmu3 {
     /// description, refuses what the host does not run (no `<CoSimulation>`, clocks), loads
     /// `binaries/<platform tuple>/<modelIdentifier>.so` and resolves the functions.
     pub fn open(path: impl AsRef<Path>) -> Result<Fmu3> {
+        Fmu3::open_with(path, Some(Interface::CoSimulation))
+    }
+
+    /// [`Fmu3::open`] for `interface` (None: Co-Simulation where the FMU offers it, else Model
+    /// Exchange): for Model Exchange the `<ModelExchange>` element's binary and functions.
+    pub fn open_with(path: impl AsRef<Path>, interface: Option<Interface>) -> Result<Fmu3> {
         let unpacked = Unpacked::open(path)?;
         let md = ModelDescription3::parse(&unpacked.xml, &unpacked.description_file())?;
         let fmu = unpacked.path.clone();
@@ -57,13 +66,21 @@ impl Fmu3 {
                 message: reason,
             });
         }
-        let cs = md
-            .co_simulation
-            .as_ref()
-            .ok_or_else(|| HostError::Unsupported {
-                path: fmu.clone(),
-                message: "the FMU has no <CoSimulation> element".into(),
-            })?;
+        let interface = interface.unwrap_or(
+            if md.co_simulation.is_none() && md.model_exchange.is_some() {
+                Interface::ModelExchange
+            } else {
+                Interface::CoSimulation
+            },
+        );
+        let (element, name) = match interface {
+            Interface::CoSimulation => (&md.co_simulation, "CoSimulation"),
+            Interface::ModelExchange => (&md.model_exchange, "ModelExchange"),
+        };
+        let cs = element.as_ref().ok_or_else(|| HostError::Unsupported {
+            path: fmu.clone(),
+            message: format!("the FMU has no <{name}> element"),
+        })?;
         check_c_identifier(&cs.model_identifier, &fmu, IDENTIFIER_CLAUSE)?;
         let bin = binary_under(&unpacked.dir, &fmu, PLATFORM_TUPLE, &cs.model_identifier)?;
         let rel = format!(
@@ -84,20 +101,37 @@ impl Fmu3 {
         let library = unsafe { crate::ffi::load_library(&bin) }.map_err(|e| bad(e.to_string()))?;
         // SAFETY: the symbols are FMI 3.0 functions with the standard signatures.
         let functions = unsafe { ffi::resolve(&library) }.map_err(|e| bad(e.to_string()))?;
-        if functions.instantiate_co_simulation.is_none() || functions.do_step.is_none() {
+        let cs_missing =
+            functions.instantiate_co_simulation.is_none() || functions.do_step.is_none();
+        if interface == Interface::CoSimulation && cs_missing {
             return Err(bad(
                 "does not export fmi3InstantiateCoSimulation and fmi3DoStep, which its \
                  <CoSimulation> element requires"
                     .into(),
             ));
         }
+        if interface == Interface::ModelExchange
+            && (functions.instantiate_model_exchange.is_none() || functions.me.is_none())
+        {
+            return Err(bad(
+                "does not export fmi3InstantiateModelExchange and the Model Exchange functions \
+                 its <ModelExchange> element requires"
+                    .into(),
+            ));
+        }
         Ok(Fmu3 {
             functions,
+            interface,
             live_instances: AtomicUsize::new(0),
             model_description: md,
             _library: library,
             unpacked,
         })
+    }
+
+    /// The interface its instances are made for.
+    pub fn interface(&self) -> Interface {
+        self.interface
     }
 
     /// The parsed description.
@@ -123,9 +157,11 @@ impl Fmu3 {
     /// Instantiates for Co-Simulation (`eventModeUsed` and `earlyReturnAllowed` false, no
     /// intermediate variables, logging off).
     pub fn instantiate(&self, name: &str) -> Result<Instance3<'_>> {
-        let once = self
-            .model_description
-            .co_simulation
+        let element = match self.interface {
+            Interface::CoSimulation => &self.model_description.co_simulation,
+            Interface::ModelExchange => &self.model_description.model_exchange,
+        };
+        let once = element
             .as_ref()
             .is_some_and(|c| c.flag("canBeInstantiatedOnlyOncePerProcess"));
         let before = self.live_instances.fetch_add(1, Ordering::SeqCst);
@@ -153,6 +189,25 @@ impl Fmu3 {
             sink: LogSink::default(),
             name: name.to_string(),
         });
+        if self.interface == Interface::ModelExchange {
+            let Some(f) = self.functions.instantiate_model_exchange else {
+                return Err(missing("fmi3InstantiateModelExchange"));
+            };
+            let _watch = watch::enter3(Call::Instantiate, None);
+            // SAFETY: as below: valid strings and the boxed environment owned by the instance.
+            let instance = unsafe {
+                f(
+                    cname.as_ptr(),
+                    token.as_ptr(),
+                    resources.as_ptr(),
+                    0,
+                    0,
+                    &*env as *const Env3 as *mut c_void,
+                    Some(ffi::log_message),
+                )
+            };
+            return self.instantiated(instance, env, cname, "fmi3InstantiateModelExchange");
+        }
         let Some(f) = self.functions.instantiate_co_simulation else {
             return Err(missing("fmi3InstantiateCoSimulation"));
         };
@@ -175,14 +230,22 @@ impl Fmu3 {
                 None,
             )
         };
+        self.instantiated(instance, env, cname, "fmi3InstantiateCoSimulation")
+    }
+
+    /// The instance `fmi3Instantiate*` returned, or its error when it returned NULL.
+    fn instantiated(
+        &self,
+        instance: ffi::Instance3,
+        env: Box<Env3>,
+        cname: CString,
+        function: &'static str,
+    ) -> Result<Instance3<'_>> {
         if instance.is_null() {
             let messages =
                 std::mem::take(&mut *env.sink.records.lock().unwrap_or_else(|e| e.into_inner()))
                     .into();
-            return Err(HostError::InstantiateNull {
-                function: "fmi3InstantiateCoSimulation",
-                messages,
-            });
+            return Err(HostError::InstantiateNull { function, messages });
         }
         Ok(Instance3 {
             fmu: self,
@@ -202,18 +265,15 @@ pub fn unsupported(md: &ModelDescription3) -> Option<String> {
         .map(|v| v.name.as_str())
         .take(3)
         .collect();
-    if md.co_simulation.is_none() {
-        let offers: Vec<&str> = [
-            (md.model_exchange.is_some(), "Model Exchange"),
-            (md.scheduled_execution.is_some(), "Scheduled Execution"),
-        ]
-        .iter()
-        .filter(|(on, _)| *on)
-        .map(|(_, n)| *n)
-        .collect();
+    if md.co_simulation.is_none() && md.model_exchange.is_none() {
+        let offers: Vec<&str> = [(md.scheduled_execution.is_some(), "Scheduled Execution")]
+            .iter()
+            .filter(|(on, _)| *on)
+            .map(|(_, n)| *n)
+            .collect();
         return Some(format!(
-            "FMI 3.0 {} is not supported by this command (FMI 3.0 Co-Simulation is): the FMU \
-             offers no <CoSimulation>",
+            "FMI 3.0 {} is not supported by this command (FMI 3.0 Co-Simulation and Model \
+             Exchange are): the FMU offers neither <CoSimulation> nor <ModelExchange>",
             if offers.is_empty() {
                 "without an interface".to_string()
             } else {
@@ -247,8 +307,8 @@ pub struct StepOutcome {
 /// A live FMI 3.0 Co-Simulation instance. Not `Sync`; `Send` so it can move to a worker
 /// thread.
 pub struct Instance3<'a> {
-    fmu: &'a Fmu3,
-    instance: ffi::Instance3,
+    pub(crate) fmu: &'a Fmu3,
+    pub(crate) instance: ffi::Instance3,
     // Boxed so its address stays fixed while the FMU holds it.
     env: Box<Env3>,
     _name: CString,
@@ -278,7 +338,7 @@ impl<'a> Instance3<'a> {
         .into()
     }
 
-    fn check(&mut self, function: &'static str, raw: RawStatus3) -> Result<Status> {
+    pub(crate) fn check(&mut self, function: &'static str, raw: RawStatus3) -> Result<Status> {
         let status = Status::from_raw(raw);
         if status.is_success() {
             Ok(status)

@@ -10,9 +10,9 @@
 //! - [`fmi2_view`]: the scalar variables in the FMI 2.0 shape, for code that only names them.
 
 pub mod ffi;
-mod instance;
+pub(crate) mod instance;
 pub mod md;
-mod simulate;
+pub(crate) mod simulate;
 pub mod value;
 mod view;
 

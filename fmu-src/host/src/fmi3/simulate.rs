@@ -20,6 +20,7 @@ use super::instance::{Fmu3, Instance3};
 use super::md::{Causality3, ModelDescription3, Variable3};
 use super::value::{Type3, Values};
 use crate::error::{HostError, Result};
+use crate::kind::Interface;
 use crate::simulate::{communication_points, hold_index, interpolate, SimulationResult};
 use fmi2_types::Variability;
 
@@ -50,6 +51,9 @@ pub struct Request3 {
     pub inputs: Inputs3,
     /// Variables to record; empty means every output.
     pub outputs: Vec<String>,
+    /// Model Exchange: also record before and after each event (see
+    /// [`crate::SimulationRequest::record_events`]).
+    pub record_events: bool,
 }
 
 impl Request3 {
@@ -63,6 +67,7 @@ impl Request3 {
             start_values: Vec::new(),
             inputs: Inputs3::default(),
             outputs: Vec::new(),
+            record_events: false,
         }
     }
 }
@@ -144,6 +149,18 @@ fn run_on(inst: &mut Instance3<'_>, req: &Request3) -> Result<SimulationResult> 
     inputs.apply(inst, req.start_time)?;
     inst.enter_initialization_mode(req.tolerance, req.start_time, Some(req.stop_time))?;
     inst.exit_initialization_mode()?;
+    if inst.fmu().interface() == Interface::ModelExchange {
+        let (time, ended_by_fmu) = crate::me::fmi3::run(inst, req, &mut inputs, &mut rec)?;
+        let _ = inst.terminate();
+        let (names, columns, text) = rec.finish();
+        return Ok(SimulationResult {
+            time,
+            names,
+            columns,
+            text,
+            ended_by_fmu,
+        });
+    }
 
     let mut time = Vec::with_capacity(times.len());
     rec.record(inst)?;
@@ -228,6 +245,7 @@ impl StartValues3 {
                 )));
             }
             let x = Values::parse(v.ty, text)
+                .and_then(|x| check_magnitude(&x).map(|_| x))
                 .map_err(|e| HostError::Request(format!("'{name}': {e}")))?;
             check_range(v, &x)?;
             let to = if v.causality == Causality3::StructuralParameter {
@@ -280,6 +298,27 @@ impl StartValues3 {
     }
 }
 
+/// Largest magnitude of a Float input or start value: as for FMI 2.0 data, beyond it squares
+/// overflow in the workflows that compare outputs.
+const MAX_MAGNITUDE: f64 = 1e100;
+
+/// Refuses NaN, infinities and Float values beyond [`MAX_MAGNITUDE`].
+fn check_magnitude(x: &Values) -> Result<(), String> {
+    if !matches!(x, Values::Float32(_) | Values::Float64(_)) {
+        return Ok(());
+    }
+    for i in 0..x.len() {
+        let n = x.number(i).unwrap_or(0.0);
+        if !n.is_finite() || n.abs() > MAX_MAGNITUDE {
+            return Err(format!(
+                "{} is not a finite number within +-{MAX_MAGNITUDE:e}",
+                x.text(i)
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// Refuses a numeric value outside the variable's declared min/max.
 fn check_range(v: &Variable3, x: &Values) -> Result<()> {
     for i in 0..x.len() {
@@ -312,7 +351,7 @@ enum Samples {
 }
 
 /// The inputs of a run, each set with one call per communication point.
-struct InputPlan3<'r> {
+pub(crate) struct InputPlan3<'r> {
     time: &'r [f64],
     inputs: Vec<(u32, Samples)>,
     interp_cursor: usize,
@@ -377,12 +416,28 @@ impl<'r> InputPlan3<'r> {
 
     /// Sets every input to its value at `t`.
     fn apply(&mut self, inst: &mut Instance3<'_>, t: f64) -> Result<()> {
+        self.apply_some(inst, t, true, true)
+    }
+
+    /// Sets the continuous (interpolated) inputs (`continuous`) and the held ones (`discrete`)
+    /// to their values at `t`: Model Exchange sets the discrete inputs in Event Mode only.
+    pub(crate) fn apply_some(
+        &mut self,
+        inst: &mut Instance3<'_>,
+        t: f64,
+        continuous: bool,
+        discrete: bool,
+    ) -> Result<()> {
         if self.time.is_empty() {
             return Ok(());
         }
         let row = hold_index(self.time, t, &mut self.hold_cursor);
         let mut next = self.interp_cursor;
         for (vr, samples) in &self.inputs {
+            let interpolated = matches!(samples, Samples::Interpolated { .. });
+            if !(interpolated && continuous || !interpolated && discrete) {
+                continue;
+            }
             let values = match samples {
                 Samples::Interpolated { ty, elements } => {
                     let x: Vec<f64> = elements
@@ -406,6 +461,31 @@ impl<'r> InputPlan3<'r> {
     }
 }
 
+impl InputPlan3<'_> {
+    /// The first input event after `t` (not within 1e-9 relative of it; infinite: none): a
+    /// repeated row time, or a row at which a held input changes (FMPy's `Input.findEvents`).
+    pub(crate) fn next_event(&self, t: f64) -> f64 {
+        let close = |e: f64| (e - t).abs() <= 1e-9 * e.abs().max(t.abs());
+        let after = |e: f64| e > t && !close(e);
+        let mut first = f64::INFINITY;
+        for k in 1..self.time.len() {
+            let e = self.time[k];
+            if e >= first || !after(e) {
+                continue;
+            }
+            let changed = self.time[k - 1] == e
+                || self.inputs.iter().any(|(_, s)| match s {
+                    Samples::Held(rows) => rows[k] != rows[k - 1],
+                    Samples::Interpolated { .. } => false,
+                });
+            if changed {
+                first = e;
+            }
+        }
+        first
+    }
+}
+
 fn names_of(md: &ModelDescription3, c: Causality3) -> String {
     let n: Vec<&str> = md.with_causality(c).map(|v| v.name.as_str()).collect();
     if n.is_empty() {
@@ -425,7 +505,8 @@ fn input_rows(
     used: &mut [bool],
 ) -> Result<Option<Vec<Values>>> {
     let parse = |text: &str, what: &str, row: usize| {
-        Values::parse(v.ty, text)
+        let x = Values::parse(v.ty, text);
+        x.and_then(|x| check_magnitude(&x).map(|_| x))
             .map_err(|e| HostError::Request(format!("input '{what}', row {}: {e}", row + 1)))
     };
     if let Some(j) = series.columns.iter().position(|(c, _)| *c == v.name) {
@@ -533,7 +614,7 @@ struct Group {
 }
 
 /// Outputs read after each step, one get call per type.
-struct Recorder3 {
+pub(crate) struct Recorder3 {
     names: Vec<String>,
     /// One get call per type.
     groups: Vec<Group>,
@@ -602,7 +683,12 @@ impl Recorder3 {
         Ok(rec)
     }
 
-    fn record(&mut self, inst: &mut Instance3<'_>) -> Result<()> {
+    /// Values recorded per row.
+    pub(crate) fn width(&self) -> usize {
+        self.width
+    }
+
+    pub(crate) fn record(&mut self, inst: &mut Instance3<'_>) -> Result<()> {
         for g in &self.groups {
             let total = g.counts.iter().sum();
             let values = inst.get(g.ty, &g.vrs, total)?;

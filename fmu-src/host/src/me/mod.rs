@@ -26,6 +26,7 @@
 //!   every event at the same time, as FMPy's `simulate_fmu(record_events=True)` does.
 
 pub mod fmi2;
+pub mod fmi3;
 
 use crate::error::{HostError, Result};
 use crate::watch::{self, Call};

@@ -1,0 +1,393 @@
+//! The FMI 3.0 binding of the Model Exchange loop: the `fmi3*` Model Exchange calls (FMI 3.0.2
+//! section 3) on an [`Instance3`] made with `fmi3InstantiateModelExchange`, and the loop run
+//! after initialization with the inputs and recorder of [`crate::fmi3`]'s runs.
+
+use crate::error::{HostError, Result, Status};
+use crate::fmi3::ffi::{sym, Bool3, RawStatus3};
+use crate::fmi3::instance::Instance3;
+use crate::fmi3::simulate::{InputPlan3, Recorder3, Request3};
+use crate::me::{self, Ending, Environment, EventInfo, ModelExchange, Settings, StepOutcome};
+use crate::simulate::MAX_RECORDED_VALUES;
+use crate::watch::{self, Call};
+use libloading::Library;
+use std::ffi::c_void;
+
+type I = *mut c_void;
+
+/// The FMI 3.0 Model Exchange functions (FMI 3.0.2 section 3.2).
+#[derive(Clone, Copy)]
+#[allow(missing_docs)]
+pub struct MeFunctions3 {
+    pub enter_event_mode: unsafe extern "C" fn(I) -> RawStatus3,
+    pub update_discrete_states: unsafe extern "C" fn(
+        I,
+        *mut Bool3,
+        *mut Bool3,
+        *mut Bool3,
+        *mut Bool3,
+        *mut Bool3,
+        *mut f64,
+    ) -> RawStatus3,
+    pub enter_continuous_time_mode: unsafe extern "C" fn(I) -> RawStatus3,
+    pub completed_integrator_step:
+        unsafe extern "C" fn(I, Bool3, *mut Bool3, *mut Bool3) -> RawStatus3,
+    pub set_time: unsafe extern "C" fn(I, f64) -> RawStatus3,
+    pub set_continuous_states: unsafe extern "C" fn(I, *const f64, usize) -> RawStatus3,
+    pub get_continuous_state_derivatives: unsafe extern "C" fn(I, *mut f64, usize) -> RawStatus3,
+    pub get_event_indicators: unsafe extern "C" fn(I, *mut f64, usize) -> RawStatus3,
+    pub get_continuous_states: unsafe extern "C" fn(I, *mut f64, usize) -> RawStatus3,
+    pub get_nominals_of_continuous_states: unsafe extern "C" fn(I, *mut f64, usize) -> RawStatus3,
+    pub get_number_of_event_indicators: unsafe extern "C" fn(I, *mut usize) -> RawStatus3,
+    pub get_number_of_continuous_states: unsafe extern "C" fn(I, *mut usize) -> RawStatus3,
+    #[allow(clippy::type_complexity)]
+    pub get_directional_derivative: Option<
+        unsafe extern "C" fn(
+            I,
+            *const u32,
+            usize,
+            *const u32,
+            usize,
+            *const f64,
+            usize,
+            *mut f64,
+            usize,
+        ) -> RawStatus3,
+    >,
+}
+
+/// The Model Exchange table, when every required function of it is exported.
+///
+/// # Safety
+/// `lib` must be an FMI 3.0 binary whose exports have the standard signatures.
+pub(crate) unsafe fn resolve(lib: &Library) -> Option<MeFunctions3> {
+    Some(MeFunctions3 {
+        enter_event_mode: sym(lib, "fmi3EnterEventMode")?,
+        update_discrete_states: sym(lib, "fmi3UpdateDiscreteStates")?,
+        enter_continuous_time_mode: sym(lib, "fmi3EnterContinuousTimeMode")?,
+        completed_integrator_step: sym(lib, "fmi3CompletedIntegratorStep")?,
+        set_time: sym(lib, "fmi3SetTime")?,
+        set_continuous_states: sym(lib, "fmi3SetContinuousStates")?,
+        get_continuous_state_derivatives: sym(lib, "fmi3GetContinuousStateDerivatives")?,
+        get_event_indicators: sym(lib, "fmi3GetEventIndicators")?,
+        get_continuous_states: sym(lib, "fmi3GetContinuousStates")?,
+        get_nominals_of_continuous_states: sym(lib, "fmi3GetNominalsOfContinuousStates")?,
+        get_number_of_event_indicators: sym(lib, "fmi3GetNumberOfEventIndicators")?,
+        get_number_of_continuous_states: sym(lib, "fmi3GetNumberOfContinuousStates")?,
+        get_directional_derivative: sym(lib, "fmi3GetDirectionalDerivative"),
+    })
+}
+
+/// An FMI 3.0 Model Exchange instance with its state and derivative value references.
+pub struct Fmi3Me<'i, 'a> {
+    inst: &'i mut Instance3<'a>,
+    f: MeFunctions3,
+    states: usize,
+    indicators: usize,
+    needs_step: bool,
+    /// (state, derivative) value references when every state is a scalar and the FMU provides
+    /// directional derivatives (FMI 3.0.2 section 2.4.8: `<ContinuousStateDerivative>` in the
+    /// order of the state vector, each naming its state with `derivative`).
+    directional: Option<(Vec<u32>, Vec<u32>)>,
+    time: f64,
+}
+
+impl<'i, 'a> Fmi3Me<'i, 'a> {
+    /// Binds `inst`, which must have been instantiated as Model Exchange.
+    pub fn new(inst: &'i mut Instance3<'a>) -> Result<Self> {
+        let f = inst.fmu.functions.me.ok_or_else(|| {
+            HostError::Request("the FMU binary does not export the Model Exchange functions".into())
+        })?;
+        let mut me = Fmi3Me {
+            f,
+            states: 0,
+            indicators: 0,
+            needs_step: false,
+            directional: None,
+            time: 0.0,
+            inst,
+        };
+        me.states = me.count(
+            f.get_number_of_continuous_states,
+            "fmi3GetNumberOfContinuousStates",
+        )?;
+        me.indicators = me.count(
+            f.get_number_of_event_indicators,
+            "fmi3GetNumberOfEventIndicators",
+        )?;
+        let md = me.inst.fmu.model_description();
+        let element = md.model_exchange.as_ref();
+        me.needs_step = element.is_some_and(|e| e.flag("needsCompletedIntegratorStep"));
+        let provides = element.is_some_and(|e| e.flag("providesDirectionalDerivatives"))
+            && f.get_directional_derivative.is_some();
+        let mut states = Vec::new();
+        let mut derivatives = Vec::new();
+        for u in &md.model_structure.continuous_state_derivatives {
+            let scalar = |vr: u32| md.by_vr(vr).is_some_and(|v| !v.is_array());
+            match md.by_vr(u.value_reference).and_then(|d| d.derivative) {
+                Some(s) if scalar(s) && scalar(u.value_reference) => {
+                    states.push(s);
+                    derivatives.push(u.value_reference);
+                }
+                _ => break,
+            }
+        }
+        if provides && states.len() == me.states {
+            me.directional = Some((states, derivatives));
+        }
+        Ok(me)
+    }
+
+    fn count(
+        &mut self,
+        f: unsafe extern "C" fn(I, *mut usize) -> RawStatus3,
+        name: &'static str,
+    ) -> Result<usize> {
+        let mut n = 0usize;
+        let _w = watch::enter3(Call::Other, None);
+        // SAFETY: live instance, valid out pointer.
+        let raw = unsafe { f(self.inst.instance, &mut n) };
+        self.inst.check(name, raw)?;
+        Ok(n)
+    }
+
+    fn call(&mut self, name: &'static str, raw: RawStatus3) -> Result<()> {
+        self.inst.check(name, raw).map(drop)
+    }
+}
+
+impl ModelExchange for Fmi3Me<'_, '_> {
+    fn states(&self) -> usize {
+        self.states
+    }
+
+    fn indicators(&self) -> usize {
+        self.indicators
+    }
+
+    fn set_time(&mut self, t: f64) -> Result<()> {
+        self.time = t;
+        let _w = watch::enter3(Call::SetTime, Some(t));
+        // SAFETY: live Model Exchange instance.
+        let raw = unsafe { (self.f.set_time)(self.inst.instance, t) };
+        self.call("fmi3SetTime", raw)
+    }
+
+    fn set_states(&mut self, x: &[f64]) -> Result<()> {
+        let _w = watch::enter3(Call::SetContinuousStates, Some(self.time));
+        // SAFETY: x has x.len() elements.
+        let raw =
+            unsafe { (self.f.set_continuous_states)(self.inst.instance, x.as_ptr(), x.len()) };
+        self.call("fmi3SetContinuousStates", raw)
+    }
+
+    fn get_states(&mut self, x: &mut [f64]) -> Result<()> {
+        let _w = watch::enter3(Call::GetContinuousStates, Some(self.time));
+        // SAFETY: x has x.len() elements.
+        let raw =
+            unsafe { (self.f.get_continuous_states)(self.inst.instance, x.as_mut_ptr(), x.len()) };
+        self.call("fmi3GetContinuousStates", raw)
+    }
+
+    fn get_derivatives(&mut self, dx: &mut [f64]) -> Result<bool> {
+        let _w = watch::enter3(Call::GetDerivatives, Some(self.time));
+        // SAFETY: dx has dx.len() elements.
+        let raw = unsafe {
+            (self.f.get_continuous_state_derivatives)(self.inst.instance, dx.as_mut_ptr(), dx.len())
+        };
+        match self.inst.check("fmi3GetContinuousStateDerivatives", raw) {
+            Ok(_) => Ok(true),
+            // FMI 3.0.2 section 3.2.1: fmi3Discard asks the integrator for a smaller step.
+            Err(e) if e.status() == Some(Status::Discard) => Ok(false),
+            Err(e) => Err(e),
+        }
+    }
+
+    fn get_event_indicators(&mut self, z: &mut [f64]) -> Result<()> {
+        let _w = watch::enter3(Call::GetEventIndicators, Some(self.time));
+        // SAFETY: z has z.len() elements.
+        let raw =
+            unsafe { (self.f.get_event_indicators)(self.inst.instance, z.as_mut_ptr(), z.len()) };
+        self.call("fmi3GetEventIndicators", raw)
+    }
+
+    fn get_nominals(&mut self, x: &mut [f64]) -> Result<()> {
+        let _w = watch::enter3(Call::GetNominals, Some(self.time));
+        // SAFETY: x has x.len() elements.
+        let raw = unsafe {
+            (self.f.get_nominals_of_continuous_states)(self.inst.instance, x.as_mut_ptr(), x.len())
+        };
+        self.call("fmi3GetNominalsOfContinuousStates", raw)
+    }
+
+    fn enter_event_mode(&mut self) -> Result<()> {
+        let _w = watch::enter3(Call::EnterEventMode, Some(self.time));
+        // SAFETY: live Model Exchange instance.
+        let raw = unsafe { (self.f.enter_event_mode)(self.inst.instance) };
+        self.call("fmi3EnterEventMode", raw)
+    }
+
+    fn new_discrete_states(&mut self) -> Result<EventInfo> {
+        let (mut needed, mut terminate, mut nominals, mut values, mut defined) =
+            (0 as Bool3, 0 as Bool3, 0 as Bool3, 0 as Bool3, 0 as Bool3);
+        let mut next = 0.0;
+        let _w = watch::enter3(Call::NewDiscreteStates, Some(self.time));
+        // SAFETY: every out pointer is a valid local.
+        let raw = unsafe {
+            (self.f.update_discrete_states)(
+                self.inst.instance,
+                &mut needed,
+                &mut terminate,
+                &mut nominals,
+                &mut values,
+                &mut defined,
+                &mut next,
+            )
+        };
+        self.call("fmi3UpdateDiscreteStates", raw)?;
+        Ok(EventInfo {
+            new_discrete_states_needed: needed != 0,
+            terminate_simulation: terminate != 0,
+            nominals_changed: nominals != 0,
+            values_changed: values != 0,
+            next_event_time: (defined != 0).then_some(next),
+        })
+    }
+
+    fn enter_continuous_time_mode(&mut self) -> Result<()> {
+        let _w = watch::enter3(Call::EnterContinuousTimeMode, Some(self.time));
+        // SAFETY: live Model Exchange instance.
+        let raw = unsafe { (self.f.enter_continuous_time_mode)(self.inst.instance) };
+        self.call("fmi3EnterContinuousTimeMode", raw)
+    }
+
+    fn completed_integrator_step(&mut self) -> Result<StepOutcome> {
+        let (mut enter, mut terminate) = (0 as Bool3, 0 as Bool3);
+        let _w = watch::enter3(Call::CompletedIntegratorStep, Some(self.time));
+        // SAFETY: valid out pointers; the host never sets an earlier state.
+        let raw = unsafe {
+            (self.f.completed_integrator_step)(self.inst.instance, 1, &mut enter, &mut terminate)
+        };
+        self.call("fmi3CompletedIntegratorStep", raw)?;
+        Ok(StepOutcome {
+            enter_event_mode: enter != 0,
+            terminate_simulation: terminate != 0,
+        })
+    }
+
+    fn needs_completed_integrator_step(&self) -> bool {
+        self.needs_step
+    }
+
+    fn provides_directional_derivative(&self) -> bool {
+        self.directional.is_some()
+    }
+
+    fn state_derivative_column(&mut self, j: usize, out: &mut [f64]) -> Result<()> {
+        let (Some(f), Some((states, derivatives))) =
+            (self.f.get_directional_derivative, self.directional.as_ref())
+        else {
+            return Err(HostError::Request(
+                "the FMU provides no directional derivatives".into(),
+            ));
+        };
+        if out.len() != derivatives.len() {
+            return Err(HostError::Request(
+                "Jacobian column of the wrong length".into(),
+            ));
+        }
+        let known = [states[j]];
+        let seed = [1.0];
+        let _w = watch::enter3(Call::DirectionalDerivative, Some(self.time));
+        // SAFETY: unknowns/sensitivity have out.len() elements, knowns/seed one.
+        let raw = unsafe {
+            f(
+                self.inst.instance,
+                derivatives.as_ptr(),
+                derivatives.len(),
+                known.as_ptr(),
+                1,
+                seed.as_ptr(),
+                1,
+                out.as_mut_ptr(),
+                out.len(),
+            )
+        };
+        self.call("fmi3GetDirectionalDerivative", raw)
+    }
+}
+
+/// Inputs and recording of an FMI 3.0 run.
+struct Fmi3Environment<'p, 'r> {
+    inputs: &'p mut InputPlan3<'r>,
+    recorder: &'p mut Recorder3,
+    time: Vec<f64>,
+}
+
+impl Environment<Fmi3Me<'_, '_>> for Fmi3Environment<'_, '_> {
+    fn apply_continuous_inputs(&mut self, fmu: &mut Fmi3Me<'_, '_>, t: f64) -> Result<()> {
+        self.inputs.apply_some(fmu.inst, t, true, false)
+    }
+
+    fn apply_discrete_inputs(&mut self, fmu: &mut Fmi3Me<'_, '_>, t: f64) -> Result<()> {
+        self.inputs.apply_some(fmu.inst, t, false, true)
+    }
+
+    fn next_input_event(&self, t: f64) -> f64 {
+        self.inputs.next_event(t)
+    }
+
+    fn record(&mut self, fmu: &mut Fmi3Me<'_, '_>, t: f64) -> Result<()> {
+        if self.time.len() >= MAX_RECORDED_VALUES / self.recorder.width().max(1) {
+            return Err(HostError::Request(format!(
+                "Model Exchange: more than {} rows recorded (events at a rate the output \
+                 cannot hold)",
+                self.time.len()
+            )));
+        }
+        self.recorder.record(fmu.inst)?;
+        self.time.push(t);
+        Ok(())
+    }
+}
+
+/// Runs [`me::run`] on `inst` (initialized, in Event Mode): the recorded times and, when the
+/// FMU ended the run, its time.
+pub(crate) fn run(
+    inst: &mut Instance3<'_>,
+    req: &Request3,
+    inputs: &mut InputPlan3<'_>,
+    recorder: &mut Recorder3,
+) -> Result<(Vec<f64>, Option<f64>)> {
+    let md = inst.fmu.model_description();
+    let rtol = req
+        .tolerance
+        .or(md.default_experiment.as_ref().and_then(|d| d.tolerance))
+        .unwrap_or(1e-5);
+    if !(rtol > 0.0 && rtol.is_finite()) {
+        return Err(HostError::Request(format!(
+            "Model Exchange: the tolerance must be > 0, got {rtol}"
+        )));
+    }
+    let settings = Settings {
+        start: req.start_time,
+        stop: req.stop_time,
+        interval: req.step,
+        rtol,
+        record_events: req.record_events,
+    };
+    let mut env = Fmi3Environment {
+        inputs,
+        recorder,
+        time: Vec::new(),
+    };
+    let mut fmu = Fmi3Me::new(inst)?;
+    fmu.time = req.start_time;
+    let ending = me::run(&mut fmu, &mut env, &settings)?;
+    Ok((
+        env.time,
+        match ending {
+            Ending::Stop => None,
+            Ending::Terminated(t) => Some(t),
+        },
+    ))
+}
