@@ -23,8 +23,7 @@ ensure_venv() {
 }
 
 # What cross-building the shipped FMUs needs (see scripts/build): Rust targets, zig and
-# cargo-zigbuild (PyPI, pinned), the mingw-w64 linker and llvm's binary readers (Debian), and
-# target/darwin-sdk with the
+# cargo-zigbuild (PyPI, pinned), the mingw-w64 linker (Debian), and target/darwin-sdk with the
 # macOS libSystem stubs of the ziglang package in the architecture names lld reads.
 CROSS_TARGETS=(x86_64-unknown-linux-gnu aarch64-unknown-linux-gnu x86_64-pc-windows-gnu x86_64-apple-darwin aarch64-apple-darwin)
 DARWIN_SDK="$REPO/target/darwin-sdk"
@@ -41,12 +40,6 @@ ensure_cross() {
     if ! command -v x86_64-w64-mingw32-gcc >/dev/null; then
         log "apt-get install gcc-mingw-w64-x86-64"
         apt_install gcc-mingw-w64-x86-64
-    fi
-    # llvm-nm and llvm-readobj read the export tables of every platform's binary
-    # (tests/test_fmi3.py).
-    if ! command -v llvm-nm >/dev/null || ! command -v llvm-readobj >/dev/null; then
-        log "apt-get install llvm"
-        apt_install llvm
     fi
     if [[ ! -f "$DARWIN_SDK/usr/lib/libSystem.tbd" ]]; then
         local zig
