@@ -76,6 +76,14 @@ ensure_llvm_tools() {
     command -v llvm-nm >/dev/null && command -v llvm-objdump >/dev/null || { log "apt-get install llvm"; apt_install llvm; }
 }
 
+# qemu-user and Debian's aarch64 glibc, for the test that runs the aarch64-linux FMI 3.0 binary.
+ensure_qemu() {
+    command -v qemu-aarch64 >/dev/null && [[ -f /usr/aarch64-linux-gnu/lib/ld-linux-aarch64.so.1 ]] || {
+        log "apt-get install qemu-user libc6-arm64-cross"
+        apt_install qemu-user libc6-arm64-cross
+    }
+}
+
 # apt-get install, as root or through sudo.
 apt_install() {
     local sudo=()
