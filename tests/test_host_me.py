@@ -296,3 +296,13 @@ def test_our_oscillator_agrees_between_its_interfaces(tmp_path):
     for name in cs.dtype.names[1:]:
         span = max(np.ptp(cs[name]), 1e-12)
         assert np.abs(me[name] - cs[name]).max() <= 1e-8 * span, name
+
+
+def test_an_error_status_from_a_model_exchange_call_ends_the_run_naming_the_call(tmp_path):
+    fmu = crashing_me_copy(tmp_path, "-DME_ERROR")
+    out = tmp_path / "o.csv"
+    r = run("simulate", fmu, "--interface", "me", "--stop", 1, "--step", 0.1, "--out", out)
+    assert r.returncode == 1, (r.returncode, r.stderr)
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "fmi2GetDerivatives returned fmi2Error" in lines[0], r.stderr
+    assert not out.exists()
