@@ -1,5 +1,6 @@
 """Smoke runs of the long evaluations that are not part of CI in full: `scripts/gap-eval` (the
-rates at which `gap` names the right effect over many datasets) and the gap part of
+rates at which `gap` names the right effect over many datasets), `scripts/gap-robustness` (its
+answer under perturbations far below the noise) and the gap part of
 `scripts/bench` (`scripts/bench_gap.py`, `gap` against a Python workflow doing the same steps).
 Each runs on the smallest case and is checked for the lines a reader of its output relies on."""
 import os
@@ -25,6 +26,32 @@ def test_gap_eval_runs_and_summarises(tmp_path):
     assert re.search(r"hidden effect named first [01]/1", line), line
     assert re.search(r"wall mean [0-9.]+ s", line), line
     assert (tmp_path / "eval" / "results.jsonl").read_text().count("\n") == 1
+
+
+def test_gap_robustness_runs_and_prints_its_table(tmp_path):
+    fmu_path("HydraulicJoint")
+    cli_path()
+    p = subprocess.run(
+        [str(REPO / "scripts" / "gap-robustness"), "--n", "1", "--models", "HydraulicJoint",
+         "--duration", "1", "--rate", "100", "--seed0", "990000", "--jobs", "3",
+         "--gap-args", "--rounds 1", "--out", str(tmp_path / "rob")],
+        capture_output=True, text=True, timeout=600, cwd=REPO,
+        env={**os.environ, "GAP_EVAL_BIN": cli_path()})
+    assert p.returncode == 0, p.stderr[-2000:]
+    lines = p.stdout.splitlines()
+    head = next(i for i, l in enumerate(lines) if l.startswith("record "))
+    assert lines[head].split()[-3:] == ["holds", "pert", "tol"], lines[head]
+    rec = lines[head + 1]
+    assert rec.startswith("HydraulicJoint single1 0 s990000"), rec
+    assert re.search(r"pert (same|DIFFERS), tol (same|DIFFERS)", rec), rec
+    # one row per fitted parameter: name, value, half-width, truth, holds, two moves
+    rows = [l.split() for l in lines[head + 2:] if l.startswith(" ")]
+    assert rows and all(len(r) == 7 for r in rows), rows
+    summary = next(l for l in lines if l.startswith("gap-robustness: "))
+    assert "1 records (0 with a failed run)" in summary, summary
+    assert re.search(r"same named effects: pert [01]/1, tol [01]/1", summary), summary
+    assert re.search(r"holding the truth \d+/\d+", summary), summary
+    assert (tmp_path / "rob" / "results.jsonl").read_text().count("\n") == 1
 
 
 def test_gap_bench_prints_its_ratio(tmp_path):
