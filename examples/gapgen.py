@@ -261,21 +261,24 @@ def make(model, seed, hidden=(), noise=0.01, ar=0.0, duration=10.0, rate=1000.0,
 EVAL_CONDITIONS = ["single1", "single5", "clean", "ar", "mass", "two"]
 
 
-def eval_record(model, cond, i, seed0=100000, duration=4.0, rate=250.0, input_family="reaches"):
+def eval_record(model, cond, i, seed0=100000, duration=4.0, rate=250.0, input_family="reaches",
+                ar=None):
     """Dataset `i` of condition `cond` of scripts/gap-eval (and scripts/gap-robustness): one
     hidden effect at 1 % or 5 % noise (single1, single5), none (clean), none with AR(1) noise of
     coefficient 0.9 (ar), none with the load mass 30 % off its default (mass), two effects (two).
-    Seeds are seed0 + 1000 x the condition's index + i (+ 500 for TwistedString).
+    Seeds are seed0 + 1000 x the condition's index + i (+ 500 for TwistedString). `ar`: the
+    AR(1) coefficient of the noise in every condition (None: white, and 0.9 for `ar`).
     Returns dict(ds, seed, hidden, noise, ar, kw): the dataset and how it was made."""
     eff = sorted(effects(model))
     seed = seed0 + 1000 * EVAL_CONDITIONS.index(cond) + i + (0 if model == "HydraulicJoint" else 500)
     kw = dict(duration=duration, rate=rate, input_family=input_family)
-    hidden, noise, ar = (), 0.01, 0.0
+    hidden, noise, ar_all = (), 0.01, ar
+    ar = ar_all or 0.0
     if cond in ("single1", "single5"):
         hidden = (eff[i % len(eff)],)
         noise = 0.01 if cond == "single1" else 0.05
     elif cond == "ar":
-        ar = 0.9
+        ar = 0.9 if ar_all is None else ar_all
     elif cond == "mass":
         v = variables(model)["load_mass"]
         kw.update(draw_base=False, base_overrides={"load_mass": v["start"] * (1.3 if i % 2 else 0.7)})

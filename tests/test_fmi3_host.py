@@ -8,7 +8,10 @@
 - An FMU that ends the run (Stair: terminateSimulation from fmi3DoStep) stops cleanly with its
   rows up to the last successful time; Scheduled Execution (Clocks) is refused naming it.
 - Hostile FMI 3.0 descriptions (a modelIdentifier that is a path, an oversized file) are refused
-  before anything is loaded.
+  before anything is loaded; a binary crashing or hanging in fmi3DoStep is reported with the
+  call and its time, as for FMI 2.0.
+- Every FMI 3.0 type (the AllTypes test FMU, tests/fixtures/all-types-fmi3) is set from the CSV
+  and recorded as FMPy records it.
 """
 import csv
 import shutil
@@ -193,7 +196,17 @@ void *fmi3InstantiateCoSimulation(void) { return &instance; }
 void fmi3FreeInstance(void *i) { (void)i; }
 int fmi3GetFloat64(void *i, const unsigned *vr, size_t nvr, double *v, size_t n) {
     for (size_t k = 0; k < n; k++) v[k] = 0.5; return 0; }
-int fmi3DoStep(void *i, double t, double h) { if (t >= 0.3) *(volatile int *)0 = 1; return 0; }
+int fmi3DoStep(void *i, double t, double h) {
+    volatile int spin = 1;
+    if (t >= 0.3) {
+#ifdef HANG
+        while (spin) {}
+#else
+        *(volatile int *)0 = spin;
+#endif
+    }
+    return 0;
+}
 '''
 
 CRASH_MD = '''<?xml version="1.0" encoding="UTF-8"?>
@@ -209,20 +222,33 @@ CRASH_MD = '''<?xml version="1.0" encoding="UTF-8"?>
 '''
 
 
-@linux_only
-def test_a_crash_in_fmi3_do_step_is_reported_with_the_call_and_time(tmp_path):
+def misbehaving_fmu(tmp_path, *defines):
+    """The FMU of CRASH_C/CRASH_MD, compiled with `defines`."""
     if shutil.which("gcc") is None:
-        pytest.fail("gcc is needed to build the crashing FMU")
+        pytest.fail("gcc is needed to build the misbehaving FMU")
     (tmp_path / "crash.c").write_text(CRASH_C)
     lib = tmp_path / "Crash.so"
-    subprocess.run(["gcc", "-shared", "-fPIC", "-o", lib, tmp_path / "crash.c"], check=True)
+    subprocess.run(["gcc", *defines, "-shared", "-fPIC", "-o", lib, tmp_path / "crash.c"], check=True)
     fmu = tmp_path / "Crash.fmu"
     with zipfile.ZipFile(fmu, "w") as z:
         z.writestr("modelDescription.xml", CRASH_MD)
         z.write(lib, "binaries/x86_64-linux/Crash.so")
-    r = run("simulate", fmu, "--out", tmp_path / "o.csv")
+    return fmu
+
+
+@linux_only
+def test_a_crash_in_fmi3_do_step_is_reported_with_the_call_and_time(tmp_path):
+    r = run("simulate", misbehaving_fmu(tmp_path), "--out", tmp_path / "o.csv")
     assert r.returncode == 2, r.stderr
     assert "crashed (SIGSEGV) in fmi3DoStep at t = 0.3" in r.stderr, r.stderr
+    assert not (tmp_path / "o.csv").exists()
+
+
+@linux_only
+def test_an_fmi3_do_step_that_never_returns_is_stopped_after_the_timeout(tmp_path):
+    r = run("simulate", misbehaving_fmu(tmp_path, "-DHANG"), "--timeout", 1, "--out", tmp_path / "o.csv")
+    assert r.returncode == 2, r.stderr
+    assert "did not return from fmi3DoStep at t = 0.3" in r.stderr, r.stderr
     assert not (tmp_path / "o.csv").exists()
 
 

@@ -296,3 +296,31 @@ def test_our_oscillator_agrees_between_its_interfaces(tmp_path):
     for name in cs.dtype.names[1:]:
         span = max(np.ptp(cs[name]), 1e-12)
         assert np.abs(me[name] - cs[name]).max() <= 1e-8 * span, name
+
+
+def test_an_error_status_from_a_model_exchange_call_ends_the_run_naming_the_call(tmp_path):
+    fmu = crashing_me_copy(tmp_path, "-DME_ERROR")
+    out = tmp_path / "o.csv"
+    r = run("simulate", fmu, "--interface", "me", "--stop", 1, "--step", 0.1, "--out", out)
+    assert r.returncode == 1, (r.returncode, r.stderr)
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "fmi2GetDerivatives returned fmi2Error" in lines[0], r.stderr
+    assert not out.exists()
+
+
+def test_gap_calibrates_an_fmi2_model_exchange_fmu(tmp_path):
+    """gap through --interface me (FMI 2.0): Dahlquist's k recovered from FMPy's CVode
+    trajectory (rtol 1e-10) with k = 1.5 (start 1)."""
+    import json
+    fmu = REF / "Dahlquist.fmu"
+    r = fmpy.simulate_fmu(str(fmu), fmi_type="ModelExchange", stop_time=3.0, output_interval=0.05,
+                          start_values={"k": 1.5}, relative_tolerance=1e-10)
+    with open(tmp_path / "d.csv", "w") as f:
+        f.write("time,x\n" + "".join(f"{t!r},{x!r}\n"
+                                     for t, x in zip(r["time"].tolist(), r["x"].tolist())))
+    p = run("gap", fmu, "--interface", "me", "--data", tmp_path / "d.csv", "--out",
+            tmp_path / "g", "--fit", "k", "--quiet")
+    assert p.returncode == 0, p.stderr
+    rep = json.loads((tmp_path / "g" / "report.json").read_text())
+    assert rep["named"] == []
+    assert abs(rep["parameters"]["k"]["value"] - 1.5) < 1e-4, rep["parameters"]["k"]

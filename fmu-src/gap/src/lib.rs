@@ -2,7 +2,7 @@
 //! effect convention) and a measurement disagree, name the missing effect, add it, and show the
 //! gap shrink.
 //!
-//! The method is written against the [`Simulator`] trait so it can be tested on synthetic models
+//! The method is written against the [`GridModel`] trait so it can be tested on synthetic models
 //! (`synthetic.rs`); [`fmu::FmuSimulator`] adapts an FMU opened by the `host` crate to it, and the
 //! CLI's `gap` subcommand wires CSV, FMU, workflow and report together.
 //!
@@ -80,7 +80,7 @@ pub mod spec;
 pub mod stats;
 pub mod workflow;
 
-pub use sim::Simulator;
+pub use sim::GridModel;
 pub use spec::{EffectSpec, ParamKind, ParamSpec};
 pub use workflow::{run, Config, Data, GapError, GapResult};
 
