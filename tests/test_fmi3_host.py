@@ -346,3 +346,26 @@ def test_values_outside_their_type_are_refused_with_their_row(all_types, tmp_pat
         (tmp_path / "in.csv").write_text(f"time,{column}\n0,{cell}\n1,{cell}\n")
         r = run("simulate", all_types, "--data", tmp_path / "in.csv", "--out", tmp_path / "o.csv")
         assert r.returncode == 2 and message in r.stderr and "row 1" in r.stderr, (column, r.stderr)
+
+
+@linux_only
+def test_a_structural_parameter_set_in_configuration_mode_resizes_its_arrays(all_types, tmp_path):
+    """AllTypes' n sizes Vector_input/Vector_output and may be set in Configuration Mode only:
+    `--set n=3` takes three elements, from --set or from the CSV (one column or per element)."""
+    r = run("simulate", all_types, "--set", "n=3", "--set", "Vector_input=1 2 3", "--stop", 0.2,
+            "--step", 0.1, "--out", tmp_path / "o.csv")
+    assert r.returncode == 0, r.stderr
+    header, rows = read_csv(tmp_path / "o.csv")
+    j = header.index("Vector_output")
+    assert [row[j] for row in rows] == ["1 2 3"] * 3, rows
+    (tmp_path / "in.csv").write_text("time,Vector_input[1],Vector_input[2],Vector_input[3]\n"
+                                     "0,1,2,3\n0.1,4,5,6\n0.2,7,8,9\n")
+    r = run("simulate", all_types, "--set", "n=3", "--data", tmp_path / "in.csv", "--out", tmp_path / "o.csv")
+    assert r.returncode == 0, r.stderr
+    header, rows = read_csv(tmp_path / "o.csv")
+    j = header.index("Vector_output")
+    # the output after a step is the input set before it
+    assert [row[j] for row in rows] == ["1 2 3", "1 2 3", "4 5 6"], rows
+    # at the default n = 2, three values are refused before the FMU is called
+    r = run("simulate", all_types, "--set", "Vector_input=1 2 3", "--out", tmp_path / "o.csv")
+    assert r.returncode == 2 and "'Vector_input' has 2 element(s), 3 value(s) given" in r.stderr, r.stderr
