@@ -54,6 +54,15 @@ def test_fmpy_validate_finds_no_problem(model):
     assert validate_fmu(fmu3_path(model)) == []
 
 
+@pytest.mark.parametrize("model", MODELS)
+def test_documentation_and_icon_come_along(model):
+    with zipfile.ZipFile(fmu3_path(model)) as z:
+        names = set(z.namelist())
+        html = z.read("documentation/index.html").decode()
+    assert "model.png" in names and any(n.startswith("documentation/licenses/") for n in names)
+    assert "FMI 3.0 Co-Simulation, instantiationToken" in html and "<table>" in html
+
+
 def exports(path: Path):
     """The functions a shared library exports: ELF dynamic symbols, Mach-O external symbols
     (without the leading underscore), PE export table."""
