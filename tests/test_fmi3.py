@@ -319,3 +319,21 @@ def test_aarch64_linux_library_under_qemu_agrees_with_x86_64(model, tmp_path):
     assert np.array_equal(x86, arm)
     for k, name in enumerate(WINE_RUNS[model][2], start=1):
         assert np.ptp(x86[:, k]) > 0, f"{name} does not move: the comparison would be empty"
+
+
+def test_terminate_and_reset_follow_the_state_machine(instance):
+    """FMI 3.0.2 section 4.2: after fmi3Terminate the values can still be read but no step is
+    taken; fmi3Reset returns to Instantiated with the start values, from which a new run gives
+    the first run's outputs again."""
+    fmu, vr = instance
+    first = steps(fmu, vr, 0.0, 20)
+    fmu.terminate()
+    assert fmu.getFloat64([vr["theta"]]) == [first[-1][0]]
+    with pytest.raises(FMICallException):
+        fmu.doStep(0.02, 1e-3)
+    fmu.reset()
+    with pytest.raises(FMICallException):  # Instantiated: no value to read yet
+        fmu.getFloat64([vr["theta"]])
+    fmu.enterInitializationMode(startTime=0.0)
+    fmu.exitInitializationMode()
+    assert np.array_equal(steps(fmu, vr, 0.0, 20), first)
