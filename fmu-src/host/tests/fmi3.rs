@@ -127,3 +127,35 @@ fn typed_calls_move_arrays_and_report_the_fmus_refusals() {
         "{e}"
     );
 }
+
+#[test]
+fn the_version_is_read_from_the_description_alone_and_others_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let md = dir.path().join("modelDescription.xml");
+    for (text, want) in [
+        (
+            "<fmiModelDescription fmiVersion=\"2.0\"/>",
+            Some(FmiVersion::Fmi2),
+        ),
+        (
+            "<fmiModelDescription fmiVersion='3.0-rc.1'/>",
+            Some(FmiVersion::Fmi3),
+        ),
+        ("<fmiModelDescription fmiVersion=\"1.0\"/>", None),
+        ("<fmiModelDescription/>", None),
+    ] {
+        std::fs::write(&md, text).unwrap();
+        match (fmi_version_of(dir.path()), want) {
+            (Ok(v), Some(w)) => assert_eq!(v, w, "{text}"),
+            (Err(e), None) => assert!(e.to_string().contains("is not supported"), "{e}"),
+            (got, _) => panic!("{text}: {:?}", got.map_err(|e| e.to_string())),
+        }
+    }
+    std::fs::remove_file(&md).unwrap();
+    let e = fmi_version_of(dir.path()).unwrap_err().to_string();
+    assert!(e.contains("no modelDescription.xml"), "{e}");
+    let not_zip = dir.path().join("x.fmu");
+    std::fs::write(&not_zip, b"not a zip").unwrap();
+    let e = fmi_version_of(&not_zip).unwrap_err().to_string();
+    assert!(e.contains("not a zip archive"), "{e}");
+}
