@@ -54,6 +54,15 @@ def test_fmpy_validate_finds_no_problem(model):
     assert validate_fmu(fmu3_path(model)) == []
 
 
+@pytest.mark.parametrize("model", MODELS)
+def test_documentation_and_icon_come_along(model):
+    with zipfile.ZipFile(fmu3_path(model)) as z:
+        names = set(z.namelist())
+        html = z.read("documentation/index.html").decode()
+    assert "model.png" in names and any(n.startswith("documentation/licenses/") for n in names)
+    assert "FMI 3.0 Co-Simulation, instantiationToken" in html and "<table>" in html
+
+
 def exports(path: Path):
     """The functions a shared library exports: ELF dynamic symbols, Mach-O external symbols
     (without the leading underscore), PE export table."""
@@ -310,3 +319,60 @@ def test_aarch64_linux_library_under_qemu_agrees_with_x86_64(model, tmp_path):
     assert np.array_equal(x86, arm)
     for k, name in enumerate(WINE_RUNS[model][2], start=1):
         assert np.ptp(x86[:, k]) > 0, f"{name} does not move: the comparison would be empty"
+
+
+def test_terminate_and_reset_follow_the_state_machine(instance):
+    """FMI 3.0.2 section 4.2: after fmi3Terminate the values can still be read but no step is
+    taken; fmi3Reset returns to Instantiated with the start values, from which a new run gives
+    the first run's outputs again."""
+    fmu, vr = instance
+    first = steps(fmu, vr, 0.0, 20)
+    fmu.terminate()
+    assert fmu.getFloat64([vr["theta"]]) == [first[-1][0]]
+    with pytest.raises(FMICallException):
+        fmu.doStep(0.02, 1e-3)
+    fmu.reset()
+    with pytest.raises(FMICallException):  # Instantiated: no value to read yet
+        fmu.getFloat64([vr["theta"]])
+    fmu.enterInitializationMode(startTime=0.0)
+    fmu.exitInitializationMode()
+    assert np.array_equal(steps(fmu, vr, 0.0, 20), first)
+
+
+def test_a_failed_step_is_an_error_from_which_a_state_or_reset_recovers():
+    """The test oscillator's step reaching `fail_at` fails on purpose: fmi3DoStep returns
+    fmi3Error, the outputs keep the last good point, and the instance is in the error state
+    (FMI 3.0.2 section 2.2.3: only fmi3SetFMUState, fmi3Reset or fmi3FreeInstance continue):
+    another step, a set or fmi3Terminate is refused; a state saved before restores it."""
+    path = fmu3_path("Oscillator")
+    md = fmpy.read_model_description(path)
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    fmu = FMU3Slave(guid=md.guid, unzipDirectory=fmpy.extract(path),
+                    modelIdentifier=md.coSimulation.modelIdentifier, instanceName="t")
+    messages = []
+    fmu.instantiate(logMessage=lambda env, status, cat, msg: messages.append(msg))
+    fmu.setFloat64([vr["fail_at"]], [0.05])
+    fmu.enterInitializationMode(startTime=0.0)
+    fmu.exitInitializationMode()
+    h, t = 0.01, 0.0
+    for _ in range(4):
+        fmu.doStep(t, h)
+        t += h
+    saved, x_good = fmu.getFMUState(), fmu.getFloat64([vr["x"]])
+    with pytest.raises(FMICallException) as e:
+        fmu.doStep(t, 2 * h)
+    assert e.value.status == ERROR and b"fmi3DoStep" in messages[-1]
+    assert fmu.getFloat64([vr["x"]]) == x_good  # the last good communication point
+    for call in (lambda: fmu.doStep(t, h), lambda: fmu.setFloat64([vr["force"]], [1.0]),
+                 lambda: fmu.terminate()):
+        with pytest.raises(FMICallException):
+            call()
+    fmu.setFMUState(saved)
+    fmu.setFloat64([vr["force"]], [0.0])  # Step Mode again
+    fmu.reset()
+    fmu.enterInitializationMode(startTime=0.0)
+    fmu.exitInitializationMode()
+    assert fmu.doStep(0.0, h)[3] == pytest.approx(h)
+    fmu.freeFMUState(saved)
+    fmu.terminate()
+    fmu.freeInstance()

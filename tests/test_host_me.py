@@ -306,3 +306,21 @@ def test_an_error_status_from_a_model_exchange_call_ends_the_run_naming_the_call
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and "fmi2GetDerivatives returned fmi2Error" in lines[0], r.stderr
     assert not out.exists()
+
+
+def test_gap_calibrates_an_fmi2_model_exchange_fmu(tmp_path):
+    """gap through --interface me (FMI 2.0): Dahlquist's k recovered from FMPy's CVode
+    trajectory (rtol 1e-10) with k = 1.5 (start 1)."""
+    import json
+    fmu = REF / "Dahlquist.fmu"
+    r = fmpy.simulate_fmu(str(fmu), fmi_type="ModelExchange", stop_time=3.0, output_interval=0.05,
+                          start_values={"k": 1.5}, relative_tolerance=1e-10)
+    with open(tmp_path / "d.csv", "w") as f:
+        f.write("time,x\n" + "".join(f"{t!r},{x!r}\n"
+                                     for t, x in zip(r["time"].tolist(), r["x"].tolist())))
+    p = run("gap", fmu, "--interface", "me", "--data", tmp_path / "d.csv", "--out",
+            tmp_path / "g", "--fit", "k", "--quiet")
+    assert p.returncode == 0, p.stderr
+    rep = json.loads((tmp_path / "g" / "report.json").read_text())
+    assert rep["named"] == []
+    assert abs(rep["parameters"]["k"]["value"] - 1.5) < 1e-4, rep["parameters"]["k"]
