@@ -113,7 +113,10 @@ fn validate_one(path: &Path, timeout: Duration, effects: bool) -> Result<Checked
     findings.extend(check_files(&ex));
     let (binary_findings, binaries) = check_platform_binaries(&ex);
     findings.extend(binary_findings);
-    let binary_present = ex.binary_path().map(|b| b.is_file()).unwrap_or(false);
+    let binary_present = ex
+        .binary_path_for(ex.default_interface())
+        .map(|b| b.is_file())
+        .unwrap_or(false);
     drop(ex);
     if binary_present {
         findings.extend(run_probe(path, timeout)?);
@@ -163,8 +166,9 @@ fn run_probe(path: &Path, timeout: Duration) -> Result<Vec<Finding>, CliError> {
             }
             ProbeOutcome::Crashed { step, finding } => {
                 findings.push(finding);
-                let is_case =
-                    host::validate::PROBE_CASES.contains(&step.as_str()) && step != "normal-run";
+                let is_case = (host::validate::PROBE_CASES.contains(&step.as_str())
+                    || host::validate::ME_PROBE_CASES.contains(&step.as_str()))
+                    && !step.ends_with("normal-run");
                 if !is_case || crashed.contains(&step) {
                     return Ok(findings);
                 }
