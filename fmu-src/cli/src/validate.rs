@@ -89,7 +89,7 @@ type Checked = (Vec<Finding>, Vec<PlatformBinary>);
 
 fn validate_one(path: &Path, timeout: Duration, effects: bool) -> Result<Checked, CliError> {
     if matches!(host::fmi_version_of(path), Ok(FmiVersion::Fmi3)) {
-        return validate_fmi3(path);
+        return validate_fmi3(path, effects);
     }
     let ex = match Extracted::open(path) {
         Ok(ex) => ex,
@@ -124,9 +124,9 @@ fn validate_one(path: &Path, timeout: Duration, effects: bool) -> Result<Checked
     Ok((findings, binaries))
 }
 
-/// The checks of an FMI 3.0 FMU: its model description and its binaries per platform tuple
-/// (read, not loaded).
-fn validate_fmi3(path: &Path) -> Result<Checked, CliError> {
+/// The checks of an FMI 3.0 FMU: its model description (and with `effects` the candidate-effect
+/// convention) and its binaries per platform tuple (read, not loaded).
+fn validate_fmi3(path: &Path, effects: bool) -> Result<Checked, CliError> {
     let unpacked = match Unpacked::open(path) {
         Ok(u) => u,
         Err(HostError::Io { path, source }) => {
@@ -139,6 +139,10 @@ fn validate_fmi3(path: &Path) -> Result<Checked, CliError> {
         Err(e) => return Ok((vec![description_error(path, e)], Vec::new())),
     };
     let mut findings = check_model_description3(&md);
+    if effects {
+        // gap and design read an FMI 3.0 FMU's scalar variables in the FMI 2.0 shape
+        findings.extend(check_effect_convention(&host::fmi3::fmi2_view(&md)));
+    }
     let (binary_findings, binaries) = check_platform_binaries3(&unpacked.dir, &md);
     findings.extend(binary_findings);
     Ok((findings, binaries))
