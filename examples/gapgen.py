@@ -258,24 +258,62 @@ def make(model, seed, hidden=(), noise=0.01, ar=0.0, duration=10.0, rate=1000.0,
                 clean={n: np.asarray(res[n], dtype=float) for n in MEASURED[model]})
 
 
-EVAL_CONDITIONS = ["single1", "single5", "clean", "ar", "mass", "two"]
+EVAL_CONDITIONS = ["single1", "single5", "clean", "ar", "mass", "two", "mismatch"]
+
+# Fixed (not calibrated) parameters the `mismatch` condition sets wrong in the "user's" model:
+# the record is made with the parameter 15 % off its default, which gap keeps.
+MISMATCH_FIXED = {"HydraulicJoint": ["load_radius", "pulley_radius"],
+                  "TwistedString": ["string_length", "torque_constant"]}
 
 
-def eval_record(model, cond, i, seed0=100000, duration=4.0, rate=250.0, input_family="reaches"):
+def first_order_lag(t, y, tau):
+    """Output of a first-order lag tau m' + m = y, exact for y linear between samples."""
+    m = np.empty_like(y)
+    m[0] = y[0]
+    for i in range(1, len(y)):
+        h = t[i] - t[i - 1]
+        a = math.exp(-h / tau)
+        slope = (y[i] - y[i - 1]) / h
+        m[i] = y[i] - tau * slope + a * (m[i - 1] - y[i - 1] + tau * slope)
+    return m
+
+
+def mismatch(model, ds, i, rng):
+    """A mechanism outside the candidate list, by i % 3: a first-order lag (10-40 ms) on one
+    sensor, a gain error (+-3..8 %) on one sensor, or (made in eval_record) a fixed parameter
+    15 % off its default. The sensor's noise is kept as drawn. Returns a description."""
+    kind = ("lag", "gain", "fixed")[i % 3]
+    if kind == "fixed":
+        return kind
+    sensor = MEASURED[model][(i // 3) % len(MEASURED[model])]
+    clean, noise = ds["clean"][sensor], ds["outputs"][sensor] - ds["clean"][sensor]
+    if kind == "lag":
+        tau = float(rng.uniform(0.01, 0.04))
+        ds["outputs"][sensor] = first_order_lag(ds["time"], clean, tau) + noise
+        return f"lag {tau * 1000:.0f} ms on {sensor}"
+    g = float(rng.choice([-1, 1]) * rng.uniform(0.03, 0.08))
+    ds["outputs"][sensor] = (1 + g) * clean + noise
+    return f"gain {100 * g:+.1f} % on {sensor}"
+
+
+def eval_record(model, cond, i, seed0=100000, duration=4.0, rate=250.0, input_family="reaches",
+                ar=None):
     """Dataset `i` of condition `cond` of scripts/gap-eval (and scripts/gap-robustness): one
     hidden effect at 1 % or 5 % noise (single1, single5), none (clean), none with AR(1) noise of
     coefficient 0.9 (ar), none with the load mass 30 % off its default (mass), two effects (two).
-    Seeds are seed0 + 1000 x the condition's index + i (+ 500 for TwistedString).
+    Seeds are seed0 + 1000 x the condition's index + i (+ 500 for TwistedString). `ar`: the
+    AR(1) coefficient of the noise in every condition (None: white, and 0.9 for `ar`).
     Returns dict(ds, seed, hidden, noise, ar, kw): the dataset and how it was made."""
     eff = sorted(effects(model))
     seed = seed0 + 1000 * EVAL_CONDITIONS.index(cond) + i + (0 if model == "HydraulicJoint" else 500)
     kw = dict(duration=duration, rate=rate, input_family=input_family)
-    hidden, noise, ar = (), 0.01, 0.0
+    hidden, noise, ar_all = (), 0.01, ar
+    ar = ar_all or 0.0
     if cond in ("single1", "single5"):
         hidden = (eff[i % len(eff)],)
         noise = 0.01 if cond == "single1" else 0.05
     elif cond == "ar":
-        ar = 0.9
+        ar = 0.9 if ar_all is None else ar_all
     elif cond == "mass":
         v = variables(model)["load_mass"]
         kw.update(draw_base=False, base_overrides={"load_mass": v["start"] * (1.3 if i % 2 else 0.7)})
@@ -283,8 +321,16 @@ def eval_record(model, cond, i, seed0=100000, duration=4.0, rate=250.0, input_fa
         j = i % len(eff)
         k = (j + 1 + (i // len(eff)) % (len(eff) - 1)) % len(eff)
         hidden = (eff[j], eff[k])
+    elif cond == "mismatch" and i % 3 == 2:
+        name = MISMATCH_FIXED[model][(i // 3) % len(MISMATCH_FIXED[model])]
+        kw.update(sets={name: variables(model)[name]["start"] * (1.15 if (i // 6) % 2 else 0.85)})
     ds = make(model, seed, hidden, noise=noise, ar=ar, **kw)
-    return dict(ds=ds, seed=seed, hidden=hidden, noise=noise, ar=ar, kw=kw)
+    what = None
+    if cond == "mismatch":
+        what = mismatch(model, ds, i, np.random.default_rng(seed + 7))
+        if what == "fixed":
+            what = "fixed " + ", ".join(f"{k}={v:.4g}" for k, v in kw["sets"].items())
+    return dict(ds=ds, seed=seed, hidden=hidden, noise=noise, ar=ar, kw=kw, mismatch=what)
 
 
 def perturbed(ds, seed, eps):

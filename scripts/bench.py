@@ -33,7 +33,7 @@ def scenario(model):
     return {"theta_motor_ref": (t, ref)}
 
 
-def run_fmu(model, inputs, out_csv, repeat, rtol, fmu=None):
+def run_fmu(model, inputs, out_csv, repeat, rtol, fmu=None, me=False):
     with tempfile.NamedTemporaryFile("w", suffix=".csv", delete=False) as f:
         names = list(inputs)
         f.write(",".join(["time"] + names) + "\n")
@@ -44,6 +44,9 @@ def run_fmu(model, inputs, out_csv, repeat, rtol, fmu=None):
     cmd = [str(REPO / "target/release/fmu-bench"), str(fmu), "--inputs", f.name,
            "--stop", str(T_END), "--step", str(DT), "--repeat", str(repeat), "--out", str(out_csv),
            "--set", f"rtol={rtol}", "--set", f"atol={rtol}"]
+    if me:
+        # the host integrates: its tolerance; the FMU's own solver parameters are not used
+        cmd = cmd[:-4] + ["--me", "--tolerance", str(rtol)]
     timing = json.loads(subprocess.run(cmd, check=True, capture_output=True, text=True).stdout)
     data = np.genfromtxt(out_csv, delimiter=",", names=True)
     return timing["median_s"], {n: data[n] for n in data.dtype.names if n != "time"}
@@ -129,6 +132,8 @@ def bench_math(model):
           f"{t_libm * 1e3:.1f} ms against the platform's libm {t_platform * 1e3:.1f} ms, the same "
           f"{T_END:g} s run at rtol 1e-6, best of alternating runs; outputs differ by at most "
           f"{diff:.1e} of their range)", flush=True)
+
+
 ME_FIXTURES = (("VanDerPol", 20.0, 0.01), ("BouncingBall", 3.0, 0.01))
 ME_RTOL = 1e-6
 
@@ -179,6 +184,47 @@ def bench_me(model, stop, step):
           f"{e_me:.1e} {w_me}, CVode {e_py:.1e} {w_py})", flush=True)
 
 
+def has_model_exchange(model):
+    import zipfile
+    with zipfile.ZipFile(REPO / f"dist/{model}.fmu") as z:
+        return b"<ModelExchange" in z.read("modelDescription.xml")
+
+
+def bench_model_me(model):
+    """The host's Model Exchange run of the shipped FMU (fmu-bench --me) against FMPy's CVode
+    run of the same FMU at the same relative tolerance, both scored against the SciPy truth of
+    bench_model. FMPy's ME run sets continuous inputs only at its output points (1 ms here)."""
+    import fmpy
+    if not has_model_exchange(model):
+        print(f"{model} ME: the FMU has no <ModelExchange>, skipped")
+        return
+    inputs = scenario(model)
+    _, truth = run_scipy(model, inputs, rtol=1e-10)
+    fmu = str(REPO / f"dist/{model}.fmu")
+    names = list(inputs)
+    sig = np.zeros(len(inputs[names[0]][0]), dtype=[("time", float)] + [(n, float) for n in names])
+    sig["time"] = inputs[names[0]][0]
+    for n in names:
+        sig[n] = inputs[n][1]
+    unzipped, md = fmpy.extract(fmu), fmpy.read_model_description(fmu)
+    known = {v.name for v in md.modelVariables}
+    t0 = time.perf_counter()
+    out_py = fmpy.simulate_fmu(unzipped, model_description=md, fmi_type="ModelExchange",
+                               relative_tolerance=ME_RTOL, input=sig, stop_time=T_END,
+                               output_interval=DT, record_events=False,
+                               output=[n for n in truth if n in known])
+    t_py = time.perf_counter() - t0
+    with tempfile.TemporaryDirectory() as d:
+        t_me, out_me = run_fmu(model, inputs, Path(d) / "me.csv", 3 if QUICK else 5, ME_RTOL,
+                               me=True)
+    e_me, w_me, m_me, mw_me = rel_errors(out_me, truth)
+    e_py, w_py, m_py, mw_py = rel_errors({n: out_py[n] for n in out_py.dtype.names}, truth)
+    print(f"{model} ME speedup {t_py / t_me:.0f}x (host Model Exchange, Rodas5P rtol {ME_RTOL:g}: "
+          f"{t_me * 1e3:.1f} ms; FMPy CVode rtol {ME_RTOL:g}: {t_py:.2f} s; error vs SciPy rtol "
+          f"1e-10 relative to range, worst output RMS (max): host {e_me:.1e} {w_me} ({m_me:.1e} "
+          f"{mw_me}), CVode {e_py:.1e} {w_py} ({m_py:.1e} {mw_py}))", flush=True)
+
+
 def bench_gap():
     script = REPO / "scripts" / "bench_gap.py"
     if script.exists():
@@ -192,6 +238,8 @@ if __name__ == "__main__":
         bench_model(m)
     for m in ("HydraulicJoint", "TwistedString"):
         bench_math(m)
+    for m in ("HydraulicJoint", "TwistedString"):
+        bench_model_me(m)
     for fixture in ME_FIXTURES:
         bench_me(*fixture)
     bench_gap()

@@ -23,8 +23,7 @@ ensure_venv() {
 }
 
 # What cross-building the shipped FMUs needs (see scripts/build): Rust targets, zig and
-# cargo-zigbuild (PyPI, pinned), the mingw-w64 linker and llvm's binary readers (Debian), and
-# target/darwin-sdk with the
+# cargo-zigbuild (PyPI, pinned), the mingw-w64 linker (Debian), and target/darwin-sdk with the
 # macOS libSystem stubs of the ziglang package in the architecture names lld reads.
 CROSS_TARGETS=(x86_64-unknown-linux-gnu aarch64-unknown-linux-gnu x86_64-pc-windows-gnu x86_64-apple-darwin aarch64-apple-darwin)
 DARWIN_SDK="$REPO/target/darwin-sdk"
@@ -41,12 +40,6 @@ ensure_cross() {
     if ! command -v x86_64-w64-mingw32-gcc >/dev/null; then
         log "apt-get install gcc-mingw-w64-x86-64"
         apt_install gcc-mingw-w64-x86-64
-    fi
-    # llvm-nm and llvm-readobj read the export tables of every platform's binary
-    # (tests/test_fmi3.py).
-    if ! command -v llvm-nm >/dev/null || ! command -v llvm-readobj >/dev/null; then
-        log "apt-get install llvm"
-        apt_install llvm
     fi
     if [[ ! -f "$DARWIN_SDK/usr/lib/libSystem.tbd" ]]; then
         local zig
@@ -81,6 +74,14 @@ ensure_wine() {
 # platform and determinism tests inspect.
 ensure_llvm_tools() {
     command -v llvm-nm >/dev/null && command -v llvm-objdump >/dev/null || { log "apt-get install llvm"; apt_install llvm; }
+}
+
+# qemu-user and Debian's aarch64 glibc, for the test that runs the aarch64-linux FMI 3.0 binary.
+ensure_qemu() {
+    command -v qemu-aarch64 >/dev/null && [[ -f /usr/aarch64-linux-gnu/lib/ld-linux-aarch64.so.1 ]] || {
+        log "apt-get install qemu-user libc6-arm64-cross"
+        apt_install qemu-user libc6-arm64-cross
+    }
 }
 
 # apt-get install, as root or through sudo.

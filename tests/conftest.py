@@ -25,8 +25,9 @@ def fmu_path(name: str) -> str:
 
 
 def fmu3_path(name: str) -> str:
-    """Path of the FMI 3.0 archive dist/fmi3/`name`.fmu; runs scripts/build once when missing."""
-    path = DIST / "fmi3" / f"{name}.fmu"
+    """Path of the FMI 3.0 archive `name`.fmu (dist/fmi3/ for products, target/fmus/fmi3/ for
+    test models); runs scripts/build once when it is missing."""
+    path = (TEST_FMUS if name in TEST_MODELS else DIST) / "fmi3" / f"{name}.fmu"
     if not path.exists():
         subprocess.run([str(REPO / "scripts" / "build")], check=True)
     if not path.exists():

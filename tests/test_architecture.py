@@ -22,6 +22,7 @@ MAY_USE = {
     "fmi3-export": {"fmi2-export"},
     "hydraulic-joint-fmi3": {"fmi3-export", "hydraulic-joint"},
     "twisted-string-fmi3": {"fmi3-export", "twisted-string"},
+    "test-oscillator-fmi3": {"fmi3-export", "test-oscillator"},
     "host": {"fmi2-types", "ode"},
     "gap": {"fmi2-types", "host"},
     "cli": {"fmi2-types", "host", "gap"},

@@ -8,7 +8,10 @@
 - An FMU that ends the run (Stair: terminateSimulation from fmi3DoStep) stops cleanly with its
   rows up to the last successful time; Scheduled Execution (Clocks) is refused naming it.
 - Hostile FMI 3.0 descriptions (a modelIdentifier that is a path, an oversized file) are refused
-  before anything is loaded.
+  before anything is loaded; a binary crashing or hanging in fmi3DoStep is reported with the
+  call and its time, as for FMI 2.0.
+- Every FMI 3.0 type (the AllTypes test FMU, tests/fixtures/all-types-fmi3) is set from the CSV
+  and recorded as FMPy records it.
 """
 import csv
 import shutil
@@ -193,7 +196,17 @@ void *fmi3InstantiateCoSimulation(void) { return &instance; }
 void fmi3FreeInstance(void *i) { (void)i; }
 int fmi3GetFloat64(void *i, const unsigned *vr, size_t nvr, double *v, size_t n) {
     for (size_t k = 0; k < n; k++) v[k] = 0.5; return 0; }
-int fmi3DoStep(void *i, double t, double h) { if (t >= 0.3) *(volatile int *)0 = 1; return 0; }
+int fmi3DoStep(void *i, double t, double h) {
+    volatile int spin = 1;
+    if (t >= 0.3) {
+#ifdef HANG
+        while (spin) {}
+#else
+        *(volatile int *)0 = spin;
+#endif
+    }
+    return 0;
+}
 '''
 
 CRASH_MD = '''<?xml version="1.0" encoding="UTF-8"?>
@@ -209,20 +222,33 @@ CRASH_MD = '''<?xml version="1.0" encoding="UTF-8"?>
 '''
 
 
-@linux_only
-def test_a_crash_in_fmi3_do_step_is_reported_with_the_call_and_time(tmp_path):
+def misbehaving_fmu(tmp_path, *defines):
+    """The FMU of CRASH_C/CRASH_MD, compiled with `defines`."""
     if shutil.which("gcc") is None:
-        pytest.fail("gcc is needed to build the crashing FMU")
+        pytest.fail("gcc is needed to build the misbehaving FMU")
     (tmp_path / "crash.c").write_text(CRASH_C)
     lib = tmp_path / "Crash.so"
-    subprocess.run(["gcc", "-shared", "-fPIC", "-o", lib, tmp_path / "crash.c"], check=True)
+    subprocess.run(["gcc", *defines, "-shared", "-fPIC", "-o", lib, tmp_path / "crash.c"], check=True)
     fmu = tmp_path / "Crash.fmu"
     with zipfile.ZipFile(fmu, "w") as z:
         z.writestr("modelDescription.xml", CRASH_MD)
         z.write(lib, "binaries/x86_64-linux/Crash.so")
-    r = run("simulate", fmu, "--out", tmp_path / "o.csv")
+    return fmu
+
+
+@linux_only
+def test_a_crash_in_fmi3_do_step_is_reported_with_the_call_and_time(tmp_path):
+    r = run("simulate", misbehaving_fmu(tmp_path), "--out", tmp_path / "o.csv")
     assert r.returncode == 2, r.stderr
     assert "crashed (SIGSEGV) in fmi3DoStep at t = 0.3" in r.stderr, r.stderr
+    assert not (tmp_path / "o.csv").exists()
+
+
+@linux_only
+def test_an_fmi3_do_step_that_never_returns_is_stopped_after_the_timeout(tmp_path):
+    r = run("simulate", misbehaving_fmu(tmp_path, "-DHANG"), "--timeout", 1, "--out", tmp_path / "o.csv")
+    assert r.returncode == 2, r.stderr
+    assert "did not return from fmi3DoStep at t = 0.3" in r.stderr, r.stderr
     assert not (tmp_path / "o.csv").exists()
 
 
@@ -320,3 +346,26 @@ def test_values_outside_their_type_are_refused_with_their_row(all_types, tmp_pat
         (tmp_path / "in.csv").write_text(f"time,{column}\n0,{cell}\n1,{cell}\n")
         r = run("simulate", all_types, "--data", tmp_path / "in.csv", "--out", tmp_path / "o.csv")
         assert r.returncode == 2 and message in r.stderr and "row 1" in r.stderr, (column, r.stderr)
+
+
+@linux_only
+def test_a_structural_parameter_set_in_configuration_mode_resizes_its_arrays(all_types, tmp_path):
+    """AllTypes' n sizes Vector_input/Vector_output and may be set in Configuration Mode only:
+    `--set n=3` takes three elements, from --set or from the CSV (one column or per element)."""
+    r = run("simulate", all_types, "--set", "n=3", "--set", "Vector_input=1 2 3", "--stop", 0.2,
+            "--step", 0.1, "--out", tmp_path / "o.csv")
+    assert r.returncode == 0, r.stderr
+    header, rows = read_csv(tmp_path / "o.csv")
+    j = header.index("Vector_output")
+    assert [row[j] for row in rows] == ["1 2 3"] * 3, rows
+    (tmp_path / "in.csv").write_text("time,Vector_input[1],Vector_input[2],Vector_input[3]\n"
+                                     "0,1,2,3\n0.1,4,5,6\n0.2,7,8,9\n")
+    r = run("simulate", all_types, "--set", "n=3", "--data", tmp_path / "in.csv", "--out", tmp_path / "o.csv")
+    assert r.returncode == 0, r.stderr
+    header, rows = read_csv(tmp_path / "o.csv")
+    j = header.index("Vector_output")
+    # the output after a step is the input set before it
+    assert [row[j] for row in rows] == ["1 2 3", "1 2 3", "4 5 6"], rows
+    # at the default n = 2, three values are refused before the FMU is called
+    r = run("simulate", all_types, "--set", "Vector_input=1 2 3", "--out", tmp_path / "o.csv")
+    assert r.returncode == 2 and "'Vector_input' has 2 element(s), 3 value(s) given" in r.stderr, r.stderr

@@ -151,14 +151,14 @@ def test_an_fmu_without_co_simulation_runs_as_model_exchange_by_default(ref, tmp
     assert r.returncode == 2 and "<CoSimulation>" in r.stderr, r.stderr
 
 
-def crashing_me_copy(tmp_path):
-    """BouncingBall whose fmi2GetDerivatives crashes from t = 0.5 s on (the crash shim of
-    tests/drivers/broken, which forwards every other call to the real binary)."""
+def crashing_me_copy(tmp_path, *defines):
+    """BouncingBall whose fmi2GetDerivatives crashes (with -DHANG: hangs) from t = 0.5 s on (the
+    crash shim of tests/drivers/broken, which forwards every other call to the real binary)."""
     if shutil.which("gcc") is None:
         pytest.skip("gcc not installed")
     so = tmp_path / "shim.so"
     subprocess.run(["gcc", "-shared", "-fPIC", "-O1", '-DMODEL_ID="BouncingBall"',
-                    "-DME_FAIL_AT=0.5", "-o", str(so),
+                    "-DME_FAIL_AT=0.5", *defines, "-o", str(so),
                     str(REPO / "tests/drivers/broken/crash_shim.c"), "-ldl"], check=True)
     binary = "binaries/linux64/BouncingBall.so"
     dst = tmp_path / "crash-me.fmu"
@@ -264,3 +264,63 @@ def test_fmi3_model_exchange_agrees_with_fmpy(model, tmp_path):
             np.testing.assert_allclose(got, want, rtol=0, atol=RTOL * scale, err_msg=name)
         else:
             assert np.array_equal(got, want), (name, got[:12], want[:12])
+
+
+def test_a_hang_in_a_model_exchange_call_is_stopped_after_the_timeout(tmp_path):
+    fmu = crashing_me_copy(tmp_path, "-DHANG")
+    out = tmp_path / "o.csv"
+    r = run("simulate", fmu, "--interface", "me", "--stop", 1, "--step", 0.1, "--timeout", 1,
+            "--out", out)
+    assert r.returncode == 2, (r.returncode, r.stderr)
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "did not return from fmi2GetDerivatives at t = 0.5" in lines[0] \
+        and "within 1 s" in lines[0], r.stderr
+    assert not out.exists()
+
+
+def test_our_oscillator_agrees_between_its_interfaces(tmp_path):
+    """The test oscillator (this project's FMU, fmi2-export's Model Exchange) integrated by the
+    host agrees with its own Co-Simulation run: the same model and solver family, so at
+    tolerance 1e-10 within 1e-8 of each output's range (measured: 1e-13)."""
+    from conftest import fmu_path
+    fmu = fmu_path("Oscillator")
+    outs = {}
+    for interface in ("cs", "me"):
+        out = tmp_path / f"{interface}.csv"
+        r = run("simulate", fmu, "--interface", interface, "--tolerance", 1e-10, "--stop", 2,
+                "--step", 1e-3, "--out", out)
+        assert r.returncode == 0, r.stderr
+        outs[interface] = np.genfromtxt(out, delimiter=",", names=True)
+    cs, me = outs["cs"], outs["me"]
+    assert len(cs) == len(me) and np.array_equal(cs["time"], me["time"])
+    for name in cs.dtype.names[1:]:
+        span = max(np.ptp(cs[name]), 1e-12)
+        assert np.abs(me[name] - cs[name]).max() <= 1e-8 * span, name
+
+
+def test_an_error_status_from_a_model_exchange_call_ends_the_run_naming_the_call(tmp_path):
+    fmu = crashing_me_copy(tmp_path, "-DME_ERROR")
+    out = tmp_path / "o.csv"
+    r = run("simulate", fmu, "--interface", "me", "--stop", 1, "--step", 0.1, "--out", out)
+    assert r.returncode == 1, (r.returncode, r.stderr)
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "fmi2GetDerivatives returned fmi2Error" in lines[0], r.stderr
+    assert not out.exists()
+
+
+def test_gap_calibrates_an_fmi2_model_exchange_fmu(tmp_path):
+    """gap through --interface me (FMI 2.0): Dahlquist's k recovered from FMPy's CVode
+    trajectory (rtol 1e-10) with k = 1.5 (start 1)."""
+    import json
+    fmu = REF / "Dahlquist.fmu"
+    r = fmpy.simulate_fmu(str(fmu), fmi_type="ModelExchange", stop_time=3.0, output_interval=0.05,
+                          start_values={"k": 1.5}, relative_tolerance=1e-10)
+    with open(tmp_path / "d.csv", "w") as f:
+        f.write("time,x\n" + "".join(f"{t!r},{x!r}\n"
+                                     for t, x in zip(r["time"].tolist(), r["x"].tolist())))
+    p = run("gap", fmu, "--interface", "me", "--data", tmp_path / "d.csv", "--out",
+            tmp_path / "g", "--fit", "k", "--quiet")
+    assert p.returncode == 0, p.stderr
+    rep = json.loads((tmp_path / "g" / "report.json").read_text())
+    assert rep["named"] == []
+    assert abs(rep["parameters"]["k"]["value"] - 1.5) < 1e-4, rep["parameters"]["k"]

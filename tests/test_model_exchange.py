@@ -252,3 +252,71 @@ def test_directional_derivatives_are_the_jacobian(me):
     assert s == OK and abs(dx - 0.5) < 1e-9
     assert me.directional(["der(x)"], ["mass"], [1.0])[0] == ERROR
     assert "'mass'" in me.last_error()
+
+
+# The Model Exchange state machine (FMI 2.0.4 section 3.2.3; the masks of the Modelica
+# Association's Reference-FMUs): the states in which each function is allowed.
+# I instantiated, N initialization mode, E event mode, C continuous-time mode, T terminated.
+ME_ALLOWED = {
+    "SetTime": "EC", "SetContinuousStates": "C", "EnterEventMode": "EC", "NewDiscreteStates": "E",
+    "EnterContinuousTimeMode": "E", "CompletedIntegratorStep": "C", "GetDerivatives": "ECT",
+    "GetEventIndicators": "NECT", "GetContinuousStates": "NECT",
+    "GetNominalsOfContinuousStates": "IECT", "GetDirectionalDerivative": "ECT",
+    "Terminate": "EC", "GetReal": "NECT", "DoStep": "", "GetRealStatus": "",
+}
+
+
+def reach(h, state):
+    assert h.instantiate(fmu_type=0)
+    if state == "I":
+        return
+    assert h.setup() == OK and h.call("EnterInitializationMode") == OK
+    if state == "N":
+        return
+    assert h.call("ExitInitializationMode") == OK
+    if state == "E":
+        return
+    assert h.new_discrete_states()[0] == OK and h.call("EnterContinuousTimeMode") == OK
+    if state == "T":
+        assert h.call("Terminate") == OK
+
+
+def call(h, fn):
+    x = (c_double * 2)()
+    if fn == "SetTime":
+        return h.call(fn, c_double(0.0))
+    if fn == "SetContinuousStates":
+        return h.set_states([X0, 0.0])
+    if fn in ("EnterEventMode", "EnterContinuousTimeMode", "Terminate"):
+        return h.call(fn)
+    if fn == "NewDiscreteStates":
+        return h.new_discrete_states()[0]
+    if fn == "CompletedIntegratorStep":
+        return h.call(fn, 1, byref(c_int()), byref(c_int()))
+    if fn in ("GetDerivatives", "GetContinuousStates", "GetNominalsOfContinuousStates"):
+        return h.call(fn, x, 2)
+    if fn == "GetEventIndicators":
+        return h.call(fn, x, 0)
+    if fn == "GetDirectionalDerivative":
+        return h.directional(["der(x)"], ["x"], [1.0])[0]
+    if fn == "GetReal":
+        return h.get_real(["x"])[0]
+    if fn == "DoStep":
+        return h.do_step(0.0, 1e-3)
+    if fn == "GetRealStatus":
+        return h.call(fn, 2, byref(c_double()))
+    raise AssertionError(fn)
+
+
+@pytest.mark.parametrize("state", "INECT")
+def test_each_function_is_allowed_exactly_in_its_states(state):
+    for fn, allowed in ME_ALLOWED.items():
+        h = Me(fmu_path("Oscillator"))
+        reach(h, state)
+        s = call(h, fn)
+        if state in allowed:
+            assert s == OK, (fn, state, h.last_error())
+        else:
+            assert s == ERROR, (fn, state)
+            assert h.last_error(), (fn, state)
+        h.free()

@@ -9,13 +9,14 @@ import math
 import os
 import sys
 import time
+from ctypes import c_double
 
 import numpy as np
 import pytest
 from fmpy import read_model_description, simulate_fmu
 
 from conftest import fmu3_path, fmu_path
-from fmi_harness import ERROR, Harness
+from fmi_harness import ERROR, OK, Harness
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "reference"))
@@ -561,3 +562,188 @@ def test_model_exchange_every_effect_on_agrees_with_co_simulation(internal):
         assert err <= max(1e-3 * span, 1e-9), (name, err, span)
     r, throughput = balance_residual(me)
     assert throughput > 1.0 and np.max(np.abs(r)) < 1e-4 * throughput, (r, throughput)
+
+
+# ---- Model Exchange through the FMI calls -------------------------------------------------------
+@pytest.fixture
+def me_fmu():
+    from test_model_exchange import Me
+    h = Me(FMU)
+    yield h
+    h.free()
+
+
+def test_position_loop_samples_are_time_events(me_fmu):
+    """The position loop runs at the time events t0 + k Ts only: its speed set point (P law
+    8.75/s, clamped to 8000 rpm) from the initial event, unchanged by a set-point change in
+    Continuous-Time Mode (outputs and derivatives alike), renewed at the next sample."""
+    me = me_fmu
+    assert me.nx == 13
+    info = me.start({"theta_motor_ref": 100.0})
+    assert info.nextEventTimeDefined and info.nextEventTime == 1e-3
+    assert me.get_real(["omega_ref"])[1] == [pytest.approx(ref.RPM8000, rel=1e-12)]
+    _, dx0 = me.array("GetDerivatives")
+    assert me.set_real(["theta_motor_ref"], [0.0]) == OK
+    assert me.get_real(["omega_ref"])[1] == [pytest.approx(ref.RPM8000, rel=1e-12)]
+    assert me.array("GetDerivatives")[1] == dx0
+    assert me.call("SetTime", c_double(1e-3)) == OK
+    assert me.call("EnterEventMode") == OK
+    s, info = me.new_discrete_states()
+    assert s == OK and info.nextEventTime == 2e-3
+    # the motor has not moved (no integration between): inside the band of the new set point
+    assert me.get_real(["omega_ref"])[1] == [0.0]
+
+
+@pytest.mark.parametrize("compliance", [True, False])
+def test_event_indicator_is_the_twist_with_string_compliance(me_fmu, compliance):
+    """One event indicator: the twist angle theta_motor / N while string_compliance (whose free
+    length has a kink at zero twist) is on, else a constant (no state event)."""
+    me = me_fmu
+    me.start(None, {"string_compliance.enabled": compliance})
+    _, x = me.array("GetContinuousStates")
+    for theta in (38.4, -19.2):
+        x[1] = theta
+        assert me.set_states(x) == OK
+        s, z = me.array("GetEventIndicators", 1)
+        assert s == OK
+        assert z == ([pytest.approx(theta / 19.2, rel=1e-15)] if compliance else [1.0])
+
+
+def taut_point(theta, omega, current, backlash=math.radians(1.0)):
+    """A state vector with every effect on: the strings carrying about 100 N at motor angle
+    `theta` (eq. 9-10 with the defaults, radius growth 0.005 per turn), the gearhead output
+    pressed on the +b/2 flank turning 10 % slower than the motor side."""
+    r0, g, n = float(VARS["string_radius"].start), 0.005, 19.2
+    a1, a2, a3 = (float(VARS[f"string_compliance.{k}"].start) for k in ("a1", "a2", "a3"))
+    delta = 0.5 * backlash + 1e-4
+    th_t = theta / n - delta
+    a = th_t * r0 * (1 + g * abs(th_t) / (2 * math.pi))
+    lfree = 0.0897 + a1 * abs(n * th_t) + a2 * (n * th_t) ** 2
+    p = math.sqrt((lfree + 100.0 * a3) ** 2 - a * a)
+    # i, theta, omega, p, v, z_i, z_w, E_el, E_diss, E_kin, delta, omega_t, W_ext
+    return [current, theta, omega, p, -0.004, 2e-4, 3.0, 1.0, 0.8, 0.1, delta, 0.9 * omega / n,
+            0.2]
+
+
+@pytest.mark.parametrize("internal", [True, False])
+def test_directional_derivatives_match_central_differences(me_fmu, internal):
+    """Each column of d(der x)/dx from fmi2GetDirectionalDerivative (the plant's analytic
+    Jacobian) against a central difference of fmi2GetDerivatives with step 1e-6 of the state's
+    magnitude or nominal, within 1e-6 of the row's largest |J_ij| nominal_j, every effect on, at
+    rest and at two taut operating points (the rest point 1 mrad into positive twist: at zero
+    twist, the kink of string_compliance and radius_growth, the Jacobian is one-sided). Plus the closed forms d(der(v_load))/d(F_load) = 1/m
+    and, in open loop, d(der(current))/d(voltage) = 1/L."""
+    me = me_fmu
+    me.start({"voltage": 5.0, "F_load": 12.0, "theta_motor_ref": 900.0},
+             dict(ALL_EFFECTS, internal_controller=internal))
+    assert me.md.modelExchange.providesDirectionalDerivative
+    states = [d.variable.derivative.name for d in me.md.derivatives]
+    ders = [d.variable.name for d in me.md.derivatives]
+    _, nom = me.array("GetNominalsOfContinuousStates")
+    nom = np.array(nom)
+    _, rest = me.array("GetContinuousStates")
+    rest[1] = 1e-3  # 1 mrad into positive twist: at zero twist the Jacobian is one-sided
+    points = {"rest": rest, "twisting": taut_point(600.0, 300.0, 0.4),
+              "untwisting": taut_point(1500.0, -200.0, -0.3)}
+    for point, x in points.items():
+        assert me.set_states(x) == OK
+        jac, fd = np.zeros((13, 13)), np.zeros((13, 13))
+        for j, name in enumerate(states):
+            s, jac[:, j] = me.directional(ders, [name], [1.0])
+            assert s == OK, me.last_error()
+            h = 1e-6 * max(abs(x[j]), nom[j])
+            f = []
+            for sign in (1, -1):
+                xs = list(x)
+                xs[j] += sign * h
+                assert me.set_states(xs) == OK
+                f.append(np.array(me.array("GetDerivatives")[1]))
+            fd[:, j] = (f[0] - f[1]) / (2 * h)
+            assert me.set_states(x) == OK
+        scaled = np.abs(jac) * nom
+        err = np.abs(jac - fd) * nom / (scaled.max(axis=1, keepdims=True) + 1e-300)
+        assert err.max() < 1e-6, (point, np.unravel_index(np.argmax(err), err.shape), err.max())
+        assert np.count_nonzero(jac) > 25  # not vacuous
+    m = float(VARS["load_mass"].start)
+    _, (dv,) = me.directional(["der(v_load)"], ["F_load"], [1.0])
+    assert dv == pytest.approx(1.0 / m, rel=1e-6)
+    if not internal:
+        _, (di,) = me.directional(["der(current)"], ["voltage"], [1.0])
+        assert di == pytest.approx(1.0 / float(VARS["motor_inductance"].start), rel=1e-6)
+
+
+@pytest.mark.parametrize("setting", [
+    ({}, ALL_EFFECTS),
+    ({"voltage": 5.0}, dict(ALL_EFFECTS, internal_controller=False)),
+    ({"voltage": 5.0}, {"internal_controller": False}),
+], ids=["closed_loop_all_effects", "open_loop_all_effects", "open_loop"])
+def test_derivative_dependencies_hold(me_fmu, setting):
+    """<Derivatives> lists what each derivative depends on: moving any other state or input
+    leaves it unchanged to the bit, at rest and at two taut operating points."""
+    me = me_fmu
+    reals, booleans = setting
+    me.start({"F_load": 10.0, "theta_motor_ref": 900.0, **reals}, booleans)
+    md = me.md
+    states = [d.variable.derivative.name for d in md.derivatives]
+    deps = [{d.name for d in u.dependencies} for u in md.derivatives]
+    assert all(deps)  # every derivative lists its dependencies (none left to "all")
+    inputs = [v.name for v in md.modelVariables if v.causality == "input"]
+    _, nom = me.array("GetNominalsOfContinuousStates")
+    _, rest = me.array("GetContinuousStates")
+    moved = 0
+    for x in (rest, taut_point(600.0, 300.0, 0.4), taut_point(1500.0, -200.0, -0.3)):
+        assert me.set_states(x) == OK
+        _, base = me.array("GetDerivatives")
+        for j, name in enumerate(states + inputs):
+            if j < len(states):
+                xs = list(x)
+                xs[j] += 1e-3 * max(abs(x[j]), nom[j])
+                assert me.set_states(xs) == OK
+            else:
+                _, (old,) = me.get_real([name])
+                assert me.set_real([name], [old + 0.5]) == OK
+            _, now = me.array("GetDerivatives")
+            for k, (a, b) in enumerate(zip(base, now)):
+                assert a == b or name in deps[k], (md.derivatives[k].variable.name, name)
+                moved += a != b
+            assert me.set_states(x) == OK
+            if j >= len(states):
+                assert me.set_real([name], [old]) == OK
+    assert moved > 40  # not vacuous: the perturbations move the derivatives they list
+
+
+def test_fmu_state_keeps_the_position_loop(me_fmu):
+    """An FMU state saved in Continuous-Time Mode carries the states and the position loop (held
+    speed set point, encoder angle, next sample): restored, or deserialized, the same calls give
+    the same bits."""
+    me = me_fmu
+    me.start({"theta_motor_ref": 600.0}, ALL_EFFECTS)
+    names = [u.variable.name for u in me.md.outputs]
+    moving = taut_point(590.0, 300.0, 0.4)
+
+    def samples(k0, n):
+        trace = []
+        for k in range(k0, k0 + n):
+            x = list(moving)
+            x[1] += 0.5 * k  # the motor advances 0.5 rad per sample: a new encoder angle each
+            assert me.set_states(x) == OK
+            assert me.call("SetTime", c_double(k * 1e-3)) == OK
+            assert me.call("EnterEventMode") == OK
+            s, info = me.new_discrete_states()
+            assert s == OK and info.nextEventTime == pytest.approx((k + 1) * 1e-3, rel=1e-12)
+            assert me.call("EnterContinuousTimeMode") == OK
+            trace.append(me.get_real(names)[1] + me.array("GetDerivatives")[1])
+        return trace
+
+    samples(1, 2)
+    s, state = me.get_state()
+    assert s == OK
+    data = me.serialize(state)
+    first = samples(3, 3)
+    assert me.call("SetFMUstate", state) == OK
+    assert samples(3, 3) == first
+    s, restored = me.deserialize(data)
+    assert s == OK and me.call("SetFMUstate", restored) == OK
+    assert samples(3, 3) == first
+    w = names.index("omega_ref")
+    assert len({row[w] for row in first}) == 3  # the position loop acted at each sample

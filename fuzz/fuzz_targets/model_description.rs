@@ -1,6 +1,7 @@
-//! The host's `modelDescription.xml` parser and the validator's description checks
-//! (`host::ModelDescription::parse`, `host::validate::check_model_description`): any text gives
-//! a description or an error, never a panic or a hang.
+//! The host's `modelDescription.xml` parsers and the validator's description checks
+//! (`host::ModelDescription::parse`, `host::validate::check_model_description`; FMI 3.0:
+//! `host::fmi3::ModelDescription3::parse`, array shapes, the FMI 2.0-shaped view): any text
+//! gives a description or an error, never a panic, a hang or an allocation beyond the bounds.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
@@ -20,5 +21,13 @@ fuzz_target!(|data: &[u8]| {
             let _ = md.effective_unit(v);
             let _ = v.effective_initial();
         }
+    }
+    if let Ok(md) = host::fmi3::ModelDescription3::parse(text, "fuzz.xml") {
+        for v in &md.variables {
+            let _ = md.shape(v);
+            let _ = v.effective_initial();
+        }
+        let _ = host::fmi3::fmi2_view(&md);
+        let _ = host::fmi3::unsupported(&md);
     }
 });

@@ -28,7 +28,8 @@ pub struct Args {
     /// Value set before initialization, e.g. `load_mass=2.4` or `cables_attached=false`.
     #[arg(long = "set", value_name = "NAME=VALUE")]
     pub set: Vec<String>,
-    /// Output CSV: time and every output.
+    /// Output CSV: time and every output (Model Exchange: also a row before and one after each
+    /// event, at its time, as FMPy records them).
     #[arg(long)]
     pub out: PathBuf,
     /// Relative tolerance: passed to fmi2SetupExperiment, and the host's integrator tolerance

@@ -678,7 +678,7 @@ pub unsafe fn get_status<M: Model>(
     value_is_null: bool,
 ) -> Fmi2Status {
     with_component::<M>(c, func, |comp| {
-        if let Err(s) = comp.instance.check_state(func, allowed::STATUS) {
+        if let Err(s) = comp.instance.check_cs_state(func, allowed::STATUS) {
             return s;
         }
         if value_is_null {
@@ -707,7 +707,7 @@ unsafe fn status_value<M: Model, T>(
         return get_status::<M>(c, func, kind, value.is_null());
     }
     with_component::<M>(c, func, |comp| {
-        if let Err(s) = comp.instance.check_state(func, allowed::STATUS) {
+        if let Err(s) = comp.instance.check_cs_state(func, allowed::STATUS) {
             return s;
         }
         if value.is_null() {

@@ -317,6 +317,18 @@ impl<M: Model> Instance<M> {
         }
     }
 
+    /// [`Instance::check_state`] for a function of Co-Simulation only: a Model Exchange
+    /// instance refuses it in every state.
+    pub fn check_cs_state(&mut self, func: &str, mask: u32) -> Result<(), Status> {
+        if self.interface == Interface::ModelExchange {
+            return Err(self.error(
+                func,
+                "a Co-Simulation function called on a Model Exchange instance",
+            ));
+        }
+        self.check_state(func, mask)
+    }
+
     /// `fmi2SetDebugLogging`.
     pub fn set_debug_logging(&mut self, on: bool, categories: &[&str]) -> Status {
         const F: &str = "fmi2SetDebugLogging";
@@ -677,7 +689,7 @@ impl<M: Model> Instance<M> {
     /// `fmi2DoStep`.
     pub fn do_step(&mut self, current: f64, h: f64) -> Status {
         const F: &str = "fmi2DoStep";
-        if let Err(s) = self.check_state(F, allowed::DO_STEP) {
+        if let Err(s) = self.check_cs_state(F, allowed::DO_STEP) {
             return s;
         }
         if !(h.is_finite() && h > 0.0) {

@@ -42,6 +42,13 @@ pub trait ModelExchange: Model {
         &[]
     }
 
+    /// Per state, in the order of `x`: the states and inputs (positions in the table) its
+    /// derivative depends on, under any parameter setting; the model description lists them as
+    /// the `dependencies` of `<Derivatives>`. `None` (default): every state and input.
+    fn derivative_dependencies() -> Option<&'static [&'static [usize]]> {
+        None
+    }
+
     /// The continuous state vector `x` (length `STATES`) from the model's state.
     fn states(&self, x: &mut [f64]);
 
@@ -114,6 +121,8 @@ pub struct MeVTable<M> {
     pub state_variables: &'static [(usize, usize)],
     /// [`ModelExchange::output_feedthrough`].
     pub output_feedthrough: &'static [(usize, &'static [usize])],
+    /// [`ModelExchange::derivative_dependencies`].
+    pub derivative_dependencies: Option<&'static [&'static [usize]]>,
     pub get_states: fn(&M, &mut [f64]),
     pub set_states: fn(&mut M, &[f64]),
     pub nominals: fn(&M, &mut [f64]),
@@ -143,6 +152,7 @@ impl<M: ModelExchange> MeVTable<M> {
             event_indicators: M::EVENT_INDICATORS,
             state_variables: M::state_variables(),
             output_feedthrough: M::output_feedthrough(),
+            derivative_dependencies: M::derivative_dependencies(),
             get_states: M::states,
             set_states: M::set_states,
             nominals: M::nominals,
@@ -189,6 +199,24 @@ impl<M> MeVTable<M> {
                     problems.push(format!(
                         "derivative of '{}' must be the local 'der({})', not '{}'",
                         s.name, s.name, d.name
+                    ));
+                }
+            }
+        }
+        if let Some(deps) = self.derivative_dependencies {
+            if deps.len() != self.states {
+                problems.push(format!(
+                    "derivative dependencies for {} states, the model has {}",
+                    deps.len(),
+                    self.states
+                ));
+            }
+            for &i in deps.iter().flat_map(|d| d.iter()) {
+                let is_state = self.state_variables.iter().any(|&(x, _)| x == i);
+                let is_input = vars.get(i).map(|v| v.causality) == Some(Causality::Input);
+                if !(is_state || is_input) {
+                    problems.push(format!(
+                        "derivative dependency: position {i} is neither a state nor an input"
                     ));
                 }
             }

@@ -241,6 +241,15 @@ fn write_description<M: Model>(guid: &str) -> String {
         let deps: Vec<String> = deps.iter().map(|i| (i + 1).to_string()).collect();
         deps.join(" ")
     };
+    let declared = me.and_then(|me| me.derivative_dependencies);
+    let derivative_dependencies = |d: usize| -> Option<String> {
+        let k = states.iter().position(|&(_, der)| der == d)?;
+        let mut deps: Vec<usize> = declared?.get(k)?.to_vec();
+        deps.sort_unstable();
+        deps.dedup();
+        let deps: Vec<String> = deps.iter().map(|i| (i + 1).to_string()).collect();
+        Some(deps.join(" "))
+    };
     for (tag, list) in [
         ("Outputs", &outputs),
         ("Derivatives", &derivatives),
@@ -253,10 +262,15 @@ fn write_description<M: Model>(guid: &str) -> String {
         for &i in list {
             let mut u = BytesStart::new("Unknown");
             u.push_attribute(("index", (i + 1).to_string().as_str()));
-            // Derivatives and initial unknowns keep the default (every known), which is always
-            // correct.
+            // Derivatives list the model's dependencies when it declares them; initial unknowns
+            // keep the default (every known), which is always correct.
             if tag == "Outputs" {
                 u.push_attribute(("dependencies", output_dependencies(i).as_str()));
+            }
+            if tag == "Derivatives" {
+                if let Some(deps) = derivative_dependencies(i) {
+                    u.push_attribute(("dependencies", deps.as_str()));
+                }
             }
             ev(Event::Empty(u));
         }

@@ -103,10 +103,7 @@ impl<M: Model> Component<M> {
             if !self.instance.category_enabled(e.category) {
                 continue;
             }
-            let message = match e.message.split_once(": ") {
-                Some((prefix, rest)) if prefix.starts_with("fmi2") => format!("{func}: {rest}"),
-                _ => e.message,
-            };
+            let message = fmi3_message(func, e.message);
             call_logger(
                 logger,
                 self.environment,
@@ -115,6 +112,15 @@ impl<M: Model> Component<M> {
                 &message,
             );
         }
+    }
+}
+
+/// A message of the shared instance under the FMI 3.0 function's name: its `fmi2Xxx: ` prefix
+/// becomes `func: `; other messages pass unchanged.
+fn fmi3_message(func: &str, message: String) -> String {
+    match message.split_once(": ") {
+        Some((prefix, rest)) if prefix.starts_with("fmi2") => format!("{func}: {rest}"),
+        _ => message,
     }
 }
 
@@ -846,4 +852,35 @@ pub unsafe fn deserialize_fmu_state<M: Model>(
         *state = p as Fmi3FmuState;
         Status::Ok
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fmi2_export::instance::allowed as fmi2;
+
+    /// This layer checks the FMI 3.0 state first and then calls the shared instance, whose own
+    /// check must then pass: every FMI 3.0 mask lies inside the instance's mask of the same call.
+    #[test]
+    fn every_fmi3_mask_lies_inside_the_shared_instances() {
+        for (fmi3, shared) in [
+            (allowed::ENTER_INIT, fmi2::SETUP & fmi2::ENTER_INIT),
+            (allowed::EXIT_INIT, fmi2::EXIT_INIT),
+            (allowed::TERMINATE, fmi2::TERMINATE),
+            (allowed::GET, fmi2::GET),
+            (allowed::SET, fmi2::SET),
+            (allowed::DO_STEP, fmi2::DO_STEP),
+        ] {
+            assert_eq!(fmi3 & !shared, 0, "{fmi3:#b} not inside {shared:#b}");
+        }
+        assert_eq!(allowed::ANY, fmi2::ANY);
+    }
+
+    #[test]
+    fn messages_carry_the_fmi3_function_name() {
+        let m = fmi3_message("fmi3DoStep", "fmi2DoStep: step failed: x".to_string());
+        assert_eq!(m, "fmi3DoStep: step failed: x");
+        let m = fmi3_message("fmi3DoStep", "tunable parameters changed".to_string());
+        assert_eq!(m, "tunable parameters changed");
+    }
 }

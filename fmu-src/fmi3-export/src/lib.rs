@@ -21,6 +21,33 @@ pub mod xml;
 /// reference of the models' tables, which the test `export_fmi3!` adds checks.
 pub const TIME_VALUE_REFERENCE: u32 = 1_000_000;
 
+/// The documentation page of the FMI 3.0 archive: the model's page (the same model, variables and
+/// value references as in FMI 2.0) with the FMI 3.0 interface line, and a note that maps the FMI
+/// 2.0 function names the model's text uses onto their FMI 3.0 counterparts.
+pub fn documentation<M: fmi2_export::Model>() -> String {
+    let html = fmi2_export::html::documentation::<M>();
+    let token = fmi2_export::xml::guid::<M>();
+    let fmi3 = format!(
+        "<p>FMI 3.0 Co-Simulation, instantiationToken <code>{token}</code> (the model is also \
+         shipped as FMI 2.0, with the same variables and value references, plus <code>time</code>, \
+         value reference {TIME_VALUE_REFERENCE}).</p>\n<p>Where this page names an FMI 2.0 \
+         function, the FMI 3.0 one applies: <code>fmi2SetupExperiment</code> and \
+         <code>fmi2EnterInitializationMode</code> are <code>fmi3EnterInitializationMode</code>, \
+         <code>fmi2ExitInitializationMode</code> is <code>fmi3ExitInitializationMode</code>, \
+         <code>fmi2GetReal</code>/<code>fmi2SetReal</code> are \
+         <code>fmi3GetFloat64</code>/<code>fmi3SetFloat64</code>. Model Exchange is offered by \
+         the FMI 2.0 archive only.</p>\n"
+    );
+    let fmi2 = format!("<p>FMI 2.0 Co-Simulation, GUID <code>{token}</code>.</p>\n");
+    if let Some(i) = html.find(&fmi2) {
+        return format!("{}{fmi3}{}", &html[..i], &html[i + fmi2.len()..]);
+    }
+    match html.find("</h1>\n") {
+        Some(i) => format!("{}{fmi3}{}", &html[..i + 6], &html[i + 6..]),
+        None => format!("{fmi3}{html}"),
+    }
+}
+
 /// Entry point of each model's `describe3-<crate>` binary: writes the FMI 3.0
 /// `modelDescription.xml` and `documentation/index.html` into the directory given as the only
 /// argument (default `.`).
@@ -35,7 +62,7 @@ pub fn describe_main<M: fmi2_export::Model>() {
         )?;
         std::fs::write(
             dir.join("documentation").join("index.html"),
-            fmi2_export::html::documentation::<M>(),
+            documentation::<M>(),
         )?;
         Ok(())
     })();
@@ -491,4 +518,18 @@ macro_rules! __fmi3_no_type {
             no_variables_of_type::<M>(c, stringify!($name), $ty, vr, nvr, allowed::$mask)
         }
     };
+}
+
+#[cfg(test)]
+mod tests {
+    use super::documentation;
+    use test_oscillator::Oscillator;
+
+    #[test]
+    fn the_documentation_names_fmi3_not_fmi2_as_its_interface() {
+        let html = documentation::<Oscillator>();
+        assert!(html.contains("<p>FMI 3.0 Co-Simulation, instantiationToken"));
+        assert!(!html.contains("FMI 2.0 Co-Simulation, GUID"));
+        assert_eq!(html.matches("<h1>").count(), 1);
+    }
 }

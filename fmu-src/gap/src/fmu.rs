@@ -1,14 +1,14 @@
-//! The [`Simulator`] of an FMI 2.0 or FMI 3.0 Co-Simulation FMU through the `host` crate: the
+//! The [`GridModel`] of an FMI 2.0 or FMI 3.0 Co-Simulation FMU through the `host` crate: the
 //! measured inputs drive it (linearly interpolated at the communication points), the
 //! communication step is the data's sample interval, and the outputs are compared at the data's
 //! times. Both versions are read through the FMI 2.0-shaped description (for FMI 3.0, its
 //! scalar variables: `host::fmi3::fmi2_view`), so the conventions (Boolean `<effect>.enabled`,
 //! Real `<effect>.<name>`, `[calibrate]`) are read the same way.
 
-use crate::sim::{SimError, Simulator};
+use crate::sim::{GridModel, SimError};
 use crate::spec::{ParamKind, ParamSpec};
 use crate::workflow::{Data, GapError};
-use host::csv::format_number;
+use host::csv::{format_number, sample_interval};
 use host::fmi3::{Fmu3, Inputs3, Request3, Simulator3};
 use host::md::{Causality, ModelDescription, VarKind, Variability};
 use host::{Fmu, InputSeries, SimulationRequest, SimulationResult, Value};
@@ -52,16 +52,6 @@ pub struct FmuSimulator<'a> {
     time: Vec<f64>,
     step: f64,
     inputs: InputSeries,
-}
-
-/// The sample interval of a time grid: the median of its differences.
-pub fn sample_interval(time: &[f64]) -> Option<f64> {
-    let mut d: Vec<f64> = time.windows(2).map(|w| w[1] - w[0]).collect();
-    if d.is_empty() {
-        return None;
-    }
-    d.sort_by(f64::total_cmp);
-    Some(d[d.len() / 2])
 }
 
 impl<'a> FmuSimulator<'a> {
@@ -205,7 +195,7 @@ impl<'a> FmuSimulator<'a> {
     }
 }
 
-impl Simulator for FmuSimulator<'_> {
+impl GridModel for FmuSimulator<'_> {
     fn params(&self) -> &[ParamSpec] {
         &self.params
     }

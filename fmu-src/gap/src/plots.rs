@@ -63,7 +63,9 @@ fn outputs_png(res: &GapResult, path: &Path) -> Result<(), DynErr> {
     root.fill(&WHITE)?;
     let areas = root.split_evenly((k, 1));
     let (t0, t1) = (tr.time[0], *tr.time.last().unwrap_or(&1.0));
-    for (area, (name, meas, nom, base, fin)) in areas.iter().zip(&tr.outputs) {
+    for (area, o) in areas.iter().zip(&tr.outputs) {
+        let (name, meas, nom, base, fin) =
+            (&o.name, &o.measured, &o.nominal, &o.base_fit, &o.final_fit);
         let (lo, hi) = bounds(&[meas, nom, base, fin]);
         let mut ch = ChartBuilder::on(area)
             .caption(format!("{name}: measured vs model"), ("sans-serif", 16))
@@ -96,7 +98,8 @@ fn residuals_png(res: &GapResult, path: &Path) -> Result<(), DynErr> {
     root.fill(&WHITE)?;
     let areas = root.split_evenly((k, 1));
     let (t0, t1) = (tr.time[0], *tr.time.last().unwrap_or(&1.0));
-    for (area, (name, meas, _, base, fin)) in areas.iter().zip(&tr.outputs) {
+    for (area, o) in areas.iter().zip(&tr.outputs) {
+        let (name, meas, base, fin) = (&o.name, &o.measured, &o.base_fit, &o.final_fit);
         let rb: Vec<f64> = base.iter().zip(meas).map(|(a, b)| a - b).collect();
         let rf: Vec<f64> = fin.iter().zip(meas).map(|(a, b)| a - b).collect();
         let (lo, hi) = bounds(&[&rb, &rf]);
@@ -130,9 +133,10 @@ fn revealing_png(res: &GapResult, path: &Path) -> Result<bool, DynErr> {
     let Some((k, var, v)) = &tr.revealing else {
         return Ok(false);
     };
-    let Some((name, meas, _, base, fin)) = tr.outputs.get(*k) else {
+    let Some(o) = tr.outputs.get(*k) else {
         return Ok(false);
     };
+    let (name, meas, base, fin) = (&o.name, &o.measured, &o.base_fit, &o.final_fit);
     let rb: Vec<f64> = base.iter().zip(meas).map(|(a, b)| a - b).collect();
     let rf: Vec<f64> = fin.iter().zip(meas).map(|(a, b)| a - b).collect();
     let (lo, hi) = bounds(&[&rb, &rf]);

@@ -8,7 +8,17 @@ use std::path::Path;
 /// The verdict in plain words for the first line of the report: what was named, and which
 /// candidates these data cannot show at all (the details and the statistics follow).
 pub fn in_short(res: &GapResult) -> String {
-    let mut s = if res.named.is_empty() {
+    let mut s = if let (true, Some(d)) = (res.named.is_empty(), &res.disagreement) {
+        format!(
+            "no candidate effect explains the data, and a disagreement remains ({}): see the \
+             warnings for where it sits and what its shape suggests.",
+            d.outputs
+                .iter()
+                .map(|o| format!("{} {:.1}× its noise level", o.output, o.rmse_over_noise))
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    } else if res.named.is_empty() {
         "no missing effect found.".to_string()
     } else {
         format!(
@@ -21,6 +31,18 @@ pub fn in_short(res: &GapResult) -> String {
             res.named.join(", ")
         )
     };
+    if let (false, Some(d)) = (res.named.is_empty(), &res.disagreement) {
+        s.push_str(&format!(
+            " Even with {}, a disagreement remains that no candidate explains ({}): see the \
+             warnings.",
+            if res.named.len() == 1 { "it" } else { "them" },
+            d.outputs
+                .iter()
+                .map(|o| format!("{} {:.1}× its noise level", o.output, o.rmse_over_noise))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
+    }
     let hidden = last_round(res, |c| (!c.detectable()).then(|| c.effect.clone()));
     if !hidden.is_empty() {
         s.push_str(&format!(
@@ -147,6 +169,7 @@ pub fn to_json(res: &GapResult, fmu: &str, data: &str) -> Value {
         "convention_warnings": res.convention_warnings,
         "named": res.named,
         "unexplained": res.unexplained,
+        "disagreement": res.disagreement,
         "candidates": res.candidates,
         "design_commands": design_commands(res, fmu, data),
         "redone_rounds": res.redone_rounds.iter().map(|(r, g)| json!({"round": r, "base_delta_bic": g})).collect::<Vec<_>>(),

@@ -14,7 +14,7 @@ use std::time::Instant;
 
 /// A model that can be simulated on the measured time grid. Implementations hold the measured
 /// inputs and the time grid; `simulate` must be callable from several threads at once.
-pub trait Simulator: Sync {
+pub trait GridModel: Sync {
     /// Every parameter that can be set before initialization.
     fn params(&self) -> &[ParamSpec];
     /// Names of every model output, in the order `simulate` returns them.
@@ -73,7 +73,7 @@ type Remembered = (Key, usize, Vec<Vec<f64>>);
 
 /// Counts simulations and the wall time during which any is running, and remembers recent
 /// results (see the module documentation).
-pub struct Counted<'a, S: Simulator + ?Sized> {
+pub struct Counted<'a, S: GridModel + ?Sized> {
     pub inner: &'a S,
     active: AtomicUsize,
     count: AtomicUsize,
@@ -82,7 +82,7 @@ pub struct Counted<'a, S: Simulator + ?Sized> {
     memory: Mutex<VecDeque<Remembered>>,
 }
 
-impl<'a, S: Simulator + ?Sized> Counted<'a, S> {
+impl<'a, S: GridModel + ?Sized> Counted<'a, S> {
     pub fn new(inner: &'a S) -> Self {
         Counted {
             inner,
@@ -206,7 +206,7 @@ mod tests {
     struct Ramp {
         runs: AtomicUsize,
     }
-    impl Simulator for Ramp {
+    impl GridModel for Ramp {
         fn params(&self) -> &[ParamSpec] {
             &[]
         }

@@ -4,7 +4,7 @@
 //! `F_f = F_c tanh(ẋ / 0.01)` (smoothed sign) and cubic stiffening `k3`. Integrated with classical
 //! RK4 at four substeps per sample (the input held over the sample, as a co-simulation step).
 
-use crate::sim::{SimError, Simulator};
+use crate::sim::{GridModel, SimError};
 use crate::spec::ParamSpec;
 use crate::workflow::{self, Config, Data};
 
@@ -108,7 +108,7 @@ fn rhs(p: &[f64], u: f64, s: [f64; 3]) -> [f64; 3] {
     [v, a, due]
 }
 
-impl Simulator for Msd {
+impl GridModel for Msd {
     fn params(&self) -> &[ParamSpec] {
         &self.params
     }

@@ -310,7 +310,15 @@ with the set point <code>theta_ref</code> there, and its valve commands (<code>u
 <code>u_valve_right</code>) are held until the next sample. A set point changed between samples
 acts at the next one. Open loop the valve commands are the inputs <code>u_left</code>,
 <code>u_right</code> (saturated) and act at once, so <code>u_valve_*</code> and <code>Q_*</code>
-list them in their dependencies; every output lists every state. The right-hand side is smooth
+list them in their dependencies; every output lists every state. <code>&lt;Derivatives&gt;</code>
+lists what each derivative depends on under any setting: <code>der(theta)</code> on omega;
+<code>der(omega)</code> on theta, omega, both piston positions (cable tensions; omega for the
+capstan) and <code>tau_ext</code>; a piston's <code>der(v)</code> on theta, its position, speed,
+pressures and remembered speed; its pressures' derivatives on its position, speed, pressures,
+spool and valve input; the oil integrals on the four pressures, both spools and both valve
+inputs; a spool's rate on its position, rate and valve input; a remembered speed on the piston
+speed and itself (<code>tests/test_model_exchange_hydraulic_joint.py</code> moves every other
+state and input and finds the derivative unchanged to the bit). The right-hand side is smooth
 by the regularisations above (no discontinuity remains), so the model has no event indicators.
 Step inputs should be given to the importer as events (FMPy: the jump's time repeated), or its
 solver integrates across the jump with the old value.</p>

@@ -63,6 +63,106 @@ const FEEDTHROUGH: [(usize, &[usize]); 4] = [
     (V::Q_RIGHT as usize, &[V::U_RIGHT as usize]),
 ];
 
+/// What each derivative depends on (documentation, 'Model Exchange'), by the right-hand side of
+/// `Plant::eval`: the link on the cable tensions (piston positions, angle, speed for the
+/// capstan) and the torque; a piston's acceleration on its spring, pressures, speed, end stop
+/// and seal memory; its pressures on its position, speed, pressures and valve opening (the
+/// spool, or open loop the input); the oil integrals on all four pressures and both openings.
+const fn piston_deps(i: usize) -> [[usize; 7]; 4] {
+    let (x, v, p1, p2, sp, vm, u) = if i == 0 {
+        (
+            V::X_LEFT,
+            V::V_LEFT,
+            V::P1_LEFT,
+            V::P2_LEFT,
+            V::SPOOL_LEFT,
+            V::V_MEMORY_LEFT,
+            V::U_LEFT,
+        )
+    } else {
+        (
+            V::X_RIGHT,
+            V::V_RIGHT,
+            V::P1_RIGHT,
+            V::P2_RIGHT,
+            V::SPOOL_RIGHT,
+            V::V_MEMORY_RIGHT,
+            V::U_RIGHT,
+        )
+    };
+    let (x, v, p1, p2, sp, vm, u) = (
+        x as usize,
+        v as usize,
+        p1 as usize,
+        p2 as usize,
+        sp as usize,
+        vm as usize,
+        u as usize,
+    );
+    let th = V::THETA as usize;
+    [
+        [v, v, v, v, v, v, v],
+        [th, x, v, p1, p2, vm, vm],
+        [x, v, p1, p2, sp, u, u],
+        [x, v, p1, p2, sp, u, u],
+    ]
+}
+const PISTON_L: [[usize; 7]; 4] = piston_deps(0);
+const PISTON_R: [[usize; 7]; 4] = piston_deps(1);
+const DEP_THETA: [usize; 1] = [V::OMEGA as usize];
+const DEP_OMEGA: [usize; 5] = [
+    V::THETA as usize,
+    V::OMEGA as usize,
+    V::X_LEFT as usize,
+    V::X_RIGHT as usize,
+    V::TAU_EXT as usize,
+];
+const DEP_OIL: [usize; 8] = [
+    V::P1_LEFT as usize,
+    V::P2_LEFT as usize,
+    V::P1_RIGHT as usize,
+    V::P2_RIGHT as usize,
+    V::SPOOL_LEFT as usize,
+    V::SPOOL_RIGHT as usize,
+    V::U_LEFT as usize,
+    V::U_RIGHT as usize,
+];
+const DEP_SPOOL_L: [usize; 1] = [V::SPOOL_RATE_LEFT as usize];
+const DEP_SPOOL_RATE_L: [usize; 3] = [
+    V::SPOOL_LEFT as usize,
+    V::SPOOL_RATE_LEFT as usize,
+    V::U_LEFT as usize,
+];
+const DEP_SPOOL_R: [usize; 1] = [V::SPOOL_RATE_RIGHT as usize];
+const DEP_SPOOL_RATE_R: [usize; 3] = [
+    V::SPOOL_RIGHT as usize,
+    V::SPOOL_RATE_RIGHT as usize,
+    V::U_RIGHT as usize,
+];
+const DEP_MEMORY_L: [usize; 2] = [V::V_LEFT as usize, V::V_MEMORY_LEFT as usize];
+const DEP_MEMORY_R: [usize; 2] = [V::V_RIGHT as usize, V::V_MEMORY_RIGHT as usize];
+/// Per state, the states and inputs its derivative depends on (repeats are written once).
+const DERIVATIVE_DEPENDENCIES: [&[usize]; STATES] = [
+    &DEP_THETA,
+    &DEP_OMEGA,
+    &PISTON_L[0],
+    &PISTON_L[1],
+    &PISTON_L[2],
+    &PISTON_L[3],
+    &PISTON_R[0],
+    &PISTON_R[1],
+    &PISTON_R[2],
+    &PISTON_R[3],
+    &DEP_OIL,
+    &DEP_OIL,
+    &DEP_SPOOL_L,
+    &DEP_SPOOL_RATE_L,
+    &DEP_SPOOL_R,
+    &DEP_SPOOL_RATE_R,
+    &DEP_MEMORY_L,
+    &DEP_MEMORY_R,
+];
+
 impl HydraulicJoint {
     /// Valve commands in Model Exchange: the held controller output, or the inputs open loop.
     fn me_commands(&self, vars: &[f64]) -> [f64; 2] {
@@ -115,6 +215,10 @@ impl ModelExchange for HydraulicJoint {
 
     fn output_feedthrough() -> &'static [(usize, &'static [usize])] {
         &FEEDTHROUGH
+    }
+
+    fn derivative_dependencies() -> Option<&'static [&'static [usize]]> {
+        Some(&DERIVATIVE_DEPENDENCIES)
     }
 
     fn states(&self, x: &mut [f64]) {

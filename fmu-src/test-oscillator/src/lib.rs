@@ -15,4 +15,5 @@ pub mod vars;
 pub use model::Oscillator;
 pub use vars::{V, VARIABLES};
 
+#[cfg(feature = "fmi2")]
 fmi2_export::export_model!(Oscillator);

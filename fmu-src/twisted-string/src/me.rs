@@ -82,6 +82,42 @@ pub static STATE_VARIABLES: [(usize, usize); STATES] = [
     (V::W_EXTERNAL as usize, V::DER_W_EXTERNAL as usize),
 ];
 
+const I: usize = V::CURRENT as usize;
+const TH: usize = V::THETA_MOTOR as usize;
+const OM: usize = V::OMEGA_MOTOR as usize;
+const P: usize = V::P as usize;
+const VL: usize = V::V_LOAD as usize;
+const ZI: usize = V::CURRENT_INTEGRAL as usize;
+const ZW: usize = V::SPEED_INTEGRAL as usize;
+const DL: usize = V::BACKLASH_POSITION as usize;
+const WT: usize = V::OMEGA_TWIST as usize;
+const VOLTAGE: usize = V::VOLTAGE as usize;
+const F_LOAD: usize = V::F_LOAD as usize;
+/// The armature voltage: the current PI (i, omega, z_i, z_w) or the input.
+const DEP_VOLTAGE: [usize; 5] = [I, OM, ZI, ZW, VOLTAGE];
+/// What the strings and the gear depend on: twist (theta, delta), its rate (omega or omega_t),
+/// the load position and speed (stretch and its rate).
+const DEP_MECHANICS: [usize; 6] = [TH, OM, P, VL, DL, WT];
+
+/// Per state, in the order of `x`: the states and inputs (table positions) its derivative
+/// depends on under any parameter setting, read off [`Plant::eval`]. The set point enters at
+/// the position loop's samples only, so no derivative depends on it.
+static DERIVATIVE_DEPENDENCIES: [&[usize]; STATES] = [
+    &DEP_VOLTAGE,
+    &[OM],
+    &[I, TH, OM, P, VL, DL, WT],
+    &[VL],
+    &[TH, OM, P, VL, DL, WT, F_LOAD],
+    &[I, OM, ZI, ZW],
+    &[OM, ZW],
+    &DEP_VOLTAGE,
+    &[I, TH, OM, P, VL, DL, WT],
+    &DEP_MECHANICS,
+    &[OM, WT],
+    &DEP_MECHANICS,
+    &[VL, F_LOAD],
+];
+
 /// The state vector `x` from the plant state `y` and the external work.
 pub fn pack(y: &[f64; DIM], w_external: f64) -> [f64; STATES] {
     let mut x = [0.0; STATES];
@@ -199,6 +235,10 @@ impl ModelExchange for TwistedString {
         &STATE_VARIABLES
     }
 
+    fn derivative_dependencies() -> Option<&'static [&'static [usize]]> {
+        Some(&DERIVATIVE_DEPENDENCIES)
+    }
+
     fn states(&self, x: &mut [f64]) {
         x.copy_from_slice(&pack(&self.y, self.w_external));
     }
@@ -247,6 +287,18 @@ impl ModelExchange for TwistedString {
             self.write_outputs(vars, inp);
         }
         Ok(changed)
+    }
+
+    const PROVIDES_JACOBIAN: bool = true;
+
+    /// The plant's analytic Jacobian through the state maps ([`jacobian`]).
+    fn state_jacobian(&self, vars: &[f64], _t: f64, jac: &mut [f64]) -> Result<(), ModelError> {
+        let x = pack(&self.y, self.w_external);
+        let j = jacobian(&self.par, self.make_inputs(vars), &x);
+        for (out, row) in jac.chunks_exact_mut(STATES).zip(&j) {
+            out.copy_from_slice(row);
+        }
+        Ok(())
     }
 
     fn event_indicators(&self, _vars: &[f64], _t: f64, z: &mut [f64]) {

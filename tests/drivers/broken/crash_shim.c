@@ -134,8 +134,9 @@ S fmi2DoStep(C c, double t, double h, int no_prior) {
     return real_do_step(c, t, h, no_prior);
 }
 
-/* Model Exchange: forwarded; with -DME_FAIL_AT=T, fmi2GetDerivatives crashes once the time set
- * by fmi2SetTime is at or after T (a foreign ME FMU failing inside the host's integration). */
+/* Model Exchange: forwarded; with -DME_FAIL_AT=T, fmi2GetDerivatives crashes (with -DHANG: never
+ * returns; with -DME_ERROR: returns fmi2Error) once the time set by fmi2SetTime is at or after T
+ * (a foreign ME FMU failing inside the host's integration). */
 typedef struct { int a, b, c, d, e; double t; } EventInfo;
 FWD(S, fmi2EnterEventMode, (C c), (c))
 FWD(S, fmi2NewDiscreteStates, (C c, EventInfo *i), (c, i))
@@ -157,8 +158,14 @@ S fmi2GetDerivatives(C c, double *dx, size_t n) {
     LOAD(real_get_derivatives, "fmi2GetDerivatives");
 #ifdef ME_FAIL_AT
     if (me_time >= ME_FAIL_AT) {
+#if defined(ME_ERROR)
+        return 3; /* fmi2Error, as an FMU whose equations fail there */
+#elif defined(HANG)
+        for (;;) pause();
+#else
         volatile int *null = NULL;
         *null = 42;
+#endif
     }
 #endif
     return real_get_derivatives(c, dx, n);

@@ -27,7 +27,7 @@
 pub mod signals;
 
 use crate::lm::{Bounded, Coord};
-use crate::sim::{Counted, SimError, Simulator};
+use crate::sim::{Counted, GridModel, SimError};
 use crate::spec::{self, ParamSpec};
 use crate::workflow::{regress, Data, GapError};
 use nalgebra::DMatrix;
@@ -133,7 +133,7 @@ struct Plan {
 /// Design an experiment; `make` builds a simulator driven by the given inputs on the given grid.
 pub fn design<S, F>(make: F, cfg: &DesignConfig) -> Result<Design, GapError>
 where
-    S: Simulator,
+    S: GridModel,
     F: Fn(&Data) -> Result<S, GapError> + Sync,
 {
     check(cfg)?;
@@ -336,7 +336,7 @@ fn plan(params: &[ParamSpec], outputs: &[String], cfg: &DesignConfig) -> Result<
 }
 
 /// The measured outputs of one simulation over the training part.
-fn measured<S: Simulator + ?Sized>(
+fn measured<S: GridModel + ?Sized>(
     sim: &Counted<'_, S>,
     plan: &Plan,
     extra: &[(usize, f64)],
@@ -348,7 +348,7 @@ fn measured<S: Simulator + ?Sized>(
 }
 
 /// Each effect's visibility in one experiment (the simulator carries its inputs).
-fn visibilities<S: Simulator + ?Sized>(
+fn visibilities<S: GridModel + ?Sized>(
     sim: &Counted<'_, S>,
     plan: &Plan,
     noise: &Noise,
@@ -406,7 +406,7 @@ fn classify_inputs<S, F>(
     counter: &std::sync::atomic::AtomicUsize,
 ) -> Result<(Vec<(String, String)>, Vec<usize>), GapError>
 where
-    S: Simulator,
+    S: GridModel,
     F: Fn(&Data) -> Result<S, GapError> + Sync,
 {
     let run = |inputs: &[(String, Vec<f64>)]| -> Result<Vec<Vec<f64>>, GapError> {

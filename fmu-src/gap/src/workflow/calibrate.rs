@@ -1,6 +1,8 @@
 //! Calibration of the base model: directly and over growing horizons ([`calibrate_base`]).
 
-use super::*;
+use super::{ensure_jacobian, fit_state, Ctx, FitOut, Limits, ModelState};
+use crate::sim::{GridModel, SimError};
+use serde::Serialize;
 
 /// Horizons of the growing-horizon calibration before the whole training part, as fractions of
 /// it ([`calibrate_base`]).
@@ -100,7 +102,7 @@ impl Calibration {
 /// the screening missed the effect); the direct fit, which stays nearer the values as given, is
 /// kept. Horizons shorter than 20 samples are skipped; the anchor is the first one fitted.
 /// `Config::calibration_horizons` false leaves only the direct fit (for before/after runs).
-pub(super) fn calibrate_base<S: Simulator + ?Sized>(
+pub(super) fn calibrate_base<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     st0: &ModelState,
 ) -> Result<(FitOut, Calibration), SimError> {
@@ -141,7 +143,7 @@ pub(super) fn calibrate_base<S: Simulator + ?Sized>(
 /// The growing-horizon fit of [`calibrate_base`]: each horizon's (samples, chi-square), and the
 /// fit over the whole training part (None when the continuation stopped: a horizon could not be
 /// fitted, a simulation failing at some trial values, or the first one gives no anchor).
-fn grow_horizons<S: Simulator + ?Sized>(
+fn grow_horizons<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     st0: &ModelState,
     fit_base: &(dyn Fn(&ModelState, usize) -> Result<FitOut, SimError> + Sync),

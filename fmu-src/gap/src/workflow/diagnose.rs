@@ -1,6 +1,10 @@
 //! Diagnosis of a round: where and when the residuals exceed the noise.
 
-use super::*;
+use super::noise;
+use super::{Ctx, Data, Diagnosis, OutputDiagnosis};
+use crate::sim::GridModel;
+use crate::stats;
+use rayon::iter::{IntoParallelRefIterator, ParallelIterator};
 
 /// An output whose residual RMS is within this multiple of its noise level is at the noise
 /// level (with white residuals: consistent with noise).
@@ -12,7 +16,7 @@ pub(super) fn errors(meas: &[f64], model: &[f64]) -> (f64, f64) {
 }
 
 /// Diagnose the residual of the current model over the whole trace.
-pub(super) fn diagnose<S: Simulator + ?Sized>(
+pub(super) fn diagnose<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     data: &Data,
     all_out: &[Vec<f64>],
@@ -50,8 +54,11 @@ pub(super) fn diagnose<S: Simulator + ?Sized>(
             .fold((0, 0.0), |b, (i, &v)| if v > b.1 { (i, v) } else { b });
         let t0 = data.time[wi * n / nw];
         let t1 = data.time[((wi + 1) * n / nw).min(n) - 1];
-        let (_, lb_p) = stats::ljung_box(&r, 20);
-        let rho1 = stats::autocorr(&r, 1);
+        // Whiteness of the innovations under the output's noise model (the residual itself
+        // for white noise): correlated noise alone is no misfit.
+        let innov = noise::innovations(&r, ctx.rho[k]);
+        let (_, lb_p) = stats::ljung_box(&innov, 20);
+        let rho1 = stats::autocorr(&innov, 1);
         let max_lag = (n / 20).clamp(1, 200);
         let input_xcorr = data
             .inputs

@@ -17,7 +17,11 @@
 //! point's values, following the valley), until the profile reaches `t²` (the end interpolated
 //! in the squared distance) or the parameter's bound.
 
-use super::*;
+use super::{fit_state_holding, Ctx, FitOut, FitProblem, Limits, ModelState};
+use crate::lm;
+use crate::sim::GridModel;
+use nalgebra::DMatrix;
+use rayon::iter::{IndexedParallelIterator, IntoParallelRefIterator, ParallelIterator};
 
 /// Held fits of the profile search per end; each moves the end out by [`GROWTH`].
 const MAX_HELD_FITS: usize = 4;
@@ -38,7 +42,7 @@ const HELD_FIT_ITERATIONS: usize = 5;
 /// their ranges), and every end is then checked by a fit of the others with its parameter held
 /// there.
 #[allow(clippy::too_many_arguments)]
-pub(super) fn profile_ends<S: Simulator + ?Sized>(
+pub(super) fn profile_ends<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     fin: &FitOut,
     n_fin: usize,

@@ -1,7 +1,12 @@
 //! Evidence: the statistics a naming rests on (BIC with autocorrelation-corrected sample sizes,
 //! held-out sums, parameter covariances and intervals, bound and far-from-data warnings).
 
-use super::*;
+use super::{Candidate, Estimate, OutputErrors};
+use crate::lm::Bounded;
+use crate::spec::ParamSpec;
+use crate::{lm, stats};
+use nalgebra::{DMatrix, DVector};
+use std::collections::BTreeMap;
 
 /// Sum of squares of a full-trace stacked residual (k outputs of n samples) over the held-out
 /// samples `n_train..n`; None when nothing is held out.
@@ -314,6 +319,7 @@ pub(super) fn best_refit_delta_bic(ranked: &[Candidate]) -> f64 {
 #[cfg(test)]
 mod covariance_tests {
     use super::*;
+    use crate::workflow::Z95;
 
     /// Ordinary inverse of XᵀX (reference for the identifiable case).
     fn plain_inv(x: &DMatrix<f64>) -> DMatrix<f64> {
@@ -414,6 +420,7 @@ fn errors_after(rmse: f64, mean: f64, sigma: f64) -> OutputErrors {
         rmse_base_fit: 10.0,
         max_base_fit: 10.0,
         noise_sigma: sigma,
+        noise_ar1: 0.0,
         mean_after: mean,
     }
 }
@@ -421,6 +428,8 @@ fn errors_after(rmse: f64, mean: f64, sigma: f64) -> OutputErrors {
 #[cfg(test)]
 mod offset_tests {
     use super::*;
+    use crate::workflow::BTreeMap;
+    use crate::workflow::OutputErrors;
 
     fn out(rmse: f64, mean: f64) -> OutputErrors {
         errors_after(rmse, mean, 1.0)
@@ -445,6 +454,9 @@ mod offset_tests {
 #[cfg(test)]
 mod bound_tests {
     use super::*;
+    use crate::workflow::BTreeMap;
+    use crate::workflow::Estimate;
+    use crate::ParamSpec;
 
     fn est(v: f64) -> Estimate {
         Estimate {

@@ -1,7 +1,16 @@
 //! The end of a run: the chosen model refitted on the whole trace, its outputs as the data see
 //! them, and the errors before and after per output.
 
-use super::*;
+use super::diagnose::errors;
+use super::offsets::offset_estimates;
+use super::screen::FINAL_LIMITS;
+use super::{
+    ensure_jacobian, fit_state, Ctx, Data, Estimate, FitOut, GapError, ModelState, OutputErrors,
+    OutputTrace,
+};
+use crate::lm;
+use crate::sim::GridModel;
+use std::collections::BTreeMap;
 
 /// How far (in its fitting coordinate) a base parameter may end from where the calibration
 /// started it before the final fit is also tried from that start: a factor of 3 for a
@@ -22,7 +31,7 @@ const WANDERED_LINEAR: f64 = 2.0;
 /// chi-square above the truth's). When a base parameter ended far from where the calibration
 /// started it (`st0`), the final fit also starts from there (the effects' parameters as fitted),
 /// in parallel, and the lower of the two is kept.
-pub(super) fn final_fit<S: Simulator + ?Sized>(
+pub(super) fn final_fit<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     cur: FitOut,
     cur_full_r: &[f64],
@@ -84,7 +93,7 @@ pub(super) type Offsets = BTreeMap<String, Estimate>;
 
 /// The final model's measured outputs over the whole trace with their estimated offsets added
 /// (the model as the data see it), and the offsets with their intervals (`offsets`).
-pub(super) fn final_outputs<S: Simulator + ?Sized>(
+pub(super) fn final_outputs<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     fin: &FitOut,
     n_fin: usize,
@@ -99,7 +108,7 @@ pub(super) fn final_outputs<S: Simulator + ?Sized>(
 
 /// Errors per output of the model as given, the base fit and the final model (`models`, in
 /// that order, measured outputs in the data's order), and the traces for the plots.
-pub(super) fn output_errors<S: Simulator + ?Sized>(
+pub(super) fn output_errors<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     data: &Data,
     models: [&[Vec<f64>]; 3],
@@ -121,17 +130,18 @@ pub(super) fn output_errors<S: Simulator + ?Sized>(
                 rmse_base_fit: rf,
                 max_base_fit: mf,
                 noise_sigma: ctx.sigma[k],
+                noise_ar1: ctx.rho[k],
                 mean_after: final_y[k].iter().zip(y).map(|(m, d)| m - d).sum::<f64>()
                     / y.len().max(1) as f64,
             },
         );
-        traces.push((
-            name.clone(),
-            y.clone(),
-            nominal[k].clone(),
-            base_fit[k].clone(),
-            final_y[k].clone(),
-        ));
+        traces.push(OutputTrace {
+            name: name.clone(),
+            measured: y.clone(),
+            nominal: nominal[k].clone(),
+            base_fit: base_fit[k].clone(),
+            final_fit: final_y[k].clone(),
+        });
     }
     (outputs, traces)
 }

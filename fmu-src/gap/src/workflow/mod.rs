@@ -2,7 +2,7 @@
 //!
 //! Notation: `K` measured outputs, `N` samples, weighted residual `r = (y_model − y_meas) / σ_k`
 //! stacked output by output (row `k N + i`). `σ_k` is the noise level of output `k` estimated from
-//! the data (`stats::noise_sigma`). Fits use the first `(1 − holdout)` of the trace; the last part
+//! the data (`stats::noise_sigma`), the marginal level of correlated noise (`noise`). Fits use the first `(1 − holdout)` of the trace; the last part
 //! is held out to check that a named effect generalises.
 //!
 //! Model comparison uses the profile likelihood with one unknown noise variance per output and an
@@ -13,22 +13,30 @@
 //! rows of output `k` are multiplied by `(σ_k / s_k) √(N_eff,k / N)` where `s_k` is the residual RMS,
 //! so `Cov(z) = (J̃ᵀ J̃)⁻¹` and 95 % Wald intervals follow by the delta method.
 
-use crate::lm::{self, Bounded, LmOptions, Problem};
-use crate::sim::{Counted, SimError, Simulator};
-use crate::spec::{self, EffectSpec, ParamKind, ParamSpec};
-use crate::stats;
+use crate::lm::{Bounded, LmOptions, Problem};
+use crate::sim::{Counted, GridModel, SimError};
+use crate::spec::{EffectSpec, ParamSpec};
+use crate::{lm, stats};
+use diagnose::diagnose;
+use evidence::{bound_warnings, estimates, far_from_data_warning, offset_warnings, row_scale};
+use finish::{final_fit, final_outputs, output_errors};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use nalgebra::{DMatrix, DVector};
-use rayon::prelude::*;
+use rough::{interval_basis, roughness_note};
+use rounds::{run_rounds, RoundInputs, Rounds};
+use screen::LM_ABS_TOL;
 use serde::Serialize;
+use setup::{setup, Setup};
+use start::{calibrate_to_start, initial_state_note, reproduces_start, start_error, Calibrated};
 use std::collections::BTreeMap;
 use std::time::Instant;
 
 mod calibrate;
 mod diagnose;
+mod disagreement;
 mod ends;
 mod evidence;
 mod finish;
+mod noise;
 mod offsets;
 mod refit;
 mod rough;
@@ -38,22 +46,10 @@ mod setup;
 mod start;
 mod verdict;
 
-use calibrate::*;
 pub use calibrate::{Calibration, CalibrationFit};
-use diagnose::*;
-use ends::*;
+pub use disagreement::{Disagreement, OutputDisagreement, Shape, DISAGREEMENT_RATIO};
 pub(crate) use evidence::regress;
-use evidence::*;
-use finish::*;
-use offsets::*;
-use refit::*;
-use rough::*;
-use rounds::*;
-use screen::*;
-use setup::*;
-use start::*;
 pub use verdict::visibility_scale;
-use verdict::*;
 
 /// z value of a two-sided 95 % interval.
 pub const Z95: f64 = 1.959_963_984_540_054;
@@ -284,7 +280,9 @@ pub struct OutputErrors {
     /// Base model (effects off) after calibration.
     pub rmse_base_fit: f64,
     pub max_base_fit: f64,
+    /// Noise level (marginal standard deviation) and the noise's AR(1) coefficient (0: white).
     pub noise_sigma: f64,
+    pub noise_ar1: f64,
     /// Mean of (model − measured) after the final fit: a constant offset, such as a sensor zero
     /// error, shows here.
     pub mean_after: f64,
@@ -308,6 +306,9 @@ pub struct GapResult {
     pub named: Vec<String>,
     pub unexplained: Option<String>,
     pub verdict: String,
+    /// Outputs the final model still misses by more than `DISAGREEMENT_RATIO` × their noise
+    /// level: where, and the simple shapes fitted to the residual.
+    pub disagreement: Option<Disagreement>,
     /// Things the user should know about the fit (parameters on bounds).
     pub warnings: Vec<String>,
     /// Departures of the FMU from the candidate-effect convention, each naming its variable
@@ -334,14 +335,23 @@ pub struct GapResult {
     pub traces: Traces,
 }
 
-/// (name, measured, nominal model, base fit, final) of one output.
-pub type OutputTrace = (String, Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>);
+/// One measured output and the three models' versions of it, on the data's time grid.
+#[derive(Clone, Debug, Default)]
+pub struct OutputTrace {
+    pub name: String,
+    pub measured: Vec<f64>,
+    /// The model as given (before calibration).
+    pub nominal: Vec<f64>,
+    /// The calibrated base model (no effect named).
+    pub base_fit: Vec<f64>,
+    /// The final model (base plus the named effects, refitted on the whole trace).
+    pub final_fit: Vec<f64>,
+}
 
 /// Time series kept for the plots.
 #[derive(Clone, Debug, Default)]
 pub struct Traces {
     pub time: Vec<f64>,
-    /// (name, measured, nominal model, base fit, final)
     pub outputs: Vec<OutputTrace>,
     /// (output index, variable name, variable values at the base fit)
     pub revealing: Option<(usize, String, Vec<f64>)>,
@@ -389,14 +399,17 @@ impl ModelState {
     }
 }
 
-struct Ctx<'a, S: Simulator + ?Sized> {
+struct Ctx<'a, S: GridModel + ?Sized> {
     sim: Counted<'a, S>,
     params: Vec<ParamSpec>,
     effects: Vec<EffectSpec>,
     fixed: Vec<(usize, f64)>,
     out_idx: Vec<usize>,
     meas: Vec<Vec<f64>>,
+    /// Per measured output: the noise level (marginal standard deviation) and the AR(1)
+    /// coefficient of the noise (0: white), see `noise`.
     sigma: Vec<f64>,
+    rho: Vec<f64>,
     /// Per measured output: its offset is estimated (`Config::offsets`).
     offset: Vec<bool>,
     n: usize,
@@ -411,7 +424,7 @@ struct Ctx<'a, S: Simulator + ?Sized> {
     t0: Instant,
 }
 
-impl<S: Simulator + ?Sized> Ctx<'_, S> {
+impl<S: GridModel + ?Sized> Ctx<'_, S> {
     /// Progress message; with `Config::trace` also a line on stderr with the elapsed time and
     /// the simulation count (for profiling).
     fn stage(&self, msg: String) {
@@ -512,7 +525,7 @@ impl<S: Simulator + ?Sized> Ctx<'_, S> {
     }
 }
 
-struct FitProblem<'c, 'a, S: Simulator + ?Sized> {
+struct FitProblem<'c, 'a, S: GridModel + ?Sized> {
     ctx: &'c Ctx<'a, S>,
     /// Settings that stay constant in this fit.
     base: Vec<(usize, f64)>,
@@ -520,7 +533,7 @@ struct FitProblem<'c, 'a, S: Simulator + ?Sized> {
     n: usize,
 }
 
-impl<'c, 'a, S: Simulator + ?Sized> FitProblem<'c, 'a, S> {
+impl<'c, 'a, S: GridModel + ?Sized> FitProblem<'c, 'a, S> {
     /// The problem a fit of `f`'s parameters over `n` samples solves: its effects on, nothing
     /// held.
     fn of(ctx: &'c Ctx<'a, S>, f: &FitOut, n: usize) -> Self {
@@ -538,7 +551,7 @@ impl<'c, 'a, S: Simulator + ?Sized> FitProblem<'c, 'a, S> {
     }
 }
 
-impl<S: Simulator + ?Sized> Problem for FitProblem<'_, '_, S> {
+impl<S: GridModel + ?Sized> Problem for FitProblem<'_, '_, S> {
     fn residuals(&self, p: &[f64]) -> Result<Vec<f64>, SimError> {
         let mut set = self.base.clone();
         set.extend(self.idx.iter().copied().zip(p.iter().copied()));
@@ -606,7 +619,7 @@ impl Limits {
     }
 }
 
-fn fit_state<S: Simulator + ?Sized>(
+fn fit_state<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     st: &ModelState,
     extra_on: Option<usize>,
@@ -619,7 +632,7 @@ fn fit_state<S: Simulator + ?Sized>(
 
 /// [`fit_state`] with the settings `held` applied and kept constant (a profile fit: the base
 /// parameters fitted with an effect's parameters held at given values).
-fn fit_state_holding<S: Simulator + ?Sized>(
+fn fit_state_holding<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     st: &ModelState,
     extra_on: Option<usize>,
@@ -674,7 +687,7 @@ fn fit_state_holding<S: Simulator + ?Sized>(
 /// The finite-difference Jacobian at the optimum of `f` (a fit of `fit_state` over `n`
 /// samples, effects in `f.state.named` on, nothing held) if it ended without one: the values
 /// the fit would have ended with.
-fn ensure_jacobian<S: Simulator + ?Sized>(ctx: &Ctx<'_, S>, f: &mut FitOut, n: usize) {
+fn ensure_jacobian<S: GridModel + ?Sized>(ctx: &Ctx<'_, S>, f: &mut FitOut, n: usize) {
     if f.fit.jac_fresh {
         return;
     }
@@ -688,87 +701,27 @@ fn ensure_jacobian<S: Simulator + ?Sized>(ctx: &Ctx<'_, S>, f: &mut FitOut, n: u
 }
 
 /// Run the workflow on `data` with the simulator `sim`.
-pub fn run<S: Simulator + ?Sized>(
+pub fn run<S: GridModel + ?Sized>(
     sim: &S,
     data: &Data,
     cfg: &Config,
 ) -> Result<GapResult, GapError> {
     let t_start = Instant::now();
-    let Setup {
-        params,
-        names,
-        n,
-        out_idx,
-        fixed,
-        effects,
-        fit_idx,
-        initial_idx,
-        fit_start,
-        convention_warnings,
-        offset,
-    } = setup(sim, data, cfg)?;
-
-    let meas: Vec<Vec<f64>> = data.outputs.iter().map(|(_, v)| v.clone()).collect();
-    let sigma: Vec<f64> = meas
-        .iter()
-        .map(|y| {
-            let r = stats::range(y);
-            stats::noise_sigma(y).max(1e-4 * r).max(1e-12)
-        })
-        .collect();
-    let holdout = cfg.holdout.clamp(0.0, 0.9);
-    let n_train = ((n as f64) * (1.0 - holdout)).round().clamp(10.0, n as f64) as usize;
-
-    let pb = if cfg.progress {
-        let pb = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr());
-        pb.set_style(
-            ProgressStyle::with_template("{spinner} [{elapsed_precise}] {msg}")
-                .unwrap_or(ProgressStyle::default_spinner()),
-        );
-        pb
-    } else {
-        ProgressBar::hidden()
-    };
-    let ctx = Ctx {
-        sim: Counted::new(sim),
-        params: params.clone(),
-        effects: effects.clone(),
-        fixed: fixed.clone(),
-        out_idx,
-        meas,
-        sigma,
-        offset,
-        n,
-        n_train,
-        min_delta_bic: cfg.min_delta_bic,
-        calibration_horizons: cfg.calibration_horizons,
-        profile_restart: cfg.profile_restart,
-        trace: cfg.trace,
-        pb,
-        t0: t_start,
-    };
-    let kout = ctx.out_idx.len();
+    let setup = setup(sim, data, cfg)?;
+    let names = setup.names.clone();
+    let initial_idx = setup.initial_idx.clone();
+    let convention_warnings = setup.convention_warnings.clone();
+    let (ctx, st0) = context(sim, data, cfg, setup, t_start);
     let t_est = Instant::now();
 
     // --- The model as given.
     ctx.stage("simulating the model as given".to_string());
-    let st0 = ModelState {
-        named: Vec::new(),
-        idx: fit_idx.clone(),
-        val: fit_start,
-    };
-    let nominal_all = ctx
-        .sim
-        .simulate(&ctx.settings(&st0, None, &[]), n)
-        .map_err(GapError::Simulation)?;
-    let nominal: Vec<Vec<f64>> = ctx
-        .out_idx
-        .iter()
-        .map(|&k| nominal_all[k][..n].to_vec())
-        .collect();
+    let nominal = measured_part(&ctx, &simulate_all(&ctx, &st0)?);
 
     // --- 1. Calibrate the base model on the training part; for a record that does not begin
-    // in the model's initial state, again with the initial state the FMU exposes (`start`).
+    // in the model's initial state, again with the initial state the FMU exposes (`start`);
+    // for correlated noise, again with its marginal level (`noise`).
+    let (ctx, calibrated) = calibrate_with_noise_model(ctx, st0, &initial_idx)?;
     let Calibrated {
         st0,
         fit: base,
@@ -777,42 +730,14 @@ pub fn run<S: Simulator + ?Sized>(
         miss: start_miss0,
         initial_estimated,
         ..
-    } = calibrate_to_start(&ctx, st0, &initial_idx)?;
-    let cur = base;
-    let base_fit: Vec<Vec<f64>> = ctx
-        .out_idx
-        .iter()
-        .map(|&k| base_all[k][..n].to_vec())
-        .collect();
-    let cur_full_r = ctx.residual(&base_fit, n);
-    let base_fit = ctx.with_offsets(base_fit, n_train);
+    } = calibrated;
+    let base_fit = measured_part(&ctx, &base_all);
+    let cur_full_r = ctx.residual(&base_fit, ctx.n);
+    let base_fit = ctx.with_offsets(base_fit, ctx.n_train);
 
     // --- 2. Locate the disagreement.
     let diagnosis0 = diagnose(&ctx, data, &base_all, &names);
-    let revealing = diagnosis0
-        .outputs
-        .iter()
-        .enumerate()
-        .max_by(|a, b| {
-            a.1.rmse_over_noise
-                .partial_cmp(&b.1.rmse_over_noise)
-                .unwrap_or(std::cmp::Ordering::Equal)
-        })
-        .and_then(|(k, d)| {
-            let (name, _) = d.region_variable.as_ref()?;
-            let v = data
-                .inputs
-                .iter()
-                .find(|(s, _)| s == name)
-                .map(|(_, v)| v[..n].to_vec())
-                .or_else(|| {
-                    names
-                        .iter()
-                        .position(|s| s == name)
-                        .map(|j| base_all[j][..n].to_vec())
-                })?;
-            Some((k, name.clone(), v))
-        });
+    let revealing = revealing_variable(&diagnosis0, data, &names, &base_all, ctx.n);
 
     // --- 3./4. Screen, refit, name; repeat.
     let inputs = RoundInputs {
@@ -823,41 +748,311 @@ pub fn run<S: Simulator + ?Sized>(
     let Rounds {
         cur,
         cur_full_r,
-        named: named_names,
-        candidates: rounds,
+        named,
+        candidates,
         diagnosis,
-        redone: redone_rounds,
-        mut verdict,
+        redone,
+        verdict,
         unexplained,
-    } = run_rounds(&ctx, &inputs, cur, cur_full_r, diagnosis0, data, &names)?;
-    let mut start_warning = None;
-    if let Some(miss) = &start_miss0 {
-        if !reproduces_start(&ctx, miss, &cur_full_r, false) {
-            start_warning = Some(start_error(
-                &ctx,
-                miss,
-                &initial_idx,
-                &data.time,
-                cfg.rounds,
-            )?);
-        }
-    }
-    if verdict.is_empty() {
-        verdict = if named_names.is_empty() {
-            "no missing effect found".to_string()
-        } else {
-            format!("named {}", named_names.join(", "))
-        };
-    }
+    } = run_rounds(&ctx, &inputs, base, cur_full_r, diagnosis0, data, &names)?;
+    let start_warning = match &start_miss0 {
+        Some(miss) if !reproduces_start(&ctx, miss, &cur_full_r, false) => Some(start_error(
+            &ctx,
+            miss,
+            &initial_idx,
+            &data.time,
+            cfg.rounds,
+        )?),
+        _ => None,
+    };
 
     // --- 5. Final fit on the whole trace and the errors before/after.
-    let (fin, n_fin) = final_fit(&ctx, cur, &cur_full_r, &st0);
+    let ending = finish(&ctx, data, &st0, (cur, &cur_full_r), [&nominal, &base_fit])?;
+    ctx.pb.finish_and_clear();
+    let est_s = t_est.elapsed().as_secs_f64();
+    let initial_note = initial_estimated.map(|m| initial_state_note(&ctx, &m, &initial_idx));
+    let disagreement =
+        disagreement::disagreement(&data.time, &ending.trace_outputs, &ending.outputs);
+    let mut warnings = run_warnings(&ctx, &ending, initial_note, start_warning);
+    warnings.extend(disagreement.as_ref().map(|d| d.text.clone()));
+    let timing = timing(&ctx, t_start, est_s);
+    let Ending {
+        parameters,
+        offsets,
+        outputs,
+        trace_outputs,
+        ..
+    } = ending;
+    Ok(GapResult {
+        verdict: verdict_text(verdict, &named, disagreement.as_ref()),
+        disagreement,
+        named,
+        unexplained,
+        warnings,
+        convention_warnings,
+        candidates,
+        redone_rounds: redone,
+        calibration,
+        parameters,
+        offsets,
+        outputs,
+        fixed: cfg.fixed.iter().cloned().collect(),
+        diagnosis,
+        timing,
+        holdout_fraction: ctx_holdout(cfg),
+        samples: ctx.n,
+        train_samples: ctx.n_train,
+        traces: Traces {
+            time: data.time.clone(),
+            outputs: trace_outputs,
+            revealing,
+        },
+    })
+}
+
+/// The report's warnings, in the order a reader meets them: parameters on a bound, offsets,
+/// the initial state estimated, a start the final model does not reproduce, a final model
+/// still far from the data, a rough sum of squares.
+fn run_warnings<S: GridModel + ?Sized>(
+    ctx: &Ctx<'_, S>,
+    ending: &Ending,
+    initial_note: Option<String>,
+    start_warning: Option<String>,
+) -> Vec<String> {
+    let mut warnings = bound_warnings(&ending.parameters, &ctx.params);
+    warnings.extend(offset_warnings(&ending.outputs));
+    warnings.extend(initial_note);
+    warnings.extend(start_warning);
+    warnings.extend(noise::correlated_noise_note(
+        &ctx.rho,
+        ctx.sim.inner.output_names(),
+        &ctx.out_idx,
+    ));
+    warnings.extend(far_from_data_warning(&ending.outputs));
+    warnings.extend(ending.roughness.map(roughness_note));
+    warnings
+}
+
+/// Wall time of the run, split into simulating and the rest of the estimation (`est_s`).
+fn timing<S: GridModel + ?Sized>(ctx: &Ctx<'_, S>, t_start: Instant, est_s: f64) -> Timing {
+    Timing {
+        total_s: t_start.elapsed().as_secs_f64(),
+        simulate_s: ctx.sim.busy_s(),
+        fit_s: (est_s - ctx.sim.busy_s()).max(0.0),
+        simulations: ctx.sim.count(),
+        threads: rayon::current_num_threads(),
+    }
+}
+
+/// The base calibration ([`calibrate_to_start`]), then the noise model from its residual
+/// (`noise`): where an output's noise is correlated, its level becomes the marginal one, its
+/// AR(1) coefficient is carried by the statistics, and the base model is calibrated again
+/// with those weights. White noise everywhere leaves the first calibration as it is.
+fn calibrate_with_noise_model<'a, S: GridModel + ?Sized>(
+    ctx: Ctx<'a, S>,
+    st0: ModelState,
+    initial_idx: &[usize],
+) -> Result<(Ctx<'a, S>, Calibrated), GapError> {
+    let first = calibrate_to_start(&ctx, st0.clone(), initial_idx)?;
+    let r = ctx.residual(&measured_part(&ctx, &first.all), ctx.n);
+    let n = ctx.n;
+    let fits: Vec<noise::NoiseFit> = (0..ctx.out_idx.len())
+        .map(|k| noise::noise_fit(&r[k * n..(k + 1) * n]))
+        .collect();
+    if fits.iter().all(|f| f.rho == 0.0) {
+        return Ok((ctx, first));
+    }
+    let rho = fits.iter().map(|f| f.rho).collect();
+    let sigma = ctx
+        .sigma
+        .iter()
+        .zip(&fits)
+        .map(|(s, f)| s * f.level)
+        .collect();
+    let ctx = Ctx { sigma, rho, ..ctx };
+    ctx.stage("calibrating again with the correlated noise's level".to_string());
+    let again = calibrate_to_start(&ctx, st0, initial_idx)?;
+    Ok((ctx, again))
+}
+
+/// The fraction of the trace held out at its end (`Config::holdout`, kept within 0..0.9).
+fn ctx_holdout(cfg: &Config) -> f64 {
+    cfg.holdout.clamp(0.0, 0.9)
+}
+
+/// The noise level of each measured output, estimated from the data (`stats::noise_sigma`), kept
+/// above 1e-4 of its range so that a noiseless output does not get an infinite weight.
+fn noise_levels(meas: &[Vec<f64>]) -> Vec<f64> {
+    meas.iter()
+        .map(|y| {
+            let r = stats::range(y);
+            stats::noise_sigma(y).max(1e-4 * r).max(1e-12)
+        })
+        .collect()
+}
+
+/// A spinner on stderr when `Config::progress`, else a hidden bar.
+fn progress_bar(cfg: &Config) -> ProgressBar {
+    if !cfg.progress {
+        return ProgressBar::hidden();
+    }
+    let pb = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr());
+    pb.set_style(
+        ProgressStyle::with_template("{spinner} [{elapsed_precise}] {msg}")
+            .unwrap_or(ProgressStyle::default_spinner()),
+    );
+    pb
+}
+
+/// The workflow's context from the resolved setup, and the model as given (base parameters at
+/// their values as given, no effect named).
+fn context<'a, S: GridModel + ?Sized>(
+    sim: &'a S,
+    data: &Data,
+    cfg: &Config,
+    setup: Setup,
+    t0: Instant,
+) -> (Ctx<'a, S>, ModelState) {
+    let Setup {
+        params,
+        n,
+        out_idx,
+        fixed,
+        effects,
+        fit_idx,
+        fit_start,
+        offset,
+        ..
+    } = setup;
+    let meas: Vec<Vec<f64>> = data.outputs.iter().map(|(_, v)| v.clone()).collect();
+    let sigma = noise_levels(&meas);
+    let holdout = ctx_holdout(cfg);
+    let n_train = ((n as f64) * (1.0 - holdout)).round().clamp(10.0, n as f64) as usize;
+    let ctx = Ctx {
+        sim: Counted::new(sim),
+        params,
+        effects,
+        fixed,
+        out_idx,
+        rho: vec![0.0; meas.len()],
+        meas,
+        sigma,
+        offset,
+        n,
+        n_train,
+        min_delta_bic: cfg.min_delta_bic,
+        calibration_horizons: cfg.calibration_horizons,
+        profile_restart: cfg.profile_restart,
+        trace: cfg.trace,
+        pb: progress_bar(cfg),
+        t0,
+    };
+    let st0 = ModelState {
+        named: Vec::new(),
+        idx: fit_idx,
+        val: fit_start,
+    };
+    (ctx, st0)
+}
+
+/// Every model output of `st` over the whole trace.
+fn simulate_all<S: GridModel + ?Sized>(
+    ctx: &Ctx<'_, S>,
+    st: &ModelState,
+) -> Result<Vec<Vec<f64>>, GapError> {
+    ctx.sim
+        .simulate(&ctx.settings(st, None, &[]), ctx.n)
+        .map_err(GapError::Simulation)
+}
+
+/// The model outputs that are measured, in the data's order, over the whole trace.
+fn measured_part<S: GridModel + ?Sized>(ctx: &Ctx<'_, S>, all: &[Vec<f64>]) -> Vec<Vec<f64>> {
+    ctx.out_idx
+        .iter()
+        .map(|&k| all[k][..ctx.n].to_vec())
+        .collect()
+}
+
+/// For the plots: the output the base fit misses most (largest RMSE over noise) with the
+/// variable (an input or a model output) that organises its residual best, and that variable's
+/// values (at the base fit for a model output).
+fn revealing_variable(
+    diagnosis: &Diagnosis,
+    data: &Data,
+    names: &[String],
+    base_all: &[Vec<f64>],
+    n: usize,
+) -> Option<(usize, String, Vec<f64>)> {
+    let (k, d) = diagnosis.outputs.iter().enumerate().max_by(|a, b| {
+        a.1.rmse_over_noise
+            .partial_cmp(&b.1.rmse_over_noise)
+            .unwrap_or(std::cmp::Ordering::Equal)
+    })?;
+    let (name, _) = d.region_variable.as_ref()?;
+    let v = data
+        .inputs
+        .iter()
+        .find(|(s, _)| s == name)
+        .map(|(_, v)| v[..n].to_vec())
+        .or_else(|| {
+            names
+                .iter()
+                .position(|s| s == name)
+                .map(|j| base_all[j][..n].to_vec())
+        })?;
+    Some((k, name.clone(), v))
+}
+
+/// The verdict line: the rounds' own when they gave one, else what was named. While the final
+/// model still disagrees with the data, it never says that nothing is missing or that the
+/// residuals are noise: it says that a disagreement remains that no candidate explains.
+fn verdict_text(verdict: String, named: &[String], disagreement: Option<&Disagreement>) -> String {
+    let verdict = if !verdict.is_empty() {
+        verdict
+    } else if named.is_empty() {
+        "no missing effect found".to_string()
+    } else {
+        format!("named {}", named.join(", "))
+    };
+    let Some(d) = disagreement else {
+        return verdict;
+    };
+    let remains = disagreement::verdict_words(d);
+    if verdict.contains("consistent with noise") {
+        remains
+    } else if let Some(rest) = verdict.strip_prefix("no missing effect found") {
+        format!("{remains}{rest}")
+    } else {
+        format!("{verdict}; {remains}")
+    }
+}
+
+/// What the final fit makes of the rounds' model.
+struct Ending {
+    parameters: BTreeMap<String, Estimate>,
+    offsets: BTreeMap<String, Estimate>,
+    outputs: BTreeMap<String, OutputErrors>,
+    trace_outputs: Vec<OutputTrace>,
+    roughness: Option<f64>,
+}
+
+/// The final fit on the whole trace (`final_fit`) of the rounds' model (`cur`: its fit and
+/// whole-trace residual), its parameters with their intervals, and the errors per output of the
+/// model as given, the base fit and the final model (`before` holds the first two).
+fn finish<S: GridModel + ?Sized>(
+    ctx: &Ctx<'_, S>,
+    data: &Data,
+    st0: &ModelState,
+    cur: (FitOut, &[f64]),
+    before: [&[Vec<f64>]; 2],
+) -> Result<Ending, GapError> {
+    let (fin, n_fin) = final_fit(ctx, cur.0, cur.1, st0);
     let data_names: Vec<String> = data.outputs.iter().map(|(s, _)| s.clone()).collect();
-    let (final_y, offsets) = final_outputs(&ctx, &fin, n_fin, &data_names)?;
-    let scale = row_scale(&fin.fit.residuals, kout);
-    let basis = interval_basis(&ctx, &fin, n_fin, &scale);
+    let (final_y, offsets) = final_outputs(ctx, &fin, n_fin, &data_names)?;
+    let scale = row_scale(&fin.fit.residuals, ctx.out_idx.len());
+    let basis = interval_basis(ctx, &fin, n_fin, &scale);
     let parameters = estimates(
-        &params,
+        &ctx.params,
         &fin.state.idx,
         &basis.fit,
         &fin.bounds,
@@ -865,47 +1060,13 @@ pub fn run<S: Simulator + ?Sized>(
         n_fin,
         &basis.ends,
     );
-    let (outputs, trace_outputs) = output_errors(&ctx, data, [&nominal, &base_fit, &final_y]);
-    let traces = Traces {
-        time: data.time.clone(),
-        outputs: trace_outputs,
-        revealing,
-    };
-    ctx.pb.finish_and_clear();
-    let est_s = t_est.elapsed().as_secs_f64();
-    let sim_s = ctx.sim.busy_s();
-    let mut warnings = bound_warnings(&parameters, &params);
-    warnings.extend(offset_warnings(&outputs));
-    if let Some(miss) = &initial_estimated {
-        warnings.push(initial_state_note(&ctx, miss, &initial_idx));
-    }
-    warnings.extend(start_warning);
-    warnings.extend(far_from_data_warning(&outputs));
-    warnings.extend(basis.roughness.map(roughness_note));
-    Ok(GapResult {
-        named: named_names,
-        unexplained,
-        verdict,
-        warnings,
-        convention_warnings,
-        candidates: rounds,
-        redone_rounds,
-        calibration,
+    let [nominal, base_fit] = before;
+    let (outputs, trace_outputs) = output_errors(ctx, data, [nominal, base_fit, &final_y]);
+    Ok(Ending {
         parameters,
         offsets,
         outputs,
-        fixed: cfg.fixed.iter().cloned().collect(),
-        diagnosis,
-        timing: Timing {
-            total_s: t_start.elapsed().as_secs_f64(),
-            simulate_s: sim_s,
-            fit_s: (est_s - sim_s).max(0.0),
-            simulations: ctx.sim.count(),
-            threads: rayon::current_num_threads(),
-        },
-        holdout_fraction: holdout,
-        samples: n,
-        train_samples: n_train,
-        traces,
+        trace_outputs,
+        roughness: basis.roughness,
     })
 }

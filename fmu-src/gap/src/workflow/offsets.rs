@@ -2,7 +2,13 @@
 //! measured output, eliminated from every fit in closed form ([`Ctx::residual_est`]) and
 //! reported here with its 95 % interval.
 
-use super::*;
+use super::evidence::{covariance, row_scale};
+use super::{Ctx, Estimate, FitOut, Z95};
+use crate::lm::LmOptions;
+use crate::sim::GridModel;
+use nalgebra::DMatrix;
+use rayon::iter::{IntoParallelIterator, ParallelIterator};
+use std::collections::BTreeMap;
 
 /// The offset (measured − model) of every output whose offset is estimated, at the final fit
 /// `fin` over samples `0..n_fit`, with `y` the model's measured outputs there.
@@ -14,7 +20,7 @@ use super::*;
 /// the per-output mean of `∂r_raw/∂z`, taken by one forward difference per parameter (the step
 /// of the fit's Jacobian). The interval thus carries the uncertainty of the parameters the
 /// offset trades against, not only that of a mean.
-pub(super) fn offset_estimates<S: Simulator + ?Sized>(
+pub(super) fn offset_estimates<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     fin: &FitOut,
     n_fit: usize,

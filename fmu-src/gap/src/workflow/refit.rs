@@ -1,12 +1,22 @@
 //! Refit of the promising candidates, their assessment, and the profile restart of a refit
 //! stuck short of the naming threshold.
 
-use super::*;
+use super::evidence::{covariance, delta_bic, estimates, holdout_sse, row_scale};
+use super::screen::{CandidateStart, REFIT_ITERATIONS};
+use super::{
+    ensure_jacobian, find_param, fit_state, fit_state_holding, Candidate, Ctx, Estimate, FitOut,
+    Limits, ModelState, VisibilityPoint, Z95,
+};
+use crate::sim::{GridModel, SimError};
+use crate::{lm, stats};
+use nalgebra::DMatrix;
+use rayon::iter::{IntoParallelIterator, ParallelIterator};
+use std::collections::BTreeMap;
 
 /// Refit the current model plus effect `e` on the training part; compute its ΔBIC, parameter and
 /// magnitude intervals and held-out error. Returns the candidate, its fit and its full-trace
 /// weighted residual.
-pub(super) fn refit<S: Simulator + ?Sized>(
+pub(super) fn refit<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     cur: &FitOut,
     e: usize,
@@ -65,7 +75,7 @@ pub(super) fn refit<S: Simulator + ?Sized>(
 /// with σ estimated from the data a fit cannot undercut by much) and the current smallest
 /// `RSS_k / N`; a refit that cannot come below the current sum less `visibility_needed · ℓ`
 /// cannot be named, whatever its other checks.
-fn refit_limits<S: Simulator + ?Sized>(ctx: &Ctx<'_, S>, cur: &FitOut, e: usize) -> Limits {
+fn refit_limits<S: GridModel + ?Sized>(ctx: &Ctx<'_, S>, cur: &FitOut, e: usize) -> Limits {
     let n = ctx.n_train;
     let r = &cur.fit.residuals;
     let level = (0..ctx.out_idx.len())
@@ -78,7 +88,7 @@ fn refit_limits<S: Simulator + ?Sized>(ctx: &Ctx<'_, S>, cur: &FitOut, e: usize)
 /// The candidate record of effect `e` fitted as `f` (with the current fit `cur`): its ΔBIC,
 /// parameter and magnitude intervals and held-out error. Returns it with the fit and the fit's
 /// full-trace weighted residual.
-pub(super) fn assess<S: Simulator + ?Sized>(
+pub(super) fn assess<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     cur: &FitOut,
     e: usize,
@@ -179,7 +189,7 @@ pub(super) const PROFILE_ITERATIONS: usize = 4;
 /// if its sum of squares is lower than the refit's. Called for refits short of the naming
 /// threshold, and for the best refit when it reaches it (see `refit_all`).
 /// `Config::profile_restart` false turns it off (for before/after measurements).
-pub(super) fn profile_restart<S: Simulator + ?Sized>(
+pub(super) fn profile_restart<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     cur: &FitOut,
     e: usize,

@@ -19,7 +19,12 @@
 //! stopped short of the minimum) moves out to where it rises by as much. A 95 % interval is thus
 //! never narrower than its likelihood-ratio end along that path.
 
-use super::*;
+use super::ends::profile_ends;
+use super::evidence::covariance;
+use super::{Ctx, FitOut, FitProblem, Z95};
+use crate::lm::{self, LmOptions};
+use crate::sim::GridModel;
+use nalgebra::DMatrix;
 
 /// Sign patterns probed for the roughness at each scale (two simulations each).
 const PATTERNS: usize = 4;
@@ -44,7 +49,7 @@ pub(super) struct IntervalBasis {
 
 /// Measure the roughness at the final fit `fin` (over its `n_fin` samples, rows weighted by
 /// `scale` per output) and, when it matters, the Jacobian and multiplier that account for it.
-pub(super) fn interval_basis<S: Simulator + ?Sized>(
+pub(super) fn interval_basis<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     fin: &FitOut,
     n_fin: usize,
@@ -97,7 +102,7 @@ pub(super) fn interval_basis<S: Simulator + ?Sized>(
 
 /// On a rough sum of squares (roughness `f0` over a tiny step): the secant Jacobian, the
 /// widened multiplier and the roughness `F` that sets it.
-fn rough_jacobian<S: Simulator + ?Sized>(
+fn rough_jacobian<S: GridModel + ?Sized>(
     problem: &FitProblem<'_, '_, S>,
     fin: &FitOut,
     n_fin: usize,

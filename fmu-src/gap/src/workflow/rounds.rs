@@ -4,7 +4,22 @@
 //! Each round ends in an [`Outcome`]; [`run_rounds`] decides from it whether to go on, do the
 //! round again (once, from a better base) or stop with a verdict.
 
-use super::*;
+use super::diagnose::diagnose;
+use super::evidence::{best_refit_delta_bic, delta_bic, holdout_sse};
+use super::refit::{assess, profile_restart, refit};
+use super::screen::{
+    scan_starts, screen, CandidateStart, FAR_FROM_NOISE, LM_ABS_TOL, POLISH_LIMITS,
+    REFIT_SCORE_FRACTION,
+};
+use super::start::{reproduces_start, StartMiss, START_REASON};
+use super::verdict::{hidden_from_data, only_screened, reasons};
+use super::{
+    ensure_jacobian, fit_state, visibility_scale, Candidate, Config, Ctx, Data, Diagnosis, FitOut,
+    GapError, Limits, ModelState, VisibilityPoint,
+};
+use crate::sim::{GridModel, SimError};
+use rayon::iter::{IndexedParallelIterator, IntoParallelRefIterator, ParallelIterator};
+use std::collections::BTreeMap;
 
 /// What the rounds hand on: the current model and everything the report needs from them.
 pub(super) struct Rounds {
@@ -63,7 +78,7 @@ struct Screened {
 type Fitted = (String, FitOut, Vec<f64>);
 
 /// Screen, refit and name, round after round, from the base fit `cur`.
-pub(super) fn run_rounds<S: Simulator + ?Sized>(
+pub(super) fn run_rounds<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     inp: &RoundInputs<'_>,
     cur: FitOut,
@@ -106,7 +121,7 @@ pub(super) fn run_rounds<S: Simulator + ?Sized>(
 }
 
 /// One round from the current model in `st`.
-fn one_round<S: Simulator + ?Sized>(
+fn one_round<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     inp: &RoundInputs<'_>,
     st: &mut Rounds,
@@ -257,7 +272,7 @@ fn one_round<S: Simulator + ?Sized>(
 /// show of each beyond the named effects; one the named effects absorbed (correlated signals)
 /// may hide there, and the report offers the experiment that would show it. Nothing is refitted
 /// or named here: the residuals are noise.
-fn closing_screen<S: Simulator + ?Sized>(
+fn closing_screen<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     inp: &RoundInputs<'_>,
     st: &mut Rounds,
@@ -285,7 +300,7 @@ fn closing_screen<S: Simulator + ?Sized>(
 }
 
 /// The names of the effects in `list` (effect index, score), comma-separated.
-fn effect_names<S: Simulator + ?Sized>(ctx: &Ctx<'_, S>, list: &[(usize, f64)]) -> String {
+fn effect_names<S: GridModel + ?Sized>(ctx: &Ctx<'_, S>, list: &[(usize, f64)]) -> String {
     list.iter()
         .map(|(e, _)| ctx.effects[*e].name.as_str())
         .collect::<Vec<_>>()
@@ -293,7 +308,7 @@ fn effect_names<S: Simulator + ?Sized>(ctx: &Ctx<'_, S>, list: &[(usize, f64)]) 
 }
 
 /// Diagnosis of the model `state` over the whole trace.
-fn diagnose_state<S: Simulator + ?Sized>(
+fn diagnose_state<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     state: &ModelState,
     data: &Data,
@@ -307,7 +322,7 @@ fn diagnose_state<S: Simulator + ?Sized>(
 }
 
 /// Scan and screen the candidates not yet named (None: none is left).
-fn screen_round<S: Simulator + ?Sized>(
+fn screen_round<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     cur: &FitOut,
     st0: &ModelState,
@@ -365,7 +380,7 @@ fn screen_round<S: Simulator + ?Sized>(
 
 /// Whether some scanned setting of effect `e` reaches the naming threshold (unknown: yes): a
 /// refit of one that cannot cannot name it.
-fn could_show<S: Simulator + ?Sized>(ctx: &Ctx<'_, S>, sc: &Screened, e: usize) -> bool {
+fn could_show<S: GridModel + ?Sized>(ctx: &Ctx<'_, S>, sc: &Screened, e: usize) -> bool {
     sc.remaining
         .iter()
         .position(|&c| c == e)
@@ -379,7 +394,7 @@ fn max_visibility(scan: &[VisibilityPoint]) -> Option<f64> {
 }
 
 /// The candidate with its visibility over the scan (how much the data could show of it).
-fn with_visibility<S: Simulator + ?Sized>(
+fn with_visibility<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     sc: &Screened,
     mut c: Candidate,
@@ -426,7 +441,7 @@ fn refit_choice(cfg: &Config, sc: &Screened, round: usize, at_noise: bool) -> Ve
 
 /// Refit the chosen candidates (in parallel), then restart from their effect's profile those
 /// that fall short when none reaches the naming threshold, else the best one.
-fn refit_all<S: Simulator + ?Sized>(
+fn refit_all<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     inp: &RoundInputs<'_>,
     st: &Rounds,
@@ -524,7 +539,7 @@ fn refit_all<S: Simulator + ?Sized>(
 /// the base's gain when the round must be done again from it: the candidates were refitted
 /// from a base this much worse, and none of them still reaches the threshold against the
 /// better one (once per round).
-fn recheck_base<S: Simulator + ?Sized>(
+fn recheck_base<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     cfg: &Config,
     st: &mut Rounds,
@@ -586,7 +601,7 @@ fn recheck_base<S: Simulator + ?Sized>(
 /// Check every refitted candidate in ΔBIC order; the first passing all criteria is named (a
 /// candidate that absorbs part of a different missing effect may top the BIC ranking yet fail on
 /// the held-out part). Writes each checked candidate's verdict; returns the named one's index.
-fn choose<S: Simulator + ?Sized>(
+fn choose<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     cfg: &Config,
     ranked: &mut [Candidate],
@@ -634,7 +649,7 @@ fn choose<S: Simulator + ?Sized>(
 /// Make the named candidate's fit `f` (full-trace residual `r`) the current model, after
 /// polishing it (the candidate refits stop early to save simulations; a failed polish keeps
 /// the refit).
-fn adopt<S: Simulator + ?Sized>(
+fn adopt<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     st: &mut Rounds,
     name: String,

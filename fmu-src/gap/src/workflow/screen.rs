@@ -5,7 +5,12 @@
 //! candidate, the change the effect makes at its start values and the sensitivities to each of its
 //! parameters there; the statistic is the linearised ΔBIC of the augmented regression.
 
-use super::*;
+use super::evidence::{delta_bic, delta_bic_naive};
+use super::{regress, Ctx, FitOut, Limits, ModelState, VisibilityPoint};
+use crate::lm::{self, Bounded};
+use crate::sim::GridModel;
+use nalgebra::{DMatrix, DVector};
+use rayon::iter::{IndexedParallelIterator, IntoParallelRefIterator, ParallelIterator};
 
 /// Absolute stopping floor of every fit, in units of the weighted sum of squares (chi-square):
 /// a fit still gaining more than this per step continues even when the gain is a small fraction
@@ -92,7 +97,7 @@ pub(super) fn visibility(jac: &DMatrix<f64>, r_cur: &[f64], r_at: &[f64]) -> Opt
 /// start value can be far too strong or too weak for the data at hand (a friction coefficient of
 /// 0.1 where the data show 0.03 raised the sum of squares three-hundredfold in the TwistedString
 /// evaluation), and a refit started there ended in a local minimum worse than the base model.
-pub(super) fn scan_starts<S: Simulator + ?Sized>(
+pub(super) fn scan_starts<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     cur: &FitOut,
     cand: &[usize],
@@ -255,7 +260,7 @@ pub(super) fn scan_starts<S: Simulator + ?Sized>(
         .collect()
 }
 
-pub(super) fn screen<S: Simulator + ?Sized>(
+pub(super) fn screen<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     cur: &FitOut,
     cand: &[usize],

@@ -1,7 +1,10 @@
 //! Setup: check the data against the model and resolve the configuration into indices (outputs
 //! compared, known settings, candidate effects, parameters to calibrate and their starts).
 
-use super::*;
+use super::verdict::convention_warnings;
+use super::{find_param, Config, Data, GapError};
+use crate::sim::GridModel;
+use crate::spec::{self, EffectSpec, ParamKind, ParamSpec};
 
 /// The run's inputs resolved against the model.
 pub(super) struct Setup {
@@ -29,7 +32,7 @@ pub(super) struct Setup {
 }
 
 /// Resolves `cfg` against the model and checks `data`; a usage error names what does not fit.
-pub(super) fn setup<S: Simulator + ?Sized>(
+pub(super) fn setup<S: GridModel + ?Sized>(
     sim: &S,
     data: &Data,
     cfg: &Config,

@@ -19,7 +19,8 @@
 //! residual over the first [`START_SAMPLES`] samples, and the same less the mean over the
 //! whole trace (so that a constant output offset, such as a sensor zero error, which is
 //! reported as such, does not count): the smaller of the two, as a standard score under
-//! white noise (× √m), must exceed [`START_MAX_Z`] = 10 standard deviations, beyond noise and
+//! the noise (× √m for white noise; for correlated noise divided by the standard deviation of
+//! a mean of m AR(1) samples, [`noise::mean_variance_factor`]), must exceed [`START_MAX_Z`] = 10 standard deviations, beyond noise and
 //! beyond what a parameter error leaves in the first samples. Whether to estimate the initial
 //! state an FMU exposes is decided on the start mean alone ([`StartMiss::z_raw`]): an angle
 //! the record begins at stays as a constant offset over the whole trace. Measured |z| (geared
@@ -33,7 +34,12 @@
 //! Dropping a settling window instead would not do: an angle (any integrated state) keeps the
 //! difference it began with for ever, and the fit bends to it over the whole trace.
 
-use super::*;
+use super::calibrate::calibrate_base;
+use super::noise;
+use super::{Calibration, Ctx, FitOut, GapError, ModelState};
+use crate::sim::GridModel;
+use crate::spec::ParamSpec;
+use crate::stats;
 
 /// Samples at the start of the record that are compared ([`start_miss`]).
 pub(super) const START_SAMPLES: usize = 3;
@@ -66,8 +72,9 @@ pub(super) struct StartMiss {
 }
 
 /// How the model misses the first `m` samples of each output (`r`: weighted residual stacked
-/// by output, `k` outputs of `n` samples each); empty for a trace too short to tell.
-fn start_misses(r: &[f64], k: usize, n: usize, m: usize) -> Vec<StartMiss> {
+/// by output, `k` outputs of `n` samples each, `rho`: each output's noise AR(1) coefficient);
+/// empty for a trace too short to tell.
+fn start_misses(r: &[f64], k: usize, n: usize, m: usize, rho: &[f64]) -> Vec<StartMiss> {
     let m = m.min(n / 4);
     if m == 0 {
         return Vec::new();
@@ -86,15 +93,18 @@ fn start_misses(r: &[f64], k: usize, n: usize, m: usize) -> Vec<StartMiss> {
                 .sqrt();
             // The smaller of the two misses: a start that agrees, or one that only shares the
             // trace's offset, is no start miss.
-            let z = start_mean.signum()
-                * start_mean.abs().min((start_mean - trace_mean).abs())
-                * (m as f64).sqrt();
+            // Standard deviation of a mean of m noise samples: 1/√m for white noise.
+            let sd_mean = (noise::mean_variance_factor(rho.get(j).copied().unwrap_or(0.0), m)
+                / m as f64)
+                .sqrt();
+            let z = start_mean.signum() * start_mean.abs().min((start_mean - trace_mean).abs())
+                / sd_mean;
             StartMiss {
                 output: j,
                 start_mean,
                 trace_mean,
                 z,
-                z_raw: start_mean * (m as f64).sqrt(),
+                z_raw: start_mean / sd_mean,
                 z_rel: z / spread.max(1.0),
                 rest_rms: stats::rms(rest),
             }
@@ -104,8 +114,14 @@ fn start_misses(r: &[f64], k: usize, n: usize, m: usize) -> Vec<StartMiss> {
 
 /// The output whose first `m` samples the model misses most beyond a constant offset
 /// ([`StartMiss::z`]).
-pub(super) fn start_miss(r: &[f64], k: usize, n: usize, m: usize) -> Option<StartMiss> {
-    start_misses(r, k, n, m)
+pub(super) fn start_miss(
+    r: &[f64],
+    k: usize,
+    n: usize,
+    m: usize,
+    rho: &[f64],
+) -> Option<StartMiss> {
+    start_misses(r, k, n, m, rho)
         .into_iter()
         .max_by(|a, b| a.z.abs().total_cmp(&b.z.abs()))
 }
@@ -135,7 +151,7 @@ pub(super) struct Calibrated {
 /// calibrates again from the values as given with them added, so that the model begins where
 /// the record does. A record from rest is fitted without them: the extra freedom is given
 /// only where the record needs it.
-pub(super) fn calibrate_to_start<S: Simulator + ?Sized>(
+pub(super) fn calibrate_to_start<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     st0: ModelState,
     initial: &[usize],
@@ -157,7 +173,7 @@ pub(super) fn calibrate_to_start<S: Simulator + ?Sized>(
     Ok(again)
 }
 
-fn calibrate_and_check<S: Simulator + ?Sized>(
+fn calibrate_and_check<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     st0: ModelState,
 ) -> Result<Calibrated, GapError> {
@@ -181,7 +197,7 @@ fn calibrate_and_check<S: Simulator + ?Sized>(
         .collect();
     let r = ctx.residual(&y, ctx.n);
     let miss = start_disagreement(ctx, &r);
-    let raw_miss = start_misses(&r, ctx.out_idx.len(), ctx.n, START_SAMPLES)
+    let raw_miss = start_misses(&r, ctx.out_idx.len(), ctx.n, START_SAMPLES, &ctx.rho)
         .into_iter()
         .max_by(|a, b| a.z_raw.abs().total_cmp(&b.z_raw.abs()))
         .filter(|m| m.z_raw.abs() > START_MAX_Z);
@@ -197,7 +213,7 @@ fn calibrate_and_check<S: Simulator + ?Sized>(
 }
 
 /// The line the report gives when the initial state was estimated ([`calibrate_to_start`]).
-pub(super) fn initial_state_note<S: Simulator + ?Sized>(
+pub(super) fn initial_state_note<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     miss: &StartMiss,
     initial: &[usize],
@@ -214,11 +230,11 @@ pub(super) fn initial_state_note<S: Simulator + ?Sized>(
 
 /// The base fit's miss of the record's start when it exceeds [`START_MAX_Z`] (None: the record
 /// begins in the model's state); `r`: the base fit's weighted residual over the whole trace.
-pub(super) fn start_disagreement<S: Simulator + ?Sized>(
+pub(super) fn start_disagreement<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     r: &[f64],
 ) -> Option<StartMiss> {
-    let miss = start_miss(r, ctx.out_idx.len(), ctx.n, START_SAMPLES)?;
+    let miss = start_miss(r, ctx.out_idx.len(), ctx.n, START_SAMPLES, &ctx.rho)?;
     ctx.stage(format!(
         "start of the record: the base fit misses output {} by {:.1} noise levels over the \
          first samples (trace mean {:.1}), z = {:.1}",
@@ -238,14 +254,14 @@ pub(super) fn start_disagreement<S: Simulator + ?Sized>(
 /// it goes on, which is no sign of a record begun in motion. An effect that moves the state
 /// the model rests in (a leak shifting the pressures at rest) explains such a start; an effect
 /// named while the start stays unexplained would only imitate it.
-pub(super) fn reproduces_start<S: Simulator + ?Sized>(
+pub(super) fn reproduces_start<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     base: &StartMiss,
     r: &[f64],
     relative: bool,
 ) -> bool {
     begins_alike(
-        &start_misses(r, ctx.out_idx.len(), ctx.n, START_SAMPLES),
+        &start_misses(r, ctx.out_idx.len(), ctx.n, START_SAMPLES, &ctx.rho),
         base.z,
         relative,
     )
@@ -268,7 +284,7 @@ pub(super) const START_REASON: &str =
 /// explains it (`miss`: the base fit's start miss; `initial`: the initial-state parameters that
 /// were estimated; `time`: the record's sample times). With no candidate round (`rounds` 0)
 /// nothing can be named, so the same text is a warning of the calibration instead (`Ok`).
-pub(super) fn start_error<S: Simulator + ?Sized>(
+pub(super) fn start_error<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     miss: &StartMiss,
     initial: &[usize],
@@ -285,7 +301,18 @@ pub(super) fn start_error<S: Simulator + ?Sized>(
         miss.start_mean.abs(),
         miss.trace_mean.abs(),
     );
-    let advice = what_to_do(&ctx.params, initial);
+    let mut advice = what_to_do(&ctx.params, initial);
+    if miss.rest_rms > START_MAX_Z {
+        // The rest of the record is missed far beyond the noise too: the start may be where a
+        // disagreement that is everywhere shows most, not a record begun elsewhere.
+        advice += &format!(
+            " The model also misses '{output}' by {:.1}× its noise level (RMS) over the rest of \
+             the record: a sensor gain or zero error, a fixed parameter set wrong (--set) or a \
+             mechanism that is not among the candidates can do that and make the start look \
+             wrong; check those too.",
+            miss.rest_rms
+        );
+    }
     if rounds == 0 {
         return Ok(format!("{what}; the calibration bends to it. {advice}"));
     }
@@ -328,6 +355,7 @@ fn names(params: &[ParamSpec], idx: &[usize]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::ParamSpec;
 
     /// Pseudo-random standard normal samples (deterministic; Box–Muller on an LCG).
     fn noise(n: usize, seed: u64) -> Vec<f64> {
@@ -356,7 +384,7 @@ mod tests {
                 -41.0 + 20.0 * (i as f64 / 15.0).sin()
             };
         }
-        let misses = start_misses(&far, 1, n, START_SAMPLES);
+        let misses = start_misses(&far, 1, n, START_SAMPLES, &[]);
         assert!(misses[0].z.abs() > START_MAX_Z, "{:?}", misses[0]);
         assert!(begins_alike(&misses, 11.0, false));
         // A model at the noise level elsewhere that misses the start by 30: begun in motion.
@@ -364,7 +392,7 @@ mod tests {
         for x in moving.iter_mut().take(START_SAMPLES) {
             *x += 30.0;
         }
-        let misses = start_misses(&moving, 1, n, START_SAMPLES);
+        let misses = start_misses(&moving, 1, n, START_SAMPLES, &[]);
         assert!(!begins_alike(&misses, 11.0, false), "{:?}", misses[0]);
         assert!(!begins_alike(&misses, 11.0, true), "{:?}", misses[0]);
     }
@@ -380,7 +408,7 @@ mod tests {
             r[n + i] += 25.0 * (-(i as f64) / 10.0).exp();
             r[2 * n + i] += 30.0;
         }
-        let m = start_miss(&r, 3, n, START_SAMPLES).unwrap();
+        let m = start_miss(&r, 3, n, START_SAMPLES, &[]).unwrap();
         assert_eq!(m.output, 1);
         assert!(m.z > START_MAX_Z, "{m:?}");
         // Without the transient nothing stands out: the offset is no start miss.
@@ -388,11 +416,11 @@ mod tests {
         for x in &mut r2[2 * n..] {
             *x += 30.0;
         }
-        let m2 = start_miss(&r2, 3, n, START_SAMPLES).unwrap();
+        let m2 = start_miss(&r2, 3, n, START_SAMPLES, &[]).unwrap();
         assert!(m2.z.abs() < 4.0, "{m2:?}");
         // Counted with its offset, the angle misses the start: for an FMU that exposes its
         // initial state, the initial angle is tried first.
-        let raw = &start_misses(&r2, 3, n, START_SAMPLES)[2];
+        let raw = &start_misses(&r2, 3, n, START_SAMPLES, &[])[2];
         assert!(raw.z_raw > START_MAX_Z, "{raw:?}");
     }
 
@@ -401,7 +429,7 @@ mod tests {
         let n = 400;
         let worst = (0..200)
             .map(|seed| {
-                start_miss(&noise(2 * n, seed), 2, n, START_SAMPLES)
+                start_miss(&noise(2 * n, seed), 2, n, START_SAMPLES, &[])
                     .unwrap()
                     .z
                     .abs()

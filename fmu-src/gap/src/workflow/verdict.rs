@@ -1,6 +1,7 @@
 //! Verdict texts: convention warnings, candidates the data cannot reveal, reasons not to name.
 
-use super::*;
+use super::Candidate;
+use crate::spec::{self, ParamSpec};
 
 /// One line per departure from the candidate-effect convention, naming the variable
 /// ("model" for the FMU as a whole). The missing `[calibrate]` tag is not reported when the
@@ -107,6 +108,10 @@ pub(super) fn reasons(c: &Candidate, min_delta_bic: f64, no_holdout: bool) -> Ve
 #[cfg(test)]
 mod text_tests {
     use super::*;
+    use crate::workflow::reliably_visible;
+    use crate::workflow::BTreeMap;
+    use crate::workflow::Candidate;
+    use crate::workflow::VisibilityPoint;
 
     #[test]
     fn reliably_visible_means_named_in_95_of_100_noisy_datasets() {
@@ -205,6 +210,7 @@ mod text_tests {
 #[cfg(test)]
 mod convention_tests {
     use super::*;
+    use crate::ParamSpec;
 
     fn params() -> Vec<ParamSpec> {
         vec![

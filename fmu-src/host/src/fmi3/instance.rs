@@ -314,9 +314,9 @@ pub struct Instance3<'a> {
     _name: CString,
 }
 
-// SAFETY: an FMI 3.0 instance may be used from any thread as long as calls are not concurrent
-// (FMI 3.0.2 section 2.2.x, thread safety); `Instance3` is not `Sync` and every call takes
-// `&mut self`.
+// SAFETY: an FMI 3.0 instance may be used from any thread as long as its functions are not
+// called concurrently (the standard leaves thread safety within one instance to the importer);
+// `Instance3` is not `Sync` and every call takes `&mut self`.
 unsafe impl Send for Instance3<'_> {}
 
 impl<'a> Instance3<'a> {
@@ -514,7 +514,8 @@ impl<'a> Instance3<'a> {
                     (f.get_binary)(i, p, nv, sizes.as_mut_ptr(), ptrs.as_mut_ptr(), n_values)
                 };
                 self.check("fmi3GetBinary", raw)?;
-                Values::Binary(ptrs.into_iter().zip(sizes).map(copy_binary).collect())
+                let values = ptrs.into_iter().zip(sizes).map(copy_binary);
+                Values::Binary(values.collect::<Result<_>>()?)
             }
             Type3::Clock => {
                 return Err(HostError::Request(
@@ -594,12 +595,17 @@ fn copy_string(p: *const c_char) -> String {
 /// memory.
 const MAX_BINARY_BYTES: usize = 1 << 28;
 
-fn copy_binary((p, size): (*const u8, usize)) -> Vec<u8> {
+fn copy_binary((p, size): (*const u8, usize)) -> Result<Vec<u8>> {
     if p.is_null() || size == 0 {
-        return Vec::new();
+        return Ok(Vec::new());
+    }
+    if size > MAX_BINARY_BYTES {
+        return Err(HostError::Request(format!(
+            "fmi3GetBinary returned a value of {size} bytes (limit {MAX_BINARY_BYTES})"
+        )));
     }
     // SAFETY: the FMU returns `size` readable bytes at p, valid until its next call.
-    unsafe { std::slice::from_raw_parts(p, size.min(MAX_BINARY_BYTES)) }.to_vec()
+    Ok(unsafe { std::slice::from_raw_parts(p, size) }.to_vec())
 }
 
 fn missing(name: &str) -> HostError {

@@ -1,0 +1,239 @@
+//! The noise model of each measured output: its level and its correlation.
+//!
+//! The level is first estimated from the data's second differences ([`stats::noise_sigma`]),
+//! which is the standard deviation for white noise. Sensor noise is often not white (an
+//! anti-alias filter, encoder interpolation, a drifting amplifier); for AR(1) noise
+//! `e_i = ρ e_{i−1} + w_i` of marginal standard deviation σ the second differences have variance
+//! `σ² (6 − 8ρ + 2ρ²)` instead of `6σ²`, so that estimate is the level of the fast part only
+//! (a quarter of σ at ρ = 0.9) and every statistic built on independent samples would call the
+//! slow part of the noise a missing effect.
+//!
+//! ρ is estimated from the calibrated base model's residual: its first differences have lag-1
+//! autocorrelation `−(1 − ρ)/2` for AR(1) noise (`−1/2` for white noise), and a smooth
+//! misfit (a missing effect) adds little to them. The level is then corrected to the marginal
+//! one, `σ = σ_d2 √(6 / (6 − 8ρ + 2ρ²))`, and the statistics that assume independent samples
+//! carry ρ: the start test's mean of the first samples ([`mean_variance_factor`]), the whiteness
+//! test on the innovations `(r_i − ρ r_{i−1}) / √(1 − ρ²)`, and, as before, the effective sample
+//! sizes of ΔBIC and the intervals.
+
+use crate::stats;
+
+/// Smallest ρ taken as correlated noise: below it the correction to the level is under 13 %
+/// and the start test's variance inflation under 1.4 at 3 samples, and a smooth misfit of
+/// several noise levels can move the estimate that far on its own.
+pub(super) const MIN_RHO: f64 = 0.3;
+
+/// Largest ρ used: nearer 1 the noise is a drift the record cannot tell from a model error.
+pub(super) const MAX_RHO: f64 = 0.99;
+
+/// ρ above which the report says that the record's statistics rest on few effective samples.
+pub(super) const LOW_INFORMATION_RHO: f64 = 0.95;
+
+/// AR(1) coefficient of the noise in residual `r` (one output, in time order) from the lag-1
+/// autocorrelation `c` of its first differences: `ρ = 1 + 2c`. Differences beyond 5 robust
+/// standard deviations are clipped (a switch or a jump of the misfit), and ρ is 0 unless it
+/// exceeds [`MIN_RHO`] and four standard errors of `c` for white noise (`1/√N`, Bartlett).
+pub(super) fn ar1_coefficient(r: &[f64]) -> f64 {
+    if r.len() < 20 {
+        return 0.0;
+    }
+    let d: Vec<f64> = r.windows(2).map(|w| w[1] - w[0]).collect();
+    let med = stats::median(&d);
+    let dev: Vec<f64> = d.iter().map(|v| (v - med).abs()).collect();
+    let lim = 5.0 * 1.4826 * stats::median(&dev);
+    if lim.is_nan() || lim <= 0.0 {
+        return 0.0;
+    }
+    let clipped: Vec<f64> = d.iter().map(|v| (v - med).clamp(-lim, lim)).collect();
+    let c = stats::autocorr(&clipped, 1);
+    let rho = (1.0 + 2.0 * c).clamp(0.0, MAX_RHO);
+    let se = 2.0 / (clipped.len() as f64).sqrt();
+    if rho >= MIN_RHO && rho > 4.0 * se {
+        rho
+    } else {
+        0.0
+    }
+}
+
+/// The noise model of one output from its residual `r` (in time order, in units of the
+/// output's second-difference level): the AR(1) coefficient and the factor from that level to
+/// the marginal one.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct NoiseFit {
+    pub(super) rho: f64,
+    pub(super) level: f64,
+}
+
+/// [`NoiseFit`] of residual `r`. Correlation is detected on the differences
+/// ([`ar1_coefficient`]) and kept only if the residual can be that noise: its RMS within 1.5 ×
+/// the marginal level that coefficient implies ([`marginal_factor`]), or that of the
+/// residual's own lag-1 coefficient where the two coefficients agree within their sampling
+/// error. A residual far above it
+/// holds a misfit of the model, whose smooth course also correlates the differences: its
+/// coefficient says nothing about the noise, and the noise is taken as white. A residual that
+/// is noise then gives the coefficient directly (its lag-1 autocorrelation, far less variable
+/// near 1 than the differences' estimate) and the marginal level: the closed form, but not
+/// above the residual's own RMS (the closed form's factor grows without bound as ρ nears 1).
+pub(super) fn noise_fit(r: &[f64]) -> NoiseFit {
+    let white = NoiseFit {
+        rho: 0.0,
+        level: 1.0,
+    };
+    let rho_d = ar1_coefficient(r);
+    if rho_d == 0.0 {
+        return white;
+    }
+    let rms = stats::rms(r);
+    let rho_a = stats::autocorr(r, 1).clamp(MIN_RHO, MAX_RHO);
+    // The differences' estimate varies by about 2/√N; the residual's own coefficient agrees
+    // with it within three of those when the residual is noise, and exceeds it when a smooth
+    // misfit dominates.
+    let agree = (rho_a - rho_d).abs() <= 6.0 / (r.len() as f64).sqrt();
+    let noise_like =
+        rms <= 1.5 * marginal_factor(rho_d) || (agree && rms <= 1.5 * marginal_factor(rho_a));
+    if !noise_like {
+        return white;
+    }
+    let rho = rho_a;
+    NoiseFit {
+        rho,
+        level: marginal_factor(rho).min(rms).max(1.0),
+    }
+}
+
+/// The report's note on correlated noise (None when every output's noise is white): which
+/// outputs, their coefficients, what the statistics did about it, and, from
+/// [`LOW_INFORMATION_RHO`] on, that the record holds few effective samples.
+pub(super) fn correlated_noise_note(
+    rho: &[f64],
+    names: &[String],
+    out_idx: &[usize],
+) -> Option<String> {
+    let listed: Vec<String> = rho
+        .iter()
+        .zip(out_idx)
+        .filter(|(&p, _)| p > 0.0)
+        .map(|(p, &i)| format!("{} {p:.2}", names[i]))
+        .collect();
+    if listed.is_empty() {
+        return None;
+    }
+    let mut note = format!(
+        "The measurement noise is correlated (AR(1) coefficient {}): its levels are the \
+         marginal standard deviations, the start test and the whiteness test allow for the \
+         correlation, and ΔBIC and the intervals use effective sample sizes.",
+        listed.join(", ")
+    );
+    let max = rho.iter().copied().fold(0.0, f64::max);
+    if max >= LOW_INFORMATION_RHO {
+        note += &format!(
+            " At a coefficient of {max:.2} the record holds about {:.0} % of its samples' \
+             information (N (1 − ρ)/(1 + ρ)): slow noise and a slow model error look alike, \
+             so treat ΔBIC, the intervals and a named effect with caution; a longer record or \
+             faster sensor sampling helps.",
+            100.0 * (1.0 - max) / (1.0 + max)
+        );
+    }
+    Some(note)
+}
+
+/// Factor from the second-difference level to the marginal standard deviation of AR(1) noise
+/// with coefficient ρ: `√(6 / (6 − 8ρ + 2ρ²))` (1 for white noise).
+pub(super) fn marginal_factor(rho: f64) -> f64 {
+    let r = rho.clamp(0.0, MAX_RHO);
+    (6.0 / (6.0 - 8.0 * r + 2.0 * r * r)).sqrt()
+}
+
+/// Variance of the mean of `m` consecutive AR(1) samples relative to that of `m` independent
+/// ones: `1 + 2 Σ_{k=1}^{m−1} (1 − k/m) ρ^k` (e.g. Priestley 1981 §5.3).
+pub(super) fn mean_variance_factor(rho: f64, m: usize) -> f64 {
+    let r = rho.clamp(0.0, MAX_RHO);
+    1.0 + 2.0
+        * (1..m)
+            .map(|k| (1.0 - k as f64 / m as f64) * r.powi(k as i32))
+            .sum::<f64>()
+}
+
+/// The innovations of residual `r` under AR(1) noise with coefficient ρ, in units of the
+/// marginal level: `(r_i − ρ r_{i−1}) / √(1 − ρ²)` (the residual itself for ρ = 0), which are
+/// white when the residual is that noise.
+pub(super) fn innovations(r: &[f64], rho: f64) -> Vec<f64> {
+    if rho <= 0.0 {
+        return r.to_vec();
+    }
+    let s = (1.0 - rho * rho).sqrt();
+    r.windows(2).map(|w| (w[1] - rho * w[0]) / s).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{ar1_coefficient, innovations, marginal_factor, mean_variance_factor, noise_fit};
+    use crate::stats;
+
+    /// AR(1) series of marginal standard deviation 1 (LCG + Box–Muller, deterministic).
+    fn ar1(n: usize, rho: f64, seed: u64) -> Vec<f64> {
+        let mut s = seed;
+        let mut uniform = || {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((s >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+        };
+        let mut e = 0.0;
+        let c = (1.0 - rho * rho).sqrt();
+        (0..n)
+            .map(|i| {
+                let (u1, u2) = (uniform(), uniform());
+                let w = (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos();
+                e = if i == 0 { w } else { rho * e + c * w };
+                e
+            })
+            .collect()
+    }
+
+    #[test]
+    fn white_noise_is_not_called_correlated() {
+        for seed in 1..6 {
+            assert_eq!(ar1_coefficient(&ar1(1000, 0.0, seed)), 0.0);
+        }
+    }
+
+    #[test]
+    fn the_coefficient_and_the_marginal_level_are_recovered() {
+        for (rho, seed) in [(0.9, 3), (0.97, 4), (0.6, 5)] {
+            let e = ar1(4000, rho, seed);
+            let est = ar1_coefficient(&e);
+            assert!((est - rho).abs() < 0.05, "rho {rho}: {est}");
+            // In units of the second-difference level, as the workflow's residuals are.
+            let s_d2 = stats::noise_sigma(&e);
+            let r: Vec<f64> = e.iter().map(|v| v / s_d2).collect();
+            let fit = noise_fit(&r);
+            assert!((fit.rho - rho).abs() < 0.04, "rho {rho}: {fit:?}");
+            // The second-difference level times the factor is the marginal level (1).
+            let sigma = s_d2 * fit.level;
+            assert!((sigma - 1.0).abs() < 0.15, "rho {rho}: sigma {sigma}");
+        }
+    }
+
+    #[test]
+    fn a_smooth_misfit_does_not_make_white_noise_correlated() {
+        // A misfit of 3 noise levels over 2 s at 250 Hz (a slow sine).
+        let e: Vec<f64> = ar1(1000, 0.0, 9)
+            .iter()
+            .enumerate()
+            .map(|(i, v)| v + 3.0 * (i as f64 / 250.0 * std::f64::consts::PI).sin())
+            .collect();
+        assert_eq!(noise_fit(&e).rho, 0.0);
+    }
+
+    #[test]
+    fn closed_forms() {
+        assert_eq!(marginal_factor(0.0), 1.0);
+        // 6 − 7.2 + 1.62 = 0.42
+        assert!((marginal_factor(0.9) - (6.0f64 / 0.42).sqrt()).abs() < 1e-12);
+        assert_eq!(mean_variance_factor(0.0, 3), 1.0);
+        // 1 + 2 (2/3 · 0.9 + 1/3 · 0.81) = 2.74
+        assert!((mean_variance_factor(0.9, 3) - 2.74).abs() < 1e-12);
+        assert_eq!(innovations(&[1.0, 2.0], 0.0), vec![1.0, 2.0]);
+    }
+}

@@ -1,0 +1,142 @@
+//! Conformance checks of an FMU, each returning `Vec<Finding>`, one module per concern:
+//!
+//! - [`description`]: `modelDescription.xml` of an FMI 2.0 Co-Simulation FMU: schema-level
+//!   attributes, unique names and value references, causality/variability/initial combinations
+//!   (FMI 2.0.4 section 2.2.7, the table of allowed combinations and the table of allowed
+//!   `initial` values), start required/forbidden, min <= start <= max, units and display units
+//!   declared, ModelStructure complete.
+//! - [`fmi3`]: an FMI 3.0 FMU's `modelDescription.xml` (FMI 3.0.2 section 2.4) and its binaries
+//!   per platform tuple with the functions of its declared interfaces (section 2.5).
+//! - [`binary`]: the binary for this platform is present, every platform binary has the
+//!   platform's format and exports every FMI function.
+//! - [`probe`](mod@probe): calls in wrong states / with bad arguments must return fmi2Error
+//!   (with a logged message) and not crash; a normal run must succeed. Run it in a child process
+//!   (the CLI does) so that a crashing FMU becomes a finding.
+
+pub mod binary;
+pub mod description;
+pub mod fmi3;
+pub mod probe;
+
+pub use binary::{check_files, check_platform_binaries, check_symbols, PlatformBinary};
+pub use description::{
+    check_effect_convention, check_model_description, combination_allowed, initial_allowed,
+};
+pub use fmi3::{check_model_description3, check_platform_binaries3};
+pub use probe::{probe, PROBE_CASES};
+
+use crate::md::ScalarVariable;
+use std::fmt;
+
+/// Whether the standard requires what a check found, or only permits better.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Severity {
+    /// A requirement of the FMI 2.0 standard is violated: `validate` exits 1.
+    Finding,
+    /// The standard permits it (e.g. how an FMU answers a call the importer must not make);
+    /// reported as advice, `validate` still exits 0.
+    Note,
+}
+
+/// One problem found.
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct Finding {
+    /// Short id of the check, e.g. `causality-variability`.
+    pub check: String,
+    /// Where: `modelDescription.xml:LINE (variable 'x')`, a file, or a probe step.
+    pub location: String,
+    /// What is wrong, in one sentence.
+    pub message: String,
+    /// Required by the standard, or only advice.
+    pub severity: Severity,
+    /// The clause of the FMI 2.0.4 specification the check rests on.
+    pub clause: String,
+}
+
+impl Finding {
+    /// A result of the check `check`; its severity and clause follow from the check
+    /// (see [`classify`]).
+    pub fn new(check: &str, location: impl Into<String>, message: impl Into<String>) -> Self {
+        let (severity, clause) = classify(check);
+        Finding {
+            check: check.to_string(),
+            location: location.into(),
+            message: message.into(),
+            severity,
+            clause: clause.to_string(),
+        }
+    }
+
+    /// Whether the standard requires it (exit 1) rather than only advising it.
+    pub fn is_required(&self) -> bool {
+        self.severity == Severity::Finding
+    }
+}
+
+/// Severity and FMI 2.0.4 clause of each check (section numbers of the FMI 2.0.4 document).
+///
+/// Probe calls the importer must not make (section 4.2.4: the state machine restricts the
+/// environment) leave the FMU's answer open, as does a NaN the standard does not mention: an
+/// FMU answering them with fmi2OK is conforming, so those results are notes. A crash is a
+/// finding: section 2.1.3 has every function return a status, fmi2Fatal for "a run-time
+/// exception such as access violation".
+pub fn classify(check: &str) -> (Severity, &'static str) {
+    use Severity::{Finding as F, Note as N};
+    match check {
+        "fmi-version" | "model-name" | "guid" | "variable-name" | "model-description-xml" => {
+            (F, "FMI 2.0.4 §2.2.1: fmiModelDescription")
+        }
+        "unit-declared" | "display-unit-declared" | "display-unit" | "unique-units" => {
+            (F, "FMI 2.0.4 §2.2.2: UnitDefinitions")
+        }
+        "declared-type" | "unique-types" => (F, "FMI 2.0.4 §2.2.3: TypeDefinitions"),
+        "log-categories" => (F, "FMI 2.0.4 §2.2.4: LogCategories"),
+        "default-experiment" => (F, "FMI 2.0.4 §2.2.5: DefaultExperiment"),
+        "model-structure" | "outputs-listed" | "initial-unknowns" | "derivative" => {
+            (F, "FMI 2.0.4 §2.2.8: ModelStructure")
+        }
+        "naming-convention" => (F, "FMI 2.0.4 §2.2.9: variable naming conventions"),
+        "archive" | "open" | "binary" | "binary-format" => (
+            F,
+            "FMI 2.0.4 §2.3: FMU distribution: zip layout, binaries/<platform>",
+        ),
+        "symbols" => (F, "FMI 2.0.4 §2.1 and §4.2: every fmi2 function exported"),
+        "co-simulation" | "model-identifier" | "capability-flags" => {
+            (F, "FMI 2.0.4 §4.3.1: CoSimulation element")
+        }
+        "probe-fmu-state" => (F, "FMI 2.0.4 §2.1.8: canGetAndSetFMUstate declared"),
+        "probe-normal-run" => (F, "FMI 2.0.4 §4.2.4: a legal calling sequence"),
+        "probe-crash" | "probe-timeout" => (F, "FMI 2.0.4 §2.1.3: every call returns a status"),
+        "probe-wrong-call" => (
+            N,
+            "FMI 2.0.4 §4.2.4: the importer must not make this call, so the answer is the FMU's",
+        ),
+        "probe-nan" => (
+            N,
+            "FMI 2.0.4 §2.1.2: the standard does not say how an FMU treats NaN",
+        ),
+        "probe-log" => (N, "FMI 2.0.4 §2.1.5: logging is the FMU's choice"),
+        "effect-convention" => (F, "actuator-fmu candidate-effect convention (README)"),
+        // schema-level variable attributes: causality, variability, initial, start, min/max
+        _ => (F, "FMI 2.0.4 §2.2.7: ScalarVariable"),
+    }
+}
+
+impl fmt::Display for Finding {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let kind = match self.severity {
+            Severity::Finding => "",
+            Severity::Note => "note ",
+        };
+        write!(
+            f,
+            "{kind}[{}] {}: {} ({})",
+            self.check, self.location, self.message, self.clause
+        )
+    }
+}
+
+pub(crate) fn var_loc(v: &ScalarVariable) -> String {
+    format!("modelDescription.xml:{} (variable '{}')", v.line, v.name)
+}

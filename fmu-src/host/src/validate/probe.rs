@@ -1,0 +1,335 @@
+//! The runtime state-machine probe: calls in wrong states or with bad arguments, a normal run,
+//! FMU state save/restore (FMI 2.0.4 sections 2.1 and 4.2.4).
+
+use super::Finding;
+use crate::error::{HostError, Status};
+use crate::fmu::Fmu;
+use crate::instance::Instance;
+use crate::md::{Causality, ScalarVariable, StartValue, VarKind, Variability};
+use std::collections::BTreeSet;
+
+/// Names of the probe cases in the order [`probe`] runs them.
+pub const PROBE_CASES: &[&str] = &[
+    "normal-run",
+    "fmu-state",
+    "do-step-before-init",
+    "negative-step",
+    "wrong-communication-point",
+    "unknown-value-reference",
+    "nan-input",
+    "nan-parameter",
+    "fixed-parameter-after-init",
+    "wrong-type",
+    "do-step-after-terminate",
+];
+
+/// The state-machine probe. `step` is called with the name of each case (see [`PROBE_CASES`])
+/// before it runs and returns whether to run it (the CLI prints the name so that a crash can
+/// be attributed, and skips cases that crashed in an earlier attempt). Each case uses a fresh
+/// instance.
+pub fn probe(fmu: &Fmu, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding> {
+    let md = fmu.model_description();
+    let mut f = Vec::new();
+    let de = md.default_experiment.clone().unwrap_or_default();
+    let t0 = de.start_time.unwrap_or(0.0);
+    let h = de
+        .step_size
+        .filter(|h| *h > 0.0 && h.is_finite())
+        .unwrap_or(1e-3)
+        .min(1e-2);
+    let loc = |case: &str| format!("probe {case}");
+
+    let init = |inst: &mut Instance<'_>| -> Result<(), HostError> {
+        inst.setup_experiment(None, t0, None)?;
+        inst.enter_initialization_mode()?;
+        inst.exit_initialization_mode()?;
+        Ok(())
+    };
+
+    // Normal run: must succeed.
+    if !step("normal-run") {
+        return f;
+    }
+    let normal = (|| -> Result<(), String> {
+        let mut inst = fmu.instantiate("probe").map_err(|e| e.to_string())?;
+        init(&mut inst).map_err(|e| e.to_string())?;
+        let outs: Vec<u32> = md
+            .with_causality(Causality::Output)
+            .filter(|v| v.kind == VarKind::Real)
+            .map(|v| v.value_reference)
+            .collect();
+        let mut buf = vec![0.0; outs.len()];
+        for k in 0..10 {
+            inst.do_step(t0 + k as f64 * h, h, true)
+                .map_err(|e| format!("step {k}: {e}"))?;
+            inst.get_real(&outs, &mut buf).map_err(|e| e.to_string())?;
+            if let Some(i) = buf.iter().position(|x| !x.is_finite()) {
+                return Err(format!(
+                    "output vr {} is {} after step {k}",
+                    outs[i], buf[i]
+                ));
+            }
+        }
+        inst.terminate().map_err(|e| e.to_string())?;
+        inst.reset().map_err(|e| format!("after terminate: {e}"))?;
+        init(&mut inst).map_err(|e| format!("after reset: {e}"))?;
+        inst.do_step(t0, h, true)
+            .map_err(|e| format!("after reset: {e}"))?;
+        Ok(())
+    })();
+    if let Err(e) = normal {
+        f.push(Finding::new("probe-normal-run", loc("normal-run"), format!("instantiate, initialize, 10 steps, terminate, reset, re-initialize, step failed: {e}")));
+        return f; // the wrong-call cases below assume a working FMU
+    }
+
+    // Capability flags kept: a restored (and a deserialized) FMU state continues bit-identically.
+    let cs = md.co_simulation.clone().unwrap_or_default();
+    if cs.can_get_and_set_fmu_state && step("fmu-state") {
+        if let Err(e) = check_fmu_state(fmu, &init, t0, h, cs.can_serialize_fmu_state) {
+            f.push(Finding::new("probe-fmu-state", loc("fmu-state"), e));
+        }
+    }
+
+    let mut case =
+        |name: &str,
+         what: &str,
+         before_init: bool,
+         call: &mut dyn FnMut(&mut Instance<'_>) -> Result<Status, HostError>| {
+            if !step(name) {
+                return;
+            }
+            let mut inst = match fmu.instantiate("probe") {
+                Ok(i) => i,
+                Err(e) => {
+                    f.push(Finding::new(
+                        "probe-normal-run",
+                        loc(name),
+                        format!("fmi2Instantiate failed: {e}"),
+                    ));
+                    return;
+                }
+            };
+            if !before_init {
+                if let Err(e) = init(&mut inst) {
+                    f.push(Finding::new(
+                        "probe-normal-run",
+                        loc(name),
+                        format!("initialization failed: {e}"),
+                    ));
+                    return;
+                }
+            }
+            match call(&mut inst) {
+                Ok(st) => f.push(Finding::new(
+                    if name.starts_with("nan") {
+                        "probe-nan"
+                    } else {
+                        "probe-wrong-call"
+                    },
+                    loc(name),
+                    format!("{what} returned {st}; fmi2Error with a logged message would warn the importer"),
+                )),
+                Err(HostError::Fmi {
+                    status: Status::Error,
+                    messages,
+                    ..
+                }) => {
+                    if messages.is_empty() {
+                        f.push(Finding::new(
+                            "probe-log",
+                            loc(name),
+                            format!("{what} returned fmi2Error but logged no message"),
+                        ));
+                    }
+                }
+                Err(HostError::Fmi { status, .. }) => f.push(Finding::new(
+                    "probe-wrong-call",
+                    loc(name),
+                    format!("{what} returned {status}; fmi2Error is the usual answer"),
+                )),
+                Err(e) => f.push(Finding::new("probe-normal-run", loc(name), format!("{what}: {e}"))),
+            }
+        };
+
+    case(
+        "do-step-before-init",
+        "fmi2DoStep before initialization",
+        true,
+        &mut |i| i.do_step(t0, h, true),
+    );
+    case(
+        "negative-step",
+        "fmi2DoStep with a negative step size",
+        false,
+        &mut |i| i.do_step(t0, -h, true),
+    );
+    case(
+        "wrong-communication-point",
+        "fmi2DoStep with currentCommunicationPoint != current time",
+        false,
+        &mut |i| i.do_step(t0 + 100.0 * h + 1.0, h, true),
+    );
+    let unknown_vr = md
+        .model_variables
+        .iter()
+        .map(|v| v.value_reference)
+        .max()
+        .unwrap_or(0)
+        .saturating_add(1000);
+    case(
+        "unknown-value-reference",
+        &format!("fmi2GetReal of unknown valueReference {unknown_vr}"),
+        false,
+        &mut |i| {
+            let mut out = [0.0];
+            i.get_real(&[unknown_vr], &mut out)
+        },
+    );
+    let real_input = md
+        .model_variables
+        .iter()
+        .find(|v| v.causality == Causality::Input && v.kind == VarKind::Real);
+    let real_param = md.model_variables.iter().find(|v| {
+        v.causality == Causality::Parameter
+            && v.kind == VarKind::Real
+            && v.variability != Variability::Constant
+    });
+    if let Some(v) = real_input {
+        let vr = v.value_reference;
+        case(
+            "nan-input",
+            &format!("fmi2SetReal NaN on input '{}'", v.name),
+            false,
+            &mut |i| i.set_real(&[vr], &[f64::NAN]),
+        );
+    } else if let Some(v) = real_param {
+        let vr = v.value_reference;
+        case(
+            "nan-parameter",
+            &format!("fmi2SetReal NaN on parameter '{}'", v.name),
+            true,
+            &mut |i| i.set_real(&[vr], &[f64::NAN]),
+        );
+    }
+    let fixed = md.model_variables.iter().find(|v| {
+        v.causality == Causality::Parameter
+            && v.variability == Variability::Fixed
+            && v.kind != VarKind::String
+    });
+    if let Some(v) = fixed {
+        let vr = v.value_reference;
+        let what = format!("setting fixed parameter '{}' after initialization", v.name);
+        let start = v.start.as_ref().and_then(StartValue::as_f64).unwrap_or(0.0);
+        let kind = v.kind;
+        case(
+            "fixed-parameter-after-init",
+            &what,
+            false,
+            &mut |i| match kind {
+                VarKind::Real => i.set_real(&[vr], &[start]),
+                VarKind::Boolean => i.set_boolean(&[vr], &[start != 0.0]),
+                _ => i.set_integer(&[vr], &[start as i32]),
+            },
+        );
+    }
+    // fmi2SetBoolean on a Real variable (value references are per type: only when no Boolean
+    // variable uses the same number).
+    let bool_vrs: BTreeSet<u32> = md
+        .model_variables
+        .iter()
+        .filter(|v| v.kind == VarKind::Boolean)
+        .map(|v| v.value_reference)
+        .collect();
+    let untyped = |v: &&ScalarVariable| !bool_vrs.contains(&v.value_reference);
+    let target = real_input
+        .filter(untyped)
+        .map(|v| (v, false))
+        .or_else(|| real_param.filter(untyped).map(|v| (v, true)));
+    if let Some((v, before_init)) = target {
+        let vr = v.value_reference;
+        let what = format!("fmi2SetBoolean on Real variable '{}'", v.name);
+        case("wrong-type", &what, before_init, &mut |i| {
+            i.set_boolean(&[vr], &[true])
+        });
+    }
+    case(
+        "do-step-after-terminate",
+        "fmi2DoStep after fmi2Terminate",
+        false,
+        &mut |i| {
+            i.terminate()
+                .map_err(|e| HostError::Request(format!("fmi2Terminate failed: {e}")))?;
+            i.do_step(t0, h, true)
+        },
+    );
+    f
+}
+
+/// Steps 5 times, saves the state, steps 5 more and records the Real outputs; restores the
+/// state (and, if `serialize`, a serialized-then-deserialized copy) and repeats the 5 steps:
+/// the outputs must be bit-identical (the capabilities canGetAndSetFMUstate /
+/// canSerializeFMUstate the description declares).
+fn check_fmu_state(
+    fmu: &Fmu,
+    init: &dyn Fn(&mut Instance<'_>) -> Result<(), HostError>,
+    t0: f64,
+    h: f64,
+    serialize: bool,
+) -> Result<(), String> {
+    let md = fmu.model_description();
+    let outs: Vec<u32> = md
+        .with_causality(Causality::Output)
+        .filter(|v| v.kind == VarKind::Real)
+        .map(|v| v.value_reference)
+        .collect();
+    let mut inst = fmu.instantiate("probe").map_err(|e| e.to_string())?;
+    init(&mut inst).map_err(|e| e.to_string())?;
+    let t = |k: usize| t0 + k as f64 * h;
+    for k in 0..5 {
+        inst.do_step(t(k), h, false).map_err(|e| e.to_string())?;
+    }
+    let saved = inst.get_fmu_state().map_err(|e| e.to_string())?;
+    let bytes = if serialize {
+        Some(
+            inst.serialize_fmu_state(&saved)
+                .map_err(|e| e.to_string())?,
+        )
+    } else {
+        None
+    };
+    let run5 = |inst: &mut Instance<'_>| -> Result<Vec<f64>, String> {
+        let mut all = Vec::new();
+        let mut buf = vec![0.0; outs.len()];
+        for k in 5..10 {
+            inst.do_step(t(k), h, false).map_err(|e| e.to_string())?;
+            inst.get_real(&outs, &mut buf).map_err(|e| e.to_string())?;
+            all.extend_from_slice(&buf);
+        }
+        Ok(all)
+    };
+    let first = run5(&mut inst)?;
+    inst.set_fmu_state(&saved).map_err(|e| e.to_string())?;
+    let again = run5(&mut inst).map_err(|e| format!("after fmi2SetFMUstate: {e}"))?;
+    if again
+        .iter()
+        .map(|x| x.to_bits())
+        .ne(first.iter().map(|x| x.to_bits()))
+    {
+        return Err("after fmi2SetFMUstate the outputs differ from the first run (state not fully restored)".into());
+    }
+    if let Some(bytes) = bytes {
+        let restored = inst
+            .deserialize_fmu_state(&bytes)
+            .map_err(|e| e.to_string())?;
+        inst.set_fmu_state(&restored).map_err(|e| e.to_string())?;
+        let third = run5(&mut inst).map_err(|e| format!("after fmi2DeSerializeFMUstate: {e}"))?;
+        if third
+            .iter()
+            .map(|x| x.to_bits())
+            .ne(first.iter().map(|x| x.to_bits()))
+        {
+            return Err("after fmi2DeSerializeFMUstate + fmi2SetFMUstate the outputs differ from the first run".into());
+        }
+    }
+    Ok(())
+}
