@@ -258,7 +258,42 @@ def make(model, seed, hidden=(), noise=0.01, ar=0.0, duration=10.0, rate=1000.0,
                 clean={n: np.asarray(res[n], dtype=float) for n in MEASURED[model]})
 
 
-EVAL_CONDITIONS = ["single1", "single5", "clean", "ar", "mass", "two"]
+EVAL_CONDITIONS = ["single1", "single5", "clean", "ar", "mass", "two", "mismatch"]
+
+# Fixed (not calibrated) parameters the `mismatch` condition sets wrong in the "user's" model:
+# the record is made with the parameter 15 % off its default, which gap keeps.
+MISMATCH_FIXED = {"HydraulicJoint": ["load_radius", "pulley_radius"],
+                  "TwistedString": ["string_length", "torque_constant"]}
+
+
+def first_order_lag(t, y, tau):
+    """Output of a first-order lag tau m' + m = y, exact for y linear between samples."""
+    m = np.empty_like(y)
+    m[0] = y[0]
+    for i in range(1, len(y)):
+        h = t[i] - t[i - 1]
+        a = math.exp(-h / tau)
+        slope = (y[i] - y[i - 1]) / h
+        m[i] = y[i] - tau * slope + a * (m[i - 1] - y[i - 1] + tau * slope)
+    return m
+
+
+def mismatch(model, ds, i, rng):
+    """A mechanism outside the candidate list, by i % 3: a first-order lag (10-40 ms) on one
+    sensor, a gain error (+-3..8 %) on one sensor, or (made in eval_record) a fixed parameter
+    15 % off its default. The sensor's noise is kept as drawn. Returns a description."""
+    kind = ("lag", "gain", "fixed")[i % 3]
+    if kind == "fixed":
+        return kind
+    sensor = MEASURED[model][(i // 3) % len(MEASURED[model])]
+    clean, noise = ds["clean"][sensor], ds["outputs"][sensor] - ds["clean"][sensor]
+    if kind == "lag":
+        tau = float(rng.uniform(0.01, 0.04))
+        ds["outputs"][sensor] = first_order_lag(ds["time"], clean, tau) + noise
+        return f"lag {tau * 1000:.0f} ms on {sensor}"
+    g = float(rng.choice([-1, 1]) * rng.uniform(0.03, 0.08))
+    ds["outputs"][sensor] = (1 + g) * clean + noise
+    return f"gain {100 * g:+.1f} % on {sensor}"
 
 
 def eval_record(model, cond, i, seed0=100000, duration=4.0, rate=250.0, input_family="reaches",
@@ -286,8 +321,16 @@ def eval_record(model, cond, i, seed0=100000, duration=4.0, rate=250.0, input_fa
         j = i % len(eff)
         k = (j + 1 + (i // len(eff)) % (len(eff) - 1)) % len(eff)
         hidden = (eff[j], eff[k])
+    elif cond == "mismatch" and i % 3 == 2:
+        name = MISMATCH_FIXED[model][(i // 3) % len(MISMATCH_FIXED[model])]
+        kw.update(sets={name: variables(model)[name]["start"] * (1.15 if (i // 6) % 2 else 0.85)})
     ds = make(model, seed, hidden, noise=noise, ar=ar, **kw)
-    return dict(ds=ds, seed=seed, hidden=hidden, noise=noise, ar=ar, kw=kw)
+    what = None
+    if cond == "mismatch":
+        what = mismatch(model, ds, i, np.random.default_rng(seed + 7))
+        if what == "fixed":
+            what = "fixed " + ", ".join(f"{k}={v:.4g}" for k, v in kw["sets"].items())
+    return dict(ds=ds, seed=seed, hidden=hidden, noise=noise, ar=ar, kw=kw, mismatch=what)
 
 
 def read_inputs_csv(path):

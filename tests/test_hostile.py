@@ -72,11 +72,15 @@ def test_a_model_identifier_that_is_a_path_loads_nothing_from_outside(tmp_path):
         assert not marker.exists(), f"{args[0]} loaded a library from outside the FMU"
 
 
-def test_an_fmi3_fmu_is_refused_by_the_commands_that_do_not_run_fmi3(tmp_path):
+def test_an_fmi2_description_relabelled_fmi3_is_read_as_fmi3(tmp_path):
     fmu = rewrite_fmu(fmu_path("Oscillator"), tmp_path / "fmi3.fmu",
                       lambda md: md.replace('fmiVersion="2.0"', 'fmiVersion="3.0"'))
     data = data_csv(tmp_path / "d.csv")
-    assert_one_bounded_message(run("validate", fmu), "FMI 3.0 is not supported by this command")
+    # validate reports the unreadable FMI 3.0 description as its finding (exit 1)
+    res = run("validate", fmu)
+    assert res.returncode == 1, (res.returncode, res.stdout, res.stderr)
+    assert "[model-description-xml]" in res.stdout, res.stdout
+    assert "lacks the required attribute instantiationToken" in res.stdout, res.stdout
     # simulate and gap read it as FMI 3.0: an FMI 2.0 description relabelled lacks what 3.0
     # requires
     for args in (["simulate", fmu, "--data", data, "--out", tmp_path / "o.csv"],

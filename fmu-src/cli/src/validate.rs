@@ -3,11 +3,12 @@
 
 use crate::common::{CliError, CliResult};
 use crate::probe::{FINDINGS_MARK, STEP_MARK};
+use host::fmi3::ModelDescription3;
 use host::validate::{
-    check_effect_convention, check_files, check_model_description, check_platform_binaries,
-    Finding, PlatformBinary,
+    check_effect_convention, check_files, check_model_description, check_model_description3,
+    check_platform_binaries, check_platform_binaries3, Finding, PlatformBinary,
 };
-use host::{Extracted, HostError};
+use host::{Extracted, FmiVersion, HostError, Unpacked};
 use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -87,6 +88,9 @@ pub fn run(a: Args) -> CliResult {
 type Checked = (Vec<Finding>, Vec<PlatformBinary>);
 
 fn validate_one(path: &Path, timeout: Duration, effects: bool) -> Result<Checked, CliError> {
+    if matches!(host::fmi_version_of(path), Ok(FmiVersion::Fmi3)) {
+        return validate_fmi3(path);
+    }
     let ex = match Extracted::open(path) {
         Ok(ex) => ex,
         Err(HostError::Io { path, source }) => {
@@ -115,6 +119,35 @@ fn validate_one(path: &Path, timeout: Duration, effects: bool) -> Result<Checked
         findings.extend(run_probe(path, timeout)?);
     }
     Ok((findings, binaries))
+}
+
+/// The checks of an FMI 3.0 FMU: its model description and its binaries per platform tuple
+/// (read, not loaded).
+fn validate_fmi3(path: &Path) -> Result<Checked, CliError> {
+    let unpacked = match Unpacked::open(path) {
+        Ok(u) => u,
+        Err(HostError::Io { path, source }) => {
+            return Err(CliError::input(format!("{}: {source}", path.display())))
+        }
+        Err(e) => return Ok((vec![description_error(path, e)], Vec::new())),
+    };
+    let md = match ModelDescription3::parse(&unpacked.xml, &unpacked.description_file()) {
+        Ok(md) => md,
+        Err(e) => return Ok((vec![description_error(path, e)], Vec::new())),
+    };
+    let mut findings = check_model_description3(&md);
+    let (binary_findings, binaries) = check_platform_binaries3(&unpacked.dir, &md);
+    findings.extend(binary_findings);
+    Ok((findings, binaries))
+}
+
+/// An FMU that cannot be opened or whose description cannot be read, as one finding.
+fn description_error(path: &Path, e: HostError) -> Finding {
+    let check = match e {
+        HostError::ModelDescription { .. } => "model-description-xml",
+        _ => "archive",
+    };
+    Finding::new(check, path.display().to_string(), e.to_string())
 }
 
 /// Runs the probe in child processes: a case that crashes becomes a finding and the probe is

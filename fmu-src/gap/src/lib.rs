@@ -8,7 +8,10 @@
 //!
 //! Steps ([`workflow::run`]):
 //! 1. Noise level per output from the data's second differences (robust MAD), the weights
-//!    `1/σ_k`. The last 30 % of the trace is held out.
+//!    `1/σ_k`. The last 30 % of the trace is held out. Where the calibrated base residual shows
+//!    correlated (AR(1)) noise, the level becomes the marginal one, the base model is calibrated
+//!    again with it, and the start test and the whiteness test carry the correlation
+//!    ([`workflow`]'s `noise` module).
 //! 2. Calibration of the base parameters (`[calibrate]` tag or `--fit`) by a bounded
 //!    Levenberg–Marquardt ([`lm`]) with a parallel finite-difference Jacobian and Broyden updates;
 //!    bounds by an active set (a parameter whose step would leave its range is held at the bound
@@ -61,7 +64,12 @@
 //!    (a last round): their visibility there is what the data show beyond the named effects.
 //! 6. Final fit: the chosen model (base plus named effects) is refitted on the whole trace; its
 //!    parameters and intervals are the reported ones, its errors the "after" column.
-//! 7. Report ([`report`]: `report.json`, `report.md`) and plots ([`plots`]).
+//! 7. Report ([`report`]: `report.json`, `report.md`) and plots ([`plots`]). Outputs the final
+//!    model still misses by more than 1.5 × their noise level (or 1.2 × with a residual that is
+//!    not white) are a disagreement no candidate explains: the report says where (outputs, time
+//!    windows) and which simple shape the residual fits against the simulated output (offset,
+//!    gain, lag, dead zone), and the verdict never calls such residuals noise
+//!    ([`workflow`]'s `disagreement` module).
 //!
 //! For a candidate the data cannot reveal at its weakest setting, or whose refit was inconclusive
 //! (0 < ΔBIC < 10), [`design`] proposes an experiment (an input signal

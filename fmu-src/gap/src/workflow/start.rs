@@ -301,7 +301,18 @@ pub(super) fn start_error<S: GridModel + ?Sized>(
         miss.start_mean.abs(),
         miss.trace_mean.abs(),
     );
-    let advice = what_to_do(&ctx.params, initial);
+    let mut advice = what_to_do(&ctx.params, initial);
+    if miss.rest_rms > START_MAX_Z {
+        // The rest of the record is missed far beyond the noise too: the start may be where a
+        // disagreement that is everywhere shows most, not a record begun elsewhere.
+        advice += &format!(
+            " The model also misses '{output}' by {:.1}× its noise level (RMS) over the rest of \
+             the record: a sensor gain or zero error, a fixed parameter set wrong (--set) or a \
+             mechanism that is not among the candidates can do that and make the start look \
+             wrong; check those too.",
+            miss.rest_rms
+        );
+    }
     if rounds == 0 {
         return Ok(format!("{what}; the calibration bends to it. {advice}"));
     }

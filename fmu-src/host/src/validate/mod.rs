@@ -5,6 +5,8 @@
 //!   (FMI 2.0.4 section 2.2.7, the table of allowed combinations and the table of allowed
 //!   `initial` values), start required/forbidden, min <= start <= max, units and display units
 //!   declared, ModelStructure complete.
+//! - [`fmi3`]: an FMI 3.0 FMU's `modelDescription.xml` (FMI 3.0.2 section 2.4) and its binaries
+//!   per platform tuple with the functions of its declared interfaces (section 2.5).
 //! - [`binary`]: the binary for this platform is present, every platform binary has the
 //!   platform's format and exports every FMI function.
 //! - [`probe`](mod@probe): calls in wrong states / with bad arguments must return fmi2Error
@@ -13,12 +15,14 @@
 
 pub mod binary;
 pub mod description;
+pub mod fmi3;
 pub mod probe;
 
 pub use binary::{check_files, check_platform_binaries, check_symbols, PlatformBinary};
 pub use description::{
     check_effect_convention, check_model_description, combination_allowed, initial_allowed,
 };
+pub use fmi3::{check_model_description3, check_platform_binaries3};
 pub use probe::{probe, PROBE_CASES};
 
 use crate::md::ScalarVariable;

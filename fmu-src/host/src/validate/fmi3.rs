@@ -1,0 +1,573 @@
+//! Checks of an FMI 3.0 FMU's `modelDescription.xml` (FMI 3.0.2 section 2.4) and of its platform
+//! binaries (section 2.5: `binaries/<platformTuple>/<modelIdentifier>.<so|dll|dylib>`, each
+//! exporting the functions of the interfaces the description declares).
+
+use super::Finding;
+use crate::fmi3::md::{Causality3, Interface3, ModelDescription3, Unknown3, Variable3};
+use crate::fmi3::value::Type3;
+use crate::md::{Initial, Variability};
+use fmi2_types::schema::{combination_allowed, initial_allowed, Causality};
+use std::collections::{BTreeMap, BTreeSet, HashMap};
+use std::path::Path;
+
+/// Severity and FMI 3.0.2 clause of each FMI 3.0 check (section numbers of the FMI 3.0.2
+/// document). Every FMI 3.0 check is a requirement of the standard.
+pub fn classify3(check: &str) -> &'static str {
+    match check {
+        "fmi-version"
+        | "model-name"
+        | "instantiation-token"
+        | "model-identifier"
+        | "interfaces"
+        | "model-description-xml" => "FMI 3.0.2 §2.4.1: fmiModelDescription",
+        "independent" => "FMI 3.0.2 §2.4.7: exactly one independent variable",
+        "dimension" => {
+            "FMI 3.0.2 §2.4.7: <Dimension> refers to a UInt64 structural parameter or constant"
+        }
+        "derivative" => "FMI 3.0.2 §2.4.7: derivative refers to a continuous Float state",
+        "model-structure" | "outputs-listed" => "FMI 3.0.2 §2.4.8: ModelStructure",
+        "binary" | "binary-format" => {
+            "FMI 3.0.2 §2.5: FMU distribution: binaries/<platformTuple>/<modelIdentifier>"
+        }
+        "symbols" => {
+            "FMI 3.0.2 §2.3, §3.2, §4.2: the functions of every declared interface exported"
+        }
+        // schema-level variable attributes: names, value references, causality, variability,
+        // initial, start
+        _ => "FMI 3.0.2 §2.4.7: ModelVariables",
+    }
+}
+
+fn finding(check: &str, loc: impl Into<String>, message: impl Into<String>) -> Finding {
+    let mut f = Finding::new(check, loc, message);
+    f.clause = classify3(check).to_string();
+    f
+}
+
+fn var_loc(v: &Variable3) -> String {
+    format!("modelDescription.xml:{} (variable '{}')", v.line, v.name)
+}
+
+fn is_c_identifier(s: &str) -> bool {
+    let mut chars = s.chars();
+    matches!(chars.next(), Some(c) if c.is_ascii_alphabetic() || c == '_')
+        && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
+}
+
+/// The interfaces an FMU declares, by element name.
+fn interfaces(md: &ModelDescription3) -> Vec<(&'static str, &Interface3)> {
+    [
+        ("ModelExchange", &md.model_exchange),
+        ("CoSimulation", &md.co_simulation),
+        ("ScheduledExecution", &md.scheduled_execution),
+    ]
+    .into_iter()
+    .filter_map(|(name, i)| i.as_ref().map(|i| (name, i)))
+    .collect()
+}
+
+/// Checks of an FMI 3.0 `modelDescription.xml`, one finding per departure from the standard.
+pub fn check_model_description3(md: &ModelDescription3) -> Vec<Finding> {
+    let mut f = Vec::new();
+    let root = "modelDescription.xml:<fmiModelDescription>";
+    if !md.fmi_version.starts_with("3.") {
+        let m = format!("fmiVersion is \"{}\", expected \"3.x\"", md.fmi_version);
+        f.push(finding("fmi-version", root, m));
+    }
+    if md.model_name.trim().is_empty() {
+        f.push(finding("model-name", root, "modelName is missing or empty"));
+    }
+    if md.instantiation_token.trim().is_empty() {
+        let m = "instantiationToken is missing or empty";
+        f.push(finding("instantiation-token", root, m));
+    }
+    let declared = interfaces(md);
+    if declared.is_empty() {
+        let m = "no <ModelExchange>, <CoSimulation> or <ScheduledExecution> element";
+        f.push(finding("interfaces", root, m));
+    }
+    for (name, i) in &declared {
+        if !is_c_identifier(&i.model_identifier) {
+            f.push(finding(
+                "model-identifier",
+                format!("modelDescription.xml:{} (<{name}>)", i.line),
+                format!(
+                    "modelIdentifier \"{}\" is not a valid C identifier",
+                    i.model_identifier
+                ),
+            ));
+        }
+    }
+    check_variables(md, &mut f);
+    check_model_structure(md, &mut f);
+    f
+}
+
+/// The FMI 2.0 causality an FMI 3.0 one is judged as: FMI 3.0.2 section 2.4.7.4 gives a
+/// structural parameter the combinations and `initial` values of a parameter, and otherwise
+/// keeps the FMI 2.0 tables.
+fn as_fmi2(c: Causality3) -> Causality {
+    match c {
+        Causality3::StructuralParameter | Causality3::Parameter => Causality::Parameter,
+        Causality3::CalculatedParameter => Causality::CalculatedParameter,
+        Causality3::Input => Causality::Input,
+        Causality3::Output => Causality::Output,
+        Causality3::Local => Causality::Local,
+        Causality3::Independent => Causality::Independent,
+    }
+}
+
+fn variability_name(v: Variability) -> String {
+    format!("{v:?}").to_lowercase()
+}
+
+fn check_variables(md: &ModelDescription3, f: &mut Vec<Finding>) {
+    let mut names: HashMap<&str, usize> = HashMap::new();
+    let mut vrs: BTreeMap<u32, Vec<&Variable3>> = BTreeMap::new();
+    for v in &md.variables {
+        let loc = var_loc(v);
+        if v.name.trim().is_empty() {
+            f.push(finding("variable-name", &loc, "empty variable name"));
+        }
+        if let Some(first) = names.insert(v.name.as_str(), v.line) {
+            let m = format!("name '{}' is already used on line {first}", v.name);
+            f.push(finding("unique-names", &loc, m));
+        }
+        vrs.entry(v.value_reference).or_default().push(v);
+        check_combination(v, &loc, f);
+        if v.ty != Type3::Clock {
+            check_start(v, &loc, f);
+        }
+        for d in &v.dimensions {
+            check_dimension(md, v, d, f);
+        }
+        if let Some(state_vr) = v.derivative {
+            check_derivative(md, v, state_vr, &loc, f);
+        }
+    }
+    let independents: Vec<&Variable3> = md.with_causality(Causality3::Independent).collect();
+    if independents.len() != 1 {
+        f.push(finding(
+            "independent",
+            "modelDescription.xml:<ModelVariables>",
+            format!(
+                "{} variables with causality=\"independent\", exactly one is required",
+                independents.len()
+            ),
+        ));
+    }
+    for v in independents {
+        if v.ty != Type3::Float64 || v.is_array() {
+            let m = "the independent variable must be a scalar Float64";
+            f.push(finding("independent", var_loc(v), m));
+        }
+    }
+    for (vr, set) in vrs.iter().filter(|(_, set)| set.len() > 1) {
+        let names: Vec<&str> = set.iter().map(|v| v.name.as_str()).collect();
+        f.push(finding(
+            "unique-value-references",
+            var_loc(set[1]),
+            format!(
+                "valueReference {vr} is shared by {} (FMI 3.0 value references are unique; \
+                 aliases are <Alias> elements)",
+                names.join(", ")
+            ),
+        ));
+    }
+}
+
+/// Causality against variability, and `initial` for an allowed combination (FMI 3.0.2 section
+/// 2.4.7.4, the two tables); only Float variables may be continuous.
+fn check_combination(v: &Variable3, loc: &str, f: &mut Vec<Finding>) {
+    let c = as_fmi2(v.causality);
+    if !combination_allowed(c, v.variability) {
+        let m = format!(
+            "causality {} with variability {} is not allowed by FMI 3.0",
+            v.causality,
+            variability_name(v.variability)
+        );
+        f.push(finding("causality-variability", loc, m));
+    } else if !initial_allowed(c, v.variability).contains(&v.initial) {
+        let m = format!(
+            "initial=\"{}\" is not allowed for causality {} and variability {}",
+            format!("{:?}", v.initial.unwrap_or(Initial::Exact)).to_lowercase(),
+            v.causality,
+            variability_name(v.variability)
+        );
+        f.push(finding("initial", loc, m));
+    }
+    if v.variability == Variability::Continuous && !v.ty.is_float() {
+        let m = format!("a {} variable cannot be continuous", v.ty.as_str());
+        f.push(finding("variability-type", loc, m));
+    }
+}
+
+/// start is required for inputs, constants and `initial` exact or approx, and not allowed for
+/// the independent variable and `initial` calculated (FMI 3.0.2 section 2.4.7.5).
+fn check_start(v: &Variable3, loc: &str, f: &mut Vec<Finding>) {
+    let initial = v.effective_initial();
+    let required = v.causality == Causality3::Input
+        || v.variability == Variability::Constant
+        || matches!(initial, Some(Initial::Exact | Initial::Approx));
+    let forbidden = v.causality == Causality3::Independent || initial == Some(Initial::Calculated);
+    let initial_name = initial.map_or("none".to_string(), |i| format!("{i:?}").to_lowercase());
+    if required && v.start.is_none() {
+        let m = format!(
+            "start is required (causality {}, initial {initial_name})",
+            v.causality
+        );
+        f.push(finding("start", loc, m));
+    }
+    if forbidden && v.start.is_some() {
+        let m = format!(
+            "start is not allowed (causality {}, initial {initial_name})",
+            v.causality
+        );
+        f.push(finding("start", loc, m));
+    }
+}
+
+/// A `<Dimension>` has exactly one of start and valueReference; a valueReference names a UInt64
+/// structural parameter or constant (FMI 3.0.2 section 2.4.7, arrays).
+fn check_dimension(
+    md: &ModelDescription3,
+    v: &Variable3,
+    d: &crate::fmi3::md::Dimension,
+    f: &mut Vec<Finding>,
+) {
+    let loc = format!(
+        "modelDescription.xml:{} (<Dimension> of '{}')",
+        d.line, v.name
+    );
+    let vr = match (d.start, d.value_reference) {
+        (Some(_), None) => return,
+        (None, Some(vr)) => vr,
+        _ => {
+            let m = "a <Dimension> needs exactly one of start and valueReference";
+            f.push(finding("dimension", loc, m));
+            return;
+        }
+    };
+    let problem = match md.by_vr(vr) {
+        None => Some(format!("valueReference {vr} is not a variable")),
+        Some(p) if p.ty != Type3::UInt64 || p.is_array() => Some(format!(
+            "valueReference {vr} is '{}', a {}, not a scalar UInt64",
+            p.name,
+            p.ty.as_str()
+        )),
+        Some(p)
+            if p.causality != Causality3::StructuralParameter
+                && p.variability != Variability::Constant =>
+        {
+            Some(format!(
+                "valueReference {vr} is '{}' with causality {}, not a structural parameter or \
+                 constant",
+                p.name, p.causality
+            ))
+        }
+        Some(_) => None,
+    };
+    if let Some(m) = problem {
+        f.push(finding("dimension", loc, m));
+    }
+}
+
+/// `derivative` names the value reference of a continuous Float state; the derivative itself
+/// is a continuous Float.
+fn check_derivative(
+    md: &ModelDescription3,
+    v: &Variable3,
+    state_vr: u32,
+    loc: &str,
+    f: &mut Vec<Finding>,
+) {
+    if !v.ty.is_float() || v.variability != Variability::Continuous {
+        let m = "a variable with a derivative attribute must be a continuous Float";
+        f.push(finding("derivative", loc, m));
+    }
+    match md.by_vr(state_vr) {
+        None => {
+            let m = format!("derivative=\"{state_vr}\" is not a variable");
+            f.push(finding("derivative", loc, m));
+        }
+        Some(s) if !s.ty.is_float() || s.variability != Variability::Continuous => {
+            let m = format!(
+                "derivative=\"{state_vr}\" is '{}', not a continuous Float",
+                s.name
+            );
+            f.push(finding("derivative", loc, m));
+        }
+        Some(_) => {}
+    }
+}
+
+/// `<Output>` lists exactly the outputs, `<ContinuousStateDerivative>` only variables with a
+/// derivative attribute, every element names an existing variable (FMI 3.0.2 section 2.4.8).
+fn check_model_structure(md: &ModelDescription3, f: &mut Vec<Finding>) {
+    let ms = &md.model_structure;
+    let lists: [(&str, &Vec<Unknown3>); 5] = [
+        ("Output", &ms.outputs),
+        (
+            "ContinuousStateDerivative",
+            &ms.continuous_state_derivatives,
+        ),
+        ("ClockedState", &ms.clocked_states),
+        ("InitialUnknown", &ms.initial_unknowns),
+        ("EventIndicator", &ms.event_indicators),
+    ];
+    for (element, unknowns) in lists {
+        let mut seen = BTreeSet::new();
+        for u in unknowns {
+            let loc = format!(
+                "modelDescription.xml:{} (<{element} valueReference=\"{}\">)",
+                u.line, u.value_reference
+            );
+            if !seen.insert(u.value_reference) {
+                let m = format!("valueReference {} is listed twice", u.value_reference);
+                f.push(finding("model-structure", &loc, m));
+            }
+            let Some(v) = md.by_vr(u.value_reference) else {
+                let m = format!("valueReference {} is not a variable", u.value_reference);
+                f.push(finding("model-structure", &loc, m));
+                continue;
+            };
+            if let Some(m) = wrong_kind(element, v) {
+                f.push(finding(
+                    if element == "Output" {
+                        "outputs-listed"
+                    } else {
+                        "model-structure"
+                    },
+                    &loc,
+                    m,
+                ));
+            }
+            for d in u.dependencies.iter().flatten() {
+                if md.by_vr(*d).is_none() {
+                    let m = format!("dependency {d} is not a variable");
+                    f.push(finding("model-structure", &loc, m));
+                }
+            }
+            let n_deps = u.dependencies.as_ref().map(Vec::len);
+            if let Some(kinds) = &u.dependencies_kind {
+                if n_deps != Some(kinds.len()) {
+                    let m = "dependenciesKind and dependencies differ in length";
+                    f.push(finding("model-structure", &loc, m));
+                }
+            }
+        }
+    }
+    let listed: BTreeSet<u32> = ms.outputs.iter().map(|u| u.value_reference).collect();
+    for v in md.with_causality(Causality3::Output) {
+        if !listed.contains(&v.value_reference) {
+            let m = format!(
+                "output '{}' (valueReference {}) is missing from <ModelStructure> <Output>",
+                v.name, v.value_reference
+            );
+            f.push(finding("outputs-listed", var_loc(v), m));
+        }
+    }
+}
+
+/// Why `v` may not be listed in `<element>`, if it may not.
+fn wrong_kind(element: &str, v: &Variable3) -> Option<String> {
+    match element {
+        "Output" if v.causality != Causality3::Output => Some(format!(
+            "'{}' is listed in <Output> but its causality is {}",
+            v.name, v.causality
+        )),
+        "ContinuousStateDerivative" if v.derivative.is_none() => Some(format!(
+            "'{}' is listed in <ContinuousStateDerivative> but has no derivative attribute",
+            v.name
+        )),
+        "InitialUnknown"
+            if matches!(
+                v.causality,
+                Causality3::Input
+                    | Causality3::Independent
+                    | Causality3::Parameter
+                    | Causality3::StructuralParameter
+            ) || v.variability == Variability::Constant =>
+        {
+            Some(format!(
+                "'{}' (causality {}, variability {}) cannot be an <InitialUnknown>",
+                v.name,
+                v.causality,
+                variability_name(v.variability)
+            ))
+        }
+        _ => None,
+    }
+}
+
+/// The binary format and architectures of an FMI 3.0 platform tuple (FMI 3.0.2 section 2.5.1:
+/// `<arch>-<sys>`), None for a tuple the validator does not know.
+pub fn expected_format3(tuple: &str) -> Option<(&'static str, &'static str)> {
+    let mut parts = tuple.splitn(3, '-');
+    let (arch, sys) = (parts.next()?, parts.next()?);
+    let format = match sys {
+        "linux" => "ELF",
+        "windows" => "PE",
+        "darwin" => "Mach-O",
+        _ => return None,
+    };
+    let arch = match arch {
+        "x86_64" => "x86_64",
+        "aarch64" => "aarch64",
+        "x86" => "x86",
+        _ => return None,
+    };
+    Some((format, arch))
+}
+
+/// FMI 2.0 platform directory names, which are not FMI 3.0 platform tuples.
+const FMI2_PLATFORMS: [&str; 6] = [
+    "linux64", "linux32", "win64", "win32", "darwin64", "darwin32",
+];
+
+/// Functions the Model Exchange interface adds (FMI 3.0.2 section 3.2).
+pub const FMI3_ME_FUNCTIONS: [&str; 12] = [
+    "fmi3InstantiateModelExchange",
+    "fmi3EnterContinuousTimeMode",
+    "fmi3CompletedIntegratorStep",
+    "fmi3SetTime",
+    "fmi3SetContinuousStates",
+    "fmi3GetContinuousStateDerivatives",
+    "fmi3GetEventIndicators",
+    "fmi3GetContinuousStates",
+    "fmi3GetNominalsOfContinuousStates",
+    "fmi3GetNumberOfEventIndicators",
+    "fmi3GetNumberOfContinuousStates",
+    "fmi3UpdateDiscreteStates",
+];
+
+/// Functions the Co-Simulation interface adds (FMI 3.0.2 section 4.2).
+pub const FMI3_CS_FUNCTIONS: [&str; 4] = [
+    "fmi3InstantiateCoSimulation",
+    "fmi3EnterStepMode",
+    "fmi3GetOutputDerivatives",
+    "fmi3DoStep",
+];
+
+/// Functions the Scheduled Execution interface adds (FMI 3.0.2 section 5.2).
+pub const FMI3_SE_FUNCTIONS: [&str; 2] = [
+    "fmi3InstantiateScheduledExecution",
+    "fmi3ActivateModelPartition",
+];
+
+/// The functions a binary of `id` must export: the common ones and those of every interface
+/// the description declares with that modelIdentifier.
+fn required_functions(md: &ModelDescription3, id: &str) -> Vec<&'static str> {
+    let mut need: Vec<&'static str> = crate::fmi3::ffi::FMI3_COMMON_FUNCTIONS.to_vec();
+    for (name, i) in interfaces(md) {
+        if i.model_identifier != id {
+            continue;
+        }
+        need.extend_from_slice(match name {
+            "ModelExchange" => &FMI3_ME_FUNCTIONS[..],
+            "CoSimulation" => &FMI3_CS_FUNCTIONS[..],
+            _ => &FMI3_SE_FUNCTIONS[..],
+        });
+    }
+    need.sort_unstable();
+    need.dedup();
+    need
+}
+
+/// Every binary under `binaries/<platformTuple>/` of the FMU extracted at `dir`, read without
+/// loading it, with the findings it raises: an FMI 2.0 platform name, a missing library, a
+/// format or architecture that is not the tuple's, a function of a declared interface not
+/// exported; an FMU with neither binaries nor sources.
+pub fn check_platform_binaries3(
+    dir: &Path,
+    md: &ModelDescription3,
+) -> (Vec<Finding>, Vec<super::PlatformBinary>) {
+    let (mut findings, mut binaries) = (Vec::new(), Vec::new());
+    let mut ids: Vec<&str> = interfaces(md)
+        .iter()
+        .map(|(_, i)| i.model_identifier.as_str())
+        .filter(|id| is_c_identifier(id))
+        .collect();
+    ids.sort_unstable();
+    ids.dedup();
+    let mut tuples: Vec<String> = std::fs::read_dir(dir.join("binaries"))
+        .map(|rd| {
+            rd.filter_map(|e| e.ok())
+                .filter(|e| e.path().is_dir())
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .collect()
+        })
+        .unwrap_or_default();
+    tuples.sort();
+    if tuples.is_empty() && !dir.join("sources").is_dir() {
+        let m = "no binaries/<platformTuple>/ directory and no sources/: nothing to run";
+        findings.push(finding("binary", "binaries/", m));
+    }
+    for tuple in tuples {
+        if FMI2_PLATFORMS.contains(&tuple.as_str()) {
+            let m = format!(
+                "'{tuple}' is an FMI 2.0 platform name; FMI 3.0 names platforms by tuple \
+                 (x86_64-linux, x86_64-windows, x86_64-darwin, aarch64-darwin, aarch64-linux)"
+            );
+            findings.push(finding("binary", format!("binaries/{tuple}/"), m));
+            continue;
+        }
+        let Some((format, arch)) = expected_format3(&tuple) else {
+            continue;
+        };
+        let ext = match format {
+            "PE" => "dll",
+            "Mach-O" => "dylib",
+            _ => "so",
+        };
+        for id in &ids {
+            let entry = format!("binaries/{tuple}/{id}.{ext}");
+            let Ok(bytes) = std::fs::read(dir.join(&entry)) else {
+                let m = format!("no {id}.{ext} in binaries/{tuple}/");
+                findings.push(finding("binary", &entry, m));
+                continue;
+            };
+            let info = match crate::binary::inspect(&bytes) {
+                Ok(info) => info,
+                Err(e) => {
+                    findings.push(finding("binary-format", &entry, e));
+                    continue;
+                }
+            };
+            if info.format != format {
+                let m = format!("is {}, but {tuple} needs {format}", info.format);
+                findings.push(finding("binary-format", &entry, m));
+            }
+            // A macOS universal binary may hold other slices beside the tuple's.
+            if !info.slices.iter().any(|s| s.architecture == arch) {
+                let held: Vec<&str> = info
+                    .slices
+                    .iter()
+                    .map(|s| s.architecture.as_str())
+                    .collect();
+                let m = format!("holds {held:?}, {tuple} needs an {arch} slice");
+                findings.push(finding("binary-format", &entry, m));
+            }
+            let need = required_functions(md, id);
+            for slice in &info.slices {
+                let missing: Vec<&str> = need
+                    .iter()
+                    .copied()
+                    .filter(|f| slice.exports.binary_search(&f.to_string()).is_err())
+                    .collect();
+                if !missing.is_empty() {
+                    let m = format!(
+                        "the {} slice does not export {} FMI 3.0 function(s) its interfaces \
+                         need: {}",
+                        slice.architecture,
+                        missing.len(),
+                        missing.join(", ")
+                    );
+                    findings.push(finding("symbols", &entry, m));
+                }
+            }
+            binaries.push(super::PlatformBinary { entry, info });
+        }
+    }
+    (findings, binaries)
+}

@@ -1,0 +1,192 @@
+"""`actuator-fmu validate` on FMI 3.0 FMUs: clean on the Reference-FMUs built as FMI 3.0
+(tests/fixtures/reference-fmus-fmi3/) and on our own FMI 3.0 FMUs (dist/fmi3/); each rule of
+the FMI 3.0.2 standard it checks found in a copy of a fixture broken to violate it (its
+modelDescription.xml patched, or its binaries moved, dropped or with an export renamed).
+
+The expected findings come from the standard's text (FMI 3.0.2 sections 2.4.1, 2.4.7, 2.4.8 and
+2.5), not from the validator's output: each broken copy violates one rule by construction.
+"""
+import json
+import subprocess
+import zipfile
+
+import pytest
+
+from conftest import REPO, cli_path, fmu3_path
+
+REF3 = REPO / "tests" / "fixtures" / "reference-fmus-fmi3"
+FIXTURES = ["Clocks", "Dahlquist", "Resource", "Stair", "StateSpace", "VanDerPol"]
+
+
+def validate_json(*fmus):
+    res = subprocess.run([cli_path(), "validate", "--json", *map(str, fmus)],
+                         capture_output=True, text=True, timeout=120)
+    assert res.returncode in (0, 1), (res.returncode, res.stderr)
+    reports = json.loads(res.stdout)
+    assert (res.returncode == 1) == any(r["findings"] for r in reports), res.stdout
+    return reports
+
+
+def broken(tmp_path, name, md=lambda x: x, member=lambda n, d: d, suffix="broken"):
+    """A copy of fixture `name` with its modelDescription.xml passed through md(text) and every
+    other member through member(name, bytes) (None drops it, a (name, bytes) renames it)."""
+    dst = tmp_path / f"{name}-{suffix}.fmu"
+    with zipfile.ZipFile(REF3 / f"{name}.fmu") as zin, \
+            zipfile.ZipFile(dst, "w", zipfile.ZIP_DEFLATED) as zout:
+        for info in zin.infolist():
+            data = zin.read(info.filename)
+            if info.filename == "modelDescription.xml":
+                zout.writestr(info.filename, md(data.decode()))
+                continue
+            out = member(info.filename, data)
+            if out is None:
+                continue
+            if isinstance(out, tuple):
+                zout.writestr(*out)
+            else:
+                zout.writestr(info.filename, out)
+    return dst
+
+
+def replace(old, new):
+    def md(text):
+        assert old in text, old
+        return text.replace(old, new, 1)
+    return md
+
+
+def findings(tmp_path, name="VanDerPol", **kw):
+    [report] = validate_json(broken(tmp_path, name, **kw))
+    return report["findings"]
+
+
+def test_fixtures_and_our_fmi3_fmus_have_no_findings():
+    fmus = [REF3 / f"{n}.fmu" for n in FIXTURES]
+    fmus += [fmu3_path(n) for n in ("HydraulicJoint", "TwistedString")]
+    reports = validate_json(*fmus)
+    for r in reports:
+        assert r["findings"] == [], r
+        # the binary of this platform was read, with its exports
+        assert any(b["entry"].startswith("binaries/x86_64-linux/") for b in r["binaries"]), r
+
+
+# (fixture, patch of modelDescription.xml, expected check, fragment of its message)
+DESCRIPTION_CASES = {
+    "instantiation-token": ("VanDerPol", replace(
+        'instantiationToken="{BD403596-3166-4232-ABC2-132BDF73E644}"', 'instantiationToken=" "'),
+        "instantiation-token", "instantiationToken is missing or empty"),
+    "no-independent": ("VanDerPol", replace(
+        '<Float64 name="time" valueReference="0" causality="independent" '
+        'variability="continuous" description="Simulation time"/>', ""),
+        "independent", "0 variables with causality=\"independent\""),
+    "two-independents": ("VanDerPol", replace(
+        '<Float64 name="mu"',
+        '<Float64 name="t2" valueReference="9" causality="independent" '
+        'variability="continuous"/>\n<Float64 name="mu"'),
+        "independent", "2 variables with causality=\"independent\""),
+    "unique-names": ("VanDerPol", replace('name="x1"', 'name="x0"'),
+                     "unique-names", "name 'x0' is already used"),
+    "unique-value-references": ("VanDerPol", replace(
+        '<Float64 name="mu" valueReference="5"',
+        '<Float64 name="mu" valueReference="5"/>\n<Float64 name="mu2" valueReference="5"'
+        ' causality="parameter" variability="fixed" start="1"/>\n<Float64 name="unused"'
+        ' valueReference="6"'),
+        "unique-value-references", "valueReference 5 is shared by mu, mu2"),
+    "causality-variability": ("VanDerPol", replace(
+        'causality="parameter" variability="fixed"', 'causality="parameter" variability="continuous"'),
+        "causality-variability", "causality parameter with variability continuous"),
+    "initial": ("VanDerPol", replace(
+        'variability="fixed" initial="exact" start="1"', 'variability="fixed" initial="calculated"'),
+        "initial", 'initial="calculated" is not allowed'),
+    "start-required": ("VanDerPol", replace('initial="exact" start="2"', 'initial="exact"'),
+                       "start", "start is required"),
+    "start-forbidden": ("VanDerPol", replace(
+        'initial="calculated" derivative="1"', 'initial="calculated" start="0" derivative="1"'),
+        "start", "start is not allowed"),
+    "dimension-not-uint64": ("StateSpace", replace(
+        '<Dimension valueReference="2"/>\n            <Dimension valueReference="2"/>',
+        '<Dimension valueReference="5"/>\n            <Dimension valueReference="2"/>'),
+        "dimension", "valueReference 5 is 'B', a Float64, not a scalar UInt64"),
+    "dimension-missing": ("StateSpace", replace(
+        '<Dimension valueReference="2"/>\n            <Dimension valueReference="2"/>',
+        '<Dimension valueReference="99"/>\n            <Dimension valueReference="2"/>'),
+        "dimension", "valueReference 99 is not a variable"),
+    "derivative": ("VanDerPol", replace('initial="calculated" derivative="1"',
+                                        'initial="calculated" derivative="5"'),
+                   "derivative", "derivative=\"5\" is 'mu', not a continuous Float"),
+    "output-not-output": ("VanDerPol", replace(
+        '<Output valueReference="3" dependencies=""/>',
+        '<Output valueReference="3" dependencies=""/>\n<Output valueReference="5"/>'),
+        "outputs-listed", "'mu' is listed in <Output> but its causality is parameter"),
+    "output-missing": ("VanDerPol", replace('<Output valueReference="3" dependencies=""/>', ""),
+                       "outputs-listed", "output 'x1' (valueReference 3) is missing"),
+    "state-derivative": ("VanDerPol", replace(
+        '<ContinuousStateDerivative valueReference="2" dependencies="3" dependenciesKind="constant"/>',
+        '<ContinuousStateDerivative valueReference="1"/>'),
+        "model-structure", "'x0' is listed in <ContinuousStateDerivative> but has no derivative"),
+    "initial-unknown": ("VanDerPol", replace(
+        '<InitialUnknown valueReference="2" dependencies="3" dependenciesKind="constant"/>',
+        '<InitialUnknown valueReference="2" dependencies="3" dependenciesKind="constant"/>\n'
+        '<InitialUnknown valueReference="42"/>'),
+        "model-structure", "valueReference 42 is not a variable"),
+}
+
+
+@pytest.mark.parametrize("case", DESCRIPTION_CASES)
+def test_a_broken_description_rule_is_found(case, tmp_path):
+    name, md, check, fragment = DESCRIPTION_CASES[case]
+    found = findings(tmp_path, name, md=md)
+    hits = [f for f in found if f["check"] == check and fragment in f["message"]]
+    assert hits, found
+    assert all(f["check"] == check for f in found), found
+    assert all(f["clause"].startswith("FMI 3.0.2 §") for f in found), found
+
+
+SO = "binaries/x86_64-linux/VanDerPol.so"
+
+
+def rename_export(old, new):
+    """Renames the exported symbol `old` in the ELF string table (same length): the binary no
+    longer exports it."""
+    assert len(old) == len(new)
+
+    def member(name, data):
+        if name != SO:
+            return data
+        needle = old.encode() + b"\0"
+        assert needle in data
+        return data.replace(needle, new.encode() + b"\0")
+    return member
+
+
+BINARY_CASES = {
+    # A function of a declared interface (Co-Simulation) not exported.
+    "cs-export": (rename_export("fmi3DoStep", "fmi3DoStap"), "symbols", "fmi3DoStep"),
+    # A Model Exchange function (the FMU declares <ModelExchange>) not exported.
+    "me-export": (rename_export("fmi3SetTime", "fmi3SetTame"), "symbols", "fmi3SetTime"),
+    # The library missing from its platform directory.
+    "missing": (lambda n, d: None if n == SO else d, "binary", "no VanDerPol.so"),
+    # An FMI 2.0 platform directory instead of the FMI 3.0 platform tuple.
+    "fmi2-platform": (lambda n, d: (n.replace("x86_64-linux", "linux64"), d)
+                      if n.startswith("binaries/x86_64-linux") else d,
+                      "binary", "FMI 2.0 platform name"),
+    # A Linux library where the Windows tuple needs a PE file.
+    "wrong-format": (lambda n, d: ("binaries/x86_64-windows/VanDerPol.dll", d) if n == SO else d,
+                     "binary-format", "x86_64-windows needs PE"),
+    # Neither binaries nor sources.
+    "nothing-to-run": (lambda n, d: None if n.startswith(("binaries/", "sources/")) else d,
+                       "binary", "nothing to run"),
+}
+
+
+@pytest.mark.parametrize("case", BINARY_CASES)
+def test_a_broken_binary_rule_is_found(case, tmp_path):
+    member, check, fragment = BINARY_CASES[case]
+    found = findings(tmp_path, member=member)
+    hits = [f for f in found if f["check"] == check and fragment in f["message"]]
+    assert hits, found
+    assert all(f["clause"].startswith("FMI 3.0.2 §") for f in found), found
+
+
+def test_sources_without_binaries_are_no_finding(tmp_path):
+    assert findings(tmp_path, member=lambda n, d: None if n.startswith("binaries/") else d) == []
