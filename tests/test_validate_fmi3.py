@@ -190,3 +190,17 @@ def test_a_broken_binary_rule_is_found(case, tmp_path):
 
 def test_sources_without_binaries_are_no_finding(tmp_path):
     assert findings(tmp_path, member=lambda n, d: None if n.startswith("binaries/") else d) == []
+
+
+def test_effects_convention_is_checked_on_fmi3_fmus():
+    args = [cli_path(), "validate", "--json", "--effects"]
+    ours = [fmu3_path(n) for n in ("HydraulicJoint", "TwistedString")]
+    res = subprocess.run([*args, *ours], capture_output=True, text=True, timeout=120)
+    assert res.returncode == 0, res.stdout + res.stderr
+    # VanDerPol has no parameter described "[calibrate] ...": not a gap-workflow FMU
+    res = subprocess.run([*args, str(REF3 / "VanDerPol.fmu")], capture_output=True, text=True,
+                         timeout=120)
+    assert res.returncode == 1, res.stdout + res.stderr
+    [report] = json.loads(res.stdout)
+    assert [f["check"] for f in report["findings"]] == ["effect-convention"], report
+    assert "[calibrate]" in report["findings"][0]["message"], report

@@ -4,8 +4,8 @@
 //! (`@@FINDINGS@@ [...]`).
 
 use crate::common::CliResult;
-use host::validate::{check_symbols, probe, Finding};
-use host::{Extracted, Fmu};
+use host::validate::{check_symbols, probe, probe_me, Finding};
+use host::{Extracted, Fmu, Interface, OpenOptions};
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -41,27 +41,15 @@ pub fn run(a: Args) -> CliResult {
             e.to_string(),
         )),
         Ok(ex) => {
+            let cs = ex.model_description.co_simulation.is_some();
+            let me = ex.model_description.model_exchange.is_some();
             let symbols = check_symbols(&ex);
             // A binary that does not load is reported once; there is nothing to probe.
             let loadable = !symbols.iter().any(|f| f.check == "binary");
             findings.extend(symbols);
             drop(ex);
             if loadable {
-                match Fmu::open(&a.fmu) {
-                    Err(e) => findings.push(Finding::new(
-                        "binary",
-                        a.fmu.display().to_string(),
-                        e.to_string(),
-                    )),
-                    Ok(fmu) => findings.extend(probe(&fmu, &mut |name| {
-                        if a.skip.iter().any(|s| s == name) {
-                            false
-                        } else {
-                            announce(name);
-                            true
-                        }
-                    })),
-                }
+                findings.extend(probe_interfaces(&a, cs, me));
             }
         }
     }
@@ -71,4 +59,45 @@ pub fn run(a: Args) -> CliResult {
     let _ = writeln!(out, "\n{FINDINGS_MARK}{json}");
     let _ = out.flush();
     Ok(0)
+}
+
+/// The Co-Simulation probe when the FMU declares Co-Simulation, the Model Exchange probe when it
+/// declares Model Exchange, each on the FMU opened with that interface.
+fn probe_interfaces(a: &Args, cs: bool, me: bool) -> Vec<Finding> {
+    let mut findings = Vec::new();
+    let mut step = |name: &str| {
+        if a.skip.iter().any(|s| s == name) {
+            false
+        } else {
+            announce(name);
+            true
+        }
+    };
+    for (declared, interface) in [
+        (cs, Interface::CoSimulation),
+        (me, Interface::ModelExchange),
+    ] {
+        if !declared {
+            continue;
+        }
+        let opts = OpenOptions {
+            interface: Some(interface),
+            ..OpenOptions::default()
+        };
+        match Fmu::open_with(&a.fmu, &opts) {
+            Err(e) => findings.push(Finding::new(
+                "binary",
+                a.fmu.display().to_string(),
+                match interface {
+                    Interface::CoSimulation => e.to_string(),
+                    Interface::ModelExchange => format!("{interface}: {e}"),
+                },
+            )),
+            Ok(fmu) => findings.extend(match interface {
+                Interface::CoSimulation => probe(&fmu, &mut step),
+                Interface::ModelExchange => probe_me(&fmu, &mut step),
+            }),
+        }
+    }
+    findings
 }

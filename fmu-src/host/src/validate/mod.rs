@@ -23,7 +23,7 @@ pub use description::{
     check_effect_convention, check_model_description, combination_allowed, initial_allowed,
 };
 pub use fmi3::{check_model_description3, check_platform_binaries3};
-pub use probe::{probe, PROBE_CASES};
+pub use probe::{probe, probe_me, ME_PROBE_CASES, PROBE_CASES};
 
 use crate::md::ScalarVariable;
 use std::fmt;
