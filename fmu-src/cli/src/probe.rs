@@ -34,6 +34,41 @@ fn announce(name: &str) {
 pub fn run(a: Args) -> CliResult {
     let mut findings: Vec<Finding> = Vec::new();
     announce("load");
+    if matches!(host::fmi_version_of(&a.fmu), Ok(host::FmiVersion::Fmi3)) {
+        findings.extend(probe_fmi3(&a));
+    } else {
+        findings.extend(probe_fmi2(&a));
+    }
+    announce("done");
+    let json = serde_json::to_string(&findings).unwrap_or_else(|_| "[]".into());
+    let mut out = std::io::stdout().lock();
+    let _ = writeln!(out, "\n{FINDINGS_MARK}{json}");
+    let _ = out.flush();
+    Ok(0)
+}
+
+/// The FMI 3.0 Co-Simulation probe.
+fn probe_fmi3(a: &Args) -> Vec<Finding> {
+    match host::fmi3::Fmu3::open(&a.fmu) {
+        Err(e) => {
+            let mut f = Finding::new("binary", a.fmu.display().to_string(), e.to_string());
+            f.clause = host::validate::fmi3::classify3("binary").to_string();
+            vec![f]
+        }
+        Ok(fmu) => host::validate::probe3(&fmu, &mut |name| {
+            if a.skip.iter().any(|s| s == name) {
+                false
+            } else {
+                announce(name);
+                true
+            }
+        }),
+    }
+}
+
+/// The binary's exports and the FMI 2.0 probes.
+fn probe_fmi2(a: &Args) -> Vec<Finding> {
+    let mut findings: Vec<Finding> = Vec::new();
     match Extracted::open(&a.fmu) {
         Err(e) => findings.push(Finding::new(
             "open",
@@ -49,16 +84,11 @@ pub fn run(a: Args) -> CliResult {
             findings.extend(symbols);
             drop(ex);
             if loadable {
-                findings.extend(probe_interfaces(&a, cs, me));
+                findings.extend(probe_interfaces(a, cs, me));
             }
         }
     }
-    announce("done");
-    let json = serde_json::to_string(&findings).unwrap_or_else(|_| "[]".into());
-    let mut out = std::io::stdout().lock();
-    let _ = writeln!(out, "\n{FINDINGS_MARK}{json}");
-    let _ = out.flush();
-    Ok(0)
+    findings
 }
 
 /// The Co-Simulation probe when the FMU declares Co-Simulation, the Model Exchange probe when it

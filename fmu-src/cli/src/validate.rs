@@ -89,7 +89,7 @@ type Checked = (Vec<Finding>, Vec<PlatformBinary>);
 
 fn validate_one(path: &Path, timeout: Duration, effects: bool) -> Result<Checked, CliError> {
     if matches!(host::fmi_version_of(path), Ok(FmiVersion::Fmi3)) {
-        return validate_fmi3(path, effects);
+        return validate_fmi3(path, timeout, effects);
     }
     let ex = match Extracted::open(path) {
         Ok(ex) => ex,
@@ -126,7 +126,7 @@ fn validate_one(path: &Path, timeout: Duration, effects: bool) -> Result<Checked
 
 /// The checks of an FMI 3.0 FMU: its model description (and with `effects` the candidate-effect
 /// convention) and its binaries per platform tuple (read, not loaded).
-fn validate_fmi3(path: &Path, effects: bool) -> Result<Checked, CliError> {
+fn validate_fmi3(path: &Path, timeout: Duration, effects: bool) -> Result<Checked, CliError> {
     let unpacked = match Unpacked::open(path) {
         Ok(u) => u,
         Err(HostError::Io { path, source }) => {
@@ -145,6 +145,19 @@ fn validate_fmi3(path: &Path, effects: bool) -> Result<Checked, CliError> {
     }
     let (binary_findings, binaries) = check_platform_binaries3(&unpacked.dir, &md);
     findings.extend(binary_findings);
+    // The runtime probe: Co-Simulation FMUs the host runs, with a binary for this platform.
+    let runnable = md.co_simulation.as_ref().is_some_and(|cs| {
+        unpacked
+            .dir
+            .join("binaries")
+            .join(host::fmi3::PLATFORM_TUPLE)
+            .join(format!("{}.{}", cs.model_identifier, host::LIB_SUFFIX))
+            .is_file()
+    }) && host::fmi3::unsupported(&md).is_none();
+    drop(unpacked);
+    if runnable {
+        findings.extend(run_probe(path, timeout)?);
+    }
     Ok((findings, binaries))
 }
 
@@ -171,7 +184,8 @@ fn run_probe(path: &Path, timeout: Duration) -> Result<Vec<Finding>, CliError> {
             ProbeOutcome::Crashed { step, finding } => {
                 findings.push(finding);
                 let is_case = (host::validate::PROBE_CASES.contains(&step.as_str())
-                    || host::validate::ME_PROBE_CASES.contains(&step.as_str()))
+                    || host::validate::ME_PROBE_CASES.contains(&step.as_str())
+                    || host::validate::PROBE3_CASES.contains(&step.as_str()))
                     && !step.ends_with("normal-run");
                 if !is_case || crashed.contains(&step) {
                     return Ok(findings);
