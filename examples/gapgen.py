@@ -333,6 +333,18 @@ def eval_record(model, cond, i, seed0=100000, duration=4.0, rate=250.0, input_fa
     return dict(ds=ds, seed=seed, hidden=hidden, noise=noise, ar=ar, kw=kw, mismatch=what)
 
 
+def perturbed(ds, seed, eps):
+    """The dataset with every output sample moved by `eps` times the output's range, with a
+    pseudo-random sign drawn from `seed` (scripts/gap-robustness: changes far below the noise
+    must not change gap's answer)."""
+    rng = np.random.default_rng([seed, 38])
+    outs = {}
+    for n, y in ds["outputs"].items():
+        s = np.where(rng.random(len(y)) < 0.5, -1.0, 1.0)
+        outs[n] = y + eps * float(np.max(y) - np.min(y)) * s
+    return dict(ds, outputs=outs)
+
+
 def read_inputs_csv(path):
     """(time, {input: values}) of an input CSV (`actuator-fmu design --out`; '#' comments)."""
     with open(path) as f:

@@ -120,3 +120,118 @@ def test_binary_crashing_on_wrong_call_order_is_found(name, tmp_path):
     # a clean FMU given alongside is still reported clean
     r = validate(fmu_path("Oscillator"), broken)
     assert r.returncode == 1 and "OK (no findings)" in r.stdout
+
+
+# Model Exchange (FMI 2.0.4 chapter 3): broken copies of the FMI 2.0 Reference-FMU VanDerPol,
+# which declares <ModelExchange> and <CoSimulation> with one binary for both.
+REF2_VDP = REPO / "tests" / "fixtures" / "reference-fmus" / "VanDerPol.fmu"
+VDP_SO = "binaries/linux64/VanDerPol.so"
+CS_ELEMENT = re.compile(r"\s*<CoSimulation.*?</CoSimulation>", re.S)
+ME_ELEMENT = re.compile(r"\s*<ModelExchange.*?</ModelExchange>", re.S)
+
+
+def vdp_copy(tmp_path, label, md=lambda x: x, so=lambda b: b):
+    def replace(member, data):
+        if member == "modelDescription.xml":
+            text = data.decode()
+            out = md(text)
+            assert out != text, "the patch changed nothing"
+            return out.encode()
+        return so(data) if member == VDP_SO else data
+
+    return rewrite_fmu(REF2_VDP, tmp_path / f"{label}.fmu", replace)
+
+
+def drop(pattern):
+    def md(text):
+        out, n = pattern.subn("", text, count=1)
+        assert n == 1
+        return out
+    return md
+
+
+def rename_export(old, new):
+    """The binary with the exported symbol `old` renamed in its string table: no longer exported."""
+    def so(data):
+        needle = old.encode() + b"\0"
+        assert needle in data and len(old) == len(new)
+        return data.replace(needle, new.encode() + b"\0")
+    return so
+
+
+def findings_of(fmu):
+    r = validate(fmu, json_out=True)
+    assert r.returncode in (0, 1), r.stderr
+    report = json.loads(r.stdout)[0]
+    assert (r.returncode == 1) == bool(report["findings"]), report
+    return report["findings"]
+
+
+def test_a_model_exchange_only_fmu_is_no_finding(tmp_path):
+    assert findings_of(vdp_copy(tmp_path, "me-only", md=drop(CS_ELEMENT))) == []
+
+
+def test_a_derivative_of_a_non_state_is_found(tmp_path):
+    # der(x0) names mu (index 6, a fixed parameter) as its state instead of x0 (index 2)
+    fmu = vdp_copy(tmp_path, "bad-derivative",
+                   md=lambda t: t.replace('<Real derivative="2"/>', '<Real derivative="6"/>'))
+    found = findings_of(fmu)
+    assert [f["check"] for f in found] == ["derivative"], found
+    assert "'der(x0)' is the derivative of 'mu'" in found[0]["message"], found
+    assert "2.2.8" in found[0]["clause"], found
+
+
+def test_a_negative_number_of_event_indicators_is_found(tmp_path):
+    fmu = vdp_copy(tmp_path, "negative-indicators",
+                   md=lambda t: t.replace('numberOfEventIndicators="0"',
+                                          'numberOfEventIndicators="-1"'))
+    found = findings_of(fmu)
+    assert [f["check"] for f in found] == ["model-description-xml"], found
+    assert "numberOfEventIndicators" in found[0]["message"], found
+
+
+def test_a_model_exchange_function_not_exported_is_found_only_when_declared(tmp_path):
+    so = rename_export("fmi2SetTime", "fmi2SetTame")
+    found = findings_of(vdp_copy(tmp_path, "me-no-settime", md=drop(CS_ELEMENT), so=so))
+    assert "symbols" in [f["check"] for f in found], found
+    # the probe cannot open the FMU as Model Exchange either, and says why
+    assert all(f["check"] in ("symbols", "binary") and "fmi2SetTime" in f["message"]
+               for f in found), found
+    # Co-Simulation alone does not need fmi2SetTime
+    found = findings_of(vdp_copy(tmp_path, "cs-no-settime", md=drop(ME_ELEMENT), so=so))
+    assert not [f for f in found if f["check"] == "symbols"], found
+
+
+def _me_shim_copy(tmp_path, label, *defines):
+    """A Model Exchange-only copy of VanDerPol whose binary is crash_shim.c forwarding to the real
+    one, built with `defines` (ME_FAIL_AT: fmi2GetDerivatives fails from that time on)."""
+    if shutil.which("gcc") is None:
+        pytest.skip("gcc not installed")
+    so = tmp_path / f"{label}.so"
+    subprocess.run(["gcc", "-shared", "-fPIC", "-O1", '-DMODEL_ID="VanDerPol"', *defines,
+                    "-o", str(so), str(REPO / "tests" / "drivers" / "broken" / "crash_shim.c"),
+                    "-ldl"], check=True)
+
+    def replace(member, data):
+        if member == "modelDescription.xml":
+            return drop(CS_ELEMENT)(data.decode()).encode()
+        if member == VDP_SO:
+            return [(VDP_SO, so.read_bytes()), ("binaries/linux64/real_VanDerPol.so", data)]
+        return data
+
+    return rewrite_fmu(REF2_VDP, tmp_path / f"{label}.fmu", replace)
+
+
+def test_the_model_exchange_probe_runs_the_fmu(tmp_path):
+    # the shim alone (forwarding every call) is clean: the probe's calls are a legal sequence
+    assert findings_of(_me_shim_copy(tmp_path, "me-shim")) == []
+    # fmi2GetDerivatives answering fmi2Error in a legal sequence: the normal run fails
+    found = findings_of(_me_shim_copy(tmp_path, "me-error", "-DME_FAIL_AT=0", "-DME_ERROR"))
+    assert [f["check"] for f in found] == ["probe-normal-run"], found
+    assert found[0]["location"] == "probe me-normal-run", found
+    assert "fmi2GetDerivatives" in found[0]["message"], found
+    # fmi2GetDerivatives crashing: a finding naming the probe step and the signal
+    found = findings_of(_me_shim_copy(tmp_path, "me-crash", "-DME_FAIL_AT=0"))
+    assert [f["check"] for f in found] == ["probe-crash"], found
+    assert found[0]["location"] == "probe me-normal-run", found
+    assert "SIGSEGV" in found[0]["message"], found

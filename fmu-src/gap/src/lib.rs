@@ -49,7 +49,9 @@
 //!    from its profile: the base parameters fitted with the effect held at each revealing scanned
 //!    setting, the best refitted in full (the base fit may have bent a base parameter to imitate
 //!    the effect, a stiffer spring for a growing string radius, and a local descent from there
-//!    lowers the effect instead of unbending it). Before
+//!    lowers the effect instead of unbending it). The best refit is restarted so too when it
+//!    reaches the threshold: where a refit along such a valley stops turns on the last bits of
+//!    the data, and the named estimate must not. Before
 //!    naming, the base model is refitted from the best candidate's base values, so a gain the base
 //!    model reaches alone is not credited to the effect; when that re-check improves the base fit
 //!    by ΔBIC ≥ 10 and no candidate still reaches the threshold against it, the round is done

@@ -84,8 +84,8 @@ pub struct Config {
     /// Calibrate the base model over growing horizons as well as directly (`false`: the direct
     /// fit only, for before/after measurements of the continuation).
     pub calibration_horizons: bool,
-    /// Restart a refit short of the naming threshold from the profile of its effect's valley
-    /// (`false`: off, for before/after measurements).
+    /// Restart a refit short of the naming threshold, and the best refit, from the profile of
+    /// its effect's valley (`false`: off, for before/after measurements).
     pub profile_restart: bool,
     /// Print a line per stage on stderr with the elapsed time and simulation count, and every
     /// Levenberg-Marquardt iteration (for profiling).
@@ -161,8 +161,8 @@ pub struct Candidate {
     pub detectable_from: Option<BTreeMap<String, f64>>,
     /// The scanned settings in range order with their visibility.
     pub visibility_scan: Vec<VisibilityPoint>,
-    /// The refit fell short of the evidence and was restarted from the best point of the
-    /// effect's profile (see `profile_restart`), which fitted better.
+    /// The refit was restarted from the best point of the effect's profile (see
+    /// `profile_restart`), which fitted better.
     pub profiled: bool,
     /// Refitted and not named, with some evidence short of the threshold (0 < ΔBIC < min ΔBIC):
     /// the data neither show the effect nor rule it out at its fitted strength.

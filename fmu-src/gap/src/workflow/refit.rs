@@ -186,9 +186,9 @@ pub(super) const PROFILE_ITERATIONS: usize = 4;
 /// parameters with the effect held there (a few iterations, in parallel), starting from their
 /// current values and from their values as given (`given`: the base fit may have bent them
 /// far); from the best of these, if it beats the refit `f`, refit everything. Returns that fit
-/// if its sum of squares is lower than the refit's. Called only for refits short of the naming
-/// threshold (see `run`). `Config::profile_restart` false turns it off (for before/after
-/// measurements).
+/// if its sum of squares is lower than the refit's. Called for refits short of the naming
+/// threshold, and for the best refit when it reaches it (see `refit_all`).
+/// `Config::profile_restart` false turns it off (for before/after measurements).
 pub(super) fn profile_restart<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     cur: &FitOut,

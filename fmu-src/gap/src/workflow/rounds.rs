@@ -440,7 +440,7 @@ fn refit_choice(cfg: &Config, sc: &Screened, round: usize, at_noise: bool) -> Ve
 }
 
 /// Refit the chosen candidates (in parallel), then restart from their effect's profile those
-/// that fall short when none reaches the naming threshold.
+/// that fall short when none reaches the naming threshold, else the best one.
 fn refit_all<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     inp: &RoundInputs<'_>,
@@ -480,18 +480,27 @@ fn refit_all<S: GridModel + ?Sized>(
             }),
         }
     }
-    // Profile restarts, only when no refit reaches the naming threshold (see
-    // `profile_restart`): every refitted candidate that falls short of it although the data
-    // could show it, and that predicts the held-out end no worse than the current model,
-    // within one standard deviation of a chi-square over the held-out samples, √(2 N_h) (or
-    // nothing is held out); one that predicts clearly worse is not worth the simulations.
-    if best_refit_delta_bic(&ranked) < inp.cfg.min_delta_bic {
+    // Profile restarts (see `profile_restart`): when no refit reaches the naming threshold,
+    // every refitted candidate that falls short of it although the data could show it; when one
+    // does, the best one. A refit stops where a step gains less than its stopping tolerance,
+    // which along a bent valley can be anywhere: on one TwistedString record (radius growth,
+    // scripts/gap-eval seed 700537) a change of the data by 1e-8 of their range made the refit
+    // stop after one step instead of thirteen, 37 units of chi-square above the profile's
+    // point and at a growth 1.5 half-widths away, so whether the profile ran, and the named
+    // estimate, turned on the last bits. Either way, only candidates that predict the held-out
+    // end no worse than the current model, within one standard deviation of a chi-square over
+    // the held-out samples, √(2 N_h) (or nothing is held out); one that predicts clearly worse
+    // is not worth the simulations.
+    let best = best_refit_delta_bic(&ranked);
+    let reached = best >= inp.cfg.min_delta_bic;
+    {
         let n_held = (ctx.out_idx.len() * (ctx.n - ctx.n_train)) as f64;
         let eligible: Vec<usize> = (0..ranked.len())
             .filter(|&i| {
                 let c = &ranked[i];
                 c.refit
                     && c.delta_bic.is_finite()
+                    && (!reached || c.delta_bic == best)
                     && match (c.holdout_sse_with, c.holdout_sse_without) {
                         (Some(with), Some(without)) => with <= without + (2.0 * n_held).sqrt(),
                         _ => true,

@@ -2,12 +2,15 @@
 //! FMI function (FMI 2.0.4 sections 2.1, 2.3 and 4.2).
 
 use super::Finding;
+use crate::ffi::{FMI2_CS_FUNCTIONS, FMI2_ME_FUNCTIONS};
 use crate::fmu::{Extracted, PLATFORM};
+use crate::kind::Interface;
+use crate::md::ModelDescription;
 
 /// File-level checks: the binary for this platform exists under `binaries/linux64/`.
 pub fn check_files(fmu: &Extracted) -> Vec<Finding> {
     let mut f = Vec::new();
-    if let Ok(bin) = fmu.binary_path() {
+    if let Ok(bin) = fmu.binary_path_for(fmu.default_interface()) {
         if !bin.is_file() {
             let others: Vec<String> = std::fs::read_dir(fmu.dir.join("binaries"))
                 .map(|rd| {
@@ -36,13 +39,15 @@ pub fn check_files(fmu: &Extracted) -> Vec<Finding> {
 
 /// Every binary under `binaries/<platform>/<modelIdentifier>.<so|dll|dylib>`, read without
 /// loading it ([`crate::binary`]), with the findings it raises: a format or architecture that is
-/// not the platform's (FMI 2.0.4 section 2.4), or an FMI 2.0 Co-Simulation function missing
-/// from a slice (sections 2.1 and 4.2).
+/// not the platform's (FMI 2.0.4 section 2.4), or a function of an interface the description
+/// declares missing from a slice (sections 2.1, 3.2 and 4.2).
 pub fn check_platform_binaries(fmu: &Extracted) -> (Vec<Finding>, Vec<PlatformBinary>) {
     let (mut findings, mut binaries) = (Vec::new(), Vec::new());
-    let Ok(id) = fmu.model_identifier() else {
-        return (findings, binaries);
-    };
+    let mut ids: Vec<&str> = [Interface::CoSimulation, Interface::ModelExchange]
+        .into_iter()
+        .filter_map(|i| fmu.model_identifier_for(i).ok())
+        .collect();
+    ids.dedup();
     let Ok(dirs) = std::fs::read_dir(fmu.dir.join("binaries")) else {
         return (findings, binaries);
     };
@@ -60,44 +65,95 @@ pub fn check_platform_binaries(fmu: &Extracted) -> (Vec<Finding>, Vec<PlatformBi
             "Mach-O" => "dylib",
             _ => "so",
         };
-        let entry = format!("binaries/{platform}/{id}.{ext}");
-        let Ok(bytes) = std::fs::read(fmu.dir.join(&entry)) else {
-            continue;
-        };
-        let info = match crate::binary::inspect(&bytes) {
-            Ok(info) => info,
-            Err(e) => {
-                findings.push(Finding::new("binary-format", &entry, e));
+        for id in &ids {
+            let entry = format!("binaries/{platform}/{id}.{ext}");
+            let Ok(bytes) = std::fs::read(fmu.dir.join(&entry)) else {
                 continue;
-            }
-        };
-        if info.format != format {
-            let m = format!("is {}, but {platform} needs {format}", info.format);
-            findings.push(Finding::new("binary-format", &entry, m));
-        }
-        for slice in &info.slices {
-            if !archs.contains(&slice.architecture.as_str()) {
-                let m = format!("holds a {} slice, not one of {archs:?}", slice.architecture);
-                findings.push(Finding::new("binary-format", &entry, m));
-            }
-            let missing: Vec<&str> = crate::ffi::FMI2_CS_FUNCTIONS
-                .iter()
-                .copied()
-                .filter(|f| slice.exports.binary_search(&f.to_string()).is_err())
-                .collect();
-            if !missing.is_empty() {
-                let m = format!(
-                    "the {} slice does not export {} FMI function(s): {}",
-                    slice.architecture,
-                    missing.len(),
-                    missing.join(", ")
-                );
-                findings.push(Finding::new("symbols", &entry, m));
+            };
+            let need = required_functions(&fmu.model_description, id);
+            match check_binary(&bytes, &entry, &platform, format, archs, &need) {
+                Ok((f, info)) => {
+                    findings.extend(f);
+                    binaries.push(PlatformBinary { entry, info });
+                }
+                Err(f) => findings.push(f),
             }
         }
-        binaries.push(PlatformBinary { entry, info });
     }
     (findings, binaries)
+}
+
+/// Functions of FMI 2.0 Co-Simulation that Model Exchange does not have (FMI 2.0.4 section
+/// 4.2).
+const FMI2_CS_ONLY_FUNCTIONS: [&str; 9] = [
+    "fmi2SetRealInputDerivatives",
+    "fmi2GetRealOutputDerivatives",
+    "fmi2DoStep",
+    "fmi2CancelStep",
+    "fmi2GetStatus",
+    "fmi2GetRealStatus",
+    "fmi2GetIntegerStatus",
+    "fmi2GetBooleanStatus",
+    "fmi2GetStringStatus",
+];
+
+/// The functions the binary `id` must export: the common ones (FMI 2.0.4 section 2.1) and those
+/// of each interface declared with that modelIdentifier (sections 3.2 and 4.2).
+fn required_functions(md: &ModelDescription, id: &str) -> Vec<&'static str> {
+    let cs = md
+        .co_simulation
+        .as_ref()
+        .is_some_and(|c| c.model_identifier == id);
+    let me = md.model_exchange.as_deref() == Some(id);
+    let mut need: Vec<&'static str> = FMI2_CS_FUNCTIONS
+        .iter()
+        .copied()
+        .filter(|f| cs || !FMI2_CS_ONLY_FUNCTIONS.contains(f))
+        .collect();
+    if me {
+        need.extend_from_slice(FMI2_ME_FUNCTIONS);
+    }
+    need
+}
+
+/// Format, architectures and exports of one binary against its platform's; Err when it is not a
+/// readable binary.
+fn check_binary(
+    bytes: &[u8],
+    entry: &str,
+    platform: &str,
+    format: &str,
+    archs: &[&str],
+    need: &[&str],
+) -> Result<(Vec<Finding>, crate::binary::BinaryInfo), Finding> {
+    let info =
+        crate::binary::inspect(bytes).map_err(|e| Finding::new("binary-format", entry, e))?;
+    let mut findings = Vec::new();
+    if info.format != format {
+        let m = format!("is {}, but {platform} needs {format}", info.format);
+        findings.push(Finding::new("binary-format", entry, m));
+    }
+    for slice in &info.slices {
+        if !archs.contains(&slice.architecture.as_str()) {
+            let m = format!("holds a {} slice, not one of {archs:?}", slice.architecture);
+            findings.push(Finding::new("binary-format", entry, m));
+        }
+        let missing: Vec<&str> = need
+            .iter()
+            .copied()
+            .filter(|f| slice.exports.binary_search(&f.to_string()).is_err())
+            .collect();
+        if !missing.is_empty() {
+            let m = format!(
+                "the {} slice does not export {} FMI function(s): {}",
+                slice.architecture,
+                missing.len(),
+                missing.join(", ")
+            );
+            findings.push(Finding::new("symbols", entry, m));
+        }
+    }
+    Ok((findings, info))
 }
 
 /// One platform binary of an FMU and what it is.

@@ -46,11 +46,24 @@ pub fn check_model_description(md: &ModelDescription) -> Vec<Finding> {
             ));
         }
     }
+    if let Some(id) = md
+        .model_exchange
+        .as_deref()
+        .filter(|id| !is_c_identifier(id))
+    {
+        f.push(Finding::new(
+            "model-identifier",
+            "modelDescription.xml:<ModelExchange>",
+            format!("modelIdentifier \"{id}\" is not a valid C identifier"),
+        ));
+    }
     match &md.co_simulation {
+        None if md.model_exchange.is_some() => {}
         None => f.push(Finding::new(
             "co-simulation",
             root,
-            "no <CoSimulation> element: not a Co-Simulation FMU",
+            "no <CoSimulation> or <ModelExchange> element: neither a Co-Simulation nor a Model \
+             Exchange FMU",
         )),
         Some(cs) => {
             if !is_c_identifier(&cs.model_identifier) {
@@ -533,13 +546,7 @@ fn check_model_structure(md: &ModelDescription, f: &mut Vec<Finding>) {
     }
     for u in &ms.derivatives {
         if let Some(v) = var(u.index) {
-            if v.kind != VarKind::Real || v.derivative.is_none() {
-                f.push(Finding::new(
-                    "model-structure",
-                    format!("modelDescription.xml:{} (<Derivatives> <Unknown index=\"{}\">)", u.line, u.index),
-                    format!("'{}' is listed in <Derivatives> but is not a Real with a derivative attribute", v.name),
-                ));
-            }
+            check_listed_derivative(md, v, u, f);
         }
     }
     // InitialUnknowns (FMI 2.0.4 section 2.2.8): outputs with initial approx/calculated,
@@ -586,6 +593,47 @@ fn check_model_structure(md: &ModelDescription, f: &mut Vec<Finding>) {
                 format!("modelDescription.xml:{} (<InitialUnknowns> <Unknown index=\"{}\">)", u.line, u.index),
                 format!("'{}' may not be listed in <InitialUnknowns> (only outputs, calculated parameters and states/derivatives with initial approx or calculated)", v.name),
             ));
+        }
+    }
+}
+
+/// An element of `<Derivatives>` is a continuous Real whose `derivative` attribute names a
+/// continuous Real, the state (FMI 2.0.4 section 2.2.8: the state derivatives, whose states
+/// section 3.1 integrates).
+fn check_listed_derivative(
+    md: &ModelDescription,
+    v: &ScalarVariable,
+    u: &crate::md::Unknown,
+    f: &mut Vec<Finding>,
+) {
+    let loc = format!(
+        "modelDescription.xml:{} (<Derivatives> <Unknown index=\"{}\">)",
+        u.line, u.index
+    );
+    let continuous_real =
+        |v: &ScalarVariable| v.kind == VarKind::Real && v.variability == Variability::Continuous;
+    let Some(state) = v.derivative else {
+        let m = format!(
+            "'{}' is listed in <Derivatives> but is not a Real with a derivative attribute",
+            v.name
+        );
+        f.push(Finding::new("model-structure", &loc, m));
+        return;
+    };
+    if !continuous_real(v) {
+        let m = format!(
+            "'{}' is listed in <Derivatives> but is not a continuous Real",
+            v.name
+        );
+        f.push(Finding::new("derivative", &loc, m));
+    }
+    if let Some(s) = md.model_variables.get(state.wrapping_sub(1)) {
+        if !continuous_real(s) {
+            let m = format!(
+                "'{}' is the derivative of '{}' (index {state}), which is not a continuous Real state",
+                v.name, s.name
+            );
+            f.push(Finding::new("derivative", &loc, m));
         }
     }
 }
