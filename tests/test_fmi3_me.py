@@ -180,6 +180,16 @@ def test_calls_in_the_wrong_state_are_refused(me_instance):
     fmu.getContinuousStateDerivatives(dx.ctypes.data_as(POINTER(c_double)), n)
     fmu.getEventIndicators(z.ctypes.data_as(POINTER(c_double)), 1)
     assert np.all(np.isfinite(dx)) and np.isfinite(z[0])
+    # FMI 3.0.2 section 3.2.1: a continuous-time state may be set by fmi3SetFloat64 in
+    # Continuous-Time Mode (as by fmi3SetContinuousStates); a parameter may not
+    theta = md.derivatives[1].variable.derivative
+    assert theta.name == "theta_motor"
+    fmu.setFloat64([theta.valueReference], [12.5])
+    fmu.getContinuousStates(x.ctypes.data_as(POINTER(c_double)), n)
+    assert x[1] == 12.5 and fmu.getFloat64([theta.valueReference]) == [12.5]
+    load = next(v for v in md.modelVariables if v.name == "load_mass")
+    with pytest.raises(FMICallException):
+        fmu.setFloat64([load.valueReference], [3.0])
     with pytest.raises(FMICallException):
         fmu.updateDiscreteStates()
     fmu.enterEventMode()

@@ -588,6 +588,9 @@ unsafe fn set_typed<M: Model, T: Copy>(
             );
         }
         let vals: Vec<f64> = vals.iter().map(|&x| convert(x)).collect();
+        if ty == VarType::Real && comp.instance.state == MachineState::ContinuousTimeMode {
+            return crate::me::set_float64_in_continuous_time_mode(comp, func, vrs, &vals);
+        }
         comp.instance.set_values(func, ty, vrs, &vals)
     })
 }

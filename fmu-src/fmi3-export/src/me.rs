@@ -418,3 +418,60 @@ pub unsafe fn get_adjoint_derivative<M: Model>(
         Status::Ok
     })
 }
+
+/// `fmi3SetFloat64` in Continuous-Time Mode: continuous inputs as the instance sets them, and
+/// continuous-time states as `fmi3SetContinuousStates` would (FMI 3.0.2 section 3.2.1 allows
+/// both). The states' values are checked (finite) before anything changes; the inputs are set
+/// first (the instance's checks refuse the call as a whole), then the states.
+pub(crate) fn set_float64_in_continuous_time_mode<M: Model>(
+    comp: &mut Component<M>,
+    func: &str,
+    vrs: &[Fmi3ValueReference],
+    vals: &[f64],
+) -> Status {
+    let Some(me) = M::model_exchange() else {
+        return comp
+            .instance
+            .set_values(func, fmi2_export::VarType::Real, vrs, vals);
+    };
+    let table = M::variables();
+    let state_of = |vr: Fmi3ValueReference| {
+        me.state_variables
+            .iter()
+            .position(|&(x, _)| table[x].value_reference == vr)
+    };
+    let mut updates = Vec::new();
+    let (mut input_vrs, mut input_vals) = (Vec::new(), Vec::new());
+    for (&vr, &v) in vrs.iter().zip(vals) {
+        match state_of(vr) {
+            Some(k) if !v.is_finite() => {
+                let name = table[me.state_variables[k].0].name;
+                return comp
+                    .instance
+                    .error(func, format!("state '{name}' = {v} is not finite"));
+            }
+            Some(k) => updates.push((k, v)),
+            None => {
+                input_vrs.push(vr);
+                input_vals.push(v);
+            }
+        }
+    }
+    if updates.is_empty() || !input_vrs.is_empty() {
+        let s = comp
+            .instance
+            .set_values(func, fmi2_export::VarType::Real, &input_vrs, &input_vals);
+        if s != Status::Ok || updates.is_empty() {
+            return s;
+        }
+    }
+    let mut x = vec![0.0; me.states];
+    let s = comp.instance.get_continuous_states(&mut x);
+    if s != Status::Ok {
+        return s;
+    }
+    for (k, v) in updates {
+        x[k] = v;
+    }
+    comp.instance.set_continuous_states(&x)
+}
