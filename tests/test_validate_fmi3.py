@@ -103,6 +103,12 @@ DESCRIPTION_CASES = {
     "start-forbidden": ("VanDerPol", replace(
         'initial="calculated" derivative="1"', 'initial="calculated" start="0" derivative="1"'),
         "start", "start is not allowed"),
+    "unit-declared": ("VanDerPol", replace('name="mu" valueReference="5"',
+                                          'name="mu" valueReference="5" unit="m"'),
+                      "unit-declared", "unit 'm' is not defined in <UnitDefinitions>"),
+    "declared-type": ("VanDerPol", replace('name="mu" valueReference="5"',
+                                          'name="mu" valueReference="5" declaredType="Mass"'),
+                      "declared-type", "declaredType 'Mass' is not defined"),
     "dimension-not-uint64": ("StateSpace", replace(
         '<Dimension valueReference="2"/>\n            <Dimension valueReference="2"/>',
         '<Dimension valueReference="5"/>\n            <Dimension valueReference="2"/>'),
