@@ -47,14 +47,14 @@ def fmu():
     return extract(fmu_path("HydraulicJoint"))
 
 
-@pytest.fixture(scope="module", params=["fmi2-cs", "fmi2-me", "fmi3-cs"])
+@pytest.fixture(scope="module", params=["fmi2-cs", "fmi2-me", "fmi3-cs", "fmi3-me"])
 def paper(request, fmu):
     """(FMU directory, interface type) for the paper-number tests, which run on every interface
-    the archives offer: FMI 2.0 Co-Simulation and Model Exchange (FMPy's CVode integrating the
-    model's states), FMI 3.0 Co-Simulation (the same model code behind another C interface)."""
-    if request.param == "fmi3-cs":
-        return extract(fmu3_path("HydraulicJoint")), "CoSimulation"
-    return fmu, INTERFACES[request.param == "fmi2-me"]
+    the archives offer: FMI 2.0 and FMI 3.0, each Co-Simulation and Model Exchange (FMPy's CVode
+    integrating the model's states); the same model code behind every C interface."""
+    version, kind = request.param.split("-")
+    directory = extract(fmu3_path("HydraulicJoint")) if version == "fmi3" else fmu
+    return directory, INTERFACES[kind == "me"]
 
 
 @pytest.fixture(scope="module")

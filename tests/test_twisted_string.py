@@ -53,7 +53,7 @@ def fmpy_input(inputs):
 CS, ME = "CoSimulation", "ModelExchange"
 INTERFACES = (CS, ME)
 # The paper-number tests run on every archive and interface: (archive, FMPy's fmi_type).
-RUNS = {"fmi2-cs": (FMU, CS), "fmi3-cs": (FMU3, CS), "fmi2-me": (FMU, ME)}
+RUNS = {"fmi2-cs": (FMU, CS), "fmi3-cs": (FMU3, CS), "fmi2-me": (FMU, ME), "fmi3-me": (FMU3, ME)}
 
 
 def sim(params=None, inputs=None, t_end=1.0, dt=1e-3, tolerance=None, fmu=FMU, interface=CS):
