@@ -193,8 +193,45 @@ def test_a_negative_number_of_event_indicators_is_found(tmp_path):
 def test_a_model_exchange_function_not_exported_is_found_only_when_declared(tmp_path):
     so = rename_export("fmi2SetTime", "fmi2SetTame")
     found = findings_of(vdp_copy(tmp_path, "me-no-settime", md=drop(CS_ELEMENT), so=so))
-    assert [f["check"] for f in found] == ["symbols"], found
-    assert "fmi2SetTime" in found[0]["message"], found
+    assert "symbols" in [f["check"] for f in found], found
+    # the probe cannot open the FMU as Model Exchange either, and says why
+    assert all(f["check"] in ("symbols", "binary") and "fmi2SetTime" in f["message"]
+               for f in found), found
     # Co-Simulation alone does not need fmi2SetTime
     found = findings_of(vdp_copy(tmp_path, "cs-no-settime", md=drop(ME_ELEMENT), so=so))
     assert not [f for f in found if f["check"] == "symbols"], found
+
+
+def _me_shim_copy(tmp_path, label, *defines):
+    """A Model Exchange-only copy of VanDerPol whose binary is crash_shim.c forwarding to the real
+    one, built with `defines` (ME_FAIL_AT: fmi2GetDerivatives fails from that time on)."""
+    if shutil.which("gcc") is None:
+        pytest.skip("gcc not installed")
+    so = tmp_path / f"{label}.so"
+    subprocess.run(["gcc", "-shared", "-fPIC", "-O1", '-DMODEL_ID="VanDerPol"', *defines,
+                    "-o", str(so), str(REPO / "tests" / "drivers" / "broken" / "crash_shim.c"),
+                    "-ldl"], check=True)
+
+    def replace(member, data):
+        if member == "modelDescription.xml":
+            return drop(CS_ELEMENT)(data.decode()).encode()
+        if member == VDP_SO:
+            return [(VDP_SO, so.read_bytes()), ("binaries/linux64/real_VanDerPol.so", data)]
+        return data
+
+    return rewrite_fmu(REF2_VDP, tmp_path / f"{label}.fmu", replace)
+
+
+def test_the_model_exchange_probe_runs_the_fmu(tmp_path):
+    # the shim alone (forwarding every call) is clean: the probe's calls are a legal sequence
+    assert findings_of(_me_shim_copy(tmp_path, "me-shim")) == []
+    # fmi2GetDerivatives answering fmi2Error in a legal sequence: the normal run fails
+    found = findings_of(_me_shim_copy(tmp_path, "me-error", "-DME_FAIL_AT=0", "-DME_ERROR"))
+    assert [f["check"] for f in found] == ["probe-normal-run"], found
+    assert found[0]["location"] == "probe me-normal-run", found
+    assert "fmi2GetDerivatives" in found[0]["message"], found
+    # fmi2GetDerivatives crashing: a finding naming the probe step and the signal
+    found = findings_of(_me_shim_copy(tmp_path, "me-crash", "-DME_FAIL_AT=0"))
+    assert [f["check"] for f in found] == ["probe-crash"], found
+    assert found[0]["location"] == "probe me-normal-run", found
+    assert "SIGSEGV" in found[0]["message"], found

@@ -1,4 +1,5 @@
-"""The FMI 3.0 Co-Simulation archives dist/fmi3/<Model>.fmu.
+"""The FMI 3.0 archives dist/fmi3/<Model>.fmu (Co-Simulation here; Model Exchange in
+tests/test_fmi3_me.py).
 
 - `fmpy validate` finds no problem (FMI 3.0 schema and FMPy's checks);
 - every binary, under each of the five FMI 3.0 platform tuples, exports exactly the 75 functions
@@ -60,7 +61,8 @@ def test_documentation_and_icon_come_along(model):
         names = set(z.namelist())
         html = z.read("documentation/index.html").decode()
     assert "model.png" in names and any(n.startswith("documentation/licenses/") for n in names)
-    assert "FMI 3.0 Co-Simulation, instantiationToken" in html and "<table>" in html
+    assert "FMI 3.0 Model Exchange and Co-Simulation, instantiationToken" in html
+    assert "<table>" in html
 
 
 def exports(path: Path):
@@ -224,16 +226,21 @@ def test_a_tunable_parameter_acts_from_the_next_step(instance):
     fmu.freeFMUState(state)
 
 
-def test_model_exchange_and_event_mode_are_refused():
+def test_event_mode_and_scheduled_execution_are_refused():
+    """Co-Simulation with eventModeUsed and Scheduled Execution are not offered (Model Exchange
+    is: tests/test_fmi3_me.py)."""
     path = fmu3_path("TwistedString")
     md = fmpy.read_model_description(path)
     lib = FMU3Slave(guid=md.guid, unzipDirectory=fmpy.extract(path),
                     modelIdentifier=md.coSimulation.modelIdentifier)
     messages = []
     lib.logMessage = fmpy.fmi3.fmi3LogMessageCallback(lambda env, s, c, m: messages.append(m))
-    none = lib.fmi3InstantiateModelExchange(b"me", md.guid.encode(), b"", False, False, None,
-                                            lib.logMessage)
-    assert not none and b"Model Exchange" in messages[-1]
+    f3 = fmpy.fmi3
+    none = lib.fmi3InstantiateScheduledExecution(
+        b"se", md.guid.encode(), b"", False, False, None, lib.logMessage,
+        f3.fmi3ClockUpdateCallback(), f3.fmi3LockPreemptionCallback(),
+        f3.fmi3UnlockPreemptionCallback())
+    assert not none and b"Scheduled Execution" in messages[-1]
     with pytest.raises(Exception, match="instantiate"):
         lib.instantiate(eventModeUsed=True, logMessage=lambda *a: None)
     lib.freeLibrary()

@@ -4,8 +4,8 @@
 //! (`@@FINDINGS@@ [...]`).
 
 use crate::common::CliResult;
-use host::validate::{check_symbols, probe, Finding};
-use host::{Extracted, Fmu};
+use host::validate::{check_symbols, probe, probe_me, Finding};
+use host::{Extracted, Fmu, Interface, OpenOptions};
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -34,36 +34,10 @@ fn announce(name: &str) {
 pub fn run(a: Args) -> CliResult {
     let mut findings: Vec<Finding> = Vec::new();
     announce("load");
-    match Extracted::open(&a.fmu) {
-        Err(e) => findings.push(Finding::new(
-            "open",
-            a.fmu.display().to_string(),
-            e.to_string(),
-        )),
-        Ok(ex) => {
-            let symbols = check_symbols(&ex);
-            // A binary that does not load is reported once; there is nothing to probe.
-            let loadable = !symbols.iter().any(|f| f.check == "binary");
-            findings.extend(symbols);
-            drop(ex);
-            if loadable {
-                match Fmu::open(&a.fmu) {
-                    Err(e) => findings.push(Finding::new(
-                        "binary",
-                        a.fmu.display().to_string(),
-                        e.to_string(),
-                    )),
-                    Ok(fmu) => findings.extend(probe(&fmu, &mut |name| {
-                        if a.skip.iter().any(|s| s == name) {
-                            false
-                        } else {
-                            announce(name);
-                            true
-                        }
-                    })),
-                }
-            }
-        }
+    if matches!(host::fmi_version_of(&a.fmu), Ok(host::FmiVersion::Fmi3)) {
+        findings.extend(probe_fmi3(&a));
+    } else {
+        findings.extend(probe_fmi2(&a));
     }
     announce("done");
     let json = serde_json::to_string(&findings).unwrap_or_else(|_| "[]".into());
@@ -71,4 +45,89 @@ pub fn run(a: Args) -> CliResult {
     let _ = writeln!(out, "\n{FINDINGS_MARK}{json}");
     let _ = out.flush();
     Ok(0)
+}
+
+/// The FMI 3.0 Co-Simulation probe.
+fn probe_fmi3(a: &Args) -> Vec<Finding> {
+    match host::fmi3::Fmu3::open(&a.fmu) {
+        Err(e) => {
+            let mut f = Finding::new("binary", a.fmu.display().to_string(), e.to_string());
+            f.clause = host::validate::fmi3::classify3("binary").to_string();
+            vec![f]
+        }
+        Ok(fmu) => host::validate::probe3(&fmu, &mut |name| {
+            if a.skip.iter().any(|s| s == name) {
+                false
+            } else {
+                announce(name);
+                true
+            }
+        }),
+    }
+}
+
+/// The binary's exports and the FMI 2.0 probes.
+fn probe_fmi2(a: &Args) -> Vec<Finding> {
+    let mut findings: Vec<Finding> = Vec::new();
+    match Extracted::open(&a.fmu) {
+        Err(e) => findings.push(Finding::new(
+            "open",
+            a.fmu.display().to_string(),
+            e.to_string(),
+        )),
+        Ok(ex) => {
+            let cs = ex.model_description.co_simulation.is_some();
+            let me = ex.model_description.model_exchange.is_some();
+            let symbols = check_symbols(&ex);
+            // A binary that does not load is reported once; there is nothing to probe.
+            let loadable = !symbols.iter().any(|f| f.check == "binary");
+            findings.extend(symbols);
+            drop(ex);
+            if loadable {
+                findings.extend(probe_interfaces(a, cs, me));
+            }
+        }
+    }
+    findings
+}
+
+/// The Co-Simulation probe when the FMU declares Co-Simulation, the Model Exchange probe when it
+/// declares Model Exchange, each on the FMU opened with that interface.
+fn probe_interfaces(a: &Args, cs: bool, me: bool) -> Vec<Finding> {
+    let mut findings = Vec::new();
+    let mut step = |name: &str| {
+        if a.skip.iter().any(|s| s == name) {
+            false
+        } else {
+            announce(name);
+            true
+        }
+    };
+    for (declared, interface) in [
+        (cs, Interface::CoSimulation),
+        (me, Interface::ModelExchange),
+    ] {
+        if !declared {
+            continue;
+        }
+        let opts = OpenOptions {
+            interface: Some(interface),
+            ..OpenOptions::default()
+        };
+        match Fmu::open_with(&a.fmu, &opts) {
+            Err(e) => findings.push(Finding::new(
+                "binary",
+                a.fmu.display().to_string(),
+                match interface {
+                    Interface::CoSimulation => e.to_string(),
+                    Interface::ModelExchange => format!("{interface}: {e}"),
+                },
+            )),
+            Ok(fmu) => findings.extend(match interface {
+                Interface::CoSimulation => probe(&fmu, &mut step),
+                Interface::ModelExchange => probe_me(&fmu, &mut step),
+            }),
+        }
+    }
+    findings
 }

@@ -89,7 +89,7 @@ type Checked = (Vec<Finding>, Vec<PlatformBinary>);
 
 fn validate_one(path: &Path, timeout: Duration, effects: bool) -> Result<Checked, CliError> {
     if matches!(host::fmi_version_of(path), Ok(FmiVersion::Fmi3)) {
-        return validate_fmi3(path);
+        return validate_fmi3(path, timeout, effects);
     }
     let ex = match Extracted::open(path) {
         Ok(ex) => ex,
@@ -113,7 +113,10 @@ fn validate_one(path: &Path, timeout: Duration, effects: bool) -> Result<Checked
     findings.extend(check_files(&ex));
     let (binary_findings, binaries) = check_platform_binaries(&ex);
     findings.extend(binary_findings);
-    let binary_present = ex.binary_path().map(|b| b.is_file()).unwrap_or(false);
+    let binary_present = ex
+        .binary_path_for(ex.default_interface())
+        .map(|b| b.is_file())
+        .unwrap_or(false);
     drop(ex);
     if binary_present {
         findings.extend(run_probe(path, timeout)?);
@@ -121,9 +124,9 @@ fn validate_one(path: &Path, timeout: Duration, effects: bool) -> Result<Checked
     Ok((findings, binaries))
 }
 
-/// The checks of an FMI 3.0 FMU: its model description and its binaries per platform tuple
-/// (read, not loaded).
-fn validate_fmi3(path: &Path) -> Result<Checked, CliError> {
+/// The checks of an FMI 3.0 FMU: its model description (and with `effects` the candidate-effect
+/// convention) and its binaries per platform tuple (read, not loaded).
+fn validate_fmi3(path: &Path, timeout: Duration, effects: bool) -> Result<Checked, CliError> {
     let unpacked = match Unpacked::open(path) {
         Ok(u) => u,
         Err(HostError::Io { path, source }) => {
@@ -136,8 +139,25 @@ fn validate_fmi3(path: &Path) -> Result<Checked, CliError> {
         Err(e) => return Ok((vec![description_error(path, e)], Vec::new())),
     };
     let mut findings = check_model_description3(&md);
+    if effects {
+        // gap and design read an FMI 3.0 FMU's scalar variables in the FMI 2.0 shape
+        findings.extend(check_effect_convention(&host::fmi3::fmi2_view(&md)));
+    }
     let (binary_findings, binaries) = check_platform_binaries3(&unpacked.dir, &md);
     findings.extend(binary_findings);
+    // The runtime probe: Co-Simulation FMUs the host runs, with a binary for this platform.
+    let runnable = md.co_simulation.as_ref().is_some_and(|cs| {
+        unpacked
+            .dir
+            .join("binaries")
+            .join(host::fmi3::PLATFORM_TUPLE)
+            .join(format!("{}.{}", cs.model_identifier, host::LIB_SUFFIX))
+            .is_file()
+    }) && host::fmi3::unsupported(&md).is_none();
+    drop(unpacked);
+    if runnable {
+        findings.extend(run_probe(path, timeout)?);
+    }
     Ok((findings, binaries))
 }
 
@@ -163,8 +183,10 @@ fn run_probe(path: &Path, timeout: Duration) -> Result<Vec<Finding>, CliError> {
             }
             ProbeOutcome::Crashed { step, finding } => {
                 findings.push(finding);
-                let is_case =
-                    host::validate::PROBE_CASES.contains(&step.as_str()) && step != "normal-run";
+                let is_case = (host::validate::PROBE_CASES.contains(&step.as_str())
+                    || host::validate::ME_PROBE_CASES.contains(&step.as_str())
+                    || host::validate::PROBE3_CASES.contains(&step.as_str()))
+                    && !step.ends_with("normal-run");
                 if !is_case || crashed.contains(&step) {
                     return Ok(findings);
                 }

@@ -1,4 +1,4 @@
-//! The FMI 3.0 Co-Simulation C ABI over the version-neutral [`Instance`] of `fmi2-export`
+//! The FMI 3.0 C ABI (Co-Simulation here, Model Exchange in [`crate::me`]) over the version-neutral [`Instance`] of `fmi2-export`
 //! (state checks, value-reference and value checks, tolerance, stepping, FMU states and their
 //! serialization are that instance's; this module converts pointers, maps the FMI 3.0 calls onto
 //! it and keeps the FMI 3.0 state names). `catch_unwind` at every entry: no panic crosses the
@@ -13,7 +13,7 @@
 
 use crate::c::*;
 use crate::TIME_VALUE_REFERENCE;
-use fmi2_export::instance::{Instance, MachineState, Snapshot, Status};
+use fmi2_export::instance::{Instance, Interface, MachineState, Snapshot, Status};
 use fmi2_export::variables::index_of;
 use fmi2_export::{Model, VarType};
 use std::collections::BTreeSet;
@@ -48,10 +48,48 @@ pub mod allowed {
     ]);
     pub const ENTER_INIT: u32 = m(&[Instantiated]);
     pub const EXIT_INIT: u32 = m(&[InitializationMode]);
-    pub const TERMINATE: u32 = m(&[StepComplete]);
-    pub const GET: u32 = m(&[InitializationMode, StepComplete, Terminated, Error]);
-    pub const SET: u32 = m(&[Instantiated, InitializationMode, StepComplete]);
+    pub const TERMINATE: u32 = m(&[StepComplete, EventMode, ContinuousTimeMode]);
+    pub const GET: u32 = m(&[
+        InitializationMode,
+        StepComplete,
+        Terminated,
+        Error,
+        EventMode,
+        ContinuousTimeMode,
+    ]);
+    /// Setters; in Continuous-Time Mode the shared instance takes continuous inputs only.
+    pub const SET: u32 = m(&[
+        Instantiated,
+        InitializationMode,
+        StepComplete,
+        EventMode,
+        ContinuousTimeMode,
+    ]);
     pub const DO_STEP: u32 = m(&[StepComplete]);
+    // Model Exchange (FMI 3.0.2 section 3.2, figure of the Model Exchange state machine):
+    // Continuous-Time Mode -> fmi3EnterEventMode -> Event Mode -> fmi3EnterContinuousTimeMode.
+    pub const ENTER_EVENT_MODE: u32 = m(&[ContinuousTimeMode]);
+    pub const UPDATE_DISCRETE_STATES: u32 = m(&[EventMode]);
+    pub const ENTER_CONTINUOUS_TIME_MODE: u32 = m(&[EventMode]);
+    pub const COMPLETED_INTEGRATOR_STEP: u32 = m(&[ContinuousTimeMode]);
+    pub const SET_TIME: u32 = m(&[EventMode, ContinuousTimeMode]);
+    pub const SET_CONTINUOUS_STATES: u32 = m(&[ContinuousTimeMode]);
+    pub const GET_DERIVATIVES: u32 = m(&[EventMode, ContinuousTimeMode, Terminated, Error]);
+    pub const GET_EVENT_INDICATORS: u32 = m(&[
+        InitializationMode,
+        EventMode,
+        ContinuousTimeMode,
+        Terminated,
+        Error,
+    ]);
+    pub const GET_CONTINUOUS_STATES: u32 = GET_EVENT_INDICATORS;
+    pub const GET_NOMINALS: u32 = m(&[
+        Instantiated,
+        EventMode,
+        ContinuousTimeMode,
+        Terminated,
+        Error,
+    ]);
 }
 
 /// The FMI 3.0 name of a state.
@@ -72,7 +110,7 @@ fn state_name(s: MachineState) -> &'static str {
 /// What an `fmi3Instance` points to.
 pub struct Component<M: Model> {
     magic: u64,
-    instance: Instance<M>,
+    pub(crate) instance: Instance<M>,
     logger: Fmi3LogMessageCallback,
     environment: Fmi3InstanceEnvironment,
     /// FMU states handed out by this instance and not yet freed.
@@ -81,7 +119,7 @@ pub struct Component<M: Model> {
 
 impl<M: Model> Component<M> {
     /// Check the state against `mask` with the FMI 3.0 state names.
-    fn check(&mut self, func: &str, mask: u32) -> Result<(), Status> {
+    pub(crate) fn check(&mut self, func: &str, mask: u32) -> Result<(), Status> {
         let s = self.instance.state;
         if s as u32 & mask != 0 {
             Ok(())
@@ -149,7 +187,7 @@ fn panic_message(payload: Box<dyn std::any::Any + Send>) -> String {
 
 /// Run `f` on the instance behind `c`, catching panics (the instance then goes to the error
 /// state) and flushing the log. A null or foreign pointer gives `fmi3Error`.
-unsafe fn with_component<M: Model>(
+pub(crate) unsafe fn with_component<M: Model>(
     c: Fmi3Instance,
     func: &'static str,
     f: impl FnOnce(&mut Component<M>) -> Status,
@@ -174,7 +212,7 @@ unsafe fn with_component<M: Model>(
 }
 
 /// A slice from a C array, or `None` when the pointer is null while `n > 0`.
-unsafe fn slice<'a, T>(p: *const T, n: usize) -> Option<&'a [T]> {
+pub(crate) unsafe fn slice<'a, T>(p: *const T, n: usize) -> Option<&'a [T]> {
     if n == 0 {
         Some(&[])
     } else if p.is_null() {
@@ -184,7 +222,7 @@ unsafe fn slice<'a, T>(p: *const T, n: usize) -> Option<&'a [T]> {
     }
 }
 
-unsafe fn slice_mut<'a, T>(p: *mut T, n: usize) -> Option<&'a mut [T]> {
+pub(crate) unsafe fn slice_mut<'a, T>(p: *mut T, n: usize) -> Option<&'a mut [T]> {
     if n == 0 {
         Some(&mut [])
     } else if p.is_null() {
@@ -218,6 +256,55 @@ fn refuse_instantiation(
     std::ptr::null_mut()
 }
 
+/// A new instance of `interface` after the checks every instantiation makes: a non-empty name
+/// and the model description's token. `None` (logged) otherwise.
+unsafe fn new_component<M: Model>(
+    func: &str,
+    instance_name: Fmi3String,
+    token: Fmi3String,
+    logging_on: Fmi3Boolean,
+    interface: Interface,
+    env: Fmi3InstanceEnvironment,
+    logger: Fmi3LogMessageCallback,
+) -> Fmi3Instance {
+    let name = c_str(instance_name).unwrap_or("");
+    if name.is_empty() {
+        return refuse_instantiation(
+            logger,
+            env,
+            &format!("{func}: instanceName must be a non-empty string"),
+        );
+    }
+    let expected = fmi2_export::xml::guid::<M>();
+    match c_str(token) {
+        Some(t) if t == expected => {}
+        t => {
+            return refuse_instantiation(
+                logger,
+                env,
+                &format!(
+                    "{func}: instantiationToken {t:?} does not match this binary's {expected}"
+                ),
+            )
+        }
+    }
+    let Some(instance) = Instance::with_interface(name, expected, logging_on, interface) else {
+        return refuse_instantiation(
+            logger,
+            env,
+            &format!("{func}: {} does not offer Model Exchange", M::NAME),
+        );
+    };
+    let comp = Box::new(Component::<M> {
+        magic: MAGIC,
+        instance,
+        logger,
+        environment: env,
+        states: BTreeSet::new(),
+    });
+    Box::into_raw(comp) as Fmi3Instance
+}
+
 /// `fmi3InstantiateCoSimulation`: `eventModeUsed` must be false (no Event Mode in Co-Simulation,
 /// `hasEventMode="false"`) and no intermediate variables can be required
 /// (`providesIntermediateUpdate="false"`); the token must match the model description.
@@ -233,14 +320,6 @@ pub unsafe fn instantiate_co_simulation<M: Model>(
 ) -> Fmi3Instance {
     const F: &str = "fmi3InstantiateCoSimulation";
     let result = catch_unwind(AssertUnwindSafe(|| {
-        let name = c_str(instance_name).unwrap_or("");
-        if name.is_empty() {
-            return refuse_instantiation(
-                logger,
-                env,
-                &format!("{F}: instanceName must be a non-empty string"),
-            );
-        }
         if event_mode_used {
             return refuse_instantiation(
                 logger,
@@ -255,32 +334,44 @@ pub unsafe fn instantiate_co_simulation<M: Model>(
                 &format!("{F}: {} provides no intermediate update (providesIntermediateUpdate=\"false\"); nRequiredIntermediateVariables must be 0", M::NAME),
             );
         }
-        let expected = fmi2_export::xml::guid::<M>();
-        match c_str(token) {
-            Some(t) if t == expected => {}
-            t => {
-                return refuse_instantiation(
-                    logger,
-                    env,
-                    &format!(
-                        "{F}: instantiationToken {t:?} does not match this binary's {expected}"
-                    ),
-                )
-            }
-        }
-        let comp = Box::new(Component::<M> {
-            magic: MAGIC,
-            instance: Instance::new(name, expected, logging_on),
+        new_component::<M>(
+            F,
+            instance_name,
+            token,
+            logging_on,
+            Interface::CoSimulation,
+            env,
             logger,
-            environment: env,
-            states: BTreeSet::new(),
-        });
-        Box::into_raw(comp) as Fmi3Instance
+        )
     }));
     result.unwrap_or(std::ptr::null_mut())
 }
 
-/// `fmi3InstantiateModelExchange` / `fmi3InstantiateScheduledExecution`: not offered.
+/// `fmi3InstantiateModelExchange`: the shared instance's Model Exchange (the model's
+/// `ModelExchange` implementation); refused for a model without one.
+pub unsafe fn instantiate_model_exchange<M: Model>(
+    instance_name: Fmi3String,
+    token: Fmi3String,
+    logging_on: Fmi3Boolean,
+    env: Fmi3InstanceEnvironment,
+    logger: Fmi3LogMessageCallback,
+) -> Fmi3Instance {
+    const F: &str = "fmi3InstantiateModelExchange";
+    let result = catch_unwind(AssertUnwindSafe(|| {
+        new_component::<M>(
+            F,
+            instance_name,
+            token,
+            logging_on,
+            Interface::ModelExchange,
+            env,
+            logger,
+        )
+    }));
+    result.unwrap_or(std::ptr::null_mut())
+}
+
+/// `fmi3InstantiateScheduledExecution`: not offered.
 pub fn instantiate_refused<M: Model>(
     func: &str,
     interface: &str,
@@ -292,7 +383,7 @@ pub fn instantiate_refused<M: Model>(
             logger,
             env,
             &format!(
-                "{func}: {} does not offer {interface} in FMI 3.0 (Co-Simulation only)",
+                "{func}: {} does not offer {interface} in FMI 3.0 (Model Exchange and Co-Simulation only)",
                 M::NAME
             ),
         )
@@ -435,17 +526,28 @@ unsafe fn get_typed<M: Model, T: Copy>(
                 .instance
                 .error(func, "valueReferences or values is NULL");
         };
-        let is_time = |v: u32| ty == VarType::Real && v == TIME_VALUE_REFERENCE;
-        let table_vrs: Vec<u32> = vrs.iter().copied().filter(|&v| !is_time(v)).collect();
+        // `time` and the event indicators are this layer's variables, not the table's.
+        let is_layer_variable = |v: u32| {
+            ty == VarType::Real
+                && (v == TIME_VALUE_REFERENCE || crate::me::event_indicator_index::<M>(v).is_some())
+        };
+        let table_vrs: Vec<u32> = vrs
+            .iter()
+            .copied()
+            .filter(|&v| !is_layer_variable(v))
+            .collect();
         let mut buf = vec![0.0; table_vrs.len()];
         let s = comp.instance.get_values(func, ty, &table_vrs, &mut buf);
         if s == Status::Ok {
             let mut from_table = buf.into_iter();
             for (o, &v) in out.iter_mut().zip(vrs) {
-                let x = if is_time(v) {
+                let x = if !is_layer_variable(v) {
+                    from_table.next().unwrap_or(f64::NAN)
+                } else if v == TIME_VALUE_REFERENCE {
                     comp.instance.time
                 } else {
-                    from_table.next().unwrap_or(f64::NAN)
+                    let k = crate::me::event_indicator_index::<M>(v).unwrap_or(usize::MAX);
+                    crate::me::event_indicator(comp, k).unwrap_or(f64::NAN)
                 };
                 *o = convert(x);
             }
@@ -870,6 +972,22 @@ mod tests {
             (allowed::GET, fmi2::GET),
             (allowed::SET, fmi2::SET),
             (allowed::DO_STEP, fmi2::DO_STEP),
+            (allowed::ENTER_EVENT_MODE, fmi2::ENTER_EVENT_MODE),
+            (allowed::UPDATE_DISCRETE_STATES, fmi2::NEW_DISCRETE_STATES),
+            (
+                allowed::ENTER_CONTINUOUS_TIME_MODE,
+                fmi2::ENTER_CONTINUOUS_TIME_MODE,
+            ),
+            (
+                allowed::COMPLETED_INTEGRATOR_STEP,
+                fmi2::COMPLETED_INTEGRATOR_STEP,
+            ),
+            (allowed::SET_TIME, fmi2::SET_TIME),
+            (allowed::SET_CONTINUOUS_STATES, fmi2::SET_CONTINUOUS_STATES),
+            (allowed::GET_DERIVATIVES, fmi2::GET_DERIVATIVES),
+            (allowed::GET_EVENT_INDICATORS, fmi2::GET_EVENT_INDICATORS),
+            (allowed::GET_CONTINUOUS_STATES, fmi2::GET_CONTINUOUS_STATES),
+            (allowed::GET_NOMINALS, fmi2::GET_NOMINALS),
         ] {
             assert_eq!(fmi3 & !shared, 0, "{fmi3:#b} not inside {shared:#b}");
         }

@@ -14,6 +14,7 @@ pub use fmi2_export;
 
 pub mod c;
 pub mod ffi;
+pub mod me;
 pub mod xml;
 
 /// Value reference of `time`, the independent variable FMI 3.0 requires (FMI 3.0.2 section
@@ -21,22 +22,34 @@ pub mod xml;
 /// reference of the models' tables, which the test `export_fmi3!` adds checks.
 pub const TIME_VALUE_REFERENCE: u32 = 1_000_000;
 
+/// Value reference of the first event indicator, `eventIndicator[1]` (indicator `k`, from 0, has
+/// `EVENT_INDICATOR_VALUE_REFERENCE + k`). FMI 3.0.2 section 2.4.8 lists event indicators as
+/// variables (`<EventIndicator valueReference=...>`); the models' tables do not hold them, so this
+/// layer adds them as continuous Float64 locals, read through `fmi3GetFloat64`.
+pub const EVENT_INDICATOR_VALUE_REFERENCE: u32 = 1_000_001;
+
 /// The documentation page of the FMI 3.0 archive: the model's page (the same model, variables and
 /// value references as in FMI 2.0) with the FMI 3.0 interface line, and a note that maps the FMI
 /// 2.0 function names the model's text uses onto their FMI 3.0 counterparts.
 pub fn documentation<M: fmi2_export::Model>() -> String {
     let html = fmi2_export::html::documentation::<M>();
     let token = fmi2_export::xml::guid::<M>();
+    let interfaces = if M::model_exchange().is_some() {
+        "Model Exchange and Co-Simulation"
+    } else {
+        "Co-Simulation"
+    };
     let fmi3 = format!(
-        "<p>FMI 3.0 Co-Simulation, instantiationToken <code>{token}</code> (the model is also \
+        "<p>FMI 3.0 {interfaces}, instantiationToken <code>{token}</code> (the model is also \
          shipped as FMI 2.0, with the same variables and value references, plus <code>time</code>, \
          value reference {TIME_VALUE_REFERENCE}).</p>\n<p>Where this page names an FMI 2.0 \
          function, the FMI 3.0 one applies: <code>fmi2SetupExperiment</code> and \
          <code>fmi2EnterInitializationMode</code> are <code>fmi3EnterInitializationMode</code>, \
          <code>fmi2ExitInitializationMode</code> is <code>fmi3ExitInitializationMode</code>, \
          <code>fmi2GetReal</code>/<code>fmi2SetReal</code> are \
-         <code>fmi3GetFloat64</code>/<code>fmi3SetFloat64</code>. Model Exchange is offered by \
-         the FMI 2.0 archive only.</p>\n"
+         <code>fmi3GetFloat64</code>/<code>fmi3SetFloat64</code>, \
+         <code>fmi2NewDiscreteStates</code> is <code>fmi3UpdateDiscreteStates</code> and \
+         <code>fmi2GetDerivatives</code> is <code>fmi3GetContinuousStateDerivatives</code>.</p>\n"
     );
     let fmi2 = format!("<p>FMI 2.0 Co-Simulation, GUID <code>{token}</code>.</p>\n");
     if let Some(i) = html.find(&fmi2) {
@@ -76,9 +89,10 @@ pub fn describe_main<M: fmi2_export::Model>() {
     }
 }
 
-/// Export all 75 FMI 3.0 functions for model type `$model` from this `cdylib`. Co-Simulation is
-/// implemented; Model Exchange, Scheduled Execution, Event Mode, clocks, configuration mode,
-/// intermediate update, dependencies and derivatives return `fmi3Error` with a logged reason.
+/// Export all 75 FMI 3.0 functions for model type `$model` from this `cdylib`. Co-Simulation and
+/// (for a model with `ModelExchange`) Model Exchange are implemented; Scheduled Execution, Event
+/// Mode in Co-Simulation, clocks, configuration mode, intermediate update, dependencies and
+/// derivatives return `fmi3Error` with a logged reason.
 #[macro_export]
 macro_rules! export_fmi3 {
     ($model:ty) => {
@@ -86,13 +100,11 @@ macro_rules! export_fmi3 {
             #![allow(non_snake_case, unused_imports, clippy::missing_safety_doc, clippy::too_many_arguments)]
             use $crate::c::*;
             use $crate::ffi::*;
+            use $crate::me::*;
             use std::ffi::c_void;
             type M = $model;
 
-            const NO_ME: &str = "Model Exchange is not offered by this FMU (FMI 3.0 Co-Simulation only)";
             const NO_CLOCKS: &str = "this FMU has no clocks";
-            const NO_EVENT_MODE: &str =
-                "Event Mode is not offered in Co-Simulation (hasEventMode=\"false\")";
 
             // ---- common functions
             #[no_mangle]
@@ -107,11 +119,11 @@ macro_rules! export_fmi3 {
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi3InstantiateModelExchange(
-                _name: Fmi3String, _token: Fmi3String, _resources: Fmi3String,
-                _visible: Fmi3Boolean, _logging: Fmi3Boolean,
+                name: Fmi3String, token: Fmi3String, _resources: Fmi3String,
+                _visible: Fmi3Boolean, logging: Fmi3Boolean,
                 env: Fmi3InstanceEnvironment, log: Fmi3LogMessageCallback,
             ) -> Fmi3Instance {
-                instantiate_refused::<M>("fmi3InstantiateModelExchange", "Model Exchange", env, log)
+                instantiate_model_exchange::<M>(name, token, logging, env, log)
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi3InstantiateCoSimulation(
@@ -150,7 +162,7 @@ macro_rules! export_fmi3 {
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi3EnterEventMode(c: Fmi3Instance) -> Fmi3Status {
-                unsupported::<M>(c, "fmi3EnterEventMode", NO_EVENT_MODE)
+                enter_event_mode::<M>(c)
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi3Terminate(c: Fmi3Instance) -> Fmi3Status {
@@ -392,70 +404,70 @@ macro_rules! export_fmi3 {
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi3UpdateDiscreteStates(
-                c: Fmi3Instance, _need_update: *mut Fmi3Boolean, _terminate: *mut Fmi3Boolean,
-                _nominals_changed: *mut Fmi3Boolean, _values_changed: *mut Fmi3Boolean,
-                _next_defined: *mut Fmi3Boolean, _next: *mut Fmi3Float64,
+                c: Fmi3Instance, need_update: *mut Fmi3Boolean, terminate: *mut Fmi3Boolean,
+                nominals_changed: *mut Fmi3Boolean, values_changed: *mut Fmi3Boolean,
+                next_defined: *mut Fmi3Boolean, next: *mut Fmi3Float64,
             ) -> Fmi3Status {
-                unsupported::<M>(c, "fmi3UpdateDiscreteStates", NO_EVENT_MODE)
+                update_discrete_states::<M>(c, need_update, terminate, nominals_changed, values_changed, next_defined, next)
             }
 
             // ---- Model Exchange
             #[no_mangle]
             pub unsafe extern "C" fn fmi3EnterContinuousTimeMode(c: Fmi3Instance) -> Fmi3Status {
-                unsupported::<M>(c, "fmi3EnterContinuousTimeMode", NO_ME)
+                enter_continuous_time_mode::<M>(c)
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi3CompletedIntegratorStep(
-                c: Fmi3Instance, _no_set_prior: Fmi3Boolean, _enter_event: *mut Fmi3Boolean,
-                _terminate: *mut Fmi3Boolean,
+                c: Fmi3Instance, _no_set_prior: Fmi3Boolean, enter_event: *mut Fmi3Boolean,
+                terminate: *mut Fmi3Boolean,
             ) -> Fmi3Status {
-                unsupported::<M>(c, "fmi3CompletedIntegratorStep", NO_ME)
+                completed_integrator_step::<M>(c, enter_event, terminate)
             }
             #[no_mangle]
-            pub unsafe extern "C" fn fmi3SetTime(c: Fmi3Instance, _t: Fmi3Float64) -> Fmi3Status {
-                unsupported::<M>(c, "fmi3SetTime", NO_ME)
+            pub unsafe extern "C" fn fmi3SetTime(c: Fmi3Instance, t: Fmi3Float64) -> Fmi3Status {
+                set_time::<M>(c, t)
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi3SetContinuousStates(
-                c: Fmi3Instance, _x: *const Fmi3Float64, _n: usize,
+                c: Fmi3Instance, x: *const Fmi3Float64, n: usize,
             ) -> Fmi3Status {
-                unsupported::<M>(c, "fmi3SetContinuousStates", NO_ME)
+                set_continuous_states::<M>(c, x, n)
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi3GetContinuousStateDerivatives(
-                c: Fmi3Instance, _dx: *mut Fmi3Float64, _n: usize,
+                c: Fmi3Instance, dx: *mut Fmi3Float64, n: usize,
             ) -> Fmi3Status {
-                unsupported::<M>(c, "fmi3GetContinuousStateDerivatives", NO_ME)
+                get_continuous_state_derivatives::<M>(c, dx, n)
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi3GetEventIndicators(
-                c: Fmi3Instance, _z: *mut Fmi3Float64, _n: usize,
+                c: Fmi3Instance, z: *mut Fmi3Float64, n: usize,
             ) -> Fmi3Status {
-                unsupported::<M>(c, "fmi3GetEventIndicators", NO_ME)
+                get_event_indicators::<M>(c, z, n)
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi3GetContinuousStates(
-                c: Fmi3Instance, _x: *mut Fmi3Float64, _n: usize,
+                c: Fmi3Instance, x: *mut Fmi3Float64, n: usize,
             ) -> Fmi3Status {
-                unsupported::<M>(c, "fmi3GetContinuousStates", NO_ME)
+                get_continuous_states::<M>(c, x, n)
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi3GetNominalsOfContinuousStates(
-                c: Fmi3Instance, _nominals: *mut Fmi3Float64, _n: usize,
+                c: Fmi3Instance, nominals: *mut Fmi3Float64, n: usize,
             ) -> Fmi3Status {
-                unsupported::<M>(c, "fmi3GetNominalsOfContinuousStates", NO_ME)
+                get_nominals_of_continuous_states::<M>(c, nominals, n)
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi3GetNumberOfEventIndicators(
-                c: Fmi3Instance, _n: *mut usize,
+                c: Fmi3Instance, n: *mut usize,
             ) -> Fmi3Status {
-                unsupported::<M>(c, "fmi3GetNumberOfEventIndicators", NO_ME)
+                get_number_of::<M>(c, "fmi3GetNumberOfEventIndicators", true, n)
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi3GetNumberOfContinuousStates(
-                c: Fmi3Instance, _n: *mut usize,
+                c: Fmi3Instance, n: *mut usize,
             ) -> Fmi3Status {
-                unsupported::<M>(c, "fmi3GetNumberOfContinuousStates", NO_ME)
+                get_number_of::<M>(c, "fmi3GetNumberOfContinuousStates", false, n)
             }
 
             // ---- Co-Simulation
@@ -496,6 +508,7 @@ macro_rules! export_fmi3 {
             fn time_value_reference_is_free() {
                 let table = <M as $crate::fmi2_export::Model>::variables();
                 assert!(table.iter().all(|v| v.value_reference != $crate::TIME_VALUE_REFERENCE));
+                assert!(table.iter().all(|v| v.value_reference < $crate::EVENT_INDICATOR_VALUE_REFERENCE));
                 assert!(table.iter().all(|v| v.name != "time"));
             }
         }
@@ -528,7 +541,7 @@ mod tests {
     #[test]
     fn the_documentation_names_fmi3_not_fmi2_as_its_interface() {
         let html = documentation::<Oscillator>();
-        assert!(html.contains("<p>FMI 3.0 Co-Simulation, instantiationToken"));
+        assert!(html.contains("<p>FMI 3.0 Model Exchange and Co-Simulation, instantiationToken"));
         assert!(!html.contains("FMI 2.0 Co-Simulation, GUID"));
         assert_eq!(html.matches("<h1>").count(), 1);
     }

@@ -3,11 +3,11 @@
 //! `Int32`, Boolean `Boolean`; `time` is added as the independent variable; the
 //! `instantiationToken` is the FMI 2.0 description's GUID (the same model, the same FMU states).
 
-use crate::TIME_VALUE_REFERENCE;
+use crate::{EVENT_INDICATOR_VALUE_REFERENCE, TIME_VALUE_REFERENCE};
 use fmi2_export::instance::LOG_CATEGORIES;
 use fmi2_export::units;
 use fmi2_export::xml::{fmt_f64, guid};
-use fmi2_export::{Causality, Initial, Model, VarType, Variable};
+use fmi2_export::{Causality, Initial, MeVTable, Model, VarType, Variable};
 use quick_xml::events::{BytesDecl, BytesEnd, BytesStart, Event};
 use quick_xml::Writer;
 use std::collections::BTreeSet;
@@ -29,6 +29,26 @@ fn element(t: VarType) -> &'static str {
 }
 
 type Ev<'a> = dyn FnMut(Event) + 'a;
+
+/// `<ModelExchange>` (FMI 3.0.2 section 3.3) for a model with Model Exchange.
+fn model_exchange<M: Model>(ev: &mut Ev) {
+    let mut e = BytesStart::new("ModelExchange");
+    for (k, v) in [
+        ("modelIdentifier", M::NAME),
+        ("needsExecutionTool", "false"),
+        ("canBeInstantiatedOnlyOncePerProcess", "false"),
+        ("canGetAndSetFMUState", "true"),
+        ("canSerializeFMUState", "true"),
+        ("providesDirectionalDerivatives", "false"),
+        ("providesAdjointDerivatives", "false"),
+        ("providesPerElementDependencies", "false"),
+        ("needsCompletedIntegratorStep", "false"),
+        ("providesEvaluateDiscreteStates", "false"),
+    ] {
+        e.push_attribute((k, v));
+    }
+    ev(Event::Empty(e));
+}
 
 fn co_simulation<M: Model>(ev: &mut Ev) {
     let mut cs = BytesStart::new("CoSimulation");
@@ -113,8 +133,9 @@ fn default_experiment<M: Model>(ev: &mut Ev) {
     ev(Event::Empty(de));
 }
 
-/// One variable element: `<Float64 name=... valueReference=... .../>`.
-fn variable(ev: &mut Ev, v: &Variable) {
+/// One variable element: `<Float64 name=... valueReference=... .../>`; `derivative` is the value
+/// reference of the state whose derivative the variable is.
+fn variable(ev: &mut Ev, v: &Variable, derivative: Option<u32>) {
     let mut e = BytesStart::new(element(v.vtype));
     e.push_attribute(("name", v.name));
     e.push_attribute(("valueReference", v.value_reference.to_string().as_str()));
@@ -132,6 +153,9 @@ fn variable(ev: &mut Ev, v: &Variable) {
         }
         if let Some(d) = v.display_unit {
             e.push_attribute(("displayUnit", d));
+        }
+        if let Some(x) = derivative {
+            e.push_attribute(("derivative", x.to_string().as_str()));
         }
     }
     if v.vtype != VarType::Boolean {
@@ -153,7 +177,14 @@ fn variable(ev: &mut Ev, v: &Variable) {
     ev(Event::Empty(e));
 }
 
-fn model_variables(ev: &mut Ev, vars: &[Variable]) {
+/// The state and derivative positions in the table (empty without Model Exchange).
+fn states<M: Model>(me: &Option<MeVTable<M>>) -> &'static [(usize, usize)] {
+    me.as_ref().map_or(&[], |me| me.state_variables)
+}
+
+fn model_variables<M: Model>(ev: &mut Ev, vars: &[Variable]) {
+    let me = M::model_exchange();
+    let states = states(&me);
     ev(Event::Start(BytesStart::new("ModelVariables")));
     let mut time = BytesStart::new("Float64");
     time.push_attribute(("name", "time"));
@@ -163,31 +194,92 @@ fn model_variables(ev: &mut Ev, vars: &[Variable]) {
     time.push_attribute(("variability", "continuous"));
     time.push_attribute(("unit", "s"));
     ev(Event::Empty(time));
-    for v in vars {
-        variable(ev, v);
+    for (i, v) in vars.iter().enumerate() {
+        let state = states.iter().find(|&&(_, d)| d == i);
+        variable(ev, v, state.map(|&(x, _)| vars[x].value_reference));
+    }
+    for k in 0..me.map_or(0, |me| me.event_indicators) {
+        let mut z = BytesStart::new("Float64");
+        let vr = EVENT_INDICATOR_VALUE_REFERENCE + k as u32;
+        z.push_attribute(("name", format!("eventIndicator[{}]", k + 1).as_str()));
+        z.push_attribute(("valueReference", vr.to_string().as_str()));
+        z.push_attribute((
+            "description",
+            "Event indicator: a sign change is a state event (Model Exchange)",
+        ));
+        z.push_attribute(("causality", "local"));
+        z.push_attribute(("variability", "continuous"));
+        ev(Event::Empty(z));
     }
     ev(Event::End(BytesEnd::new("ModelVariables")));
 }
 
-/// `<Output>` for every output (no direct feedthrough: outputs change in `fmi3DoStep` only, so
-/// each depends on no input between steps), `<InitialUnknown>` for every calculated output and
-/// calculated parameter (dependencies omitted: on every known, which is always correct).
-fn model_structure(ev: &mut Ev, vars: &[Variable]) {
+/// Value references of table positions, sorted, space-separated.
+fn vr_list(vars: &[Variable], positions: impl IntoIterator<Item = usize>) -> String {
+    let mut vrs: Vec<u32> = positions
+        .into_iter()
+        .map(|i| vars[i].value_reference)
+        .collect();
+    vrs.sort_unstable();
+    vrs.dedup();
+    let vrs: Vec<String> = vrs.iter().map(u32::to_string).collect();
+    vrs.join(" ")
+}
+
+/// FMI 3.0.2 section 2.4.8. `<Output>` for every output: in Model Exchange an output depends on
+/// the continuous states and on the inputs the model names as direct feedthrough (in
+/// Co-Simulation an input changes no output before the next step, and the states are values of
+/// the last step, so the list is right for both); without Model Exchange on nothing.
+/// `<ContinuousStateDerivative>` per state, with the model's declared dependencies (else the
+/// default, every known). `<InitialUnknown>` for every calculated output, state and derivative
+/// and calculated parameter (dependencies omitted: on every known, which is always correct).
+/// `<EventIndicator>` per event indicator.
+fn model_structure<M: Model>(ev: &mut Ev, vars: &[Variable]) {
+    let me = M::model_exchange();
+    let states = states(&me);
     ev(Event::Start(BytesStart::new("ModelStructure")));
-    for v in vars.iter().filter(|v| v.causality == Causality::Output) {
+    let feedthrough = me.as_ref().map_or(&[][..], |me| me.output_feedthrough);
+    for (o, v) in vars.iter().enumerate() {
+        if v.causality != Causality::Output {
+            continue;
+        }
+        let inputs = feedthrough
+            .iter()
+            .filter(|(out, _)| *out == o)
+            .flat_map(|(_, inputs)| inputs.iter().copied());
+        let deps = vr_list(vars, states.iter().map(|&(x, _)| x).chain(inputs));
         let mut u = BytesStart::new("Output");
         u.push_attribute(("valueReference", v.value_reference.to_string().as_str()));
-        u.push_attribute(("dependencies", ""));
+        u.push_attribute(("dependencies", deps.as_str()));
         ev(Event::Empty(u));
     }
-    let initial_unknown = |v: &&Variable| {
-        (v.causality == Causality::Output
-            && matches!(v.initial, Some(Initial::Calculated) | Some(Initial::Approx)))
+    let declared = me.as_ref().and_then(|me| me.derivative_dependencies);
+    for (k, &(_, d)) in states.iter().enumerate() {
+        let mut u = BytesStart::new("ContinuousStateDerivative");
+        u.push_attribute((
+            "valueReference",
+            vars[d].value_reference.to_string().as_str(),
+        ));
+        if let Some(deps) = declared.and_then(|deps| deps.get(k)) {
+            u.push_attribute(("dependencies", vr_list(vars, deps.iter().copied()).as_str()));
+        }
+        ev(Event::Empty(u));
+    }
+    let is_state = |i: usize| states.iter().any(|&(x, d)| x == i || d == i);
+    for (i, v) in vars.iter().enumerate() {
+        let calculated = matches!(v.initial, Some(Initial::Calculated) | Some(Initial::Approx));
+        if ((v.causality == Causality::Output || is_state(i)) && calculated)
             || v.causality == Causality::CalculatedParameter
-    };
-    for v in vars.iter().filter(initial_unknown) {
-        let mut u = BytesStart::new("InitialUnknown");
-        u.push_attribute(("valueReference", v.value_reference.to_string().as_str()));
+        {
+            let mut u = BytesStart::new("InitialUnknown");
+            u.push_attribute(("valueReference", v.value_reference.to_string().as_str()));
+            ev(Event::Empty(u));
+        }
+    }
+    for k in 0..me.map_or(0, |me| me.event_indicators) {
+        let mut u = BytesStart::new("EventIndicator");
+        let vr = EVENT_INDICATOR_VALUE_REFERENCE + k as u32;
+        u.push_attribute(("valueReference", vr.to_string().as_str()));
         ev(Event::Empty(u));
     }
     ev(Event::End(BytesEnd::new("ModelStructure")));
@@ -213,12 +305,15 @@ pub fn model_description<M: Model>() -> String {
         root.push_attribute(("generationTool", "actuator-fmu fmi3-export"));
         root.push_attribute(("variableNamingConvention", "structured"));
         ev(Event::Start(root));
+        if M::model_exchange().is_some() {
+            model_exchange::<M>(&mut ev);
+        }
         co_simulation::<M>(&mut ev);
         unit_definitions(&mut ev, vars);
         log_categories(&mut ev);
         default_experiment::<M>(&mut ev);
-        model_variables(&mut ev, vars);
-        model_structure(&mut ev, vars);
+        model_variables::<M>(&mut ev, vars);
+        model_structure::<M>(&mut ev, vars);
         ev(Event::End(BytesEnd::new("fmiModelDescription")));
     }
     let mut s = String::from_utf8(w.into_inner()).expect("the writer writes UTF-8");

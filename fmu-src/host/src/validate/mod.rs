@@ -17,13 +17,15 @@ pub mod binary;
 pub mod description;
 pub mod fmi3;
 pub mod probe;
+pub mod probe3;
 
 pub use binary::{check_files, check_platform_binaries, check_symbols, PlatformBinary};
 pub use description::{
     check_effect_convention, check_model_description, combination_allowed, initial_allowed,
 };
 pub use fmi3::{check_model_description3, check_platform_binaries3};
-pub use probe::{probe, PROBE_CASES};
+pub use probe::{probe, probe_me, ME_PROBE_CASES, PROBE_CASES};
+pub use probe3::{probe3, PROBE3_CASES};
 
 use crate::md::ScalarVariable;
 use std::fmt;

@@ -6,6 +6,8 @@ use crate::error::{HostError, Status};
 use crate::fmu::Fmu;
 use crate::instance::Instance;
 use crate::md::{Causality, ScalarVariable, StartValue, VarKind, Variability};
+use crate::me::fmi2::Fmi2Me;
+use crate::me::ModelExchange;
 use std::collections::BTreeSet;
 
 /// Names of the probe cases in the order [`probe`] runs them.
@@ -332,4 +334,183 @@ fn check_fmu_state(
         }
     }
     Ok(())
+}
+
+/// Names of the Model Exchange probe cases in the order [`probe_me`] runs them.
+pub const ME_PROBE_CASES: &[&str] = &[
+    "me-normal-run",
+    "me-derivatives-before-init",
+    "me-set-states-in-event-mode",
+];
+
+/// The state-machine probe of an FMI 2.0 Model Exchange FMU (`fmu` opened with the Model
+/// Exchange interface): a normal run (instantiate, initialize, event iteration, Continuous-Time
+/// Mode, derivatives finite, a few explicit Euler steps with `fmi2CompletedIntegratorStep`,
+/// terminate), then calls the state machine of FMI 2.0.4 section 3.2.3 does not allow. `step`
+/// as for [`probe`].
+pub fn probe_me(fmu: &Fmu, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding> {
+    let md = fmu.model_description();
+    let mut f = Vec::new();
+    let t0 = md
+        .default_experiment
+        .as_ref()
+        .and_then(|d| d.start_time)
+        .unwrap_or(0.0);
+    let loc = |case: &str| format!("probe {case}");
+    if !step("me-normal-run") {
+        return f;
+    }
+    if let Err(e) = me_normal_run(fmu, t0) {
+        let m = format!(
+            "instantiate (Model Exchange), initialize, event iteration, Continuous-Time Mode, \
+             derivatives, 3 Euler steps, terminate failed: {e}"
+        );
+        f.push(Finding::new("probe-normal-run", loc("me-normal-run"), m));
+        return f;
+    }
+    me_case(
+        fmu,
+        ("me-derivatives-before-init", None),
+        "fmi2GetDerivatives before initialization",
+        &mut f,
+        step,
+        &mut |me| {
+            let mut dx = vec![0.0; me.states()];
+            me.get_derivatives(&mut dx).map(drop)
+        },
+    );
+    // After fmi2ExitInitializationMode a Model Exchange instance is in Event Mode.
+    me_case(
+        fmu,
+        ("me-set-states-in-event-mode", Some(t0)),
+        "fmi2SetContinuousStates in Event Mode",
+        &mut f,
+        step,
+        &mut |me| {
+            let mut x = vec![0.0; me.states()];
+            me.get_states(&mut x)?;
+            me.set_states(&x)
+        },
+    );
+    f
+}
+
+/// Enters and leaves Initialization Mode at `t0`: a Model Exchange instance is then in Event
+/// Mode.
+fn me_initialize(inst: &mut Instance<'_>, t0: f64) -> Result<(), HostError> {
+    inst.setup_experiment(None, t0, None)?;
+    inst.enter_initialization_mode()?;
+    inst.exit_initialization_mode()?;
+    Ok(())
+}
+
+/// The normal Model Exchange run of [`probe_me`].
+fn me_normal_run(fmu: &Fmu, t0: f64) -> Result<(), String> {
+    let s = |e: HostError| e.to_string();
+    let mut inst = fmu.instantiate("probe").map_err(s)?;
+    me_initialize(&mut inst, t0).map_err(s)?;
+    let mut me = Fmi2Me::new(&mut inst).map_err(s)?;
+    let mut iterations = 0;
+    while me
+        .new_discrete_states()
+        .map_err(s)?
+        .new_discrete_states_needed
+    {
+        iterations += 1;
+        if iterations > 1000 {
+            return Err("fmi2NewDiscreteStates still needs iterations after 1000 calls".into());
+        }
+    }
+    me.enter_continuous_time_mode().map_err(s)?;
+    let n = me.states();
+    let (mut x, mut dx) = (vec![0.0; n], vec![0.0; n]);
+    let h = 1e-4;
+    for k in 0..3 {
+        let t = t0 + k as f64 * h;
+        me.set_time(t).map_err(s)?;
+        me.get_states(&mut x).map_err(s)?;
+        me.get_derivatives(&mut dx).map_err(s)?;
+        if let Some(i) = dx.iter().position(|d| !d.is_finite()) {
+            return Err(format!("derivative {i} is {} at t = {t}", dx[i]));
+        }
+        // explicit Euler: x(t + h) = x(t) + h dx/dt(t)
+        for (xi, di) in x.iter_mut().zip(&dx) {
+            *xi += h * di;
+        }
+        me.set_time(t + h).map_err(s)?;
+        me.set_states(&x).map_err(s)?;
+        if me.needs_completed_integrator_step() {
+            me.completed_integrator_step().map_err(s)?;
+        }
+    }
+    drop(me);
+    inst.terminate().map_err(s)?;
+    Ok(())
+}
+
+/// One wrong-call case of [`probe_me`] on a fresh instance, initialized at the time given with
+/// the case's name: the call's answer is a note unless it is fmi2Error with a logged message.
+fn me_case(
+    fmu: &Fmu,
+    (name, init_at): (&str, Option<f64>),
+    what: &str,
+    f: &mut Vec<Finding>,
+    step: &mut dyn FnMut(&str) -> bool,
+    call: &mut dyn FnMut(&mut Fmi2Me<'_, '_>) -> Result<(), HostError>,
+) {
+    if !step(name) {
+        return;
+    }
+    let loc = format!("probe {name}");
+    let mut inst = match fmu.instantiate("probe") {
+        Ok(i) => i,
+        Err(e) => {
+            let m = format!("fmi2Instantiate (Model Exchange) failed: {e}");
+            f.push(Finding::new("probe-normal-run", loc, m));
+            return;
+        }
+    };
+    if let Some(t0) = init_at {
+        if let Err(e) = me_initialize(&mut inst, t0) {
+            let m = format!("initialization failed: {e}");
+            f.push(Finding::new("probe-normal-run", loc, m));
+            return;
+        }
+    }
+    let mut me = match Fmi2Me::new(&mut inst) {
+        Ok(me) => me,
+        Err(e) => {
+            f.push(Finding::new("probe-normal-run", loc, e.to_string()));
+            return;
+        }
+    };
+    match call(&mut me) {
+        Ok(()) => f.push(Finding::new(
+            "probe-wrong-call",
+            loc,
+            format!(
+                "{what} returned fmi2OK; fmi2Error with a logged message would warn the importer"
+            ),
+        )),
+        Err(HostError::Fmi {
+            status: Status::Error,
+            messages,
+            ..
+        }) => {
+            if messages.is_empty() {
+                let m = format!("{what} returned fmi2Error but logged no message");
+                f.push(Finding::new("probe-log", loc, m));
+            }
+        }
+        Err(HostError::Fmi { status, .. }) => f.push(Finding::new(
+            "probe-wrong-call",
+            loc,
+            format!("{what} returned {status}; fmi2Error is the usual answer"),
+        )),
+        Err(e) => f.push(Finding::new(
+            "probe-normal-run",
+            loc,
+            format!("{what}: {e}"),
+        )),
+    }
 }
