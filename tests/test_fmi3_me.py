@@ -13,6 +13,8 @@
   Model Exchange function on a Co-Simulation instance are refused.
 """
 import math
+import xml.etree.ElementTree as ET
+import zipfile
 from ctypes import POINTER, byref, c_bool, c_double
 
 import fmpy
@@ -178,6 +180,16 @@ def test_calls_in_the_wrong_state_are_refused(me_instance):
     fmu.getContinuousStateDerivatives(dx.ctypes.data_as(POINTER(c_double)), n)
     fmu.getEventIndicators(z.ctypes.data_as(POINTER(c_double)), 1)
     assert np.all(np.isfinite(dx)) and np.isfinite(z[0])
+    # FMI 3.0.2 section 3.2.1: a continuous-time state may be set by fmi3SetFloat64 in
+    # Continuous-Time Mode (as by fmi3SetContinuousStates); a parameter may not
+    theta = md.derivatives[1].variable.derivative
+    assert theta.name == "theta_motor"
+    fmu.setFloat64([theta.valueReference], [12.5])
+    fmu.getContinuousStates(x.ctypes.data_as(POINTER(c_double)), n)
+    assert x[1] == 12.5 and fmu.getFloat64([theta.valueReference]) == [12.5]
+    load = next(v for v in md.modelVariables if v.name == "load_mass")
+    with pytest.raises(FMICallException):
+        fmu.setFloat64([load.valueReference], [3.0])
     with pytest.raises(FMICallException):
         fmu.updateDiscreteStates()
     fmu.enterEventMode()
@@ -200,7 +212,107 @@ def test_model_exchange_function_on_co_simulation_instance_is_refused():
                                               n)
     assert messages[-1] == (b"fmi3GetContinuousStateDerivatives: a Model Exchange function "
                             b"called on a Co-Simulation instance")
+    # directional derivatives are declared for Model Exchange only
+    der = md.derivatives[0].variable
+    with pytest.raises(FMICallException):
+        fmu.getDirectionalDerivative([der.valueReference], [der.derivative.valueReference], [1.0])
+    assert messages[-1].startswith(b"fmi3GetDirectionalDerivative: ")
     fmu.doStep(0.0, 1e-3)
+    fmu.terminate()
+    fmu.freeInstance()
+    fmu.freeLibrary()
+
+
+def ptr(a):
+    return a.ctypes.data_as(POINTER(c_double))
+
+
+def twisted_string_taut(md, theta=600.0, omega=300.0, current=0.4):
+    """Every effect on, the strings carrying about 100 N at motor angle `theta` (eq. 9-10 with
+    the defaults, radius growth 0.005 per turn), the gearhead output on the +b/2 flank of a 1 deg
+    backlash, turning 10 % slower than the motor side: away from every kink."""
+    start = {v.name: float(v.start) for v in md.modelVariables if v.start is not None
+             and v.type == "Float64"}
+    r0, g, n = start["string_radius"], 0.005, 19.2
+    a1, a2, a3 = (start[f"string_compliance.{k}"] for k in ("a1", "a2", "a3"))
+    delta = 0.5 * math.radians(1.0) + 1e-4
+    th_t = theta / n - delta
+    a = th_t * r0 * (1 + g * abs(th_t) / (2 * math.pi))
+    lfree = 0.0897 + a1 * abs(n * th_t) + a2 * (n * th_t) ** 2
+    p = math.sqrt((lfree + 100.0 * a3) ** 2 - a * a)
+    # i, theta, omega, p, v, z_i, z_w, E_el, E_diss, E_kin, delta, omega_t, W_ext
+    return [current, theta, omega, p, -0.004, 2e-4, 3.0, 1.0, 0.8, 0.1, delta, 0.9 * omega / n,
+            0.2]
+
+
+# Per model: start values (parameters and inputs) and an operating point away from the
+# non-smooth points (end stops, stiction, dead band, zero twist), where central differences
+# are valid.
+JACOBIAN_POINTS = {
+    "Oscillator": ({"force": 2.0}, lambda md: [0.004, -0.3]),
+    "HydraulicJoint": (
+        {"u_left": 4.0, "u_right": -3.0, "tau_ext": 1.5, "internal_controller": False,
+         **{f"{e}.enabled": True for e in ("seal_friction", "valve_overlap", "internal_leakage",
+                                           "cable_friction", "entrained_air", "valve_dynamics")}},
+        lambda md: [0.1, 0.5, 0.055, 0.05, 3e6, 5e6, 0.045, -0.04, 4e6, 2e6, 1e-6, 2e-6, 2.0,
+                    30.0, -2.5, -10.0, 0.02, -0.03]),
+    "TwistedString": (
+        {"voltage": 5.0, "F_load": 12.0, "theta_motor_ref": 900.0,
+         **{f"{e}.enabled": True for e in ("string_compliance", "twist_hysteresis",
+                                           "motor_friction", "gear_backlash", "radius_growth")}},
+        twisted_string_taut),
+}
+
+
+@pytest.mark.parametrize("model", sorted(JACOBIAN_POINTS))
+def test_directional_and_adjoint_derivatives_match_central_differences(model):
+    """d(der x)/dx column by column from fmi3GetDirectionalDerivative (the model's analytic
+    Jacobian) against a central difference of fmi3GetContinuousStateDerivatives with step 1e-6 of
+    the state's magnitude or nominal: within 1e-6 of the row's largest |J_ij| nominal_j, every
+    effect on, at an operating point of each model; fmi3GetAdjointDerivative with a random seed w
+    gives w^T J of the same Jacobian."""
+    path = fmu3_path(model)
+    md = fmpy.read_model_description(path)
+    with zipfile.ZipFile(path) as z:
+        me = ET.fromstring(z.read("modelDescription.xml")).find("ModelExchange")
+    assert me.get("providesDirectionalDerivatives") == me.get("providesAdjointDerivatives") == "true"
+    fmu = FMU3Model(guid=md.guid, unzipDirectory=fmpy.extract(path),
+                    modelIdentifier=md.modelExchange.modelIdentifier)
+    fmu.instantiate()
+    start, point = JACOBIAN_POINTS[model]
+    fmpy.simulation.apply_start_values(fmu, md, start)
+    fmu.enterInitializationMode()
+    fmu.exitInitializationMode()
+    fmu.updateDiscreteStates()
+    fmu.enterContinuousTimeMode()
+    n = md.numberOfContinuousStates
+    states = [d.variable.derivative.valueReference for d in md.derivatives]
+    ders = [d.variable.valueReference for d in md.derivatives]
+    nom, f = np.zeros(n), np.zeros(n)
+    fmu.getNominalsOfContinuousStates(ptr(nom), n)
+    x = np.array(point(md), dtype=float)
+    fmu.setContinuousStates(ptr(x), n)
+    jac = np.zeros((n, n))
+    fd = np.zeros((n, n))
+    for j in range(n):
+        jac[:, j] = fmu.getDirectionalDerivative(ders, [states[j]], [1.0])
+        h = 1e-6 * max(abs(x[j]), nom[j])
+        cols = []
+        for sign in (1, -1):
+            xs = x.copy()
+            xs[j] += sign * h
+            fmu.setContinuousStates(ptr(xs), n)
+            fmu.getContinuousStateDerivatives(ptr(f), n)
+            cols.append(f.copy())
+        fd[:, j] = (cols[0] - cols[1]) / (2 * h)
+        fmu.setContinuousStates(ptr(x), n)
+    scaled = np.abs(jac) * nom
+    err = np.abs(jac - fd) * nom / (scaled.max(axis=1, keepdims=True) + 1e-300)
+    assert err.max() < 1e-6, (np.unravel_index(np.argmax(err), err.shape), err.max())
+    assert np.count_nonzero(jac) >= 2 * n - 1  # not vacuous
+    w = np.random.default_rng(1).standard_normal(n)
+    adjoint = fmu.getAdjointDerivative(ders, states, list(w), nSensitivity=n)
+    assert np.allclose(adjoint, w @ jac, rtol=1e-12, atol=1e-12 * float(np.max(np.abs(w) @ np.abs(jac))))
     fmu.terminate()
     fmu.freeInstance()
     fmu.freeLibrary()

@@ -103,6 +103,12 @@ DESCRIPTION_CASES = {
     "start-forbidden": ("VanDerPol", replace(
         'initial="calculated" derivative="1"', 'initial="calculated" start="0" derivative="1"'),
         "start", "start is not allowed"),
+    "unit-declared": ("VanDerPol", replace('name="mu" valueReference="5"',
+                                          'name="mu" valueReference="5" unit="m"'),
+                      "unit-declared", "unit 'm' is not defined in <UnitDefinitions>"),
+    "declared-type": ("VanDerPol", replace('name="mu" valueReference="5"',
+                                          'name="mu" valueReference="5" declaredType="Mass"'),
+                      "declared-type", "declaredType 'Mass' is not defined"),
     "dimension-not-uint64": ("StateSpace", replace(
         '<Dimension valueReference="2"/>\n            <Dimension valueReference="2"/>',
         '<Dimension valueReference="5"/>\n            <Dimension valueReference="2"/>'),
@@ -212,7 +218,28 @@ def test_the_co_simulation_probe_runs_the_fmu(tmp_path):
     # conforming, the probe's normal run finds that the binary refuses to instantiate.
     found = findings(tmp_path, md=replace("{BD403596-3166-4232-ABC2-132BDF73E644}",
                                           "{00000000-0000-0000-0000-000000000000}"))
-    assert [f["check"] for f in found] == ["probe-normal-run"], found
-    assert found[0]["location"] == "probe fmi3-normal-run", found
+    # VanDerPol declares both interfaces: both probes' normal runs fail
+    assert [f["check"] for f in found] == ["probe-normal-run"] * 2, found
+    assert [f["location"] for f in found] == ["probe fmi3-normal-run",
+                                              "probe fmi3-me-normal-run"], found
     assert "fmi3InstantiateCoSimulation" in found[0]["message"], found
-    assert found[0]["clause"].startswith("FMI 3.0.2 §4.2"), found
+    assert "fmi3InstantiateModelExchange" in found[1]["message"], found
+    assert all(f["clause"].startswith("FMI 3.0.2 §") for f in found), found
+
+
+def drop_co_simulation(text):
+    start = text.index("<CoSimulation")
+    end = text.index("/>", start) + 2
+    return text[:start] + text[end:]
+
+
+def test_the_model_exchange_probe_runs_the_fmu(tmp_path):
+    # VanDerPol as a Model Exchange-only FMU: conforming, and the ME probe's run is legal
+    assert findings(tmp_path, md=drop_co_simulation, suffix="me-only") == []
+    # with an instantiationToken the binary does not know, the ME probe cannot instantiate
+    wrong = replace("{BD403596-3166-4232-ABC2-132BDF73E644}",
+                    "{00000000-0000-0000-0000-000000000000}")
+    found = findings(tmp_path, md=lambda t: wrong(drop_co_simulation(t)), suffix="me-token")
+    assert [f["check"] for f in found] == ["probe-normal-run"], found
+    assert found[0]["location"] == "probe fmi3-me-normal-run", found
+    assert "fmi3InstantiateModelExchange" in found[0]["message"], found

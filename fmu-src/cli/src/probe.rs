@@ -47,23 +47,46 @@ pub fn run(a: Args) -> CliResult {
     Ok(0)
 }
 
-/// The FMI 3.0 Co-Simulation probe.
+/// The FMI 3.0 probes: Co-Simulation when the FMU declares it, Model Exchange when it declares
+/// it, each on the FMU opened with that interface.
 fn probe_fmi3(a: &Args) -> Vec<Finding> {
-    match host::fmi3::Fmu3::open(&a.fmu) {
-        Err(e) => {
-            let mut f = Finding::new("binary", a.fmu.display().to_string(), e.to_string());
-            f.clause = host::validate::fmi3::classify3("binary").to_string();
-            vec![f]
+    let (cs, me) = match host::Unpacked::open(&a.fmu)
+        .ok()
+        .and_then(|u| host::fmi3::ModelDescription3::parse(&u.xml, "").ok())
+    {
+        Some(md) => (md.co_simulation.is_some(), md.model_exchange.is_some()),
+        None => (false, false),
+    };
+    let mut findings = Vec::new();
+    let mut step = |name: &str| {
+        if a.skip.iter().any(|s| s == name) {
+            false
+        } else {
+            announce(name);
+            true
         }
-        Ok(fmu) => host::validate::probe3(&fmu, &mut |name| {
-            if a.skip.iter().any(|s| s == name) {
-                false
-            } else {
-                announce(name);
-                true
+    };
+    for (declared, interface) in [
+        (cs, Interface::CoSimulation),
+        (me, Interface::ModelExchange),
+    ] {
+        if !declared {
+            continue;
+        }
+        match host::fmi3::Fmu3::open_with(&a.fmu, Some(interface)) {
+            Err(e) => {
+                let m = format!("{interface}: {e}");
+                let mut f = Finding::new("binary", a.fmu.display().to_string(), m);
+                f.clause = host::validate::fmi3::classify3("binary").to_string();
+                findings.push(f);
             }
-        }),
+            Ok(fmu) => findings.extend(match interface {
+                Interface::CoSimulation => host::validate::probe3(&fmu, &mut step),
+                Interface::ModelExchange => host::validate::probe3_me(&fmu, &mut step),
+            }),
+        }
     }
+    findings
 }
 
 /// The binary's exports and the FMI 2.0 probes.

@@ -145,15 +145,19 @@ fn validate_fmi3(path: &Path, timeout: Duration, effects: bool) -> Result<Checke
     }
     let (binary_findings, binaries) = check_platform_binaries3(&unpacked.dir, &md);
     findings.extend(binary_findings);
-    // The runtime probe: Co-Simulation FMUs the host runs, with a binary for this platform.
-    let runnable = md.co_simulation.as_ref().is_some_and(|cs| {
-        unpacked
-            .dir
-            .join("binaries")
-            .join(host::fmi3::PLATFORM_TUPLE)
-            .join(format!("{}.{}", cs.model_identifier, host::LIB_SUFFIX))
-            .is_file()
-    }) && host::fmi3::unsupported(&md).is_none();
+    // The runtime probes: FMUs the host runs, with a binary for this platform.
+    let runnable = [&md.co_simulation, &md.model_exchange]
+        .into_iter()
+        .flatten()
+        .any(|i| {
+            unpacked
+                .dir
+                .join("binaries")
+                .join(host::fmi3::PLATFORM_TUPLE)
+                .join(format!("{}.{}", i.model_identifier, host::LIB_SUFFIX))
+                .is_file()
+        })
+        && host::fmi3::unsupported(&md).is_none();
     drop(unpacked);
     if runnable {
         findings.extend(run_probe(path, timeout)?);

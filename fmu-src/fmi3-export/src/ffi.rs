@@ -83,6 +83,8 @@ pub mod allowed {
         Error,
     ]);
     pub const GET_CONTINUOUS_STATES: u32 = GET_EVENT_INDICATORS;
+    /// fmi3GetDirectionalDerivative and fmi3GetAdjointDerivative (Model Exchange).
+    pub const DIRECTIONAL_DERIVATIVE: u32 = m(&[EventMode, ContinuousTimeMode, Terminated, Error]);
     pub const GET_NOMINALS: u32 = m(&[
         Instantiated,
         EventMode,
@@ -586,6 +588,9 @@ unsafe fn set_typed<M: Model, T: Copy>(
             );
         }
         let vals: Vec<f64> = vals.iter().map(|&x| convert(x)).collect();
+        if ty == VarType::Real && comp.instance.state == MachineState::ContinuousTimeMode {
+            return crate::me::set_float64_in_continuous_time_mode(comp, func, vrs, &vals);
+        }
         comp.instance.set_values(func, ty, vrs, &vals)
     })
 }
@@ -988,6 +993,10 @@ mod tests {
             (allowed::GET_EVENT_INDICATORS, fmi2::GET_EVENT_INDICATORS),
             (allowed::GET_CONTINUOUS_STATES, fmi2::GET_CONTINUOUS_STATES),
             (allowed::GET_NOMINALS, fmi2::GET_NOMINALS),
+            (
+                allowed::DIRECTIONAL_DERIVATIVE,
+                fmi2::DIRECTIONAL_DERIVATIVE,
+            ),
         ] {
             assert_eq!(fmi3 & !shared, 0, "{fmi3:#b} not inside {shared:#b}");
         }

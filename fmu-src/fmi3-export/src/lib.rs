@@ -90,9 +90,10 @@ pub fn describe_main<M: fmi2_export::Model>() {
 }
 
 /// Export all 75 FMI 3.0 functions for model type `$model` from this `cdylib`. Co-Simulation and
-/// (for a model with `ModelExchange`) Model Exchange are implemented; Scheduled Execution, Event
-/// Mode in Co-Simulation, clocks, configuration mode, intermediate update, dependencies and
-/// derivatives return `fmi3Error` with a logged reason.
+/// (for a model with `ModelExchange`) Model Exchange, with directional and adjoint derivatives in
+/// Model Exchange, are implemented; Scheduled Execution, Event Mode in Co-Simulation, clocks,
+/// configuration mode, intermediate update, per-element dependencies and derivatives in
+/// Co-Simulation return `fmi3Error` with a logged reason.
 #[macro_export]
 macro_rules! export_fmi3 {
     ($model:ty) => {
@@ -316,21 +317,19 @@ macro_rules! export_fmi3 {
             // ---- partial derivatives
             #[no_mangle]
             pub unsafe extern "C" fn fmi3GetDirectionalDerivative(
-                c: Fmi3Instance, _u: *const Fmi3ValueReference, _nu: usize,
-                _k: *const Fmi3ValueReference, _nk: usize, _seed: *const Fmi3Float64,
-                _ns: usize, _sens: *mut Fmi3Float64, _nsens: usize,
+                c: Fmi3Instance, u: *const Fmi3ValueReference, nu: usize,
+                k: *const Fmi3ValueReference, nk: usize, seed: *const Fmi3Float64,
+                ns: usize, sens: *mut Fmi3Float64, nsens: usize,
             ) -> Fmi3Status {
-                unsupported::<M>(c, "fmi3GetDirectionalDerivative",
-                    "not provided (providesDirectionalDerivatives=\"false\")")
+                get_directional_derivative::<M>(c, u, nu, k, nk, seed, ns, sens, nsens)
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi3GetAdjointDerivative(
-                c: Fmi3Instance, _u: *const Fmi3ValueReference, _nu: usize,
-                _k: *const Fmi3ValueReference, _nk: usize, _seed: *const Fmi3Float64,
-                _ns: usize, _sens: *mut Fmi3Float64, _nsens: usize,
+                c: Fmi3Instance, u: *const Fmi3ValueReference, nu: usize,
+                k: *const Fmi3ValueReference, nk: usize, seed: *const Fmi3Float64,
+                ns: usize, sens: *mut Fmi3Float64, nsens: usize,
             ) -> Fmi3Status {
-                unsupported::<M>(c, "fmi3GetAdjointDerivative",
-                    "not provided (providesAdjointDerivatives=\"false\")")
+                get_adjoint_derivative::<M>(c, u, nu, k, nk, seed, ns, sens, nsens)
             }
 
             // ---- configuration mode: no structural parameters

@@ -261,3 +261,217 @@ pub unsafe fn get_number_of<M: Model>(
         Status::Ok
     })
 }
+
+/// The arrays of `fmi3GetDirectionalDerivative` and `fmi3GetAdjointDerivative`: every variable
+/// is a scalar, so `nSeed` equals the number of seeded variables and `nSensitivity` the number
+/// of variables the result is for.
+struct DerivativeArgs<'a> {
+    unknowns: &'a [Fmi3ValueReference],
+    knowns: &'a [Fmi3ValueReference],
+    seed: &'a [f64],
+    sensitivity: &'a mut [f64],
+}
+
+/// Convert and check the arrays; `seed_len`/`sensitivity_len` are the lengths the call needs.
+#[allow(clippy::too_many_arguments)]
+unsafe fn derivative_args<'a, M: Model>(
+    comp: &mut Component<M>,
+    func: &str,
+    unknowns: *const Fmi3ValueReference,
+    n_unknowns: usize,
+    knowns: *const Fmi3ValueReference,
+    n_knowns: usize,
+    seed: *const Fmi3Float64,
+    n_seed: usize,
+    sensitivity: *mut Fmi3Float64,
+    n_sensitivity: usize,
+    adjoint: bool,
+) -> Result<DerivativeArgs<'a>, Status> {
+    let (seed_len, sensitivity_len) = if adjoint {
+        (n_unknowns, n_knowns)
+    } else {
+        (n_knowns, n_unknowns)
+    };
+    if n_seed != seed_len || n_sensitivity != sensitivity_len {
+        return Err(comp.instance.error(
+            func,
+            format!(
+                "nSeed = {n_seed} and nSensitivity = {n_sensitivity}, expected {seed_len} and \
+                 {sensitivity_len} (every variable is a scalar)"
+            ),
+        ));
+    }
+    match (
+        slice(unknowns, n_unknowns),
+        slice(knowns, n_knowns),
+        slice(seed, n_seed),
+        slice_mut(sensitivity, n_sensitivity),
+    ) {
+        (Some(unknowns), Some(knowns), Some(seed), Some(sensitivity)) => Ok(DerivativeArgs {
+            unknowns,
+            knowns,
+            seed,
+            sensitivity,
+        }),
+        _ => Err(comp
+            .instance
+            .error(func, "unknowns, knowns, seed or sensitivity is NULL")),
+    }
+}
+
+/// `fmi3GetDirectionalDerivative` (Model Exchange): `sensitivity = J seed` for the unknowns
+/// (derivatives, outputs) with respect to the knowns (states, inputs), FMI 3.0.2 section 3.2.4;
+/// the instance's directional derivative (the model's analytic Jacobian for derivatives with
+/// respect to states).
+#[allow(clippy::too_many_arguments)]
+pub unsafe fn get_directional_derivative<M: Model>(
+    c: Fmi3Instance,
+    unknowns: *const Fmi3ValueReference,
+    n_unknowns: usize,
+    knowns: *const Fmi3ValueReference,
+    n_knowns: usize,
+    seed: *const Fmi3Float64,
+    n_seed: usize,
+    sensitivity: *mut Fmi3Float64,
+    n_sensitivity: usize,
+) -> Fmi3Status {
+    const F: &str = "fmi3GetDirectionalDerivative";
+    simple::<M>(c, F, allowed::DIRECTIONAL_DERIVATIVE, |comp| {
+        let args = match derivative_args(
+            comp,
+            F,
+            unknowns,
+            n_unknowns,
+            knowns,
+            n_knowns,
+            seed,
+            n_seed,
+            sensitivity,
+            n_sensitivity,
+            false,
+        ) {
+            Ok(a) => a,
+            Err(s) => return s,
+        };
+        comp.instance.get_directional_derivative(
+            args.unknowns,
+            args.knowns,
+            args.seed,
+            args.sensitivity,
+        )
+    })
+}
+
+/// `fmi3GetAdjointDerivative` (Model Exchange): `sensitivity = seed^T J`, FMI 3.0.2 section
+/// 3.2.4, one column `J e_j` of the same directional derivative per known `j`:
+/// `sensitivity_j = sum_i seed_i J_ij`. Nothing is written unless every column succeeds.
+#[allow(clippy::too_many_arguments)]
+pub unsafe fn get_adjoint_derivative<M: Model>(
+    c: Fmi3Instance,
+    unknowns: *const Fmi3ValueReference,
+    n_unknowns: usize,
+    knowns: *const Fmi3ValueReference,
+    n_knowns: usize,
+    seed: *const Fmi3Float64,
+    n_seed: usize,
+    sensitivity: *mut Fmi3Float64,
+    n_sensitivity: usize,
+) -> Fmi3Status {
+    const F: &str = "fmi3GetAdjointDerivative";
+    simple::<M>(c, F, allowed::DIRECTIONAL_DERIVATIVE, |comp| {
+        let args = match derivative_args(
+            comp,
+            F,
+            unknowns,
+            n_unknowns,
+            knowns,
+            n_knowns,
+            seed,
+            n_seed,
+            sensitivity,
+            n_sensitivity,
+            true,
+        ) {
+            Ok(a) => a,
+            Err(s) => return s,
+        };
+        if let Some(v) = args.seed.iter().find(|v| !v.is_finite()) {
+            return comp
+                .instance
+                .error(F, format!("seed holds {v}, not a finite number"));
+        }
+        let mut column = vec![0.0; args.unknowns.len()];
+        let mut out = vec![0.0; args.knowns.len()];
+        for (o, &known) in out.iter_mut().zip(args.knowns) {
+            let s = comp.instance.get_directional_derivative(
+                args.unknowns,
+                &[known],
+                &[1.0],
+                &mut column,
+            );
+            if s != Status::Ok {
+                return s;
+            }
+            *o = column.iter().zip(args.seed).map(|(j, v)| j * v).sum();
+        }
+        args.sensitivity.copy_from_slice(&out);
+        Status::Ok
+    })
+}
+
+/// `fmi3SetFloat64` in Continuous-Time Mode: continuous inputs as the instance sets them, and
+/// continuous-time states as `fmi3SetContinuousStates` would (FMI 3.0.2 section 3.2.1 allows
+/// both). The states' values are checked (finite) before anything changes; the inputs are set
+/// first (the instance's checks refuse the call as a whole), then the states.
+pub(crate) fn set_float64_in_continuous_time_mode<M: Model>(
+    comp: &mut Component<M>,
+    func: &str,
+    vrs: &[Fmi3ValueReference],
+    vals: &[f64],
+) -> Status {
+    let Some(me) = M::model_exchange() else {
+        return comp
+            .instance
+            .set_values(func, fmi2_export::VarType::Real, vrs, vals);
+    };
+    let table = M::variables();
+    let state_of = |vr: Fmi3ValueReference| {
+        me.state_variables
+            .iter()
+            .position(|&(x, _)| table[x].value_reference == vr)
+    };
+    let mut updates = Vec::new();
+    let (mut input_vrs, mut input_vals) = (Vec::new(), Vec::new());
+    for (&vr, &v) in vrs.iter().zip(vals) {
+        match state_of(vr) {
+            Some(k) if !v.is_finite() => {
+                let name = table[me.state_variables[k].0].name;
+                return comp
+                    .instance
+                    .error(func, format!("state '{name}' = {v} is not finite"));
+            }
+            Some(k) => updates.push((k, v)),
+            None => {
+                input_vrs.push(vr);
+                input_vals.push(v);
+            }
+        }
+    }
+    if updates.is_empty() || !input_vrs.is_empty() {
+        let s = comp
+            .instance
+            .set_values(func, fmi2_export::VarType::Real, &input_vrs, &input_vals);
+        if s != Status::Ok || updates.is_empty() {
+            return s;
+        }
+    }
+    let mut x = vec![0.0; me.states];
+    let s = comp.instance.get_continuous_states(&mut x);
+    if s != Status::Ok {
+        return s;
+    }
+    for (k, v) in updates {
+        x[k] = v;
+    }
+    comp.instance.set_continuous_states(&x)
+}

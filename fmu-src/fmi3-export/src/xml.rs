@@ -32,6 +32,11 @@ type Ev<'a> = dyn FnMut(Event) + 'a;
 
 /// `<ModelExchange>` (FMI 3.0.2 section 3.3) for a model with Model Exchange.
 fn model_exchange<M: Model>(ev: &mut Ev) {
+    let jacobian = if M::model_exchange().is_some_and(|me| me.provides_jacobian) {
+        "true"
+    } else {
+        "false"
+    };
     let mut e = BytesStart::new("ModelExchange");
     for (k, v) in [
         ("modelIdentifier", M::NAME),
@@ -39,8 +44,8 @@ fn model_exchange<M: Model>(ev: &mut Ev) {
         ("canBeInstantiatedOnlyOncePerProcess", "false"),
         ("canGetAndSetFMUState", "true"),
         ("canSerializeFMUState", "true"),
-        ("providesDirectionalDerivatives", "false"),
-        ("providesAdjointDerivatives", "false"),
+        ("providesDirectionalDerivatives", jacobian),
+        ("providesAdjointDerivatives", jacobian),
         ("providesPerElementDependencies", "false"),
         ("needsCompletedIntegratorStep", "false"),
         ("providesEvaluateDiscreteStates", "false"),

@@ -767,7 +767,8 @@ pub fn run<S: GridModel + ?Sized>(
     };
 
     // --- 5. Final fit on the whole trace and the errors before/after.
-    let ending = finish(&ctx, data, &st0, (cur, &cur_full_r), [&nominal, &base_fit])?;
+    let mut ending = finish(&ctx, data, &st0, (cur, &cur_full_r), [&nominal, &base_fit])?;
+    noise::refine_after_final_fit(&mut ending.outputs, &ending.trace_outputs);
     ctx.pb.finish_and_clear();
     let est_s = t_est.elapsed().as_secs_f64();
     let initial_note = initial_estimated.map(|m| initial_state_note(&ctx, &m, &initial_idx));
@@ -823,11 +824,7 @@ fn run_warnings<S: GridModel + ?Sized>(
     warnings.extend(offset_warnings(&ending.outputs));
     warnings.extend(initial_note);
     warnings.extend(start_warning);
-    warnings.extend(noise::correlated_noise_note(
-        &ctx.rho,
-        ctx.sim.inner.output_names(),
-        &ctx.out_idx,
-    ));
+    warnings.extend(noise::correlated_noise_note(&ending.outputs));
     warnings.extend(far_from_data_warning(&ending.outputs));
     warnings.extend(ending.roughness.map(roughness_note));
     warnings
@@ -883,12 +880,7 @@ fn ctx_holdout(cfg: &Config) -> f64 {
 /// The noise level of each measured output, estimated from the data (`stats::noise_sigma`), kept
 /// above 1e-4 of its range so that a noiseless output does not get an infinite weight.
 fn noise_levels(meas: &[Vec<f64>]) -> Vec<f64> {
-    meas.iter()
-        .map(|y| {
-            let r = stats::range(y);
-            stats::noise_sigma(y).max(1e-4 * r).max(1e-12)
-        })
-        .collect()
+    meas.iter().map(|y| noise::difference_level(y)).collect()
 }
 
 /// A spinner on stderr when `Config::progress`, else a hidden bar.

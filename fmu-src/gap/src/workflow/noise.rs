@@ -16,7 +16,9 @@
 //! test on the innovations `(r_i − ρ r_{i−1}) / √(1 − ρ²)`, and, as before, the effective sample
 //! sizes of ΔBIC and the intervals.
 
+use super::{OutputErrors, OutputTrace};
 use crate::stats;
+use std::collections::BTreeMap;
 
 /// Smallest ρ taken as correlated noise: below it the correction to the level is under 13 %
 /// and the start test's variance inflation under 1.4 at 3 samples, and a smooth misfit of
@@ -101,19 +103,47 @@ pub(super) fn noise_fit(r: &[f64]) -> NoiseFit {
     }
 }
 
+/// The second-difference noise level of a measured output ([`stats::noise_sigma`]), kept above
+/// 1e-4 of its range so that a noiseless output does not get an infinite weight.
+pub(super) fn difference_level(y: &[f64]) -> f64 {
+    stats::noise_sigma(y).max(1e-4 * stats::range(y)).max(1e-12)
+}
+
+/// The noise model of every output again, from the final model's residual, for the report:
+/// with a missing effect in the record, the base residual held the effect's misfit, which can
+/// hide the noise's correlation or pass for it; the final model's residual shows the noise
+/// itself where the model is right. Only the report's noise levels and coefficients change
+/// (the errors as multiples of the noise, the disagreement); white noise leaves them as they
+/// were.
+pub(super) fn refine_after_final_fit(
+    outputs: &mut BTreeMap<String, OutputErrors>,
+    traces: &[OutputTrace],
+) {
+    for tr in traces {
+        let Some(o) = outputs.get_mut(&tr.name) else {
+            continue;
+        };
+        let level = difference_level(&tr.measured);
+        let r: Vec<f64> = tr
+            .measured
+            .iter()
+            .zip(&tr.final_fit)
+            .map(|(m, y)| (y - m) / level)
+            .collect();
+        let fit = noise_fit(&r);
+        o.noise_sigma = level * fit.level;
+        o.noise_ar1 = fit.rho;
+    }
+}
+
 /// The report's note on correlated noise (None when every output's noise is white): which
 /// outputs, their coefficients, what the statistics did about it, and, from
 /// [`LOW_INFORMATION_RHO`] on, that the record holds few effective samples.
-pub(super) fn correlated_noise_note(
-    rho: &[f64],
-    names: &[String],
-    out_idx: &[usize],
-) -> Option<String> {
-    let listed: Vec<String> = rho
+pub(super) fn correlated_noise_note(outputs: &BTreeMap<String, OutputErrors>) -> Option<String> {
+    let listed: Vec<String> = outputs
         .iter()
-        .zip(out_idx)
-        .filter(|(&p, _)| p > 0.0)
-        .map(|(p, &i)| format!("{} {p:.2}", names[i]))
+        .filter(|(_, o)| o.noise_ar1 > 0.0)
+        .map(|(n, o)| format!("{n} {:.2}", o.noise_ar1))
         .collect();
     if listed.is_empty() {
         return None;
@@ -124,7 +154,7 @@ pub(super) fn correlated_noise_note(
          correlation, and ΔBIC and the intervals use effective sample sizes.",
         listed.join(", ")
     );
-    let max = rho.iter().copied().fold(0.0, f64::max);
+    let max = outputs.values().map(|o| o.noise_ar1).fold(0.0, f64::max);
     if max >= LOW_INFORMATION_RHO {
         note += &format!(
             " At a coefficient of {max:.2} the record holds about {:.0} % of its samples' \

@@ -26,6 +26,8 @@ pub fn classify3(check: &str) -> &'static str {
         }
         "derivative" => "FMI 3.0.2 §2.4.7: derivative refers to a continuous Float state",
         "model-structure" | "outputs-listed" => "FMI 3.0.2 §2.4.8: ModelStructure",
+        "unit-declared" | "unique-units" => "FMI 3.0.2 §2.4.2: UnitDefinitions",
+        "declared-type" | "unique-types" => "FMI 3.0.2 §2.4.3: TypeDefinitions",
         "binary" | "binary-format" => {
             "FMI 3.0.2 §2.5: FMU distribution: binaries/<platformTuple>/<modelIdentifier>"
         }
@@ -98,9 +100,58 @@ pub fn check_model_description3(md: &ModelDescription3) -> Vec<Finding> {
             ));
         }
     }
+    check_units_and_types(md, &mut f);
     check_variables(md, &mut f);
     check_model_structure(md, &mut f);
     f
+}
+
+/// Units and type definitions: unique names; a `unit` names a `<Unit>` (FMI 3.0.2 section
+/// 2.4.2), a `declaredType` a type definition of the variable's type (section 2.4.3).
+fn check_units_and_types(md: &ModelDescription3, f: &mut Vec<Finding>) {
+    let mut units = HashMap::new();
+    for u in &md.units {
+        if let Some(first) = units.insert(u.name.as_str(), u.line) {
+            f.push(finding(
+                "unique-units",
+                format!("modelDescription.xml:{} (unit '{}')", u.line, u.name),
+                format!("unit '{}' is already defined on line {first}", u.name),
+            ));
+        }
+    }
+    let mut types = HashMap::new();
+    for t in &md.type_definitions {
+        let loc = format!("modelDescription.xml:{} (type '{}')", t.line, t.name);
+        if let Some(first) = types.insert(t.name.as_str(), t) {
+            let m = format!(
+                "type '{}' is already defined on line {}",
+                t.name, first.line
+            );
+            f.push(finding("unique-types", &loc, m));
+        }
+        if let Some(u) = t.unit.as_deref().filter(|u| !units.contains_key(u)) {
+            let m = format!("unit '{u}' is not defined in <UnitDefinitions>");
+            f.push(finding("unit-declared", &loc, m));
+        }
+    }
+    for v in &md.variables {
+        if let Some(u) = v.unit.as_deref().filter(|u| !units.contains_key(u)) {
+            let m = format!("unit '{u}' is not defined in <UnitDefinitions>");
+            f.push(finding("unit-declared", var_loc(v), m));
+        }
+        if let Some(name) = &v.declared_type {
+            let m = match types.get(name.as_str()) {
+                None => format!("declaredType '{name}' is not defined in <TypeDefinitions>"),
+                Some(t) if t.ty != v.ty => format!(
+                    "declaredType '{name}' is a {} type, the variable is {}",
+                    t.ty.as_str(),
+                    v.ty.as_str()
+                ),
+                Some(_) => continue,
+            };
+            f.push(finding("declared-type", var_loc(v), m));
+        }
+    }
 }
 
 /// The FMI 2.0 causality an FMI 3.0 one is judged as: FMI 3.0.2 section 2.4.7.4 gives a

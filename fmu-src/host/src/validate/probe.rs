@@ -410,6 +410,17 @@ fn me_normal_run(fmu: &Fmu, t0: f64) -> Result<(), String> {
     let mut inst = fmu.instantiate("probe").map_err(s)?;
     me_initialize(&mut inst, t0).map_err(s)?;
     let mut me = Fmi2Me::new(&mut inst).map_err(s)?;
+    me_sequence(&mut me, t0)?;
+    drop(me);
+    inst.terminate().map_err(s)?;
+    Ok(())
+}
+
+/// The Model Exchange sequence after initialization, whatever the FMI version: event iteration
+/// until no new discrete states are needed, Continuous-Time Mode, then 3 explicit Euler steps
+/// with finite derivatives and `completedIntegratorStep` where the FMU needs it.
+pub(super) fn me_sequence<M: ModelExchange>(me: &mut M, t0: f64) -> Result<(), String> {
+    let s = |e: HostError| e.to_string();
     let mut iterations = 0;
     while me
         .new_discrete_states()
@@ -418,7 +429,7 @@ fn me_normal_run(fmu: &Fmu, t0: f64) -> Result<(), String> {
     {
         iterations += 1;
         if iterations > 1000 {
-            return Err("fmi2NewDiscreteStates still needs iterations after 1000 calls".into());
+            return Err("the event iteration still needs iterations after 1000 calls".into());
         }
     }
     me.enter_continuous_time_mode().map_err(s)?;
@@ -443,8 +454,6 @@ fn me_normal_run(fmu: &Fmu, t0: f64) -> Result<(), String> {
             me.completed_integrator_step().map_err(s)?;
         }
     }
-    drop(me);
-    inst.terminate().map_err(s)?;
     Ok(())
 }
 
