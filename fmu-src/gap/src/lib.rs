@@ -76,9 +76,6 @@
 //! For a candidate the data cannot reveal at its weakest setting, or whose refit was inconclusive
 //! (0 < ΔBIC < 10), [`design`] proposes an experiment (an input signal
 //! within the inputs' ranges) under which it would show at the weakest setting of its range.
-// Host side: runs in the user's process, not inside an FMU; the FMUs' bit-determinism (the
-// workspace clippy.toml) does not bind it.
-#![allow(clippy::disallowed_methods)]
 
 pub mod design;
 pub mod fmu;

@@ -14,6 +14,7 @@
 //! Broyden updates between Jacobians (which save a simulation per parameter per iteration).
 
 use crate::sim::SimError;
+use crate::stats::sq;
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -59,7 +60,7 @@ impl Bounded {
     pub fn to_z(&self, p: f64) -> f64 {
         let p = p.clamp(self.lo, self.hi);
         match self.coord {
-            Coord::Log => p.ln(),
+            Coord::Log => libm::log(p),
             Coord::Linear(s) => p / s,
         }
     }
@@ -67,7 +68,7 @@ impl Bounded {
     /// Coordinate to physical value (clamped into the bounds).
     pub fn to_p(&self, z: f64) -> f64 {
         let p = match self.coord {
-            Coord::Log => z.exp(),
+            Coord::Log => libm::exp(z),
             Coord::Linear(s) => z * s,
         };
         p.clamp(self.lo, self.hi)
@@ -76,14 +77,14 @@ impl Bounded {
     /// dp/dz at z (for the delta method).
     pub fn dp_dz(&self, z: f64) -> f64 {
         match self.coord {
-            Coord::Log => z.exp(),
+            Coord::Log => libm::exp(z),
             Coord::Linear(s) => s,
         }
     }
 
     pub fn z_bounds(&self) -> (f64, f64) {
         match self.coord {
-            Coord::Log => (self.lo.ln(), self.hi.ln()),
+            Coord::Log => (libm::log(self.lo), libm::log(self.hi)),
             Coord::Linear(s) => (self.lo / s, self.hi / s),
         }
     }
@@ -199,7 +200,7 @@ pub fn residuals_at<P: Problem>(
 
 /// Sum of squares of the residuals `r` weighted row by row by `w`: `Σ (w_i r_i)²`.
 pub fn weighted_sse(r: &[f64], w: &[f64]) -> f64 {
-    r.iter().zip(w).map(|(r, w)| (w * r).powi(2)).sum()
+    r.iter().zip(w).map(|(r, w)| sq(w * r)).sum()
 }
 
 /// Forward-difference Jacobian d r / d z, columns in parallel. A step that would leave the bounds
@@ -376,7 +377,7 @@ pub fn roughness<P: Problem>(
                 return None;
             }
             let c: f64 = (0..r0.len())
-                .map(|i| (w[i] * (rp[i] + rm[i] - 2.0 * r0[i])).powi(2))
+                .map(|i| sq(w[i] * (rp[i] + rm[i] - 2.0 * r0[i])))
                 .sum();
             c.is_finite().then_some(0.5 * c)
         })
@@ -422,7 +423,7 @@ pub fn secant_jacobian<P: Problem>(
                 zz[j] = (z[j] + d).clamp(lo, hi);
                 let step = zz[j] - z[j];
                 if let Some(r) = residuals_at(problem, b, &zz, n).filter(|_| step != 0.0) {
-                    let c: f64 = (0..n).map(|i| (w[i] * (r[i] - r0[i])).powi(2)).sum();
+                    let c: f64 = (0..n).map(|i| sq(w[i] * (r[i] - r0[i]))).sum();
                     best = r.iter().zip(r0).map(|(a, c0)| (a - c0) / step).collect();
                     if c >= target {
                         break;
@@ -686,7 +687,7 @@ mod tests {
                 .t
                 .iter()
                 .zip(&self.y)
-                .map(|(t, y)| p[0] * (-p[1] * t).exp() + p[2] - y)
+                .map(|(t, y)| p[0] * libm::exp(-p[1] * t) + p[2] - y)
                 .collect())
         }
     }
@@ -703,7 +704,7 @@ mod tests {
     #[test]
     fn fits_an_exponential_decay_from_a_poor_start() {
         let t: Vec<f64> = (0..200).map(|i| i as f64 * 0.05).collect();
-        let y = t.iter().map(|t| 2.5 * (-1.3 * t).exp() + 0.4).collect();
+        let y = t.iter().map(|t| 2.5 * libm::exp(-1.3 * t) + 0.4).collect();
         let pr = Decay { t, y };
         let b = decay_bounds();
         assert_eq!(b[1].coord, Coord::Log);
@@ -732,7 +733,7 @@ mod tests {
         let y = t
             .iter()
             .enumerate()
-            .map(|(i, t)| 2.5 * (-1.3 * t).exp() + 0.4 + 0.01 * ((i * 7919) % 13) as f64)
+            .map(|(i, t)| 2.5 * libm::exp(-1.3 * t) + 0.4 + 0.01 * ((i * 7919) % 13) as f64)
             .collect();
         let pr = Decay { t, y };
         let b = decay_bounds();
@@ -759,7 +760,7 @@ mod tests {
     #[test]
     fn respects_bounds() {
         let t: Vec<f64> = (0..100).map(|i| i as f64 * 0.1).collect();
-        let y = t.iter().map(|t| 8.0 * (-0.5 * t).exp()).collect();
+        let y = t.iter().map(|t| 8.0 * libm::exp(-0.5 * t)).collect();
         let pr = Decay { t, y };
         let b = [
             Bounded::new(1.0, Some(0.0), Some(5.0)),
@@ -781,7 +782,7 @@ mod tests {
         // Data = decay + a step the model cannot follow: the best sum is about 200 * 0.25.
         let y: Vec<f64> = t
             .iter()
-            .map(|t| 2.5 * (-1.3 * t).exp() + 0.4 + if *t > 5.0 { 0.5 } else { 0.0 })
+            .map(|t| 2.5 * libm::exp(-1.3 * t) + 0.4 + if *t > 5.0 { 0.5 } else { 0.0 })
             .collect();
         let pr = Decay { t, y };
         let b = decay_bounds();
@@ -986,12 +987,12 @@ mod tests {
         );
         // 4 tanh²(p) rises to 3.84 at p = atanh(0.98) = 2.298, 4.60 standard errors (σ = 0.5);
         // the linearised end 1.96 σ rises only to 2.27.
-        let exact = 0.98_f64.atanh() / 0.5;
+        let exact = libm::atanh(0.98_f64) / 0.5;
         let (lo, hi) = ends(
             &Valley {
                 a: 2.0,
                 c: 0.0,
-                f: f64::tanh,
+                f: libm::tanh,
             },
             Z,
         );

@@ -2,6 +2,11 @@
 //! effective sample size, the Ljung–Box whiteness test, cross-correlation and the correlation
 //! ratio used to find the operating region where a residual lives.
 
+/// `x²` as a product (bit-identical to `powi(2)`, without the platform's libm in question).
+pub fn sq(x: f64) -> f64 {
+    x * x
+}
+
 /// Median of a slice (copied, NaN-free input assumed). Returns 0 for an empty slice.
 pub fn median(x: &[f64]) -> f64 {
     if x.is_empty() {
@@ -112,7 +117,7 @@ pub fn ljung_box(x: &[f64], h: usize) -> (f64, f64) {
     let n = x.len() as f64;
     let h = h.min(x.len().saturating_sub(2)).max(1);
     let q: f64 = (1..=h)
-        .map(|k| autocorr(x, k).powi(2) / (n - k as f64))
+        .map(|k| sq(autocorr(x, k)) / (n - k as f64))
         .sum::<f64>()
         * n
         * (n + 2.0);
@@ -143,7 +148,7 @@ fn ln_gamma(x: f64) -> f64 {
     ];
     if x < 0.5 {
         let pi = std::f64::consts::PI;
-        return (pi / (pi * x).sin()).ln() - ln_gamma(1.0 - x);
+        return libm::log(pi / libm::sin(pi * x)) - ln_gamma(1.0 - x);
     }
     let x = x - 1.0;
     let mut a = C[0];
@@ -151,7 +156,7 @@ fn ln_gamma(x: f64) -> f64 {
     for (i, c) in C.iter().enumerate().skip(1) {
         a += c / (x + i as f64);
     }
-    0.5 * (2.0 * std::f64::consts::PI).ln() + (x + 0.5) * t.ln() - t + a.ln()
+    0.5 * libm::log(2.0 * std::f64::consts::PI) + (x + 0.5) * libm::log(t) - t + libm::log(a)
 }
 
 fn gamma_q(a: f64, x: f64) -> f64 {
@@ -168,7 +173,7 @@ fn gamma_q(a: f64, x: f64) -> f64 {
                 break;
             }
         }
-        let p = sum * (-x + a * x.ln() - ln_gamma(a)).exp();
+        let p = sum * libm::exp(-x + a * libm::log(x) - ln_gamma(a));
         (1.0 - p).clamp(0.0, 1.0)
     } else {
         // continued fraction for Q(a, x) (modified Lentz)
@@ -195,7 +200,7 @@ fn gamma_q(a: f64, x: f64) -> f64 {
                 break;
             }
         }
-        ((-x + a * x.ln() - ln_gamma(a)).exp() * h).clamp(0.0, 1.0)
+        (libm::exp(-x + a * libm::log(x) - ln_gamma(a)) * h).clamp(0.0, 1.0)
     }
 }
 
@@ -208,8 +213,8 @@ pub fn max_cross_corr(r: &[f64], u: &[f64], max_lag: usize) -> (usize, f64) {
     }
     let mr = r[..n].iter().sum::<f64>() / n as f64;
     let mu = u[..n].iter().sum::<f64>() / n as f64;
-    let sr = r[..n].iter().map(|v| (v - mr).powi(2)).sum::<f64>().sqrt();
-    let su = u[..n].iter().map(|v| (v - mu).powi(2)).sum::<f64>().sqrt();
+    let sr = r[..n].iter().map(|v| sq(v - mr)).sum::<f64>().sqrt();
+    let su = u[..n].iter().map(|v| sq(v - mu)).sum::<f64>().sqrt();
     if sr <= 0.0 || su <= 0.0 {
         return (0, 0.0);
     }
@@ -261,7 +266,7 @@ pub fn region_bins(r: &[f64], v: &[f64], nbins: usize) -> (Vec<RegionBin>, f64) 
     bounds.push(n);
     bounds.dedup();
     let mean_all = r[..n].iter().sum::<f64>() / n as f64;
-    let total: f64 = r[..n].iter().map(|x| (x - mean_all).powi(2)).sum();
+    let total: f64 = r[..n].iter().map(|x| sq(x - mean_all)).sum();
     let mut between = 0.0;
     let mut bins = Vec::new();
     for w in bounds.windows(2) {
@@ -271,7 +276,7 @@ pub fn region_bins(r: &[f64], v: &[f64], nbins: usize) -> (Vec<RegionBin>, f64) 
         }
         let vals: Vec<f64> = idx[a..b].iter().map(|&i| r[i]).collect();
         let m = vals.iter().sum::<f64>() / vals.len() as f64;
-        between += vals.len() as f64 * (m - mean_all).powi(2);
+        between += vals.len() as f64 * sq(m - mean_all);
         bins.push(RegionBin {
             lo: v[idx[a]],
             hi: v[idx[b - 1]],
@@ -303,7 +308,7 @@ mod tests {
         (0..n)
             .map(|_| {
                 let (a, b) = (u(), u());
-                (-2.0 * a.ln()).sqrt() * (2.0 * std::f64::consts::PI * b).cos()
+                (-2.0 * libm::log(a)).sqrt() * libm::cos(2.0 * std::f64::consts::PI * b)
             })
             .collect()
     }
@@ -315,7 +320,7 @@ mod tests {
         assert!((chi2_sf(31.410_432_844_230_92, 20.0) - 0.05).abs() < 1e-9);
         assert!((chi2_sf(18.307_038_053_275_146, 10.0) - 0.05).abs() < 1e-9);
         // Q(1, x/2) for k = 2 is exp(−x/2).
-        assert!((chi2_sf(7.0, 2.0) - (-3.5f64).exp()).abs() < 1e-12);
+        assert!((chi2_sf(7.0, 2.0) - libm::exp(-3.5f64)).abs() < 1e-12);
     }
 
     #[test]
@@ -325,7 +330,7 @@ mod tests {
         let y: Vec<f64> = (0..n)
             .map(|i| {
                 let t = i as f64 * 1e-3;
-                3.0 * (2.0 * t).sin() + if t > 5.0 { 1.0 } else { 0.0 } + 0.02 * e[i]
+                3.0 * libm::sin(2.0 * t) + if t > 5.0 { 1.0 } else { 0.0 } + 0.02 * e[i]
             })
             .collect();
         let s = noise_sigma(&y);
@@ -363,7 +368,7 @@ mod tests {
     fn regions_separate_sign_of_a_variable() {
         let n = 4000;
         let e = gauss(3, n);
-        let v: Vec<f64> = (0..n).map(|i| (i as f64 * 0.01).sin()).collect();
+        let v: Vec<f64> = (0..n).map(|i| libm::sin(i as f64 * 0.01)).collect();
         let r: Vec<f64> = (0..n).map(|i| 0.5 * v[i].signum() + 0.1 * e[i]).collect();
         let (bins, eta2) = region_bins(&r, &v, 8);
         assert!(eta2 > 0.9, "eta2 {eta2}");

@@ -90,7 +90,7 @@ fn rhs(p: &[f64], u: f64, s: [f64; 3]) -> [f64; 3] {
     let [x, v, ue] = s;
     let uin = if p[LAG_ON] > 0.5 { ue } else { u };
     let ff = if p[FRICTION_ON] > 0.5 {
-        p[FRICTION_FC] * (v / 0.01).tanh()
+        p[FRICTION_FC] * libm::tanh(v / 0.01)
     } else {
         0.0
     };
@@ -161,7 +161,7 @@ impl Rng {
     }
     pub fn normal(&mut self) -> f64 {
         let (a, b) = (self.uniform(), self.uniform());
-        (-2.0 * a.ln()).sqrt() * (2.0 * std::f64::consts::PI * b).cos()
+        (-2.0 * libm::log(a)).sqrt() * libm::cos(2.0 * std::f64::consts::PI * b)
     }
 }
 
@@ -186,7 +186,7 @@ pub fn input(rng: &mut Rng, n: usize, dt: f64) -> Vec<f64> {
             level
                 + comps
                     .iter()
-                    .map(|(a, f, ph)| a * (f * t + ph).sin())
+                    .map(|(a, f, ph)| a * libm::sin(f * t + ph))
                     .sum::<f64>()
         })
         .collect()

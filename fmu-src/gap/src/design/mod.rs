@@ -313,7 +313,7 @@ fn plan(params: &[ParamSpec], outputs: &[String], cfg: &DesignConfig) -> Result<
         .collect();
     let needed = chosen
         .iter()
-        .map(|e| cfg.min_delta_bic + e.params.len() as f64 * ((n_train * k) as f64).ln())
+        .map(|e| cfg.min_delta_bic + e.params.len() as f64 * libm::log((n_train * k) as f64))
         .collect();
     let out_idx = cfg
         .outputs

@@ -73,7 +73,7 @@ fn triangle(ph: f64) -> f64 {
 }
 
 fn raised_cosine(ph: f64) -> f64 {
-    0.5 * (1.0 - (2.0 * PI * ph).cos())
+    0.5 * (1.0 - libm::cos(2.0 * PI * ph))
 }
 
 const WAVES: [(&str, Wave); 4] = [

@@ -288,7 +288,7 @@ mod tests {
 
     fn grid(n: usize) -> (Vec<f64>, Vec<f64>) {
         let t: Vec<f64> = (0..n).map(|i| i as f64 * 0.004).collect();
-        let y = t.iter().map(|t| (2.0 * t).sin() + 0.5).collect();
+        let y = t.iter().map(|t| libm::sin(2.0 * t) + 0.5).collect();
         (t, y)
     }
 
@@ -315,7 +315,7 @@ mod tests {
         let mut m = vec![y[0]; y.len()];
         for i in 1..y.len() {
             let h = t[i] - t[i - 1];
-            let a = (-h / tau).exp();
+            let a = libm::exp(-h / tau);
             let slope = (y[i] - y[i - 1]) / h;
             m[i] = y[i] - tau * slope + a * (m[i - 1] - y[i - 1] + tau * slope);
         }

@@ -217,9 +217,9 @@ mod tests {
     fn a_quadratic_profile_ends_where_it_reaches_the_level() {
         // Profile rise (k / 5)² (a standard error five times the linearised one): the end at
         // t = 1.96 is 9.8, reached exactly by the interpolation in k².
-        let held = |k: f64, _: &[f64]| Some(((k / 5.0).powi(2), Vec::new()));
+        let held = |k: f64, _: &[f64]| Some((crate::stats::sq(k / 5.0), Vec::new()));
         let k = move_out(
-            (1.96, (1.96f64 / 5.0).powi(2)),
+            (1.96, crate::stats::sq(1.96f64 / 5.0)),
             1.96,
             1e9,
             1.96,
@@ -253,7 +253,7 @@ mod tests {
         let seen = std::sync::Mutex::new(Vec::new());
         let held = |k: f64, from: &[f64]| {
             seen.lock().unwrap().push(from.to_vec());
-            Some(((k / 20.0).powi(2), vec![k]))
+            Some((crate::stats::sq(k / 20.0), vec![k]))
         };
         move_out((2.0, 0.01), 2.0, 1e9, 1.96, vec![-1.0], held);
         assert_eq!(

@@ -37,9 +37,9 @@ pub(super) fn delta_bic(r_small: &[f64], r_large: &[f64], k: usize, extra_params
     let gain: f64 = small
         .iter()
         .zip(&large)
-        .map(|(s, l)| l.1 * (s.0 / l.0).ln())
+        .map(|(s, l)| l.1 * libm::log(s.0 / l.0))
         .sum();
-    gain - extra_params as f64 * ne_total.ln()
+    gain - extra_params as f64 * libm::log(ne_total)
 }
 
 /// ΔBIC as [`delta_bic`] but with every sample counted as independent (N_eff = N): for ranking
@@ -57,9 +57,9 @@ pub(super) fn delta_bic_naive(
     let gain: f64 = small
         .iter()
         .zip(&large)
-        .map(|(s, l)| n * (s.0 / l.0).ln())
+        .map(|(s, l)| n * libm::log(s.0 / l.0))
         .sum();
-    gain - extra_params as f64 * (n * k as f64).ln()
+    gain - extra_params as f64 * libm::log(n * k as f64)
 }
 
 /// Row scaling that turns the weighted Jacobian into one whose (J̃ᵀJ̃)⁻¹ is the parameter
@@ -137,7 +137,7 @@ pub(super) fn covariance(x: &DMatrix<f64>, scale: &[f64], n: usize) -> Option<DM
         .map(|j| {
             let null: f64 = (0..p)
                 .filter(|&i| !keep[i])
-                .map(|i| v[(j, i)].powi(2))
+                .map(|i| crate::stats::sq(v[(j, i)]))
                 .sum();
             d[j] > 0.0 && null <= NULL_COMPONENT_TOL
         })
@@ -328,9 +328,9 @@ mod covariance_tests {
 
     fn design(n: usize) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
         let t: Vec<f64> = (0..n).map(|i| i as f64 / n as f64).collect();
-        let c1: Vec<f64> = t.iter().map(|t| (6.0 * t).sin()).collect();
-        let c3: Vec<f64> = t.iter().map(|t| t * t + 0.3 * (6.0 * t).sin()).collect();
-        let c4: Vec<f64> = t.iter().map(|t| (17.0 * t).cos() - 0.2 * t).collect();
+        let c1: Vec<f64> = t.iter().map(|t| libm::sin(6.0 * t)).collect();
+        let c3: Vec<f64> = t.iter().map(|t| t * t + 0.3 * libm::sin(6.0 * t)).collect();
+        let c4: Vec<f64> = t.iter().map(|t| libm::cos(17.0 * t) - 0.2 * t).collect();
         (c1, c3, c4)
     }
 

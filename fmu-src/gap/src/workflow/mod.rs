@@ -459,7 +459,7 @@ impl<S: GridModel + ?Sized> Ctx<'_, S> {
     fn visibility_needed(&self, e: usize) -> f64 {
         self.min_delta_bic
             + self.effects[e].params.len() as f64
-                * ((self.n_train * self.out_idx.len()) as f64).ln()
+                * libm::log((self.n_train * self.out_idx.len()) as f64)
     }
 
     /// Simulate and return the measured outputs only, first `n` samples.

@@ -176,6 +176,9 @@ pub(super) fn marginal_factor(rho: f64) -> f64 {
 
 /// Variance of the mean of `m` consecutive AR(1) samples relative to that of `m` independent
 /// ones: `1 + 2 Σ_{k=1}^{m−1} (1 − k/m) ρ^k` (e.g. Priestley 1981 §5.3).
+// `powi` is compiler-builtins' `__powidf2` (repeated squaring), not the platform's libm: the
+// same bits on every CPU and platform.
+#[allow(clippy::disallowed_methods)]
 pub(super) fn mean_variance_factor(rho: f64, m: usize) -> f64 {
     let r = rho.clamp(0.0, MAX_RHO);
     1.0 + 2.0
@@ -214,7 +217,7 @@ mod tests {
         (0..n)
             .map(|i| {
                 let (u1, u2) = (uniform(), uniform());
-                let w = (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos();
+                let w = (-2.0 * libm::log(u1)).sqrt() * libm::cos(std::f64::consts::TAU * u2);
                 e = if i == 0 { w } else { rho * e + c * w };
                 e
             })
@@ -251,7 +254,7 @@ mod tests {
         let e: Vec<f64> = ar1(1000, 0.0, 9)
             .iter()
             .enumerate()
-            .map(|(i, v)| v + 3.0 * (i as f64 / 250.0 * std::f64::consts::PI).sin())
+            .map(|(i, v)| v + 3.0 * libm::sin(i as f64 / 250.0 * std::f64::consts::PI))
             .collect();
         assert_eq!(noise_fit(&e).rho, 0.0);
     }

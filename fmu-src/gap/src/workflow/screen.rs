@@ -409,14 +409,14 @@ mod visibility_tests {
         // orthogonal to a constant and nearly so to the slope, so its chi-square is close to
         // n · 0.5² / 2 = 50, minus its small projection on the slope (computed in closed form).
         let w = 2.0 * std::f64::consts::PI * 4.0 / n as f64;
-        let s: Vec<f64> = (0..n).map(|i| 0.5 * (w * i as f64).sin()).collect();
+        let s: Vec<f64> = (0..n).map(|i| 0.5 * libm::sin(w * i as f64)).collect();
         let r_at: Vec<f64> = s.iter().map(|x| x + 1.0).collect();
         let t: Vec<f64> = (0..n).map(|i| i as f64 / (n - 1) as f64).collect();
         let tm = t.iter().sum::<f64>() / n as f64;
         let sm = s.iter().sum::<f64>() / n as f64;
-        let sxx: f64 = t.iter().map(|x| (x - tm).powi(2)).sum();
+        let sxx: f64 = t.iter().map(|x| crate::stats::sq(x - tm)).sum();
         let sxy: f64 = t.iter().zip(&s).map(|(x, y)| (x - tm) * (y - sm)).sum();
-        let syy: f64 = s.iter().map(|y| (y - sm).powi(2)).sum();
+        let syy: f64 = s.iter().map(|y| crate::stats::sq(y - sm)).sum();
         let expected = syy - sxy * sxy / sxx;
         let v = visibility(&jac, &r_cur, &r_at).unwrap();
         assert!(

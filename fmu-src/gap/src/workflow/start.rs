@@ -88,7 +88,10 @@ fn start_misses(r: &[f64], k: usize, n: usize, m: usize, rho: &[f64]) -> Vec<Sta
             // offset, does not widen it), for `z_rel`.
             let rest = &rj[m..];
             let rest_mean = rest.iter().sum::<f64>() / rest.len().max(1) as f64;
-            let spread = (rest.iter().map(|x| (x - rest_mean).powi(2)).sum::<f64>()
+            let spread = (rest
+                .iter()
+                .map(|x| crate::stats::sq(x - rest_mean))
+                .sum::<f64>()
                 / rest.len().max(1) as f64)
                 .sqrt();
             // The smaller of the two misses: a start that agrees, or one that only shares the
@@ -367,7 +370,7 @@ mod tests {
             ((s >> 11) as f64 + 0.5) / (1u64 << 53) as f64
         };
         (0..n)
-            .map(|_| (-2.0 * u().ln()).sqrt() * (std::f64::consts::TAU * u()).cos())
+            .map(|_| (-2.0 * libm::log(u())).sqrt() * libm::cos(std::f64::consts::TAU * u()))
             .collect()
     }
 
@@ -381,7 +384,7 @@ mod tests {
             *x += if i < START_SAMPLES {
                 8.0
             } else {
-                -41.0 + 20.0 * (i as f64 / 15.0).sin()
+                -41.0 + 20.0 * libm::sin(i as f64 / 15.0)
             };
         }
         let misses = start_misses(&far, 1, n, START_SAMPLES, &[]);
@@ -405,7 +408,7 @@ mod tests {
         // throughout (a sensor zero error).
         let mut r = noise(3 * n, 7);
         for i in 0..n {
-            r[n + i] += 25.0 * (-(i as f64) / 10.0).exp();
+            r[n + i] += 25.0 * libm::exp(-(i as f64) / 10.0);
             r[2 * n + i] += 30.0;
         }
         let m = start_miss(&r, 3, n, START_SAMPLES, &[]).unwrap();

@@ -129,13 +129,13 @@ mod text_tests {
             let n = 20000;
             (0..n)
                 .filter(|_| {
-                    let z = (-2.0 * u().ln()).sqrt() * (std::f64::consts::TAU * u()).cos();
-                    (v.sqrt() + z).powi(2) >= needed
+                    let z = (-2.0 * libm::log(u())).sqrt() * libm::cos(std::f64::consts::TAU * u());
+                    crate::stats::sq(v.sqrt() + z) >= needed
                 })
                 .count() as f64
                 / n as f64
         };
-        let edge = (needed.sqrt() + 1.644_853_6_f64).powi(2);
+        let edge = crate::stats::sq(needed.sqrt() + 1.644_853_6_f64);
         assert!((share(edge) - 0.95).abs() < 0.01, "{}", share(edge));
         assert!(reliably_visible(edge * 1.001, needed) && !reliably_visible(edge * 0.999, needed));
         // Just at the threshold an effect is named only about half the time.
