@@ -6,9 +6,7 @@
 //! enforced here: [`crate::validate`] reports them all as findings.
 
 use crate::error::HostError;
-use quick_xml::events::{BytesStart, Event};
-use quick_xml::Reader;
-use std::str::FromStr;
+use crate::xml::{parse_real, Ancestors, Attrs, Doc, Visitor};
 
 pub use fmi2_types::{Causality, Initial, VarKind, Variability};
 
@@ -271,7 +269,18 @@ pub struct ModelDescription {
 impl ModelDescription {
     /// Parses the text of a `modelDescription.xml`; `file` names it in errors.
     pub fn parse(xml: &str, file: &str) -> Result<Self, HostError> {
-        Parser::new(xml, file).run()
+        let doc = Doc::new(xml, file);
+        let mut p = Parser {
+            doc: &doc,
+            md: ModelDescription::default(),
+            current_var: None,
+            saw_root: false,
+        };
+        doc.walk(&mut p)?;
+        if !p.saw_root {
+            return Err(doc.err(1, "no <fmiModelDescription> root element"));
+        }
+        Ok(p.md)
     }
 
     /// The variable called `name`.
@@ -321,185 +330,27 @@ impl ModelDescription {
     }
 }
 
-/// Attributes of one element with the line of its tag.
-struct Attrs {
-    pairs: Vec<(String, String)>,
-    line: usize,
-    element: String,
-}
-
-impl Attrs {
-    fn get(&self, key: &str) -> Option<&str> {
-        self.pairs
-            .iter()
-            .find(|(k, _)| k == key)
-            .map(|(_, v)| v.as_str())
-    }
-}
-
 struct Parser<'a> {
-    xml: &'a str,
-    file: String,
+    doc: &'a Doc<'a>,
     md: ModelDescription,
     /// Kind of the open ScalarVariable's type element is filled when that element is seen.
     current_var: Option<ScalarVariable>,
     saw_root: bool,
-    /// Byte offsets of every `\n`.
-    newlines: Vec<usize>,
 }
 
-impl<'a> Parser<'a> {
-    fn new(xml: &'a str, file: &str) -> Self {
-        Parser {
-            xml,
-            file: file.to_string(),
-            md: ModelDescription::default(),
-            current_var: None,
-            saw_root: false,
-            newlines: xml
-                .bytes()
-                .enumerate()
-                .filter(|(_, b)| *b == b'\n')
-                .map(|(i, _)| i)
-                .collect(),
-        }
+impl Visitor for Parser<'_> {
+    fn element(&mut self, _doc: &Doc<'_>, path: Ancestors<'_>, a: Attrs) -> Result<(), HostError> {
+        self.open_element(path, a)
     }
 
-    fn err(&self, line: usize, message: impl Into<String>) -> HostError {
-        HostError::ModelDescription {
-            file: self.file.clone(),
-            line,
-            column: 0,
-            message: message.into(),
-        }
+    fn end(&mut self, path: Ancestors<'_>, name: &str) {
+        self.close_element(path, name)
     }
+}
 
-    /// Line of the first non-blank character at or after byte `pos` (the tag's `<`).
-    fn line_at(&self, pos: usize) -> usize {
-        let mut pos = pos.min(self.xml.len());
-        let bytes = self.xml.as_bytes();
-        while pos < bytes.len() && bytes[pos].is_ascii_whitespace() {
-            pos += 1;
-        }
-        self.line_col(pos).0
-    }
-
-    /// 1-based (line, column) of byte `pos` (binary search in the newline offsets).
-    fn line_col(&self, pos: usize) -> (usize, usize) {
-        let pos = pos.min(self.xml.len());
-        let k = self.newlines.partition_point(|&p| p < pos);
-        let line_start = if k == 0 { 0 } else { self.newlines[k - 1] + 1 };
-        (k + 1, pos - line_start + 1)
-    }
-
-    fn attrs(&self, e: &BytesStart<'_>, line: usize) -> Result<Attrs, HostError> {
-        let element = String::from_utf8_lossy(e.name().as_ref()).into_owned();
-        let mut pairs = Vec::new();
-        for a in e.attributes() {
-            let a =
-                a.map_err(|err| self.err(line, format!("<{element}>: bad attribute: {err}")))?;
-            let key = String::from_utf8_lossy(a.key.as_ref()).into_owned();
-            let value = a
-                .unescape_value()
-                .map_err(|err| self.err(line, format!("<{element}> {key}: {err}")))?
-                .into_owned();
-            pairs.push((key, value));
-        }
-        Ok(Attrs {
-            pairs,
-            line,
-            element,
-        })
-    }
-
-    fn parse_attr<T: FromStr>(
-        &self,
-        a: &Attrs,
-        key: &str,
-        what: &str,
-    ) -> Result<Option<T>, HostError> {
-        match a.get(key) {
-            None => Ok(None),
-            Some(s) => s.trim().parse::<T>().map(Some).map_err(|_| {
-                self.err(
-                    a.line,
-                    format!("<{}> attribute {key}=\"{s}\" is not {what}", a.element),
-                )
-            }),
-        }
-    }
-
-    fn real(&self, a: &Attrs, key: &str) -> Result<Option<f64>, HostError> {
-        self.parse_attr::<f64>(a, key, "a real number")
-    }
-
-    fn boolean(&self, a: &Attrs, key: &str) -> Result<Option<bool>, HostError> {
-        match a.get(key) {
-            None => Ok(None),
-            Some("true") | Some("1") => Ok(Some(true)),
-            Some("false") | Some("0") => Ok(Some(false)),
-            Some(s) => Err(self.err(
-                a.line,
-                format!("<{}> attribute {key}=\"{s}\" is not a boolean", a.element),
-            )),
-        }
-    }
-
-    fn required(&self, a: &Attrs, key: &str) -> Result<String, HostError> {
-        a.get(key).map(str::to_string).ok_or_else(|| {
-            self.err(
-                a.line,
-                format!("<{}> lacks the required attribute {key}", a.element),
-            )
-        })
-    }
-
-    fn run(mut self) -> Result<ModelDescription, HostError> {
-        let mut reader = Reader::from_str(self.xml);
-        reader.config_mut().trim_text(true);
-        let mut path: Vec<String> = Vec::new();
-        loop {
-            let pos = reader.buffer_position() as usize;
-            let event = reader.read_event().map_err(|e| {
-                let (line, column) = self.line_col(reader.error_position() as usize);
-                HostError::ModelDescription {
-                    file: self.file.clone(),
-                    line,
-                    column,
-                    message: format!("malformed XML: {e}"),
-                }
-            })?;
-            match event {
-                Event::Start(e) => {
-                    let line = self.line_at(pos);
-                    let a = self.attrs(&e, line)?;
-                    self.element(&path, a)?;
-                    path.push(String::from_utf8_lossy(e.name().as_ref()).into_owned());
-                }
-                Event::Empty(e) => {
-                    let line = self.line_at(pos);
-                    let a = self.attrs(&e, line)?;
-                    let name = a.element.clone();
-                    self.element(&path, a)?;
-                    self.end(&path, &name);
-                }
-                Event::End(e) => {
-                    let name = String::from_utf8_lossy(e.name().as_ref()).into_owned();
-                    path.pop();
-                    self.end(&path, &name);
-                }
-                Event::Eof => break,
-                _ => {}
-            }
-        }
-        if !self.saw_root {
-            return Err(self.err(1, "no <fmiModelDescription> root element"));
-        }
-        Ok(self.md)
-    }
-
+impl Parser<'_> {
     /// Called when the element `name` (child of `path`) closes.
-    fn end(&mut self, path: &[String], name: &str) {
+    fn close_element(&mut self, path: &[String], name: &str) {
         if name == "ScalarVariable" && path.last().map(String::as_str) == Some("ModelVariables") {
             if let Some(v) = self.current_var.take() {
                 self.md.model_variables.push(v);
@@ -507,29 +358,31 @@ impl<'a> Parser<'a> {
         }
     }
 
-    fn element(&mut self, path: &[String], a: Attrs) -> Result<(), HostError> {
+    fn open_element(&mut self, path: &[String], a: Attrs) -> Result<(), HostError> {
         let parent = path.last().map(String::as_str).unwrap_or("");
         let name = a.element.clone();
         match (parent, name.as_str()) {
             ("", "fmiModelDescription") => self.root(&a)?,
             ("", other) => {
-                return Err(self.err(
+                return Err(self.doc.err(
                     a.line,
                     format!("root element is <{other}>, expected <fmiModelDescription>"),
                 ))
             }
             ("fmiModelDescription", "CoSimulation") => self.co_simulation(&a)?,
             ("fmiModelDescription", "ModelExchange") => {
-                self.md.model_exchange = Some(self.required(&a, "modelIdentifier")?);
+                self.md.model_exchange = Some(self.doc.required(&a, "modelIdentifier")?);
                 self.md.me_provides_directional_derivative = self
+                    .doc
                     .boolean(&a, "providesDirectionalDerivative")?
                     .unwrap_or(false);
                 self.md.me_completed_integrator_step_not_needed = self
+                    .doc
                     .boolean(&a, "completedIntegratorStepNotNeeded")?
                     .unwrap_or(false);
             }
             ("UnitDefinitions", "Unit") => {
-                let name = self.required(&a, "name")?;
+                let name = self.doc.required(&a, "name")?;
                 self.md.unit_definitions.push(Unit {
                     name,
                     base_unit: None,
@@ -539,15 +392,15 @@ impl<'a> Parser<'a> {
             }
             ("Unit", "BaseUnit") => {
                 let mut b = BaseUnit {
-                    factor: self.real(&a, "factor")?.unwrap_or(1.0),
-                    offset: self.real(&a, "offset")?.unwrap_or(0.0),
+                    factor: self.doc.real(&a, "factor")?.unwrap_or(1.0),
+                    offset: self.doc.real(&a, "offset")?.unwrap_or(0.0),
                     ..Default::default()
                 };
                 for (i, k) in ["kg", "m", "s", "A", "K", "mol", "cd", "rad"]
                     .iter()
                     .enumerate()
                 {
-                    b.exponents[i] = self.parse_attr::<i32>(&a, k, "an integer")?.unwrap_or(0);
+                    b.exponents[i] = self.doc.parse::<i32>(&a, k, "an integer")?.unwrap_or(0);
                 }
                 if let Some(u) = self.md.unit_definitions.last_mut() {
                     u.base_unit = Some(b);
@@ -555,16 +408,16 @@ impl<'a> Parser<'a> {
             }
             ("Unit", "DisplayUnit") => {
                 let d = DisplayUnit {
-                    name: self.required(&a, "name")?,
-                    factor: self.real(&a, "factor")?.unwrap_or(1.0),
-                    offset: self.real(&a, "offset")?.unwrap_or(0.0),
+                    name: self.doc.required(&a, "name")?,
+                    factor: self.doc.real(&a, "factor")?.unwrap_or(1.0),
+                    offset: self.doc.real(&a, "offset")?.unwrap_or(0.0),
                 };
                 if let Some(u) = self.md.unit_definitions.last_mut() {
                     u.display_units.push(d);
                 }
             }
             ("TypeDefinitions", "SimpleType") => {
-                let name = self.required(&a, "name")?;
+                let name = self.doc.required(&a, "name")?;
                 self.md.type_definitions.push(SimpleType {
                     name,
                     kind: None,
@@ -577,12 +430,12 @@ impl<'a> Parser<'a> {
             }
             ("SimpleType", kind) => {
                 let kind = var_kind(kind).ok_or_else(|| {
-                    self.err(
+                    self.doc.err(
                         a.line,
                         format!("<SimpleType> has unknown type element <{kind}>"),
                     )
                 })?;
-                let (min, max) = (self.real(&a, "min")?, self.real(&a, "max")?);
+                let (min, max) = (self.doc.real(&a, "min")?, self.doc.real(&a, "max")?);
                 if let Some(t) = self.md.type_definitions.last_mut() {
                     t.kind = Some(kind);
                     t.unit = a.get("unit").map(str::to_string);
@@ -592,7 +445,7 @@ impl<'a> Parser<'a> {
                 }
             }
             ("LogCategories", "Category") => {
-                let name = self.required(&a, "name")?;
+                let name = self.doc.required(&a, "name")?;
                 self.md.log_categories.push(LogCategory {
                     name,
                     description: a.get("description").map(str::to_string),
@@ -600,10 +453,10 @@ impl<'a> Parser<'a> {
             }
             ("fmiModelDescription", "DefaultExperiment") => {
                 self.md.default_experiment = Some(DefaultExperiment {
-                    start_time: self.real(&a, "startTime")?,
-                    stop_time: self.real(&a, "stopTime")?,
-                    tolerance: self.real(&a, "tolerance")?,
-                    step_size: self.real(&a, "stepSize")?,
+                    start_time: self.doc.real(&a, "startTime")?,
+                    stop_time: self.doc.real(&a, "stopTime")?,
+                    tolerance: self.doc.real(&a, "tolerance")?,
+                    step_size: self.doc.real(&a, "stepSize")?,
                 });
             }
             ("ModelVariables", "ScalarVariable") => self.scalar_variable(&a)?,
@@ -638,14 +491,16 @@ impl<'a> Parser<'a> {
         md.generation_tool = a.get("generationTool").map(str::to_string);
         md.generation_date_and_time = a.get("generationDateAndTime").map(str::to_string);
         md.variable_naming_convention = a.get("variableNamingConvention").map(str::to_string);
-        let n = self.parse_attr::<u32>(a, "numberOfEventIndicators", "an unsigned integer")?;
+        let n = self
+            .doc
+            .parse::<u32>(a, "numberOfEventIndicators", "an unsigned integer")?;
         self.md.number_of_event_indicators = n;
         Ok(())
     }
 
     fn co_simulation(&mut self, a: &Attrs) -> Result<(), HostError> {
         let mut cs = CoSimulation {
-            model_identifier: self.required(a, "modelIdentifier")?,
+            model_identifier: self.doc.required(a, "modelIdentifier")?,
             ..Default::default()
         };
         let flags: [(&str, &mut bool); 9] = [
@@ -673,24 +528,25 @@ impl<'a> Parser<'a> {
         ];
         let mut given = Vec::new();
         for (key, slot) in flags {
-            if let Some(v) = self.boolean(a, key)? {
+            if let Some(v) = self.doc.boolean(a, key)? {
                 *slot = v;
                 given.push(key.to_string());
             }
         }
         cs.flags_given = given;
         cs.max_output_derivative_order = self
-            .parse_attr::<u32>(a, "maxOutputDerivativeOrder", "an unsigned integer")?
+            .doc
+            .parse::<u32>(a, "maxOutputDerivativeOrder", "an unsigned integer")?
             .unwrap_or(0);
         self.md.co_simulation = Some(cs);
         Ok(())
     }
 
     fn scalar_variable(&mut self, a: &Attrs) -> Result<(), HostError> {
-        let name = self.required(a, "name")?;
-        let vr = self.required(a, "valueReference")?;
+        let name = self.doc.required(a, "name")?;
+        let vr = self.doc.required(a, "valueReference")?;
         let value_reference = vr.trim().parse::<u32>().map_err(|_| {
-            self.err(
+            self.doc.err(
                 a.line,
                 format!(
                     "variable '{name}': valueReference=\"{vr}\" is not an unsigned 32-bit integer"
@@ -700,7 +556,7 @@ impl<'a> Parser<'a> {
         let causality = match a.get("causality") {
             None => Causality::Local,
             Some(o) => Causality::parse(o).ok_or_else(|| {
-                self.err(
+                self.doc.err(
                     a.line,
                     format!("variable '{name}': unknown causality \"{o}\""),
                 )
@@ -709,7 +565,7 @@ impl<'a> Parser<'a> {
         let variability = match a.get("variability") {
             None => Variability::Continuous,
             Some(o) => Variability::parse(o).ok_or_else(|| {
-                self.err(
+                self.doc.err(
                     a.line,
                     format!("variable '{name}': unknown variability \"{o}\""),
                 )
@@ -718,7 +574,7 @@ impl<'a> Parser<'a> {
         let initial = match a.get("initial") {
             None => None,
             Some(o) => Some(Initial::parse(o).ok_or_else(|| {
-                self.err(
+                self.doc.err(
                     a.line,
                     format!("variable '{name}': unknown initial \"{o}\""),
                 )
@@ -734,6 +590,7 @@ impl<'a> Parser<'a> {
             variability_given: a.get("variability").is_some(),
             initial,
             can_handle_multiple_set_per_time_instant: self
+                .doc
                 .boolean(a, "canHandleMultipleSetPerTimeInstant")?,
             kind: VarKind::Real,
             declared_type: None,
@@ -760,28 +617,28 @@ impl<'a> Parser<'a> {
         let start = match (kind, a.get("start")) {
             (_, None) => None,
             (VarKind::Real, Some(s)) => Some(StartValue::Real(parse_real(s).ok_or_else(|| {
-                self.err(
+                self.doc.err(
                     a.line,
                     format!("variable '{vname}': start=\"{s}\" is not a real number"),
                 )
             })?)),
             (VarKind::Integer | VarKind::Enumeration, Some(s)) => Some(StartValue::Integer(
                 s.trim().parse::<i64>().map_err(|_| {
-                    self.err(
+                    self.doc.err(
                         a.line,
                         format!("variable '{vname}': start=\"{s}\" is not an integer"),
                     )
                 })?,
             )),
             (VarKind::Boolean, Some(_)) => Some(StartValue::Boolean(
-                self.boolean(a, "start")?.unwrap_or(false),
+                self.doc.boolean(a, "start")?.unwrap_or(false),
             )),
             (VarKind::String, Some(s)) => Some(StartValue::String(s.to_string())),
         };
-        let min = self.real(a, "min")?;
-        let max = self.real(a, "max")?;
-        let nominal = self.real(a, "nominal")?;
-        let derivative = self.parse_attr::<usize>(a, "derivative", "an index")?;
+        let min = self.doc.real(a, "min")?;
+        let max = self.doc.real(a, "max")?;
+        let nominal = self.doc.real(a, "nominal")?;
+        let derivative = self.doc.parse::<usize>(a, "derivative", "an index")?;
         if let Some(v) = self.current_var.as_mut() {
             v.kind = kind;
             v.declared_type = a.get("declaredType").map(str::to_string);
@@ -799,15 +656,19 @@ impl<'a> Parser<'a> {
 
     fn unknown(&self, a: &Attrs) -> Result<Unknown, HostError> {
         let index = self
-            .parse_attr::<usize>(a, "index", "an index")?
-            .ok_or_else(|| self.err(a.line, "<Unknown> lacks the required attribute index"))?;
+            .doc
+            .parse::<usize>(a, "index", "an index")?
+            .ok_or_else(|| {
+                self.doc
+                    .err(a.line, "<Unknown> lacks the required attribute index")
+            })?;
         let dependencies = match a.get("dependencies") {
             None => None,
             Some(s) => Some(
                 s.split_whitespace()
                     .map(|t| {
                         t.parse::<usize>().map_err(|_| {
-                            self.err(
+                            self.doc.err(
                                 a.line,
                                 format!("<Unknown> dependencies entry \"{t}\" is not an index"),
                             )
@@ -830,16 +691,6 @@ impl<'a> Parser<'a> {
 
 fn var_kind(name: &str) -> Option<VarKind> {
     VarKind::parse(name)
-}
-
-/// Parses an xs:double (accepts INF, -INF, NaN as XML Schema writes them).
-fn parse_real(s: &str) -> Option<f64> {
-    match s.trim() {
-        "INF" => Some(f64::INFINITY),
-        "-INF" => Some(f64::NEG_INFINITY),
-        "NaN" => Some(f64::NAN),
-        t => t.parse::<f64>().ok(),
-    }
 }
 
 #[cfg(test)]
