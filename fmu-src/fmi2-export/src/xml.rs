@@ -35,6 +35,48 @@ fn used_units(vars: &[Variable]) -> Vec<&'static units::UnitDef> {
     names.into_iter().filter_map(units::lookup).collect()
 }
 
+/// `<UnitDefinitions>` with each unit's `<BaseUnit>` exponents and factor and its display units
+/// (the same element in FMI 2.0 and FMI 3.0).
+pub fn unit_definitions(ev: &mut dyn FnMut(Event), units: &[&units::UnitDef]) {
+    ev(Event::Start(BytesStart::new("UnitDefinitions")));
+    for u in units {
+        let mut e = BytesStart::new("Unit");
+        e.push_attribute(("name", u.name));
+        ev(Event::Start(e));
+        let mut b = BytesStart::new("BaseUnit");
+        let exps = [
+            ("kg", u.base.kg),
+            ("m", u.base.m),
+            ("s", u.base.s),
+            ("A", u.base.a),
+            ("K", u.base.k),
+            ("mol", u.base.mol),
+            ("cd", u.base.cd),
+            ("rad", u.base.rad),
+        ];
+        for (k, x) in exps {
+            if x != 0 {
+                b.push_attribute((k, x.to_string().as_str()));
+            }
+        }
+        if u.base.factor != 1.0 {
+            b.push_attribute(("factor", fmt_f64(u.base.factor).as_str()));
+        }
+        ev(Event::Empty(b));
+        for d in u.display {
+            let mut e = BytesStart::new("DisplayUnit");
+            e.push_attribute(("name", d.name));
+            e.push_attribute(("factor", fmt_f64(d.factor).as_str()));
+            if d.offset != 0.0 {
+                e.push_attribute(("offset", fmt_f64(d.offset).as_str()));
+            }
+            ev(Event::Empty(e));
+        }
+        ev(Event::End(BytesEnd::new("Unit")));
+    }
+    ev(Event::End(BytesEnd::new("UnitDefinitions")));
+}
+
 fn write_description<M: Model>(guid: &str) -> String {
     let mut w = Writer::new_with_indent(Vec::new(), b' ', 2);
     let vars = M::variables();
@@ -105,43 +147,7 @@ fn write_description<M: Model>(guid: &str) -> String {
 
     let units = used_units(vars);
     if !units.is_empty() {
-        ev(Event::Start(BytesStart::new("UnitDefinitions")));
-        for u in units {
-            let mut e = BytesStart::new("Unit");
-            e.push_attribute(("name", u.name));
-            ev(Event::Start(e));
-            let mut b = BytesStart::new("BaseUnit");
-            let exps = [
-                ("kg", u.base.kg),
-                ("m", u.base.m),
-                ("s", u.base.s),
-                ("A", u.base.a),
-                ("K", u.base.k),
-                ("mol", u.base.mol),
-                ("cd", u.base.cd),
-                ("rad", u.base.rad),
-            ];
-            for (k, x) in exps {
-                if x != 0 {
-                    b.push_attribute((k, x.to_string().as_str()));
-                }
-            }
-            if u.base.factor != 1.0 {
-                b.push_attribute(("factor", fmt_f64(u.base.factor).as_str()));
-            }
-            ev(Event::Empty(b));
-            for d in u.display {
-                let mut e = BytesStart::new("DisplayUnit");
-                e.push_attribute(("name", d.name));
-                e.push_attribute(("factor", fmt_f64(d.factor).as_str()));
-                if d.offset != 0.0 {
-                    e.push_attribute(("offset", fmt_f64(d.offset).as_str()));
-                }
-                ev(Event::Empty(e));
-            }
-            ev(Event::End(BytesEnd::new("Unit")));
-        }
-        ev(Event::End(BytesEnd::new("UnitDefinitions")));
+        unit_definitions(&mut ev, &units);
     }
 
     ev(Event::Start(BytesStart::new("LogCategories")));

@@ -6,7 +6,7 @@
 use crate::{EVENT_INDICATOR_VALUE_REFERENCE, TIME_VALUE_REFERENCE};
 use fmi2_export::instance::LOG_CATEGORIES;
 use fmi2_export::units;
-use fmi2_export::xml::{fmt_f64, guid};
+use fmi2_export::xml::{fmt_f64, guid, unit_definitions};
 use fmi2_export::{Causality, Initial, MeVTable, Model, VarType, Variable};
 use quick_xml::events::{BytesDecl, BytesEnd, BytesStart, Event};
 use quick_xml::Writer;
@@ -76,46 +76,6 @@ fn co_simulation<M: Model>(ev: &mut Ev) {
         cs.push_attribute((k, v));
     }
     ev(Event::Empty(cs));
-}
-
-fn unit_definitions(ev: &mut Ev, vars: &[Variable]) {
-    ev(Event::Start(BytesStart::new("UnitDefinitions")));
-    for u in used_units(vars) {
-        let mut e = BytesStart::new("Unit");
-        e.push_attribute(("name", u.name));
-        ev(Event::Start(e));
-        let mut b = BytesStart::new("BaseUnit");
-        let exps = [
-            ("kg", u.base.kg),
-            ("m", u.base.m),
-            ("s", u.base.s),
-            ("A", u.base.a),
-            ("K", u.base.k),
-            ("mol", u.base.mol),
-            ("cd", u.base.cd),
-            ("rad", u.base.rad),
-        ];
-        for (k, x) in exps {
-            if x != 0 {
-                b.push_attribute((k, x.to_string().as_str()));
-            }
-        }
-        if u.base.factor != 1.0 {
-            b.push_attribute(("factor", fmt_f64(u.base.factor).as_str()));
-        }
-        ev(Event::Empty(b));
-        for d in u.display {
-            let mut e = BytesStart::new("DisplayUnit");
-            e.push_attribute(("name", d.name));
-            e.push_attribute(("factor", fmt_f64(d.factor).as_str()));
-            if d.offset != 0.0 {
-                e.push_attribute(("offset", fmt_f64(d.offset).as_str()));
-            }
-            ev(Event::Empty(e));
-        }
-        ev(Event::End(BytesEnd::new("Unit")));
-    }
-    ev(Event::End(BytesEnd::new("UnitDefinitions")));
 }
 
 fn log_categories(ev: &mut Ev) {
@@ -314,7 +274,7 @@ pub fn model_description<M: Model>() -> String {
             model_exchange::<M>(&mut ev);
         }
         co_simulation::<M>(&mut ev);
-        unit_definitions(&mut ev, vars);
+        unit_definitions(&mut ev, &used_units(vars));
         log_categories(&mut ev);
         default_experiment::<M>(&mut ev);
         model_variables::<M>(&mut ev, vars);
