@@ -176,7 +176,8 @@ def test_a_derivative_of_a_non_state_is_found(tmp_path):
     fmu = vdp_copy(tmp_path, "bad-derivative",
                    md=lambda t: t.replace('<Real derivative="2"/>', '<Real derivative="6"/>'))
     found = findings_of(fmu)
-    assert [f["check"] for f in found] == ["derivative"], found
+    # the probe, taking mu for the state, may find what follows (derivatives that disagree)
+    assert [f["check"] for f in found if not f["check"].startswith("probe-")] == ["derivative"]
     assert "'der(x0)' is the derivative of 'mu'" in found[0]["message"], found
     assert "2.2.8" in found[0]["clause"], found
 
