@@ -618,6 +618,8 @@ impl JacobianCache {
             return Ok(());
         }
         self.valid = false;
+        // zeroed, as a fresh buffer would be: a model may write only its nonzero entries
+        self.jac.clear();
         self.jac.resize(me.states * me.states, 0.0);
         (me.state_jacobian)(model, vars, t, &mut self.jac)?;
         self.time = t.to_bits();
