@@ -26,14 +26,12 @@ pub fn classify3(check: &str) -> &'static str {
         }
         "derivative" => "FMI 3.0.2 §2.4.7: derivative refers to a continuous Float state",
         "model-structure" | "outputs-listed" => "FMI 3.0.2 §2.4.8: ModelStructure",
-        "unit-declared" | "unique-units" => "FMI 3.0.2 §2.4.2: UnitDefinitions",
-        "declared-type" | "unique-types" => "FMI 3.0.2 §2.4.3: TypeDefinitions",
+        "unit-declared" | "unique-units" => "FMI 3.0.2 §2.4.3: UnitDefinitions",
+        "declared-type" | "unique-types" => "FMI 3.0.2 §2.4.4: TypeDefinitions",
         "binary" | "binary-format" => {
             "FMI 3.0.2 §2.5: FMU distribution: binaries/<platformTuple>/<modelIdentifier>"
         }
-        "symbols" => {
-            "FMI 3.0.2 §2.3, §3.2, §4.2: the functions of every declared interface exported"
-        }
+        "symbols" => "FMI 3.0.2 §2.5: every function of fmi3Functions.h implemented",
         // schema-level variable attributes: names, value references, causality, variability,
         // initial, start
         _ => "FMI 3.0.2 §2.4.7: ModelVariables",
@@ -107,7 +105,7 @@ pub fn check_model_description3(md: &ModelDescription3) -> Vec<Finding> {
 }
 
 /// Units and type definitions: unique names; a `unit` names a `<Unit>` (FMI 3.0.2 section
-/// 2.4.2), a `declaredType` a type definition of the variable's type (section 2.4.3).
+/// 2.4.3), a `declaredType` a type definition of the variable's type (section 2.4.4).
 fn check_units_and_types(md: &ModelDescription3, f: &mut Vec<Finding>) {
     let mut units = HashMap::new();
     for u in &md.units {
@@ -506,20 +504,33 @@ pub const FMI3_SE_FUNCTIONS: [&str; 2] = [
     "fmi3ActivateModelPartition",
 ];
 
-/// The functions a binary of `id` must export: the common ones and those of every interface
-/// the description declares with that modelIdentifier.
-fn required_functions(md: &ModelDescription3, id: &str) -> Vec<&'static str> {
+/// Functions of optional capabilities (partial derivatives, Configuration Mode, clocks, the
+/// evaluation of discrete states: FMI 3.0.2 sections 2.2.8 and 2.2.12, 2.3.6 and 3.2).
+pub const FMI3_CAPABILITY_FUNCTIONS: [&str; 13] = [
+    "fmi3GetDirectionalDerivative",
+    "fmi3GetAdjointDerivative",
+    "fmi3EnterConfigurationMode",
+    "fmi3ExitConfigurationMode",
+    "fmi3GetIntervalDecimal",
+    "fmi3GetIntervalFraction",
+    "fmi3GetShiftDecimal",
+    "fmi3GetShiftFraction",
+    "fmi3SetIntervalDecimal",
+    "fmi3SetIntervalFraction",
+    "fmi3SetShiftDecimal",
+    "fmi3SetShiftFraction",
+    "fmi3EvaluateDiscreteStates",
+];
+
+/// The functions every FMI 3.0 binary must export: all of `fmi3Functions.h`, "even if they are
+/// only needed for interface types or optional capabilities that the FMU does not support"
+/// (FMI 3.0.2 section 2.5).
+fn required_functions() -> Vec<&'static str> {
     let mut need: Vec<&'static str> = crate::fmi3::ffi::FMI3_COMMON_FUNCTIONS.to_vec();
-    for (name, i) in interfaces(md) {
-        if i.model_identifier != id {
-            continue;
-        }
-        need.extend_from_slice(match name {
-            "ModelExchange" => &FMI3_ME_FUNCTIONS[..],
-            "CoSimulation" => &FMI3_CS_FUNCTIONS[..],
-            _ => &FMI3_SE_FUNCTIONS[..],
-        });
-    }
+    need.extend_from_slice(&FMI3_ME_FUNCTIONS);
+    need.extend_from_slice(&FMI3_CS_FUNCTIONS);
+    need.extend_from_slice(&FMI3_SE_FUNCTIONS);
+    need.extend_from_slice(&FMI3_CAPABILITY_FUNCTIONS);
     need.sort_unstable();
     need.dedup();
     need
@@ -599,7 +610,7 @@ pub fn check_platform_binaries3(
                 let m = format!("holds {held:?}, {tuple} needs an {arch} slice");
                 findings.push(finding("binary-format", &entry, m));
             }
-            let need = required_functions(md, id);
+            let need = required_functions();
             for slice in &info.slices {
                 let missing: Vec<&str> = need
                     .iter()
@@ -608,8 +619,8 @@ pub fn check_platform_binaries3(
                     .collect();
                 if !missing.is_empty() {
                     let m = format!(
-                        "the {} slice does not export {} FMI 3.0 function(s) its interfaces \
-                         need: {}",
+                        "the {} slice does not export {} of the functions of fmi3Functions.h, \
+                         which an FMU implements whatever interfaces it declares: {}",
                         slice.architecture,
                         missing.len(),
                         missing.join(", ")
@@ -621,4 +632,17 @@ pub fn check_platform_binaries3(
         }
     }
     (findings, binaries)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_function_of_the_header_is_required_once() {
+        // fmi3Functions.h of FMI 3.0.2 declares 75 functions
+        let need = required_functions();
+        assert_eq!(need.len(), 75);
+        assert!(need.iter().all(|f| f.starts_with("fmi3")));
+    }
 }
