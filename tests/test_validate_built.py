@@ -151,6 +151,23 @@ DESCRIPTION = {
                          'causality="local" variability="continuous"/>\n    <Float64 name="g"',
                          "variability-type", "a Int32 variable cannot be continuous", "§2.4.7"),
     "variable-name": ('name="e"', 'name=""', "variable-name", "empty variable name", "§2.4.7"),
+    # display units (FMI 3.0.2 section 2.4.3): names unique per unit, inverse only with offset 0,
+    # a displayUnit names a <DisplayUnit> of the variable's unit, which must be given
+    "display-unit-twice": ('<DisplayUnit name="cm" factor="100"/>',
+                           '<DisplayUnit name="cm" factor="100"/><DisplayUnit name="cm"/>',
+                           "display-unit", "display unit 'cm' of unit 'm' is already defined",
+                           "§2.4.3"),
+    "display-unit-inverse-offset": ('<DisplayUnit name="s/m" inverse="true"/>',
+                                    '<DisplayUnit name="s/m" inverse="true" offset="1"/>',
+                                    "display-unit", "inverse is only allowed with offset 0",
+                                    "§2.4.3"),
+    "display-unit-of-another-unit": ('displayUnit="cm"', 'displayUnit="km/h"',
+                                     "display-unit-declared",
+                                     "displayUnit 'km/h' is not a <DisplayUnit> of unit 'm'",
+                                     "§2.4.7.5"),
+    "display-unit-without-unit": ('name="e" valueReference="6"',
+                                  'name="e" valueReference="6" displayUnit="cm"',
+                                  "display-unit-declared", "given without a unit", "§2.4.7.5"),
 }
 
 

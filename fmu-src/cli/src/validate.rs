@@ -145,22 +145,29 @@ fn validate_fmi3(path: &Path, timeout: Duration, effects: bool) -> Result<Checke
     }
     let (binary_findings, binaries) = check_platform_binaries3(&unpacked.dir, &md);
     findings.extend(binary_findings);
-    // The runtime probes: FMUs the host runs, with a binary for this platform.
-    let runnable = [&md.co_simulation, &md.model_exchange]
-        .into_iter()
-        .flatten()
-        .any(|i| {
-            unpacked
-                .dir
-                .join("binaries")
-                .join(host::fmi3::PLATFORM_TUPLE)
-                .join(format!("{}.{}", i.model_identifier, host::LIB_SUFFIX))
-                .is_file()
-        })
-        && host::fmi3::unsupported(&md).is_none();
+    // The runtime probes: FMUs with a binary for this platform, run unless the host refuses
+    // them (clocks, Scheduled Execution only), which a note says.
+    let runnable = [
+        &md.co_simulation,
+        &md.model_exchange,
+        &md.scheduled_execution,
+    ]
+    .into_iter()
+    .flatten()
+    .any(|i| {
+        unpacked
+            .dir
+            .join("binaries")
+            .join(host::fmi3::PLATFORM_TUPLE)
+            .join(format!("{}.{}", i.model_identifier, host::LIB_SUFFIX))
+            .is_file()
+    });
+    let refused = host::fmi3::unsupported(&md);
     drop(unpacked);
-    if runnable {
-        findings.extend(run_probe(path, timeout, true)?);
+    match refused {
+        None if runnable => findings.extend(run_probe(path, timeout, true)?),
+        Some(reason) if runnable => findings.push(host::validate::fmi3::probe_not_run(&reason)),
+        _ => {}
     }
     Ok((findings, binaries))
 }
