@@ -243,3 +243,41 @@ def test_the_model_exchange_probe_runs_the_fmu(tmp_path):
     assert [f["check"] for f in found] == ["probe-normal-run"], found
     assert found[0]["location"] == "probe fmi3-me-normal-run", found
     assert "fmi3InstantiateModelExchange" in found[0]["message"], found
+
+
+# Clocks (FMI 3.0.2 section 2.4.7.4), broken in the Clocks fixture: (patch, fragment)
+CLOCK_CASES = {
+    "clocks-not-a-clock": (replace('valueReference="2001" causality="output" clocks="1001"',
+                                   'valueReference="2001" causality="output" clocks="2002"'),
+                           "clocks lists valueReference 2002, 'inClock2Ticks', a Int32 and "
+                           "not a Clock"),
+    "clocks-unknown": (replace('valueReference="2001" causality="output" clocks="1001"',
+                               'valueReference="2001" causality="output" clocks="9999"'),
+                       "clocks lists valueReference 9999, which is not a variable"),
+    "clock-variability": (replace('valueReference="1002" causality="input"',
+                                  'valueReference="1002" causality="input" variability="tunable"'),
+                          "a Clock has variability discrete, not tunable"),
+    "clocked-variability": (replace(
+        'valueReference="2001" causality="output" clocks="1001"',
+        'valueReference="2001" causality="output" variability="constant" start="0" '
+        'clocks="1001"'),
+        "a clocked variable has variability discrete or tunable, not constant"),
+}
+
+
+@pytest.mark.parametrize("case", CLOCK_CASES)
+def test_a_broken_clock_rule_is_found(case, tmp_path):
+    md, fragment = CLOCK_CASES[case]
+    found = findings(tmp_path, "Clocks", md=md)
+    hits = [f for f in found if f["check"] == "clocks" and fragment in f["message"]]
+    assert hits, found
+    assert hits[0]["clause"].startswith("FMI 3.0.2 §2.4.7.4"), hits
+
+
+def test_an_fmu_the_probe_does_not_run_gets_a_note():
+    # Clocks offers Scheduled Execution only: its description and binary are checked, the probe
+    # does not run it, and the report says so (a note: exit 0)
+    [r] = validate_json(REF3 / "Clocks.fmu")
+    assert r["findings"] == [], r
+    assert [n["check"] for n in r["notes"]] == ["probe-not-run"], r
+    assert "Scheduled Execution" in r["notes"][0]["message"], r

@@ -119,7 +119,7 @@ fn validate_one(path: &Path, timeout: Duration, effects: bool) -> Result<Checked
         .unwrap_or(false);
     drop(ex);
     if binary_present {
-        findings.extend(run_probe(path, timeout)?);
+        findings.extend(run_probe(path, timeout, false)?);
     }
     Ok((findings, binaries))
 }
@@ -145,22 +145,29 @@ fn validate_fmi3(path: &Path, timeout: Duration, effects: bool) -> Result<Checke
     }
     let (binary_findings, binaries) = check_platform_binaries3(&unpacked.dir, &md);
     findings.extend(binary_findings);
-    // The runtime probes: FMUs the host runs, with a binary for this platform.
-    let runnable = [&md.co_simulation, &md.model_exchange]
-        .into_iter()
-        .flatten()
-        .any(|i| {
-            unpacked
-                .dir
-                .join("binaries")
-                .join(host::fmi3::PLATFORM_TUPLE)
-                .join(format!("{}.{}", i.model_identifier, host::LIB_SUFFIX))
-                .is_file()
-        })
-        && host::fmi3::unsupported(&md).is_none();
+    // The runtime probes: FMUs with a binary for this platform, run unless the host refuses
+    // them (clocks, Scheduled Execution only), which a note says.
+    let runnable = [
+        &md.co_simulation,
+        &md.model_exchange,
+        &md.scheduled_execution,
+    ]
+    .into_iter()
+    .flatten()
+    .any(|i| {
+        unpacked
+            .dir
+            .join("binaries")
+            .join(host::fmi3::PLATFORM_TUPLE)
+            .join(format!("{}.{}", i.model_identifier, host::LIB_SUFFIX))
+            .is_file()
+    });
+    let refused = host::fmi3::unsupported(&md);
     drop(unpacked);
-    if runnable {
-        findings.extend(run_probe(path, timeout)?);
+    match refused {
+        None if runnable => findings.extend(run_probe(path, timeout, true)?),
+        Some(reason) if runnable => findings.push(host::validate::fmi3::probe_not_run(&reason)),
+        _ => {}
     }
     Ok((findings, binaries))
 }
@@ -171,12 +178,15 @@ fn description_error(path: &Path, e: HostError) -> Finding {
         HostError::ModelDescription { .. } => "model-description-xml",
         _ => "archive",
     };
-    Finding::new(check, path.display().to_string(), e.to_string())
+    let mut f = Finding::new(check, path.display().to_string(), e.to_string());
+    f.clause = host::validate::fmi3::classify3(check).to_string();
+    f
 }
 
 /// Runs the probe in child processes: a case that crashes becomes a finding and the probe is
-/// run again without it, so every case is reported.
-fn run_probe(path: &Path, timeout: Duration) -> Result<Vec<Finding>, CliError> {
+/// run again without it, so every case is reported. `fmi3`: the crash and timeout findings
+/// cite FMI 3.0.2 (every call returns a status) instead of FMI 2.0.4.
+fn run_probe(path: &Path, timeout: Duration, fmi3: bool) -> Result<Vec<Finding>, CliError> {
     let mut crashed: Vec<String> = Vec::new();
     let mut findings = Vec::new();
     loop {
@@ -185,7 +195,10 @@ fn run_probe(path: &Path, timeout: Duration) -> Result<Vec<Finding>, CliError> {
                 findings.extend(f);
                 return Ok(findings);
             }
-            ProbeOutcome::Crashed { step, finding } => {
+            ProbeOutcome::Crashed { step, mut finding } => {
+                if fmi3 {
+                    finding.clause = host::validate::probe3::clause3(&finding.check).to_string();
+                }
                 findings.push(finding);
                 let is_case = (host::validate::PROBE_CASES.contains(&step.as_str())
                     || host::validate::ME_PROBE_CASES.contains(&step.as_str())

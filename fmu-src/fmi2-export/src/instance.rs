@@ -202,8 +202,11 @@ pub struct Instance<M: Model> {
     pub(crate) me: Option<MeVTable<M>>,
     /// Model Exchange: time, states or inputs changed since the outputs were last computed.
     pub(crate) me_outputs_stale: bool,
-    /// Scratch for the states and derivatives written after each Co-Simulation step.
+    /// Scratch for the states and derivatives written after each Co-Simulation step, and for
+    /// the derivatives of `fmi2GetDerivatives` before they are checked.
     pub(crate) me_scratch: Vec<f64>,
+    /// Model Exchange: the state Jacobian of the current point, cleared at every change.
+    pub(crate) jacobian: crate::me_instance::JacobianCache,
     /// Outputs of the last good communication point, restored when a step fails.
     last_good: Vec<f64>,
     /// In initialization mode: outputs must be recomputed before they are read.
@@ -230,6 +233,7 @@ impl<M: Model> Instance<M> {
             me: M::model_exchange(),
             me_outputs_stale: false,
             me_scratch: vec![0.0; 2 * M::model_exchange().map_or(0, |me| me.states)],
+            jacobian: Default::default(),
             name: name.to_string(),
             state: MachineState::Instantiated,
             time: 0.0,
@@ -446,6 +450,7 @@ impl<M: Model> Instance<M> {
             Ok(()) => {
                 self.vars = vars;
                 self.model = model;
+                self.jacobian.clear();
                 self.init_outputs_stale = false;
                 Ok(())
             }
@@ -499,6 +504,7 @@ impl<M: Model> Instance<M> {
         self.vars = start_values::<M>();
         self.last_good.copy_from_slice(&self.vars);
         self.model = M::new();
+        self.jacobian.clear();
         self.time = 0.0;
         self.start_time = 0.0;
         self.stop_time = None;
@@ -646,6 +652,7 @@ impl<M: Model> Instance<M> {
         for (&i, &x) in indices.iter().zip(values) {
             self.vars[i] = value(x);
         }
+        self.jacobian.clear();
         if initialized {
             self.me_outputs_stale = self.interface == Interface::ModelExchange;
         } else {
@@ -729,6 +736,7 @@ impl<M: Model> Instance<M> {
                 );
             }
         }
+        self.jacobian.clear();
         match self.model.do_step(&mut self.vars, current, h) {
             Ok(()) => {
                 if let Some((i, v)) = M::variables()
@@ -794,6 +802,7 @@ impl<M: Model> Instance<M> {
         self.vars.copy_from_slice(&s.vars);
         self.last_good.copy_from_slice(&s.vars);
         self.model = s.model.clone();
+        self.jacobian.clear();
         self.init_outputs_stale = true;
         self.me_outputs_stale = self.interface == Interface::ModelExchange;
         self.event(format!("FMU state restored at t = {}", s.time));

@@ -93,6 +93,7 @@ impl<M: Model> Instance<M> {
         }
         self.time = t;
         self.me_outputs_stale = true;
+        self.jacobian.clear();
         Status::Ok
     }
 
@@ -112,6 +113,7 @@ impl<M: Model> Instance<M> {
         }
         (me.set_states)(&mut self.model, x);
         self.me_outputs_stale = true;
+        self.jacobian.clear();
         Status::Ok
     }
 
@@ -175,6 +177,7 @@ impl<M: Model> Instance<M> {
         self.model = model;
         self.vars = vars;
         self.me_outputs_stale = true;
+        self.jacobian.clear();
         let next = (me.next_time_event)(&self.model).filter(|t| t.is_finite());
         *info = EventInfo {
             new_discrete_states_needed: false,
@@ -217,17 +220,26 @@ impl<M: Model> Instance<M> {
         if let Err(s) = self.check_len(F, "nx", dx.len(), me.states) {
             return s;
         }
-        let mut out = vec![0.0; me.states];
-        if let Err(e) = (me.derivatives)(&self.model, &self.vars, self.time, &mut out) {
-            return self.error(F, format!("at t = {}: {e}", self.time));
-        }
-        if let Some(i) = out.iter().position(|v| !v.is_finite()) {
-            let name = M::variables()[me.state_variables[i].1].name;
-            let t = self.time;
-            return self.error(F, format!("'{name}' = {} at t = {t} is not finite", out[i]));
-        }
-        dx.copy_from_slice(&out);
-        Status::Ok
+        // Into the instance's scratch first (no allocation per call): `dx` is written only
+        // when every value is finite.
+        let mut out = std::mem::take(&mut self.me_scratch);
+        out.resize(me.states, 0.0);
+        let status = match (me.derivatives)(&self.model, &self.vars, self.time, &mut out) {
+            Err(e) => self.error(F, format!("at t = {}: {e}", self.time)),
+            Ok(()) => match out.iter().position(|v| !v.is_finite()) {
+                Some(i) => {
+                    let name = M::variables()[me.state_variables[i].1].name;
+                    let t = self.time;
+                    self.error(F, format!("'{name}' = {} at t = {t} is not finite", out[i]))
+                }
+                None => {
+                    dx.copy_from_slice(&out);
+                    Status::Ok
+                }
+            },
+        };
+        self.me_scratch = out;
+        status
     }
 
     /// `fmi2GetEventIndicators`.
@@ -306,9 +318,10 @@ impl<M: Model> Instance<M> {
         me: &MeVTable<M>,
         vrs: &[u32],
         known: bool,
-    ) -> Result<Vec<Role>, Status> {
+        roles: &mut Vec<Role>,
+    ) -> Result<(), Status> {
         let table = M::variables();
-        let mut roles = Vec::with_capacity(vrs.len());
+        roles.clear();
         for &vr in vrs {
             let Some(i) = crate::variables::index_of(table, vr) else {
                 return Err(self.error(func, format!("unknown value reference {vr}")));
@@ -339,7 +352,7 @@ impl<M: Model> Instance<M> {
                 }
             }
         }
-        Ok(roles)
+        Ok(())
     }
 
     /// The unknowns' values at the current time with the known `j` moved by `delta`.
@@ -388,11 +401,77 @@ impl<M: Model> Instance<M> {
         CENTRAL_STEP * value.abs().max(scale)
     }
 
+    /// The model's state Jacobian at the current time, states and variable values: the cached
+    /// one when it was computed at exactly these (bit for bit) and nothing changed the model
+    /// since ([`JacobianCache`]), else computed now and cached. `Err` holds the model's message.
+    fn state_jacobian(&mut self, me: &MeVTable<M>) -> Result<(), crate::ModelError> {
+        self.jacobian.ensure(me, &self.model, &self.vars, self.time)
+    }
+
+    /// The roles of the unknowns into `scratch.unknown_roles`: kept from the last call when it
+    /// named the same value references (the table is static, so a role never changes).
+    fn unknown_roles(
+        &mut self,
+        func: &str,
+        me: &MeVTable<M>,
+        unknowns: &[u32],
+        scratch: &mut Scratch,
+    ) -> Result<(), Status> {
+        if scratch.unknowns == unknowns {
+            return Ok(());
+        }
+        scratch.unknowns.clear();
+        let result = self.roles(func, me, unknowns, false, &mut scratch.unknown_roles);
+        if result.is_ok() {
+            scratch.unknowns.extend_from_slice(unknowns);
+        }
+        result
+    }
+
+    /// `out = J dv` (see [`Instance::get_directional_derivative`]) with the state Jacobian (when
+    /// needed) already in `self.jacobian`.
+    fn directional(
+        &self,
+        me: &MeVTable<M>,
+        u_roles: &[Role],
+        k_roles: &[Role],
+        dv: &[f64],
+        out: &mut [f64],
+    ) -> Result<(), crate::ModelError> {
+        let n = me.states;
+        let jac = &self.jacobian.jac;
+        out.fill(0.0);
+        for (&known, &v) in k_roles.iter().zip(dv) {
+            if v == 0.0 {
+                continue;
+            }
+            let analytic = |u: &Role| match (*u, known) {
+                (Role::State(i), Role::State(j)) => Some(jac[i * n + j]),
+                _ => None,
+            };
+            if u_roles.iter().all(|u| analytic(u).is_some()) {
+                for (o, u) in out.iter_mut().zip(u_roles) {
+                    *o += analytic(u).unwrap_or(0.0) * v;
+                }
+                continue;
+            }
+            let h = self.central_step(me, known);
+            let hi = self.unknowns_at(me, u_roles, known, h)?;
+            let lo = self.unknowns_at(me, u_roles, known, -h)?;
+            for ((o, u), (a, b)) in out.iter_mut().zip(u_roles).zip(hi.iter().zip(&lo)) {
+                *o += analytic(u).unwrap_or((a - b) / (2.0 * h)) * v;
+            }
+        }
+        Ok(())
+    }
+
     /// `fmi2GetDirectionalDerivative` (Model Exchange): `dz = J dv` for the unknowns
     /// (derivatives, outputs) with respect to the knowns (states, inputs) at the current time,
     /// states and inputs. Derivatives with respect to states come from the model's analytic
-    /// Jacobian; every other entry is a central difference of the model's equations (step
-    /// [`CENTRAL_STEP`] times the known's magnitude or nominal). Nothing changes.
+    /// Jacobian, computed once per point ([`JacobianCache`]: an importer asking one column per
+    /// call pays for one Jacobian, not one per column); every other entry is a central
+    /// difference of the model's equations (step [`CENTRAL_STEP`] times the known's magnitude
+    /// or nominal). Nothing observable changes; `dz` is written only on success.
     pub fn get_directional_derivative(
         &mut self,
         unknowns: &[u32],
@@ -417,60 +496,137 @@ impl<M: Model> Instance<M> {
         if let Some(v) = dv.iter().find(|v| !v.is_finite()) {
             return self.error(F, format!("dvKnown holds {v}, not a finite number"));
         }
-        let (u_roles, k_roles) = match (
-            self.roles(F, &me, unknowns, false),
-            self.roles(F, &me, knowns, true),
-        ) {
-            (Ok(u), Ok(k)) => (u, k),
-            (Err(s), _) | (_, Err(s)) => return s,
-        };
+        // The buffers are reused from call to call (no allocation per call).
+        let mut scratch = std::mem::take(&mut self.jacobian.scratch);
+        let status = self.directional_with(F, &me, (unknowns, knowns, dv, dz), &mut scratch);
+        self.jacobian.scratch = scratch;
+        status
+    }
+
+    /// The body of [`Instance::get_directional_derivative`] after its checks of the state and
+    /// the seed.
+    fn directional_with(
+        &mut self,
+        func: &str,
+        me: &MeVTable<M>,
+        (unknowns, knowns, dv, dz): (&[u32], &[u32], &[f64], &mut [f64]),
+        scratch: &mut Scratch,
+    ) -> Status {
+        if let Err(s) = self.unknown_roles(func, me, unknowns, scratch) {
+            return s;
+        }
+        if let Err(s) = self.roles(func, me, knowns, true, &mut scratch.known_roles) {
+            return s;
+        }
+        let (u_roles, k_roles) = (&scratch.unknown_roles, &scratch.known_roles);
         self.refresh_me_outputs();
-        let n = me.states;
-        let mut jac = Vec::new();
         if k_roles.iter().any(|k| matches!(k, Role::State(_)))
             && u_roles.iter().any(|u| matches!(u, Role::State(_)))
         {
-            jac = vec![0.0; n * n];
-            if let Err(e) = (me.state_jacobian)(&self.model, &self.vars, self.time, &mut jac) {
-                return self.error(F, format!("at t = {}: {e}", self.time));
+            if let Err(e) = self.state_jacobian(me) {
+                return self.error(func, format!("at t = {}: {e}", self.time));
             }
         }
-        let mut out = vec![0.0; u_roles.len()];
-        for (&known, &v) in k_roles.iter().zip(dv) {
-            if v == 0.0 {
-                continue;
-            }
-            let analytic = |u: &Role| match (*u, known) {
-                (Role::State(i), Role::State(j)) => Some(jac[i * n + j]),
-                _ => None,
-            };
-            let column: Vec<f64> = if u_roles.iter().all(|u| analytic(u).is_some()) {
-                u_roles.iter().filter_map(analytic).collect()
-            } else {
-                let h = self.central_step(&me, known);
-                let difference = self
-                    .unknowns_at(&me, &u_roles, known, h)
-                    .and_then(|hi| Ok((hi, self.unknowns_at(&me, &u_roles, known, -h)?)));
-                match difference {
-                    Ok((hi, lo)) => u_roles
-                        .iter()
-                        .zip(hi.iter().zip(&lo))
-                        .map(|(u, (a, b))| analytic(u).unwrap_or((a - b) / (2.0 * h)))
-                        .collect(),
-                    Err(e) => return self.error(F, format!("at t = {}: {e}", self.time)),
-                }
-            };
-            for (o, c) in out.iter_mut().zip(column) {
-                *o += c * v;
-            }
+        scratch.out.resize(u_roles.len(), 0.0);
+        if let Err(e) = self.directional(me, u_roles, k_roles, dv, &mut scratch.out) {
+            return self.error(func, format!("at t = {}: {e}", self.time));
         }
-        if let Some(i) = out.iter().position(|v| !v.is_finite()) {
+        if let Some(i) = scratch.out.iter().position(|v| !v.is_finite()) {
             return self.error(
-                F,
+                func,
                 format!("the derivative of unknown {} is not finite", unknowns[i]),
             );
         }
-        dz.copy_from_slice(&out);
+        dz.copy_from_slice(&scratch.out);
         Status::Ok
+    }
+}
+
+/// The model's state Jacobian at one point, so that the `STATES` directional derivatives an
+/// importer asks for one Jacobian (one unit seed per state, FMI 2.0.4 section 3.2.1 and FMI
+/// 3.0.2 section 3.2.4 both take one seed vector per call) cost one evaluation of
+/// [`crate::ModelExchange::state_jacobian`] instead of `STATES`.
+///
+/// It can never be stale: a lookup hits only when the time, every continuous state and every
+/// variable value are bit for bit those the Jacobian was computed at, and the instance
+/// [`clear`](JacobianCache::clear)s it at every change of the model's hidden (discrete) state
+/// besides: set time, states and values, event updates, initialization, reset, tuning, steps
+/// and FMU-state restores. The Jacobian is a pure function of `(model, vars, t)` (the trait's
+/// contract), so a hit returns the very bits a new evaluation would.
+#[derive(Clone, Debug, Default)]
+pub struct JacobianCache {
+    /// Whether `jac` holds the Jacobian at the key below.
+    valid: bool,
+    /// The key: time (bits), states, variable values.
+    time: u64,
+    states: Vec<f64>,
+    vars: Vec<f64>,
+    /// Row-major `STATES x STATES`.
+    jac: Vec<f64>,
+    /// Scratch for the current states.
+    x: Vec<f64>,
+    /// Buffers of [`Instance::get_directional_derivative`] (not part of the key).
+    scratch: Scratch,
+}
+
+/// Buffers reused by every directional derivative call.
+#[derive(Clone, Debug, Default)]
+struct Scratch {
+    /// The last unknowns' value references and their roles (static: a role never changes).
+    unknowns: Vec<u32>,
+    unknown_roles: Vec<Role>,
+    known_roles: Vec<Role>,
+    /// `dz` before it is checked.
+    out: Vec<f64>,
+}
+
+/// Bitwise equality of two slices (`0.0` and `-0.0` differ; a NaN equals its own bits): their
+/// bytes compared (`memcmp`), as this runs at every directional derivative call.
+fn same_bits(a: &[f64], b: &[f64]) -> bool {
+    a.len() == b.len() && bytes(a) == bytes(b)
+}
+
+/// The bytes of `v` in memory.
+fn bytes(v: &[f64]) -> &[u8] {
+    // SAFETY: an f64 is 8 initialized bytes without padding, u8 has alignment 1, and the
+    // returned slice borrows `v` for its whole length in bytes.
+    unsafe { std::slice::from_raw_parts(v.as_ptr().cast::<u8>(), std::mem::size_of_val(v)) }
+}
+
+impl JacobianCache {
+    /// Forget the Jacobian: the model changed.
+    pub fn clear(&mut self) {
+        self.valid = false;
+    }
+
+    /// Make `jac` the state Jacobian of `model` at `(vars, t)`; computed only on a miss. On
+    /// failure the cache is left empty.
+    fn ensure<M>(
+        &mut self,
+        me: &MeVTable<M>,
+        model: &M,
+        vars: &[f64],
+        t: f64,
+    ) -> Result<(), crate::ModelError> {
+        self.x.resize(me.states, 0.0);
+        (me.get_states)(model, &mut self.x);
+        if self.valid
+            && self.time == t.to_bits()
+            && same_bits(&self.x, &self.states)
+            && same_bits(vars, &self.vars)
+        {
+            return Ok(());
+        }
+        self.valid = false;
+        // zeroed, as a fresh buffer would be: a model may write only its nonzero entries
+        self.jac.clear();
+        self.jac.resize(me.states * me.states, 0.0);
+        (me.state_jacobian)(model, vars, t, &mut self.jac)?;
+        self.time = t.to_bits();
+        self.states.clone_from(&self.x);
+        self.vars.clear();
+        self.vars.extend_from_slice(vars);
+        self.valid = true;
+        Ok(())
     }
 }

@@ -364,7 +364,9 @@ pub unsafe fn get_directional_derivative<M: Model>(
 
 /// `fmi3GetAdjointDerivative` (Model Exchange): `sensitivity = seed^T J`, FMI 3.0.2 section
 /// 3.2.4, one column `J e_j` of the same directional derivative per known `j`:
-/// `sensitivity_j = sum_i seed_i J_ij`. Nothing is written unless every column succeeds.
+/// `sensitivity_j = sum_i seed_i J_ij` (the instance evaluates the model's state Jacobian once
+/// for all columns and keeps it while the point does not change). Nothing is written unless
+/// every column succeeds.
 #[allow(clippy::too_many_arguments)]
 pub unsafe fn get_adjoint_derivative<M: Model>(
     c: Fmi3Instance,

@@ -172,19 +172,21 @@ impl HydraulicJoint {
         }
     }
 
-    /// Positions `(plant, state vector)` of the plant states present with the current effects.
-    fn state_map(&self) -> Vec<(usize, usize)> {
-        let Some((_, d)) = &self.params else {
-            return Vec::new();
+    /// Positions `(plant, state vector)` of the plant states present with the current effects
+    /// (an iterator: the derivatives and states are asked for at every point, no allocation).
+    fn state_map(&self) -> impl Iterator<Item = (usize, usize)> {
+        let (base, spool_states, memory) = match &self.params {
+            Some((_, d)) => (VSUP, if d.spool { 4 } else { 0 }, d.mem),
+            None => (0, 0, None),
         };
-        let mut map: Vec<(usize, usize)> = (0..VSUP).map(|i| (i, i)).collect();
-        if d.spool {
-            map.extend((0..4).map(|i| (spool(0) + i, X_SPOOL + i)));
-        }
-        if let Some(m) = d.mem {
-            map.extend((0..2).map(|i| (m + i, X_MEMORY + i)));
-        }
-        map
+        (0..base)
+            .map(|i| (i, i))
+            .chain((0..spool_states).map(|i| (spool(0) + i, X_SPOOL + i)))
+            .chain(
+                memory
+                    .into_iter()
+                    .flat_map(|m| (0..2).map(move |i| (m + i, X_MEMORY + i))),
+            )
     }
 
     /// The controller's sample clock (`None` open loop or before initialization).
@@ -293,11 +295,10 @@ impl ModelExchange for HydraulicJoint {
                 "the plant has no analytic Jacobian",
             ));
         }
-        let mut map = self.state_map();
-        map.extend([(VSUP, VSUP), (VRET, VRET)]);
+        let map = || self.state_map().chain([(VSUP, VSUP), (VRET, VRET)]);
         jac.fill(0.0);
-        for &(pi, xi) in &map {
-            for &(pj, xj) in &map {
+        for (pi, xi) in map() {
+            for (pj, xj) in map() {
                 jac[xi * STATES + xj] = full[(pi, pj)];
             }
         }

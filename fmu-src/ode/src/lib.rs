@@ -665,7 +665,9 @@ fn all_finite(v: &[f64]) -> bool {
 }
 
 /// Call `f(a, n, b...)` with `n` a compile-time constant for the small dimensions of the actuator
-/// models (fully unrolled loops without remainder handling), otherwise with the runtime `n`.
+/// models (fully unrolled loops without remainder handling), otherwise with the runtime `n`. Up
+/// to 18: the largest state vector of a model, HydraulicJoint's in Model Exchange, which the
+/// host integrates. The constant changes no operation or its order, only the code around them.
 macro_rules! specialise {
     ($n:expr, $f:ident($a:expr $(, $rest:expr)*)) => {
         match $n {
@@ -682,6 +684,8 @@ macro_rules! specialise {
             14 => $f($a, 14 $(, $rest)*),
             15 => $f($a, 15 $(, $rest)*),
             16 => $f($a, 16 $(, $rest)*),
+            17 => $f($a, 17 $(, $rest)*),
+            18 => $f($a, 18 $(, $rest)*),
             n => $f($a, n $(, $rest)*),
         }
     };

@@ -4,6 +4,10 @@
  * fmi2ExitInitializationMode, or after fmi2Terminate/fmi2Reset): a crash on a wrong call order.
  * With -DFAIL_AT=T it also crashes (or, with -DHANG, never returns) in any fmi2DoStep starting at
  * t >= T: a foreign FMU failing in the middle of a correct run.
+ * Model Exchange rules broken on purpose (tests/test_conformance_validate.py): -DWRONG_DIRECTIONAL
+ * doubles every directional derivative, -DNO_VALUES_CHANGED reports
+ * valuesOfContinuousStatesChanged = false from fmi2NewDiscreteStates, -DLENIENT_ME answers
+ * fmi2GetDerivatives before initialization with zeros and fmi2OK.
  * Build: gcc -shared -fPIC -DMODEL_ID=\"Oscillator\" -o Oscillator.so crash_shim.c -ldl */
 #define _GNU_SOURCE
 #include <dlfcn.h>
@@ -74,7 +78,19 @@ FWD(S, fmi2FreeFMUstate, (C c, void **s), (c, s))
 FWD(S, fmi2SerializedFMUstateSize, (C c, void *s, size_t *n), (c, s, n))
 FWD(S, fmi2SerializeFMUstate, (C c, void *s, char *b, size_t n), (c, s, b, n))
 FWD(S, fmi2DeSerializeFMUstate, (C c, const char *b, size_t n, void **s), (c, b, n, s))
+#ifndef WRONG_DIRECTIONAL
 FWD(S, fmi2GetDirectionalDerivative, (C c, const VR *a, size_t b, const VR *d, size_t e, const double *f, double *g), (c, a, b, d, e, f, g))
+#else
+/* -DWRONG_DIRECTIONAL: every directional derivative twice the real one */
+S fmi2GetDirectionalDerivative(C c, const VR *a, size_t b, const VR *d, size_t e, const double *f,
+                               double *g) {
+    static S (*fp)(C, const VR *, size_t, const VR *, size_t, const double *, double *);
+    if (!fp) *(void **)&fp = dlsym(real(), "fmi2GetDirectionalDerivative");
+    S st = fp(c, a, b, d, e, f, g);
+    for (size_t i = 0; i < b; i++) g[i] *= 2;
+    return st;
+}
+#endif
 FWD(S, fmi2SetRealInputDerivatives, (C c, const VR *v, size_t n, const int *o, const double *x), (c, v, n, o, x))
 FWD(S, fmi2GetRealOutputDerivatives, (C c, const VR *v, size_t n, const int *o, double *x), (c, v, n, o, x))
 FWD(S, fmi2CancelStep, (C c), (c))
@@ -139,7 +155,19 @@ S fmi2DoStep(C c, double t, double h, int no_prior) {
  * (a foreign ME FMU failing inside the host's integration). */
 typedef struct { int a, b, c, d, e; double t; } EventInfo;
 FWD(S, fmi2EnterEventMode, (C c), (c))
+#ifndef NO_VALUES_CHANGED
 FWD(S, fmi2NewDiscreteStates, (C c, EventInfo *i), (c, i))
+#else
+/* -DNO_VALUES_CHANGED: the event re-initializes states, but valuesOfContinuousStatesChanged is
+ * reported false */
+S fmi2NewDiscreteStates(C c, EventInfo *i) {
+    static S (*fp)(C, EventInfo *);
+    if (!fp) *(void **)&fp = dlsym(real(), "fmi2NewDiscreteStates");
+    S st = fp(c, i);
+    i->d = 0;
+    return st;
+}
+#endif
 FWD(S, fmi2EnterContinuousTimeMode, (C c), (c))
 FWD(S, fmi2CompletedIntegratorStep, (C c, int n, int *e, int *t), (c, n, e, t))
 FWD(S, fmi2SetContinuousStates, (C c, const double *x, size_t n), (c, x, n))
@@ -156,6 +184,13 @@ S fmi2SetTime(C c, double t) {
 }
 S fmi2GetDerivatives(C c, double *dx, size_t n) {
     LOAD(real_get_derivatives, "fmi2GetDerivatives");
+#ifdef LENIENT_ME
+    /* -DLENIENT_ME: before initialization, zeros and fmi2OK instead of the FMU's answer */
+    if (!is_ready(c)) {
+        for (size_t i = 0; i < n; i++) dx[i] = 0;
+        return 0;
+    }
+#endif
 #ifdef ME_FAIL_AT
     if (me_time >= ME_FAIL_AT) {
 #if defined(ME_ERROR)

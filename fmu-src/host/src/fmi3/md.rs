@@ -202,6 +202,8 @@ pub struct TypeDefinition3 {
     pub ty: Type3,
     /// `unit`
     pub unit: Option<String>,
+    /// `displayUnit` (Float types)
+    pub display_unit: Option<String>,
     /// `min`
     pub min: Option<f64>,
     /// `max`
@@ -212,11 +214,29 @@ pub struct TypeDefinition3 {
     pub line: usize,
 }
 
-/// `<Unit>` of `<UnitDefinitions>` (name and line; FMI 3.0 units as FMI 2.0's).
+/// `<Unit>` of `<UnitDefinitions>` (name, display units and line; FMI 3.0 units as FMI 2.0's).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct Unit3 {
     /// `name`
     pub name: String,
+    /// Its `<DisplayUnit>` elements.
+    pub display_units: Vec<DisplayUnit3>,
+    /// Line of the tag.
+    pub line: usize,
+}
+
+/// `<DisplayUnit>` of a `<Unit>` (FMI 3.0.2 section 2.4.3): v_display = factor * v_unit +
+/// offset, or factor / v_unit when `inverse`.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct DisplayUnit3 {
+    /// `name`
+    pub name: String,
+    /// `factor` (default 1)
+    pub factor: f64,
+    /// `offset` (default 0)
+    pub offset: f64,
+    /// `inverse` (default false)
+    pub inverse: bool,
     /// Line of the tag.
     pub line: usize,
 }
@@ -422,8 +442,21 @@ impl Visitor for Parser3 {
             }
             ("UnitDefinitions", "Unit") => self.md.units.push(Unit3 {
                 name: doc.required(&a, "name")?,
+                display_units: Vec::new(),
                 line: a.line,
             }),
+            ("Unit", "DisplayUnit") => {
+                let d = DisplayUnit3 {
+                    name: doc.required(&a, "name")?,
+                    factor: doc.real(&a, "factor")?.unwrap_or(1.0),
+                    offset: doc.real(&a, "offset")?.unwrap_or(0.0),
+                    inverse: doc.boolean(&a, "inverse")?.unwrap_or(false),
+                    line: a.line,
+                };
+                if let Some(u) = self.md.units.last_mut() {
+                    u.display_units.push(d);
+                }
+            }
             ("TypeDefinitions", kind) => self.type_definition(doc, kind, &a)?,
             ("EnumerationType", "Item") => {
                 let name = doc.required(&a, "name")?;
@@ -510,6 +543,7 @@ impl Parser3 {
             name: doc.required(a, "name")?,
             ty,
             unit: a.get("unit").map(str::to_string),
+            display_unit: a.get("displayUnit").map(str::to_string),
             min: doc.real(a, "min")?,
             max: doc.real(a, "max")?,
             items: Vec::new(),

@@ -339,13 +339,15 @@ impl<M: ModelExchange, E: Environment<M>> OdeSystem for System<'_, M, E> {
         if !self.directional || self.failed() {
             return false;
         }
-        let mut column = vec![0.0; self.n];
+        if self.n == 0 {
+            return true;
+        }
         let columns = (|| -> Result<()> {
             self.set_point(t, y)?;
             let mut guard = self.inner.borrow_mut();
-            for j in 0..self.n {
-                guard.0.state_derivative_column(j, &mut column)?;
-                jac.column_mut(j).copy_from_slice(&column);
+            // DMatrix is column-major: column j is a contiguous slice, written in place.
+            for (j, column) in jac.as_mut_slice().chunks_exact_mut(self.n).enumerate() {
+                guard.0.state_derivative_column(j, column)?;
             }
             Ok(())
         })();

@@ -26,14 +26,23 @@ pub fn classify3(check: &str) -> &'static str {
         }
         "derivative" => "FMI 3.0.2 §2.4.7: derivative refers to a continuous Float state",
         "model-structure" | "outputs-listed" => "FMI 3.0.2 §2.4.8: ModelStructure",
-        "unit-declared" | "unique-units" => "FMI 3.0.2 §2.4.2: UnitDefinitions",
-        "declared-type" | "unique-types" => "FMI 3.0.2 §2.4.3: TypeDefinitions",
+        "unit-declared" | "unique-units" => "FMI 3.0.2 §2.4.3: UnitDefinitions",
+        "clocks" => "FMI 3.0.2 §2.4.7.4: Clocks and clocked variables",
+        "probe-not-run" => {
+            "FMI 3.0.2 §2.2.8 (clocks), §5 (Scheduled Execution): not run by this host"
+        }
+        "display-unit" => {
+            "FMI 3.0.2 §2.4.3: <DisplayUnit> names unique per unit, inverse only with offset 0"
+        }
+        "display-unit-declared" => {
+            "FMI 3.0.2 §2.4.4, §2.4.7.5: displayUnit names a <DisplayUnit> of the unit, which \
+             must be defined"
+        }
+        "declared-type" | "unique-types" => "FMI 3.0.2 §2.4.4: TypeDefinitions",
         "binary" | "binary-format" => {
             "FMI 3.0.2 §2.5: FMU distribution: binaries/<platformTuple>/<modelIdentifier>"
         }
-        "symbols" => {
-            "FMI 3.0.2 §2.3, §3.2, §4.2: the functions of every declared interface exported"
-        }
+        "symbols" => "FMI 3.0.2 §2.5: every function of fmi3Functions.h implemented",
         // schema-level variable attributes: names, value references, causality, variability,
         // initial, start
         _ => "FMI 3.0.2 §2.4.7: ModelVariables",
@@ -101,13 +110,15 @@ pub fn check_model_description3(md: &ModelDescription3) -> Vec<Finding> {
         }
     }
     check_units_and_types(md, &mut f);
+    check_display_units(md, &mut f);
     check_variables(md, &mut f);
+    check_clocks(md, &mut f);
     check_model_structure(md, &mut f);
     f
 }
 
 /// Units and type definitions: unique names; a `unit` names a `<Unit>` (FMI 3.0.2 section
-/// 2.4.2), a `declaredType` a type definition of the variable's type (section 2.4.3).
+/// 2.4.3), a `declaredType` a type definition of the variable's type (section 2.4.4).
 fn check_units_and_types(md: &ModelDescription3, f: &mut Vec<Finding>) {
     let mut units = HashMap::new();
     for u in &md.units {
@@ -152,6 +163,143 @@ fn check_units_and_types(md: &ModelDescription3, f: &mut Vec<Finding>) {
             f.push(finding("declared-type", var_loc(v), m));
         }
     }
+}
+
+/// Display units (FMI 3.0.2 section 2.4.3): names unique within their `<Unit>`, `inverse = true`
+/// only with `offset = 0`; a `displayUnit` of a type definition or a variable names a
+/// `<DisplayUnit>` of its unit (the variable's, else its declared type's), which must be given.
+fn check_display_units(md: &ModelDescription3, f: &mut Vec<Finding>) {
+    for u in &md.units {
+        let mut names = HashMap::new();
+        for d in &u.display_units {
+            let loc = format!(
+                "modelDescription.xml:{} (display unit '{}')",
+                d.line, d.name
+            );
+            if let Some(first) = names.insert(d.name.as_str(), d.line) {
+                let m = format!(
+                    "display unit '{}' of unit '{}' is already defined on line {first}",
+                    d.name, u.name
+                );
+                f.push(finding("display-unit", &loc, m));
+            }
+            if d.inverse && d.offset != 0.0 {
+                let m = format!(
+                    "display unit '{}' has inverse=\"true\" and offset {}: inverse is only \
+                     allowed with offset 0",
+                    d.name, d.offset
+                );
+                f.push(finding("display-unit", &loc, m));
+            }
+        }
+    }
+    let types: HashMap<&str, &crate::fmi3::md::TypeDefinition3> = md
+        .type_definitions
+        .iter()
+        .map(|t| (t.name.as_str(), t))
+        .collect();
+    for t in &md.type_definitions {
+        let loc = format!("modelDescription.xml:{} (type '{}')", t.line, t.name);
+        check_display_unit_ref(md, t.unit.as_deref(), t.display_unit.as_deref(), &loc, f);
+    }
+    for v in &md.variables {
+        let unit = v.unit.as_deref().or_else(|| {
+            let t = types.get(v.declared_type.as_deref()?)?;
+            t.unit.as_deref()
+        });
+        check_display_unit_ref(md, unit, v.display_unit.as_deref(), &var_loc(v), f);
+    }
+}
+
+/// `display` given: `unit` is given and has a `<DisplayUnit>` of that name (an undefined unit
+/// is the `unit-declared` finding).
+fn check_display_unit_ref(
+    md: &ModelDescription3,
+    unit: Option<&str>,
+    display: Option<&str>,
+    loc: &str,
+    f: &mut Vec<Finding>,
+) {
+    let Some(display) = display else { return };
+    let Some(unit) = unit else {
+        let m = format!("displayUnit '{display}' is given without a unit");
+        f.push(finding("display-unit-declared", loc, m));
+        return;
+    };
+    let Some(u) = md.units.iter().find(|u| u.name == unit) else {
+        return;
+    };
+    if !u.display_units.iter().any(|d| d.name == display) {
+        let m = format!("displayUnit '{display}' is not a <DisplayUnit> of unit '{unit}'");
+        f.push(finding("display-unit-declared", loc, m));
+    }
+}
+
+/// Clocks (FMI 3.0.2 section 2.4.7.4): a Clock has causality input, output or local and
+/// variability discrete; the `clocks` of a clocked variable are value references of Clocks,
+/// and only a discrete or tunable variable is clocked.
+fn check_clocks(md: &ModelDescription3, f: &mut Vec<Finding>) {
+    for v in &md.variables {
+        let loc = var_loc(v);
+        if v.ty == Type3::Clock {
+            if !matches!(
+                v.causality,
+                Causality3::Input | Causality3::Output | Causality3::Local
+            ) {
+                let m = format!(
+                    "a Clock has causality input, output or local, not {}",
+                    v.causality
+                );
+                f.push(finding("clocks", &loc, m));
+            }
+            if v.variability != Variability::Discrete {
+                let m = format!(
+                    "a Clock has variability discrete, not {}",
+                    variability_name(v.variability)
+                );
+                f.push(finding("clocks", &loc, m));
+            }
+        }
+        if v.clocks.is_empty() {
+            continue;
+        }
+        if !matches!(v.variability, Variability::Discrete | Variability::Tunable) {
+            let m = format!(
+                "a clocked variable has variability discrete or tunable, not {}",
+                variability_name(v.variability)
+            );
+            f.push(finding("clocks", &loc, m));
+        }
+        for vr in &v.clocks {
+            match md.by_vr(*vr) {
+                Some(c) if c.ty == Type3::Clock => {}
+                Some(c) => {
+                    let m = format!(
+                        "clocks lists valueReference {vr}, '{}', a {} and not a Clock",
+                        c.name,
+                        c.ty.as_str()
+                    );
+                    f.push(finding("clocks", &loc, m));
+                }
+                None => {
+                    let m = format!("clocks lists valueReference {vr}, which is not a variable");
+                    f.push(finding("clocks", &loc, m));
+                }
+            }
+        }
+    }
+}
+
+/// The note that the probes did not run the FMU, with the reason (clocks or Scheduled Execution
+/// only): its description and binaries were checked, its behaviour was not.
+pub fn probe_not_run(reason: &str) -> Finding {
+    let mut f = finding(
+        "probe-not-run",
+        "probe",
+        format!("the runtime probe did not run the FMU: {reason}"),
+    );
+    f.severity = super::Severity::Note;
+    f
 }
 
 /// The FMI 2.0 causality an FMI 3.0 one is judged as: FMI 3.0.2 section 2.4.7.4 gives a
@@ -506,20 +654,33 @@ pub const FMI3_SE_FUNCTIONS: [&str; 2] = [
     "fmi3ActivateModelPartition",
 ];
 
-/// The functions a binary of `id` must export: the common ones and those of every interface
-/// the description declares with that modelIdentifier.
-fn required_functions(md: &ModelDescription3, id: &str) -> Vec<&'static str> {
+/// Functions of optional capabilities (partial derivatives, Configuration Mode, clocks, the
+/// evaluation of discrete states: FMI 3.0.2 sections 2.2.8 and 2.2.12, 2.3.6 and 3.2).
+pub const FMI3_CAPABILITY_FUNCTIONS: [&str; 13] = [
+    "fmi3GetDirectionalDerivative",
+    "fmi3GetAdjointDerivative",
+    "fmi3EnterConfigurationMode",
+    "fmi3ExitConfigurationMode",
+    "fmi3GetIntervalDecimal",
+    "fmi3GetIntervalFraction",
+    "fmi3GetShiftDecimal",
+    "fmi3GetShiftFraction",
+    "fmi3SetIntervalDecimal",
+    "fmi3SetIntervalFraction",
+    "fmi3SetShiftDecimal",
+    "fmi3SetShiftFraction",
+    "fmi3EvaluateDiscreteStates",
+];
+
+/// The functions every FMI 3.0 binary must export: all of `fmi3Functions.h`, "even if they are
+/// only needed for interface types or optional capabilities that the FMU does not support"
+/// (FMI 3.0.2 section 2.5).
+fn required_functions() -> Vec<&'static str> {
     let mut need: Vec<&'static str> = crate::fmi3::ffi::FMI3_COMMON_FUNCTIONS.to_vec();
-    for (name, i) in interfaces(md) {
-        if i.model_identifier != id {
-            continue;
-        }
-        need.extend_from_slice(match name {
-            "ModelExchange" => &FMI3_ME_FUNCTIONS[..],
-            "CoSimulation" => &FMI3_CS_FUNCTIONS[..],
-            _ => &FMI3_SE_FUNCTIONS[..],
-        });
-    }
+    need.extend_from_slice(&FMI3_ME_FUNCTIONS);
+    need.extend_from_slice(&FMI3_CS_FUNCTIONS);
+    need.extend_from_slice(&FMI3_SE_FUNCTIONS);
+    need.extend_from_slice(&FMI3_CAPABILITY_FUNCTIONS);
     need.sort_unstable();
     need.dedup();
     need
@@ -599,7 +760,7 @@ pub fn check_platform_binaries3(
                 let m = format!("holds {held:?}, {tuple} needs an {arch} slice");
                 findings.push(finding("binary-format", &entry, m));
             }
-            let need = required_functions(md, id);
+            let need = required_functions();
             for slice in &info.slices {
                 let missing: Vec<&str> = need
                     .iter()
@@ -608,8 +769,8 @@ pub fn check_platform_binaries3(
                     .collect();
                 if !missing.is_empty() {
                     let m = format!(
-                        "the {} slice does not export {} FMI 3.0 function(s) its interfaces \
-                         need: {}",
+                        "the {} slice does not export {} of the functions of fmi3Functions.h, \
+                         which an FMU implements whatever interfaces it declares: {}",
                         slice.architecture,
                         missing.len(),
                         missing.join(", ")
@@ -621,4 +782,17 @@ pub fn check_platform_binaries3(
         }
     }
     (findings, binaries)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_function_of_the_header_is_required_once() {
+        // fmi3Functions.h of FMI 3.0.2 declares 75 functions
+        let need = required_functions();
+        assert_eq!(need.len(), 75);
+        assert!(need.iter().all(|f| f.starts_with("fmi3")));
+    }
 }

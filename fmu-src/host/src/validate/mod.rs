@@ -12,10 +12,14 @@
 //! - [`probe`](mod@probe): calls in wrong states / with bad arguments must return fmi2Error
 //!   (with a logged message) and not crash; a normal run must succeed. Run it in a child process
 //!   (the CLI does) so that a crashing FMU becomes a finding.
+//! - [`probe3`](mod@probe3): the same for FMI 3.0 Co-Simulation and Model Exchange.
+//! - [`me_checks`]: the Model Exchange checks both probes share (directional derivatives
+//!   against finite differences, the event flags at a state event, Euler runs to compare).
 
 pub mod binary;
 pub mod description;
 pub mod fmi3;
+pub mod me_checks;
 pub mod probe;
 pub mod probe3;
 

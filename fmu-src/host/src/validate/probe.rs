@@ -1,6 +1,7 @@
 //! The runtime state-machine probe: calls in wrong states or with bad arguments, a normal run,
 //! FMU state save/restore (FMI 2.0.4 sections 2.1 and 4.2.4).
 
+use super::me_checks::{self, Verdict};
 use super::Finding;
 use crate::error::{HostError, Status};
 use crate::fmu::Fmu;
@@ -339,6 +340,8 @@ fn check_fmu_state(
 /// Names of the Model Exchange probe cases in the order [`probe_me`] runs them.
 pub const ME_PROBE_CASES: &[&str] = &[
     "me-normal-run",
+    "me-directional-derivatives",
+    "me-state-event",
     "me-derivatives-before-init",
     "me-set-states-in-event-mode",
 ];
@@ -365,9 +368,28 @@ pub fn probe_me(fmu: &Fmu, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding> {
             "instantiate (Model Exchange), initialize, event iteration, Continuous-Time Mode, \
              derivatives, 3 Euler steps, terminate failed: {e}"
         );
-        f.push(Finding::new("probe-normal-run", loc("me-normal-run"), m));
+        f.push(me_finding("probe-normal-run", loc("me-normal-run"), m));
         return f;
     }
+    me_check_case(
+        fmu,
+        (
+            "me-directional-derivatives",
+            "probe-directional-derivative",
+            t0,
+        ),
+        &mut f,
+        step,
+        &mut |me, _| me_checks::check_directional(me),
+    );
+    let h = event_search_step(t0, md.default_experiment.as_ref().and_then(|d| d.stop_time));
+    me_check_case(
+        fmu,
+        ("me-state-event", "probe-event", t0),
+        &mut f,
+        step,
+        &mut |me, t| me_checks::check_event(me, t, h),
+    );
     me_case(
         fmu,
         ("me-derivatives-before-init", None),
@@ -416,10 +438,64 @@ fn me_normal_run(fmu: &Fmu, t0: f64) -> Result<(), String> {
     Ok(())
 }
 
+/// A check of [`me_checks`] on a fresh instance after the normal sequence: its message is a
+/// finding `check`, a failing call one of the normal run.
+fn me_check_case(
+    fmu: &Fmu,
+    (name, check, t0): (&str, &str, f64),
+    f: &mut Vec<Finding>,
+    step: &mut dyn FnMut(&str) -> bool,
+    run: &mut dyn FnMut(&mut Fmi2Me<'_, '_>, f64) -> Verdict,
+) {
+    if !step(name) {
+        return;
+    }
+    let result = (|| -> Verdict {
+        let s = |e: HostError| e.to_string();
+        let mut inst = fmu.instantiate("probe").map_err(s)?;
+        me_initialize(&mut inst, t0).map_err(s)?;
+        let mut me = Fmi2Me::new(&mut inst).map_err(s)?;
+        let t = me_sequence(&mut me, t0)?;
+        run(&mut me, t)
+    })();
+    let loc = format!("probe {name}");
+    match result {
+        Ok(None) => {}
+        Ok(Some(m)) => f.push(me_finding(check, loc, m)),
+        Err(e) => f.push(me_finding("probe-normal-run", loc, e)),
+    }
+}
+
+/// A finding of the Model Exchange probe, with its FMI 2.0.4 clause.
+fn me_finding(check: &str, loc: String, message: String) -> Finding {
+    let mut f = Finding::new(check, loc, message);
+    f.clause = me_clause(check).to_string();
+    f
+}
+
+/// The FMI 2.0.4 clause of a Model Exchange probe result (chapter 3: Model Exchange).
+fn me_clause(check: &str) -> &'static str {
+    match check {
+        "probe-directional-derivative" => {
+            "FMI 2.0.4 §2.1.9: fmi2GetDirectionalDerivative gives the partial derivatives"
+        }
+        "probe-event" => {
+            "FMI 2.0.4 §3.2.2: fmi2NewDiscreteStates signals re-initialized states \
+             (valuesOfContinuousStatesChanged)"
+        }
+        "probe-normal-run" => "FMI 2.0.4 §3.2.3: a legal calling sequence",
+        "probe-wrong-call" => {
+            "FMI 2.0.4 §3.2.3: the importer must not make this call, so the answer is the FMU's"
+        }
+        other => super::classify(other).1,
+    }
+}
+
 /// The Model Exchange sequence after initialization, whatever the FMI version: event iteration
 /// until no new discrete states are needed, Continuous-Time Mode, then 3 explicit Euler steps
-/// with finite derivatives and `completedIntegratorStep` where the FMU needs it.
-pub(super) fn me_sequence<M: ModelExchange>(me: &mut M, t0: f64) -> Result<(), String> {
+/// with finite derivatives and `completedIntegratorStep` where the FMU needs it. Returns the
+/// time reached.
+pub(super) fn me_sequence<M: ModelExchange>(me: &mut M, t0: f64) -> Result<f64, String> {
     let s = |e: HostError| e.to_string();
     let mut iterations = 0;
     while me
@@ -433,28 +509,18 @@ pub(super) fn me_sequence<M: ModelExchange>(me: &mut M, t0: f64) -> Result<(), S
         }
     }
     me.enter_continuous_time_mode().map_err(s)?;
-    let n = me.states();
-    let (mut x, mut dx) = (vec![0.0; n], vec![0.0; n]);
     let h = 1e-4;
     for k in 0..3 {
-        let t = t0 + k as f64 * h;
-        me.set_time(t).map_err(s)?;
-        me.get_states(&mut x).map_err(s)?;
-        me.get_derivatives(&mut dx).map_err(s)?;
-        if let Some(i) = dx.iter().position(|d| !d.is_finite()) {
-            return Err(format!("derivative {i} is {} at t = {t}", dx[i]));
-        }
-        // explicit Euler: x(t + h) = x(t) + h dx/dt(t)
-        for (xi, di) in x.iter_mut().zip(&dx) {
-            *xi += h * di;
-        }
-        me.set_time(t + h).map_err(s)?;
-        me.set_states(&x).map_err(s)?;
-        if me.needs_completed_integrator_step() {
-            me.completed_integrator_step().map_err(s)?;
-        }
+        me_checks::euler_step(me, t0 + k as f64 * h, h)?;
     }
-    Ok(())
+    Ok(t0 + 3.0 * h)
+}
+
+/// Step of the explicit Euler search for a state event: the experiment (default: 1 s) in
+/// [`me_checks::EVENT_SEARCH_STEPS`] steps.
+pub(super) fn event_search_step(start: f64, stop: Option<f64>) -> f64 {
+    let span = stop.filter(|s| *s > start).map_or(1.0, |s| s - start);
+    span / me_checks::EVENT_SEARCH_STEPS as f64
 }
 
 /// One wrong-call case of [`probe_me`] on a fresh instance, initialized at the time given with
@@ -475,26 +541,26 @@ fn me_case(
         Ok(i) => i,
         Err(e) => {
             let m = format!("fmi2Instantiate (Model Exchange) failed: {e}");
-            f.push(Finding::new("probe-normal-run", loc, m));
+            f.push(me_finding("probe-normal-run", loc, m));
             return;
         }
     };
     if let Some(t0) = init_at {
         if let Err(e) = me_initialize(&mut inst, t0) {
             let m = format!("initialization failed: {e}");
-            f.push(Finding::new("probe-normal-run", loc, m));
+            f.push(me_finding("probe-normal-run", loc, m));
             return;
         }
     }
     let mut me = match Fmi2Me::new(&mut inst) {
         Ok(me) => me,
         Err(e) => {
-            f.push(Finding::new("probe-normal-run", loc, e.to_string()));
+            f.push(me_finding("probe-normal-run", loc, e.to_string()));
             return;
         }
     };
     match call(&mut me) {
-        Ok(()) => f.push(Finding::new(
+        Ok(()) => f.push(me_finding(
             "probe-wrong-call",
             loc,
             format!(
@@ -508,18 +574,14 @@ fn me_case(
         }) => {
             if messages.is_empty() {
                 let m = format!("{what} returned fmi2Error but logged no message");
-                f.push(Finding::new("probe-log", loc, m));
+                f.push(me_finding("probe-log", loc, m));
             }
         }
-        Err(HostError::Fmi { status, .. }) => f.push(Finding::new(
+        Err(HostError::Fmi { status, .. }) => f.push(me_finding(
             "probe-wrong-call",
             loc,
             format!("{what} returned {status}; fmi2Error is the usual answer"),
         )),
-        Err(e) => f.push(Finding::new(
-            "probe-normal-run",
-            loc,
-            format!("{what}: {e}"),
-        )),
+        Err(e) => f.push(me_finding("probe-normal-run", loc, format!("{what}: {e}"))),
     }
 }

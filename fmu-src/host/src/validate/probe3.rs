@@ -1,33 +1,57 @@
-//! The runtime state-machine probe of an FMI 3.0 Co-Simulation FMU (FMI 3.0.2 section 4.2:
-//! the Co-Simulation state machine): a normal run, then calls the state machine does not
-//! allow. As for FMI 2.0, a failing normal run or a crash is a finding, the answer to a call the
-//! importer must not make is the FMU's (a note unless it is fmi3Error with a logged message).
+//! The runtime state-machine probes of an FMI 3.0 FMU: Co-Simulation (FMI 3.0.2 section 4.2)
+//! and Model Exchange (section 3.2), each a normal run, then checks of what the standard
+//! requires (a saved FMU state restored, directional derivatives against finite differences,
+//! re-initialized states signalled at an event), then calls the state machine (section 2.3) does
+//! not allow. As for FMI 2.0, a failing normal run or a crash is a finding, the answer to a call
+//! the importer must not make is the FMU's (a note unless it is fmi3Error). The host
+//! instantiates with `loggingOn = fmi3False`, with which the FMU must not call the logger
+//! (section 2.3.1), so an error without a logged message is no finding here.
 
+use super::me_checks::{self, Verdict};
+use super::probe::{event_search_step, me_sequence};
 use super::Finding;
 use crate::error::{HostError, Status};
+use crate::fmi3::ffi::FmuState3;
+use crate::fmi3::md::Causality3;
+use crate::fmi3::value::{Type3, Values};
 use crate::fmi3::{Fmu3, Instance3};
 use crate::me::fmi3::Fmi3Me;
 use crate::me::ModelExchange;
 
-/// Names of the FMI 3.0 probe cases in the order [`probe3`] runs them.
+/// Names of the FMI 3.0 probe cases in the order [`probe3`] and [`probe3_me`] run them.
 pub const PROBE3_CASES: &[&str] = &[
     "fmi3-normal-run",
+    "fmi3-fmu-state",
     "fmi3-do-step-before-init",
     "fmi3-negative-step",
     "fmi3-do-step-after-terminate",
     "fmi3-me-normal-run",
+    "fmi3-me-directional-derivatives",
+    "fmi3-me-state-event",
+    "fmi3-me-fmu-state",
     "fmi3-me-derivatives-before-init",
 ];
 
 /// The clause of an FMI 3.0 probe result.
-fn clause3(check: &str) -> &'static str {
+pub fn clause3(check: &str) -> &'static str {
     match check {
-        "probe-normal-run" => "FMI 3.0.2 §3.2 and §4.2: a legal calling sequence",
+        "probe-normal-run" => "FMI 3.0.2 §2.3, §3.2 and §4.2: a legal calling sequence",
         "probe-wrong-call" => {
-            "FMI 3.0.2 §4.2: the importer must not make this call, so the answer is the FMU's"
+            "FMI 3.0.2 §2.3, §3.2 and §4.2: the importer must not make this call, so the answer \
+             is the FMU's"
         }
-        "probe-log" => "FMI 3.0.2 §2.3.1: logging is the FMU's choice",
-        _ => "FMI 3.0.2 §2.2.3: every call returns a status",
+        "probe-fmu-state" => {
+            "FMI 3.0.2 §2.2.7.4: canGetAndSetFMUState declared: fmi3SetFMUState restores the \
+             state fmi3GetFMUState saved"
+        }
+        "probe-directional-derivative" => {
+            "FMI 3.0.2 §2.2.12.1: fmi3GetDirectionalDerivative gives the partial derivatives"
+        }
+        "probe-event" => {
+            "FMI 3.0.2 §2.3.5: fmi3UpdateDiscreteStates signals re-initialized states \
+             (valuesOfContinuousStatesChanged)"
+        }
+        _ => "FMI 3.0.2 §2.2.4: every call returns a status",
     }
 }
 
@@ -41,6 +65,81 @@ fn initialize(inst: &mut Instance3<'_>, t0: f64) -> Result<(), HostError> {
     inst.enter_initialization_mode(None, t0, None)?;
     inst.exit_initialization_mode()?;
     Ok(())
+}
+
+/// What the answer to a call the importer must not make gives: nothing for fmi3Error (the
+/// usual answer), a note otherwise, a normal-run finding when something else failed.
+fn answer(what: &str, loc: String, result: Result<(), HostError>, f: &mut Vec<Finding>) {
+    match result {
+        Ok(()) => f.push(finding3(
+            "probe-wrong-call",
+            loc,
+            format!("{what} returned fmi3OK; fmi3Error would warn the importer"),
+        )),
+        Err(HostError::Fmi {
+            status: Status::Error,
+            ..
+        }) => {}
+        Err(HostError::Fmi { status, .. }) => f.push(finding3(
+            "probe-wrong-call",
+            loc,
+            format!("{what} returned fmi3{status:?}; fmi3Error is the usual answer"),
+        )),
+        Err(e) => f.push(finding3("probe-normal-run", loc, format!("{what}: {e}"))),
+    }
+}
+
+/// `inst` bound as Model Exchange (the counts of states and event indicators queried).
+fn me<'i, 'a>(inst: &'i mut Instance3<'a>) -> Result<Fmi3Me<'i, 'a>, String> {
+    Fmi3Me::new(inst).map_err(|e| e.to_string())
+}
+
+/// A saved FMU state of an instance (`fmi3GetFMUState`), freed with `fmi3FreeFMUState`.
+struct Saved3(FmuState3);
+
+/// `fmi3GetFMUState` of `inst` into a new state.
+fn get_state(inst: &mut Instance3<'_>) -> Result<Saved3, HostError> {
+    let missing = |n: &str| HostError::Request(format!("the binary does not export {n}"));
+    let f = inst
+        .fmu
+        .functions
+        .get_fmu_state
+        .ok_or_else(|| missing("fmi3GetFMUState"))?;
+    let mut state: FmuState3 = std::ptr::null_mut();
+    // SAFETY: live instance; a NULL state asks the FMU for a new one (FMI 3.0.2 section 2.2.7.4).
+    let raw = unsafe { f(inst.instance, &mut state) };
+    inst.check("fmi3GetFMUState", raw)?;
+    Ok(Saved3(state))
+}
+
+/// `fmi3SetFMUState` of `inst` to `saved`.
+fn set_state(inst: &mut Instance3<'_>, saved: &Saved3) -> Result<(), HostError> {
+    let f =
+        inst.fmu.functions.set_fmu_state.ok_or_else(|| {
+            HostError::Request("the binary does not export fmi3SetFMUState".into())
+        })?;
+    // SAFETY: live instance and a state it returned from fmi3GetFMUState, not yet freed.
+    let raw = unsafe { f(inst.instance, saved.0) };
+    inst.check("fmi3SetFMUState", raw).map(drop)
+}
+
+/// `fmi3FreeFMUState` of `saved` (before the instance is freed).
+fn free_state(inst: &mut Instance3<'_>, mut saved: Saved3) {
+    if let Some(f) = inst.fmu.functions.free_fmu_state {
+        // SAFETY: live instance and a state it returned, freed once.
+        unsafe { f(inst.instance, &mut saved.0) };
+    }
+}
+
+/// Whether the description declares `canGetAndSetFMUState` for `interface`.
+fn can_get_and_set(fmu: &Fmu3, model_exchange: bool) -> bool {
+    let md = fmu.model_description();
+    let element = if model_exchange {
+        md.model_exchange.as_ref()
+    } else {
+        md.co_simulation.as_ref()
+    };
+    element.is_some_and(|e| e.flag("canGetAndSetFMUState"))
 }
 
 /// The probe of `fmu` (opened for Co-Simulation); `step` as for [`super::probe`].
@@ -78,6 +177,13 @@ pub fn probe3(fmu: &Fmu3, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding> {
         f.push(finding3("probe-normal-run", "probe fmi3-normal-run", m));
         return f;
     }
+    if can_get_and_set(fmu, false) && step("fmi3-fmu-state") {
+        match check_fmu_state_cs(fmu, t0, h) {
+            Ok(None) => {}
+            Ok(Some(m)) => f.push(finding3("probe-fmu-state", "probe fmi3-fmu-state", m)),
+            Err(e) => f.push(finding3("probe-normal-run", "probe fmi3-fmu-state", e)),
+        }
+    }
     let mut case =
         |name: &str,
          what: &str,
@@ -101,32 +207,7 @@ pub fn probe3(fmu: &Fmu3, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding> {
                     return;
                 }
             }
-            match call(&mut inst) {
-                Ok(()) => f.push(finding3(
-                    "probe-wrong-call",
-                    loc,
-                    format!(
-                        "{what} returned fmi3OK; fmi3Error with a logged message would warn the \
-                     importer"
-                    ),
-                )),
-                Err(HostError::Fmi {
-                    status: Status::Error,
-                    messages,
-                    ..
-                }) => {
-                    if messages.is_empty() {
-                        let m = format!("{what} returned fmi3Error but logged no message");
-                        f.push(finding3("probe-log", loc, m));
-                    }
-                }
-                Err(HostError::Fmi { status, .. }) => f.push(finding3(
-                    "probe-wrong-call",
-                    loc,
-                    format!("{what} returned fmi3{status:?}; fmi3Error is the usual answer"),
-                )),
-                Err(e) => f.push(finding3("probe-normal-run", loc, format!("{what}: {e}"))),
-            }
+            answer(what, loc, call(&mut inst), &mut f);
         };
     case(
         "fmi3-do-step-before-init",
@@ -152,17 +233,60 @@ pub fn probe3(fmu: &Fmu3, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding> {
     f
 }
 
+/// Steps 5 times, saves the FMU state, steps 5 more recording the Float64 outputs, restores the
+/// state and repeats the 5 steps: the outputs must be bit-identical.
+fn check_fmu_state_cs(fmu: &Fmu3, t0: f64, h: f64) -> Verdict {
+    let md = fmu.model_description();
+    let outs: Vec<u32> = md
+        .with_causality(Causality3::Output)
+        .filter(|v| v.ty == Type3::Float64 && !v.is_array())
+        .map(|v| v.value_reference)
+        .collect();
+    let s = |e: HostError| e.to_string();
+    let mut inst = fmu.instantiate("probe").map_err(s)?;
+    initialize(&mut inst, t0).map_err(s)?;
+    let t = |k: usize| t0 + k as f64 * h;
+    for k in 0..5 {
+        inst.do_step(t(k), h, false).map_err(s)?;
+    }
+    let saved = get_state(&mut inst).map_err(s)?;
+    let run5 = |inst: &mut Instance3<'_>| -> Result<Vec<u64>, HostError> {
+        let mut bits = Vec::new();
+        for k in 5..10 {
+            inst.do_step(t(k), h, false)?;
+            if let Values::Float64(v) = inst.get(Type3::Float64, &outs, outs.len())? {
+                bits.extend(v.iter().map(|x| x.to_bits()));
+            }
+        }
+        Ok(bits)
+    };
+    let result = (|| -> Result<Option<String>, HostError> {
+        let first = run5(&mut inst)?;
+        set_state(&mut inst, &saved)?;
+        let again = run5(&mut inst)?;
+        Ok((again != first).then(|| {
+            "after fmi3SetFMUState the Float64 outputs of the next 5 steps differ from those \
+             after fmi3GetFMUState (the state is not fully restored)"
+                .to_string()
+        }))
+    })();
+    free_state(&mut inst, saved);
+    result.map_err(s)
+}
+
 /// The Model Exchange probe of `fmu` (opened for Model Exchange): a normal run (initialization,
 /// event iteration, Continuous-Time Mode, finite derivatives over 3 explicit Euler steps,
-/// terminate), then `fmi3GetContinuousStateDerivatives` before initialization, which the state
-/// machine of FMI 3.0.2 section 3.2 does not allow. `step` as for [`super::probe`].
+/// terminate); directional derivatives against finite differences, the event flags at the first
+/// state event, a restored FMU state; then `fmi3GetContinuousStateDerivatives` before
+/// initialization, which the state machine of FMI 3.0.2 section 3.2 does not allow. `step` as
+/// for [`super::probe`].
 pub fn probe3_me(fmu: &Fmu3, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding> {
-    let t0 = fmu
+    let de = fmu
         .model_description()
         .default_experiment
-        .as_ref()
-        .and_then(|d| d.start_time)
-        .unwrap_or(0.0);
+        .clone()
+        .unwrap_or_default();
+    let t0 = de.start_time.unwrap_or(0.0);
     let mut f = Vec::new();
     if !step("fmi3-me-normal-run") {
         return f;
@@ -172,7 +296,7 @@ pub fn probe3_me(fmu: &Fmu3, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding>
         let mut inst = fmu.instantiate("probe").map_err(s)?;
         initialize(&mut inst, t0).map_err(s)?;
         let mut me = Fmi3Me::new(&mut inst).map_err(s)?;
-        super::probe::me_sequence(&mut me, t0)?;
+        me_sequence(&mut me, t0)?;
         drop(me);
         inst.terminate().map_err(s)?;
         Ok(())
@@ -185,41 +309,68 @@ pub fn probe3_me(fmu: &Fmu3, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding>
         f.push(finding3("probe-normal-run", "probe fmi3-me-normal-run", m));
         return f;
     }
+    let h = event_search_step(t0, de.stop_time);
+    let mut check =
+        |name: &str, check: &str, run: &mut dyn FnMut(&mut Instance3<'_>, f64) -> Verdict| {
+            if !step(name) {
+                return;
+            }
+            let result = (|| -> Verdict {
+                let s = |e: HostError| e.to_string();
+                let mut inst = fmu.instantiate("probe").map_err(s)?;
+                initialize(&mut inst, t0).map_err(s)?;
+                let t = me_sequence(&mut Fmi3Me::new(&mut inst).map_err(s)?, t0)?;
+                run(&mut inst, t)
+            })();
+            match result {
+                Ok(None) => {}
+                Ok(Some(m)) => f.push(finding3(check, format!("probe {name}"), m)),
+                Err(e) => f.push(finding3("probe-normal-run", format!("probe {name}"), e)),
+            }
+        };
+    check(
+        "fmi3-me-directional-derivatives",
+        "probe-directional-derivative",
+        &mut |inst, _| me_checks::check_directional(&mut me(inst)?),
+    );
+    check("fmi3-me-state-event", "probe-event", &mut |inst, t| {
+        me_checks::check_event(&mut me(inst)?, t, h)
+    });
+    if can_get_and_set(fmu, true) {
+        check("fmi3-me-fmu-state", "probe-fmu-state", &mut |inst, t| {
+            check_fmu_state_me(inst, t, h)
+        });
+    }
     let name = "fmi3-me-derivatives-before-init";
     if !step(name) {
         return f;
     }
     let what = "fmi3GetContinuousStateDerivatives before initialization";
-    let loc = format!("probe {name}");
     let result = fmu.instantiate("probe").and_then(|mut inst| {
         let mut me = Fmi3Me::new(&mut inst)?;
         let mut dx = vec![0.0; me.states()];
         me.get_derivatives(&mut dx).map(drop)
     });
-    match result {
-        Ok(()) => f.push(finding3(
-            "probe-wrong-call",
-            loc,
-            format!(
-                "{what} returned fmi3OK; fmi3Error with a logged message would warn the importer"
-            ),
-        )),
-        Err(HostError::Fmi {
-            status: Status::Error,
-            messages,
-            ..
-        }) => {
-            if messages.is_empty() {
-                let m = format!("{what} returned fmi3Error but logged no message");
-                f.push(finding3("probe-log", loc, m));
-            }
-        }
-        Err(HostError::Fmi { status, .. }) => f.push(finding3(
-            "probe-wrong-call",
-            loc,
-            format!("{what} returned fmi3{status:?}; fmi3Error is the usual answer"),
-        )),
-        Err(e) => f.push(finding3("probe-normal-run", loc, format!("{what}: {e}"))),
-    }
+    answer(what, format!("probe {name}"), result, &mut f);
     f
+}
+
+/// In Continuous-Time Mode at `t`: saves the FMU state, takes 5 explicit Euler steps of `h`,
+/// restores the state and takes them again: the continuous states after each step must be
+/// bit-identical.
+fn check_fmu_state_me(inst: &mut Instance3<'_>, t: f64, h: f64) -> Verdict {
+    let s = |e: HostError| e.to_string();
+    let saved = get_state(inst).map_err(s)?;
+    let result = (|| -> Verdict {
+        let first = me_checks::euler_run(&mut Fmi3Me::new(inst).map_err(s)?, t, h, 5)?;
+        set_state(inst, &saved).map_err(s)?;
+        let again = me_checks::euler_run(&mut Fmi3Me::new(inst).map_err(s)?, t, h, 5)?;
+        Ok((again != first).then(|| {
+            "after fmi3SetFMUState the continuous states of the next 5 Euler steps differ from \
+             those after fmi3GetFMUState (the state is not fully restored)"
+                .to_string()
+        }))
+    })();
+    free_state(inst, saved);
+    result
 }

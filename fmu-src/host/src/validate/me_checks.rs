@@ -1,0 +1,200 @@
+//! Runtime checks of a Model Exchange FMU written against [`ModelExchange`], so that the FMI 2.0
+//! and FMI 3.0 probes share them: the directional derivatives of the state derivatives against
+//! finite differences, the event flags against what the event did to the states, and a short
+//! explicit Euler run whose states can be compared bit for bit (FMU state save/restore).
+//!
+//! Each check returns `Ok(None)` when the FMU does what the standard says, `Ok(Some(message))`
+//! with what it did instead, and `Err` when a call the standard allows failed.
+
+use crate::error::HostError;
+use crate::me::ModelExchange;
+
+/// What a check found: `Ok(None)` conforming, `Ok(Some(message))` a finding, `Err` a failing
+/// call the standard allows.
+pub type Verdict = Result<Option<String>, String>;
+
+/// The cube root of the machine epsilon, 2^(-52/3): the relative step of a central difference
+/// that balances its truncation error against rounding.
+const CBRT_EPSILON: f64 = 6.055454452393344e-6;
+
+fn s(e: HostError) -> String {
+    e.to_string()
+}
+
+/// Relative tolerance between a directional derivative and a finite difference. Generous: a
+/// wrong entry is typically off by its own size, while a correct one differs from a difference
+/// quotient by the truncation error, of order delta * |f''| (forward) or delta^2 * |f'''|
+/// (central), with delta = 6e-6 relative.
+const DERIVATIVE_RTOL: f64 = 1e-2;
+
+/// The directional derivatives `d der(x_i) / d x_j` (one seed per state, as an implicit
+/// integrator asks for them) against finite differences of `getDerivatives` at the current
+/// states, in Continuous-Time Mode. An entry is wrong only when it disagrees with the forward,
+/// the backward and the central difference alike (a kink of the right-hand side at the point
+/// spoils one-sided differences, not all three). The states are restored afterwards.
+pub fn check_directional<M: ModelExchange>(me: &mut M) -> Verdict {
+    if !me.provides_directional_derivative() || me.states() == 0 {
+        return Ok(None);
+    }
+    let n = me.states();
+    let (mut x, mut nominal) = (vec![0.0; n], vec![0.0; n]);
+    me.get_states(&mut x).map_err(s)?;
+    me.get_nominals(&mut nominal).map_err(s)?;
+    let f0 = derivatives_at(me, &x)?;
+    let mut column = vec![0.0; n];
+    for j in 0..n {
+        // delta = eps^(1/3) * scale balances the central difference's truncation and rounding
+        let scale = x[j].abs().max(nominal[j].abs()).max(1e-3);
+        let delta = CBRT_EPSILON * scale;
+        let mut xp = x.clone();
+        xp[j] += delta;
+        let fp = derivatives_at(me, &xp)?;
+        xp[j] = x[j] - delta;
+        let fm = derivatives_at(me, &xp)?;
+        me.set_states(&x).map_err(s)?;
+        me.state_derivative_column(j, &mut column).map_err(s)?;
+        for i in 0..n {
+            let forward = (fp[i] - f0[i]) / delta;
+            let backward = (f0[i] - fm[i]) / delta;
+            let central = (fp[i] - fm[i]) / (2.0 * delta);
+            // rounding of the derivatives themselves, amplified by 1/delta
+            let size = f0[i].abs().max(fp[i].abs()).max(fm[i].abs());
+            let noise = 1e3 * f64::EPSILON * size / delta;
+            let agrees = |fd: f64| {
+                (column[i] - fd).abs() <= DERIVATIVE_RTOL * column[i].abs().max(fd.abs()) + noise
+            };
+            if !(agrees(forward) || agrees(backward) || agrees(central)) || !column[i].is_finite() {
+                return Ok(Some(format!(
+                    "d der(x{i}) / d x{j} (state derivative {i} with respect to state {j}, in \
+                     the order of the state vector) is {} from the directional derivative but \
+                     {central:.6e} from central differences (forward {forward:.6e}, backward \
+                     {backward:.6e}, step {delta:.1e}) at x = {x:?}",
+                    column[i]
+                )));
+            }
+        }
+    }
+    me.set_states(&x).map_err(s)?;
+    Ok(None)
+}
+
+/// The state derivatives at the states `x` (set first).
+fn derivatives_at<M: ModelExchange>(me: &mut M, x: &[f64]) -> Result<Vec<f64>, String> {
+    let mut dx = vec![0.0; x.len()];
+    me.set_states(x).map_err(s)?;
+    if !me.get_derivatives(&mut dx).map_err(s)? {
+        return Err("the derivatives were discarded at a point 6e-6 away from a valid one".into());
+    }
+    Ok(dx)
+}
+
+/// One explicit Euler step of length `h` from time `t` (x(t + h) = x(t) + h dx/dt(t)), with
+/// `completedIntegratorStep` when the FMU needs it. Returns whether it asked for an event.
+pub fn euler_step<M: ModelExchange>(me: &mut M, t: f64, h: f64) -> Result<bool, String> {
+    let n = me.states();
+    let (mut x, mut dx) = (vec![0.0; n], vec![0.0; n]);
+    me.set_time(t).map_err(s)?;
+    me.get_states(&mut x).map_err(s)?;
+    me.get_derivatives(&mut dx).map_err(s)?;
+    if let Some(i) = dx.iter().position(|d| !d.is_finite()) {
+        return Err(format!("derivative {i} is {} at t = {t}", dx[i]));
+    }
+    for (xi, di) in x.iter_mut().zip(&dx) {
+        *xi += h * di;
+    }
+    me.set_time(t + h).map_err(s)?;
+    me.set_states(&x).map_err(s)?;
+    if me.needs_completed_integrator_step() {
+        return Ok(me.completed_integrator_step().map_err(s)?.enter_event_mode);
+    }
+    Ok(false)
+}
+
+/// `steps` explicit Euler steps of length `h` from `t`; the states after each, as bits (the
+/// FMU state check compares two such runs from one saved state).
+pub fn euler_run<M: ModelExchange>(
+    me: &mut M,
+    t: f64,
+    h: f64,
+    steps: usize,
+) -> Result<Vec<u64>, String> {
+    let mut x = vec![0.0; me.states()];
+    let mut bits = Vec::new();
+    for k in 0..steps {
+        euler_step(me, t + k as f64 * h, h)?;
+        me.get_states(&mut x).map_err(s)?;
+        bits.extend(x.iter().map(|v| v.to_bits()));
+    }
+    Ok(bits)
+}
+
+/// Most explicit Euler steps [`check_event`] takes looking for the first state event.
+pub const EVENT_SEARCH_STEPS: usize = 1000;
+
+/// Integrates with explicit Euler steps of `h` from `t` (in Continuous-Time Mode) until the
+/// first state event (an event indicator changes domain, `z > 0` against `z <= 0`: FMI 2.0.4
+/// section 3.1, FMI 3.0.2 section 3.1), at most [`EVENT_SEARCH_STEPS`] steps; time and step
+/// events met on the way are handled too. At each event the states are read before and after
+/// the event iteration: states that changed while every `newDiscreteStates` /
+/// `fmi3UpdateDiscreteStates` call reported `valuesOfContinuousStatesChanged = false` are a
+/// finding (the importer would integrate on from the old states). A search that explicit Euler
+/// cannot carry (a stiff FMU) ends without a verdict.
+pub fn check_event<M: ModelExchange>(me: &mut M, mut t: f64, h: f64) -> Verdict {
+    let (n, m) = (me.states(), me.indicators());
+    let (mut z0, mut z1) = (vec![0.0; m], vec![0.0; m]);
+    let mut next_time: Option<f64> = None;
+    me.get_event_indicators(&mut z0).map_err(s)?;
+    for _ in 0..EVENT_SEARCH_STEPS {
+        let step = next_time.map_or(h, |te| (te - t).clamp(0.0, h));
+        // Explicit Euler is unstable on a stiff FMU with this step: derivatives that the FMU
+        // refuses or that are not finite end the search without a verdict (the normal run
+        // checked them at valid states).
+        let Ok(step_event) = euler_step(me, t, step) else {
+            return Ok(None);
+        };
+        t += step;
+        if me.get_event_indicators(&mut z1).is_err() || z1.iter().any(|z| !z.is_finite()) {
+            return Ok(None);
+        }
+        let state_event = z0.iter().zip(&z1).any(|(a, b)| (*a > 0.0) != (*b > 0.0));
+        let time_event = next_time.is_some_and(|te| t >= te);
+        if state_event || time_event || step_event {
+            let mut before = vec![0.0; n];
+            me.get_states(&mut before).map_err(s)?;
+            me.enter_event_mode().map_err(s)?;
+            let (mut changed, mut terminate) = (false, false);
+            next_time = None;
+            for _ in 0..1000 {
+                let info = me.new_discrete_states().map_err(s)?;
+                changed |= info.values_changed;
+                terminate |= info.terminate_simulation;
+                next_time = info.next_event_time;
+                if !info.new_discrete_states_needed || terminate {
+                    break;
+                }
+            }
+            let mut after = vec![0.0; n];
+            me.get_states(&mut after).map_err(s)?;
+            let moved = before
+                .iter()
+                .zip(&after)
+                .position(|(a, b)| a.to_bits() != b.to_bits());
+            if let (Some(i), false) = (moved, changed) {
+                let kind = if state_event { "state" } else { "time or step" };
+                return Ok(Some(format!(
+                    "at the {kind} event at t = {t}, state {i} changed from {:e} to {:e} in the \
+                     event iteration, but every call reported \
+                     valuesOfContinuousStatesChanged = false",
+                    before[i], after[i]
+                )));
+            }
+            if terminate || state_event {
+                return Ok(None);
+            }
+            me.enter_continuous_time_mode().map_err(s)?;
+            me.get_event_indicators(&mut z1).map_err(s)?;
+        }
+        std::mem::swap(&mut z0, &mut z1);
+    }
+    Ok(None)
+}
