@@ -1,6 +1,9 @@
 """Driver of scripts/bench (see there). Prints one line per model:
-`<Model> speedup <N>x (...)`, then the cost of the deterministic math per model, one line per
-Model Exchange fixture: `<Fixture> ME speedup <N>x (...)`, then the gap workflow lines."""
+`<Model> speedup <N>x (...)`, then the cost of the deterministic math per model, the host's
+Model Exchange run per model (`<Model> ME speedup <N>x`), our ME FMU under FMPy's CVode against
+our CS FMU per model, FMI 3.0 CS against FMI 2.0 CS per model, one line per Model Exchange
+fixture: `<Fixture> ME speedup <N>x (...)`, then the gap workflow lines.
+`--only NAME[,NAME...]` runs the named benchmarks only (see BENCHES)."""
 import json
 import math
 import subprocess
@@ -14,7 +17,10 @@ import numpy as np
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO / "tests" / "reference"))
 QUICK = "--quick" in sys.argv
-T_END = 2.0 if QUICK else 10.0
+# --smoke (the tests): that the benchmarks run and print, on 0.2 s; not a measurement
+SMOKE = "--smoke" in sys.argv
+QUICK = QUICK or SMOKE
+T_END = 0.2 if SMOKE else 2.0 if QUICK else 10.0
 DT = 1e-3
 
 
@@ -64,6 +70,16 @@ def run_scipy(model, inputs, rtol):
     return time.perf_counter() - t0, out
 
 
+_TRUTH = {}
+
+
+def scipy_truth(model):
+    """The SciPy reference at rtol 1e-10 on the bench scenario (computed once per model)."""
+    if model not in _TRUTH:
+        _TRUTH[model] = run_scipy(model, scenario(model), rtol=1e-10)[1]
+    return _TRUTH[model]
+
+
 def rel_errors(result, truth):
     """(worst RMS error, its output, worst max error, its output) over all outputs, each relative
     to the output's range in the truth. The verdict uses the RMS error: the models' discrete
@@ -93,7 +109,7 @@ def bench_model(model):
     reproduces the truth's decisions and its error falls to ~1e-10."""
     inputs = scenario(model)
     t_py, out_py = run_scipy(model, inputs, rtol=1e-6)
-    _, truth = run_scipy(model, inputs, rtol=1e-10)
+    truth = scipy_truth(model)
     e_py, w_py, m_py, mw_py = rel_errors(out_py, truth)
     for rtol in (1e-6, 1e-7, 1e-8, 1e-9, 1e-10):
         with tempfile.TemporaryDirectory() as d:
@@ -194,52 +210,141 @@ def bench_model_me(model):
     """The host's Model Exchange run of the shipped FMU (fmu-bench --me) against FMPy's CVode
     run of the same FMU at the same relative tolerance, both scored against the SciPy truth of
     bench_model. FMPy's ME run sets continuous inputs only at its output points (1 ms here)."""
-    import fmpy
     if not has_model_exchange(model):
         print(f"{model} ME: the FMU has no <ModelExchange>, skipped")
         return
     inputs = scenario(model)
-    _, truth = run_scipy(model, inputs, rtol=1e-10)
-    fmu = str(REPO / f"dist/{model}.fmu")
-    names = list(inputs)
-    sig = np.zeros(len(inputs[names[0]][0]), dtype=[("time", float)] + [(n, float) for n in names])
-    sig["time"] = inputs[names[0]][0]
-    for n in names:
-        sig[n] = inputs[n][1]
-    unzipped, md = fmpy.extract(fmu), fmpy.read_model_description(fmu)
-    known = {v.name for v in md.modelVariables}
-    t0 = time.perf_counter()
-    out_py = fmpy.simulate_fmu(unzipped, model_description=md, fmi_type="ModelExchange",
-                               relative_tolerance=ME_RTOL, input=sig, stop_time=T_END,
-                               output_interval=DT, record_events=False,
-                               output=[n for n in truth if n in known])
-    t_py = time.perf_counter() - t0
+    truth = scipy_truth(model)
+    t_py, out_py = fmpy_scenario(model, "ModelExchange", list(truth))
     with tempfile.TemporaryDirectory() as d:
         t_me, out_me = run_fmu(model, inputs, Path(d) / "me.csv", 3 if QUICK else 5, ME_RTOL,
                                me=True)
     e_me, w_me, m_me, mw_me = rel_errors(out_me, truth)
-    e_py, w_py, m_py, mw_py = rel_errors({n: out_py[n] for n in out_py.dtype.names}, truth)
+    e_py, w_py, m_py, mw_py = rel_errors(out_py, truth)
     print(f"{model} ME speedup {t_py / t_me:.0f}x (host Model Exchange, Rodas5P rtol {ME_RTOL:g}: "
           f"{t_me * 1e3:.1f} ms; FMPy CVode rtol {ME_RTOL:g}: {t_py:.2f} s; error vs SciPy rtol "
           f"1e-10 relative to range, worst output RMS (max): host {e_me:.1e} {w_me} ({m_me:.1e} "
           f"{mw_me}), CVode {e_py:.1e} {w_py} ({m_py:.1e} {mw_py}))", flush=True)
 
 
+def bench_fmi3_cs(model):
+    """The FMI 3.0 Co-Simulation FMU (dist/fmi3/) against the FMI 2.0 one (dist/) of the same
+    model: the same scenario, tolerance (the FMU's rtol = atol = 1e-6) and 1 ms output grid, both
+    driven by fmu-bench (one instance, reset between runs), run alternately; both scored against
+    the SciPy truth of bench_model. Same model code under two thin FMI layers: ratio about 1."""
+    fmus = {"FMI 3.0": REPO / f"dist/fmi3/{model}.fmu", "FMI 2.0": REPO / f"dist/{model}.fmu"}
+    if not all(p.exists() for p in fmus.values()):
+        print(f"{model} FMI 3.0 CS: dist/fmi3/{model}.fmu or dist/{model}.fmu missing, skipped")
+        return
+    inputs = scenario(model)
+    truth = scipy_truth(model)
+    times = {v: [] for v in fmus}
+    outputs = {}
+    with tempfile.TemporaryDirectory() as d:
+        for _ in range(2 if QUICK else 3):
+            for v, fmu in fmus.items():
+                t, outputs[v] = run_fmu(model, inputs, Path(d) / "cs.csv", 3, 1e-6, fmu)
+                times[v].append(t)
+    t3, t2 = min(times["FMI 3.0"]), min(times["FMI 2.0"])
+    a, b = outputs["FMI 3.0"], outputs["FMI 2.0"]
+    diff = max(float(np.max(np.abs(a[n] - b[n]))) / (float(np.ptp(b[n])) or 1.0) for n in b)
+    e3, w3, m3, mw3 = rel_errors(a, truth)
+    e2, w2, m2, mw2 = rel_errors(b, truth)
+    print(f"{model} FMI 3.0 CS against FMI 2.0 CS {t3 / t2:.2f}x (FMI 3.0 {t3 * 1e3:.1f} ms, "
+          f"FMI 2.0 {t2 * 1e3:.1f} ms: the same {T_END:g} s run at rtol 1e-6, {DT * 1e3:g} ms "
+          f"steps, best of alternating runs; outputs differ by at most {diff:.1e} of their range; "
+          f"error vs SciPy rtol 1e-10 relative to range, worst output RMS (max): FMI 3.0 "
+          f"{e3:.1e} {w3} ({m3:.1e} {mw3}), FMI 2.0 {e2:.1e} {w2} ({m2:.1e} {mw2}))", flush=True)
+
+
+_FMPY_RUNS = {}
+
+
+def fmpy_scenario(model, fmi_type, output):
+    """FMPy's run of dist/<model>.fmu on the bench scenario as `fmi_type` (ModelExchange: CVode
+    at ME_RTOL; CoSimulation: the FMU's own solver with ME_RTOL as the experiment's tolerance),
+    1 ms output grid, inputs set at the output points: (time of one run, outputs). Kept for the
+    other bench line that uses the same run."""
+    key = (model, fmi_type)
+    if key not in _FMPY_RUNS:
+        import fmpy
+        inputs = scenario(model)
+        fmu = str(REPO / f"dist/{model}.fmu")
+        names = list(inputs)
+        sig = np.zeros(len(inputs[names[0]][0]),
+                       dtype=[("time", float)] + [(n, float) for n in names])
+        sig["time"] = inputs[names[0]][0]
+        for n in names:
+            sig[n] = inputs[n][1]
+        unzipped, md = fmpy.extract(fmu), fmpy.read_model_description(fmu)
+        known = {v.name for v in md.modelVariables}
+        t0 = time.perf_counter()
+        out = fmpy.simulate_fmu(unzipped, model_description=md, fmi_type=fmi_type,
+                                relative_tolerance=ME_RTOL, input=sig, stop_time=T_END,
+                                output_interval=DT, record_events=False,
+                                output=[n for n in output if n in known])
+        _FMPY_RUNS[key] = (time.perf_counter() - t0,
+                           {n: out[n] for n in out.dtype.names if n != "time"})
+    return _FMPY_RUNS[key]
+
+
+def bench_me_cvode_against_cs(model):
+    """Our Model Exchange FMU under FMPy's CVode against our Co-Simulation FMU, both run by FMPy
+    on the same scenario and 1 ms output grid at the same tolerance (1e-6), each with its error
+    against the SciPy truth of bench_model: what an importer's own solver costs and gives
+    against the FMU's internal one."""
+    if not has_model_exchange(model):
+        print(f"{model} ME under CVode: the FMU has no <ModelExchange>, skipped")
+        return
+    truth = scipy_truth(model)
+    t_me, out_me = fmpy_scenario(model, "ModelExchange", list(truth))
+    t_cs, out_cs = fmpy_scenario(model, "CoSimulation", list(truth))
+    e_me, w_me, m_me, mw_me = rel_errors(out_me, truth)
+    e_cs, w_cs, m_cs, mw_cs = rel_errors(out_cs, truth)
+    print(f"{model} ME under FMPy CVode against CS {t_me / t_cs:.1f}x the time (FMPy "
+          f"ModelExchange, CVode rtol {ME_RTOL:g}: {t_me:.2f} s; FMPy CoSimulation, the FMU's "
+          f"Rodas5P at tolerance {ME_RTOL:g}: {t_cs:.2f} s; {T_END:g} s at {DT * 1e3:g} ms output "
+          f"steps; error vs SciPy rtol 1e-10 relative to range, worst output RMS (max): ME "
+          f"{e_me:.1e} {w_me} ({m_me:.1e} {mw_me}), CS {e_cs:.1e} {w_cs} ({m_cs:.1e} {mw_cs}))",
+          flush=True)
+
+
 def bench_gap():
     script = REPO / "scripts" / "bench_gap.py"
     if script.exists():
-        subprocess.run([sys.executable, str(script)] + sys.argv[1:], check=True)
+        args = sys.argv[1:]
+        if "--only" in args:
+            i = args.index("--only")
+            del args[i:i + 2]
+        subprocess.run([sys.executable, str(script)] + args, check=True)
     else:
         print("gap: scripts/bench_gap.py not present, gap benchmark skipped")
 
 
+MODELS = ("HydraulicJoint", "TwistedString")
+# --only NAME[,NAME...] runs these benchmarks only (default: all, in this order).
+BENCHES = {
+    "model": lambda: [bench_model(m) for m in MODELS],
+    "math": lambda: [bench_math(m) for m in MODELS],
+    "me": lambda: [bench_model_me(m) for m in MODELS],
+    "me-cvode": lambda: [bench_me_cvode_against_cs(m) for m in MODELS],
+    "fmi3-cs": lambda: [bench_fmi3_cs(m) for m in MODELS],
+    "me-fixtures": lambda: [bench_me(*f) for f in ME_FIXTURES],
+    "gap": bench_gap,
+}
+
+
+def selected():
+    """The benchmarks named by --only (all when absent)."""
+    if "--only" not in sys.argv:
+        return list(BENCHES)
+    names = sys.argv[sys.argv.index("--only") + 1].split(",")
+    unknown = [n for n in names if n not in BENCHES]
+    if unknown:
+        sys.exit(f"bench: unknown benchmark {', '.join(unknown)} (known: {', '.join(BENCHES)})")
+    return names
+
+
 if __name__ == "__main__":
-    for m in ("HydraulicJoint", "TwistedString"):
-        bench_model(m)
-    for m in ("HydraulicJoint", "TwistedString"):
-        bench_math(m)
-    for m in ("HydraulicJoint", "TwistedString"):
-        bench_model_me(m)
-    for fixture in ME_FIXTURES:
-        bench_me(*fixture)
-    bench_gap()
+    for name in selected():
+        BENCHES[name]()

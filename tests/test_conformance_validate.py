@@ -275,8 +275,21 @@ def test_a_model_exchange_call_in_the_wrong_state_answered_ok_is_a_note(tmp_path
     assert r.returncode == 0, r.stdout + r.stderr
     [report] = json.loads(r.stdout)
     assert report["findings"] == [], report
-    notes = [(n["check"], n["location"]) for n in report["notes"]]
-    assert ("probe-wrong-call", "probe me-derivatives-before-init") in notes, report
+    notes = [(n["check"], n["location"]) for n in report["notes"] if "me-" in n["location"]]
+    assert notes == [("probe-wrong-call", "probe me-derivatives-before-init"),
+                     ("probe-wrong-call", "probe me-set-states-in-event-mode")], report
     # the ME state machine is FMI 2.0.4 section 3.2.3 (not the Co-Simulation one)
     assert all("§3.2.3" in n["clause"] for n in report["notes"]
                if n["location"].startswith("probe me-")), report
+
+
+def test_a_model_exchange_error_without_a_message_is_a_note(tmp_path):
+    # FMI 2.0.4 section 2.1.5: the logger "should" be called; loggingOn only switches debug
+    # logging, so an error without a message is a note (FMI 3.0 differs: tests/test_validate_built)
+    r = validate(_me_shim_copy(tmp_path, "me-silent", "-DSILENT_ME"), json_out=True)
+    assert r.returncode == 0, r.stdout + r.stderr
+    [report] = json.loads(r.stdout)
+    notes = [(n["check"], n["location"]) for n in report["notes"] if "me-" in n["location"]]
+    assert notes == [("probe-log", "probe me-derivatives-before-init")], report
+    assert all("FMI 2.0.4 §2.1.5" in n["clause"] for n in report["notes"]
+               if n["check"] == "probe-log"), report

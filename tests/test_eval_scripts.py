@@ -1,14 +1,15 @@
 """Smoke runs of the long evaluations that are not part of CI in full: `scripts/gap-eval` (the
 rates at which `gap` names the right effect over many datasets), `scripts/gap-robustness` (its
-answer under perturbations far below the noise) and the gap part of
-`scripts/bench` (`scripts/bench_gap.py`, `gap` against a Python workflow doing the same steps).
+answer under perturbations far below the noise), the gap part of
+`scripts/bench` (`scripts/bench_gap.py`, `gap` against a Python workflow doing the same steps)
+and its interface lines (ME under FMPy's CVode against CS, FMI 3.0 CS against FMI 2.0 CS).
 Each runs on the smallest case and is checked for the lines a reader of its output relies on."""
 import os
 import re
 import subprocess
 import sys
 
-from conftest import REPO, cli_path, fmu_path
+from conftest import REPO, cli_path, fmu3_path, fmu_path
 
 
 def test_gap_eval_runs_and_summarises(tmp_path):
@@ -65,3 +66,26 @@ def test_gap_bench_prints_its_ratio(tmp_path):
     assert re.search(r"actuator-fmu gap: [0-9.]+ s, [0-9]+ simulations", p.stdout), p.stdout
     m = re.search(r"gap per simulation ([0-9.]+)x", p.stdout)
     assert m and float(m.group(1)) > 0, p.stdout
+
+
+def test_bench_prints_the_interface_lines():
+    """scripts/bench's lines of our ME FMU under FMPy's CVode against our CS FMU, and of the FMI
+    3.0 CS FMU against the FMI 2.0 one (a 0.2 s run: that they run and print, not a measurement)."""
+    fmu_path("HydraulicJoint")
+    fmu3_path("HydraulicJoint")
+    subprocess.run(["cargo", "build", "--release", "--quiet", "-p", "bench"], check=True, cwd=REPO)
+    p = subprocess.run([sys.executable, str(REPO / "scripts" / "bench.py"), "--smoke", "--only",
+                        "me-cvode,fmi3-cs"], capture_output=True, text=True, timeout=600, cwd=REPO)
+    assert p.returncode == 0, p.stderr[-2000:]
+    number = r"([0-9.]+(?:e[-+][0-9]+)?)"
+    for model in ("HydraulicJoint", "TwistedString"):
+        m = re.search(rf"{model} ME under FMPy CVode against CS {number}x the time .*worst output "
+                      rf"RMS \(max\): ME {number} \w+ \({number} \w+\), CS {number} \w+", p.stdout)
+        assert m and all(float(g) >= 0 for g in m.groups()), p.stdout
+        # both run the same model: the FMU's own solver is near the truth
+        assert float(m.group(4)) < 1e-4, m.group(0)
+        m = re.search(rf"{model} FMI 3.0 CS against FMI 2.0 CS {number}x .*outputs differ by at "
+                      rf"most {number} of their range", p.stdout)
+        assert m and float(m.group(1)) > 0, p.stdout
+        # the same model code under both layers
+        assert float(m.group(2)) < 1e-9, m.group(0)

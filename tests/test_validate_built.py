@@ -151,6 +151,9 @@ DESCRIPTION = {
                          'causality="local" variability="continuous"/>\n    <Float64 name="g"',
                          "variability-type", "a Int32 variable cannot be continuous", "§2.4.7"),
     "variable-name": ('name="e"', 'name=""', "variable-name", "empty variable name", "§2.4.7"),
+    "unique-types": ('<LogCategories>', '<TypeDefinitions><Float64Type name="Height"/>'
+                     '<Float64Type name="Height"/></TypeDefinitions>\n  <LogCategories>',
+                     "unique-types", "type 'Height' is already defined", "§2.4.4"),
     # display units (FMI 3.0.2 section 2.4.3): names unique per unit, inverse only with offset 0,
     # a displayUnit names a <DisplayUnit> of the variable's unit, which must be given
     "display-unit-twice": ('<DisplayUnit name="cm" factor="100"/>',
@@ -169,6 +172,15 @@ DESCRIPTION = {
                                   'name="e" valueReference="6" displayUnit="cm"',
                                   "display-unit-declared", "given without a unit", "§2.4.7.5"),
 }
+
+
+def test_an_fmu_without_an_interface_is_found(built, tmp_path):
+    text = zipfile.ZipFile(built["conforming"]).read("modelDescription.xml").decode()
+    start, end = text.index("  <ModelExchange"), text.index("  <UnitDefinitions>")
+    r = report(patched(built["conforming"], tmp_path, text[start:end], ""))
+    assert [f["check"] for f in r["findings"]] == ["interfaces"], r
+    assert "no <ModelExchange>, <CoSimulation> or <ScheduledExecution>" in \
+        r["findings"][0]["message"], r
 
 
 @pytest.mark.parametrize("case", DESCRIPTION)

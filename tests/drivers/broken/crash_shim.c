@@ -7,7 +7,9 @@
  * Model Exchange rules broken on purpose (tests/test_conformance_validate.py): -DWRONG_DIRECTIONAL
  * doubles every directional derivative, -DNO_VALUES_CHANGED reports
  * valuesOfContinuousStatesChanged = false from fmi2NewDiscreteStates, -DLENIENT_ME answers
- * fmi2GetDerivatives before initialization with zeros and fmi2OK.
+ * fmi2GetDerivatives before initialization with zeros and fmi2OK and ignores
+ * fmi2SetContinuousStates outside Continuous-Time Mode (fmi2OK), -DSILENT_ME answers
+ * fmi2GetDerivatives before initialization with fmi2Error and no message.
  * Build: gcc -shared -fPIC -DMODEL_ID=\"Oscillator\" -o Oscillator.so crash_shim.c -ldl */
 #define _GNU_SOURCE
 #include <dlfcn.h>
@@ -154,7 +156,18 @@ S fmi2DoStep(C c, double t, double h, int no_prior) {
  * returns; with -DME_ERROR: returns fmi2Error) once the time set by fmi2SetTime is at or after T
  * (a foreign ME FMU failing inside the host's integration). */
 typedef struct { int a, b, c, d, e; double t; } EventInfo;
+#ifndef LENIENT_ME
 FWD(S, fmi2EnterEventMode, (C c), (c))
+#else
+static C continuous[256]; /* instances in Continuous-Time Mode */
+S fmi2EnterEventMode(C c) {
+    static S (*fp)(C);
+    if (!fp) *(void **)&fp = dlsym(real(), "fmi2EnterEventMode");
+    for (int i = 0; i < 256; i++)
+        if (continuous[i] == c) continuous[i] = NULL;
+    return fp(c);
+}
+#endif
 #ifndef NO_VALUES_CHANGED
 FWD(S, fmi2NewDiscreteStates, (C c, EventInfo *i), (c, i))
 #else
@@ -168,9 +181,34 @@ S fmi2NewDiscreteStates(C c, EventInfo *i) {
     return st;
 }
 #endif
+#ifndef LENIENT_ME
 FWD(S, fmi2EnterContinuousTimeMode, (C c), (c))
+#else
+S fmi2EnterContinuousTimeMode(C c) {
+    static S (*fp)(C);
+    if (!fp) *(void **)&fp = dlsym(real(), "fmi2EnterContinuousTimeMode");
+    S st = fp(c);
+    for (int i = 0; i < 256; i++)
+        if (continuous[i] == NULL || continuous[i] == c) {
+            continuous[i] = c;
+            break;
+        }
+    return st;
+}
+#endif
 FWD(S, fmi2CompletedIntegratorStep, (C c, int n, int *e, int *t), (c, n, e, t))
+#ifndef LENIENT_ME
 FWD(S, fmi2SetContinuousStates, (C c, const double *x, size_t n), (c, x, n))
+#else
+/* -DLENIENT_ME: fmi2SetContinuousStates outside Continuous-Time Mode answered fmi2OK (ignored) */
+S fmi2SetContinuousStates(C c, const double *x, size_t n) {
+    static S (*fp)(C, const double *, size_t);
+    if (!fp) *(void **)&fp = dlsym(real(), "fmi2SetContinuousStates");
+    for (int i = 0; i < 256; i++)
+        if (c && continuous[i] == c) return fp(c, x, n);
+    return 0;
+}
+#endif
 FWD(S, fmi2GetEventIndicators, (C c, double *z, size_t n), (c, z, n))
 FWD(S, fmi2GetContinuousStates, (C c, double *x, size_t n), (c, x, n))
 FWD(S, fmi2GetNominalsOfContinuousStates, (C c, double *x, size_t n), (c, x, n))
@@ -190,6 +228,10 @@ S fmi2GetDerivatives(C c, double *dx, size_t n) {
         for (size_t i = 0; i < n; i++) dx[i] = 0;
         return 0;
     }
+#endif
+#ifdef SILENT_ME
+    /* -DSILENT_ME: before initialization, fmi2Error without a logged message */
+    if (!is_ready(c)) return 3;
 #endif
 #ifdef ME_FAIL_AT
     if (me_time >= ME_FAIL_AT) {

@@ -51,11 +51,13 @@ pub fn check_model_description(md: &ModelDescription) -> Vec<Finding> {
         .as_deref()
         .filter(|id| !is_c_identifier(id))
     {
-        f.push(Finding::new(
+        let mut finding = Finding::new(
             "model-identifier",
             "modelDescription.xml:<ModelExchange>",
             format!("modelIdentifier \"{id}\" is not a valid C identifier"),
-        ));
+        );
+        finding.clause = "FMI 2.0.4 §3.3.1: ModelExchange element".into();
+        f.push(finding);
     }
     match &md.co_simulation {
         None if md.model_exchange.is_some() => {}
@@ -743,7 +745,10 @@ mod tests {
         only(&md, "co-simulation");
         let mut md = md_with_vars(GOOD_VARS, GOOD_STRUCT);
         md.co_simulation.as_mut().unwrap().model_identifier = "9 bad".into();
-        only(&md, "model-identifier");
+        assert!(only(&md, "model-identifier").clause.contains("§4.3.1"));
+        let mut md = md_with_vars(GOOD_VARS, GOOD_STRUCT);
+        md.model_exchange = Some("9 bad".into());
+        assert!(only(&md, "model-identifier").clause.contains("§3.3.1"));
         let mut md = md_with_vars(GOOD_VARS, GOOD_STRUCT);
         md.co_simulation.as_mut().unwrap().can_serialize_fmu_state = true;
         only(&md, "capability-flags");

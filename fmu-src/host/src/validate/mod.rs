@@ -108,9 +108,11 @@ pub fn classify(check: &str) -> (Severity, &'static str) {
             "FMI 2.0.4 §2.3: FMU distribution: zip layout, binaries/<platform>",
         ),
         "symbols" => (F, "FMI 2.0.4 §2.1 and §4.2: every fmi2 function exported"),
-        "co-simulation" | "model-identifier" | "capability-flags" => {
-            (F, "FMI 2.0.4 §4.3.1: CoSimulation element")
-        }
+        "co-simulation" => (
+            F,
+            "FMI 2.0.4 §2.2.1: fmiModelDescription has a ModelExchange or CoSimulation element",
+        ),
+        "model-identifier" | "capability-flags" => (F, "FMI 2.0.4 §4.3.1: CoSimulation element"),
         "probe-fmu-state" => (F, "FMI 2.0.4 §2.1.8: canGetAndSetFMUstate declared"),
         "probe-normal-run" => (F, "FMI 2.0.4 §4.2.4: a legal calling sequence"),
         "probe-crash" | "probe-timeout" => (F, "FMI 2.0.4 §2.1.3: every call returns a status"),
@@ -120,7 +122,7 @@ pub fn classify(check: &str) -> (Severity, &'static str) {
         ),
         "probe-nan" => (
             N,
-            "FMI 2.0.4 §2.1.2: the standard does not say how an FMU treats NaN",
+            "FMI 2.0.4 §2.1.7: the standard does not say how fmi2SetReal treats NaN",
         ),
         "probe-log" => (N, "FMI 2.0.4 §2.1.5: logging is the FMU's choice"),
         "effect-convention" => (F, "actuator-fmu candidate-effect convention (README)"),
