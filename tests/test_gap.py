@@ -133,6 +133,27 @@ def test_a_sensor_gain_error_is_reported_as_a_disagreement_no_candidate_explains
     assert any("gain error of +" in w for w in rep["warnings"]), rep["warnings"]
 
 
+def test_a_gain_error_on_a_sensor_away_from_zero_at_rest_is_no_record_begun_in_motion(tmp_path):
+    """TwistedString's 'p' read 6 % low: at rest 'p' is far from zero, so the model misses the
+    first samples by hundreds of noise levels, and the start test once refused the record
+    (exit 2, "does not begin where the model begins"). The misfit follows the measured output
+    over the whole trace, so the start says nothing about where the record begins: the run goes
+    on and reports the disagreement that remains on 'p', with a gain's shape."""
+    fmu_path("TwistedString")
+    ds = gapgen.make("TwistedString", 8, (), duration=DURATION, rate=RATE)
+    ds["outputs"]["p"] = ds["outputs"]["p"] - 0.06 * ds["clean"]["p"]
+    csv = tmp_path / "gain.csv"
+    gapgen.write_csv(ds, csv)
+    rep = run_ok("TwistedString", csv, tmp_path / "out")
+    assert not any("does not begin" in w for w in rep["warnings"]), rep["warnings"]
+    for text in (rep["verdict"], rep["in_short"]):
+        assert "no missing effect found" not in text and "consistent with noise" not in text, text
+    assert "disagreement remains" in rep["verdict"], rep["verdict"]
+    d = {o["output"]: o for o in rep["disagreement"]["outputs"]}
+    assert "p" in d and d["p"]["windows"], rep["disagreement"]
+    assert d["p"]["shapes"][0]["kind"] == "gain", d["p"]
+
+
 def check_report_shape(rep, ds):
     for key in ("named", "candidates", "parameters", "outputs", "timing", "redone_rounds",
                 "calibration"):

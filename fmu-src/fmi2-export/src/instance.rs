@@ -115,8 +115,18 @@ pub mod allowed {
     ]);
     pub const GET_CONTINUOUS_STATES: u32 = GET_EVENT_INDICATORS;
     pub const GET_DERIVATIVES: u32 = m(&[EventMode, ContinuousTimeMode, Terminated, Error]);
-    /// fmi2GetDirectionalDerivative (Model Exchange: the derivatives and outputs at the states).
-    pub const DIRECTIONAL_DERIVATIVE: u32 = m(&[EventMode, ContinuousTimeMode, Terminated, Error]);
+    /// fmi2GetDirectionalDerivative: Model Exchange at the states, Co-Simulation at the
+    /// communication point (FMI 2.0.4 section 4.2.4: also after a failed or canceled step, for
+    /// debugging).
+    pub const DIRECTIONAL_DERIVATIVE: u32 = m(&[
+        StepComplete,
+        StepFailed,
+        StepCanceled,
+        EventMode,
+        ContinuousTimeMode,
+        Terminated,
+        Error,
+    ]);
     pub const GET_NOMINALS: u32 = m(&[
         Instantiated,
         EventMode,

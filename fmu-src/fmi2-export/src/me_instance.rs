@@ -310,6 +310,22 @@ enum Role {
 const CENTRAL_STEP: f64 = 6e-6;
 
 impl<M: Model> Instance<M> {
+    /// The Model Exchange table for `fmi2GetDirectionalDerivative` in either interface: Model
+    /// Exchange at the current time and states, Co-Simulation at the communication point, where
+    /// the instance holds the plant's states and the unknowns of `<ModelStructure>` (outputs and
+    /// state derivatives) have the same knowns (inputs and states; FMI 2.0.4 sections 2.1.9 and
+    /// 2.2.8, FMI 3.0.2 section 2.2.11). A logged error when the model has no Jacobian.
+    fn derivative_table(&mut self, func: &str) -> Result<MeVTable<M>, Status> {
+        self.check_state(func, allowed::DIRECTIONAL_DERIVATIVE)?;
+        match self.me.filter(|me| me.provides_jacobian) {
+            Some(me) => Ok(me),
+            None => Err(self.error(
+                func,
+                "not provided (providesDirectionalDerivative=\"false\")",
+            )),
+        }
+    }
+
     /// Positions of `vrs` with their roles: unknowns are derivatives or outputs, knowns states
     /// or inputs (FMI 2.0.4 section 3.2.1, fmi2GetDirectionalDerivative in Model Exchange).
     fn roles(
@@ -465,9 +481,9 @@ impl<M: Model> Instance<M> {
         Ok(())
     }
 
-    /// `fmi2GetDirectionalDerivative` (Model Exchange): `dz = J dv` for the unknowns
-    /// (derivatives, outputs) with respect to the knowns (states, inputs) at the current time,
-    /// states and inputs. Derivatives with respect to states come from the model's analytic
+    /// `fmi2GetDirectionalDerivative` (Model Exchange and Co-Simulation): `dz = J dv` for the
+    /// unknowns (derivatives, outputs) with respect to the knowns (states, inputs) at the current
+    /// time, states and inputs (in Co-Simulation: the communication point). Derivatives with respect to states come from the model's analytic
     /// Jacobian, computed once per point ([`JacobianCache`]: an importer asking one column per
     /// call pays for one Jacobian, not one per column); every other entry is a central
     /// difference of the model's equations (step [`CENTRAL_STEP`] times the known's magnitude
@@ -480,19 +496,10 @@ impl<M: Model> Instance<M> {
         dz: &mut [f64],
     ) -> Status {
         const F: &str = "fmi2GetDirectionalDerivative";
-        if self.interface == Interface::CoSimulation {
-            return self.error(
-                F,
-                "not provided in Co-Simulation (providesDirectionalDerivative=\"false\")",
-            );
-        }
-        let me = match self.me_table(F, allowed::DIRECTIONAL_DERIVATIVE) {
+        let me = match self.derivative_table(F) {
             Ok(me) => me,
             Err(s) => return s,
         };
-        if !me.provides_jacobian {
-            return self.error(F, "not provided (providesDirectionalDerivative=\"false\")");
-        }
         if let Some(v) = dv.iter().find(|v| !v.is_finite()) {
             return self.error(F, format!("dvKnown holds {v}, not a finite number"));
         }
