@@ -122,6 +122,14 @@ pub struct LmOptions {
     /// Gauss–Newton step predicts, gained in every iteration left, would leave the sum above it
     /// (a refit that cannot reach the evidence needed need not crawl on). `None`: never.
     pub futile_above: Option<f64>,
+    /// Stop only at a point where the undamped Gauss–Newton step of a finite-difference
+    /// Jacobian predicts a decrease of the sum below this ([`free_gauss_newton_decrease`]),
+    /// when the steps' gains alone would stop the fit (`None`: the gains alone decide). With
+    /// residuals weighted by their noise level the predicted decrease is the squared length of
+    /// the remaining step in standard errors, which bounds every parameter's remaining move:
+    /// `|Δz_j| ≤ √decrease · σ_j`. Small steps along a flat valley can each gain less than
+    /// `abs_tol` while the minimum is still a whole interval away.
+    pub converged_below: Option<f64>,
 }
 
 /// How many times the Gauss–Newton predicted decrease a fit may still gain per iteration left
@@ -141,6 +149,7 @@ impl Default for LmOptions {
             trace: false,
             final_jacobian: true,
             futile_above: None,
+            converged_below: None,
         }
     }
 }
@@ -172,6 +181,23 @@ pub fn gauss_newton_decrease(jac: &DMatrix<f64>, r: &[f64]) -> f64 {
         Ok(inv) => g.dot(&(inv * &g)).max(0.0),
         Err(_) => f64::INFINITY,
     }
+}
+
+/// [`gauss_newton_decrease`] over the parameters free to move: a parameter at a bound whose
+/// descent direction (`-g_j`, `g = Jᵀ r`) points out of its range is held there, as the
+/// projected step holds it.
+pub fn free_gauss_newton_decrease(jac: &DMatrix<f64>, r: &[f64], b: &[Bounded], z: &[f64]) -> f64 {
+    let g = jac.transpose() * DVector::from_column_slice(r);
+    let free: Vec<usize> = (0..z.len())
+        .filter(|&j| {
+            let (lo, hi) = b[j].z_bounds();
+            !((z[j] <= lo && g[j] > 0.0) || (z[j] >= hi && g[j] < 0.0))
+        })
+        .collect();
+    if free.is_empty() {
+        return 0.0;
+    }
+    gauss_newton_decrease(&jac.select_columns(free.iter()), r)
 }
 
 /// Sum of squares of a residual vector.
@@ -458,7 +484,7 @@ fn trial<P: Problem>(problem: &P, b: &[Bounded], zn: &[f64], len: usize) -> Tria
 /// gradient sign alone would also hold a parameter that the coupled step moves inward, as along
 /// the valley of two compensating parameters). `None` when the damped matrix is not positive
 /// definite.
-fn damped_step(
+pub fn damped_step(
     a: &DMatrix<f64>,
     g: &DVector<f64>,
     b: &[Bounded],
@@ -635,7 +661,18 @@ pub fn levenberg_marquardt<P: Problem>(
         s = sn;
         if rel < opts.rel_tol && s_prev - s < opts.abs_tol {
             if was_fresh {
-                break;
+                let Some(target) = opts.converged_below else {
+                    break;
+                };
+                // The gains say stop; the step still predicted from here decides.
+                evaluations += m;
+                jac = jacobian(problem, b, &z, &r, opts.fd_step);
+                fresh = true;
+                since_fd = 0;
+                if free_gauss_newton_decrease(&jac, &r, b, &z) < target {
+                    break;
+                }
+                continue;
             }
             // A small gain with an updated Jacobian may be the update's fault: refresh it.
             since_fd = opts.broyden_steps;

@@ -21,7 +21,7 @@ use diagnose::diagnose;
 use evidence::{bound_warnings, estimates, far_from_data_warning, offset_warnings, row_scale};
 use finish::{final_fit, final_outputs, output_errors};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use rough::{interval_basis, roughness_note};
+use rough::{interval_basis, recentre, roughness_note};
 use rounds::{run_rounds, RoundInputs, Rounds};
 use screen::LM_ABS_TOL;
 use serde::Serialize;
@@ -589,6 +589,8 @@ struct Limits {
     futile_above: Option<f64>,
     /// `lm::LmOptions::final_jacobian`.
     final_jacobian: bool,
+    /// `lm::LmOptions::converged_below`.
+    converged_below: Option<f64>,
 }
 
 impl Limits {
@@ -598,6 +600,16 @@ impl Limits {
             rel_tol,
             futile_above: None,
             final_jacobian: true,
+            converged_below: None,
+        }
+    }
+
+    /// The same limits, stopping only where the remaining Gauss–Newton step predicts a decrease
+    /// below `decrease` (`lm::LmOptions::converged_below`).
+    const fn converged_below(self, decrease: f64) -> Self {
+        Limits {
+            converged_below: Some(decrease),
+            ..self
         }
     }
 
@@ -665,6 +677,7 @@ fn fit_state_holding<S: GridModel + ?Sized>(
         abs_tol: LM_ABS_TOL,
         trace: ctx.trace,
         futile_above: limits.futile_above,
+        converged_below: limits.converged_below,
         final_jacobian: limits.final_jacobian,
         ..Default::default()
     };
@@ -1039,9 +1052,10 @@ fn finish<S: GridModel + ?Sized>(
     before: [&[Vec<f64>]; 2],
 ) -> Result<Ending, GapError> {
     let (fin, n_fin) = final_fit(ctx, cur.0, cur.1, st0);
+    let scale = row_scale(&fin.fit.residuals, ctx.out_idx.len());
+    let fin = recentre(ctx, fin, n_fin, &scale);
     let data_names: Vec<String> = data.outputs.iter().map(|(s, _)| s.clone()).collect();
     let (final_y, offsets) = final_outputs(ctx, &fin, n_fin, &data_names)?;
-    let scale = row_scale(&fin.fit.residuals, ctx.out_idx.len());
     let basis = interval_basis(ctx, &fin, n_fin, &scale);
     let parameters = estimates(
         &ctx.params,

@@ -13,6 +13,11 @@
 //! part rises by about the spread of the jumps (`2F`, two independent jumps), a distance
 //! `√(2F) σ` in its own metric, which adds to the statistical `1.96 σ` (triangle inequality).
 //!
+//! Before that, the estimate itself is moved to the smooth part's minimum ([`recentre`]): on a
+//! rough sum the fit stops at whichever local minimum a jump makes, anywhere the smooth part
+//! lies within about a jump of its own minimum, so a change of the record or of the FMU's
+//! tolerance far below the noise moved the reported values by half their intervals.
+//!
 //! Rough or smooth, each interval's ends are then checked against the sum of squares itself
 //! ([`lm::interval_ends`]): along the first-order path of the parameter's profile, an end where
 //! the sum rises less than the quadratic model says (a flatter or bending valley, or a fit that
@@ -24,7 +29,7 @@ use super::evidence::covariance;
 use super::{Ctx, FitOut, FitProblem, Z95};
 use crate::lm::{self, LmOptions};
 use crate::sim::GridModel;
-use nalgebra::DMatrix;
+use nalgebra::{DMatrix, DVector};
 
 /// Sign patterns probed for the roughness at each scale (two simulations each).
 const PATTERNS: usize = 4;
@@ -98,6 +103,92 @@ pub(super) fn interval_basis<S: GridModel + ?Sized>(
         ends,
         roughness,
     }
+}
+
+/// Marquardt dampings tried, in order, for the step to the smooth part's minimum: the
+/// undamped Gauss–Newton step, then one shortened along poorly determined directions (a flat
+/// valley's, where the undamped step overshoots to a bound).
+const RECENTRE_DAMPING: [f64; 2] = [0.0, 1e-2];
+
+/// The final fit `fin` moved to the minimum of the smooth part of a rough sum of squares:
+/// from where the fit stopped, one Gauss–Newton step with the secant Jacobian (slopes over
+/// steps well above the jumps, [`lm::secant_jacobian`]), i.e. the minimum of the quadratic
+/// model of the smooth part. The step removes the smooth part's remaining slope, which is what
+/// differs between two runs that stopped at different jumps; what remains is the jumps' own
+/// projection on the slopes. It is taken when its sum of squares is within the jumps' spread
+/// (`2F`) of the fit's, the point is then as good a fit as the jumps allow. A smooth sum, or a
+/// step that fails that test, leaves `fin` as it is.
+pub(super) fn recentre<S: GridModel + ?Sized>(
+    ctx: &Ctx<'_, S>,
+    fin: FitOut,
+    n_fin: usize,
+    scale: &[f64],
+) -> FitOut {
+    let m = fin.state.idx.len();
+    if m == 0 {
+        return fin;
+    }
+    let problem = FitProblem::of(ctx, &fin, n_fin);
+    let r0 = &fin.fit.residuals;
+    let w: Vec<f64> = (0..r0.len())
+        .map(|i| scale[(i / n_fin.max(1)).min(scale.len() - 1)])
+        .collect();
+    let h = LmOptions::default().fd_step;
+    let f0 = lm::roughness(
+        &problem,
+        &fin.bounds,
+        &fin.fit.z,
+        r0,
+        &w,
+        &vec![h; m],
+        PATTERNS,
+    );
+    if f0 <= NEGLIGIBLE {
+        return fin;
+    }
+    let jac = lm::secant_jacobian(
+        &problem,
+        &fin.bounds,
+        &fin.fit.z,
+        r0,
+        &w,
+        h,
+        SECANT_TARGET * f0,
+    );
+    let a = jac.transpose() * &jac;
+    let g = jac.transpose() * DVector::from_column_slice(r0);
+    for lambda in RECENTRE_DAMPING {
+        let Some(z) = lm::damped_step(&a, &g, &fin.bounds, &fin.fit.z, lambda) else {
+            continue;
+        };
+        let Some(r) = lm::residuals_at(&problem, &fin.bounds, &z, r0.len()) else {
+            continue;
+        };
+        let sse = lm::sse(&r);
+        if sse <= fin.fit.sse + 2.0 * f0 {
+            ctx.stage(format!(
+                "final fit: moved to the smooth part's minimum (roughness {f0:.3}), sum {sse:.1} against {:.1}",
+                fin.fit.sse
+            ));
+            let p = lm::to_p(&fin.bounds, &z);
+            let mut state = fin.state.clone();
+            state.val = p.clone();
+            return FitOut {
+                state,
+                fit: lm::LmFit {
+                    p,
+                    z,
+                    residuals: r,
+                    sse,
+                    jac,
+                    jac_fresh: true,
+                    ..fin.fit
+                },
+                bounds: fin.bounds,
+            };
+        }
+    }
+    fin
 }
 
 /// On a rough sum of squares (roughness `f0` over a tiny step): the secant Jacobian, the

@@ -36,10 +36,18 @@ pub(super) const REFIT_SCORE_FRACTION: f64 = 1.0 / 3.0;
 /// nothing, every other candidate up to `Config::max_refit` is refitted too.
 pub(super) const FAR_FROM_NOISE: f64 = 10.0;
 
-/// Limits of the final fit of the chosen model on the whole trace. It stops once an iteration
-/// gains less than a chi-square unit and 1e-5 of the sum: a tenth of the chi-square rise that
-/// moves a parameter across its 95 % interval (3.84) is beyond what the reported values show.
-pub(super) const FINAL_LIMITS: Limits = Limits::new(20, 1e-5);
+/// Limits of the final fit of the chosen model on the whole trace, whose values and intervals
+/// are reported. It stops once an iteration gains less than a chi-square unit and 1e-5 of the
+/// sum and the Gauss–Newton step still predicted from there is below [`CONVERGED_DECREASE`]:
+/// along a flat valley (TwistedString's spring, guide damping and load) steps each gaining
+/// less than a unit left the estimates up to a whole half-width short of the minimum, so that
+/// a change of the record a billion times below its noise moved them by that much.
+pub(super) const FINAL_LIMITS: Limits = Limits::new(20, 1e-5).converged_below(CONVERGED_DECREASE);
+
+/// Largest predicted decrease of the sum of squares (chi-square units) at which a reported fit
+/// counts as converged: the remaining step is then at most √0.02 = 0.14 standard errors, 0.07
+/// of a 95 % interval's half-width, in every parameter.
+pub(super) const CONVERGED_DECREASE: f64 = 0.02;
 
 /// Limits of the polish of a named candidate's refit on the training part (the refits stop
 /// early to save simulations). It stops once an iteration gains less than the final fit's
