@@ -105,6 +105,13 @@ pub(super) fn interval_basis<S: GridModel + ?Sized>(
     }
 }
 
+/// Largest roughness at which the estimate is moved to the smooth part's minimum: jumps whose
+/// spread `√(2F)` stays within the statistical `1.96 σ`. Beyond it the sum is more jumps than
+/// slope, the secants' quadratic model no longer says where its minimum lies (on a trace with
+/// `F` = 21 the step went down a flat valley and the profile ends from there missed the truth),
+/// and the widened intervals are all the report can offer.
+const RECENTRE_MAX: f64 = 0.5 * Z95 * Z95;
+
 /// Marquardt dampings tried, in order, for the step to the smooth part's minimum: the
 /// undamped Gauss–Newton step, then one shortened along poorly determined directions (a flat
 /// valley's, where the undamped step overshoots to a bound).
@@ -115,9 +122,10 @@ const RECENTRE_DAMPING: [f64; 2] = [0.0, 1e-2];
 /// steps well above the jumps, [`lm::secant_jacobian`]), i.e. the minimum of the quadratic
 /// model of the smooth part. The step removes the smooth part's remaining slope, which is what
 /// differs between two runs that stopped at different jumps; what remains is the jumps' own
-/// projection on the slopes. It is taken when its sum of squares is within the jumps' spread
-/// (`2F`) of the fit's, the point is then as good a fit as the jumps allow. A smooth sum, or a
-/// step that fails that test, leaves `fin` as it is.
+/// projection on the slopes. The step is taken when the sum at the new point is within the
+/// jumps' spread (`2F`) of the fit's: the point is then as good a fit as the jumps allow. A
+/// step that fails that test, a smooth sum and one rougher than [`RECENTRE_MAX`] leave `fin`
+/// as it is.
 pub(super) fn recentre<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     fin: FitOut,
@@ -143,7 +151,7 @@ pub(super) fn recentre<S: GridModel + ?Sized>(
         &vec![h; m],
         PATTERNS,
     );
-    if f0 <= NEGLIGIBLE {
+    if f0 <= NEGLIGIBLE || f0 > RECENTRE_MAX {
         return fin;
     }
     let jac = lm::secant_jacobian(
