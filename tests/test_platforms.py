@@ -8,7 +8,8 @@
 - the win64 DLL runs under Wine (a C driver cross-compiled with mingw-w64) and its outputs are
   bit-identical to the linux64 binary's, run by the same driver compiled natively, with every
   candidate effect off and on (the FMUs compute transcendental functions with the `libm` crate,
-  not the platform's: tests/test_determinism.py).
+  not the platform's: tests/test_determinism.py); in Co-Simulation and in Model Exchange (a
+  driver integrating the states with the FMU's directional derivatives).
 macOS binaries cannot be executed here: they are checked by their Mach-O headers, load commands
 and export tries (read with goblin by `actuator-fmu validate`).
 """
@@ -99,12 +100,26 @@ def variable_refs(model):
     return md.guid, {v.name: v.valueReference for v in md.modelVariables}
 
 
-def run_driver(cmd, lib, model, cwd, effects, stop=0.5, h=1e-3):
+def me_arguments(model):
+    """NZ, STATE_VRS, DERIVATIVE_VRS of the Model Exchange driver, from the model description."""
+    from fmpy import read_model_description
+    md = read_model_description(fmu_path(model))
+    states = ",".join(str(d.variable.derivative.valueReference) for d in md.derivatives)
+    ders = ",".join(str(d.variable.valueReference) for d in md.derivatives)
+    return md.numberOfEventIndicators, states, ders
+
+
+def run_driver(cmd, lib, model, cwd, effects, stop=0.5, h=1e-3, me=False):
     guid, vr = variable_refs(model)
     inp, value, outs = RUNS[model]
     switches = [f"+{vr[name]}" for name in vr if effects and name.endswith(".enabled")]
-    args = [*cmd, lib, guid, str(stop), str(h), str(vr[inp]), str(value), *switches,
-            *[str(vr[o]) for o in outs]]
+    if me:
+        nz, states, ders = me_arguments(model)
+        args = [*cmd, lib, guid, str(nz), str(stop), str(h), str(vr[inp]), str(value), states,
+                ders, *switches, *[str(vr[o]) for o in outs]]
+    else:
+        args = [*cmd, lib, guid, str(stop), str(h), str(vr[inp]), str(value), *switches,
+                *[str(vr[o]) for o in outs]]
     env = {"WINEDEBUG": "-all", "PATH": "/usr/bin:/bin", "HOME": str(Path.home())}
     res = subprocess.run(args, capture_output=True, text=True, cwd=cwd, timeout=600, env=env)
     # The driver prints a message on each of its failures; a failure with nothing on stderr is
@@ -122,24 +137,48 @@ def run_driver(cmd, lib, model, cwd, effects, stop=0.5, h=1e-3):
     return data
 
 
-@pytest.mark.parametrize("effects", [False, True], ids=["effects-off", "effects-on"])
-@pytest.mark.parametrize("model", MODELS)
-def test_windows_dll_under_wine_computes_the_linux_binarys_bits(model, effects, tmp_path):
+def compile_drivers(model, driver, tmp_path):
     for tool in ("gcc", "x86_64-w64-mingw32-gcc", "wine"):
         if not shutil.which(tool):
             pytest.fail(f"{tool} is missing: scripts/test installs it (apt-get)")
     with zipfile.ZipFile(fmu_path(model)) as z:
         z.extractall(tmp_path)
-    src = DRIVER / "fmu_run.c"
-    subprocess.run(["gcc", "-O2", "-o", tmp_path / "fmu_run", src, "-ldl"], check=True)
-    subprocess.run(["x86_64-w64-mingw32-gcc", "-O2", "-o", tmp_path / "fmu_run.exe", src], check=True)
+    src = DRIVER / f"{driver}.c"
+    subprocess.run(["gcc", "-O2", "-o", tmp_path / driver, src, "-ldl", "-lm"], check=True)
+    subprocess.run(["x86_64-w64-mingw32-gcc", "-O2", "-o", tmp_path / f"{driver}.exe", src],
+                   check=True)
     subprocess.run(["x86_64-w64-mingw32-gcc", "-shared", "-O2", "-o",
                     tmp_path / "bcryptprimitives.dll", DRIVER / "bcryptprimitives.c", "-ladvapi32"],
                    check=True)
+
+
+@pytest.mark.parametrize("effects", [False, True], ids=["effects-off", "effects-on"])
+@pytest.mark.parametrize("model", MODELS)
+def test_windows_dll_under_wine_computes_the_linux_binarys_bits(model, effects, tmp_path):
+    compile_drivers(model, "fmu_run", tmp_path)
     linux = run_driver([str(tmp_path / "fmu_run")], f"binaries/linux64/{model}.so", model,
                        tmp_path, effects)
     windows = run_driver(["wine", str(tmp_path / "fmu_run.exe")],
                          f"binaries\\win64\\{model}.dll", model, tmp_path, effects)
+    assert_same_bits(model, linux, windows)
+
+
+@pytest.mark.parametrize("model", MODELS)
+def test_windows_dll_under_wine_model_exchange_computes_the_linux_binarys_bits(model, tmp_path):
+    """FMI 2.0 Model Exchange, every effect on: the same C driver (linearly implicit Euler on
+    the FMU's states with the Jacobian from fmi2GetDirectionalDerivative, time events of the
+    sampled controller, event indicators) on the win64 DLL under Wine and on the linux64 binary
+    gives the same output bits."""
+    compile_drivers(model, "fmu_me_run", tmp_path)
+    linux = run_driver([str(tmp_path / "fmu_me_run")], f"binaries/linux64/{model}.so", model,
+                       tmp_path, True, stop=0.2, me=True)
+    windows = run_driver(["wine", str(tmp_path / "fmu_me_run.exe")],
+                         f"binaries\\win64\\{model}.dll", model, tmp_path, True, stop=0.2,
+                         me=True)
+    assert_same_bits(model, linux, windows)
+
+
+def assert_same_bits(model, linux, windows):
     assert np.array_equal(linux[:, 0], windows[:, 0])
     for k, name in enumerate(RUNS[model][2], start=1):
         assert np.ptp(linux[:, k]) > 0, f"{name} does not move: the comparison would be empty"

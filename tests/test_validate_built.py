@@ -23,7 +23,7 @@ pytestmark = pytest.mark.skipif(sys.platform != "linux", reason="builds an x86_6
 
 DEFECTS = ["NAN_DERIVATIVES", "ENDLESS_EVENT_ITERATION", "CRASH_DERIVATIVES", "CRASH_DO_STEP",
            "HANG_DO_STEP", "LENIENT", "SILENT", "WRONG_DIRECTIONAL", "NO_RESTORE",
-           "NO_VALUES_CHANGED", "NO_SET_TIME"]
+           "BAD_SERIALIZE", "NO_VALUES_CHANGED", "NO_SET_TIME"]
 
 
 @pytest.fixture(scope="module")
@@ -95,13 +95,23 @@ def test_a_state_not_restored_is_found_for_both_interfaces(built):
     assert all("§2.2.7.4" in f["clause"] for f in r["findings"]), r
 
 
+def test_a_deserialized_state_not_restoring_is_found_for_both_interfaces(built):
+    # canSerializeFMUState: the state serialized and deserialized restores as the saved one
+    r = report(built["BAD_SERIALIZE"])
+    assert [(f["check"], f["location"]) for f in r["findings"]] == [
+        ("probe-fmu-state", "probe fmi3-fmu-state"),
+        ("probe-fmu-state", "probe fmi3-me-fmu-state")], r
+    assert all("fmi3DeserializeFMUState" in f["message"] for f in r["findings"]), r
+
+
 def test_calls_in_the_wrong_state_answered_ok_are_notes(built):
     # FMI 3.0.2 section 2.3: the importer must not make these calls; the FMU's answer is its own
     r = report(built["LENIENT"])
     assert r["findings"] == [], r
     assert [n["location"] for n in r["notes"]] == [
         "probe fmi3-do-step-before-init", "probe fmi3-negative-step",
-        "probe fmi3-do-step-after-terminate", "probe fmi3-me-derivatives-before-init"], r
+        "probe fmi3-do-step-after-terminate", "probe fmi3-me-derivatives-before-init",
+        "probe fmi3-me-set-states-in-event-mode"], r
     assert all(n["check"] == "probe-wrong-call" and "returned fmi3OK" in n["message"]
                for n in r["notes"]), r
 

@@ -877,7 +877,8 @@ pub unsafe fn get_nominals_of_continuous_states<M: Model>(
     })
 }
 
-/// `fmi2GetDirectionalDerivative`: Model Exchange of a model with an analytic Jacobian only.
+/// `fmi2GetDirectionalDerivative`: Model Exchange and Co-Simulation of a model with an analytic
+/// Jacobian.
 pub unsafe fn get_directional_derivative<M: Model>(
     c: Fmi2Component,
     unknowns: *const Fmi2ValueReference,

@@ -17,6 +17,35 @@ fn opt(x: Option<f64>) -> String {
     x.map(fmt_f64).unwrap_or_default()
 }
 
+/// The interfaces the FMU offers, from the model: Co-Simulation always; Model Exchange (with its
+/// numbers of continuous states and event indicators) where the model implements it; directional
+/// derivatives, in both interfaces, where it has an analytic Jacobian.
+pub fn interfaces<M: Model>() -> String {
+    let Some(me) = M::model_exchange() else {
+        return "Co-Simulation".to_string();
+    };
+    let plural = |n: usize, what: &str| format!("{n} {what}{}", if n == 1 { "" } else { "s" });
+    let derivatives = if me.provides_jacobian {
+        ", both with directional derivatives"
+    } else {
+        ""
+    };
+    format!(
+        "Model Exchange ({}, {}) and Co-Simulation{derivatives}",
+        plural(me.states, "continuous state"),
+        plural(me.event_indicators, "event indicator")
+    )
+}
+
+/// The page's interface line: FMI version, [`interfaces`] and GUID.
+pub fn interface_line<M: Model>() -> String {
+    format!(
+        "<p>FMI 2.0 {}, GUID <code>{}</code>.</p>\n",
+        escape(&interfaces::<M>()),
+        crate::xml::guid::<M>()
+    )
+}
+
 /// The whole documentation page.
 pub fn documentation<M: Model>() -> String {
     let mut h = String::new();
@@ -27,9 +56,9 @@ pub fn documentation<M: Model>() -> String {
          <style>body{{font-family:sans-serif;max-width:70em;margin:auto;line-height:1.4}}\
          table{{border-collapse:collapse}}td,th{{border:1px solid #bbb;padding:2px 6px;font-size:90%}}\
          th{{background:#eee}}code{{background:#f4f4f4}}</style>\n</head>\n<body>\n\
-         <h1>{name}</h1>\n<p>{}</p>\n<p>FMI 2.0 Co-Simulation, GUID <code>{}</code>.</p>\n",
+         <h1>{name}</h1>\n<p>{}</p>\n{}",
         escape(M::DESCRIPTION),
-        crate::xml::guid::<M>()
+        interface_line::<M>()
     );
     h.push_str(&M::documentation_html());
     type Keep = fn(&crate::Variable) -> bool;

@@ -103,6 +103,13 @@ fn write_description<M: Model>(guid: &str) -> String {
     ));
     ev(Event::Start(root));
 
+    // Directional derivatives in both interfaces where the model has an analytic Jacobian:
+    // Co-Simulation at the communication point, over the same Model Exchange equations.
+    let jacobian = if me.is_some_and(|me| me.provides_jacobian) {
+        "true"
+    } else {
+        "false"
+    };
     if me.is_some() {
         let mut e = BytesStart::new("ModelExchange");
         for (k, v) in [
@@ -113,14 +120,7 @@ fn write_description<M: Model>(guid: &str) -> String {
             ("canNotUseMemoryManagementFunctions", "true"),
             ("canGetAndSetFMUstate", "true"),
             ("canSerializeFMUstate", "true"),
-            (
-                "providesDirectionalDerivative",
-                if me.is_some_and(|me| me.provides_jacobian) {
-                    "true"
-                } else {
-                    "false"
-                },
-            ),
+            ("providesDirectionalDerivative", jacobian),
         ] {
             e.push_attribute((k, v));
         }
@@ -139,7 +139,7 @@ fn write_description<M: Model>(guid: &str) -> String {
         ("canNotUseMemoryManagementFunctions", "true"),
         ("canGetAndSetFMUstate", "true"),
         ("canSerializeFMUstate", "true"),
-        ("providesDirectionalDerivative", "false"),
+        ("providesDirectionalDerivative", jacobian),
     ] {
         cs.push_attribute((k, v));
     }

@@ -34,11 +34,7 @@ pub const EVENT_INDICATOR_VALUE_REFERENCE: u32 = 1_000_001;
 pub fn documentation<M: fmi2_export::Model>() -> String {
     let html = fmi2_export::html::documentation::<M>();
     let token = fmi2_export::xml::guid::<M>();
-    let interfaces = if M::model_exchange().is_some() {
-        "Model Exchange and Co-Simulation"
-    } else {
-        "Co-Simulation"
-    };
+    let interfaces = fmi2_export::html::escape(&fmi2_export::html::interfaces::<M>());
     let fmi3 = format!(
         "<p>FMI 3.0 {interfaces}, instantiationToken <code>{token}</code> (the model is also \
          shipped as FMI 2.0, with the same variables and value references, plus <code>time</code>, \
@@ -51,7 +47,7 @@ pub fn documentation<M: fmi2_export::Model>() -> String {
          <code>fmi2NewDiscreteStates</code> is <code>fmi3UpdateDiscreteStates</code> and \
          <code>fmi2GetDerivatives</code> is <code>fmi3GetContinuousStateDerivatives</code>.</p>\n"
     );
-    let fmi2 = format!("<p>FMI 2.0 Co-Simulation, GUID <code>{token}</code>.</p>\n");
+    let fmi2 = fmi2_export::html::interface_line::<M>();
     if let Some(i) = html.find(&fmi2) {
         return format!("{}{fmi3}{}", &html[..i], &html[i + fmi2.len()..]);
     }
@@ -91,9 +87,9 @@ pub fn describe_main<M: fmi2_export::Model>() {
 
 /// Export all 75 FMI 3.0 functions for model type `$model` from this `cdylib`. Co-Simulation and
 /// (for a model with `ModelExchange`) Model Exchange, with directional and adjoint derivatives in
-/// Model Exchange, are implemented; Scheduled Execution, Event Mode in Co-Simulation, clocks,
-/// configuration mode, intermediate update, per-element dependencies and derivatives in
-/// Co-Simulation return `fmi3Error` with a logged reason.
+/// both (for a model with an analytic Jacobian), are implemented; Scheduled Execution, Event
+/// Mode in Co-Simulation, clocks, configuration mode, intermediate update and per-element
+/// dependencies return `fmi3Error` with a logged reason.
 #[macro_export]
 macro_rules! export_fmi3 {
     ($model:ty) => {
@@ -540,8 +536,10 @@ mod tests {
     #[test]
     fn the_documentation_names_fmi3_not_fmi2_as_its_interface() {
         let html = documentation::<Oscillator>();
-        assert!(html.contains("<p>FMI 3.0 Model Exchange and Co-Simulation, instantiationToken"));
-        assert!(!html.contains("FMI 2.0 Co-Simulation, GUID"));
+        assert!(html.contains(
+            "<p>FMI 3.0 Model Exchange (2 continuous states, 0 event indicators) and Co-Simulation"
+        ));
+        assert!(!html.contains(", GUID <code>"));
         assert_eq!(html.matches("<h1>").count(), 1);
     }
 }

@@ -62,6 +62,20 @@ unsafe fn simple<M: Model>(
     })
 }
 
+/// A call of either interface (directional and adjoint derivatives): check the state, then call
+/// the instance.
+unsafe fn either_interface<M: Model>(
+    c: Fmi3Instance,
+    func: &'static str,
+    mask: u32,
+    f: impl FnOnce(&mut Component<M>) -> Status,
+) -> Fmi3Status {
+    with_component::<M>(c, func, |comp| match comp.check(func, mask) {
+        Ok(()) => f(comp),
+        Err(s) => s,
+    })
+}
+
 pub unsafe fn enter_event_mode<M: Model>(c: Fmi3Instance) -> Fmi3Status {
     const F: &str = "fmi3EnterEventMode";
     simple::<M>(c, F, allowed::ENTER_EVENT_MODE, |comp| {
@@ -319,7 +333,8 @@ unsafe fn derivative_args<'a, M: Model>(
     }
 }
 
-/// `fmi3GetDirectionalDerivative` (Model Exchange): `sensitivity = J seed` for the unknowns
+/// `fmi3GetDirectionalDerivative` (Model Exchange; Co-Simulation in Step Mode at the
+/// communication point): `sensitivity = J seed` for the unknowns
 /// (derivatives, outputs) with respect to the knowns (states, inputs), FMI 3.0.2 section 3.2.4;
 /// the instance's directional derivative (the model's analytic Jacobian for derivatives with
 /// respect to states).
@@ -336,7 +351,7 @@ pub unsafe fn get_directional_derivative<M: Model>(
     n_sensitivity: usize,
 ) -> Fmi3Status {
     const F: &str = "fmi3GetDirectionalDerivative";
-    simple::<M>(c, F, allowed::DIRECTIONAL_DERIVATIVE, |comp| {
+    either_interface::<M>(c, F, allowed::DIRECTIONAL_DERIVATIVE, |comp| {
         let args = match derivative_args(
             comp,
             F,
@@ -362,7 +377,7 @@ pub unsafe fn get_directional_derivative<M: Model>(
     })
 }
 
-/// `fmi3GetAdjointDerivative` (Model Exchange): `sensitivity = seed^T J`, FMI 3.0.2 section
+/// `fmi3GetAdjointDerivative` (as the directional one): `sensitivity = seed^T J`, FMI 3.0.2 section
 /// 3.2.4, one column `J e_j` of the same directional derivative per known `j`:
 /// `sensitivity_j = sum_i seed_i J_ij` (the instance evaluates the model's state Jacobian once
 /// for all columns and keeps it while the point does not change). Nothing is written unless
@@ -380,7 +395,7 @@ pub unsafe fn get_adjoint_derivative<M: Model>(
     n_sensitivity: usize,
 ) -> Fmi3Status {
     const F: &str = "fmi3GetAdjointDerivative";
-    simple::<M>(c, F, allowed::DIRECTIONAL_DERIVATIVE, |comp| {
+    either_interface::<M>(c, F, allowed::DIRECTIONAL_DERIVATIVE, |comp| {
         let args = match derivative_args(
             comp,
             F,

@@ -30,13 +30,19 @@ fn element(t: VarType) -> &'static str {
 
 type Ev<'a> = dyn FnMut(Event) + 'a;
 
-/// `<ModelExchange>` (FMI 3.0.2 section 3.3) for a model with Model Exchange.
-fn model_exchange<M: Model>(ev: &mut Ev) {
-    let jacobian = if M::model_exchange().is_some_and(|me| me.provides_jacobian) {
+/// `"true"` where the model has an analytic Jacobian: directional and adjoint derivatives in
+/// Model Exchange and (at the communication point) in Co-Simulation.
+fn jacobian<M: Model>() -> &'static str {
+    if M::model_exchange().is_some_and(|me| me.provides_jacobian) {
         "true"
     } else {
         "false"
-    };
+    }
+}
+
+/// `<ModelExchange>` (FMI 3.0.2 section 3.3) for a model with Model Exchange.
+fn model_exchange<M: Model>(ev: &mut Ev) {
+    let jacobian = jacobian::<M>();
     let mut e = BytesStart::new("ModelExchange");
     for (k, v) in [
         ("modelIdentifier", M::NAME),
@@ -63,8 +69,8 @@ fn co_simulation<M: Model>(ev: &mut Ev) {
         ("canBeInstantiatedOnlyOncePerProcess", "false"),
         ("canGetAndSetFMUState", "true"),
         ("canSerializeFMUState", "true"),
-        ("providesDirectionalDerivatives", "false"),
-        ("providesAdjointDerivatives", "false"),
+        ("providesDirectionalDerivatives", jacobian::<M>()),
+        ("providesAdjointDerivatives", jacobian::<M>()),
         ("providesPerElementDependencies", "false"),
         ("canHandleVariableCommunicationStepSize", "true"),
         ("maxOutputDerivativeOrder", "0"),

@@ -128,6 +128,12 @@ pub struct Functions3 {
     pub get_fmu_state: Option<unsafe extern "C" fn(I, *mut FmuState3) -> RawStatus3>,
     pub set_fmu_state: Option<unsafe extern "C" fn(I, FmuState3) -> RawStatus3>,
     pub free_fmu_state: Option<unsafe extern "C" fn(I, *mut FmuState3) -> RawStatus3>,
+    pub serialized_fmu_state_size:
+        Option<unsafe extern "C" fn(I, FmuState3, *mut usize) -> RawStatus3>,
+    pub serialize_fmu_state:
+        Option<unsafe extern "C" fn(I, FmuState3, *mut u8, usize) -> RawStatus3>,
+    pub deserialize_fmu_state:
+        Option<unsafe extern "C" fn(I, *const u8, usize, *mut FmuState3) -> RawStatus3>,
     pub do_step: Option<DoStep>,
     pub instantiate_model_exchange: Option<InstantiateModelExchange>,
     /// The Model Exchange functions, when the binary exports all of them.
@@ -244,6 +250,9 @@ pub unsafe fn resolve(lib: &Library) -> Result<Functions3, crate::ffi::LoadError
         get_fmu_state: sym(lib, "fmi3GetFMUState"),
         set_fmu_state: sym(lib, "fmi3SetFMUState"),
         free_fmu_state: sym(lib, "fmi3FreeFMUState"),
+        serialized_fmu_state_size: sym(lib, "fmi3SerializedFMUStateSize"),
+        serialize_fmu_state: sym(lib, "fmi3SerializeFMUState"),
+        deserialize_fmu_state: sym(lib, "fmi3DeserializeFMUState"),
         do_step: sym(lib, "fmi3DoStep"),
         instantiate_model_exchange: sym(lib, "fmi3InstantiateModelExchange"),
         me: crate::me::fmi3::resolve(lib),

@@ -30,6 +30,7 @@ pub const PROBE3_CASES: &[&str] = &[
     "fmi3-me-state-event",
     "fmi3-me-fmu-state",
     "fmi3-me-derivatives-before-init",
+    "fmi3-me-set-states-in-event-mode",
 ];
 
 /// The clause of an FMI 3.0 probe result.
@@ -121,6 +122,50 @@ fn set_state(inst: &mut Instance3<'_>, saved: &Saved3) -> Result<(), HostError> 
     // SAFETY: live instance and a state it returned from fmi3GetFMUState, not yet freed.
     let raw = unsafe { f(inst.instance, saved.0) };
     inst.check("fmi3SetFMUState", raw).map(drop)
+}
+
+/// `fmi3SerializeFMUState` of `saved`, then `fmi3DeserializeFMUState` of those bytes: a new
+/// state, which must be the same (FMI 3.0.2 section 2.2.7.4).
+fn serialized_copy(inst: &mut Instance3<'_>, saved: &Saved3) -> Result<Saved3, HostError> {
+    let f = &inst.fmu.functions;
+    let (Some(size), Some(serialize), Some(deserialize)) = (
+        f.serialized_fmu_state_size,
+        f.serialize_fmu_state,
+        f.deserialize_fmu_state,
+    ) else {
+        return Err(HostError::Request(
+            "the binary does not export the FMU state serialization functions".into(),
+        ));
+    };
+    let mut n = 0usize;
+    // SAFETY: live instance, a state it returned, a valid out pointer.
+    let raw = unsafe { size(inst.instance, saved.0, &mut n) };
+    inst.check("fmi3SerializedFMUStateSize", raw)?;
+    if n > 1 << 30 {
+        return Err(HostError::Request(format!(
+            "fmi3SerializedFMUStateSize gives {n} bytes"
+        )));
+    }
+    let mut bytes = vec![0u8; n];
+    // SAFETY: `bytes` has the n bytes the FMU asked for.
+    let raw = unsafe { serialize(inst.instance, saved.0, bytes.as_mut_ptr(), n) };
+    inst.check("fmi3SerializeFMUState", raw)?;
+    let mut state: FmuState3 = std::ptr::null_mut();
+    // SAFETY: n bytes the FMU serialized; a NULL state asks it for a new one.
+    let raw = unsafe { deserialize(inst.instance, bytes.as_ptr(), n, &mut state) };
+    inst.check("fmi3DeserializeFMUState", raw)?;
+    Ok(Saved3(state))
+}
+
+/// Whether the description declares `canSerializeFMUState` for the interface.
+fn can_serialize(fmu: &Fmu3, model_exchange: bool) -> bool {
+    let md = fmu.model_description();
+    let element = if model_exchange {
+        md.model_exchange.as_ref()
+    } else {
+        md.co_simulation.as_ref()
+    };
+    element.is_some_and(|e| e.flag("canSerializeFMUState"))
 }
 
 /// `fmi3FreeFMUState` of `saved` (before the instance is freed).
@@ -260,13 +305,26 @@ fn check_fmu_state_cs(fmu: &Fmu3, t0: f64, h: f64) -> Verdict {
         }
         Ok(bits)
     };
+    let serialize = can_serialize(fmu, false);
     let result = (|| -> Result<Option<String>, HostError> {
         let first = run5(&mut inst)?;
         set_state(&mut inst, &saved)?;
-        let again = run5(&mut inst)?;
-        Ok((again != first).then(|| {
-            "after fmi3SetFMUState the Float64 outputs of the next 5 steps differ from those \
-             after fmi3GetFMUState (the state is not fully restored)"
+        if run5(&mut inst)? != first {
+            return Ok(Some(
+                "after fmi3SetFMUState the Float64 outputs of the next 5 steps differ from \
+                 those after fmi3GetFMUState (the state is not fully restored)"
+                    .into(),
+            ));
+        }
+        if !serialize {
+            return Ok(None);
+        }
+        let copy = serialized_copy(&mut inst, &saved)?;
+        let again = set_state(&mut inst, &copy).and_then(|()| run5(&mut inst));
+        free_state(&mut inst, copy);
+        Ok((again? != first).then(|| {
+            "after fmi3SerializeFMUState, fmi3DeserializeFMUState and fmi3SetFMUState the \
+             Float64 outputs of the next 5 steps differ from those after fmi3GetFMUState"
                 .to_string()
         }))
     })();
@@ -278,7 +336,8 @@ fn check_fmu_state_cs(fmu: &Fmu3, t0: f64, h: f64) -> Verdict {
 /// event iteration, Continuous-Time Mode, finite derivatives over 3 explicit Euler steps,
 /// terminate); directional derivatives against finite differences, the event flags at the first
 /// state event, a restored FMU state; then `fmi3GetContinuousStateDerivatives` before
-/// initialization, which the state machine of FMI 3.0.2 section 3.2 does not allow. `step` as
+/// initialization and `fmi3SetContinuousStates` in Event Mode, which the state machine of FMI
+/// 3.0.2 sections 2.3 and 3.2 does not allow. `step` as
 /// for [`super::probe`].
 pub fn probe3_me(fmu: &Fmu3, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding> {
     let de = fmu
@@ -342,16 +401,29 @@ pub fn probe3_me(fmu: &Fmu3, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding>
         });
     }
     let name = "fmi3-me-derivatives-before-init";
-    if !step(name) {
-        return f;
+    if step(name) {
+        let what = "fmi3GetContinuousStateDerivatives before initialization";
+        let result = fmu.instantiate("probe").and_then(|mut inst| {
+            let mut me = Fmi3Me::new(&mut inst)?;
+            let mut dx = vec![0.0; me.states()];
+            me.get_derivatives(&mut dx).map(drop)
+        });
+        answer(what, format!("probe {name}"), result, &mut f);
     }
-    let what = "fmi3GetContinuousStateDerivatives before initialization";
-    let result = fmu.instantiate("probe").and_then(|mut inst| {
-        let mut me = Fmi3Me::new(&mut inst)?;
-        let mut dx = vec![0.0; me.states()];
-        me.get_derivatives(&mut dx).map(drop)
-    });
-    answer(what, format!("probe {name}"), result, &mut f);
+    // After fmi3ExitInitializationMode a Model Exchange instance is in Event Mode, where
+    // fmi3SetContinuousStates is not allowed (FMI 3.0.2 section 2.3.5).
+    let name = "fmi3-me-set-states-in-event-mode";
+    if step(name) {
+        let what = "fmi3SetContinuousStates in Event Mode";
+        let result = fmu.instantiate("probe").and_then(|mut inst| {
+            initialize(&mut inst, t0)?;
+            let mut me = Fmi3Me::new(&mut inst)?;
+            let mut x = vec![0.0; me.states()];
+            me.get_states(&mut x)?;
+            me.set_states(&x)
+        });
+        answer(what, format!("probe {name}"), result, &mut f);
+    }
     f
 }
 
@@ -360,14 +432,31 @@ pub fn probe3_me(fmu: &Fmu3, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding>
 /// bit-identical.
 fn check_fmu_state_me(inst: &mut Instance3<'_>, t: f64, h: f64) -> Verdict {
     let s = |e: HostError| e.to_string();
+    let serialize = can_serialize(inst.fmu, true);
     let saved = get_state(inst).map_err(s)?;
     let result = (|| -> Verdict {
-        let first = me_checks::euler_run(&mut Fmi3Me::new(inst).map_err(s)?, t, h, 5)?;
+        let first = me_checks::euler_run(&mut me(inst)?, t, h, 5)?;
         set_state(inst, &saved).map_err(s)?;
-        let again = me_checks::euler_run(&mut Fmi3Me::new(inst).map_err(s)?, t, h, 5)?;
-        Ok((again != first).then(|| {
-            "after fmi3SetFMUState the continuous states of the next 5 Euler steps differ from \
-             those after fmi3GetFMUState (the state is not fully restored)"
+        if me_checks::euler_run(&mut me(inst)?, t, h, 5)? != first {
+            return Ok(Some(
+                "after fmi3SetFMUState the continuous states of the next 5 Euler steps differ \
+                 from those after fmi3GetFMUState (the state is not fully restored)"
+                    .into(),
+            ));
+        }
+        if !serialize {
+            return Ok(None);
+        }
+        let copy = serialized_copy(inst, &saved).map_err(s)?;
+        let again = match set_state(inst, &copy) {
+            Ok(()) => me(inst).and_then(|mut m| me_checks::euler_run(&mut m, t, h, 5)),
+            Err(e) => Err(e.to_string()),
+        };
+        free_state(inst, copy);
+        Ok((again? != first).then(|| {
+            "after fmi3SerializeFMUState, fmi3DeserializeFMUState and fmi3SetFMUState the \
+             continuous states of the next 5 Euler steps differ from those after \
+             fmi3GetFMUState"
                 .to_string()
         }))
     })();
