@@ -582,7 +582,8 @@ mod tests {
         for (i, (x, y)) in r.iter_mut().zip(&measured).enumerate() {
             *x += 3800.0 + 200.0 * y + if i < START_SAMPLES { 15.0 } else { 0.0 };
         }
-        let misses = start_misses(&r, 1, n, START_SAMPLES, &[], &[measured.clone()]);
+        let meas = vec![measured];
+        let misses = start_misses(&r, 1, n, START_SAMPLES, &[], &meas);
         assert!(misses[0].z.abs() > START_MAX_Z, "{:?}", misses[0]);
         assert_eq!(concentrated_at_start(misses), None);
         // The same 15 beyond the line where the model meets the rest at the noise level: the
@@ -591,7 +592,7 @@ mod tests {
         for x in near.iter_mut().take(START_SAMPLES) {
             *x += 15.0;
         }
-        let misses = start_misses(&near, 1, n, START_SAMPLES, &[], &[measured]);
+        let misses = start_misses(&near, 1, n, START_SAMPLES, &[], &meas);
         assert!(concentrated_at_start(misses).is_some());
     }
 
