@@ -437,19 +437,55 @@ impl<M: Model> Instance<M> {
             return Ok(());
         }
         scratch.unknowns.clear();
-        let result = self.roles(func, me, unknowns, false, &mut scratch.unknown_roles);
-        if result.is_ok() {
-            scratch.unknowns.extend_from_slice(unknowns);
+        self.roles(func, me, unknowns, false, &mut scratch.unknown_roles)?;
+        scratch.unknowns.extend_from_slice(unknowns);
+        scratch.unknown_rows.clear();
+        for role in &scratch.unknown_roles {
+            match *role {
+                Role::State(i) => scratch.unknown_rows.push(i),
+                Role::Variable(_) => {
+                    scratch.unknown_rows.clear();
+                    break;
+                }
+            }
         }
-        result
+        Ok(())
+    }
+
+    /// The roles of the knowns into `scratch.known_roles`; a known that is a state is found
+    /// among the states' value references (the common case: an importer's Jacobian columns).
+    fn known_roles(
+        &mut self,
+        func: &str,
+        me: &MeVTable<M>,
+        knowns: &[u32],
+        scratch: &mut Scratch,
+    ) -> Result<(), Status> {
+        if scratch.state_references.len() != me.states {
+            let table = M::variables();
+            scratch.state_references = me
+                .state_variables
+                .iter()
+                .map(|&(x, _)| table[x].value_reference)
+                .collect();
+        }
+        scratch.known_roles.clear();
+        for vr in knowns {
+            match scratch.state_references.iter().position(|r| r == vr) {
+                Some(k) => scratch.known_roles.push(Role::State(k)),
+                None => return self.roles(func, me, knowns, true, &mut scratch.known_roles),
+            }
+        }
+        Ok(())
     }
 
     /// `out = J dv` (see [`Instance::get_directional_derivative`]) with the state Jacobian (when
-    /// needed) already in `self.jacobian`.
+    /// needed) already in `self.jacobian`. `rows`: the unknowns' positions in the state vector
+    /// when every unknown is a derivative (else empty).
     fn directional(
         &self,
         me: &MeVTable<M>,
-        u_roles: &[Role],
+        (u_roles, rows): (&[Role], &[usize]),
         k_roles: &[Role],
         dv: &[f64],
         out: &mut [f64],
@@ -457,20 +493,24 @@ impl<M: Model> Instance<M> {
         let n = me.states;
         let jac = &self.jacobian.jac;
         out.fill(0.0);
+        if u_roles.is_empty() {
+            return Ok(());
+        }
         for (&known, &v) in k_roles.iter().zip(dv) {
             if v == 0.0 {
+                continue;
+            }
+            if let (Role::State(j), false) = (known, rows.is_empty()) {
+                // every unknown a derivative: a column of the state Jacobian
+                for (o, &i) in out.iter_mut().zip(rows) {
+                    *o += jac[i * n + j] * v;
+                }
                 continue;
             }
             let analytic = |u: &Role| match (*u, known) {
                 (Role::State(i), Role::State(j)) => Some(jac[i * n + j]),
                 _ => None,
             };
-            if u_roles.iter().all(|u| analytic(u).is_some()) {
-                for (o, u) in out.iter_mut().zip(u_roles) {
-                    *o += analytic(u).unwrap_or(0.0) * v;
-                }
-                continue;
-            }
             let h = self.central_step(me, known);
             let hi = self.unknowns_at(me, u_roles, known, h)?;
             let lo = self.unknowns_at(me, u_roles, known, -h)?;
@@ -522,7 +562,7 @@ impl<M: Model> Instance<M> {
         if let Err(s) = self.unknown_roles(func, me, unknowns, scratch) {
             return s;
         }
-        if let Err(s) = self.roles(func, me, knowns, true, &mut scratch.known_roles) {
+        if let Err(s) = self.known_roles(func, me, knowns, scratch) {
             return s;
         }
         let (u_roles, k_roles) = (&scratch.unknown_roles, &scratch.known_roles);
@@ -535,7 +575,8 @@ impl<M: Model> Instance<M> {
             }
         }
         scratch.out.resize(u_roles.len(), 0.0);
-        if let Err(e) = self.directional(me, u_roles, k_roles, dv, &mut scratch.out) {
+        let unknowns_found = (u_roles.as_slice(), scratch.unknown_rows.as_slice());
+        if let Err(e) = self.directional(me, unknowns_found, k_roles, dv, &mut scratch.out) {
             return self.error(func, format!("at t = {}: {e}", self.time));
         }
         if let Some(i) = scratch.out.iter().position(|v| !v.is_finite()) {
@@ -582,6 +623,10 @@ struct Scratch {
     /// The last unknowns' value references and their roles (static: a role never changes).
     unknowns: Vec<u32>,
     unknown_roles: Vec<Role>,
+    /// Their positions in the state vector when all are derivatives, else empty.
+    unknown_rows: Vec<usize>,
+    /// The value references of the states, in the order of the state vector.
+    state_references: Vec<u32>,
     known_roles: Vec<Role>,
     /// `dz` before it is checked.
     out: Vec<f64>,
@@ -626,8 +671,8 @@ impl JacobianCache {
         }
         self.valid = false;
         // zeroed, as a fresh buffer would be: a model may write only its nonzero entries
-        self.jac.clear();
         self.jac.resize(me.states * me.states, 0.0);
+        self.jac.fill(0.0);
         (me.state_jacobian)(model, vars, t, &mut self.jac)?;
         self.time = t.to_bits();
         self.states.clone_from(&self.x);

@@ -356,6 +356,9 @@ pub(crate) struct InputPlan3<'r> {
     inputs: Vec<(u32, Samples)>,
     interp_cursor: usize,
     hold_cursor: usize,
+    /// The input events in time order (see [`InputPlan3::next_event`]), found once: Model
+    /// Exchange asks for the next one at every integration segment.
+    events: Vec<f64>,
 }
 
 impl<'r> InputPlan3<'r> {
@@ -408,6 +411,7 @@ impl<'r> InputPlan3<'r> {
         }
         Ok(InputPlan3 {
             time: &series.time,
+            events: InputPlan3::events(&series.time, &inputs),
             inputs,
             interp_cursor: 0,
             hold_cursor: 0,
@@ -466,23 +470,27 @@ impl InputPlan3<'_> {
     /// repeated row time, or a row at which a held input changes (FMPy's `Input.findEvents`).
     pub(crate) fn next_event(&self, t: f64) -> f64 {
         let close = |e: f64| (e - t).abs() <= 1e-9 * e.abs().max(t.abs());
-        let after = |e: f64| e > t && !close(e);
-        let mut first = f64::INFINITY;
-        for k in 1..self.time.len() {
-            let e = self.time[k];
-            if e >= first || !after(e) {
-                continue;
-            }
-            let changed = self.time[k - 1] == e
-                || self.inputs.iter().any(|(_, s)| match s {
-                    Samples::Held(rows) => rows[k] != rows[k - 1],
-                    Samples::Interpolated { .. } => false,
-                });
-            if changed {
-                first = e;
-            }
-        }
-        first
+        let from = self.events.partition_point(|&e| e <= t);
+        self.events[from..]
+            .iter()
+            .copied()
+            .find(|&e| !close(e))
+            .unwrap_or(f64::INFINITY)
+    }
+
+    /// The row times at which an input event happens, in time order: a repeated row time, or a
+    /// row at which a held input changes.
+    fn events(time: &[f64], inputs: &[(u32, Samples)]) -> Vec<f64> {
+        (1..time.len())
+            .filter(|&k| {
+                time[k - 1] == time[k]
+                    || inputs.iter().any(|(_, s)| match s {
+                        Samples::Held(rows) => rows[k] != rows[k - 1],
+                        Samples::Interpolated { .. } => false,
+                    })
+            })
+            .map(|k| time[k])
+            .collect()
     }
 }
 

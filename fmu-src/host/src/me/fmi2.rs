@@ -24,6 +24,12 @@ pub struct Fmi2Me<'i, 'a> {
     indicators: usize,
     needs_step: bool,
     directional: bool,
+    /// Per derivative: the states it depends on (`<Derivatives>` `dependencies`, inputs left
+    /// out), `None` where none are declared.
+    dependencies: Vec<Option<Vec<usize>>>,
+    /// Scratch of the directional derivative calls: the knowns' value references and seed.
+    known: Vec<u32>,
+    seed: Vec<f64>,
     /// The time of the last `fmi2SetTime` (for the call marks).
     time: f64,
 }
@@ -38,7 +44,11 @@ impl<'i, 'a> Fmi2Me<'i, 'a> {
             .ok_or_else(|| missing("the Model Exchange functions"))?;
         let md = fmu.model_description();
         let (state_vrs, derivative_vrs) = state_references(md)?;
+        let dependencies = state_dependencies(md);
         Ok(Fmi2Me {
+            dependencies,
+            known: Vec::new(),
+            seed: Vec::new(),
             f,
             state_vrs,
             derivative_vrs,
@@ -80,6 +90,33 @@ fn state_references(md: &ModelDescription) -> Result<(Vec<u32>, Vec<u32>)> {
         derivatives.push(d.value_reference);
     }
     Ok((states, derivatives))
+}
+
+/// Per derivative of `<Derivatives>`: the positions in the state vector of the states among its
+/// `dependencies` (1-based ModelVariables indices; inputs are not states and left out), `None`
+/// when the attribute is absent (FMI 2.0.4 section 2.2.8: it may then depend on every known).
+fn state_dependencies(md: &ModelDescription) -> Vec<Option<Vec<usize>>> {
+    let derivatives = &md.model_structure.derivatives;
+    // the state of each derivative as its 1-based variable index
+    let states: Vec<Option<usize>> = derivatives
+        .iter()
+        .map(|u| {
+            md.model_variables
+                .get(u.index.wrapping_sub(1))
+                .and_then(|d| d.derivative)
+        })
+        .collect();
+    derivatives
+        .iter()
+        .map(|u| {
+            let deps = u.dependencies.as_ref()?;
+            Some(
+                deps.iter()
+                    .filter_map(|&v| states.iter().position(|&s| s == Some(v)))
+                    .collect(),
+            )
+        })
+        .collect()
 }
 
 fn flag(b: Fmi2Boolean) -> bool {
@@ -202,34 +239,41 @@ impl ModelExchange for Fmi2Me<'_, '_> {
         self.directional
     }
 
-    fn state_derivative_column(&mut self, j: usize, out: &mut [f64]) -> Result<()> {
+    fn state_derivative_seed(&mut self, columns: &[usize], out: &mut [f64]) -> Result<()> {
         let f = self
             .inst
             .fmu
             .functions
             .get_directional_derivative
             .ok_or_else(|| missing("fmi2GetDirectionalDerivative"))?;
-        let known = [self.state_vrs[j]];
-        let seed = [1.0];
         if out.len() != self.derivative_vrs.len() {
             return Err(HostError::Request(
                 "Jacobian column of the wrong length".into(),
             ));
         }
+        self.known.clear();
+        self.known
+            .extend(columns.iter().map(|&j| self.state_vrs[j]));
+        self.seed.resize(columns.len(), 1.0);
         let _w = watch::enter(Call::DirectionalDerivative, Some(self.time));
-        // SAFETY: vUnknown_ref/dvUnknown have out.len() elements, vKnown_ref/dvKnown one.
+        // SAFETY: vUnknown_ref/dvUnknown have out.len() elements, vKnown_ref/dvKnown
+        // columns.len().
         let raw = unsafe {
             f(
                 self.inst.component,
                 self.derivative_vrs.as_ptr(),
                 self.derivative_vrs.len(),
-                known.as_ptr(),
-                1,
-                seed.as_ptr(),
+                self.known.as_ptr(),
+                self.known.len(),
+                self.seed.as_ptr(),
                 out.as_mut_ptr(),
             )
         };
         self.call("fmi2GetDirectionalDerivative", raw).map(drop)
+    }
+
+    fn state_dependencies(&self) -> Vec<Option<Vec<usize>>> {
+        self.dependencies.clone()
     }
 }
 

@@ -88,6 +88,12 @@ pub struct Fmi3Me<'i, 'a> {
     /// directional derivatives (FMI 3.0.2 section 2.4.8: `<ContinuousStateDerivative>` in the
     /// order of the state vector, each naming its state with `derivative`).
     directional: Option<(Vec<u32>, Vec<u32>)>,
+    /// Per derivative: the states it depends on (`dependencies` of its
+    /// `<ContinuousStateDerivative>`, inputs left out), `None` where none are declared.
+    dependencies: Vec<Option<Vec<usize>>>,
+    /// Scratch of the directional derivative calls: the knowns' value references and seed.
+    known: Vec<u32>,
+    seed: Vec<f64>,
     time: f64,
 }
 
@@ -103,6 +109,9 @@ impl<'i, 'a> Fmi3Me<'i, 'a> {
             indicators: 0,
             needs_step: false,
             directional: None,
+            dependencies: Vec::new(),
+            known: Vec::new(),
+            seed: Vec::new(),
             time: 0.0,
             inst,
         };
@@ -132,6 +141,20 @@ impl<'i, 'a> Fmi3Me<'i, 'a> {
             }
         }
         if provides && states.len() == me.states {
+            // FMI 3.0.2 section 2.4.8: dependencies by value reference, absent: every known
+            me.dependencies = md
+                .model_structure
+                .continuous_state_derivatives
+                .iter()
+                .map(|u| {
+                    let deps = u.dependencies.as_ref()?;
+                    Some(
+                        deps.iter()
+                            .filter_map(|vr| states.iter().position(|s| s == vr))
+                            .collect(),
+                    )
+                })
+                .collect();
             me.directional = Some((states, derivatives));
         }
         Ok(me)
@@ -282,7 +305,7 @@ impl ModelExchange for Fmi3Me<'_, '_> {
         self.directional.is_some()
     }
 
-    fn state_derivative_column(&mut self, j: usize, out: &mut [f64]) -> Result<()> {
+    fn state_derivative_seed(&mut self, columns: &[usize], out: &mut [f64]) -> Result<()> {
         let (Some(f), Some((states, derivatives))) =
             (self.f.get_directional_derivative, self.directional.as_ref())
         else {
@@ -295,24 +318,29 @@ impl ModelExchange for Fmi3Me<'_, '_> {
                 "Jacobian column of the wrong length".into(),
             ));
         }
-        let known = [states[j]];
-        let seed = [1.0];
+        self.known.clear();
+        self.known.extend(columns.iter().map(|&j| states[j]));
+        self.seed.resize(columns.len(), 1.0);
         let _w = watch::enter3(Call::DirectionalDerivative, Some(self.time));
-        // SAFETY: unknowns/sensitivity have out.len() elements, knowns/seed one.
+        // SAFETY: unknowns/sensitivity have out.len() elements, knowns/seed columns.len().
         let raw = unsafe {
             f(
                 self.inst.instance,
                 derivatives.as_ptr(),
                 derivatives.len(),
-                known.as_ptr(),
-                1,
-                seed.as_ptr(),
-                1,
+                self.known.as_ptr(),
+                self.known.len(),
+                self.seed.as_ptr(),
+                self.seed.len(),
                 out.as_mut_ptr(),
                 out.len(),
             )
         };
         self.call("fmi3GetDirectionalDerivative", raw)
+    }
+
+    fn state_dependencies(&self) -> Vec<Option<Vec<usize>>> {
+        self.dependencies.clone()
     }
 }
 
