@@ -71,7 +71,7 @@ ALLOWED = {
     "GetStringStatus": {C, T},
 }
 # Declared as not provided in modelDescription.xml: fmi2Error with the reason, in every state.
-UNPROVIDED = {"GetDirectionalDerivative", "SetRealInputDerivatives", "GetRealOutputDerivatives", "CancelStep"}
+UNPROVIDED = {"SetRealInputDerivatives", "GetRealOutputDerivatives", "CancelStep"}
 # Status kinds that are not available (no asynchronous steps): fmi2Discard where allowed.
 DISCARDED = {"GetStatus", "GetIntegerStatus", "GetStringStatus"}
 
@@ -206,9 +206,11 @@ class Driver:
                 assert h.call("FreeFMUstate", byref(st)) == OK
             return s
         if fn == "GetDirectionalDerivative":
-            vr = v1(self.vr(self.out))
+            # d(output)/d(input): an initial unknown and a known in Initialization Mode, an
+            # output and an input at a communication point
             d = (c_double * 1)(1.0)
-            return h.call(fn, v1(self.vr(self.inp)), 1, vr, 1, d, (c_double * 1)())
+            return h.call(fn, v1(self.vr(self.out)), 1, v1(self.vr(self.inp)), 1, d,
+                          (c_double * 1)())
         if fn == "SetRealInputDerivatives":
             return h.call(fn, v1(self.vr(self.inp)), 1, (c_int * 1)(1), (c_double * 1)(0.0))
         if fn == "GetRealOutputDerivatives":

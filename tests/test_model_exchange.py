@@ -263,7 +263,7 @@ ME_ALLOWED = {
     "SetTime": "EC", "SetContinuousStates": "C", "EnterEventMode": "EC", "NewDiscreteStates": "E",
     "EnterContinuousTimeMode": "E", "CompletedIntegratorStep": "C", "GetDerivatives": "ECT",
     "GetEventIndicators": "NECT", "GetContinuousStates": "NECT",
-    "GetNominalsOfContinuousStates": "IECT", "GetDirectionalDerivative": "ECT",
+    "GetNominalsOfContinuousStates": "IECT", "GetDirectionalDerivative": "NECT",
     "Terminate": "EC", "GetReal": "NECT", "DoStep": "", "GetRealStatus": "",
 }
 
@@ -300,7 +300,9 @@ def call(h, fn):
     if fn == "GetEventIndicators":
         return h.call(fn, x, 0)
     if fn == "GetDirectionalDerivative":
-        return h.directional(["der(x)"], ["x"], [1.0])[0]
+        # with respect to a known of every state: the force input (in Initialization Mode the
+        # states are initial unknowns, not knowns)
+        return h.directional(["der(v)"], ["force"], [1.0])[0]
     if fn == "GetReal":
         return h.get_real(["x"])[0]
     if fn == "DoStep":

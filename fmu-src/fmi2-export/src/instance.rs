@@ -7,7 +7,7 @@
 //! nothing; a failed step leaves the outputs of the last good communication point and moves the
 //! instance to [`MachineState::Error`], from which `fmi2Reset` or `fmi2SetFMUstate` recover.
 
-use crate::{Causality, MeVTable, Model, VarType, Variability};
+use crate::{Causality, MeVTable, Model, ModelError, VarType, Variability};
 use bincode::Options as _;
 use serde::{Deserialize, Serialize};
 
@@ -115,10 +115,11 @@ pub mod allowed {
     ]);
     pub const GET_CONTINUOUS_STATES: u32 = GET_EVENT_INDICATORS;
     pub const GET_DERIVATIVES: u32 = m(&[EventMode, ContinuousTimeMode, Terminated, Error]);
-    /// fmi2GetDirectionalDerivative: Model Exchange at the states, Co-Simulation at the
-    /// communication point (FMI 2.0.4 section 4.2.4: also after a failed or canceled step, for
-    /// debugging).
+    /// fmi2GetDirectionalDerivative: the initial unknowns in Initialization Mode, Model Exchange
+    /// at the states, Co-Simulation at the communication point (FMI 2.0.4 sections 3.2.3 and
+    /// 4.2.4: also after a failed or canceled step, for debugging).
     pub const DIRECTIONAL_DERIVATIVE: u32 = m(&[
+        InitializationMode,
         StepComplete,
         StepFailed,
         StepCanceled,
@@ -448,16 +449,36 @@ impl<M: Model> Instance<M> {
         Ok(())
     }
 
-    /// Run the model's initialization; on failure nothing but the log changes.
-    fn initialize_model(&mut self, func: &str) -> Result<(), Status> {
-        self.check_parameters(func)?;
-        let mut vars = self.vars.clone();
+    /// The model initialized from `vars` (the importer's values), with the variables it
+    /// writes: every output and, for a model with Model Exchange, each state and state
+    /// derivative at the start time (the initial unknowns of FMI 2.0.4 section 2.2.8). Changes
+    /// nothing.
+    pub(crate) fn initialized(&self, mut vars: Vec<f64>) -> Result<(M, Vec<f64>), ModelError> {
         if let Some(t) = self.tolerance {
             experiment_tolerance::<M>(&mut vars, t);
         }
         let mut model = M::new();
-        match model.initialize(&mut vars, self.start_time) {
-            Ok(()) => {
+        model.initialize(&mut vars, self.start_time)?;
+        if let Some(me) = self.me {
+            let mut x = vec![0.0; me.states];
+            let mut dx = vec![0.0; me.states];
+            (me.get_states)(&model, &mut x);
+            let ok = (me.derivatives)(&model, &vars, self.start_time, &mut dx).is_ok();
+            for (k, &(s, d)) in me.state_variables.iter().enumerate() {
+                vars[s] = x[k];
+                if ok {
+                    vars[d] = dx[k];
+                }
+            }
+        }
+        Ok((model, vars))
+    }
+
+    /// Run the model's initialization; on failure nothing but the log changes.
+    fn initialize_model(&mut self, func: &str) -> Result<(), Status> {
+        self.check_parameters(func)?;
+        match self.initialized(self.vars.clone()) {
+            Ok((model, vars)) => {
                 self.vars = vars;
                 self.model = model;
                 self.jacobian.clear();

@@ -8,6 +8,7 @@
 
 pub mod ffi;
 pub mod html;
+mod initial_derivatives;
 pub mod instance;
 pub mod me;
 pub mod me_instance;

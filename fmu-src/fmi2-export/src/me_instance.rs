@@ -543,6 +543,9 @@ impl<M: Model> Instance<M> {
         if let Some(v) = dv.iter().find(|v| !v.is_finite()) {
             return self.error(F, format!("dvKnown holds {v}, not a finite number"));
         }
+        if self.state == MachineState::InitializationMode {
+            return self.initial_directional_derivative(F, unknowns, knowns, dv, dz);
+        }
         // The buffers are reused from call to call (no allocation per call).
         let mut scratch = std::mem::take(&mut self.jacobian.scratch);
         let status = self.directional_with(F, &me, (unknowns, knowns, dv, dz), &mut scratch);

@@ -83,9 +83,10 @@ pub mod allowed {
         Error,
     ]);
     pub const GET_CONTINUOUS_STATES: u32 = GET_EVENT_INDICATORS;
-    /// fmi3GetDirectionalDerivative and fmi3GetAdjointDerivative: Model Exchange, and
-    /// Co-Simulation in Step Mode (FMI 3.0.2 section 4.2.1).
+    /// fmi3GetDirectionalDerivative and fmi3GetAdjointDerivative: Initialization Mode, Model
+    /// Exchange, and Co-Simulation in Step Mode (FMI 3.0.2 sections 2.3.3 and 4.2.1).
     pub const DIRECTIONAL_DERIVATIVE: u32 = m(&[
+        InitializationMode,
         StepComplete,
         EventMode,
         ContinuousTimeMode,

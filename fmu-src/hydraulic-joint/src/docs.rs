@@ -322,7 +322,7 @@ state and input and finds the derivative unchanged to the bit). The right-hand s
 by the regularisations above (no discontinuity remains), so the model has no event indicators.
 Step inputs should be given to the importer as events (FMPy: the jump's time repeated), or its
 solver integrates across the jump with the old value.</p>
-<p>Directional derivatives (<code>providesDirectionalDerivative</code>, Model Exchange): the
+<p>Directional derivatives (<code>providesDirectionalDerivative</code>, Model Exchange, and Co-Simulation at the communication point): the
 derivatives with respect to the states come from the analytic Jacobian of the Solver section,
 mapped to the 18 states (the oil integrals are quadratures: their columns are 0); entries with an
 output as unknown or an input as known are central differences of the same equations (step 6e-6

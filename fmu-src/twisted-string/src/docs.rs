@@ -438,7 +438,7 @@ twist, so the strand stretch rate, and with it the string damping force, jumps b
 event indicator: the twist angle &theta;<sub>t</sub> while <code>string_compliance</code> is on (the constant 1
 otherwise), so the importer's solver stops at the crossing instead of stepping over the jump. The encoder
 quantisation, the band and the speed-limit clamp act only at the time events.</p>
-<p><b>Directional derivatives</b> (<code>providesDirectionalDerivative</code>, Model Exchange): the
+<p><b>Directional derivatives</b> (<code>providesDirectionalDerivative</code>, Model Exchange, and Co-Simulation at the communication point): the
 derivatives with respect to the states are the plant's analytic Jacobian (section 8) carried through
 the linear maps between the solver's state vector and the 13 states (E_dissipated is the loss integral
 plus E_string_kinematic; der(W_external) = F<sub>load</sub> v adds the row F<sub>load</sub> at v); they agree
