@@ -293,3 +293,13 @@ def test_a_model_exchange_error_without_a_message_is_a_note(tmp_path):
     assert notes == [("probe-log", "probe me-derivatives-before-init")], report
     assert all("FMI 2.0.4 §2.1.5" in n["clause"] for n in report["notes"]
                if n["check"] == "probe-log"), report
+
+
+def test_a_model_exchange_state_not_restored_is_found(tmp_path):
+    # VanDerPol declares canGetAndSetFMUstate in <ModelExchange>; the shim's fmi2SetFMUstate
+    # restores nothing (FMI 2.0.4 section 2.1.8)
+    found = findings_of(_me_shim_copy(tmp_path, "me-no-restore", "-DNO_RESTORE"))
+    assert [(f["check"], f["location"]) for f in found] == [
+        ("probe-fmu-state", "probe me-fmu-state")], found
+    assert "after fmi2SetFMUstate the continuous states" in found[0]["message"], found
+    assert "FMI 2.0.4 §2.1.8" in found[0]["clause"], found

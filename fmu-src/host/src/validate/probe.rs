@@ -342,6 +342,7 @@ pub const ME_PROBE_CASES: &[&str] = &[
     "me-normal-run",
     "me-directional-derivatives",
     "me-state-event",
+    "me-fmu-state",
     "me-derivatives-before-init",
     "me-set-states-in-event-mode",
 ];
@@ -390,6 +391,22 @@ pub fn probe_me(fmu: &Fmu, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding> {
         step,
         &mut |me, t| me_checks::check_event(me, t, h),
     );
+    if md.me_can_get_and_set_fmu_state && step("me-fmu-state") {
+        let serialize = md.me_can_serialize_fmu_state;
+        let result = (|| -> Verdict {
+            let s = |e: HostError| e.to_string();
+            let mut inst = fmu.instantiate("probe").map_err(s)?;
+            me_initialize(&mut inst, t0).map_err(s)?;
+            let t = me_sequence(&mut Fmi2Me::new(&mut inst).map_err(s)?, t0)?;
+            check_fmu_state_me(&mut inst, t, h, serialize)
+        })();
+        let loc = "probe me-fmu-state".to_string();
+        match result {
+            Ok(None) => {}
+            Ok(Some(m)) => f.push(me_finding("probe-fmu-state", loc, m)),
+            Err(e) => f.push(me_finding("probe-normal-run", loc, e)),
+        }
+    }
     me_case(
         fmu,
         ("me-derivatives-before-init", None),
@@ -464,6 +481,44 @@ fn me_check_case(
         Ok(Some(m)) => f.push(me_finding(check, loc, m)),
         Err(e) => f.push(me_finding("probe-normal-run", loc, e)),
     }
+}
+
+/// In Continuous-Time Mode at `t`: saves the FMU state (`fmi2GetFMUstate`), takes 5 explicit
+/// Euler steps of `h`, restores it (and, if `serialize`, a serialized and deserialized copy) and
+/// takes them again: the continuous states after each step must be bit-identical (FMI 2.0.4
+/// section 2.1.8).
+fn check_fmu_state_me(inst: &mut Instance<'_>, t: f64, h: f64, serialize: bool) -> Verdict {
+    let s = |e: HostError| e.to_string();
+    let me = |inst: &mut Instance<'_>| -> Result<Vec<u64>, String> {
+        me_checks::euler_run(&mut Fmi2Me::new(inst).map_err(s)?, t, h, 5)
+    };
+    let saved = inst.get_fmu_state().map_err(s)?;
+    let result = (|| -> Verdict {
+        let first = me(inst)?;
+        inst.set_fmu_state(&saved).map_err(s)?;
+        if me(inst)? != first {
+            return Ok(Some(
+                "after fmi2SetFMUstate the continuous states of the next 5 Euler steps differ \
+                 from those after fmi2GetFMUstate (the state is not fully restored)"
+                    .into(),
+            ));
+        }
+        if !serialize {
+            return Ok(None);
+        }
+        let bytes = inst.serialize_fmu_state(&saved).map_err(s)?;
+        let copy = inst.deserialize_fmu_state(&bytes).map_err(s)?;
+        let again = inst.set_fmu_state(&copy).map_err(s).and_then(|_| me(inst));
+        let _ = inst.free_fmu_state(copy);
+        Ok((again? != first).then(|| {
+            "after fmi2SerializeFMUstate, fmi2DeSerializeFMUstate and fmi2SetFMUstate the \
+             continuous states of the next 5 Euler steps differ from those after \
+             fmi2GetFMUstate"
+                .to_string()
+        }))
+    })();
+    let _ = inst.free_fmu_state(saved);
+    result
 }
 
 /// A finding of the Model Exchange probe, with its FMI 2.0.4 clause.
