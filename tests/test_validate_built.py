@@ -33,6 +33,10 @@ def built(tmp_path_factory):
     fmus = {"conforming": build(d, "conforming")}
     for defect in DEFECTS:
         fmus[defect] = build(d, defect, defect)
+    # a time event at t = 0.1 s that drops the ball again: conforming, and with the flag wrong
+    fmus["TIME_EVENT"] = build(d, "TIME_EVENT", "TIME_EVENT")
+    fmus["TIME_EVENT_NO_VALUES_CHANGED"] = build(d, "TIME_EVENT_NO_VALUES_CHANGED", "TIME_EVENT",
+                                                 "NO_VALUES_CHANGED")
     return fmus
 
 
@@ -79,6 +83,17 @@ def test_a_runtime_rule_broken_in_the_binary_is_found(built, defect):
     assert [(f["check"], f["location"]) for f in r["findings"]] == [(check, f"probe {step}")], r
     assert fragment in r["findings"][0]["message"], r
     assert clause in r["findings"][0]["clause"], r
+
+
+def test_states_re_initialized_at_a_time_event_must_be_signalled(built):
+    # nextEventTime = 0.1 s: the probe steps onto it, and h := 1 there must come with
+    # valuesOfContinuousStatesChanged = true (FMI 3.0.2 section 2.3.5)
+    r = report(built["TIME_EVENT"])
+    assert r["findings"] == [] and r["notes"] == [], r
+    r = report(built["TIME_EVENT_NO_VALUES_CHANGED"])
+    assert [(f["check"], f["location"]) for f in r["findings"]] == [
+        ("probe-event", "probe fmi3-me-state-event")], r
+    assert "at the time or step event at t = 0.1," in r["findings"][0]["message"], r
 
 
 def test_a_directional_derivative_is_compared_with_finite_differences(built):

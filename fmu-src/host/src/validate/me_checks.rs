@@ -13,6 +13,15 @@ use crate::me::ModelExchange;
 /// call the standard allows.
 pub type Verdict = Result<Option<String>, String>;
 
+/// Where the probe's normal Model Exchange sequence left an instance (in Continuous-Time Mode).
+#[derive(Clone, Copy, Debug)]
+pub struct Reached {
+    /// The time reached.
+    pub t: f64,
+    /// The next time event the last event iteration announced (`nextEventTime`).
+    pub next_event: Option<f64>,
+}
+
 /// The cube root of the machine epsilon, 2^(-52/3): the relative step of a central difference
 /// that balances its truncation error against rounding.
 const CBRT_EPSILON: f64 = 6.055454452393344e-6;
@@ -131,7 +140,7 @@ pub fn euler_run<M: ModelExchange>(
 /// Most explicit Euler steps [`check_event`] takes looking for the first state event.
 pub const EVENT_SEARCH_STEPS: usize = 1000;
 
-/// Integrates with explicit Euler steps of `h` from `t` (in Continuous-Time Mode) until the
+/// Integrates with explicit Euler steps of `h` from `from` (in Continuous-Time Mode) until the
 /// first state event (an event indicator changes domain, `z > 0` against `z <= 0`: FMI 2.0.4
 /// section 3.1, FMI 3.0.2 section 3.1), at most [`EVENT_SEARCH_STEPS`] steps; time and step
 /// events met on the way are handled too. At each event the states are read before and after
@@ -139,10 +148,10 @@ pub const EVENT_SEARCH_STEPS: usize = 1000;
 /// `fmi3UpdateDiscreteStates` call reported `valuesOfContinuousStatesChanged = false` are a
 /// finding (the importer would integrate on from the old states). A search that explicit Euler
 /// cannot carry (a stiff FMU) ends without a verdict.
-pub fn check_event<M: ModelExchange>(me: &mut M, mut t: f64, h: f64) -> Verdict {
+pub fn check_event<M: ModelExchange>(me: &mut M, from: Reached, h: f64) -> Verdict {
     let (n, m) = (me.states(), me.indicators());
     let (mut z0, mut z1) = (vec![0.0; m], vec![0.0; m]);
-    let mut next_time: Option<f64> = None;
+    let (mut t, mut next_time) = (from.t, from.next_event);
     me.get_event_indicators(&mut z0).map_err(s)?;
     for _ in 0..EVENT_SEARCH_STEPS {
         let step = next_time.map_or(h, |te| (te - t).clamp(0.0, h));

@@ -7,7 +7,7 @@
 //! instantiates with `loggingOn = fmi3False`, with which the FMU must not call the logger
 //! (section 2.3.1), so an error without a logged message is no finding here.
 
-use super::me_checks::{self, Verdict};
+use super::me_checks::{self, Reached, Verdict};
 use super::probe::{event_search_step, me_sequence};
 use super::Finding;
 use crate::error::{HostError, Status};
@@ -370,7 +370,7 @@ pub fn probe3_me(fmu: &Fmu3, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding>
     }
     let h = event_search_step(t0, de.stop_time);
     let mut check =
-        |name: &str, check: &str, run: &mut dyn FnMut(&mut Instance3<'_>, f64) -> Verdict| {
+        |name: &str, check: &str, run: &mut dyn FnMut(&mut Instance3<'_>, Reached) -> Verdict| {
             if !step(name) {
                 return;
             }
@@ -392,13 +392,17 @@ pub fn probe3_me(fmu: &Fmu3, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding>
         "probe-directional-derivative",
         &mut |inst, _| me_checks::check_directional(&mut me(inst)?),
     );
-    check("fmi3-me-state-event", "probe-event", &mut |inst, t| {
-        me_checks::check_event(&mut me(inst)?, t, h)
-    });
+    check(
+        "fmi3-me-state-event",
+        "probe-event",
+        &mut |inst, reached| me_checks::check_event(&mut me(inst)?, reached, h),
+    );
     if can_get_and_set(fmu, true) {
-        check("fmi3-me-fmu-state", "probe-fmu-state", &mut |inst, t| {
-            check_fmu_state_me(inst, t, h)
-        });
+        check(
+            "fmi3-me-fmu-state",
+            "probe-fmu-state",
+            &mut |inst, reached| check_fmu_state_me(inst, reached.t, h),
+        );
     }
     let name = "fmi3-me-derivatives-before-init";
     if step(name) {
