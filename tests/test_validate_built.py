@@ -128,8 +128,9 @@ def test_calls_in_the_wrong_state_answered_ok_are_notes(built):
     assert r["findings"] == [], r
     assert [n["location"] for n in r["notes"]] == [
         "probe fmi3-do-step-before-init", "probe fmi3-negative-step",
-        "probe fmi3-do-step-after-terminate", "probe fmi3-me-derivatives-before-init",
-        "probe fmi3-me-set-states-in-event-mode"], r
+        "probe fmi3-do-step-after-terminate", "probe fmi3-wrong-communication-point",
+        "probe fmi3-unknown-value-reference", "probe fmi3-fixed-parameter-after-init",
+        "probe fmi3-me-derivatives-before-init", "probe fmi3-me-set-states-in-event-mode"], r
     assert all(n["check"] == "probe-wrong-call" and "returned fmi3OK" in n["message"]
                for n in r["notes"]), r
 
