@@ -1,7 +1,7 @@
 //! The runtime state-machine probe: calls in wrong states or with bad arguments, a normal run,
 //! FMU state save/restore (FMI 2.0.4 sections 2.1 and 4.2.4).
 
-use super::me_checks::{self, Verdict};
+use super::me_checks::{self, Reached, Verdict};
 use super::Finding;
 use crate::error::{HostError, Status};
 use crate::fmu::Fmu;
@@ -389,7 +389,7 @@ pub fn probe_me(fmu: &Fmu, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding> {
         ("me-state-event", "probe-event", t0),
         &mut f,
         step,
-        &mut |me, t| me_checks::check_event(me, t, h),
+        &mut |me, reached| me_checks::check_event(me, reached, h),
     );
     if md.me_can_get_and_set_fmu_state && step("me-fmu-state") {
         let serialize = md.me_can_serialize_fmu_state;
@@ -397,8 +397,8 @@ pub fn probe_me(fmu: &Fmu, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding> {
             let s = |e: HostError| e.to_string();
             let mut inst = fmu.instantiate("probe").map_err(s)?;
             me_initialize(&mut inst, t0).map_err(s)?;
-            let t = me_sequence(&mut Fmi2Me::new(&mut inst).map_err(s)?, t0)?;
-            check_fmu_state_me(&mut inst, t, h, serialize)
+            let reached = me_sequence(&mut Fmi2Me::new(&mut inst).map_err(s)?, t0)?;
+            check_fmu_state_me(&mut inst, reached.t, h, serialize)
         })();
         let loc = "probe me-fmu-state".to_string();
         match result {
@@ -462,7 +462,7 @@ fn me_check_case(
     (name, check, t0): (&str, &str, f64),
     f: &mut Vec<Finding>,
     step: &mut dyn FnMut(&str) -> bool,
-    run: &mut dyn FnMut(&mut Fmi2Me<'_, '_>, f64) -> Verdict,
+    run: &mut dyn FnMut(&mut Fmi2Me<'_, '_>, Reached) -> Verdict,
 ) {
     if !step(name) {
         return;
@@ -549,26 +549,29 @@ fn me_clause(check: &str) -> &'static str {
 /// The Model Exchange sequence after initialization, whatever the FMI version: event iteration
 /// until no new discrete states are needed, Continuous-Time Mode, then 3 explicit Euler steps
 /// with finite derivatives and `completedIntegratorStep` where the FMU needs it. Returns the
-/// time reached.
-pub(super) fn me_sequence<M: ModelExchange>(me: &mut M, t0: f64) -> Result<f64, String> {
+/// time reached and the next time event the event iteration announced.
+pub(super) fn me_sequence<M: ModelExchange>(me: &mut M, t0: f64) -> Result<Reached, String> {
     let s = |e: HostError| e.to_string();
     let mut iterations = 0;
-    while me
-        .new_discrete_states()
-        .map_err(s)?
-        .new_discrete_states_needed
-    {
+    let next_event = loop {
+        let info = me.new_discrete_states().map_err(s)?;
+        if !info.new_discrete_states_needed {
+            break info.next_event_time;
+        }
         iterations += 1;
         if iterations > 1000 {
             return Err("the event iteration still needs iterations after 1000 calls".into());
         }
-    }
+    };
     me.enter_continuous_time_mode().map_err(s)?;
     let h = 1e-4;
     for k in 0..3 {
         me_checks::euler_step(me, t0 + k as f64 * h, h)?;
     }
-    Ok(t0 + 3.0 * h)
+    Ok(Reached {
+        t: t0 + 3.0 * h,
+        next_event,
+    })
 }
 
 /// Step of the explicit Euler search for a state event: the experiment (default: 1 s) in
