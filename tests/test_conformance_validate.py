@@ -159,6 +159,13 @@ def rename_export(old, new):
     return so
 
 
+def validate_args(fmu, *options):
+    r = subprocess.run([cli_path(), "validate", "--json", *options, str(fmu)],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 1, r.stdout + r.stderr
+    return json.loads(r.stdout)[0]["findings"]
+
+
 def findings_of(fmu):
     r = validate(fmu, json_out=True)
     assert r.returncode in (0, 1), r.stderr
@@ -233,6 +240,10 @@ def test_the_model_exchange_probe_runs_the_fmu(tmp_path):
     assert [f["check"] for f in found] == ["probe-normal-run"], found
     assert found[0]["location"] == "probe me-normal-run", found
     assert "fmi2GetDerivatives" in found[0]["message"], found
+    # fmi2GetDerivatives never returning: a timeout finding at that probe step
+    r = validate_args(_me_shim_copy(tmp_path, "me-hang", "-DME_FAIL_AT=0", "-DHANG"),
+                      "--timeout", "2")
+    assert [(f["check"], f["location"]) for f in r] == [("probe-timeout", "probe me-normal-run")]
     # fmi2GetDerivatives crashing: a finding naming the probe step and the signal
     found = findings_of(_me_shim_copy(tmp_path, "me-crash", "-DME_FAIL_AT=0"))
     assert [f["check"] for f in found] == ["probe-crash"], found
@@ -293,3 +304,13 @@ def test_a_model_exchange_error_without_a_message_is_a_note(tmp_path):
     assert notes == [("probe-log", "probe me-derivatives-before-init")], report
     assert all("FMI 2.0.4 §2.1.5" in n["clause"] for n in report["notes"]
                if n["check"] == "probe-log"), report
+
+
+def test_a_model_exchange_state_not_restored_is_found(tmp_path):
+    # VanDerPol declares canGetAndSetFMUstate in <ModelExchange>; the shim's fmi2SetFMUstate
+    # restores nothing (FMI 2.0.4 section 2.1.8)
+    found = findings_of(_me_shim_copy(tmp_path, "me-no-restore", "-DNO_RESTORE"))
+    assert [(f["check"], f["location"]) for f in found] == [
+        ("probe-fmu-state", "probe me-fmu-state")], found
+    assert "after fmi2SetFMUstate the continuous states" in found[0]["message"], found
+    assert "FMI 2.0.4 §2.1.8" in found[0]["clause"], found

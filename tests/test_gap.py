@@ -154,6 +154,23 @@ def test_a_gain_error_on_a_sensor_away_from_zero_at_rest_is_no_record_begun_in_m
     assert d["p"]["shapes"][0]["kind"] == "gain", d["p"]
 
 
+def test_a_start_missed_within_correlated_noise_is_no_record_begun_in_motion(tmp_path):
+    """HydraulicJoint, hidden seal friction, AR(1) noise of coefficient 0.9 (scripts/gap-eval
+    single1 --ar 0.9, seed 3100003). The base fit's residual holds the friction's misfit, so the
+    noise of 'p1_left' looks white and is counted at its second-difference level, a quarter of
+    the marginal one: the start, missed by 11 of those levels, stopped the run (exit 2) after
+    seal friction was named. Counted under the noise model of the final residual, the start
+    lies within the noise: the run names seal friction and ends."""
+    fmu_path("HydraulicJoint")
+    ds = gapgen.make("HydraulicJoint", 3100003, ("seal_friction",), ar=0.9, duration=4.0,
+                     rate=250.0)
+    csv = tmp_path / "seal.csv"
+    gapgen.write_csv(ds, csv)
+    rep = run_ok("HydraulicJoint", csv, tmp_path / "out")
+    assert rep["named"] == ["seal_friction"], rep["verdict"]
+    assert not any("does not begin" in w for w in rep["warnings"]), rep["warnings"]
+
+
 def check_report_shape(rep, ds):
     for key in ("named", "candidates", "parameters", "outputs", "timing", "redone_rounds",
                 "calibration"):

@@ -21,7 +21,8 @@ from conftest import cli_path
 
 pytestmark = pytest.mark.skipif(sys.platform != "linux", reason="builds an x86_64-linux binary")
 
-DEFECTS = ["NAN_DERIVATIVES", "ENDLESS_EVENT_ITERATION", "CRASH_DERIVATIVES", "CRASH_DO_STEP",
+DEFECTS = ["NAN_DERIVATIVES", "ENDLESS_EVENT_ITERATION", "CRASH_DERIVATIVES",
+           "HANG_DERIVATIVES", "CRASH_DO_STEP",
            "HANG_DO_STEP", "LENIENT", "SILENT", "WRONG_DIRECTIONAL", "NO_RESTORE",
            "BAD_SERIALIZE", "NO_VALUES_CHANGED", "NO_SET_TIME"]
 
@@ -33,6 +34,10 @@ def built(tmp_path_factory):
     fmus = {"conforming": build(d, "conforming")}
     for defect in DEFECTS:
         fmus[defect] = build(d, defect, defect)
+    # a time event at t = 0.1 s that drops the ball again: conforming, and with the flag wrong
+    fmus["TIME_EVENT"] = build(d, "TIME_EVENT", "TIME_EVENT")
+    fmus["TIME_EVENT_NO_VALUES_CHANGED"] = build(d, "TIME_EVENT_NO_VALUES_CHANGED", "TIME_EVENT",
+                                                 "NO_VALUES_CHANGED")
     return fmus
 
 
@@ -61,6 +66,8 @@ RUNTIME = {
                                 "still needs iterations after 1000 calls", "§3.2"),
     # a crash in fmi3GetContinuousStateDerivatives: every call must return a status
     "CRASH_DERIVATIVES": ("probe-crash", "fmi3-me-normal-run", "SIGSEGV", "§2.2.4"),
+    "HANG_DERIVATIVES": ("probe-timeout", "fmi3-me-normal-run", "did not return within 2 s",
+                         "§2.2.4"),
     "CRASH_DO_STEP": ("probe-crash", "fmi3-normal-run", "SIGSEGV", "§2.2.4"),
     "HANG_DO_STEP": ("probe-timeout", "fmi3-normal-run", "did not return within 2 s", "§2.2.4"),
     # d der(h) / d v is 1 (der(h) = v); the FMU says 2
@@ -79,6 +86,17 @@ def test_a_runtime_rule_broken_in_the_binary_is_found(built, defect):
     assert [(f["check"], f["location"]) for f in r["findings"]] == [(check, f"probe {step}")], r
     assert fragment in r["findings"][0]["message"], r
     assert clause in r["findings"][0]["clause"], r
+
+
+def test_states_re_initialized_at_a_time_event_must_be_signalled(built):
+    # nextEventTime = 0.1 s: the probe steps onto it, and h := 1 there must come with
+    # valuesOfContinuousStatesChanged = true (FMI 3.0.2 section 2.3.5)
+    r = report(built["TIME_EVENT"])
+    assert r["findings"] == [] and r["notes"] == [], r
+    r = report(built["TIME_EVENT_NO_VALUES_CHANGED"])
+    assert [(f["check"], f["location"]) for f in r["findings"]] == [
+        ("probe-event", "probe fmi3-me-state-event")], r
+    assert "at the time or step event at t = 0.1," in r["findings"][0]["message"], r
 
 
 def test_a_directional_derivative_is_compared_with_finite_differences(built):
@@ -110,8 +128,9 @@ def test_calls_in_the_wrong_state_answered_ok_are_notes(built):
     assert r["findings"] == [], r
     assert [n["location"] for n in r["notes"]] == [
         "probe fmi3-do-step-before-init", "probe fmi3-negative-step",
-        "probe fmi3-do-step-after-terminate", "probe fmi3-me-derivatives-before-init",
-        "probe fmi3-me-set-states-in-event-mode"], r
+        "probe fmi3-do-step-after-terminate", "probe fmi3-wrong-communication-point",
+        "probe fmi3-unknown-value-reference", "probe fmi3-fixed-parameter-after-init",
+        "probe fmi3-me-derivatives-before-init", "probe fmi3-me-set-states-in-event-mode"], r
     assert all(n["check"] == "probe-wrong-call" and "returned fmi3OK" in n["message"]
                for n in r["notes"]), r
 

@@ -25,9 +25,11 @@
 //!    A base fit that misses the record's first samples by more than 10 standard scores means
 //!    the record does not begin in the model's initial state: the base model is calibrated
 //!    again with the parameters tagged `[initial]` (the state the model begins in), if the FMU
-//!    has any. A miss beyond a constant offset that remains lets an effect be named only if its
-//!    fit begins in the record's state, and if none does, the run stops with what to do
-//!    ([`workflow`]'s `start` module).
+//!    has any. A miss beyond a constant offset, beyond what the misfit elsewhere predicts at the
+//!    start's measured values and beyond a tenth of that misfit, that remains lets an effect be
+//!    named only if its fit begins in the record's state, and if none does (counted under the
+//!    noise model of the final residual), the run stops with what to do ([`workflow`]'s
+//!    `start` module).
 //! 3. Diagnosis of the residual: RMS/noise per output and per time window, Ljung–Box whiteness,
 //!    cross-correlation with the inputs, and the operating region (quantile bins of every input
 //!    and model output, η²) that organises it best.

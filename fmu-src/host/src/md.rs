@@ -252,6 +252,10 @@ pub struct ModelDescription {
     pub me_provides_directional_derivative: bool,
     /// `completedIntegratorStepNotNeeded` of `<ModelExchange>`.
     pub me_completed_integrator_step_not_needed: bool,
+    /// `canGetAndSetFMUstate` of `<ModelExchange>`.
+    pub me_can_get_and_set_fmu_state: bool,
+    /// `canSerializeFMUstate` of `<ModelExchange>`.
+    pub me_can_serialize_fmu_state: bool,
     /// `<UnitDefinitions>`
     pub unit_definitions: Vec<Unit>,
     /// `<TypeDefinitions>`
@@ -379,6 +383,14 @@ impl Parser<'_> {
                 self.md.me_completed_integrator_step_not_needed = self
                     .doc
                     .boolean(&a, "completedIntegratorStepNotNeeded")?
+                    .unwrap_or(false);
+                self.md.me_can_get_and_set_fmu_state = self
+                    .doc
+                    .boolean(&a, "canGetAndSetFMUstate")?
+                    .unwrap_or(false);
+                self.md.me_can_serialize_fmu_state = self
+                    .doc
+                    .boolean(&a, "canSerializeFMUstate")?
                     .unwrap_or(false);
             }
             ("UnitDefinitions", "Unit") => {

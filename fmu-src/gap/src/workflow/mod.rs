@@ -26,7 +26,7 @@ use rounds::{run_rounds, RoundInputs, Rounds};
 use screen::LM_ABS_TOL;
 use serde::Serialize;
 use setup::{setup, Setup};
-use start::{calibrate_to_start, initial_state_note, reproduces_start, start_error, Calibrated};
+use start::{calibrate_to_start, initial_state_note, start_error, still_misses_start, Calibrated};
 use std::collections::BTreeMap;
 use std::time::Instant;
 
@@ -769,7 +769,7 @@ pub fn run<S: GridModel + ?Sized>(
         unexplained,
     } = run_rounds(&ctx, &inputs, base, cur_full_r, diagnosis0, data, &names)?;
     let start_warning = match &start_miss0 {
-        Some(miss) if !reproduces_start(&ctx, miss, &cur_full_r, false) => Some(start_error(
+        Some(miss) if still_misses_start(&ctx, miss, &cur_full_r) => Some(start_error(
             &ctx,
             miss,
             &initial_idx,

@@ -26,19 +26,20 @@
 //! the start's measured values ([`affine_prediction`], a line in the measured output): a
 //! disagreement that runs through the whole record as a function of the measured output (a sensor
 //! gain error, a fixed length set wrong) misses the start by what it misses the same values by
-//! elsewhere, and is reported as a disagreement that remains, never as a record begun elsewhere.
-//! (TwistedString with 'p' read 6 % low, from rest: start 300 noise levels, trace mean 120, z at
-//! most 2.0; with the string length set 15 % short: start 111, trace mean 57, z 2.4. A record begun
-//! in motion is missed at the start where it is met with the same measured values later at the
-//! rest's misfit: geared motor begun 1 s into the motion, z 26–28 with this prediction.) Whether to
-//! estimate the initial state an FMU exposes is decided on the start mean alone
-//! ([`StartMiss::z_raw`]): an angle the record begins at stays as a constant offset over the whole
-//! trace. Measured |z| without the third miss (geared motor without initial-state parameters, 3 s
-//! at 200 Hz, 1 % noise, five records each): from rest 0.6–1.7, begun 1 s into the motion 25–86.
-//! HydraulicJoint and TwistedString records from rest (90, 4 s at 250 Hz, every condition): without
-//! a hidden effect at most 2.8; 14 with a hidden leak, string compliance, motor friction or twist
-//! hysteresis (which shift the state at rest) reach 13–108, and in each the named hidden effect
-//! then explains the start; the other hidden effects at most 9.6.
+//! elsewhere, and is reported as a disagreement that remains, never as a record begun elsewhere;
+//! and the miss must exceed [`REST_SHARE`] of the misfit over the rest of the trace as well, which
+//! the line only approximates. (TwistedString with 'p' read 6 % low, from rest: start 300 noise
+//! levels, trace mean 120, z at most 2.0; with the string length set 15 % short: start 111, trace
+//! mean 57, z 2.4. A record begun in motion is missed at the start where it is met with the same
+//! measured values later at the rest's misfit: geared motor begun 1 s into the motion, z 26–28 with
+//! this prediction.) Whether to estimate the initial state an FMU exposes is decided on the start
+//! mean alone ([`StartMiss::z_raw`]): an angle the record begins at stays as a constant offset over
+//! the whole trace. Measured |z| without the third miss (geared motor without initial-state
+//! parameters, 3 s at 200 Hz, 1 % noise, five records each): from rest 0.6–1.7, begun 1 s into the
+//! motion 25–86. HydraulicJoint and TwistedString records from rest (90, 4 s at 250 Hz, every
+//! condition): without a hidden effect at most 2.8; 14 with a hidden leak, string compliance, motor
+//! friction or twist hysteresis (which shift the state at rest) reach 13–108, and in each the named
+//! hidden effect then explains the start; the other hidden effects at most 9.6.
 //!
 //! Dropping a settling window instead would not do: an angle (any integrated state) keeps the
 //! difference it began with for ever, and the fit bends to it over the whole trace.
@@ -55,6 +56,15 @@ pub(super) const START_SAMPLES: usize = 3;
 
 /// Standard score beyond which the record does not begin in the model's state ([`start_miss`]).
 pub(super) const START_MAX_Z: f64 = 10.0;
+
+/// Share of the model's misfit over the rest of the trace (RMS) that a start miss must exceed
+/// as well ([`concentrated_at_start`]): the line in the measured output through the misfit
+/// elsewhere ([`affine_prediction`]) is a first-order account of a static mismatch, and what its
+/// curvature leaves grows with the mismatch. (TwistedString with the string length set 15 %
+/// short, 'p' missed by 3,800 noise levels over the whole trace: the start by 8 beyond the
+/// line, 0.2 % of it; a geared motor record begun 1 s into the motion with a hidden current
+/// limit: 16 beyond the line, 60 % of the rest's 26.)
+const REST_SHARE: f64 = 0.1;
 
 /// Most names listed in the message (it stays one bounded line).
 const MAX_NAMES: usize = 5;
@@ -80,6 +90,9 @@ pub(super) struct StartMiss {
     pub(super) z_rel: f64,
     /// Root mean square of the weighted residual over the rest of the trace (noise levels).
     pub(super) rest_rms: f64,
+    /// The start miss `z` counts, in noise levels (`|z|` × the standard deviation of the
+    /// start's mean).
+    pub(super) excess: f64,
 }
 
 /// How the model misses the first `m` samples of each output (`r`: weighted residual stacked
@@ -124,12 +137,11 @@ fn start_misses(
             let sd_mean = (noise::mean_variance_factor(rho.get(j).copied().unwrap_or(0.0), m)
                 / m as f64)
                 .sqrt();
-            let z = start_mean.signum()
-                * start_mean
-                    .abs()
-                    .min((start_mean - trace_mean).abs())
-                    .min((start_mean - follows).abs())
-                / sd_mean;
+            let excess = start_mean
+                .abs()
+                .min((start_mean - trace_mean).abs())
+                .min((start_mean - follows).abs());
+            let z = start_mean.signum() * excess / sd_mean;
             StartMiss {
                 output: j,
                 start_mean,
@@ -138,6 +150,7 @@ fn start_misses(
                 z_raw: start_mean / sd_mean,
                 z_rel: z / spread.max(1.0),
                 rest_rms: stats::rms(rest),
+                excess,
             }
         })
         .collect()
@@ -305,16 +318,17 @@ pub(super) fn start_disagreement<S: GridModel + ?Sized>(
 
 /// The output whose start miss is concentrated at the start, the most ([`StartMiss::z`]) if
 /// several are: beyond [`START_MAX_Z`] under the noise after the trace's offset and what the
-/// misfit elsewhere predicts at the start ([`affine_prediction`]) are taken off. A record begun
-/// elsewhere is missed at its first samples by the difference of states; a disagreement that
-/// runs through the whole trace as a function of the measured output (a sensor gain error, a
-/// fixed parameter set wrong) is missed at the start by what it is missed by elsewhere at the
-/// same measured values, and says nothing about where the record begins: it is left to the
-/// rounds and to the report of the disagreement that remains.
+/// misfit elsewhere predicts at the start ([`affine_prediction`]) are taken off, and beyond
+/// [`REST_SHARE`] of the misfit over the rest of the trace. A record begun elsewhere is missed
+/// at its first samples by the difference of states; a disagreement that runs through the
+/// whole trace as a function of the measured output (a sensor gain error, a fixed parameter set
+/// wrong) is missed at the start by what it is missed by elsewhere at the same measured values,
+/// and says nothing about where the record begins: it is left to the rounds and to the report
+/// of the disagreement that remains.
 fn concentrated_at_start(misses: Vec<StartMiss>) -> Option<StartMiss> {
     misses
         .into_iter()
-        .filter(|m| m.z.abs() > START_MAX_Z)
+        .filter(|m| m.z.abs() > START_MAX_Z && m.excess > REST_SHARE * m.rest_rms)
         .max_by(|a, b| a.z.abs().total_cmp(&b.z.abs()))
 }
 
@@ -346,6 +360,57 @@ pub(super) fn reproduces_start<S: GridModel + ?Sized>(
         ),
         base.z,
         relative,
+    )
+}
+
+/// Whether the final model, whose weighted residual over the whole trace is `r`, still misses
+/// the record's start that the base fit missed (`base`), under the noise model estimated again
+/// from that residual. The base fit's residual holds the missing effect's misfit, under which
+/// the noise's correlation cannot be seen ([`noise::noise_fit`] takes such an output's noise
+/// as white, at its second-difference level); where the final model leaves noise, the noise is
+/// seen, and a start miss counted against the fast part of correlated noise may be none
+/// (HydraulicJoint, hidden seal friction, AR(1) noise of coefficient 0.9: 'p1_left' missed at
+/// the start by 11 second-difference levels, 4.8 marginal ones). As
+/// [`noise::refine_after_final_fit`] does for the report; the outputs whose correlation was
+/// estimated from the base fit keep their model.
+pub(super) fn still_misses_start<S: GridModel + ?Sized>(
+    ctx: &Ctx<'_, S>,
+    base: &StartMiss,
+    r: &[f64],
+) -> bool {
+    let (k, n) = (ctx.out_idx.len(), ctx.n);
+    let mut r = r.to_vec();
+    let mut rho: Vec<f64> = (0..k)
+        .map(|j| ctx.rho.get(j).copied().unwrap_or(0.0))
+        .collect();
+    let mut level = vec![1.0; k];
+    for j in 0..k {
+        let Some(block) = r.get_mut(j * n..(j + 1) * n).filter(|_| rho[j] == 0.0) else {
+            continue;
+        };
+        let fit = noise::noise_fit(block);
+        if fit.rho > 0.0 {
+            block.iter_mut().for_each(|x| *x /= fit.level);
+            rho[j] = fit.rho;
+            level[j] = fit.level;
+        }
+    }
+    let m = START_SAMPLES.min(n / 4);
+    let sd = |rho: f64| (noise::mean_variance_factor(rho, m.max(1)) / m.max(1) as f64).sqrt();
+    let j = base.output;
+    let old_rho = ctx.rho.get(j).copied().unwrap_or(0.0);
+    let base_z = base.z * sd(old_rho) / (level[j] * sd(rho[j]));
+    if base_z.abs() <= START_MAX_Z {
+        ctx.stage(format!(
+            "start of the record: under the noise model of the final residual the base fit's \
+             start miss is z = {base_z:.1}, within the noise"
+        ));
+        return false;
+    }
+    !begins_alike(
+        &start_misses(&r, k, n, START_SAMPLES, &rho, &ctx.meas),
+        base_z,
+        false,
     )
 }
 
@@ -554,6 +619,32 @@ mod tests {
         meas2.push((0..n).map(|i| 40.0 * libm::cos(i as f64 / 30.0)).collect());
         let m = concentrated_at_start(start_misses(&two, 2, n, START_SAMPLES, &[], &meas2));
         assert_eq!(m.map(|m| m.output), Some(1));
+    }
+
+    #[test]
+    fn a_start_miss_small_against_the_misfit_everywhere_is_not_concentrated() {
+        let n = 750;
+        // An output missed by 3,800 noise levels over the whole trace, swinging by 200 with
+        // the measured output, and at the start by 15 more than that line predicts (the line's
+        // curvature, as with TwistedString's string length set wrong): far beyond the noise,
+        // a tiny share of the misfit, no start miss.
+        let measured: Vec<f64> = (0..n).map(|i| libm::sin(i as f64 / 40.0)).collect();
+        let mut r = noise(n, 13);
+        for (i, (x, y)) in r.iter_mut().zip(&measured).enumerate() {
+            *x += 3800.0 + 200.0 * y + if i < START_SAMPLES { 15.0 } else { 0.0 };
+        }
+        let meas = vec![measured];
+        let misses = start_misses(&r, 1, n, START_SAMPLES, &[], &meas);
+        assert!(misses[0].z.abs() > START_MAX_Z, "{:?}", misses[0]);
+        assert_eq!(concentrated_at_start(misses), None);
+        // The same 15 beyond the line where the model meets the rest at the noise level: the
+        // record begins elsewhere.
+        let mut near = noise(n, 13);
+        for x in near.iter_mut().take(START_SAMPLES) {
+            *x += 15.0;
+        }
+        let misses = start_misses(&near, 1, n, START_SAMPLES, &[], &meas);
+        assert!(concentrated_at_start(misses).is_some());
     }
 
     #[test]

@@ -13,6 +13,15 @@ use crate::me::ModelExchange;
 /// call the standard allows.
 pub type Verdict = Result<Option<String>, String>;
 
+/// Where the probe's normal Model Exchange sequence left an instance (in Continuous-Time Mode).
+#[derive(Clone, Copy, Debug)]
+pub struct Reached {
+    /// The time reached.
+    pub t: f64,
+    /// The next time event the last event iteration announced (`nextEventTime`).
+    pub next_event: Option<f64>,
+}
+
 /// The cube root of the machine epsilon, 2^(-52/3): the relative step of a central difference
 /// that balances its truncation error against rounding.
 const CBRT_EPSILON: f64 = 6.055454452393344e-6;
@@ -31,7 +40,8 @@ const DERIVATIVE_RTOL: f64 = 1e-2;
 /// integrator asks for them) against finite differences of `getDerivatives` at the current
 /// states, in Continuous-Time Mode. An entry is wrong only when it disagrees with the forward,
 /// the backward and the central difference alike (a kink of the right-hand side at the point
-/// spoils one-sided differences, not all three). The states are restored afterwards.
+/// spoils one-sided differences, not all three). The states are restored afterwards. States the
+/// FMU refuses near the current ones end the check without a verdict.
 pub fn check_directional<M: ModelExchange>(me: &mut M) -> Verdict {
     if !me.provides_directional_derivative() || me.states() == 0 {
         return Ok(None);
@@ -40,7 +50,9 @@ pub fn check_directional<M: ModelExchange>(me: &mut M) -> Verdict {
     let (mut x, mut nominal) = (vec![0.0; n], vec![0.0; n]);
     me.get_states(&mut x).map_err(s)?;
     me.get_nominals(&mut nominal).map_err(s)?;
-    let f0 = derivatives_at(me, &x)?;
+    let Some(f0) = derivatives_at(me, &x) else {
+        return Ok(None);
+    };
     let mut column = vec![0.0; n];
     for j in 0..n {
         // delta = eps^(1/3) * scale balances the central difference's truncation and rounding
@@ -48,9 +60,15 @@ pub fn check_directional<M: ModelExchange>(me: &mut M) -> Verdict {
         let delta = CBRT_EPSILON * scale;
         let mut xp = x.clone();
         xp[j] += delta;
-        let fp = derivatives_at(me, &xp)?;
+        // A state the FMU refuses a few ulps-of-scale away (at a bound of its domain, say)
+        // leaves the check without a verdict: the FMU may be in an error state from here on.
+        let Some(fp) = derivatives_at(me, &xp) else {
+            return Ok(None);
+        };
         xp[j] = x[j] - delta;
-        let fm = derivatives_at(me, &xp)?;
+        let Some(fm) = derivatives_at(me, &xp) else {
+            return Ok(None);
+        };
         me.set_states(&x).map_err(s)?;
         me.state_derivative_column(j, &mut column).map_err(s)?;
         for i in 0..n {
@@ -78,14 +96,13 @@ pub fn check_directional<M: ModelExchange>(me: &mut M) -> Verdict {
     Ok(None)
 }
 
-/// The state derivatives at the states `x` (set first).
-fn derivatives_at<M: ModelExchange>(me: &mut M, x: &[f64]) -> Result<Vec<f64>, String> {
+/// The state derivatives at the states `x` (set first); None when the FMU refuses the states
+/// or discards the derivatives there, or they are not finite.
+fn derivatives_at<M: ModelExchange>(me: &mut M, x: &[f64]) -> Option<Vec<f64>> {
     let mut dx = vec![0.0; x.len()];
-    me.set_states(x).map_err(s)?;
-    if !me.get_derivatives(&mut dx).map_err(s)? {
-        return Err("the derivatives were discarded at a point 6e-6 away from a valid one".into());
-    }
-    Ok(dx)
+    me.set_states(x).ok()?;
+    let valid = me.get_derivatives(&mut dx).ok()?;
+    (valid && dx.iter().all(|d| d.is_finite())).then_some(dx)
 }
 
 /// One explicit Euler step of length `h` from time `t` (x(t + h) = x(t) + h dx/dt(t)), with
@@ -131,7 +148,7 @@ pub fn euler_run<M: ModelExchange>(
 /// Most explicit Euler steps [`check_event`] takes looking for the first state event.
 pub const EVENT_SEARCH_STEPS: usize = 1000;
 
-/// Integrates with explicit Euler steps of `h` from `t` (in Continuous-Time Mode) until the
+/// Integrates with explicit Euler steps of `h` from `from` (in Continuous-Time Mode) until the
 /// first state event (an event indicator changes domain, `z > 0` against `z <= 0`: FMI 2.0.4
 /// section 3.1, FMI 3.0.2 section 3.1), at most [`EVENT_SEARCH_STEPS`] steps; time and step
 /// events met on the way are handled too. At each event the states are read before and after
@@ -139,10 +156,10 @@ pub const EVENT_SEARCH_STEPS: usize = 1000;
 /// `fmi3UpdateDiscreteStates` call reported `valuesOfContinuousStatesChanged = false` are a
 /// finding (the importer would integrate on from the old states). A search that explicit Euler
 /// cannot carry (a stiff FMU) ends without a verdict.
-pub fn check_event<M: ModelExchange>(me: &mut M, mut t: f64, h: f64) -> Verdict {
+pub fn check_event<M: ModelExchange>(me: &mut M, from: Reached, h: f64) -> Verdict {
     let (n, m) = (me.states(), me.indicators());
     let (mut z0, mut z1) = (vec![0.0; m], vec![0.0; m]);
-    let mut next_time: Option<f64> = None;
+    let (mut t, mut next_time) = (from.t, from.next_event);
     me.get_event_indicators(&mut z0).map_err(s)?;
     for _ in 0..EVENT_SEARCH_STEPS {
         let step = next_time.map_or(h, |te| (te - t).clamp(0.0, h));

@@ -1,7 +1,7 @@
 //! The runtime state-machine probe: calls in wrong states or with bad arguments, a normal run,
 //! FMU state save/restore (FMI 2.0.4 sections 2.1 and 4.2.4).
 
-use super::me_checks::{self, Verdict};
+use super::me_checks::{self, Reached, Verdict};
 use super::Finding;
 use crate::error::{HostError, Status};
 use crate::fmu::Fmu;
@@ -342,6 +342,7 @@ pub const ME_PROBE_CASES: &[&str] = &[
     "me-normal-run",
     "me-directional-derivatives",
     "me-state-event",
+    "me-fmu-state",
     "me-derivatives-before-init",
     "me-set-states-in-event-mode",
 ];
@@ -388,8 +389,24 @@ pub fn probe_me(fmu: &Fmu, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding> {
         ("me-state-event", "probe-event", t0),
         &mut f,
         step,
-        &mut |me, t| me_checks::check_event(me, t, h),
+        &mut |me, reached| me_checks::check_event(me, reached, h),
     );
+    if md.me_can_get_and_set_fmu_state && step("me-fmu-state") {
+        let serialize = md.me_can_serialize_fmu_state;
+        let result = (|| -> Verdict {
+            let s = |e: HostError| e.to_string();
+            let mut inst = fmu.instantiate("probe").map_err(s)?;
+            me_initialize(&mut inst, t0).map_err(s)?;
+            let reached = me_sequence(&mut Fmi2Me::new(&mut inst).map_err(s)?, t0)?;
+            check_fmu_state_me(&mut inst, reached.t, h, serialize)
+        })();
+        let loc = "probe me-fmu-state".to_string();
+        match result {
+            Ok(None) => {}
+            Ok(Some(m)) => f.push(me_finding("probe-fmu-state", loc, m)),
+            Err(e) => f.push(me_finding("probe-normal-run", loc, e)),
+        }
+    }
     me_case(
         fmu,
         ("me-derivatives-before-init", None),
@@ -445,7 +462,7 @@ fn me_check_case(
     (name, check, t0): (&str, &str, f64),
     f: &mut Vec<Finding>,
     step: &mut dyn FnMut(&str) -> bool,
-    run: &mut dyn FnMut(&mut Fmi2Me<'_, '_>, f64) -> Verdict,
+    run: &mut dyn FnMut(&mut Fmi2Me<'_, '_>, Reached) -> Verdict,
 ) {
     if !step(name) {
         return;
@@ -464,6 +481,44 @@ fn me_check_case(
         Ok(Some(m)) => f.push(me_finding(check, loc, m)),
         Err(e) => f.push(me_finding("probe-normal-run", loc, e)),
     }
+}
+
+/// In Continuous-Time Mode at `t`: saves the FMU state (`fmi2GetFMUstate`), takes 5 explicit
+/// Euler steps of `h`, restores it (and, if `serialize`, a serialized and deserialized copy) and
+/// takes them again: the continuous states after each step must be bit-identical (FMI 2.0.4
+/// section 2.1.8).
+fn check_fmu_state_me(inst: &mut Instance<'_>, t: f64, h: f64, serialize: bool) -> Verdict {
+    let s = |e: HostError| e.to_string();
+    let me = |inst: &mut Instance<'_>| -> Result<Vec<u64>, String> {
+        me_checks::euler_run(&mut Fmi2Me::new(inst).map_err(s)?, t, h, 5)
+    };
+    let saved = inst.get_fmu_state().map_err(s)?;
+    let result = (|| -> Verdict {
+        let first = me(inst)?;
+        inst.set_fmu_state(&saved).map_err(s)?;
+        if me(inst)? != first {
+            return Ok(Some(
+                "after fmi2SetFMUstate the continuous states of the next 5 Euler steps differ \
+                 from those after fmi2GetFMUstate (the state is not fully restored)"
+                    .into(),
+            ));
+        }
+        if !serialize {
+            return Ok(None);
+        }
+        let bytes = inst.serialize_fmu_state(&saved).map_err(s)?;
+        let copy = inst.deserialize_fmu_state(&bytes).map_err(s)?;
+        let again = inst.set_fmu_state(&copy).map_err(s).and_then(|_| me(inst));
+        let _ = inst.free_fmu_state(copy);
+        Ok((again? != first).then(|| {
+            "after fmi2SerializeFMUstate, fmi2DeSerializeFMUstate and fmi2SetFMUstate the \
+             continuous states of the next 5 Euler steps differ from those after \
+             fmi2GetFMUstate"
+                .to_string()
+        }))
+    })();
+    let _ = inst.free_fmu_state(saved);
+    result
 }
 
 /// A finding of the Model Exchange probe, with its FMI 2.0.4 clause.
@@ -494,26 +549,29 @@ fn me_clause(check: &str) -> &'static str {
 /// The Model Exchange sequence after initialization, whatever the FMI version: event iteration
 /// until no new discrete states are needed, Continuous-Time Mode, then 3 explicit Euler steps
 /// with finite derivatives and `completedIntegratorStep` where the FMU needs it. Returns the
-/// time reached.
-pub(super) fn me_sequence<M: ModelExchange>(me: &mut M, t0: f64) -> Result<f64, String> {
+/// time reached and the next time event the event iteration announced.
+pub(super) fn me_sequence<M: ModelExchange>(me: &mut M, t0: f64) -> Result<Reached, String> {
     let s = |e: HostError| e.to_string();
     let mut iterations = 0;
-    while me
-        .new_discrete_states()
-        .map_err(s)?
-        .new_discrete_states_needed
-    {
+    let next_event = loop {
+        let info = me.new_discrete_states().map_err(s)?;
+        if !info.new_discrete_states_needed {
+            break info.next_event_time;
+        }
         iterations += 1;
         if iterations > 1000 {
             return Err("the event iteration still needs iterations after 1000 calls".into());
         }
-    }
+    };
     me.enter_continuous_time_mode().map_err(s)?;
     let h = 1e-4;
     for k in 0..3 {
         me_checks::euler_step(me, t0 + k as f64 * h, h)?;
     }
-    Ok(t0 + 3.0 * h)
+    Ok(Reached {
+        t: t0 + 3.0 * h,
+        next_event,
+    })
 }
 
 /// Step of the explicit Euler search for a state event: the experiment (default: 1 s) in

@@ -7,7 +7,7 @@
 //! instantiates with `loggingOn = fmi3False`, with which the FMU must not call the logger
 //! (section 2.3.1), so an error without a logged message is no finding here.
 
-use super::me_checks::{self, Verdict};
+use super::me_checks::{self, Reached, Verdict};
 use super::probe::{event_search_step, me_sequence};
 use super::Finding;
 use crate::error::{HostError, Status};
@@ -15,6 +15,7 @@ use crate::fmi3::ffi::FmuState3;
 use crate::fmi3::md::Causality3;
 use crate::fmi3::value::{Type3, Values};
 use crate::fmi3::{Fmu3, Instance3};
+use crate::md::Variability;
 use crate::me::fmi3::Fmi3Me;
 use crate::me::ModelExchange;
 
@@ -25,6 +26,9 @@ pub const PROBE3_CASES: &[&str] = &[
     "fmi3-do-step-before-init",
     "fmi3-negative-step",
     "fmi3-do-step-after-terminate",
+    "fmi3-wrong-communication-point",
+    "fmi3-unknown-value-reference",
+    "fmi3-fixed-parameter-after-init",
     "fmi3-me-normal-run",
     "fmi3-me-directional-derivatives",
     "fmi3-me-state-event",
@@ -275,6 +279,41 @@ pub fn probe3(fmu: &Fmu3, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding> {
             i.do_step(t0, h, true).map(drop)
         },
     );
+    // currentCommunicationPoint is the time the instance reached (FMI 3.0.2 section 4.2.1)
+    case(
+        "fmi3-wrong-communication-point",
+        "fmi3DoStep with currentCommunicationPoint != current time",
+        true,
+        &mut |i| i.do_step(t0 + 100.0 * h + 1.0, h, true).map(drop),
+    );
+    let unknown_vr = md
+        .variables
+        .iter()
+        .map(|v| v.value_reference)
+        .max()
+        .unwrap_or(0)
+        .saturating_add(1000);
+    case(
+        "fmi3-unknown-value-reference",
+        &format!("fmi3GetFloat64 of unknown valueReference {unknown_vr}"),
+        true,
+        &mut |i| i.get(Type3::Float64, &[unknown_vr], 1).map(drop),
+    );
+    // In Step Mode only inputs and tunable parameters may be set (FMI 3.0.2 section 4.2.1).
+    let fixed = md.variables.iter().find(|v| {
+        v.causality == Causality3::Parameter
+            && v.variability == Variability::Fixed
+            && v.ty == Type3::Float64
+            && !v.is_array()
+    });
+    if let Some(v) = fixed {
+        let (vr, start) = (v.value_reference, v.start.clone());
+        let what = format!("setting fixed parameter '{}' after initialization", v.name);
+        case("fmi3-fixed-parameter-after-init", &what, true, &mut |i| {
+            let value = start.clone().unwrap_or(Values::Float64(vec![0.0]));
+            i.set(&[vr], &value).map(drop)
+        });
+    }
     f
 }
 
@@ -370,7 +409,7 @@ pub fn probe3_me(fmu: &Fmu3, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding>
     }
     let h = event_search_step(t0, de.stop_time);
     let mut check =
-        |name: &str, check: &str, run: &mut dyn FnMut(&mut Instance3<'_>, f64) -> Verdict| {
+        |name: &str, check: &str, run: &mut dyn FnMut(&mut Instance3<'_>, Reached) -> Verdict| {
             if !step(name) {
                 return;
             }
@@ -392,13 +431,17 @@ pub fn probe3_me(fmu: &Fmu3, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding>
         "probe-directional-derivative",
         &mut |inst, _| me_checks::check_directional(&mut me(inst)?),
     );
-    check("fmi3-me-state-event", "probe-event", &mut |inst, t| {
-        me_checks::check_event(&mut me(inst)?, t, h)
-    });
+    check(
+        "fmi3-me-state-event",
+        "probe-event",
+        &mut |inst, reached| me_checks::check_event(&mut me(inst)?, reached, h),
+    );
     if can_get_and_set(fmu, true) {
-        check("fmi3-me-fmu-state", "probe-fmu-state", &mut |inst, t| {
-            check_fmu_state_me(inst, t, h)
-        });
+        check(
+            "fmi3-me-fmu-state",
+            "probe-fmu-state",
+            &mut |inst, reached| check_fmu_state_me(inst, reached.t, h),
+        );
     }
     let name = "fmi3-me-derivatives-before-init";
     if step(name) {
