@@ -455,11 +455,22 @@ impl<S: GridModel + ?Sized> Ctx<'_, S> {
     }
 
     /// The chi-square drop naming effect `e` needs on the training part: `min ΔBIC + (effect
-    /// parameters) ln N` (its visibility is measured against this).
+    /// parameters) ln N_eff`, N_eff the effective samples of all outputs under the noise model
+    /// (its visibility, counted in effective samples too, is measured against this).
     fn visibility_needed(&self, e: usize) -> f64 {
-        self.min_delta_bic
-            + self.effects[e].params.len() as f64
-                * libm::log((self.n_train * self.out_idx.len()) as f64)
+        let n_eff: f64 = self
+            .sample_weights()
+            .iter()
+            .map(|w| w * self.n_train as f64)
+            .sum();
+        self.min_delta_bic + self.effects[e].params.len() as f64 * libm::log(n_eff.max(1.0))
+    }
+
+    /// Effective samples per sample of each measured output's noise: `(1 − ρ)/(1 + ρ)` for its
+    /// AR(1) coefficient ρ (the variance of a mean of AR(1) noise over many samples), 1 for
+    /// white noise.
+    fn sample_weights(&self) -> Vec<f64> {
+        self.rho.iter().map(|r| (1.0 - r) / (1.0 + r)).collect()
     }
 
     /// Simulate and return the measured outputs only, first `n` samples.

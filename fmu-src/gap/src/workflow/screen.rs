@@ -83,13 +83,29 @@ pub(super) struct CandidateStart {
 /// effect could bring at that point; if it stays below the naming threshold
 /// (`min ΔBIC + k ln N`) at every scanned magnitude, these data cannot reveal the effect, and
 /// not naming it says nothing about whether it is there.
-pub(super) fn visibility(jac: &DMatrix<f64>, r_cur: &[f64], r_at: &[f64]) -> Option<f64> {
-    if r_cur.len() != r_at.len() || jac.nrows() != r_at.len() {
+///
+/// The rows are stacked by output, and output `k`'s share is counted with `sample_weight[k]`,
+/// the effective samples per sample of its noise (`(1 − ρ)/(1 + ρ)` for AR(1) noise of
+/// coefficient ρ, 1 for white noise): ΔBIC, which names effects, counts a drop with the
+/// residual's effective sample size, so a chi-square counted over correlated samples as if they
+/// were independent would promise what the evidence cannot give (19-fold at ρ = 0.9).
+pub(super) fn visibility(
+    jac: &DMatrix<f64>,
+    r_cur: &[f64],
+    r_at: &[f64],
+    sample_weight: &[f64],
+) -> Option<f64> {
+    if r_cur.len() != r_at.len() || jac.nrows() != r_at.len() || sample_weight.is_empty() {
         return None;
     }
     let d: Vec<f64> = r_at.iter().zip(r_cur).map(|(a, c)| a - c).collect();
     let (res, _) = regress(jac, &d);
-    let v = lm::sse(&res);
+    let n = res.len() / sample_weight.len();
+    let v: f64 = res
+        .iter()
+        .enumerate()
+        .map(|(i, x)| sample_weight[(i / n.max(1)).min(sample_weight.len() - 1)] * x * x)
+        .sum();
     v.is_finite().then_some(v)
 }
 
@@ -157,7 +173,7 @@ pub(super) fn scan_starts<S: GridModel + ?Sized>(
             let fixed = lm::sse(&r);
             let (res, beta) = regress(&cur.fit.jac, &r);
             let lin = lm::sse(&res);
-            let vis = visibility(&cur.fit.jac, &cur.fit.residuals, &r);
+            let vis = visibility(&cur.fit.jac, &cur.fit.residuals, &r, &ctx.sample_weights());
             (fixed.is_finite() && lin.is_finite()).then_some((fixed, lin, -beta, vis))
         })
         .collect();
@@ -404,7 +420,7 @@ mod visibility_tests {
         let r_at: Vec<f64> = (0..n)
             .map(|i| r_cur[i] + 3.0 - 2.0 * i as f64 / (n - 1) as f64)
             .collect();
-        let v = visibility(&jac, &r_cur, &r_at).unwrap();
+        let v = visibility(&jac, &r_cur, &r_at, &[1.0]).unwrap();
         assert!(v < 1e-6, "absorbed change reported visible: {v}");
     }
 
@@ -426,18 +442,21 @@ mod visibility_tests {
         let sxy: f64 = t.iter().zip(&s).map(|(x, y)| (x - tm) * (y - sm)).sum();
         let syy: f64 = s.iter().map(|y| crate::stats::sq(y - sm)).sum();
         let expected = syy - sxy * sxy / sxx;
-        let v = visibility(&jac, &r_cur, &r_at).unwrap();
+        let v = visibility(&jac, &r_cur, &r_at, &[1.0]).unwrap();
         assert!(
             (v - expected).abs() < 1e-6 * expected,
             "visibility {v}, closed form {expected}"
         );
         assert!(v > 40.0 && v < 50.0);
+        // The same signal in AR(1) noise of coefficient 0.9 counts (1 − 0.9)/(1 + 0.9) of it.
+        let ar = visibility(&jac, &r_cur, &r_at, &[0.1 / 1.9]).unwrap();
+        assert!((ar - expected * 0.1 / 1.9).abs() < 1e-6 * expected, "{ar}");
     }
 
     #[test]
     fn mismatched_lengths_give_none() {
         let jac = base_jac(10);
-        assert!(visibility(&jac, &[0.0; 10], &[0.0; 9]).is_none());
-        assert!(visibility(&jac, &[0.0; 9], &[0.0; 9]).is_none());
+        assert!(visibility(&jac, &[0.0; 10], &[0.0; 9], &[1.0]).is_none());
+        assert!(visibility(&jac, &[0.0; 9], &[0.0; 9], &[1.0]).is_none());
     }
 }
