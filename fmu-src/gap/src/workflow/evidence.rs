@@ -76,6 +76,14 @@ pub(super) fn row_scale(r: &[f64], k: usize) -> Vec<f64> {
         .collect()
 }
 
+/// Per-row weights of rows stacked by output, `n` per output: output `k`'s `per_output[k]` (the
+/// last one's for rows beyond).
+pub(super) fn row_weights(per_output: &[f64], n: usize, rows: usize) -> Vec<f64> {
+    (0..rows)
+        .map(|i| per_output[(i / n.max(1)).min(per_output.len() - 1)])
+        .collect()
+}
+
 /// Relative eigenvalue below which a direction of the unit-diagonal normal matrix counts as
 /// undetermined: `λ_i < EIG_REL_TOL · λ_max`, i.e. a singular value of the column-normalised
 /// Jacobian below ~1e-4 of the largest (a correlation within 1e-8 of ±1; such a direction's
@@ -103,8 +111,8 @@ pub(super) const NULL_COMPONENT_TOL: f64 = 1e-4;
 /// parameter's interval null.)
 pub(super) fn covariance(x: &DMatrix<f64>, scale: &[f64], n: usize) -> Option<DMatrix<f64>> {
     let mut xs = x.clone();
-    for (row, mut xr) in xs.row_iter_mut().enumerate() {
-        xr *= scale[(row / n.max(1)).min(scale.len() - 1)];
+    for (mut xr, w) in xs.row_iter_mut().zip(row_weights(scale, n, x.nrows())) {
+        xr *= w;
     }
     let a = xs.transpose() * xs;
     let p = a.nrows();

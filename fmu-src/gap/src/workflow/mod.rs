@@ -1064,10 +1064,10 @@ fn finish<S: GridModel + ?Sized>(
 ) -> Result<Ending, GapError> {
     let (fin, n_fin) = final_fit(ctx, cur.0, cur.1, st0);
     let scale = row_scale(&fin.fit.residuals, ctx.out_idx.len());
-    let fin = recentre(ctx, fin, n_fin, &scale);
+    let (fin, measured) = recentre(ctx, fin, n_fin, &scale);
     let data_names: Vec<String> = data.outputs.iter().map(|(s, _)| s.clone()).collect();
     let (final_y, offsets) = final_outputs(ctx, &fin, n_fin, &data_names)?;
-    let basis = interval_basis(ctx, &fin, n_fin, &scale);
+    let basis = interval_basis(ctx, &fin, n_fin, &scale, measured);
     let parameters = estimates(
         &ctx.params,
         &fin.state.idx,

@@ -25,7 +25,7 @@
 //! never narrower than its likelihood-ratio end along that path.
 
 use super::ends::profile_ends;
-use super::evidence::covariance;
+use super::evidence::{covariance, row_weights};
 use super::{Ctx, FitOut, FitProblem, Z95};
 use crate::lm::{self, LmOptions};
 use crate::sim::GridModel;
@@ -52,13 +52,56 @@ pub(super) struct IntervalBasis {
     pub roughness: Option<f64>,
 }
 
+/// What [`recentre`] measured at a final fit it left where it stopped: the roughness over a
+/// tiny step and, if it went on to compute it, the secant Jacobian. [`interval_basis`] at the
+/// same point takes them instead of simulating them again.
+pub(super) struct Measured {
+    f0: f64,
+    secant: Option<DMatrix<f64>>,
+}
+
+/// The roughness at the final fit over a step of the fit's finite-difference size.
+fn tiny_step_roughness<S: GridModel + ?Sized>(
+    problem: &FitProblem<'_, '_, S>,
+    fin: &FitOut,
+    w: &[f64],
+) -> f64 {
+    let h = LmOptions::default().fd_step;
+    let m = fin.state.idx.len();
+    let r0 = &fin.fit.residuals;
+    lm::roughness(
+        problem,
+        &fin.bounds,
+        &fin.fit.z,
+        r0,
+        w,
+        &vec![h; m],
+        PATTERNS,
+    )
+}
+
+/// The secant Jacobian at the final fit for roughness `f0`: slopes over steps whose change
+/// reaches [`SECANT_TARGET`] times it.
+fn secants<S: GridModel + ?Sized>(
+    problem: &FitProblem<'_, '_, S>,
+    fin: &FitOut,
+    w: &[f64],
+    f0: f64,
+) -> DMatrix<f64> {
+    let h = LmOptions::default().fd_step;
+    let (z, r0) = (&fin.fit.z, &fin.fit.residuals);
+    lm::secant_jacobian(problem, &fin.bounds, z, r0, w, h, SECANT_TARGET * f0)
+}
+
 /// Measure the roughness at the final fit `fin` (over its `n_fin` samples, rows weighted by
-/// `scale` per output) and, when it matters, the Jacobian and multiplier that account for it.
+/// `scale` per output; `measured`: what [`recentre`] already measured at this point) and, when
+/// it matters, the Jacobian and multiplier that account for it.
 pub(super) fn interval_basis<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     fin: &FitOut,
     n_fin: usize,
     scale: &[f64],
+    measured: Option<Measured>,
 ) -> IntervalBasis {
     let m = fin.state.idx.len();
     if m == 0 {
@@ -70,23 +113,16 @@ pub(super) fn interval_basis<S: GridModel + ?Sized>(
     }
     let problem = FitProblem::of(ctx, fin, n_fin);
     let r0 = &fin.fit.residuals;
-    let w: Vec<f64> = (0..r0.len())
-        .map(|i| scale[(i / n_fin.max(1)).min(scale.len() - 1)])
-        .collect();
-    let h = LmOptions::default().fd_step;
-    let f0 = lm::roughness(
-        &problem,
-        &fin.bounds,
-        &fin.fit.z,
-        r0,
-        &w,
-        &vec![h; m],
-        PATTERNS,
-    );
+    let w = row_weights(scale, n_fin, r0.len());
+    let Measured { f0, secant } = measured.unwrap_or_else(|| Measured {
+        f0: tiny_step_roughness(&problem, fin, &w),
+        secant: None,
+    });
     let (jac, z, roughness) = if f0 <= NEGLIGIBLE {
         (fin.fit.jac.clone(), Z95, None)
     } else {
-        rough_jacobian(&problem, fin, n_fin, scale, &w, f0)
+        let jac = secant.unwrap_or_else(|| secants(&problem, fin, &w, f0));
+        rough_jacobian(&problem, fin, n_fin, scale, &w, f0, jac)
     };
     let ends = match covariance(&jac, scale, n_fin) {
         Some(cov) => {
@@ -125,44 +161,24 @@ const RECENTRE_DAMPING: [f64; 2] = [0.0, 1e-2];
 /// projection on the slopes. The step is taken when the sum at the new point is within the
 /// jumps' spread (`2F`) of the fit's: the point is then as good a fit as the jumps allow. A
 /// step that fails that test, a smooth sum and one rougher than [`RECENTRE_MAX`] leave `fin`
-/// as it is.
+/// as it is, returned with what was measured there ([`Measured`]; `None` once moved).
 pub(super) fn recentre<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     fin: FitOut,
     n_fin: usize,
     scale: &[f64],
-) -> FitOut {
-    let m = fin.state.idx.len();
-    if m == 0 {
-        return fin;
+) -> (FitOut, Option<Measured>) {
+    if fin.state.idx.is_empty() {
+        return (fin, None);
     }
     let problem = FitProblem::of(ctx, &fin, n_fin);
     let r0 = &fin.fit.residuals;
-    let w: Vec<f64> = (0..r0.len())
-        .map(|i| scale[(i / n_fin.max(1)).min(scale.len() - 1)])
-        .collect();
-    let h = LmOptions::default().fd_step;
-    let f0 = lm::roughness(
-        &problem,
-        &fin.bounds,
-        &fin.fit.z,
-        r0,
-        &w,
-        &vec![h; m],
-        PATTERNS,
-    );
+    let w = row_weights(scale, n_fin, r0.len());
+    let f0 = tiny_step_roughness(&problem, &fin, &w);
     if f0 <= NEGLIGIBLE || f0 > RECENTRE_MAX {
-        return fin;
+        return (fin, Some(Measured { f0, secant: None }));
     }
-    let jac = lm::secant_jacobian(
-        &problem,
-        &fin.bounds,
-        &fin.fit.z,
-        r0,
-        &w,
-        h,
-        SECANT_TARGET * f0,
-    );
+    let jac = secants(&problem, &fin, &w, f0);
     let a = jac.transpose() * &jac;
     let g = jac.transpose() * DVector::from_column_slice(r0);
     for lambda in RECENTRE_DAMPING {
@@ -181,7 +197,7 @@ pub(super) fn recentre<S: GridModel + ?Sized>(
             let p = lm::to_p(&fin.bounds, &z);
             let mut state = fin.state.clone();
             state.val = p.clone();
-            return FitOut {
+            let moved = FitOut {
                 state,
                 fit: lm::LmFit {
                     p,
@@ -194,13 +210,15 @@ pub(super) fn recentre<S: GridModel + ?Sized>(
                 },
                 bounds: fin.bounds,
             };
+            return (moved, None);
         }
     }
-    fin
+    let secant = Some(jac);
+    (fin, Some(Measured { f0, secant }))
 }
 
-/// On a rough sum of squares (roughness `f0` over a tiny step): the secant Jacobian, the
-/// widened multiplier and the roughness `F` that sets it.
+/// On a rough sum of squares (roughness `f0` over a tiny step, secant Jacobian `jac`): the
+/// Jacobian, the widened multiplier and the roughness `F` that sets it.
 fn rough_jacobian<S: GridModel + ?Sized>(
     problem: &FitProblem<'_, '_, S>,
     fin: &FitOut,
@@ -208,18 +226,9 @@ fn rough_jacobian<S: GridModel + ?Sized>(
     scale: &[f64],
     w: &[f64],
     f0: f64,
+    jac: DMatrix<f64>,
 ) -> (DMatrix<f64>, f64, Option<f64>) {
     let (m, r0) = (fin.state.idx.len(), &fin.fit.residuals);
-    let h = LmOptions::default().fd_step;
-    let jac = lm::secant_jacobian(
-        problem,
-        &fin.bounds,
-        &fin.fit.z,
-        r0,
-        w,
-        h,
-        SECANT_TARGET * f0,
-    );
     // The same at the scale of the intervals: each coordinate moved by its standard error. A
     // jump there (and the curvature over that step) is what the quadratic model behind the
     // interval misses; a tiny step may flip no decision at all.

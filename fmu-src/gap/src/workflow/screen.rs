@@ -5,7 +5,7 @@
 //! candidate, the change the effect makes at its start values and the sensitivities to each of its
 //! parameters there; the statistic is the linearised ΔBIC of the augmented regression.
 
-use super::evidence::{delta_bic, delta_bic_naive};
+use super::evidence::{delta_bic, delta_bic_naive, row_weights};
 use super::{regress, Ctx, FitOut, Limits, ModelState, VisibilityPoint};
 use crate::lm::{self, Bounded};
 use crate::sim::GridModel;
@@ -101,11 +101,8 @@ pub(super) fn visibility(
     let d: Vec<f64> = r_at.iter().zip(r_cur).map(|(a, c)| a - c).collect();
     let (res, _) = regress(jac, &d);
     let n = res.len() / sample_weight.len();
-    let v: f64 = res
-        .iter()
-        .enumerate()
-        .map(|(i, x)| sample_weight[(i / n.max(1)).min(sample_weight.len() - 1)] * x * x)
-        .sum();
+    let w = row_weights(sample_weight, n, res.len());
+    let v: f64 = res.iter().zip(&w).map(|(x, w)| w * x * x).sum();
     v.is_finite().then_some(v)
 }
 
