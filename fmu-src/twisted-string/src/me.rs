@@ -26,7 +26,7 @@
 //!   `string_compliance` is on (constant 1 otherwise);
 //! * encoder quantisation, position band and speed-limit clamp: evaluated at the time events only.
 
-use crate::model::TwistedString;
+use crate::model::{read_params, validate, TwistedString};
 use crate::plant::{ix, Aux, Inputs, Params, Plant, DIM, NOMINAL};
 use crate::vars::V;
 use fmi2_export::{ModelError, ModelExchange, ValuesMut};
@@ -191,6 +191,145 @@ pub fn jacobian(par: &Params, inp: Inputs, x: &[f64]) -> [[f64; STATES]; STATES]
 
 /// Write the states that are not outputs and every `der(...)` variable (shared by Model
 /// Exchange and Co-Simulation, where they are informative locals).
+/// Parameter groups (table positions) by the part of the model they enter, for the FMI 3.0
+/// `<ModelStructure>` (FMI 3.0.2 section 2.4.8: parameters are knowns of the outputs and
+/// derivatives; `Plant::eval`). The twist angle at the gearhead output: the gear ratio, with
+/// `gear_backlash` less the position in the gap.
+const GEAR: [usize; 2] = [V::GEAR_RATIO as usize, V::GEAR_BACKLASH_ENABLED as usize];
+/// The helix (eq. 9): string radius and its growth with the twist.
+const HELIX: [usize; 3] = [
+    V::STRING_RADIUS as usize,
+    V::RADIUS_GROWTH_ENABLED as usize,
+    V::RADIUS_GROWTH_PER_TURN as usize,
+];
+/// The strings' tension: length, stiffness, damping, the compliance law (eq. 10).
+const STRING: [usize; 7] = [
+    V::STRING_LENGTH as usize,
+    V::STRING_STIFFNESS as usize,
+    V::STRING_DAMPING as usize,
+    V::STRING_COMPLIANCE_ENABLED as usize,
+    V::STRING_COMPLIANCE_A1 as usize,
+    V::STRING_COMPLIANCE_A2 as usize,
+    V::STRING_COMPLIANCE_A3 as usize,
+];
+/// The gearhead output with `gear_backlash`: the gap and the flanks.
+const BACKLASH: [usize; 3] = [
+    V::GEAR_BACKLASH_ENABLED as usize,
+    V::GEAR_BACKLASH_ANGLE as usize,
+    V::GEAR_RATIO as usize,
+];
+/// Friction on the motor side: gear efficiency, motor friction; inter-strand friction.
+const FRICTION: [usize; 6] = [
+    V::GEAR_EFFICIENCY as usize,
+    V::MOTOR_FRICTION_ENABLED as usize,
+    V::MOTOR_FRICTION_COULOMB as usize,
+    V::MOTOR_FRICTION_VISCOUS as usize,
+    V::TWIST_HYSTERESIS_ENABLED as usize,
+    V::TWIST_HYSTERESIS_FRICTION_COEFFICIENT as usize,
+];
+/// The armature circuit.
+const ARMATURE: [usize; 4] = [
+    V::MOTOR_RESISTANCE as usize,
+    V::MOTOR_INDUCTANCE as usize,
+    V::BACK_EMF_CONSTANT as usize,
+    V::TORQUE_CONSTANT as usize,
+];
+/// The sampled position loop: encoder, P law with its band, speed limit, period (its speed set
+/// point is computed at the ticks and held).
+const POSITION: [usize; 6] = [
+    V::INTERNAL_CONTROLLER as usize,
+    V::CONTROLLER_POSITION_P as usize,
+    V::CONTROLLER_POSITION_BAND as usize,
+    V::CONTROLLER_POSITION_PERIOD as usize,
+    V::SPEED_LIMIT as usize,
+    V::ENCODER_CPT as usize,
+];
+/// The continuous current and speed PI loops and their limits (or open loop the input).
+const CASCADE: [usize; 6] = [
+    V::CONTROLLER_CURRENT_P as usize,
+    V::CONTROLLER_CURRENT_TI as usize,
+    V::CONTROLLER_SPEED_P as usize,
+    V::CONTROLLER_SPEED_TI as usize,
+    V::CURRENT_LIMIT as usize,
+    V::SUPPLY_VOLTAGE as usize,
+];
+/// The load: mass, return spring (its free length is the string length), guide.
+const LOAD: [usize; 5] = [
+    V::LOAD_MASS as usize,
+    V::SPRING_STIFFNESS as usize,
+    V::SPRING_PRELOAD as usize,
+    V::GUIDE_DAMPING as usize,
+    V::STRING_LENGTH as usize,
+];
+const P_ALPHA: &[usize] = fmi2_export::parameter_groups!(GEAR, HELIX);
+const P_STRINGS: &[usize] = fmi2_export::parameter_groups!(GEAR, HELIX, STRING);
+const P_F_STRING: &[usize] =
+    fmi2_export::parameter_groups!(GEAR, HELIX, STRING, [V::STRING_COUNT as usize]);
+const P_MECHANICS: &[usize] =
+    fmi2_export::parameter_groups!(GEAR, HELIX, STRING, BACKLASH, FRICTION);
+const P_MOTOR: &[usize] = fmi2_export::parameter_groups!(
+    GEAR,
+    HELIX,
+    STRING,
+    BACKLASH,
+    FRICTION,
+    [V::TORQUE_CONSTANT as usize, V::ROTOR_INERTIA as usize]
+);
+const P_LOAD: &[usize] = fmi2_export::parameter_groups!(GEAR, HELIX, STRING, LOAD);
+const P_VOLTAGE: &[usize] = fmi2_export::parameter_groups!(POSITION, CASCADE);
+const P_CURRENT: &[usize] = fmi2_export::parameter_groups!(POSITION, CASCADE, ARMATURE);
+const P_LOSSES: &[usize] = fmi2_export::parameter_groups!(
+    GEAR,
+    HELIX,
+    STRING,
+    BACKLASH,
+    FRICTION,
+    ARMATURE,
+    [V::GUIDE_DAMPING as usize]
+);
+const P_STORED: &[usize] = fmi2_export::parameter_groups!(
+    GEAR,
+    HELIX,
+    STRING,
+    BACKLASH,
+    LOAD,
+    [V::MOTOR_INDUCTANCE as usize, V::ROTOR_INERTIA as usize]
+);
+const P_MEASURED: &[usize] = &[
+    V::INTERNAL_CONTROLLER as usize,
+    V::ENCODER_CPT as usize,
+    V::CONTROLLER_POSITION_PERIOD as usize,
+];
+
+/// Per output and derivative, the parameters its value depends on under any setting of the
+/// others (the states, `der(theta_motor)`, `der(p)` and `der(W_external)` depend on none).
+static PARAMETER_DEPENDENCIES: [(usize, &[usize]); 24] = [
+    (V::THETA_TWIST as usize, &GEAR),
+    (V::TAU_MOTOR as usize, &[V::TORQUE_CONSTANT as usize]),
+    (V::F_STRING as usize, P_F_STRING),
+    (V::F_TANGENTIAL as usize, P_STRINGS),
+    (V::ALPHA as usize, P_ALPHA),
+    (V::TRANSMISSION_RATIO as usize, P_STRINGS),
+    (V::STIFFNESS as usize, P_STRINGS),
+    (V::F_AXIAL as usize, P_STRINGS),
+    (V::VOLTAGE_MOTOR as usize, P_VOLTAGE),
+    (V::OMEGA_REF as usize, &POSITION),
+    (V::THETA_MOTOR_MEASURED as usize, P_MEASURED),
+    (V::E_STORED as usize, P_STORED),
+    (V::DER_CURRENT as usize, P_CURRENT),
+    (V::DER_OMEGA_MOTOR as usize, P_MOTOR),
+    (V::DER_V_LOAD as usize, P_LOAD),
+    (V::DER_CURRENT_INTEGRAL as usize, P_VOLTAGE),
+    (V::DER_SPEED_INTEGRAL as usize, P_VOLTAGE),
+    (V::DER_E_ELECTRICAL as usize, P_VOLTAGE),
+    (V::DER_E_DISSIPATED as usize, P_LOSSES),
+    (V::DER_E_STRING_KINEMATIC as usize, P_STRINGS),
+    (V::DER_BACKLASH_POSITION as usize, &BACKLASH),
+    (V::DER_OMEGA_TWIST as usize, P_MECHANICS),
+    (V::DER_THETA_MOTOR as usize, &[]),
+    (V::DER_P as usize, &[]),
+];
+
 pub(crate) fn write_state_variables(out: &mut ValuesMut, y: &[f64; DIM], aux: &Aux, f_load: f64) {
     out.set(V::CURRENT_INTEGRAL, y[ix::ZI]);
     out.set(V::SPEED_INTEGRAL, y[ix::ZW]);
@@ -237,6 +376,19 @@ impl ModelExchange for TwistedString {
 
     fn derivative_dependencies() -> Option<&'static [&'static [usize]]> {
         Some(&DERIVATIVE_DEPENDENCIES)
+    }
+
+    fn parameter_dependencies() -> Option<&'static [(usize, &'static [usize])]> {
+        Some(&PARAMETER_DEPENDENCIES)
+    }
+
+    /// Every parameter read and checked again (as at initialization); the states, the
+    /// controller's held set point and the encoder reading are kept.
+    fn set_parameters(&mut self, vars: &[f64]) -> Result<(), ModelError> {
+        let par = read_params(vars);
+        validate(&par)?;
+        self.par = par;
+        Ok(())
     }
 
     fn states(&self, x: &mut [f64]) {
