@@ -213,12 +213,14 @@ def noisy(rng, y, frac, ar):
 
 def make(model, seed, hidden=(), noise=0.01, ar=0.0, duration=10.0, rate=1000.0,
          draw_base=True, base_overrides=None, sets=None, keep_inputs=None, input_family="reaches",
-         given_inputs=None, noise_sigma=None):
+         given_inputs=None, noise_sigma=None, simulator=None):
     """One dataset. Returns dict(time, inputs, outputs, truth, noise_sigma).
 
     given_inputs: (time, {input: values}) to use instead of drawn inputs (an experiment
     `actuator-fmu design` proposed); noise_sigma: {output: sigma} absolute noise levels instead
-    of `noise` times each output's range (the same sensors as an earlier dataset)."""
+    of `noise` times each output's range (the same sensors as an earlier dataset); simulator:
+    a function like `simulate` (model, t, cols, start_values) -> {output: values} to use instead
+    of FMPy on the FMU (a simulator with a mechanism the FMU does not have)."""
     rng = np.random.default_rng(seed)
     t = np.round(np.arange(0, int(round(duration * rate)) + 1) / rate, 12)
     if given_inputs is not None:
@@ -244,7 +246,7 @@ def make(model, seed, hidden=(), noise=0.01, ar=0.0, duration=10.0, rate=1000.0,
         cols = {k: np.asarray(v, dtype=float) for k, v in given_inputs[1].items()}
     if keep_inputs is not None:
         cols = {k: v for k, v in cols.items() if k in keep_inputs}
-    res = simulate(model, t, cols, truth)
+    res = (simulator or simulate)(model, t, cols, truth)
     outs, sig = {}, {}
     for n in MEASURED[model]:
         y = np.asarray(res[n], dtype=float)
@@ -259,6 +261,15 @@ def make(model, seed, hidden=(), noise=0.01, ar=0.0, duration=10.0, rate=1000.0,
 
 
 EVAL_CONDITIONS = ["single1", "single5", "clean", "ar", "mass", "two", "mismatch"]
+
+# Mechanisms outside the candidate list of the `mismatch` condition, per model, taken in turn by
+# the record index: a first-order lag on one sensor, a gain error on one sensor, a fixed
+# parameter set wrong, and a friction law the candidates do not have (made by the SciPy
+# reference with that law, not by the FMU): TwistedString's motor friction of another form
+# than the candidate `motor_friction`, HydraulicJoint's friction in the joint bearing (its
+# candidates have friction at the piston seals and in the Bowden cables only).
+MISMATCH_KINDS = {"HydraulicJoint": ("lag", "gain", "fixed", "friction"),
+                  "TwistedString": ("lag", "gain", "fixed", "friction")}
 
 # Fixed (not calibrated) parameters the `mismatch` condition sets wrong in the "user's" model:
 # the record is made with the parameter 15 % off its default, which gap keeps.
@@ -278,14 +289,91 @@ def first_order_lag(t, y, tau):
     return m
 
 
+def mismatch_kind(model, i):
+    """The mechanism outside the candidate list of `mismatch` record i, and the index of the
+    record among those of its kind (which sensor, which parameter, which law)."""
+    kinds = MISMATCH_KINDS[model]
+    return kinds[i % len(kinds)], i // len(kinds)
+
+
+def _log_uniform(rng, lo, hi):
+    return float(math.exp(rng.uniform(math.log(lo), math.log(hi))))
+
+
+def stribeck(tc, ts, ws, width):
+    """Stribeck friction torque (Armstrong-Helouvry, Dupont, Canudas de Wit 1994):
+    tau(omega) = (T_c + (T_s - T_c) exp(-(omega/omega_s)^2)) tanh(omega/width)."""
+    def law(w):
+        return (tc + (ts - tc) * math.exp(-(w / ws) ** 2)) * math.tanh(w / width)
+    return law
+
+
+def friction_law(model, rng, j):
+    """A friction torque law tau(omega) [N.m] outside the candidate list, for `mismatch` record j
+    of its kind. Returns (description, law).
+
+    TwistedString, at the motor shaft, of another form than the candidate `motor_friction`
+    (tau_c tanh(omega/1 rad/s) + b omega) and with magnitudes within its ranges (Coulomb
+    0.2-5 mN.m; b 2e-7..1e-5 N.m.s/rad, 0.1-5 mN.m at 500 rad/s), by j % 2:
+      - Stribeck, T_c 0.3-3 mN.m log-uniform, a static excess T_s - T_c of 0.5-2 T_c, Stribeck
+        speed omega_s 20-100 rad/s log-uniform, sign width 1 rad/s as the candidate's;
+      - speed-squared drag (churning of the gearhead's lubricant), tau = c omega |omega|, of
+        0.5-3 mN.m at 300 rad/s (log-uniform).
+    HydraulicJoint, in the joint bearing (acting on the link, where no candidate acts: the
+    candidates' friction sits at the piston seals and in the cables, so pressures and cable
+    tensions no longer balance as there): Stribeck with T_c 0.2-1.5 N.m log-uniform (the seal
+    candidate's 5-200 N is 0.15-6 N.m at the 3 cm pulley), a static excess of 0-2 T_c, omega_s
+    0.05-0.3 rad/s log-uniform, sign width 0.01 rad/s."""
+    if model == "HydraulicJoint":
+        tc = _log_uniform(rng, 0.2, 1.5)
+        ts = tc * (1.0 + float(rng.uniform(0.0, 2.0)))
+        ws = _log_uniform(rng, 0.05, 0.3)
+        return (f"friction Stribeck in the joint T_c {tc:.2f} N.m, T_s {ts:.2f} N.m, "
+                f"omega_s {ws:.2f} rad/s", stribeck(tc, ts, ws, 0.01))
+    if j % 2 == 0:
+        tc = _log_uniform(rng, 0.3e-3, 3e-3)
+        ts = tc * (1.0 + float(rng.uniform(0.5, 2.0)))
+        ws = _log_uniform(rng, 20.0, 100.0)
+        return (f"friction Stribeck at the motor T_c {tc * 1e3:.2f} mN.m, T_s {ts * 1e3:.2f} mN.m, "
+                f"omega_s {ws:.0f} rad/s", stribeck(tc, ts, ws, 1.0))
+    c = _log_uniform(rng, 0.5e-3, 3e-3) / 300.0 ** 2
+
+    def drag(w):
+        return c * w * abs(w)
+    return f"friction drag at the motor {c * 300.0 ** 2 * 1e3:.2f} mN.m at 300 rad/s (c omega|omega|)", drag
+
+
+def reference_simulator(extra_friction):
+    """A `simulate` replacement: the model's SciPy reference (tests/reference/, the documented
+    equations written again, independent of the FMU) with an extra friction torque law (at the
+    motor shaft of TwistedString, in the joint of HydraulicJoint), at the grid's sample
+    interval."""
+    def run(model, t, cols, start_values):
+        sys.path.insert(0, str(REPO / "tests" / "reference"))
+        inputs = {k: (t, v) for k, v in cols.items()}
+        kw = dict(t_end=float(t[-1] - t[0]), dt=float(t[1] - t[0]))
+        if model == "TwistedString":
+            import twisted_string_ref
+            out = twisted_string_ref.simulate(dict(start_values), inputs,
+                                              extra_motor_friction=extra_friction, **kw)
+        elif model == "HydraulicJoint":
+            import hydraulic_joint_ref
+            out = hydraulic_joint_ref.simulate(dict(start_values), inputs,
+                                               extra_joint_friction=extra_friction, **kw)
+        else:
+            raise ValueError(f"no reference simulator for {model}")
+        return {n: out[n] for n in MEASURED[model]}
+    return run
+
+
 def mismatch(model, ds, i, rng):
-    """A mechanism outside the candidate list, by i % 3: a first-order lag (10-40 ms) on one
-    sensor, a gain error (+-3..8 %) on one sensor, or (made in eval_record) a fixed parameter
-    15 % off its default. The sensor's noise is kept as drawn. Returns a description."""
-    kind = ("lag", "gain", "fixed")[i % 3]
-    if kind == "fixed":
+    """Sensor mechanisms of record i (see mismatch_kind): a first-order lag (10-40 ms) or a gain
+    error (+-3..8 %) on one sensor, the sensor's noise kept as drawn. The other kinds are made in
+    eval_record. Returns a description (kind first)."""
+    kind, j = mismatch_kind(model, i)
+    if kind not in ("lag", "gain"):
         return kind
-    sensor = MEASURED[model][(i // 3) % len(MEASURED[model])]
+    sensor = MEASURED[model][j % len(MEASURED[model])]
     clean, noise = ds["clean"][sensor], ds["outputs"][sensor] - ds["clean"][sensor]
     if kind == "lag":
         tau = float(rng.uniform(0.01, 0.04))
@@ -300,15 +388,17 @@ def eval_record(model, cond, i, seed0=100000, duration=4.0, rate=250.0, input_fa
                 ar=None):
     """Dataset `i` of condition `cond` of scripts/gap-eval (and scripts/gap-robustness): one
     hidden effect at 1 % or 5 % noise (single1, single5), none (clean), none with AR(1) noise of
-    coefficient 0.9 (ar), none with the load mass 30 % off its default (mass), two effects (two).
+    coefficient 0.9 (ar), none with the load mass 30 % off its default (mass), two effects (two),
+    none but a mechanism outside the candidate list (mismatch, MISMATCH_KINDS).
     Seeds are seed0 + 1000 x the condition's index + i (+ 500 for TwistedString). `ar`: the
     AR(1) coefficient of the noise in every condition (None: white, and 0.9 for `ar`).
-    Returns dict(ds, seed, hidden, noise, ar, kw): the dataset and how it was made."""
+    Returns dict(ds, seed, hidden, noise, ar, kw, mismatch): the dataset and how it was made."""
     eff = sorted(effects(model))
     seed = seed0 + 1000 * EVAL_CONDITIONS.index(cond) + i + (0 if model == "HydraulicJoint" else 500)
     kw = dict(duration=duration, rate=rate, input_family=input_family)
     hidden, noise, ar_all = (), 0.01, ar
     ar = ar_all or 0.0
+    simulator, what = None, None
     if cond in ("single1", "single5"):
         hidden = (eff[i % len(eff)],)
         noise = 0.01 if cond == "single1" else 0.05
@@ -321,15 +411,18 @@ def eval_record(model, cond, i, seed0=100000, duration=4.0, rate=250.0, input_fa
         j = i % len(eff)
         k = (j + 1 + (i // len(eff)) % (len(eff) - 1)) % len(eff)
         hidden = (eff[j], eff[k])
-    elif cond == "mismatch" and i % 3 == 2:
-        name = MISMATCH_FIXED[model][(i // 3) % len(MISMATCH_FIXED[model])]
-        kw.update(sets={name: variables(model)[name]["start"] * (1.15 if (i // 6) % 2 else 0.85)})
-    ds = make(model, seed, hidden, noise=noise, ar=ar, **kw)
-    what = None
-    if cond == "mismatch":
-        what = mismatch(model, ds, i, np.random.default_rng(seed + 7))
-        if what == "fixed":
+    elif cond == "mismatch":
+        kind, j = mismatch_kind(model, i)
+        if kind == "fixed":
+            name = MISMATCH_FIXED[model][j % len(MISMATCH_FIXED[model])]
+            kw.update(sets={name: variables(model)[name]["start"] * (1.15 if (j // 2) % 2 else 0.85)})
             what = "fixed " + ", ".join(f"{k}={v:.4g}" for k, v in kw["sets"].items())
+        elif kind == "friction":
+            what, law = friction_law(model, np.random.default_rng(seed + 7), j)
+            simulator = reference_simulator(law)
+    ds = make(model, seed, hidden, noise=noise, ar=ar, simulator=simulator, **kw)
+    if cond == "mismatch" and what is None:
+        what = mismatch(model, ds, i, np.random.default_rng(seed + 7))
     return dict(ds=ds, seed=seed, hidden=hidden, noise=noise, ar=ar, kw=kw, mismatch=what)
 
 

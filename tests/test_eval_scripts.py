@@ -4,12 +4,18 @@ answer under perturbations far below the noise), the gap part of
 `scripts/bench` (`scripts/bench_gap.py`, `gap` against a Python workflow doing the same steps)
 and its interface lines (ME under FMPy's CVode against CS, FMI 3.0 CS against FMI 2.0 CS).
 Each runs on the smallest case and is checked for the lines a reader of its output relies on."""
+import math
 import os
 import re
 import subprocess
 import sys
 
+import numpy as np
+
 from conftest import REPO, cli_path, fmu3_path, fmu_path
+
+sys.path.insert(0, str(REPO / "examples"))
+import gapgen  # noqa: E402
 
 
 def test_gap_eval_runs_and_summarises(tmp_path):
@@ -27,6 +33,37 @@ def test_gap_eval_runs_and_summarises(tmp_path):
     assert re.search(r"hidden effect named first [01]/1", line), line
     assert re.search(r"wall mean [0-9.]+ s", line), line
     assert (tmp_path / "eval" / "results.jsonl").read_text().count("\n") == 1
+
+
+def test_mismatch_friction_records_carry_the_law_where_it_acts():
+    """The `mismatch` condition's friction records are made by the SciPy references with an
+    extra friction law. The hook adds the torque where and with the sign a friction acts: with
+    an extra law equal to a term the FMU has (TwistedString: the candidate's Coulomb + viscous law
+    at the motor; HydraulicJoint: viscous friction in the joint, added to link_damping) the reference
+    reproduces the FMU with that term. A drawn law of another form leaves the FMU at the
+    record's truth far from the record (the mechanism is there to be found)."""
+    fmu_path("HydraulicJoint")
+    fmu_path("TwistedString")
+    t = np.round(np.arange(0, 101) / 100.0, 12)
+    rng = np.random.default_rng(7)
+    cases = {"TwistedString": (lambda w: 2e-3 * math.tanh(w / 1.0) + 2e-7 * w,
+                               {"motor_friction.enabled": True, "motor_friction.coulomb": 2e-3,
+                                "motor_friction.viscous": 2e-7}),
+             "HydraulicJoint": (lambda w: 1.5 * w, {"link_damping": 3.0 + 1.5})}
+    for model, (law, fmu_sets) in cases.items():
+        cols = gapgen.inputs(model, rng, t)
+        ref = gapgen.reference_simulator(law)(model, t, cols, {})
+        fmu = gapgen.simulate(model, t, cols, fmu_sets)
+        for n in gapgen.MEASURED[model]:
+            y = np.asarray(fmu[n])
+            err = np.max(np.abs(ref[n] - y)) / max(np.ptp(y), 1e-300)
+            assert err < 1e-5, (model, n, err)
+    r = gapgen.eval_record("TwistedString", "mismatch", 3, seed0=990000, duration=1.0, rate=100.0)
+    assert r["mismatch"].startswith("friction Stribeck at the motor"), r["mismatch"]
+    ds = r["ds"]
+    fmu = gapgen.simulate("TwistedString", ds["time"], ds["inputs"], ds["truth"])
+    miss = np.sqrt(np.mean((ds["outputs"]["current"] - np.asarray(fmu["current"])) ** 2))
+    assert miss > 3 * ds["noise_sigma"]["current"], (miss, ds["noise_sigma"]["current"])
 
 
 def test_gap_robustness_runs_and_prints_its_table(tmp_path):

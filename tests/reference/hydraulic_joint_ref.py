@@ -127,7 +127,11 @@ def sqrt_flow(dp):
 class Joint:
     """The documented equations, one object per parameter set."""
 
-    def __init__(self, params: dict):
+    def __init__(self, params: dict, extra_joint_friction=None):
+        # extra_joint_friction: optional torque law omega -> tau [N.m] opposing the link's
+        # rotation (a friction the FMU does not have, for records of a mechanism outside its
+        # candidate list: examples/gapgen.py, condition `mismatch`)
+        self.extra_fric = extra_joint_friction
         p = dict(DEFAULTS)
         unknown = set(params) - set(p)
         if unknown:
@@ -274,6 +278,8 @@ class Joint:
         dy = np.zeros(self.n)
         dy[0] = y[1]
         dy[1] = ((L["Tj"] - Rr["Tj"]) * p["pulley_radius"] - p["link_damping"] * y[1] + tau) / self.I
+        if self.extra_fric is not None:
+            dy[1] -= self.extra_fric(y[1]) / self.I
         dy[2:6] = L["dx"], L["dv"], L["dp1"], L["dp2"]
         dy[6:10] = Rr["dx"], Rr["dv"], Rr["dp1"], Rr["dp2"]
         if self.memory:
@@ -348,10 +354,12 @@ def _input_at(inputs, name, t):
     return float(np.interp(t, times, values))
 
 
-def simulate(params: dict, inputs: dict, t_end: float, dt: float, rtol=1e-10, atol=1e-10):
+def simulate(params: dict, inputs: dict, t_end: float, dt: float, rtol=1e-10, atol=1e-10,
+             extra_joint_friction=None):
     """Outputs (dict name -> array) at t = 0, dt, ..., t_end. `inputs`: name -> (times, values),
-    linearly interpolated and sampled at the start of each communication step."""
-    m = Joint(params)
+    linearly interpolated and sampled at the start of each communication step.
+    extra_joint_friction: see Joint (None: the documented model)."""
+    m = Joint(params, extra_joint_friction)
     p = m.p
     n_steps = int(round(t_end / dt))
     internal = bool(p["internal_controller"])

@@ -120,7 +120,11 @@ class Model:
     E_kin] (E_*: energy integrals of documentation section 9), with gear_backlash followed by
     [delta, omega_t] (position of the gearhead output in the gap, output speed)."""
 
-    def __init__(self, prm: dict):
+    def __init__(self, prm: dict, extra_motor_friction=None):
+        # extra_motor_friction: optional torque law omega_m -> tau [N.m] at the motor shaft, added
+        # to the candidate's (a friction law the FMU does not have, for records of a mechanism
+        # outside its candidate list: examples/gapgen.py, condition `mismatch`)
+        self.extra_fric = extra_motor_friction
         self.q = dict(DEFAULTS)
         unknown = set(prm) - set(DEFAULTS)
         if unknown:
@@ -247,6 +251,8 @@ class Model:
         if q["motor_friction.enabled"]:
             fric = (q["motor_friction.coulomb"] * math.tanh(y[2] / W_COULOMB)
                     + q["motor_friction.viscous"] * y[2])
+        if self.extra_fric is not None:
+            fric += self.extra_fric(y[2])
         u, dzi, dzw = self.controller(y, w_ref, volt)
         di = (u - q["motor_resistance"] * y[0] - q["back_emf_constant"] * y[2]) / q["motor_inductance"]
         dw = (q["torque_constant"] * y[0] - tau_in - fric) / q["rotor_inertia"]
@@ -346,11 +352,13 @@ NOMINAL = np.array([1.0, 1.0, 10.0, 0.01, 0.01, 1e-3, 1.0, 1.0, 1.0, 1.0, 1e-2, 
 
 
 def simulate(params: dict | None = None, inputs: dict | None = None, t_end: float = 1.0,
-             dt: float = 1e-3, rtol: float = 1e-10, atol_scale: float = 1e-9):
-    """Simulate the reference; returns dict of arrays at the communication points 0, dt, ..."""
+             dt: float = 1e-3, rtol: float = 1e-10, atol_scale: float = 1e-9,
+             extra_motor_friction=None):
+    """Simulate the reference; returns dict of arrays at the communication points 0, dt, ...
+    extra_motor_friction: see Model (None: the documented model)."""
     params = dict(params or {})
     inputs = dict(inputs or {})
-    model = Model(params)
+    model = Model(params, extra_motor_friction)
     q = model.q
     n = int(round(t_end / dt))
     tgrid = np.arange(n + 1) * dt
