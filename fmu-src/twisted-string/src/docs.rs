@@ -449,7 +449,13 @@ setting: der(theta_motor) on omega_motor, der(p) on v_load, der(W_external) on v
 current and E_electrical on the armature voltage (the current PI's i, &omega;<sub>m</sub>, z<sub>i</sub>,
 z<sub>&omega;</sub>, or the input <code>voltage</code>), the mechanics on &theta;<sub>m</sub>, &omega;<sub>m</sub>, p, v,
 &delta;, &omega;<sub>t</sub> (and F<sub>load</sub> for v); no derivative depends on an energy integral or on
-<code>theta_motor_ref</code> (it acts at the samples only).</p>
+<code>theta_motor_ref</code> (it acts at the samples only). The FMI 3.0 description also lists the
+parameters among each output's and derivative's dependencies (FMI 3.0.2 section 2.4.8), by the parts
+of the model they enter: the gear (ratio, backlash), the helix (radius, its growth), the strings
+(length, stiffness, damping, compliance law), friction, the armature, the current and speed PI loops
+and the position loop (its set point and encoder reading are computed at the samples and held, so
+their parameters act in Event Mode); <code>fmi3GetDirectionalDerivative</code> takes a Float64 parameter
+as known (central differences of the model with the parameter moved).</p>
 <p><b>Measured</b> (FMPy's CVode, tests/test_twisted_string.py): against the SciPy reference within
 7&middot;10<sup>-5</sup> (voltage steps) and 8&middot;10<sup>-4</sup> (F<sub>load</sub> steps in closed loop, as
 Co-Simulation) of each output's range; against Co-Simulation with every effect on within
