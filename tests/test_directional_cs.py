@@ -2,8 +2,10 @@
 (dist/fmi3/<Model>.fmu), through FMPy's low-level API.
 
 At a communication point the unknowns of <ModelStructure> are the outputs and the state
-derivatives, their knowns the inputs and the continuous states (FMI 2.0.4 sections 2.1.9 and
-2.2.8; FMI 3.0.2 sections 2.2.11 and 2.4.8): the partial derivatives of the model equations at the
+derivatives, their knowns the inputs and the continuous states, in FMI 3.0 also the Float64
+parameters (FMI 2.0.4 sections 2.1.9 and 2.2.8; FMI 3.0.2 sections 2.2.11 and 2.4.8; a
+parameter's partials are compared with the Model Exchange instance's at the same point, which
+tests/test_fmi3_me.py checks against set/get): the partial derivatives of the model equations at the
 point the Co-Simulation instance reached with its own solver and controllers. The reference is
 independent of the Co-Simulation code path: a Model Exchange instance of the same archive is put at
 that point (time, states, inputs, and the controller's sample at that time as its event update
@@ -224,6 +226,16 @@ def test_co_simulation_directional_derivatives_match_central_differences(version
                                                       nSensitivity=len(knowns))
                 np.testing.assert_allclose(adjoint, w @ jac, rtol=1e-12,
                                            atol=1e-12 * float(np.max(np.abs(w) @ np.abs(jac))))
+                # FMI 3.0.2 section 2.4.8: the Float64 parameters are knowns too; at the
+                # communication point their partials are the Model Exchange instance's at the
+                # same point (tests/test_fmi3_me.py checks those against set/get)
+                params = [v.valueReference for v in cs.md.modelVariables
+                          if v.causality == "parameter" and v.type == "Float64"]
+                jp = np.array([cs.directional(unknowns, [k], [1.0]) for k in params]).T
+                ref_p = np.array([me.directional(unknowns, [k], [1.0]) for k in params]).T
+                scales_p = np.array([abs(v) if v != 0 else 1.0 for v in cs.get(params)])
+                check_against(jp, ref_p, scales_p, where + ("parameters",))
+                assert np.count_nonzero(jp) >= 30, np.count_nonzero(jp)  # not vacuous
             # nothing changed: the next step continues from the same point
             np.testing.assert_array_equal(cs.get(cs.states), x)
     finally:
