@@ -603,24 +603,53 @@ mod tests {
 
     /// Co-Simulation: `do_step` with 1 ms communication steps; outputs every 1 ms.
     fn run_cs(effects: &[V], tol: f64, n: usize) -> Vec<Vec<f64>> {
-        let h = 1e-3;
+        run_cs_with(effects, tol, n, 1e-3, inputs_at, false)
+    }
+
+    /// Co-Simulation: `do_step` with communication steps `h` (the points `k h`, or with
+    /// `accumulate` the sums `h + h + ...` an importer adding its step size reaches, off the
+    /// sample instants by rounding either way), the inputs `inputs(t)` set at each point;
+    /// outputs at the end of each step.
+    fn run_cs_with(
+        effects: &[V],
+        tol: f64,
+        n: usize,
+        h: f64,
+        inputs: fn(f64, &mut [f64]),
+        accumulate: bool,
+    ) -> Vec<Vec<f64>> {
         let mut vars = start_vars(effects, tol);
         let mut m = TwistedString::new();
         m.initialize(&mut vars, 0.0).unwrap();
         let mut out = vec![];
+        let mut t = 0.0;
         for k in 0..n {
-            let t = k as f64 * h;
-            inputs_at(t, &mut vars);
+            if !accumulate {
+                t = k as f64 * h;
+            }
+            inputs(t, &mut vars);
             m.do_step(&mut vars, t, h).unwrap();
+            t += h;
             out.push(OUTPUTS.iter().map(|v| vars[*v as usize]).collect());
         }
         out
     }
 
     /// Model Exchange through the trait, integrated by `ode` between time events (the importer's
-    /// part): event update at each tick, integrate to the next, outputs every 1 ms.
+    /// part): outputs every 1 ms before the event there (the left limit), then the inputs at that
+    /// instant, the event update at each tick, integrate to the next.
     fn run_me(effects: &[V], tol: f64, n: usize) -> Vec<Vec<f64>> {
-        let h = 1e-3;
+        run_me_with(effects, tol, n, 1e-3, inputs_at)
+    }
+
+    /// Model Exchange as [`run_me`], outputs and input changes every `h`.
+    fn run_me_with(
+        effects: &[V],
+        tol: f64,
+        n: usize,
+        h: f64,
+        inputs_at: fn(f64, &mut [f64]),
+    ) -> Vec<Vec<f64>> {
         let mut vars = start_vars(effects, tol);
         let mut m = TwistedString::new();
         m.initialize(&mut vars, 0.0).unwrap();
@@ -634,8 +663,8 @@ mod tests {
         for k in 1..=n {
             let t_out = k as f64 * h;
             loop {
-                // the samples due at t (do_step takes a sample at the end of a step with that
-                // step's inputs, so the inputs change after the event update at t_out below)
+                // the samples due at t, with the inputs set at t (as do_step takes a sample at
+                // the start of a step)
                 while m.event_update(&mut vars, t).unwrap() {}
                 let t_next = m.next_time_event().map_or(t_out, |te| te.min(t_out));
                 m.states(&mut x);
@@ -651,7 +680,6 @@ mod tests {
                     break;
                 }
             }
-            while m.event_update(&mut vars, t).unwrap() {}
             m.me_outputs(&mut vars, t);
             out.push(OUTPUTS.iter().map(|v| vars[*v as usize]).collect());
             inputs_at(t, &mut vars);
@@ -698,6 +726,44 @@ mod tests {
             let bound = [1e-9, 1e-5, 1e-3, 1e-5, 1e-6, 1e-6, 1e-6];
             for (k, (dk, bk)) in d.iter().zip(bound).enumerate() {
                 assert!(*dk < bk, "{:?}: {dk:e} >= {bk:e}", OUTPUTS[k]);
+            }
+        }
+    }
+
+    /// A set point ramping at 400 rad/s from 0.05 s (the motor follows it, below the speed
+    /// limit), F_load stepping at 0.2 s.
+    fn ramp_at(t: f64, vars: &mut [f64]) {
+        vars[V::THETA_MOTOR_REF as usize] = 400.0 * (t - 0.05).max(0.0);
+        vars[V::F_LOAD as usize] = if t < 0.2 { 0.0 } else { 20.0 };
+    }
+
+    /// A sample at a communication point is taken at the start of the step from there, with
+    /// the inputs set there, in Co-Simulation as in Model Exchange (the time event sees the
+    /// inputs at its instant), so a moving set point gives the same trace in both: communication
+    /// steps of 1 ms (every end a sample), 0.25 ms (every fourth), 2.5 ms (samples inside the
+    /// steps held at the step's input, as Model Exchange holding its inputs between the same
+    /// points) and 1 ms reached by summing (ends a rounding off the samples, either side).
+    /// Taking the sample at the end of the step with that step's input lagged the set point
+    /// by one sample: theta_motor 0.38 rad and omega_motor 3.5 rad/s apart at 1 ms steps.
+    #[test]
+    fn cs_takes_a_sample_at_a_communication_point_with_the_new_inputs() {
+        for (h, accumulate) in [
+            (1e-3f64, false),
+            (2.5e-4, false),
+            (2.5e-3, false),
+            (1e-3, true),
+        ] {
+            let n = (0.4 / h).round() as usize;
+            let cs = run_cs_with(&[], 1e-8, n, h, ramp_at, accumulate);
+            let me = run_me_with(&[], 1e-8, n, h, ramp_at);
+            let d = max_diff(&cs, &me);
+            eprintln!("h {h:e} accumulate {accumulate}: max |ME - CS| {OUTPUTS:?} = {d:?}");
+            // the run moves: the motor follows the set point (140 rad at the end) with the P
+            // law's lag of 400 / 8.75 = 46 rad
+            assert!(cs[n - 1][1] > 80.0, "{}", cs[n - 1][1]);
+            let bound = [1e-9, 1e-5, 1e-3, 1e-5, 1e-6, 1e-6, 1e-6];
+            for (k, (dk, bk)) in d.iter().zip(bound).enumerate() {
+                assert!(*dk < bk, "h {h}: {:?}: {dk:e} >= {bk:e}", OUTPUTS[k]);
             }
         }
     }

@@ -355,9 +355,16 @@ impl Model for TwistedString {
         let clock = SampleClock::new(self.t0, ts);
         let p_start = self.y[ix::P];
         let mut tc = t;
-        loop {
+        while tc < t_end {
             if let (true, Some(clock)) = (self.par.internal_controller, clock) {
-                // process every sample instant reached (k*Ts <= tc within the clock's tolerance)
+                // The samples due at tc: at the start of the step those at (or, within the
+                // clock's tolerance, just after) the communication point t, with the inputs the
+                // importer set at t (FMI 2.0.4 section 4.2.1: inputs set before fmi2DoStep hold
+                // at t); inside the step the one the integration stopped at, with the inputs
+                // held over the step. A sample at the end t + h is not taken here: it belongs
+                // to the next step, which starts at that communication point with its inputs,
+                // so the outputs at t + h show the set point before that sample (the left limit
+                // a Model Exchange importer sees there before its time event).
                 while clock.is_due(self.pos.next_sample, tc) {
                     // A new speed set point is a jump of the speed-loop error: restart the
                     // step-size selection there (see the comment at the top of do_step).
@@ -366,9 +373,8 @@ impl Model for TwistedString {
                     }
                 }
             }
-            if tc >= t_end {
-                break;
-            }
+            // integrate to the next sample strictly inside the step, else to t_end (a sample
+            // within the clock's tolerance of t_end counts as at t_end: `stop_before`)
             let t_next = match (self.par.internal_controller, clock) {
                 (true, Some(clock)) => clock.stop_before(self.pos.next_sample, t_end).0,
                 _ => t_end,
