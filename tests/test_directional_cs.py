@@ -40,10 +40,9 @@ EFFECTS = {
                       "radius_growth"),
 }
 # Per model and loop: the inputs held over the run and the communication points where the
-# Jacobian is taken, while the actuator moves and while it settles. HydraulicJoint's points lie
-# between its 25 ms samples: its Co-Simulation takes the sample at a communication point at the
-# start of the next step, Model Exchange in the event at that time (TwistedString's 1 ms samples
-# are taken at the end of the step, as in the event).
+# Jacobian is taken, while the actuator moves and while it settles. Both models' Co-Simulation
+# takes a sample on a communication point at the start of the step from there (HydraulicJoint's
+# 25 ms samples lie between the points here, each of TwistedString's 1 ms samples on one).
 CASES = {
     ("HydraulicJoint", "closed"): ({"theta_ref": 0.5, "tau_ext": 1.5}, (0.105, 0.305)),
     ("HydraulicJoint", "open"): ({"u_left": 4.0, "u_right": -3.0, "tau_ext": 1.5}, (0.05,)),
@@ -133,13 +132,20 @@ class Fmu:
         self.fmu.freeLibrary()
 
 
-def follow(me, cs, t):
+def place(me, cs, t):
     """Put the Model Exchange instance at the Co-Simulation instance's point: time, inputs,
-    states, and the event at that time, so that each controller sample (and the controller's
-    own state, such as an integral) is computed from the states Co-Simulation had there."""
+    states; before any event at that time (the left limit, where Co-Simulation's outputs at a
+    communication point are: a sample there comes with the next step)."""
     me.fmu.setTime(t)
     me.set(me.inputs, cs.get(cs.inputs))
     me.set_states(cs.get(cs.states))
+
+
+def follow(me, cs, t):
+    """`place`, then the event at that time, as the Co-Simulation step from t begins: each
+    controller sample (and the controller's own state, such as an integral) is computed from the
+    states and inputs Co-Simulation has there."""
+    place(me, cs, t)
     me.event()
 
 
@@ -200,9 +206,10 @@ def test_co_simulation_directional_derivatives_match_central_differences(version
         t = 0.0
         for t_point in times:
             while t < t_point - H / 2:
+                follow(me, cs, t)
                 cs.fmu.doStep(t, H)
                 t += H
-                follow(me, cs, t)
+            place(me, cs, t)
             x, u = cs.get(cs.states), cs.get(cs.inputs)
             where = (model, loop, t_point)
             np.testing.assert_allclose(me.derivatives(), cs.get(cs.ders), rtol=1e-9,
