@@ -9,8 +9,8 @@ communication points; inputs are held constant over each communication step (FMI
 semantics, inputs evaluated at the communication point as FMPy does: linear interpolation,
 right-hand value at a repeated time). The position loop samples the set point at its instants:
 a sample at a communication point sees the inputs set there (it opens the step from that point;
-the outputs recorded at the point are those before it), a sample inside a step the inputs held
-over the step.
+the outputs recorded at the point are those before it, except at t0, where initialization takes
+the sample with the initial inputs), a sample inside a step the inputs held over the step.
 
 Usage:
     from twisted_string_ref import simulate, DEFAULTS
@@ -385,8 +385,19 @@ def simulate(params: dict | None = None, inputs: dict | None = None, t_end: floa
             out[key][j] = val
         out["W_external"][j] = w_ext
 
-    record(0, u_at("theta_motor_ref", 0.0), u_at("voltage", 0.0))
     band, Kp, wmax = q["controller_position_band"], q["controller_position_P"], q["speed_limit"]
+
+    def position_loop(th_ref):
+        """Eq. 20-21 on the encoder angle: the speed set point of one sample."""
+        meas = math.floor(y[1] / quantum) * quantum
+        err = th_ref - meas
+        return 0.0 if -band < err < band else min(max(Kp * err, -wmax), wmax)
+
+    if internal:
+        # the sample at t0 is in the outputs at t0 (initialization takes it with the initial
+        # inputs); the first step takes it again with the inputs set for it (k_next stays 0)
+        w_ref = position_loop(u_at("theta_motor_ref", 0.0))
+    record(0, u_at("theta_motor_ref", 0.0), u_at("voltage", 0.0))
     for j in range(n):
         t = tgrid[j]
         t_stop = tgrid[j + 1]
@@ -398,9 +409,7 @@ def simulate(params: dict | None = None, inputs: dict | None = None, t_end: floa
                 # the samples at tc: at the step's start those at the communication point t,
                 # with the inputs set at t; a sample at t_stop is left to the next step
                 while k_next * Ts <= tc + eps:
-                    meas = math.floor(y[1] / quantum) * quantum
-                    err = th_ref - meas
-                    w_ref = 0.0 if -band < err < band else min(max(Kp * err, -wmax), wmax)
+                    w_ref = position_loop(th_ref)
                     k_next += 1
             tn = t_stop
             if internal and k_next * Ts < t_stop - eps:
@@ -475,7 +484,7 @@ HEADER = ("# Reference trace of the TwistedString FMU, case {name}.\n"
           "# equations in the FMU documentation (paper: Urukalo, Jovanovic, Rodic, eq. 9-21, Tables 2-5),\n"
           "# integrated with scipy.integrate.solve_ivp(method='Radau', rtol=1e-10, atol=1e-9*nominal),\n"
           "# position loop sampled every controller_position_period (a sample at a communication point\n"
-          "# with the inputs set there, outputs before it), inputs held over each step.\n"
+          "# with the inputs set there, outputs before it but at t0), inputs held over each step.\n"
           "# parameters: {params}\n# inputs: {inputs}\n# t_end={t_end} dt={dt}\n")
 
 

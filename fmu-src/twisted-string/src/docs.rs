@@ -176,7 +176,10 @@ sample inside the band: steady-state error &lt; 2&deg;, its value depending on t
 taken at the start of the next step, with the inputs set for it (FMI 2.0.4 section 4.2.1: inputs set
 before the step hold at the communication point), and the outputs at that point show the set point
 before it; a sample inside a step sees the inputs held over the step. Instants within
-10<sup>-9</sup>T<sub>s</sub> of a communication point count as on it.</li>
+10<sup>-9</sup>T<sub>s</sub> of a communication point count as on it. The sample at the start time is taken in
+initialization with the inputs given there (the outputs at the start show it, as after a Model
+Exchange importer's initial event iteration) and again by the first step with the inputs set for
+it.</li>
 <li>Gain units are a reading, not stated by the paper: they give the cascade ordering the paper
 describes (current loop fastest, position loop slowest: &asymp;1000, 200, 9 rad/s).</li>
 </ul>
@@ -425,7 +428,8 @@ P law with its band gives the new speed set point, exactly as in Co-Simulation, 
 The two interfaces sample at the same instants with the same inputs: the Co-Simulation step starting at
 a communication point t takes the sample at t with the inputs set at t (section 6), as the time event at t
 sees the set point the importer has set at t, and the outputs at t are those before the sample there,
-the left limit a Model Exchange importer reads before its time event. A moving or jumping set point gives
+the left limit a Model Exchange importer reads before its time event (at the start time, those after
+the first sample in both). A moving or jumping set point gives
 the same trace in both (tests/test_twisted_string.py compares every output on every row of a ramp,
 and the reference cases with set-point steps).</p>
 <p><b>Non-smooth terms.</b> Smooth by construction: slack strings and the gear flanks (the smooth positive part

@@ -297,6 +297,15 @@ impl Model for TwistedString {
         self.last_inputs = None;
         self.w_external = 0.0;
         self.par = par;
+        if self.par.internal_controller {
+            // The sample at the start time, with the inputs of initialization, as a Model
+            // Exchange importer's initial event iteration takes it: the outputs at the start
+            // show it. The first step takes it again (next_sample stays 0) with the inputs set
+            // for that step, as every sample on a communication point (`do_step`).
+            let (theta_ref, _, _) = Self::inputs(vars);
+            self.position_sample(theta_ref);
+            self.pos.next_sample = 0;
+        }
         let inp = self.make_inputs(vars);
         self.write_outputs(vars, inp);
         Ok(())
