@@ -603,33 +603,57 @@ mod tests {
 
     /// Co-Simulation: `do_step` with 1 ms communication steps; outputs every 1 ms.
     fn run_cs(effects: &[V], tol: f64, n: usize) -> Vec<Vec<f64>> {
-        run_cs_with(effects, tol, n, 1e-3, inputs_at, false)
+        run_cs_with(effects, tol, n, 1e-3, inputs_at, Points::Exact)
     }
 
-    /// Co-Simulation: `do_step` with communication steps `h` (the points `k h`, or with
-    /// `accumulate` the sums `h + h + ...` an importer adding its step size reaches, off the
-    /// sample instants by rounding either way), the inputs `inputs(t)` set at each point;
-    /// outputs at the end of each step.
+    /// How an importer reaches its communication points (nominally `k h`).
+    #[derive(Clone, Copy, Debug)]
+    enum Points {
+        /// `k h` exactly.
+        Exact,
+        /// `h + h + ...`: a rounding after the sample instants (for `h` = 1 ms).
+        Summed,
+        /// `k h` moved by `s k h` (|s| 1e-13, well inside the clock's 1e-9 Ts): a rounding
+        /// before (`s < 0`) or after the sample instants.
+        Skewed(f64),
+    }
+
+    impl Points {
+        fn all(self, h: f64, n: usize) -> Vec<f64> {
+            let mut sum = 0.0;
+            (0..=n)
+                .map(|k| {
+                    let exact = k as f64 * h;
+                    let t = match self {
+                        Points::Exact => exact,
+                        Points::Summed => sum,
+                        Points::Skewed(s) => exact * (1.0 + s),
+                    };
+                    sum += h;
+                    t
+                })
+                .collect()
+        }
+    }
+
+    /// Co-Simulation: `do_step` from each communication point to the next (`points`, nominally
+    /// `k h`), the inputs `inputs(k h)` set at each point; outputs at the end of each step.
     fn run_cs_with(
         effects: &[V],
         tol: f64,
         n: usize,
         h: f64,
         inputs: fn(f64, &mut [f64]),
-        accumulate: bool,
+        points: Points,
     ) -> Vec<Vec<f64>> {
         let mut vars = start_vars(effects, tol);
         let mut m = TwistedString::new();
         m.initialize(&mut vars, 0.0).unwrap();
         let mut out = vec![];
-        let mut t = 0.0;
-        for k in 0..n {
-            if !accumulate {
-                t = k as f64 * h;
-            }
-            inputs(t, &mut vars);
-            m.do_step(&mut vars, t, h).unwrap();
-            t += h;
+        for (k, w) in points.all(h, n).windows(2).enumerate() {
+            // the inputs of point k (a rounding of its time must not move an input's jump)
+            inputs(k as f64 * h, &mut vars);
+            m.do_step(&mut vars, w[0], w[1] - w[0]).unwrap();
             out.push(OUTPUTS.iter().map(|v| vars[*v as usize]).collect());
         }
         out
@@ -742,22 +766,25 @@ mod tests {
     /// inputs at its instant), so a moving set point gives the same trace in both: communication
     /// steps of 1 ms (every end a sample), 0.25 ms (every fourth), 2.5 ms (samples inside the
     /// steps held at the step's input, as Model Exchange holding its inputs between the same
-    /// points) and 1 ms reached by summing (ends a rounding off the samples, either side).
+    /// points) and 1 ms points a rounding before or after the samples (summed, or moved by
+    /// 1e-13 relative): each counts as on the sample.
     /// Taking the sample at the end of the step with that step's input lagged the set point
     /// by one sample: theta_motor 0.38 rad and omega_motor 3.5 rad/s apart at 1 ms steps.
     #[test]
     fn cs_takes_a_sample_at_a_communication_point_with_the_new_inputs() {
-        for (h, accumulate) in [
-            (1e-3f64, false),
-            (2.5e-4, false),
-            (2.5e-3, false),
-            (1e-3, true),
+        for (h, points) in [
+            (1e-3f64, Points::Exact),
+            (2.5e-4, Points::Exact),
+            (2.5e-3, Points::Exact),
+            (1e-3, Points::Summed),
+            (1e-3, Points::Skewed(-1e-13)),
+            (1e-3, Points::Skewed(1e-13)),
         ] {
             let n = (0.4 / h).round() as usize;
-            let cs = run_cs_with(&[], 1e-8, n, h, ramp_at, accumulate);
+            let cs = run_cs_with(&[], 1e-8, n, h, ramp_at, points);
             let me = run_me_with(&[], 1e-8, n, h, ramp_at);
             let d = max_diff(&cs, &me);
-            eprintln!("h {h:e} accumulate {accumulate}: max |ME - CS| {OUTPUTS:?} = {d:?}");
+            eprintln!("h {h:e} {points:?}: max |ME - CS| {OUTPUTS:?} = {d:?}");
             // the run moves: the motor follows the set point (140 rad at the end) with the P
             // law's lag of 400 / 8.75 = 46 rad
             assert!(cs[n - 1][1] > 80.0, "{}", cs[n - 1][1]);

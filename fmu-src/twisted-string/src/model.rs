@@ -430,11 +430,21 @@ mod tests {
         m.initialize(&mut vars, 0.0).unwrap();
         vars[V::THETA_MOTOR_REF as usize] = 600.0;
         run(&mut m, &mut vars, 0.0, 0.3, 1e-3);
+        // saved at a communication point whose sample is still due (the step from 0.3 takes
+        // it with the set point set for that step, here a new one)
         let bytes = bincode::serialize(&m).unwrap();
+        let omega_ref = vars[V::OMEGA_REF as usize];
+        vars[V::THETA_MOTOR_REF as usize] = 0.0;
         let mut vars2 = vars.clone();
         run(&mut m, &mut vars, 0.3, 0.5, 1e-3);
         let mut m2: TwistedString = bincode::deserialize(&bytes).unwrap();
-        run(&mut m2, &mut vars2, 0.3, 0.5, 1e-3);
+        m2.do_step(&mut vars2, 0.3, 1e-3).unwrap();
+        // the sample at 0.3 acted on the new set point: the motor now turns back
+        assert!(
+            vars2[V::OMEGA_REF as usize] < 0.0 && omega_ref > 0.0,
+            "{omega_ref}"
+        );
+        run(&mut m2, &mut vars2, 0.301, 0.5, 1e-3);
         for (a, b) in vars.iter().zip(&vars2) {
             assert_eq!(a.to_bits(), b.to_bits());
         }
