@@ -35,11 +35,7 @@ pub fn probe(fmu: &Fmu, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding> {
     let mut f = Vec::new();
     let de = md.default_experiment.clone().unwrap_or_default();
     let t0 = de.start_time.unwrap_or(0.0);
-    let h = de
-        .step_size
-        .filter(|h| *h > 0.0 && h.is_finite())
-        .unwrap_or(1e-3)
-        .min(1e-2);
+    let h = probe_step(de.step_size);
     let loc = |case: &str| format!("probe {case}");
 
     let init = |inst: &mut Instance<'_>| -> Result<(), HostError> {
@@ -172,13 +168,7 @@ pub fn probe(fmu: &Fmu, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding> {
         false,
         &mut |i| i.do_step(t0 + 100.0 * h + 1.0, h, true),
     );
-    let unknown_vr = md
-        .model_variables
-        .iter()
-        .map(|v| v.value_reference)
-        .max()
-        .unwrap_or(0)
-        .saturating_add(1000);
+    let unknown_vr = unknown_value_reference(md.model_variables.iter().map(|v| v.value_reference));
     case(
         "unknown-value-reference",
         &format!("fmi2GetReal of unknown valueReference {unknown_vr}"),
@@ -266,6 +256,20 @@ pub fn probe(fmu: &Fmu, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding> {
         },
     );
     f
+}
+
+/// The communication step of the Co-Simulation probes: the default experiment's step size when
+/// it is a positive number (1 ms otherwise), at most 10 ms so that 10 steps stay near the start.
+pub(super) fn probe_step(step_size: Option<f64>) -> f64 {
+    step_size
+        .filter(|h| *h > 0.0 && h.is_finite())
+        .unwrap_or(1e-3)
+        .min(1e-2)
+}
+
+/// A value reference no variable has: 1000 above the largest (0 without variables).
+pub(super) fn unknown_value_reference(vrs: impl Iterator<Item = u32>) -> u32 {
+    vrs.max().unwrap_or(0).saturating_add(1000)
 }
 
 /// Steps 5 times, saves the state, steps 5 more and records the Real outputs; restores the

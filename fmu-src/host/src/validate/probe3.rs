@@ -8,7 +8,7 @@
 //! (section 2.3.1), so an error without a logged message is no finding here.
 
 use super::me_checks::{self, Reached, Verdict};
-use super::probe::{event_search_step, me_sequence};
+use super::probe::{event_search_step, me_sequence, probe_step, unknown_value_reference};
 use super::Finding;
 use crate::error::{HostError, Status};
 use crate::fmi3::ffi::FmuState3;
@@ -201,11 +201,7 @@ pub fn probe3(fmu: &Fmu3, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding> {
     let md = fmu.model_description();
     let de = md.default_experiment.clone().unwrap_or_default();
     let t0 = de.start_time.unwrap_or(0.0);
-    let h = de
-        .step_size
-        .filter(|h| *h > 0.0 && h.is_finite())
-        .unwrap_or(1e-3)
-        .min(1e-2);
+    let h = probe_step(de.step_size);
     let mut f = Vec::new();
     if !step("fmi3-normal-run") {
         return f;
@@ -291,13 +287,7 @@ pub fn probe3(fmu: &Fmu3, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding> {
         true,
         &mut |i| i.do_step(t0 + 100.0 * h + 1.0, h, true).map(drop),
     );
-    let unknown_vr = md
-        .variables
-        .iter()
-        .map(|v| v.value_reference)
-        .max()
-        .unwrap_or(0)
-        .saturating_add(1000);
+    let unknown_vr = unknown_value_reference(md.variables.iter().map(|v| v.value_reference));
     case(
         "fmi3-unknown-value-reference",
         &format!("fmi3GetFloat64 of unknown valueReference {unknown_vr}"),
