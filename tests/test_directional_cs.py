@@ -2,8 +2,10 @@
 (dist/fmi3/<Model>.fmu), through FMPy's low-level API.
 
 At a communication point the unknowns of <ModelStructure> are the outputs and the state
-derivatives, their knowns the inputs and the continuous states (FMI 2.0.4 sections 2.1.9 and
-2.2.8; FMI 3.0.2 sections 2.2.11 and 2.4.8): the partial derivatives of the model equations at the
+derivatives, their knowns the inputs and the continuous states, in FMI 3.0 also the Float64
+parameters (FMI 2.0.4 sections 2.1.9 and 2.2.8; FMI 3.0.2 sections 2.2.11 and 2.4.8; a
+parameter's partials are compared with the Model Exchange instance's at the same point, which
+tests/test_fmi3_me.py checks against set/get): the partial derivatives of the model equations at the
 point the Co-Simulation instance reached with its own solver and controllers. The reference is
 independent of the Co-Simulation code path: a Model Exchange instance of the same archive is put at
 that point (time, states, inputs, and the controller's sample at that time as its event update
@@ -38,10 +40,9 @@ EFFECTS = {
                       "radius_growth"),
 }
 # Per model and loop: the inputs held over the run and the communication points where the
-# Jacobian is taken, while the actuator moves and while it settles. HydraulicJoint's points lie
-# between its 25 ms samples: its Co-Simulation takes the sample at a communication point at the
-# start of the next step, Model Exchange in the event at that time (TwistedString's 1 ms samples
-# are taken at the end of the step, as in the event).
+# Jacobian is taken, while the actuator moves and while it settles. Both models' Co-Simulation
+# takes a sample on a communication point at the start of the step from there (HydraulicJoint's
+# 25 ms samples lie between the points here, each of TwistedString's 1 ms samples on one).
 CASES = {
     ("HydraulicJoint", "closed"): ({"theta_ref": 0.5, "tau_ext": 1.5}, (0.105, 0.305)),
     ("HydraulicJoint", "open"): ({"u_left": 4.0, "u_right": -3.0, "tau_ext": 1.5}, (0.05,)),
@@ -131,13 +132,20 @@ class Fmu:
         self.fmu.freeLibrary()
 
 
-def follow(me, cs, t):
+def place(me, cs, t):
     """Put the Model Exchange instance at the Co-Simulation instance's point: time, inputs,
-    states, and the event at that time, so that each controller sample (and the controller's
-    own state, such as an integral) is computed from the states Co-Simulation had there."""
+    states; before any event at that time (the left limit, where Co-Simulation's outputs at a
+    communication point are: a sample there comes with the next step)."""
     me.fmu.setTime(t)
     me.set(me.inputs, cs.get(cs.inputs))
     me.set_states(cs.get(cs.states))
+
+
+def follow(me, cs, t):
+    """`place`, then the event at that time, as the Co-Simulation step from t begins: each
+    controller sample (and the controller's own state, such as an integral) is computed from the
+    states and inputs Co-Simulation has there."""
+    place(me, cs, t)
     me.event()
 
 
@@ -198,9 +206,10 @@ def test_co_simulation_directional_derivatives_match_central_differences(version
         t = 0.0
         for t_point in times:
             while t < t_point - H / 2:
+                follow(me, cs, t)
                 cs.fmu.doStep(t, H)
                 t += H
-                follow(me, cs, t)
+            place(me, cs, t)
             x, u = cs.get(cs.states), cs.get(cs.inputs)
             where = (model, loop, t_point)
             np.testing.assert_allclose(me.derivatives(), cs.get(cs.ders), rtol=1e-9,
@@ -224,6 +233,16 @@ def test_co_simulation_directional_derivatives_match_central_differences(version
                                                       nSensitivity=len(knowns))
                 np.testing.assert_allclose(adjoint, w @ jac, rtol=1e-12,
                                            atol=1e-12 * float(np.max(np.abs(w) @ np.abs(jac))))
+                # FMI 3.0.2 section 2.4.8: the Float64 parameters are knowns too; at the
+                # communication point their partials are the Model Exchange instance's at the
+                # same point (tests/test_fmi3_me.py checks those against set/get)
+                params = [v.valueReference for v in cs.md.modelVariables
+                          if v.causality == "parameter" and v.type == "Float64"]
+                jp = np.array([cs.directional(unknowns, [k], [1.0]) for k in params]).T
+                ref_p = np.array([me.directional(unknowns, [k], [1.0]) for k in params]).T
+                scales_p = np.array([abs(v) if v != 0 else 1.0 for v in cs.get(params)])
+                check_against(jp, ref_p, scales_p, where + ("parameters",))
+                assert np.count_nonzero(jp) >= 30, np.count_nonzero(jp)  # not vacuous
             # nothing changed: the next step continues from the same point
             np.testing.assert_array_equal(cs.get(cs.states), x)
     finally:

@@ -201,7 +201,10 @@ def test_bad_references_and_types_give_fmi3error_not_a_crash(instance):
         lambda: fmu.setFloat64([vr["load_radius"]], [0.2]),  # fixed after initialization
         lambda: fmu.doStep(0.5, 1e-3),  # not the current time
         lambda: fmu.enterStepMode(),  # no Event Mode
-        lambda: fmu.getDirectionalDerivative([vr["theta"]], [vr["load_radius"]], [1.0]),
+        # a Boolean parameter is no known of a derivative (a Float64 parameter is, FMI 3.0.2
+        # section 2.4.8)
+        lambda: fmu.getDirectionalDerivative([vr["theta"]], [vr["cables_attached"]], [1.0]),
+        lambda: fmu.getDirectionalDerivative([vr["theta"]], [vr["F_left"]], [1.0]),  # an output
     ]
     for call in calls:
         with pytest.raises(FMICallException) as e:

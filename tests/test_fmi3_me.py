@@ -316,3 +316,181 @@ def test_directional_and_adjoint_derivatives_match_central_differences(model):
     fmu.terminate()
     fmu.freeInstance()
     fmu.freeLibrary()
+
+
+# ---- parameters as knowns (FMI 3.0.2 section 2.4.8) ----------------------------------------
+# Outputs and state derivatives list the parameters they depend on: in Event and Continuous-Time
+# Mode the knowns are the inputs, the states, the parameters and time, and a known left out of
+# `dependencies` claims a partial derivative identically zero. Per model, every effect on, two
+# operating points (closed loop: the controller's held output computed at the initial tick from
+# its parameters; open loop: the inputs act), and one with every effect off, each with its start
+# values and states.
+HJ_EFFECTS = {f"{e}.enabled": True for e in ("seal_friction", "valve_overlap", "internal_leakage",
+                                             "cable_friction", "entrained_air", "valve_dynamics")}
+TS_EFFECTS = {f"{e}.enabled": True for e in ("string_compliance", "twist_hysteresis",
+                                             "motor_friction", "gear_backlash", "radius_growth")}
+PARAMETER_POINTS = {
+    ("HydraulicJoint", "open loop"): JACOBIAN_POINTS["HydraulicJoint"],
+    ("HydraulicJoint", "closed loop"): (
+        {"theta_ref": 0.3, "tau_ext": -2.0, **HJ_EFFECTS},
+        lambda md: [0.2, -0.4, 0.05, -0.03, 4e6, 3e6, 0.05, 0.02, 2.5e6, 4.5e6, 2e-6, 1e-6, 3.0,
+                    20.0, -2.0, -15.0, -0.01, 0.025]),
+    ("TwistedString", "closed loop"): JACOBIAN_POINTS["TwistedString"],
+    ("TwistedString", "open loop"): (
+        {"internal_controller": False, "voltage": -4.0, "F_load": 20.0, **TS_EFFECTS},
+        lambda md: twisted_string_taut(md, theta=900.0, omega=250.0, current=0.3)),
+    # every effect off: the parameters only the base model uses (a string stiffness where the
+    # compliance law would replace it); open loop with the valves open, closed loop with the
+    # set point 0 (the speed and current loops act on the motor's speed)
+    ("HydraulicJoint", "effects off"): (
+        {"internal_controller": False, "u_left": -5.0, "u_right": 6.0, "tau_ext": 0.8},
+        lambda md: [0.1, 0.3, 0.052, 0.1, 3.5e6, 4e6, 0.048, -0.05, 3e6, 3.2e6, 1e-6, 2e-6, 0.0,
+                    0.0, 0.0, 0.0, 0.0, 0.0]),
+    ("TwistedString", "effects off"): (
+        {"theta_motor_ref": 0.0, "F_load": 5.0},
+        lambda md: twisted_string_taut(md, theta=700.0, omega=200.0, current=0.2)[:10]
+        + [0.0, 0.0, 0.1]),
+}
+
+
+class ParameterProbe:
+    """One FMI 3.0 Model Exchange instance of `model` at an operating point, re-initialized with
+    any parameter values (fmi3Reset, start values, initialization, the initial event, then the
+    point's states in Continuous-Time Mode): the unknowns (outputs, then state derivatives) as a
+    function of the parameters by fmi3SetFloat64 and fmi3GetFloat64 alone."""
+
+    def __init__(self, model, loop, override=None):
+        path = fmu3_path(model)
+        self.md = md = fmpy.read_model_description(path)
+        self.fmu = FMU3Model(guid=md.guid, unzipDirectory=fmpy.extract(path),
+                             modelIdentifier=md.modelExchange.modelIdentifier)
+        self.fmu.instantiate()
+        start, point = PARAMETER_POINTS[(model, loop)]
+        self.start = {**start, **(override or {})}
+        self.x = np.array(point(md), dtype=float)
+        self.n = md.numberOfContinuousStates
+        self.outputs = [v for v in md.modelVariables if v.causality == "output"]
+        self.derivatives = [d.variable for d in md.derivatives]
+        self.unknowns = self.outputs + self.derivatives
+        self.parameters = [v for v in md.modelVariables
+                           if v.causality == "parameter" and v.type == "Float64"]
+
+    def at(self, values=None):
+        """The unknowns with the parameters `values` ({name: value}), the rest at their starts."""
+        fmu = self.fmu
+        fmu.reset()
+        fmpy.simulation.apply_start_values(fmu, self.md, {**self.start, **(values or {})})
+        fmu.enterInitializationMode()
+        fmu.exitInitializationMode()
+        fmu.updateDiscreteStates()
+        fmu.enterContinuousTimeMode()
+        fmu.setContinuousStates(ptr(self.x), self.n)
+        f = np.zeros(self.n)
+        fmu.getContinuousStateDerivatives(ptr(f), self.n)
+        y = fmu.getFloat64([v.valueReference for v in self.outputs])
+        return np.concatenate([y, f])
+
+    def free(self):
+        self.fmu.terminate()
+        self.fmu.freeInstance()
+
+
+def scale_and_bounds(v):
+    """A parameter's magnitude (its range's width at 0, else 1) and its range."""
+    value = float(v.start)
+    lo = float(v.min) if v.min is not None else -math.inf
+    hi = float(v.max) if v.max is not None else math.inf
+    scale = abs(value) if value != 0 else (hi - lo if math.isfinite(hi - lo) else 1.0)
+    return value, scale, lo, hi
+
+
+def declared_parameters(md):
+    """{unknown name: names of the parameters in its dependencies} from the model description."""
+    unknowns = md.outputs + md.derivatives
+    return {u.variable.name: {d.name for d in u.dependencies if d.causality == "parameter"}
+            for u in unknowns}
+
+
+@pytest.mark.parametrize("model,loop", sorted(PARAMETER_POINTS))
+def test_parameter_dependencies_hold(model, loop):
+    """Each Float64 parameter moved by 1e-3 of its magnitude (inward at an end of its range)
+    changes only the unknowns whose dependencies list it (bit for bit: an unknown that does not
+    depend on it is computed from the same numbers). Not vacuous: most parameters that act move
+    some unknown."""
+    probe = ParameterProbe(model, loop)
+    declared = declared_parameters(probe.md)
+    names = [v.name for v in probe.unknowns]
+    base = probe.at()
+    undeclared, moved = [], set()
+    for p in probe.parameters:
+        value, scale, lo, hi = scale_and_bounds(p)
+        step = 1e-3 * scale
+        moved_value = value + step if value + step <= hi else value - step
+        now = probe.at({p.name: moved_value})
+        for name, a, b in zip(names, base, now):
+            if a != b:
+                moved.add(p.name)
+                if p.name not in declared[name]:
+                    undeclared.append((name, p.name))
+    probe.free()
+    assert not undeclared, f"changed but not listed (unknown, parameter): {undeclared}"
+    # with the effects off their parameters (`<effect>.<name>`) act nowhere
+    acting = [p for p in probe.parameters if loop != "effects off" or "." not in p.name]
+    assert len(moved) >= 0.6 * len(acting), sorted(moved)
+
+
+def central_columns(probe, h_rel=1e-6):
+    """d(unknowns)/d(parameter) per Float64 parameter by central differences of set/get with a
+    step 1e-6 of its magnitude; at an end of its range the one-sided difference of second order
+    into the range. Returns the columns and the parameters' magnitudes."""
+    columns, scales = [], []
+    for p in probe.parameters:
+        value, scale, lo, hi = scale_and_bounds(p)
+        h = h_rel * scale
+        if value - 2 * h >= lo and value + 2 * h <= hi:
+            col = (probe.at({p.name: value + h}) - probe.at({p.name: value - h})) / (2 * h)
+        else:
+            s = 1.0 if value + 2 * h <= hi else -1.0
+            f0, f1, f2 = (probe.at({p.name: value + k * s * h}) for k in (0, 1, 2))
+            col = s * (4 * (f1 - f0) - (f2 - f0)) / (2 * h)  # exactly 0 when flat
+        columns.append(col)
+        scales.append(scale)
+    return np.array(columns).T, np.array(scales)
+
+
+# The set point at the initial tick 0 (the initial state is at rest, untwisted): the controller's
+# held output is then 0 whatever its parameters, so differences of set/get, which re-initialize,
+# see the same held output as the directional derivative, which holds it (a discrete state).
+AT_REST = {"HydraulicJoint": {"theta_ref": 0.0}, "TwistedString": {"theta_motor_ref": 0.0}}
+
+
+@pytest.mark.parametrize("model,loop", sorted(PARAMETER_POINTS))
+def test_parameter_directional_and_adjoint_derivatives(model, loop):
+    """Every effect on, open loop and closed loop (the continuous current and speed loops of
+    TwistedString act): fmi3GetDirectionalDerivative of every output and state derivative with
+    respect to each Float64 parameter agrees with central differences of set/get (within 1e-6
+    of the row's largest |J_ij| times parameter magnitude); fmi3GetAdjointDerivative with a
+    random seed w gives w^T J of the same matrix; neither call changes any value of the
+    instance (bit for bit)."""
+    probe = ParameterProbe(model, loop, AT_REST[model] if loop == "closed loop" else None)
+    fd, scales = central_columns(probe)
+    probe.at()
+    fmu = probe.fmu
+    everything = [v.valueReference for v in probe.md.modelVariables if v.type == "Float64"]
+    before = fmu.getFloat64(everything)
+    unknowns = [v.valueReference for v in probe.unknowns]
+    knowns = [p.valueReference for p in probe.parameters]
+    jac = np.array([fmu.getDirectionalDerivative(unknowns, [k], [1.0]) for k in knowns]).T
+    scaled = np.abs(fd) * scales
+    row = scaled.max(axis=1, keepdims=True)
+    err = np.abs(jac - fd) * scales / (row + 1e-300)
+    worst = np.unravel_index(np.argmax(err), err.shape)
+    assert err.max() < 1e-6, (probe.unknowns[worst[0]].name, probe.parameters[worst[1]].name,
+                              err.max())
+    assert np.count_nonzero(row) >= 12 and np.count_nonzero(fd) >= 60, (np.count_nonzero(row), np.count_nonzero(fd))  # not vacuous
+    w = np.random.default_rng(2).standard_normal(len(unknowns))
+    adjoint = fmu.getAdjointDerivative(unknowns, knowns, list(w), nSensitivity=len(knowns))
+    bound = 1e-12 * float(np.max(np.abs(w) @ np.abs(jac)))
+    assert np.allclose(adjoint, w @ jac, rtol=1e-12, atol=bound)
+    assert fmu.getFloat64(everything) == before
+    probe.free()

@@ -7,7 +7,10 @@ transliteration of the Rust code. Integration: SciPy ``solve_ivp(method="Radau",
 tight absolute tolerances, piecewise between the position-loop sample instants ``t0 + k*Ts`` and the
 communication points; inputs are held constant over each communication step (FMI Co-Simulation
 semantics, inputs evaluated at the communication point as FMPy does: linear interpolation,
-right-hand value at a repeated time).
+right-hand value at a repeated time). The position loop samples the set point at its instants:
+a sample at a communication point sees the inputs set there (it opens the step from that point;
+the outputs recorded at the point are those before it), a sample inside a step the inputs held
+over the step.
 
 Usage:
     from twisted_string_ref import simulate, DEFAULTS
@@ -390,15 +393,15 @@ def simulate(params: dict | None = None, inputs: dict | None = None, t_end: floa
         th_ref, volt, fload = (u_at("theta_motor_ref", t), u_at("voltage", t), u_at("F_load", t))
         tc = t
         p_start = y[3]
-        while True:
+        while tc < t_stop:
             if internal:
+                # the samples at tc: at the step's start those at the communication point t,
+                # with the inputs set at t; a sample at t_stop is left to the next step
                 while k_next * Ts <= tc + eps:
                     meas = math.floor(y[1] / quantum) * quantum
                     err = th_ref - meas
                     w_ref = 0.0 if -band < err < band else min(max(Kp * err, -wmax), wmax)
                     k_next += 1
-            if tc >= t_stop:
-                break
             tn = t_stop
             if internal and k_next * Ts < t_stop - eps:
                 tn = k_next * Ts
@@ -471,7 +474,8 @@ HEADER = ("# Reference trace of the TwistedString FMU, case {name}.\n"
           "# Source: tests/reference/twisted_string_ref.py, an independent Python implementation of the\n"
           "# equations in the FMU documentation (paper: Urukalo, Jovanovic, Rodic, eq. 9-21, Tables 2-5),\n"
           "# integrated with scipy.integrate.solve_ivp(method='Radau', rtol=1e-10, atol=1e-9*nominal),\n"
-          "# position loop sampled every controller_position_period, inputs held over each step.\n"
+          "# position loop sampled every controller_position_period (a sample at a communication point\n"
+          "# with the inputs set there, outputs before it), inputs held over each step.\n"
           "# parameters: {params}\n# inputs: {inputs}\n# t_end={t_end} dt={dt}\n")
 
 

@@ -49,6 +49,31 @@ pub trait ModelExchange: Model {
         None
     }
 
+    /// Per unknown of the FMI 3.0 `<ModelStructure>` (an output or a state derivative, as
+    /// `(unknown, parameters)` positions in the table): the parameters (any type, Booleans
+    /// included) its value depends on in Event and Continuous-Time Mode and at a communication
+    /// point, under any setting of the other parameters. FMI 3.0.2 section 2.4.8 counts the
+    /// parameters among the knowns of `<Output>` and `<ContinuousStateDerivative>`, and a known
+    /// left out has a partial derivative that is identically zero; an unknown not named here
+    /// depends on no parameter. `None` (default): every unknown on every parameter. (FMI 2.0.4
+    /// has no parameters among these knowns; its description does not use this.)
+    fn parameter_dependencies() -> Option<&'static [(usize, &'static [usize])]> {
+        None
+    }
+
+    /// Take every parameter from `vars` (already inside their ranges) into the model as
+    /// initialization would, keeping the continuous states and the discrete (controller)
+    /// state: the model whose derivatives and outputs the directional derivatives with respect
+    /// to a parameter differentiate (called on a copy, never on the instance's model). `Err`
+    /// when the values are ill-posed. Default: no parameter derivatives.
+    fn set_parameters(&mut self, vars: &[f64]) -> Result<(), ModelError> {
+        let _ = vars;
+        Err(ModelError::parameters(
+            &[],
+            "this model provides no derivatives with respect to parameters",
+        ))
+    }
+
     /// The continuous state vector `x` (length `STATES`) from the model's state.
     fn states(&self, x: &mut [f64]);
 
@@ -123,6 +148,9 @@ pub struct MeVTable<M> {
     pub output_feedthrough: &'static [(usize, &'static [usize])],
     /// [`ModelExchange::derivative_dependencies`].
     pub derivative_dependencies: Option<&'static [&'static [usize]]>,
+    /// [`ModelExchange::parameter_dependencies`].
+    pub parameter_dependencies: Option<&'static [(usize, &'static [usize])]>,
+    pub set_parameters: fn(&mut M, &[f64]) -> Result<(), ModelError>,
     pub get_states: fn(&M, &mut [f64]),
     pub set_states: fn(&mut M, &[f64]),
     pub nominals: fn(&M, &mut [f64]),
@@ -153,6 +181,8 @@ impl<M: ModelExchange> MeVTable<M> {
             state_variables: M::state_variables(),
             output_feedthrough: M::output_feedthrough(),
             derivative_dependencies: M::derivative_dependencies(),
+            parameter_dependencies: M::parameter_dependencies(),
+            set_parameters: M::set_parameters,
             get_states: M::states,
             set_states: M::set_states,
             nominals: M::nominals,
@@ -221,6 +251,21 @@ impl<M> MeVTable<M> {
                 }
             }
         }
+        for &(u, parameters) in self.parameter_dependencies.unwrap_or(&[]) {
+            let is_derivative = self.state_variables.iter().any(|&(_, d)| d == u);
+            if !(is_derivative || vars.get(u).map(|v| v.causality) == Some(Causality::Output)) {
+                problems.push(format!(
+                    "parameter dependencies: position {u} is neither an output nor a derivative"
+                ));
+            }
+            for &p in parameters {
+                if vars.get(p).map(|v| v.causality) != Some(Causality::Parameter) {
+                    problems.push(format!(
+                        "parameter dependencies: position {p} is not a parameter"
+                    ));
+                }
+            }
+        }
         for &(o, inputs) in self.output_feedthrough {
             if vars.get(o).map(|v| v.causality) != Some(Causality::Output) {
                 problems.push(format!("feedthrough: position {o} is not an output"));
@@ -233,4 +278,35 @@ impl<M> MeVTable<M> {
         }
         problems
     }
+}
+
+/// The positions of `groups` in one array, in order (repeats kept: the model description lists
+/// each value reference once), so that [`ModelExchange::parameter_dependencies`] can be written
+/// from named groups of parameters (see [`parameter_groups!`](crate::parameter_groups)). `N` is
+/// the groups' total length; another `N` fails to compile.
+pub const fn join<const N: usize>(groups: &[&[usize]]) -> [usize; N] {
+    let mut out = [0; N];
+    let (mut k, mut g) = (0, 0);
+    while g < groups.len() {
+        let mut i = 0;
+        while i < groups[g].len() {
+            out[k] = groups[g][i];
+            k += 1;
+            i += 1;
+        }
+        g += 1;
+    }
+    assert!(k == N, "join: N is not the groups' total length");
+    out
+}
+
+/// `parameter_groups!(A, B, ...)`: the positions of the constant arrays (or slices) `A`, `B`,
+/// ... in one `&'static [usize]` ([`join`]), in a constant context.
+#[macro_export]
+macro_rules! parameter_groups {
+    ($($group:expr),+ $(,)?) => {{
+        const N: usize = 0 $(+ $group.len())+;
+        const JOINED: [usize; N] = $crate::me::join::<N>(&[$(&$group),+]);
+        &JOINED
+    }};
 }

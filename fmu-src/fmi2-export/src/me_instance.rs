@@ -302,6 +302,19 @@ enum Role {
     State(usize),
     /// An input (a known) or an output (an unknown): a position in the table.
     Variable(usize),
+    /// A Real parameter (a known, FMI 3.0 only): a position in the table.
+    Parameter(usize),
+}
+
+/// The knowns a directional derivative accepts outside Initialization Mode.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Knowns {
+    /// The states and the inputs (FMI 2.0.4 section 3.2.1).
+    StatesAndInputs,
+    /// The states, the inputs and the Real parameters (FMI 3.0.2 section 2.4.8: parameters are
+    /// knowns of `<Output>` and `<ContinuousStateDerivative>`, and a listed known "is a valid
+    /// input" of `fmi3GetDirectionalDerivative` and `fmi3GetAdjointDerivative`).
+    WithParameters,
 }
 
 /// Relative step of the central differences of [`Instance::get_directional_derivative`] for
@@ -327,13 +340,14 @@ impl<M: Model> Instance<M> {
     }
 
     /// Positions of `vrs` with their roles: unknowns are derivatives or outputs, knowns states
-    /// or inputs (FMI 2.0.4 section 3.2.1, fmi2GetDirectionalDerivative in Model Exchange).
+    /// or inputs (FMI 2.0.4 section 3.2.1, fmi2GetDirectionalDerivative in Model Exchange), and
+    /// with [`Knowns::WithParameters`] Real parameters.
     fn roles(
         &mut self,
         func: &str,
         me: &MeVTable<M>,
         vrs: &[u32],
-        known: bool,
+        known: Option<Knowns>,
         roles: &mut Vec<Role>,
     ) -> Result<(), Status> {
         let table = M::variables();
@@ -342,23 +356,27 @@ impl<M: Model> Instance<M> {
             let Some(i) = crate::variables::index_of(table, vr) else {
                 return Err(self.error(func, format!("unknown value reference {vr}")));
             };
-            let k = me
-                .state_variables
-                .iter()
-                .position(|&(x, d)| if known { x == i } else { d == i });
-            let causality = if known {
+            let k =
+                me.state_variables
+                    .iter()
+                    .position(|&(x, d)| if known.is_some() { x == i } else { d == i });
+            let causality = if known.is_some() {
                 crate::Causality::Input
             } else {
                 crate::Causality::Output
             };
+            let parameter = known == Some(Knowns::WithParameters)
+                && table[i].causality == crate::Causality::Parameter
+                && table[i].vtype == crate::VarType::Real;
             match k {
                 Some(k) => roles.push(Role::State(k)),
                 None if table[i].causality == causality => roles.push(Role::Variable(i)),
+                None if parameter => roles.push(Role::Parameter(i)),
                 None => {
-                    let what = if known {
-                        "a state or an input"
-                    } else {
-                        "a derivative or an output"
+                    let what = match known {
+                        Some(Knowns::StatesAndInputs) => "a state or an input",
+                        Some(Knowns::WithParameters) => "a state, an input or a Float64 parameter",
+                        None => "a derivative or an output",
                     };
                     let name = table[i].name;
                     return Err(self.error(
@@ -389,6 +407,10 @@ impl<M: Model> Instance<M> {
                 (me.set_states)(&mut model, &x);
             }
             Role::Variable(i) => vars[i] += delta,
+            Role::Parameter(i) => {
+                vars[i] += delta;
+                (me.set_parameters)(&mut model, &vars)?;
+            }
         }
         let mut dx = vec![0.0; me.states];
         (me.derivatives)(&model, &vars, self.time, &mut dx)?;
@@ -397,7 +419,8 @@ impl<M: Model> Instance<M> {
             .iter()
             .map(|u| match *u {
                 Role::State(k) => dx[k],
-                Role::Variable(i) => vars[i],
+                // an unknown is never a parameter (`roles`)
+                Role::Variable(i) | Role::Parameter(i) => vars[i],
             })
             .collect())
     }
@@ -412,9 +435,63 @@ impl<M: Model> Instance<M> {
                 (me.nominals)(&self.model, &mut n);
                 (x[k], n[k])
             }
-            Role::Variable(i) => (self.vars[i], 1.0),
+            Role::Variable(i) | Role::Parameter(i) => (self.vars[i], 1.0),
         };
         CENTRAL_STEP * value.abs().max(scale)
+    }
+
+    /// `d(unknowns)/d(parameter i)` by differences of the model's own evaluation with the
+    /// parameter moved (on a copy: [`crate::ModelExchange::set_parameters`]): central with a
+    /// step [`CENTRAL_STEP`] times the parameter's magnitude (its range's width, else 1, at
+    /// 0); at an end of its range, or where the model refuses one side, the one-sided
+    /// difference of second order `(4 (f(p + h) - f(p)) - (f(p + 2h) - f(p))) / 2h` into the
+    /// range (exactly 0 where the unknown does not move).
+    fn parameter_column(
+        &self,
+        me: &MeVTable<M>,
+        unknowns: &[Role],
+        i: usize,
+    ) -> Result<Vec<f64>, crate::ModelError> {
+        let v = &M::variables()[i];
+        let value = self.vars[i];
+        let (lo, hi) = (
+            v.min.unwrap_or(f64::NEG_INFINITY),
+            v.max.unwrap_or(f64::INFINITY),
+        );
+        let width = hi - lo;
+        let scale = if value != 0.0 {
+            value.abs()
+        } else if width.is_finite() && width > 0.0 {
+            width
+        } else {
+            1.0
+        };
+        let h = CENTRAL_STEP * scale;
+        let at = |delta: f64| self.unknowns_at(me, unknowns, Role::Parameter(i), delta);
+        let up = (value + 2.0 * h <= hi).then(|| at(h)).and_then(Result::ok);
+        let down = (value - 2.0 * h >= lo).then(|| at(-h)).and_then(Result::ok);
+        let one_sided = |sign: f64| -> Result<Vec<f64>, crate::ModelError> {
+            let (f0, f1, f2) = (at(0.0)?, at(sign * h)?, at(sign * 2.0 * h)?);
+            Ok(f0
+                .iter()
+                .zip(f1.iter().zip(&f2))
+                .map(|(a, (b, c))| sign * (4.0 * (b - a) - (c - a)) / (2.0 * h))
+                .collect())
+        };
+        match (up, down) {
+            (Some(a), Some(b)) => Ok(a.iter().zip(&b).map(|(a, b)| (a - b) / (2.0 * h)).collect()),
+            (Some(_), None) => one_sided(1.0),
+            (None, Some(_)) => one_sided(-1.0),
+            (None, None) => {
+                // neither side usable: the model's own message from a central step
+                at(h)?;
+                at(-h)?;
+                Err(crate::ModelError::parameter(
+                    v.name,
+                    format!("its range [{lo}, {hi}] is too narrow for a difference quotient"),
+                ))
+            }
+        }
     }
 
     /// The model's state Jacobian at the current time, states and variable values: the cached
@@ -437,13 +514,13 @@ impl<M: Model> Instance<M> {
             return Ok(());
         }
         scratch.unknowns.clear();
-        self.roles(func, me, unknowns, false, &mut scratch.unknown_roles)?;
+        self.roles(func, me, unknowns, None, &mut scratch.unknown_roles)?;
         scratch.unknowns.extend_from_slice(unknowns);
         scratch.unknown_rows.clear();
         for role in &scratch.unknown_roles {
             match *role {
                 Role::State(i) => scratch.unknown_rows.push(i),
-                Role::Variable(_) => {
+                Role::Variable(_) | Role::Parameter(_) => {
                     scratch.unknown_rows.clear();
                     break;
                 }
@@ -459,6 +536,7 @@ impl<M: Model> Instance<M> {
         func: &str,
         me: &MeVTable<M>,
         knowns: &[u32],
+        allowed: Knowns,
         scratch: &mut Scratch,
     ) -> Result<(), Status> {
         if scratch.state_references.len() != me.states {
@@ -473,7 +551,9 @@ impl<M: Model> Instance<M> {
         for vr in knowns {
             match scratch.state_references.iter().position(|r| r == vr) {
                 Some(k) => scratch.known_roles.push(Role::State(k)),
-                None => return self.roles(func, me, knowns, true, &mut scratch.known_roles),
+                None => {
+                    return self.roles(func, me, knowns, Some(allowed), &mut scratch.known_roles)
+                }
             }
         }
         Ok(())
@@ -507,6 +587,13 @@ impl<M: Model> Instance<M> {
                 }
                 continue;
             }
+            if let Role::Parameter(i) = known {
+                let column = self.parameter_column(me, u_roles, i)?;
+                for (o, c) in out.iter_mut().zip(column) {
+                    *o += c * v;
+                }
+                continue;
+            }
             let analytic = |u: &Role| match (*u, known) {
                 (Role::State(i), Role::State(j)) => Some(jac[i * n + j]),
                 _ => None,
@@ -536,19 +623,39 @@ impl<M: Model> Instance<M> {
         dz: &mut [f64],
     ) -> Status {
         const F: &str = "fmi2GetDirectionalDerivative";
-        let me = match self.derivative_table(F) {
+        self.directional_derivative(F, Knowns::StatesAndInputs, (unknowns, knowns, dv, dz))
+    }
+
+    /// [`Instance::get_directional_derivative`] for the function `func` with the `knowns` its
+    /// FMI version allows outside Initialization Mode (there the knowns are the Real inputs and
+    /// `initial="exact"` variables in both versions). A parameter's column is a difference of
+    /// the model's evaluation with the parameter moved, on a copy of the model: the instance's
+    /// values stay bit for bit as they were.
+    pub fn directional_derivative(
+        &mut self,
+        func: &str,
+        knowns_allowed: Knowns,
+        (unknowns, knowns, dv, dz): (&[u32], &[u32], &[f64], &mut [f64]),
+    ) -> Status {
+        let me = match self.derivative_table(func) {
             Ok(me) => me,
             Err(s) => return s,
         };
         if let Some(v) = dv.iter().find(|v| !v.is_finite()) {
-            return self.error(F, format!("dvKnown holds {v}, not a finite number"));
+            return self.error(func, format!("dvKnown holds {v}, not a finite number"));
         }
         if self.state == MachineState::InitializationMode {
-            return self.initial_directional_derivative(F, unknowns, knowns, dv, dz);
+            return self.initial_directional_derivative(func, unknowns, knowns, dv, dz);
         }
         // The buffers are reused from call to call (no allocation per call).
         let mut scratch = std::mem::take(&mut self.jacobian.scratch);
-        let status = self.directional_with(F, &me, (unknowns, knowns, dv, dz), &mut scratch);
+        let status = self.directional_with(
+            func,
+            &me,
+            knowns_allowed,
+            (unknowns, knowns, dv, dz),
+            &mut scratch,
+        );
         self.jacobian.scratch = scratch;
         status
     }
@@ -559,13 +666,14 @@ impl<M: Model> Instance<M> {
         &mut self,
         func: &str,
         me: &MeVTable<M>,
+        knowns_allowed: Knowns,
         (unknowns, knowns, dv, dz): (&[u32], &[u32], &[f64], &mut [f64]),
         scratch: &mut Scratch,
     ) -> Status {
         if let Err(s) = self.unknown_roles(func, me, unknowns, scratch) {
             return s;
         }
-        if let Err(s) = self.known_roles(func, me, knowns, scratch) {
+        if let Err(s) = self.known_roles(func, me, knowns, knowns_allowed, scratch) {
             return s;
         }
         let (u_roles, k_roles) = (&scratch.unknown_roles, &scratch.known_roles);

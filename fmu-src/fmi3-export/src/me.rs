@@ -14,7 +14,7 @@ use crate::c::*;
 use crate::ffi::{allowed, slice, slice_mut, with_component, Component};
 use crate::EVENT_INDICATOR_VALUE_REFERENCE;
 use fmi2_export::instance::{Interface, Status};
-use fmi2_export::me_instance::EventInfo;
+use fmi2_export::me_instance::{EventInfo, Knowns};
 use fmi2_export::Model;
 
 /// Refuse a Model Exchange function on a Co-Simulation instance, then check the state.
@@ -335,9 +335,10 @@ unsafe fn derivative_args<'a, M: Model>(
 
 /// `fmi3GetDirectionalDerivative` (Model Exchange; Co-Simulation in Step Mode at the
 /// communication point): `sensitivity = J seed` for the unknowns
-/// (derivatives, outputs) with respect to the knowns (states, inputs), FMI 3.0.2 section 3.2.4;
-/// the instance's directional derivative (the model's analytic Jacobian for derivatives with
-/// respect to states).
+/// (derivatives, outputs) with respect to the knowns (states, inputs and Float64 parameters,
+/// FMI 3.0.2 section 2.4.8), section 3.2.4; the instance's directional derivative (the model's
+/// analytic Jacobian for derivatives with respect to states, differences of the model's
+/// evaluation for the other knowns).
 #[allow(clippy::too_many_arguments)]
 pub unsafe fn get_directional_derivative<M: Model>(
     c: Fmi3Instance,
@@ -368,11 +369,10 @@ pub unsafe fn get_directional_derivative<M: Model>(
             Ok(a) => a,
             Err(s) => return s,
         };
-        comp.instance.get_directional_derivative(
-            args.unknowns,
-            args.knowns,
-            args.seed,
-            args.sensitivity,
+        comp.instance.directional_derivative(
+            F,
+            Knowns::WithParameters,
+            (args.unknowns, args.knowns, args.seed, args.sensitivity),
         )
     })
 }
@@ -420,11 +420,10 @@ pub unsafe fn get_adjoint_derivative<M: Model>(
         let mut column = vec![0.0; args.unknowns.len()];
         let mut out = vec![0.0; args.knowns.len()];
         for (o, &known) in out.iter_mut().zip(args.knowns) {
-            let s = comp.instance.get_directional_derivative(
-                args.unknowns,
-                &[known],
-                &[1.0],
-                &mut column,
+            let s = comp.instance.directional_derivative(
+                F,
+                Knowns::WithParameters,
+                (args.unknowns, &[known], &[1.0], &mut column),
             );
             if s != Status::Ok {
                 return s;

@@ -197,14 +197,32 @@ fn vr_list(vars: &[Variable], positions: impl IntoIterator<Item = usize>) -> Str
     vrs.join(" ")
 }
 
+/// Table positions of the parameters unknown `u` depends on: the model's declaration (an
+/// unknown it does not name depends on none), without one every parameter.
+fn parameters_of<M: Model>(me: &Option<MeVTable<M>>, vars: &[Variable], u: usize) -> Vec<usize> {
+    match me.as_ref().and_then(|me| me.parameter_dependencies) {
+        Some(declared) => declared
+            .iter()
+            .filter(|(unknown, _)| *unknown == u)
+            .flat_map(|(_, parameters)| parameters.iter().copied())
+            .collect(),
+        None => (0..vars.len())
+            .filter(|&i| vars[i].causality == Causality::Parameter)
+            .collect(),
+    }
+}
+
 /// FMI 3.0.2 section 2.4.8. `<Output>` for every output: in Model Exchange an output depends on
-/// the continuous states and on the inputs the model names as direct feedthrough (in
+/// the continuous states, on the inputs the model names as direct feedthrough (in
 /// Co-Simulation an input changes no output before the next step, and the states are values of
-/// the last step, so the list is right for both); without Model Exchange on nothing.
-/// `<ContinuousStateDerivative>` per state, with the model's declared dependencies (else the
-/// default, every known). `<InitialUnknown>` for every calculated output, state and derivative
-/// and calculated parameter (dependencies omitted: on every known, which is always correct).
-/// `<EventIndicator>` per event indicator.
+/// the last step, so the list is right for both) and on the parameters the model names
+/// (parameters are knowns in Event and Continuous-Time Mode and at communication points; a
+/// known left out would claim a partial derivative identically zero); without Model Exchange on
+/// every parameter. `<ContinuousStateDerivative>` per state, with the model's declared state,
+/// input and parameter dependencies (else the default, every known). `<InitialUnknown>` for
+/// every calculated output, state and derivative and calculated parameter (dependencies
+/// omitted: on every known, inputs, `initial="exact"` variables and time, which is always
+/// correct). `<EventIndicator>` per event indicator (dependencies omitted: on every known).
 fn model_structure<M: Model>(ev: &mut Ev, vars: &[Variable]) {
     let me = M::model_exchange();
     let states = states(&me);
@@ -218,7 +236,15 @@ fn model_structure<M: Model>(ev: &mut Ev, vars: &[Variable]) {
             .iter()
             .filter(|(out, _)| *out == o)
             .flat_map(|(_, inputs)| inputs.iter().copied());
-        let deps = vr_list(vars, states.iter().map(|&(x, _)| x).chain(inputs));
+        let parameters = parameters_of(&me, vars, o);
+        let deps = vr_list(
+            vars,
+            states
+                .iter()
+                .map(|&(x, _)| x)
+                .chain(inputs)
+                .chain(parameters),
+        );
         let mut u = BytesStart::new("Output");
         u.push_attribute(("valueReference", v.value_reference.to_string().as_str()));
         u.push_attribute(("dependencies", deps.as_str()));
@@ -232,7 +258,9 @@ fn model_structure<M: Model>(ev: &mut Ev, vars: &[Variable]) {
             vars[d].value_reference.to_string().as_str(),
         ));
         if let Some(deps) = declared.and_then(|deps| deps.get(k)) {
-            u.push_attribute(("dependencies", vr_list(vars, deps.iter().copied()).as_str()));
+            let parameters = parameters_of(&me, vars, d);
+            let all = deps.iter().copied().chain(parameters);
+            u.push_attribute(("dependencies", vr_list(vars, all).as_str()));
         }
         ev(Event::Empty(u));
     }

@@ -320,6 +320,12 @@ inputs; a spool's rate on its position, rate and valve input; a remembered speed
 speed and itself (<code>tests/test_model_exchange_hydraulic_joint.py</code> moves every other
 state and input and finds the derivative unchanged to the bit). The right-hand side is smooth
 by the regularisations above (no discontinuity remains), so the model has no event indicators.
+The FMI 3.0 description also lists the parameters among each output's and derivative's
+dependencies (FMI 3.0.2 section 2.4.8), by the parts of the model they enter: the valve command
+(open loop the input, closed loop the controller's parameters, the pulley radius and the stroke,
+acting at the samples), the spool, the orifices, the oil, the chambers, the leakage, the cable and
+capstan, the piston and the link; <code>fmi3GetDirectionalDerivative</code> takes a Float64
+parameter as known (central differences of the model with the parameter moved).
 Step inputs should be given to the importer as events (FMPy: the jump's time repeated), or its
 solver integrates across the jump with the old value.</p>
 <p>Directional derivatives (<code>providesDirectionalDerivative</code>, Model Exchange, and Co-Simulation at the communication point): the

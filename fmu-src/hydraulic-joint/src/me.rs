@@ -14,7 +14,7 @@
 //! act at once, so `u_valve_*` and `Q_*` depend on them directly.
 
 use crate::controller::controller_update;
-use crate::model::HydraulicJoint;
+use crate::model::{read_params, HydraulicJoint};
 use crate::plant::{spool, Plant, NOMINAL_BASE, NOMINAL_MEMORY, NOMINAL_SPOOL, TH, VRET, VSUP};
 use crate::vars::V;
 use fmi2_export::{ModelError, ModelExchange, Values, ValuesMut};
@@ -163,6 +163,150 @@ const DERIVATIVE_DEPENDENCIES: [&[usize]; STATES] = [
     &DEP_MEMORY_R,
 ];
 
+/// Parameter groups (table positions) by the part of the model they enter, for the FMI 3.0
+/// `<ModelStructure>` (FMI 3.0.2 section 2.4.8: parameters are knowns of the outputs and
+/// derivatives; `Params::derive`, `Plant::piston`, `Plant::eval`). The valve command: open
+/// loop the input, with `internal_controller` the controller's output, computed at its ticks
+/// from its parameters, the pulley radius and the mean piston offset from mid-stroke (stroke),
+/// and held.
+const COMMAND: [usize; 10] = [
+    V::INTERNAL_CONTROLLER as usize,
+    V::CONTROLLER_RATE as usize,
+    V::CONTROLLER_GAIN as usize,
+    V::CONTROLLER_SLOPE_EXTEND as usize,
+    V::CONTROLLER_SLOPE_RETRACT as usize,
+    V::CONTROLLER_DEADBAND_LOW as usize,
+    V::CONTROLLER_DEADBAND_HIGH as usize,
+    V::CONTROLLER_COCONTRACTION as usize,
+    V::PULLEY_RADIUS as usize,
+    V::STROKE as usize,
+];
+/// The spool's second-order lag between command and opening (`valve_dynamics`).
+const SPOOL: [usize; 3] = [
+    V::VALVE_DYNAMICS_ENABLED as usize,
+    V::VALVE_DYNAMICS_NATURAL_FREQUENCY as usize,
+    V::VALVE_DYNAMICS_DAMPING_RATIO as usize,
+];
+/// The orifices, eq. (13)-(16): dead band (and overlap), coefficients, supply and return.
+const ORIFICES: [usize; 12] = [
+    V::VALVE_USE_MEAN as usize,
+    V::SUPPLY_PRESSURE as usize,
+    V::RETURN_PRESSURE as usize,
+    V::C1 as usize,
+    V::C2 as usize,
+    V::C3 as usize,
+    V::C4 as usize,
+    V::VALVE_FLOW_SCALE as usize,
+    V::VALVE_DEADBAND_LOW as usize,
+    V::VALVE_DEADBAND_HIGH as usize,
+    V::VALVE_OVERLAP_ENABLED as usize,
+    V::VALVE_OVERLAP_WIDTH as usize,
+];
+/// The oil's compressibility and density ratio (`entrained_air`).
+const OIL: [usize; 4] = [
+    V::BULK_MODULUS as usize,
+    V::ENTRAINED_AIR_ENABLED as usize,
+    V::ENTRAINED_AIR_FRACTION as usize,
+    V::ENTRAINED_AIR_POLYTROPIC_INDEX as usize,
+];
+/// The chamber volumes, eq. (7)-(12).
+const CHAMBERS: [usize; 5] = [
+    V::STROKE as usize,
+    V::PISTON_AREA as usize,
+    V::ANNULUS_AREA as usize,
+    V::DEAD_VOLUME_CAP as usize,
+    V::DEAD_VOLUME_ROD as usize,
+];
+/// The cross-port leakage between the chambers.
+const LEAKAGE: [usize; 2] = [
+    V::INTERNAL_LEAKAGE_ENABLED as usize,
+    V::INTERNAL_LEAKAGE_COEFFICIENT as usize,
+];
+/// The series spring's tension: stiffness, pretension, rest position (mid-stroke), pulley.
+const CABLE: [usize; 5] = [
+    V::CABLES_ATTACHED as usize,
+    V::SPRING_STIFFNESS as usize,
+    V::SPRING_PRETENSION as usize,
+    V::STROKE as usize,
+    V::PULLEY_RADIUS as usize,
+];
+/// The Bowden cable's capstan friction (between spring and joint).
+const CAPSTAN: [usize; 3] = [
+    V::CABLE_FRICTION_ENABLED as usize,
+    V::CABLE_FRICTION_MU as usize,
+    V::BOWDEN_WRAP_ANGLE as usize,
+];
+/// The piston, eq. (6): areas, mass, damping, end stops, seal friction.
+const PISTON: [usize; 10] = [
+    V::PISTON_AREA as usize,
+    V::ANNULUS_AREA as usize,
+    V::PISTON_MASS as usize,
+    V::PISTON_DAMPING as usize,
+    V::STROKE as usize,
+    V::SEAL_FRICTION_ENABLED as usize,
+    V::SEAL_FRICTION_COULOMB as usize,
+    V::SEAL_FRICTION_BREAKAWAY_EXCESS as usize,
+    V::SEAL_FRICTION_STRIBECK_VELOCITY as usize,
+    V::SEAL_FRICTION_VISCOUS as usize,
+];
+/// The link, eq. (1): inertia with the payload, damping, pulley.
+const LINK: [usize; 5] = [
+    V::LOAD_MASS as usize,
+    V::LOAD_RADIUS as usize,
+    V::LINK_INERTIA as usize,
+    V::LINK_DAMPING as usize,
+    V::PULLEY_RADIUS as usize,
+];
+/// The seal friction's memory of the piston speed.
+const MEMORY: [usize; 2] = [
+    V::SEAL_FRICTION_ENABLED as usize,
+    V::SEAL_FRICTION_MEMORY_TIME as usize,
+];
+/// The valve's opening and its flows: command, spool, orifices.
+const P_FLOW: &[usize] = fmi2_export::parameter_groups!(COMMAND, SPOOL, ORIFICES);
+const P_PRESSURES: &[usize] =
+    fmi2_export::parameter_groups!(COMMAND, SPOOL, ORIFICES, OIL, CHAMBERS, LEAKAGE);
+const P_OIL_TOTALS: &[usize] = fmi2_export::parameter_groups!(COMMAND, SPOOL, ORIFICES, OIL);
+const P_TENSION: &[usize] = fmi2_export::parameter_groups!(CABLE, CAPSTAN);
+const P_LINK: &[usize] = fmi2_export::parameter_groups!(LINK, CABLE, CAPSTAN);
+const P_PISTON: &[usize] = fmi2_export::parameter_groups!(PISTON, CABLE);
+const P_STORED: &[usize] = fmi2_export::parameter_groups!(CHAMBERS, OIL);
+const P_SPOOL_RATE: &[usize] = fmi2_export::parameter_groups!(SPOOL, COMMAND);
+const P_FORCE: &[usize] = &[V::PISTON_AREA as usize, V::ANNULUS_AREA as usize];
+const P_SPOOL: &[usize] = &[V::VALVE_DYNAMICS_ENABLED as usize];
+
+/// Per output and derivative, the parameters its value depends on under any setting of the
+/// others (the states, the oil totals and `der(theta)`, `der(x_*)` depend on none).
+const PARAMETER_DEPENDENCIES: [(usize, &[usize]); 27] = [
+    (V::F_LEFT as usize, P_FORCE),
+    (V::F_RIGHT as usize, P_FORCE),
+    (V::T_LEFT as usize, P_TENSION),
+    (V::T_RIGHT as usize, P_TENSION),
+    (V::U_VALVE_LEFT as usize, &COMMAND),
+    (V::U_VALVE_RIGHT as usize, &COMMAND),
+    (V::Q_LEFT as usize, P_FLOW),
+    (V::Q_RIGHT as usize, P_FLOW),
+    (V::V_STORED as usize, P_STORED),
+    (V::DER_OMEGA as usize, P_LINK),
+    (V::DER_V_LEFT as usize, P_PISTON),
+    (V::DER_V_RIGHT as usize, P_PISTON),
+    (V::DER_P1_LEFT as usize, P_PRESSURES),
+    (V::DER_P2_LEFT as usize, P_PRESSURES),
+    (V::DER_P1_RIGHT as usize, P_PRESSURES),
+    (V::DER_P2_RIGHT as usize, P_PRESSURES),
+    (V::DER_V_SUPPLIED as usize, P_OIL_TOTALS),
+    (V::DER_V_RETURNED as usize, P_OIL_TOTALS),
+    (V::DER_SPOOL_LEFT as usize, P_SPOOL),
+    (V::DER_SPOOL_RIGHT as usize, P_SPOOL),
+    (V::DER_SPOOL_RATE_LEFT as usize, P_SPOOL_RATE),
+    (V::DER_SPOOL_RATE_RIGHT as usize, P_SPOOL_RATE),
+    (V::DER_V_MEMORY_LEFT as usize, &MEMORY),
+    (V::DER_V_MEMORY_RIGHT as usize, &MEMORY),
+    (V::DER_THETA as usize, &[]),
+    (V::DER_X_LEFT as usize, &[]),
+    (V::DER_X_RIGHT as usize, &[]),
+];
+
 impl HydraulicJoint {
     /// Valve commands in Model Exchange: the held controller output, or the inputs open loop.
     fn me_commands(&self, vars: &[f64]) -> [f64; 2] {
@@ -221,6 +365,19 @@ impl ModelExchange for HydraulicJoint {
 
     fn derivative_dependencies() -> Option<&'static [&'static [usize]]> {
         Some(&DERIVATIVE_DEPENDENCIES)
+    }
+
+    fn parameter_dependencies() -> Option<&'static [(usize, &'static [usize])]> {
+        Some(&PARAMETER_DEPENDENCIES)
+    }
+
+    /// Every parameter read and derived again (as at initialization); the states and the held
+    /// valve commands are kept.
+    fn set_parameters(&mut self, vars: &[f64]) -> Result<(), ModelError> {
+        let p = read_params(vars);
+        let d = p.derive()?;
+        self.params = Some((p, d));
+        Ok(())
     }
 
     fn states(&self, x: &mut [f64]) {

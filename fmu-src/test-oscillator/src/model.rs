@@ -123,6 +123,32 @@ impl ModelExchange for Oscillator {
         &S
     }
 
+    /// `der(v) = (F - c v - k x) / m`, `energy = m v^2 / 2 + k x^2 / 2`, both 0-rate when
+    /// locked; `fail_at` makes the evaluation fail (no value depends on it).
+    fn parameter_dependencies() -> Option<&'static [(usize, &'static [usize])]> {
+        const DER_V: [usize; 4] = [
+            V::MASS as usize,
+            V::STIFFNESS as usize,
+            V::DAMPING as usize,
+            V::LOCKED as usize,
+        ];
+        const ENERGY: [usize; 2] = [V::MASS as usize, V::STIFFNESS as usize];
+        const DEPS: [(usize, &[usize]); 3] = [
+            (V::DER_X as usize, &[V::LOCKED as usize]),
+            (V::DER_V as usize, &DER_V),
+            (V::ENERGY as usize, &ENERGY),
+        ];
+        Some(&DEPS)
+    }
+
+    /// The parameters as `initialize` reads them; position and velocity kept.
+    fn set_parameters(&mut self, vars: &[f64]) -> Result<(), ModelError> {
+        let (x, v) = (self.x, self.v);
+        self.initialize(&mut vars.to_vec(), 0.0)?;
+        (self.x, self.v) = (x, v);
+        Ok(())
+    }
+
     fn states(&self, x: &mut [f64]) {
         x.copy_from_slice(&[self.x, self.v]);
     }

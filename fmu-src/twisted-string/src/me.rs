@@ -26,7 +26,7 @@
 //!   `string_compliance` is on (constant 1 otherwise);
 //! * encoder quantisation, position band and speed-limit clamp: evaluated at the time events only.
 
-use crate::model::TwistedString;
+use crate::model::{read_params, validate, TwistedString};
 use crate::plant::{ix, Aux, Inputs, Params, Plant, DIM, NOMINAL};
 use crate::vars::V;
 use fmi2_export::{ModelError, ModelExchange, ValuesMut};
@@ -191,6 +191,145 @@ pub fn jacobian(par: &Params, inp: Inputs, x: &[f64]) -> [[f64; STATES]; STATES]
 
 /// Write the states that are not outputs and every `der(...)` variable (shared by Model
 /// Exchange and Co-Simulation, where they are informative locals).
+/// Parameter groups (table positions) by the part of the model they enter, for the FMI 3.0
+/// `<ModelStructure>` (FMI 3.0.2 section 2.4.8: parameters are knowns of the outputs and
+/// derivatives; `Plant::eval`). The twist angle at the gearhead output: the gear ratio, with
+/// `gear_backlash` less the position in the gap.
+const GEAR: [usize; 2] = [V::GEAR_RATIO as usize, V::GEAR_BACKLASH_ENABLED as usize];
+/// The helix (eq. 9): string radius and its growth with the twist.
+const HELIX: [usize; 3] = [
+    V::STRING_RADIUS as usize,
+    V::RADIUS_GROWTH_ENABLED as usize,
+    V::RADIUS_GROWTH_PER_TURN as usize,
+];
+/// The strings' tension: length, stiffness, damping, the compliance law (eq. 10).
+const STRING: [usize; 7] = [
+    V::STRING_LENGTH as usize,
+    V::STRING_STIFFNESS as usize,
+    V::STRING_DAMPING as usize,
+    V::STRING_COMPLIANCE_ENABLED as usize,
+    V::STRING_COMPLIANCE_A1 as usize,
+    V::STRING_COMPLIANCE_A2 as usize,
+    V::STRING_COMPLIANCE_A3 as usize,
+];
+/// The gearhead output with `gear_backlash`: the gap and the flanks.
+const BACKLASH: [usize; 3] = [
+    V::GEAR_BACKLASH_ENABLED as usize,
+    V::GEAR_BACKLASH_ANGLE as usize,
+    V::GEAR_RATIO as usize,
+];
+/// Friction on the motor side: gear efficiency, motor friction; inter-strand friction.
+const FRICTION: [usize; 6] = [
+    V::GEAR_EFFICIENCY as usize,
+    V::MOTOR_FRICTION_ENABLED as usize,
+    V::MOTOR_FRICTION_COULOMB as usize,
+    V::MOTOR_FRICTION_VISCOUS as usize,
+    V::TWIST_HYSTERESIS_ENABLED as usize,
+    V::TWIST_HYSTERESIS_FRICTION_COEFFICIENT as usize,
+];
+/// The armature circuit.
+const ARMATURE: [usize; 4] = [
+    V::MOTOR_RESISTANCE as usize,
+    V::MOTOR_INDUCTANCE as usize,
+    V::BACK_EMF_CONSTANT as usize,
+    V::TORQUE_CONSTANT as usize,
+];
+/// The sampled position loop: encoder, P law with its band, speed limit, period (its speed set
+/// point is computed at the ticks and held).
+const POSITION: [usize; 6] = [
+    V::INTERNAL_CONTROLLER as usize,
+    V::CONTROLLER_POSITION_P as usize,
+    V::CONTROLLER_POSITION_BAND as usize,
+    V::CONTROLLER_POSITION_PERIOD as usize,
+    V::SPEED_LIMIT as usize,
+    V::ENCODER_CPT as usize,
+];
+/// The continuous current and speed PI loops and their limits (or open loop the input).
+const CASCADE: [usize; 6] = [
+    V::CONTROLLER_CURRENT_P as usize,
+    V::CONTROLLER_CURRENT_TI as usize,
+    V::CONTROLLER_SPEED_P as usize,
+    V::CONTROLLER_SPEED_TI as usize,
+    V::CURRENT_LIMIT as usize,
+    V::SUPPLY_VOLTAGE as usize,
+];
+/// The load: mass, return spring (its free length is the string length), guide.
+const LOAD: [usize; 5] = [
+    V::LOAD_MASS as usize,
+    V::SPRING_STIFFNESS as usize,
+    V::SPRING_PRELOAD as usize,
+    V::GUIDE_DAMPING as usize,
+    V::STRING_LENGTH as usize,
+];
+const P_ALPHA: &[usize] = fmi2_export::parameter_groups!(GEAR, HELIX);
+const P_STRINGS: &[usize] = fmi2_export::parameter_groups!(GEAR, HELIX, STRING);
+const P_F_STRING: &[usize] =
+    fmi2_export::parameter_groups!(GEAR, HELIX, STRING, [V::STRING_COUNT as usize]);
+const P_MECHANICS: &[usize] =
+    fmi2_export::parameter_groups!(GEAR, HELIX, STRING, BACKLASH, FRICTION);
+const P_MOTOR: &[usize] = fmi2_export::parameter_groups!(
+    GEAR,
+    HELIX,
+    STRING,
+    BACKLASH,
+    FRICTION,
+    [V::TORQUE_CONSTANT as usize, V::ROTOR_INERTIA as usize]
+);
+const P_LOAD: &[usize] = fmi2_export::parameter_groups!(GEAR, HELIX, STRING, LOAD);
+const P_VOLTAGE: &[usize] = fmi2_export::parameter_groups!(POSITION, CASCADE);
+const P_CURRENT: &[usize] = fmi2_export::parameter_groups!(POSITION, CASCADE, ARMATURE);
+const P_LOSSES: &[usize] = fmi2_export::parameter_groups!(
+    GEAR,
+    HELIX,
+    STRING,
+    BACKLASH,
+    FRICTION,
+    ARMATURE,
+    [V::GUIDE_DAMPING as usize]
+);
+const P_STORED: &[usize] = fmi2_export::parameter_groups!(
+    GEAR,
+    HELIX,
+    STRING,
+    BACKLASH,
+    LOAD,
+    [V::MOTOR_INDUCTANCE as usize, V::ROTOR_INERTIA as usize]
+);
+const P_MEASURED: &[usize] = &[
+    V::INTERNAL_CONTROLLER as usize,
+    V::ENCODER_CPT as usize,
+    V::CONTROLLER_POSITION_PERIOD as usize,
+];
+
+/// Per output and derivative, the parameters its value depends on under any setting of the
+/// others (the states, `der(theta_motor)`, `der(p)` and `der(W_external)` depend on none).
+static PARAMETER_DEPENDENCIES: [(usize, &[usize]); 24] = [
+    (V::THETA_TWIST as usize, &GEAR),
+    (V::TAU_MOTOR as usize, &[V::TORQUE_CONSTANT as usize]),
+    (V::F_STRING as usize, P_F_STRING),
+    (V::F_TANGENTIAL as usize, P_STRINGS),
+    (V::ALPHA as usize, P_ALPHA),
+    (V::TRANSMISSION_RATIO as usize, P_STRINGS),
+    (V::STIFFNESS as usize, P_STRINGS),
+    (V::F_AXIAL as usize, P_STRINGS),
+    (V::VOLTAGE_MOTOR as usize, P_VOLTAGE),
+    (V::OMEGA_REF as usize, &POSITION),
+    (V::THETA_MOTOR_MEASURED as usize, P_MEASURED),
+    (V::E_STORED as usize, P_STORED),
+    (V::DER_CURRENT as usize, P_CURRENT),
+    (V::DER_OMEGA_MOTOR as usize, P_MOTOR),
+    (V::DER_V_LOAD as usize, P_LOAD),
+    (V::DER_CURRENT_INTEGRAL as usize, P_VOLTAGE),
+    (V::DER_SPEED_INTEGRAL as usize, P_VOLTAGE),
+    (V::DER_E_ELECTRICAL as usize, P_VOLTAGE),
+    (V::DER_E_DISSIPATED as usize, P_LOSSES),
+    (V::DER_E_STRING_KINEMATIC as usize, P_STRINGS),
+    (V::DER_BACKLASH_POSITION as usize, &BACKLASH),
+    (V::DER_OMEGA_TWIST as usize, P_MECHANICS),
+    (V::DER_THETA_MOTOR as usize, &[]),
+    (V::DER_P as usize, &[]),
+];
+
 pub(crate) fn write_state_variables(out: &mut ValuesMut, y: &[f64; DIM], aux: &Aux, f_load: f64) {
     out.set(V::CURRENT_INTEGRAL, y[ix::ZI]);
     out.set(V::SPEED_INTEGRAL, y[ix::ZW]);
@@ -237,6 +376,19 @@ impl ModelExchange for TwistedString {
 
     fn derivative_dependencies() -> Option<&'static [&'static [usize]]> {
         Some(&DERIVATIVE_DEPENDENCIES)
+    }
+
+    fn parameter_dependencies() -> Option<&'static [(usize, &'static [usize])]> {
+        Some(&PARAMETER_DEPENDENCIES)
+    }
+
+    /// Every parameter read and checked again (as at initialization); the states, the
+    /// controller's held set point and the encoder reading are kept.
+    fn set_parameters(&mut self, vars: &[f64]) -> Result<(), ModelError> {
+        let par = read_params(vars);
+        validate(&par)?;
+        self.par = par;
+        Ok(())
     }
 
     fn states(&self, x: &mut [f64]) {
@@ -451,24 +603,77 @@ mod tests {
 
     /// Co-Simulation: `do_step` with 1 ms communication steps; outputs every 1 ms.
     fn run_cs(effects: &[V], tol: f64, n: usize) -> Vec<Vec<f64>> {
-        let h = 1e-3;
+        run_cs_with(effects, tol, n, 1e-3, inputs_at, Points::Exact)
+    }
+
+    /// How an importer reaches its communication points (nominally `k h`).
+    #[derive(Clone, Copy, Debug)]
+    enum Points {
+        /// `k h` exactly.
+        Exact,
+        /// `h + h + ...`: a rounding after the sample instants (for `h` = 1 ms).
+        Summed,
+        /// `k h` moved by `s k h` (|s| 1e-13, well inside the clock's 1e-9 Ts): a rounding
+        /// before (`s < 0`) or after the sample instants.
+        Skewed(f64),
+    }
+
+    impl Points {
+        fn all(self, h: f64, n: usize) -> Vec<f64> {
+            let mut sum = 0.0;
+            (0..=n)
+                .map(|k| {
+                    let exact = k as f64 * h;
+                    let t = match self {
+                        Points::Exact => exact,
+                        Points::Summed => sum,
+                        Points::Skewed(s) => exact * (1.0 + s),
+                    };
+                    sum += h;
+                    t
+                })
+                .collect()
+        }
+    }
+
+    /// Co-Simulation: `do_step` from each communication point to the next (`points`, nominally
+    /// `k h`), the inputs `inputs(k h)` set at each point; outputs at the end of each step.
+    fn run_cs_with(
+        effects: &[V],
+        tol: f64,
+        n: usize,
+        h: f64,
+        inputs: fn(f64, &mut [f64]),
+        points: Points,
+    ) -> Vec<Vec<f64>> {
         let mut vars = start_vars(effects, tol);
         let mut m = TwistedString::new();
         m.initialize(&mut vars, 0.0).unwrap();
         let mut out = vec![];
-        for k in 0..n {
-            let t = k as f64 * h;
-            inputs_at(t, &mut vars);
-            m.do_step(&mut vars, t, h).unwrap();
+        for (k, w) in points.all(h, n).windows(2).enumerate() {
+            // the inputs of point k (a rounding of its time must not move an input's jump)
+            inputs(k as f64 * h, &mut vars);
+            m.do_step(&mut vars, w[0], w[1] - w[0]).unwrap();
             out.push(OUTPUTS.iter().map(|v| vars[*v as usize]).collect());
         }
         out
     }
 
     /// Model Exchange through the trait, integrated by `ode` between time events (the importer's
-    /// part): event update at each tick, integrate to the next, outputs every 1 ms.
+    /// part): outputs every 1 ms before the event there (the left limit), then the inputs at that
+    /// instant, the event update at each tick, integrate to the next.
     fn run_me(effects: &[V], tol: f64, n: usize) -> Vec<Vec<f64>> {
-        let h = 1e-3;
+        run_me_with(effects, tol, n, 1e-3, inputs_at)
+    }
+
+    /// Model Exchange as [`run_me`], outputs and input changes every `h`.
+    fn run_me_with(
+        effects: &[V],
+        tol: f64,
+        n: usize,
+        h: f64,
+        inputs_at: fn(f64, &mut [f64]),
+    ) -> Vec<Vec<f64>> {
         let mut vars = start_vars(effects, tol);
         let mut m = TwistedString::new();
         m.initialize(&mut vars, 0.0).unwrap();
@@ -482,8 +687,8 @@ mod tests {
         for k in 1..=n {
             let t_out = k as f64 * h;
             loop {
-                // the samples due at t (do_step takes a sample at the end of a step with that
-                // step's inputs, so the inputs change after the event update at t_out below)
+                // the samples due at t, with the inputs set at t (as do_step takes a sample at
+                // the start of a step)
                 while m.event_update(&mut vars, t).unwrap() {}
                 let t_next = m.next_time_event().map_or(t_out, |te| te.min(t_out));
                 m.states(&mut x);
@@ -499,7 +704,6 @@ mod tests {
                     break;
                 }
             }
-            while m.event_update(&mut vars, t).unwrap() {}
             m.me_outputs(&mut vars, t);
             out.push(OUTPUTS.iter().map(|v| vars[*v as usize]).collect());
             inputs_at(t, &mut vars);
@@ -546,6 +750,47 @@ mod tests {
             let bound = [1e-9, 1e-5, 1e-3, 1e-5, 1e-6, 1e-6, 1e-6];
             for (k, (dk, bk)) in d.iter().zip(bound).enumerate() {
                 assert!(*dk < bk, "{:?}: {dk:e} >= {bk:e}", OUTPUTS[k]);
+            }
+        }
+    }
+
+    /// A set point ramping at 400 rad/s from 0.05 s (the motor follows it, below the speed
+    /// limit), F_load stepping at 0.2 s.
+    fn ramp_at(t: f64, vars: &mut [f64]) {
+        vars[V::THETA_MOTOR_REF as usize] = 400.0 * (t - 0.05).max(0.0);
+        vars[V::F_LOAD as usize] = if t < 0.2 { 0.0 } else { 20.0 };
+    }
+
+    /// A sample at a communication point is taken at the start of the step from there, with
+    /// the inputs set there, in Co-Simulation as in Model Exchange (the time event sees the
+    /// inputs at its instant), so a moving set point gives the same trace in both: communication
+    /// steps of 1 ms (every end a sample), 0.25 ms (every fourth), 2.5 ms (samples inside the
+    /// steps held at the step's input, as Model Exchange holding its inputs between the same
+    /// points) and 1 ms points a rounding before or after the samples (summed, or moved by
+    /// 1e-13 relative): each counts as on the sample.
+    /// Taking the sample at the end of the step with that step's input lagged the set point
+    /// by one sample: theta_motor 0.38 rad and omega_motor 3.5 rad/s apart at 1 ms steps.
+    #[test]
+    fn cs_takes_a_sample_at_a_communication_point_with_the_new_inputs() {
+        for (h, points) in [
+            (1e-3f64, Points::Exact),
+            (2.5e-4, Points::Exact),
+            (2.5e-3, Points::Exact),
+            (1e-3, Points::Summed),
+            (1e-3, Points::Skewed(-1e-13)),
+            (1e-3, Points::Skewed(1e-13)),
+        ] {
+            let n = (0.4 / h).round() as usize;
+            let cs = run_cs_with(&[], 1e-8, n, h, ramp_at, points);
+            let me = run_me_with(&[], 1e-8, n, h, ramp_at);
+            let d = max_diff(&cs, &me);
+            eprintln!("h {h:e} {points:?}: max |ME - CS| {OUTPUTS:?} = {d:?}");
+            // the run moves: the motor follows the set point (140 rad at the end) with the P
+            // law's lag of 400 / 8.75 = 46 rad
+            assert!(cs[n - 1][1] > 80.0, "{}", cs[n - 1][1]);
+            let bound = [1e-9, 1e-5, 1e-3, 1e-5, 1e-6, 1e-6, 1e-6];
+            for (k, (dk, bk)) in d.iter().zip(bound).enumerate() {
+                assert!(*dk < bk, "h {h}: {:?}: {dk:e} >= {bk:e}", OUTPUTS[k]);
             }
         }
     }

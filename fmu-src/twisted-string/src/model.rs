@@ -355,9 +355,16 @@ impl Model for TwistedString {
         let clock = SampleClock::new(self.t0, ts);
         let p_start = self.y[ix::P];
         let mut tc = t;
-        loop {
+        while tc < t_end {
             if let (true, Some(clock)) = (self.par.internal_controller, clock) {
-                // process every sample instant reached (k*Ts <= tc within the clock's tolerance)
+                // The samples due at tc: at the start of the step those at (or, within the
+                // clock's tolerance, just after) the communication point t, with the inputs the
+                // importer set at t (FMI 2.0.4 section 4.2.1: inputs set before fmi2DoStep hold
+                // at t); inside the step the one the integration stopped at, with the inputs
+                // held over the step. A sample at the end t + h is not taken here: it belongs
+                // to the next step, which starts at that communication point with its inputs,
+                // so the outputs at t + h show the set point before that sample (the left limit
+                // a Model Exchange importer sees there before its time event).
                 while clock.is_due(self.pos.next_sample, tc) {
                     // A new speed set point is a jump of the speed-loop error: restart the
                     // step-size selection there (see the comment at the top of do_step).
@@ -366,9 +373,8 @@ impl Model for TwistedString {
                     }
                 }
             }
-            if tc >= t_end {
-                break;
-            }
+            // integrate to the next sample strictly inside the step, else to t_end (a sample
+            // within the clock's tolerance of t_end counts as at t_end: `stop_before`)
             let t_next = match (self.par.internal_controller, clock) {
                 (true, Some(clock)) => clock.stop_before(self.pos.next_sample, t_end).0,
                 _ => t_end,
@@ -424,11 +430,21 @@ mod tests {
         m.initialize(&mut vars, 0.0).unwrap();
         vars[V::THETA_MOTOR_REF as usize] = 600.0;
         run(&mut m, &mut vars, 0.0, 0.3, 1e-3);
+        // saved at a communication point whose sample is still due (the step from 0.3 takes
+        // it with the set point set for that step, here a new one)
         let bytes = bincode::serialize(&m).unwrap();
+        let omega_ref = vars[V::OMEGA_REF as usize];
+        vars[V::THETA_MOTOR_REF as usize] = 0.0;
         let mut vars2 = vars.clone();
         run(&mut m, &mut vars, 0.3, 0.5, 1e-3);
         let mut m2: TwistedString = bincode::deserialize(&bytes).unwrap();
-        run(&mut m2, &mut vars2, 0.3, 0.5, 1e-3);
+        m2.do_step(&mut vars2, 0.3, 1e-3).unwrap();
+        // the sample at 0.3 acted on the new set point: the motor now turns back
+        assert!(
+            vars2[V::OMEGA_REF as usize] < 0.0 && omega_ref > 0.0,
+            "{omega_ref}"
+        );
+        run(&mut m2, &mut vars2, 0.301, 0.5, 1e-3);
         for (a, b) in vars.iter().zip(&vars2) {
             assert_eq!(a.to_bits(), b.to_bits());
         }

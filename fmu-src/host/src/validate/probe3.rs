@@ -66,6 +66,11 @@ fn finding3(check: &str, loc: impl Into<String>, message: impl Into<String>) -> 
     f
 }
 
+/// [`finding3`] as the shared Model Exchange checks take it.
+fn me_finding3(check: &str, loc: String, message: String) -> Finding {
+    finding3(check, loc, message)
+}
+
 fn initialize(inst: &mut Instance3<'_>, t0: f64) -> Result<(), HostError> {
     inst.enter_initialization_mode(None, t0, None)?;
     inst.exit_initialization_mode()?;
@@ -386,45 +391,26 @@ pub fn probe3_me(fmu: &Fmu3, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding>
         .unwrap_or_default();
     let t0 = de.start_time.unwrap_or(0.0);
     let mut f = Vec::new();
-    if !step("fmi3-me-normal-run") {
-        return f;
-    }
-    let normal = (|| -> Result<(), String> {
+    let normal = || -> Result<(), String> {
         let s = |e: HostError| e.to_string();
         let mut inst = fmu.instantiate("probe").map_err(s)?;
         initialize(&mut inst, t0).map_err(s)?;
-        let mut me = Fmi3Me::new(&mut inst).map_err(s)?;
-        me_sequence(&mut me, t0)?;
-        drop(me);
-        inst.terminate().map_err(s)?;
-        Ok(())
-    })();
-    if let Err(e) = normal {
-        let m = format!(
-            "instantiate (Model Exchange), initialize, event iteration, Continuous-Time Mode, \
-             derivatives, 3 Euler steps, terminate failed: {e}"
-        );
-        f.push(finding3("probe-normal-run", "probe fmi3-me-normal-run", m));
+        me_sequence(&mut Fmi3Me::new(&mut inst).map_err(s)?, t0)?;
+        inst.terminate().map(drop).map_err(s)
+    };
+    if !me_checks::normal_case("fmi3-me-normal-run", step, &mut f, me_finding3, normal) {
         return f;
     }
     let h = event_search_step(t0, de.stop_time);
     let mut check =
         |name: &str, check: &str, run: &mut dyn FnMut(&mut Instance3<'_>, Reached) -> Verdict| {
-            if !step(name) {
-                return;
-            }
-            let result = (|| -> Verdict {
+            me_checks::check_case((name, check), step, &mut f, me_finding3, || {
                 let s = |e: HostError| e.to_string();
                 let mut inst = fmu.instantiate("probe").map_err(s)?;
                 initialize(&mut inst, t0).map_err(s)?;
                 let t = me_sequence(&mut Fmi3Me::new(&mut inst).map_err(s)?, t0)?;
                 run(&mut inst, t)
-            })();
-            match result {
-                Ok(None) => {}
-                Ok(Some(m)) => f.push(finding3(check, format!("probe {name}"), m)),
-                Err(e) => f.push(finding3("probe-normal-run", format!("probe {name}"), e)),
-            }
+            });
         };
     check(
         "fmi3-me-directional-derivatives",
