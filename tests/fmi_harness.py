@@ -3,6 +3,8 @@ message, and raw calls that return the status instead of raising."""
 import ctypes
 from ctypes import byref, c_char, c_double, c_int, c_size_t, c_uint, c_void_p, POINTER
 
+import numpy as np
+import pytest
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import (
     FMU2Slave,
@@ -131,3 +133,92 @@ class Harness:
         if self.component:
             self.slave._functions["fmi2FreeInstance"](self.component)
             self.component = None
+
+
+# ---- Model Exchange checks shared by the models' tests (`me`: test_model_exchange.Me) --------
+def jacobian_and_central_differences(me, ders, states, nom, x):
+    """At the states `x`: d(der x)/dx column by column from fmi2GetDirectionalDerivative, and a
+    central difference of fmi2GetDerivatives with step 1e-6 of the state's magnitude or nominal
+    `nom` (the independent reference the analytic Jacobian is held to). The states are restored
+    after each column."""
+    assert me.set_states(x) == OK
+    jac, fd = np.zeros((len(ders), len(states))), np.zeros((len(ders), len(states)))
+    for j, name in enumerate(states):
+        s, jac[:, j] = me.directional(ders, [name], [1.0])
+        assert s == OK, me.last_error()
+        h = 1e-6 * max(abs(x[j]), nom[j])
+        f = []
+        for sign in (1, -1):
+            xs = list(x)
+            xs[j] += sign * h
+            assert me.set_states(xs) == OK
+            f.append(np.array(me.array("GetDerivatives")[1]))
+        fd[:, j] = (f[0] - f[1]) / (2 * h)
+        assert me.set_states(x) == OK
+    return jac, fd
+
+
+def scaled_jacobian_error(jac, fd, nom):
+    """|J_ij - FD_ij| nominal_j relative to the row's largest |J_ij| nominal_j (an entry is
+    judged against the size of the terms that make up its derivative)."""
+    scaled = np.abs(jac) * nom
+    return np.abs(jac - fd) * nom / (scaled.max(axis=1, keepdims=True) + 1e-300)
+
+
+def perturbations_moving_derivatives(me, x, states, inputs, deps, nom):
+    """At the states `x`, moves each state (by 1e-3 of its magnitude or nominal) and each input
+    (by 0.5) in turn and asserts that only the derivatives listing it in <Derivatives>
+    (`deps[k]`, names) change, to the bit; restores each. Returns how many derivatives moved
+    (a count the caller checks, so that the check is not vacuous)."""
+    moved = 0
+    assert me.set_states(x) == OK
+    _, base = me.array("GetDerivatives")
+    for j, name in enumerate(states + inputs):
+        if j < len(states):
+            xs = list(x)
+            xs[j] += 1e-3 * max(abs(x[j]), nom[j])
+            assert me.set_states(xs) == OK
+        else:
+            _, (old,) = me.get_real([name])
+            assert me.set_real([name], [old + 0.5]) == OK
+        _, now = me.array("GetDerivatives")
+        for k, (a, b) in enumerate(zip(base, now)):
+            assert a == b or name in deps[k], (me.md.derivatives[k].variable.name, name)
+            moved += a != b
+        assert me.set_states(x) == OK
+        if j >= len(states):
+            assert me.set_real([name], [old]) == OK
+    return moved
+
+
+def event_trace(me, names, k0, n, states_at, time_at):
+    """At each sample k of k0 .. k0 + n - 1: the states `states_at(k)` and time `time_at(k)` set,
+    an event iteration announcing the next sample at `time_at(k + 1)`, then the outputs `names`
+    and the derivatives in Continuous-Time Mode. Returns one row per sample."""
+    trace = []
+    for k in range(k0, k0 + n):
+        assert me.set_states(states_at(k)) == OK
+        assert me.call("SetTime", c_double(time_at(k))) == OK
+        assert me.call("EnterEventMode") == OK
+        s, info = me.new_discrete_states()
+        assert s == OK and info.nextEventTime == pytest.approx(time_at(k + 1), rel=1e-12)
+        assert me.call("EnterContinuousTimeMode") == OK
+        trace.append(me.get_real(names)[1] + me.array("GetDerivatives")[1])
+    return trace
+
+
+def fmu_state_replays(me, run):
+    """Runs `run(1, 2)`, saves the FMU state (and a serialized copy), runs `run(3, 3)`, then
+    restores the state, and then the deserialized copy, and asserts each time that `run(3, 3)`
+    gives the same bits. Returns the first trace of `run(3, 3)`."""
+    run(1, 2)
+    s, state = me.get_state()
+    assert s == OK
+    data = me.serialize(state)
+    first = run(3, 3)
+    assert me.call("SetFMUstate", state) == OK
+    assert run(3, 3) == first
+    s, restored = me.deserialize(data)
+    assert s == OK and me.call("SetFMUstate", restored) == OK
+    assert run(3, 3) == first
+    return first

@@ -16,7 +16,14 @@ import pytest
 from fmpy import extract, read_model_description, simulate_fmu
 
 from conftest import fmu_path
-from fmi_harness import OK
+from fmi_harness import (
+    OK,
+    event_trace,
+    fmu_state_replays,
+    jacobian_and_central_differences,
+    perturbations_moving_derivatives,
+    scaled_jacobian_error,
+)
 from test_model_exchange import Me
 
 sys.path.insert(0, str(Path(__file__).parent / "reference"))
@@ -179,23 +186,9 @@ def test_directional_derivatives_match_central_differences(me):
     nom = np.array(nom)
     _, rest = me.array("GetContinuousStates")
     for point, x in {"rest": rest, **POINTS}.items():
-        assert me.set_states(x) == OK
-        jac = np.zeros((18, 18))
-        fd = np.zeros((18, 18))
-        for j, name in enumerate(states):
-            s, jac[:, j] = me.directional(ders, [name], [1.0])
-            assert s == OK, me.last_error()
-            h = 1e-6 * max(abs(x[j]), nom[j])
-            f = []
-            for sign in (1, -1):
-                xs = list(x)
-                xs[j] += sign * h
-                assert me.set_states(xs) == OK
-                f.append(np.array(me.array("GetDerivatives")[1]))
-            fd[:, j] = (f[0] - f[1]) / (2 * h)
-            assert me.set_states(x) == OK
-        scaled = np.abs(jac) * nom
-        err = np.abs(jac - fd) * nom / (scaled.max(axis=1, keepdims=True) + 1e-300)
+        jac, fd = jacobian_and_central_differences(me, ders, states, nom, x)
+        assert jac.shape == (18, 18)
+        err = scaled_jacobian_error(jac, fd, nom)
         assert err.max() < 1e-6, (point, np.unravel_index(np.argmax(err), err.shape), err.max())
         assert np.count_nonzero(jac) > 50  # not vacuous
     _, (dw,) = me.directional(["der(omega)"], ["tau_ext"], [1.0])
@@ -209,28 +202,12 @@ def test_fmu_state_keeps_the_controller(me):
     names = [u.variable.name for u in me.md.outputs]
 
     def ticks(k0, n):
-        trace = []
-        for k in range(k0, k0 + n):
-            x = [v * (1 + 0.01 * k) for v in POINTS["moving"]]
-            assert me.set_states(x) == OK
-            assert me.call("SetTime", c_double(k / 40.0)) == OK
-            assert me.call("EnterEventMode") == OK
-            s, info = me.new_discrete_states()
-            assert s == OK and info.nextEventTime == pytest.approx((k + 1) / 40.0, rel=1e-12)
-            assert me.call("EnterContinuousTimeMode") == OK
-            trace.append(me.get_real(names)[1] + me.array("GetDerivatives")[1])
-        return trace
+        # a new state each tick, the controller's period 1/40 s apart
+        moving = POINTS["moving"]
+        return event_trace(me, names, k0, n, lambda k: [v * (1 + 0.01 * k) for v in moving],
+                           lambda k: k / 40.0)
 
-    ticks(1, 2)
-    s, state = me.get_state()
-    assert s == OK
-    data = me.serialize(state)
-    first = ticks(3, 3)
-    assert me.call("SetFMUstate", state) == OK
-    assert ticks(3, 3) == first
-    s, restored = me.deserialize(data)
-    assert s == OK and me.call("SetFMUstate", restored) == OK
-    assert ticks(3, 3) == first
+    first = fmu_state_replays(me, ticks)
     u = names.index("u_valve_left")
     assert len({row[u] for row in first}) == 3  # the controller acted at each tick
 
@@ -248,27 +225,10 @@ def test_derivative_dependencies_hold(me, setting):
     reals, booleans = setting
     me.start({"tau_ext": 1.0, **reals}, booleans)
     md = me.md
-    moved = 0
     states = [d.variable.derivative.name for d in md.derivatives]
     deps = [{d.name for d in u.dependencies} for u in md.derivatives]
     inputs = [v.name for v in md.modelVariables if v.causality == "input"]
     _, nom = me.array("GetNominalsOfContinuousStates")
-    for x in POINTS.values():
-        assert me.set_states(x) == OK
-        _, base = me.array("GetDerivatives")
-        for j, name in enumerate(states + inputs):
-            if j < len(states):
-                xs = list(x)
-                xs[j] += 1e-3 * max(abs(x[j]), nom[j])
-                assert me.set_states(xs) == OK
-            else:
-                _, (old,) = me.get_real([name])
-                assert me.set_real([name], [old + 0.5]) == OK
-            _, now = me.array("GetDerivatives")
-            for k, (a, b) in enumerate(zip(base, now)):
-                assert a == b or name in deps[k], (md.derivatives[k].variable.name, name)
-                moved += a != b
-            assert me.set_states(x) == OK
-            if j >= len(states):
-                assert me.set_real([name], [old]) == OK
+    moved = sum(perturbations_moving_derivatives(me, x, states, inputs, deps, nom)
+                for x in POINTS.values())
     assert moved > 40  # not vacuous: the perturbations move the derivatives they list

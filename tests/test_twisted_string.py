@@ -16,7 +16,16 @@ import pytest
 from fmpy import read_model_description, simulate_fmu
 
 from conftest import fmu3_path, fmu_path
-from fmi_harness import ERROR, OK, Harness
+from fmi_harness import (
+    ERROR,
+    OK,
+    Harness,
+    event_trace,
+    fmu_state_replays,
+    jacobian_and_central_differences,
+    perturbations_moving_derivatives,
+    scaled_jacobian_error,
+)
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "reference"))
@@ -669,22 +678,9 @@ def test_directional_derivatives_match_central_differences(me_fmu, internal):
     points = {"rest": rest, "twisting": taut_point(600.0, 300.0, 0.4),
               "untwisting": taut_point(1500.0, -200.0, -0.3)}
     for point, x in points.items():
-        assert me.set_states(x) == OK
-        jac, fd = np.zeros((13, 13)), np.zeros((13, 13))
-        for j, name in enumerate(states):
-            s, jac[:, j] = me.directional(ders, [name], [1.0])
-            assert s == OK, me.last_error()
-            h = 1e-6 * max(abs(x[j]), nom[j])
-            f = []
-            for sign in (1, -1):
-                xs = list(x)
-                xs[j] += sign * h
-                assert me.set_states(xs) == OK
-                f.append(np.array(me.array("GetDerivatives")[1]))
-            fd[:, j] = (f[0] - f[1]) / (2 * h)
-            assert me.set_states(x) == OK
-        scaled = np.abs(jac) * nom
-        err = np.abs(jac - fd) * nom / (scaled.max(axis=1, keepdims=True) + 1e-300)
+        jac, fd = jacobian_and_central_differences(me, ders, states, nom, x)
+        assert jac.shape == (13, 13)
+        err = scaled_jacobian_error(jac, fd, nom)
         assert err.max() < 1e-6, (point, np.unravel_index(np.argmax(err), err.shape), err.max())
         assert np.count_nonzero(jac) > 25  # not vacuous
     m = float(VARS["load_mass"].start)
@@ -713,25 +709,9 @@ def test_derivative_dependencies_hold(me_fmu, setting):
     inputs = [v.name for v in md.modelVariables if v.causality == "input"]
     _, nom = me.array("GetNominalsOfContinuousStates")
     _, rest = me.array("GetContinuousStates")
-    moved = 0
-    for x in (rest, taut_point(600.0, 300.0, 0.4), taut_point(1500.0, -200.0, -0.3)):
-        assert me.set_states(x) == OK
-        _, base = me.array("GetDerivatives")
-        for j, name in enumerate(states + inputs):
-            if j < len(states):
-                xs = list(x)
-                xs[j] += 1e-3 * max(abs(x[j]), nom[j])
-                assert me.set_states(xs) == OK
-            else:
-                _, (old,) = me.get_real([name])
-                assert me.set_real([name], [old + 0.5]) == OK
-            _, now = me.array("GetDerivatives")
-            for k, (a, b) in enumerate(zip(base, now)):
-                assert a == b or name in deps[k], (md.derivatives[k].variable.name, name)
-                moved += a != b
-            assert me.set_states(x) == OK
-            if j >= len(states):
-                assert me.set_real([name], [old]) == OK
+    points = (rest, taut_point(600.0, 300.0, 0.4), taut_point(1500.0, -200.0, -0.3))
+    moved = sum(perturbations_moving_derivatives(me, x, states, inputs, deps, nom)
+                for x in points)
     assert moved > 40  # not vacuous: the perturbations move the derivatives they list
 
 
@@ -744,29 +724,14 @@ def test_fmu_state_keeps_the_position_loop(me_fmu):
     names = [u.variable.name for u in me.md.outputs]
     moving = taut_point(590.0, 300.0, 0.4)
 
-    def samples(k0, n):
-        trace = []
-        for k in range(k0, k0 + n):
-            x = list(moving)
-            x[1] += 0.5 * k  # the motor advances 0.5 rad per sample: a new encoder angle each
-            assert me.set_states(x) == OK
-            assert me.call("SetTime", c_double(k * 1e-3)) == OK
-            assert me.call("EnterEventMode") == OK
-            s, info = me.new_discrete_states()
-            assert s == OK and info.nextEventTime == pytest.approx((k + 1) * 1e-3, rel=1e-12)
-            assert me.call("EnterContinuousTimeMode") == OK
-            trace.append(me.get_real(names)[1] + me.array("GetDerivatives")[1])
-        return trace
+    def state_at(k):
+        x = list(moving)
+        x[1] += 0.5 * k  # the motor advances 0.5 rad per sample: a new encoder angle each
+        return x
 
-    samples(1, 2)
-    s, state = me.get_state()
-    assert s == OK
-    data = me.serialize(state)
-    first = samples(3, 3)
-    assert me.call("SetFMUstate", state) == OK
-    assert samples(3, 3) == first
-    s, restored = me.deserialize(data)
-    assert s == OK and me.call("SetFMUstate", restored) == OK
-    assert samples(3, 3) == first
+    def samples(k0, n):
+        return event_trace(me, names, k0, n, state_at, lambda k: k * 1e-3)
+
+    first = fmu_state_replays(me, samples)
     w = names.index("omega_ref")
     assert len({row[w] for row in first}) == 3  # the position loop acted at each sample

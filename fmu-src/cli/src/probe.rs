@@ -57,36 +57,22 @@ fn probe_fmi3(a: &Args) -> Vec<Finding> {
         Some(md) => (md.co_simulation.is_some(), md.model_exchange.is_some()),
         None => (false, false),
     };
-    let mut findings = Vec::new();
-    let mut step = |name: &str| {
-        if a.skip.iter().any(|s| s == name) {
-            false
-        } else {
-            announce(name);
-            true
-        }
-    };
-    for (declared, interface) in [
-        (cs, Interface::CoSimulation),
-        (me, Interface::ModelExchange),
-    ] {
-        if !declared {
-            continue;
-        }
-        match host::fmi3::Fmu3::open_with(&a.fmu, Some(interface)) {
+    probe_declared(
+        a,
+        (cs, me),
+        |interface, step| match host::fmi3::Fmu3::open_with(&a.fmu, Some(interface)) {
             Err(e) => {
                 let m = format!("{interface}: {e}");
                 let mut f = Finding::new("binary", a.fmu.display().to_string(), m);
                 f.clause = host::validate::fmi3::classify3("binary").to_string();
-                findings.push(f);
+                vec![f]
             }
-            Ok(fmu) => findings.extend(match interface {
-                Interface::CoSimulation => host::validate::probe3(&fmu, &mut step),
-                Interface::ModelExchange => host::validate::probe3_me(&fmu, &mut step),
-            }),
-        }
-    }
-    findings
+            Ok(fmu) => match interface {
+                Interface::CoSimulation => host::validate::probe3(&fmu, step),
+                Interface::ModelExchange => host::validate::probe3_me(&fmu, step),
+            },
+        },
+    )
 }
 
 /// The binary's exports and the FMI 2.0 probes.
@@ -117,6 +103,37 @@ fn probe_fmi2(a: &Args) -> Vec<Finding> {
 /// The Co-Simulation probe when the FMU declares Co-Simulation, the Model Exchange probe when it
 /// declares Model Exchange, each on the FMU opened with that interface.
 fn probe_interfaces(a: &Args, cs: bool, me: bool) -> Vec<Finding> {
+    probe_declared(a, (cs, me), |interface, step| {
+        let opts = OpenOptions {
+            interface: Some(interface),
+            ..OpenOptions::default()
+        };
+        match Fmu::open_with(&a.fmu, &opts) {
+            Err(e) => vec![Finding::new(
+                "binary",
+                a.fmu.display().to_string(),
+                match interface {
+                    Interface::CoSimulation => e.to_string(),
+                    Interface::ModelExchange => format!("{interface}: {e}"),
+                },
+            )],
+            Ok(fmu) => match interface {
+                Interface::CoSimulation => probe(&fmu, step),
+                Interface::ModelExchange => probe_me(&fmu, step),
+            },
+        }
+    })
+}
+
+/// `probe_one` for each interface the FMU declares, Co-Simulation first (the order of the case
+/// lists), with a `step` that announces each case before it runs (so that a crash can be
+/// attributed) and skips the cases of `--skip` (they crashed in an earlier attempt). The FMI
+/// 2.0 and 3.0 probes differ only in how they open the FMU and which probe they call.
+fn probe_declared(
+    a: &Args,
+    (cs, me): (bool, bool),
+    probe_one: impl Fn(Interface, &mut dyn FnMut(&str) -> bool) -> Vec<Finding>,
+) -> Vec<Finding> {
     let mut findings = Vec::new();
     let mut step = |name: &str| {
         if a.skip.iter().any(|s| s == name) {
@@ -130,26 +147,8 @@ fn probe_interfaces(a: &Args, cs: bool, me: bool) -> Vec<Finding> {
         (cs, Interface::CoSimulation),
         (me, Interface::ModelExchange),
     ] {
-        if !declared {
-            continue;
-        }
-        let opts = OpenOptions {
-            interface: Some(interface),
-            ..OpenOptions::default()
-        };
-        match Fmu::open_with(&a.fmu, &opts) {
-            Err(e) => findings.push(Finding::new(
-                "binary",
-                a.fmu.display().to_string(),
-                match interface {
-                    Interface::CoSimulation => e.to_string(),
-                    Interface::ModelExchange => format!("{interface}: {e}"),
-                },
-            )),
-            Ok(fmu) => findings.extend(match interface {
-                Interface::CoSimulation => probe(&fmu, &mut step),
-                Interface::ModelExchange => probe_me(&fmu, &mut step),
-            }),
+        if declared {
+            findings.extend(probe_one(interface, &mut step));
         }
     }
     findings

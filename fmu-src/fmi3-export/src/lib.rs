@@ -317,7 +317,10 @@ macro_rules! export_fmi3 {
                 k: *const Fmi3ValueReference, nk: usize, seed: *const Fmi3Float64,
                 ns: usize, sens: *mut Fmi3Float64, nsens: usize,
             ) -> Fmi3Status {
-                get_directional_derivative::<M>(c, u, nu, k, nk, seed, ns, sens, nsens)
+                let raw = RawDerivativeArgs {
+                    unknowns: (u, nu), knowns: (k, nk), seed: (seed, ns), sensitivity: (sens, nsens),
+                };
+                get_directional_derivative::<M>(c, raw)
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi3GetAdjointDerivative(
@@ -325,7 +328,10 @@ macro_rules! export_fmi3 {
                 k: *const Fmi3ValueReference, nk: usize, seed: *const Fmi3Float64,
                 ns: usize, sens: *mut Fmi3Float64, nsens: usize,
             ) -> Fmi3Status {
-                get_adjoint_derivative::<M>(c, u, nu, k, nk, seed, ns, sens, nsens)
+                let raw = RawDerivativeArgs {
+                    unknowns: (u, nu), knowns: (k, nk), seed: (seed, ns), sensitivity: (sens, nsens),
+                };
+                get_adjoint_derivative::<M>(c, raw)
             }
 
             // ---- configuration mode: no structural parameters

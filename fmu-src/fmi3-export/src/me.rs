@@ -286,21 +286,45 @@ struct DerivativeArgs<'a> {
     sensitivity: &'a mut [f64],
 }
 
-/// Convert and check the arrays; `seed_len`/`sensitivity_len` are the lengths the call needs.
-#[allow(clippy::too_many_arguments)]
+/// The arrays of `fmi3GetDirectionalDerivative` and `fmi3GetAdjointDerivative` as the importer
+/// passed them, pointer and length each (one argument for the two calls' common signature).
+pub struct RawDerivativeArgs {
+    pub unknowns: (*const Fmi3ValueReference, usize),
+    pub knowns: (*const Fmi3ValueReference, usize),
+    pub seed: (*const Fmi3Float64, usize),
+    pub sensitivity: (*mut Fmi3Float64, usize),
+}
+
+/// What `fmi3GetDirectionalDerivative` and `fmi3GetAdjointDerivative` share: the state check,
+/// then the arrays converted and checked ([`derivative_args`]), then `body` on them.
+unsafe fn derivative_call<M: Model>(
+    c: Fmi3Instance,
+    func: &'static str,
+    raw: RawDerivativeArgs,
+    adjoint: bool,
+    body: impl FnOnce(&mut Component<M>, DerivativeArgs<'_>) -> Status,
+) -> Fmi3Status {
+    either_interface::<M>(
+        c,
+        func,
+        allowed::DIRECTIONAL_DERIVATIVE,
+        |comp| match derivative_args(comp, func, raw, adjoint) {
+            Ok(args) => body(comp, args),
+            Err(s) => s,
+        },
+    )
+}
+
+/// Convert and check the arrays: the adjoint seeds the unknowns and gives one sensitivity per
+/// known, the directional derivative the other way round.
 unsafe fn derivative_args<'a, M: Model>(
     comp: &mut Component<M>,
     func: &str,
-    unknowns: *const Fmi3ValueReference,
-    n_unknowns: usize,
-    knowns: *const Fmi3ValueReference,
-    n_knowns: usize,
-    seed: *const Fmi3Float64,
-    n_seed: usize,
-    sensitivity: *mut Fmi3Float64,
-    n_sensitivity: usize,
+    raw: RawDerivativeArgs,
     adjoint: bool,
 ) -> Result<DerivativeArgs<'a>, Status> {
+    let ((unknowns, n_unknowns), (knowns, n_knowns)) = (raw.unknowns, raw.knowns);
+    let ((seed, n_seed), (sensitivity, n_sensitivity)) = (raw.seed, raw.sensitivity);
     let (seed_len, sensitivity_len) = if adjoint {
         (n_unknowns, n_knowns)
     } else {
@@ -339,36 +363,12 @@ unsafe fn derivative_args<'a, M: Model>(
 /// FMI 3.0.2 section 2.4.8), section 3.2.4; the instance's directional derivative (the model's
 /// analytic Jacobian for derivatives with respect to states, differences of the model's
 /// evaluation for the other knowns).
-#[allow(clippy::too_many_arguments)]
 pub unsafe fn get_directional_derivative<M: Model>(
     c: Fmi3Instance,
-    unknowns: *const Fmi3ValueReference,
-    n_unknowns: usize,
-    knowns: *const Fmi3ValueReference,
-    n_knowns: usize,
-    seed: *const Fmi3Float64,
-    n_seed: usize,
-    sensitivity: *mut Fmi3Float64,
-    n_sensitivity: usize,
+    raw: RawDerivativeArgs,
 ) -> Fmi3Status {
     const F: &str = "fmi3GetDirectionalDerivative";
-    either_interface::<M>(c, F, allowed::DIRECTIONAL_DERIVATIVE, |comp| {
-        let args = match derivative_args(
-            comp,
-            F,
-            unknowns,
-            n_unknowns,
-            knowns,
-            n_knowns,
-            seed,
-            n_seed,
-            sensitivity,
-            n_sensitivity,
-            false,
-        ) {
-            Ok(a) => a,
-            Err(s) => return s,
-        };
+    derivative_call::<M>(c, F, raw, false, |comp, args| {
         comp.instance.directional_derivative(
             F,
             Knowns::WithParameters,
@@ -382,36 +382,12 @@ pub unsafe fn get_directional_derivative<M: Model>(
 /// `sensitivity_j = sum_i seed_i J_ij` (the instance evaluates the model's state Jacobian once
 /// for all columns and keeps it while the point does not change). Nothing is written unless
 /// every column succeeds.
-#[allow(clippy::too_many_arguments)]
 pub unsafe fn get_adjoint_derivative<M: Model>(
     c: Fmi3Instance,
-    unknowns: *const Fmi3ValueReference,
-    n_unknowns: usize,
-    knowns: *const Fmi3ValueReference,
-    n_knowns: usize,
-    seed: *const Fmi3Float64,
-    n_seed: usize,
-    sensitivity: *mut Fmi3Float64,
-    n_sensitivity: usize,
+    raw: RawDerivativeArgs,
 ) -> Fmi3Status {
     const F: &str = "fmi3GetAdjointDerivative";
-    either_interface::<M>(c, F, allowed::DIRECTIONAL_DERIVATIVE, |comp| {
-        let args = match derivative_args(
-            comp,
-            F,
-            unknowns,
-            n_unknowns,
-            knowns,
-            n_knowns,
-            seed,
-            n_seed,
-            sensitivity,
-            n_sensitivity,
-            true,
-        ) {
-            Ok(a) => a,
-            Err(s) => return s,
-        };
+    derivative_call::<M>(c, F, raw, true, |comp, args| {
         if let Some(v) = args.seed.iter().find(|v| !v.is_finite()) {
             return comp
                 .instance

@@ -6,6 +6,7 @@
 //! Each check returns `Ok(None)` when the FMU does what the standard says, `Ok(Some(message))`
 //! with what it did instead, and `Err` when a call the standard allows failed.
 
+use super::Finding;
 use crate::error::HostError;
 use crate::me::ModelExchange;
 
@@ -20,6 +21,53 @@ pub struct Reached {
     pub t: f64,
     /// The next time event the last event iteration announced (`nextEventTime`).
     pub next_event: Option<f64>,
+}
+
+/// The normal run of a Model Exchange probe, case `name`, when `step` lets it run: `run`
+/// instantiates, initializes, goes through the normal sequence and terminates. Whether the
+/// probe goes on: the other cases assume a working FMU, so a failing run ends it.
+pub fn normal_case(
+    name: &str,
+    step: &mut dyn FnMut(&str) -> bool,
+    f: &mut Vec<Finding>,
+    finding: fn(&str, String, String) -> Finding,
+    run: impl FnOnce() -> Result<(), String>,
+) -> bool {
+    if !step(name) {
+        return false;
+    }
+    let Err(e) = run() else {
+        return true;
+    };
+    let m = format!(
+        "instantiate (Model Exchange), initialize, event iteration, Continuous-Time Mode, \
+         derivatives, 3 Euler steps, terminate failed: {e}"
+    );
+    f.push(finding("probe-normal-run", format!("probe {name}"), m));
+    false
+}
+
+/// Check case `name` of a Model Exchange probe, when `step` lets it run (see [`super::probe`]):
+/// `run` takes a fresh instance through the normal sequence and makes the check. Its message is
+/// a finding `check`; a failing call is one of the normal run, since the check could not be
+/// made. `finding` gives the FMI version's clause (the FMI 2.0 and 3.0 probes differ only there
+/// and in how they instantiate).
+pub fn check_case(
+    (name, check): (&str, &str),
+    step: &mut dyn FnMut(&str) -> bool,
+    f: &mut Vec<Finding>,
+    finding: fn(&str, String, String) -> Finding,
+    run: impl FnOnce() -> Verdict,
+) {
+    if !step(name) {
+        return;
+    }
+    let loc = format!("probe {name}");
+    match run() {
+        Ok(None) => {}
+        Ok(Some(m)) => f.push(finding(check, loc, m)),
+        Err(e) => f.push(finding("probe-normal-run", loc, e)),
+    }
 }
 
 /// The cube root of the machine epsilon, 2^(-52/3): the relative step of a central difference

@@ -35,11 +35,7 @@ pub fn probe(fmu: &Fmu, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding> {
     let mut f = Vec::new();
     let de = md.default_experiment.clone().unwrap_or_default();
     let t0 = de.start_time.unwrap_or(0.0);
-    let h = de
-        .step_size
-        .filter(|h| *h > 0.0 && h.is_finite())
-        .unwrap_or(1e-3)
-        .min(1e-2);
+    let h = probe_step(de.step_size);
     let loc = |case: &str| format!("probe {case}");
 
     let init = |inst: &mut Instance<'_>| -> Result<(), HostError> {
@@ -172,13 +168,7 @@ pub fn probe(fmu: &Fmu, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding> {
         false,
         &mut |i| i.do_step(t0 + 100.0 * h + 1.0, h, true),
     );
-    let unknown_vr = md
-        .model_variables
-        .iter()
-        .map(|v| v.value_reference)
-        .max()
-        .unwrap_or(0)
-        .saturating_add(1000);
+    let unknown_vr = unknown_value_reference(md.model_variables.iter().map(|v| v.value_reference));
     case(
         "unknown-value-reference",
         &format!("fmi2GetReal of unknown valueReference {unknown_vr}"),
@@ -266,6 +256,20 @@ pub fn probe(fmu: &Fmu, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding> {
         },
     );
     f
+}
+
+/// The communication step of the Co-Simulation probes: the default experiment's step size when
+/// it is a positive number (1 ms otherwise), at most 10 ms so that 10 steps stay near the start.
+pub(super) fn probe_step(step_size: Option<f64>) -> f64 {
+    step_size
+        .filter(|h| *h > 0.0 && h.is_finite())
+        .unwrap_or(1e-3)
+        .min(1e-2)
+}
+
+/// A value reference no variable has: 1000 above the largest (0 without variables).
+pub(super) fn unknown_value_reference(vrs: impl Iterator<Item = u32>) -> u32 {
+    vrs.max().unwrap_or(0).saturating_add(1000)
 }
 
 /// Steps 5 times, saves the state, steps 5 more and records the Real outputs; restores the
@@ -360,16 +364,9 @@ pub fn probe_me(fmu: &Fmu, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding> {
         .as_ref()
         .and_then(|d| d.start_time)
         .unwrap_or(0.0);
-    let loc = |case: &str| format!("probe {case}");
-    if !step("me-normal-run") {
-        return f;
-    }
-    if let Err(e) = me_normal_run(fmu, t0) {
-        let m = format!(
-            "instantiate (Model Exchange), initialize, event iteration, Continuous-Time Mode, \
-             derivatives, 3 Euler steps, terminate failed: {e}"
-        );
-        f.push(me_finding("probe-normal-run", loc("me-normal-run"), m));
+    if !me_checks::normal_case("me-normal-run", step, &mut f, me_finding, || {
+        me_normal_run(fmu, t0)
+    }) {
         return f;
     }
     me_check_case(
@@ -391,21 +388,16 @@ pub fn probe_me(fmu: &Fmu, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding> {
         step,
         &mut |me, reached| me_checks::check_event(me, reached, h),
     );
-    if md.me_can_get_and_set_fmu_state && step("me-fmu-state") {
+    if md.me_can_get_and_set_fmu_state {
         let serialize = md.me_can_serialize_fmu_state;
-        let result = (|| -> Verdict {
+        let case = ("me-fmu-state", "probe-fmu-state");
+        me_checks::check_case(case, step, &mut f, me_finding, || {
             let s = |e: HostError| e.to_string();
             let mut inst = fmu.instantiate("probe").map_err(s)?;
             me_initialize(&mut inst, t0).map_err(s)?;
             let reached = me_sequence(&mut Fmi2Me::new(&mut inst).map_err(s)?, t0)?;
             check_fmu_state_me(&mut inst, reached.t, h, serialize)
-        })();
-        let loc = "probe me-fmu-state".to_string();
-        match result {
-            Ok(None) => {}
-            Ok(Some(m)) => f.push(me_finding("probe-fmu-state", loc, m)),
-            Err(e) => f.push(me_finding("probe-normal-run", loc, e)),
-        }
+        });
     }
     me_case(
         fmu,
@@ -464,23 +456,14 @@ fn me_check_case(
     step: &mut dyn FnMut(&str) -> bool,
     run: &mut dyn FnMut(&mut Fmi2Me<'_, '_>, Reached) -> Verdict,
 ) {
-    if !step(name) {
-        return;
-    }
-    let result = (|| -> Verdict {
+    me_checks::check_case((name, check), step, f, me_finding, || {
         let s = |e: HostError| e.to_string();
         let mut inst = fmu.instantiate("probe").map_err(s)?;
         me_initialize(&mut inst, t0).map_err(s)?;
         let mut me = Fmi2Me::new(&mut inst).map_err(s)?;
         let t = me_sequence(&mut me, t0)?;
         run(&mut me, t)
-    })();
-    let loc = format!("probe {name}");
-    match result {
-        Ok(None) => {}
-        Ok(Some(m)) => f.push(me_finding(check, loc, m)),
-        Err(e) => f.push(me_finding("probe-normal-run", loc, e)),
-    }
+    });
 }
 
 /// In Continuous-Time Mode at `t`: saves the FMU state (`fmi2GetFMUstate`), takes 5 explicit

@@ -8,7 +8,7 @@
 //! (section 2.3.1), so an error without a logged message is no finding here.
 
 use super::me_checks::{self, Reached, Verdict};
-use super::probe::{event_search_step, me_sequence};
+use super::probe::{event_search_step, me_sequence, probe_step, unknown_value_reference};
 use super::Finding;
 use crate::error::{HostError, Status};
 use crate::fmi3::ffi::FmuState3;
@@ -64,6 +64,11 @@ fn finding3(check: &str, loc: impl Into<String>, message: impl Into<String>) -> 
     let mut f = Finding::new(check, loc, message);
     f.clause = clause3(check).to_string();
     f
+}
+
+/// [`finding3`] as the shared Model Exchange checks take it.
+fn me_finding3(check: &str, loc: String, message: String) -> Finding {
+    finding3(check, loc, message)
 }
 
 fn initialize(inst: &mut Instance3<'_>, t0: f64) -> Result<(), HostError> {
@@ -196,11 +201,7 @@ pub fn probe3(fmu: &Fmu3, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding> {
     let md = fmu.model_description();
     let de = md.default_experiment.clone().unwrap_or_default();
     let t0 = de.start_time.unwrap_or(0.0);
-    let h = de
-        .step_size
-        .filter(|h| *h > 0.0 && h.is_finite())
-        .unwrap_or(1e-3)
-        .min(1e-2);
+    let h = probe_step(de.step_size);
     let mut f = Vec::new();
     if !step("fmi3-normal-run") {
         return f;
@@ -286,13 +287,7 @@ pub fn probe3(fmu: &Fmu3, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding> {
         true,
         &mut |i| i.do_step(t0 + 100.0 * h + 1.0, h, true).map(drop),
     );
-    let unknown_vr = md
-        .variables
-        .iter()
-        .map(|v| v.value_reference)
-        .max()
-        .unwrap_or(0)
-        .saturating_add(1000);
+    let unknown_vr = unknown_value_reference(md.variables.iter().map(|v| v.value_reference));
     case(
         "fmi3-unknown-value-reference",
         &format!("fmi3GetFloat64 of unknown valueReference {unknown_vr}"),
@@ -386,45 +381,26 @@ pub fn probe3_me(fmu: &Fmu3, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding>
         .unwrap_or_default();
     let t0 = de.start_time.unwrap_or(0.0);
     let mut f = Vec::new();
-    if !step("fmi3-me-normal-run") {
-        return f;
-    }
-    let normal = (|| -> Result<(), String> {
+    let normal = || -> Result<(), String> {
         let s = |e: HostError| e.to_string();
         let mut inst = fmu.instantiate("probe").map_err(s)?;
         initialize(&mut inst, t0).map_err(s)?;
-        let mut me = Fmi3Me::new(&mut inst).map_err(s)?;
-        me_sequence(&mut me, t0)?;
-        drop(me);
-        inst.terminate().map_err(s)?;
-        Ok(())
-    })();
-    if let Err(e) = normal {
-        let m = format!(
-            "instantiate (Model Exchange), initialize, event iteration, Continuous-Time Mode, \
-             derivatives, 3 Euler steps, terminate failed: {e}"
-        );
-        f.push(finding3("probe-normal-run", "probe fmi3-me-normal-run", m));
+        me_sequence(&mut Fmi3Me::new(&mut inst).map_err(s)?, t0)?;
+        inst.terminate().map(drop).map_err(s)
+    };
+    if !me_checks::normal_case("fmi3-me-normal-run", step, &mut f, me_finding3, normal) {
         return f;
     }
     let h = event_search_step(t0, de.stop_time);
     let mut check =
         |name: &str, check: &str, run: &mut dyn FnMut(&mut Instance3<'_>, Reached) -> Verdict| {
-            if !step(name) {
-                return;
-            }
-            let result = (|| -> Verdict {
+            me_checks::check_case((name, check), step, &mut f, me_finding3, || {
                 let s = |e: HostError| e.to_string();
                 let mut inst = fmu.instantiate("probe").map_err(s)?;
                 initialize(&mut inst, t0).map_err(s)?;
                 let t = me_sequence(&mut Fmi3Me::new(&mut inst).map_err(s)?, t0)?;
                 run(&mut inst, t)
-            })();
-            match result {
-                Ok(None) => {}
-                Ok(Some(m)) => f.push(finding3(check, format!("probe {name}"), m)),
-                Err(e) => f.push(finding3("probe-normal-run", format!("probe {name}"), e)),
-            }
+            });
         };
     check(
         "fmi3-me-directional-derivatives",
