@@ -16,15 +16,9 @@ import pytest
 from fmpy import extract, read_model_description, simulate_fmu
 
 from conftest import fmu_path
-from fmi_harness import (
-    OK,
-    event_trace,
-    fmu_state_replays,
-    jacobian_and_central_differences,
-    perturbations_moving_derivatives,
-    scaled_jacobian_error,
-    states_and_derivatives,
-)
+from fmi_harness import (OK, event_trace, fmu_state_replays, jacobian_and_central_differences,
+                         perturbations_moving_derivatives, scaled_jacobian_error,
+                         states_and_derivatives)
 from test_model_exchange import Me
 
 sys.path.insert(0, str(Path(__file__).parent / "reference"))

@@ -16,17 +16,9 @@ import pytest
 from fmpy import read_model_description, simulate_fmu
 
 from conftest import fmu3_path, fmu_path
-from fmi_harness import (
-    ERROR,
-    OK,
-    Harness,
-    event_trace,
-    fmu_state_replays,
-    jacobian_and_central_differences,
-    perturbations_moving_derivatives,
-    scaled_jacobian_error,
-    states_and_derivatives,
-)
+from fmi_harness import (ERROR, OK, Harness, event_trace, fmu_state_replays,
+                         jacobian_and_central_differences, perturbations_moving_derivatives,
+                         scaled_jacobian_error, states_and_derivatives)
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "reference"))
