@@ -136,6 +136,17 @@ class Harness:
 
 
 # ---- Model Exchange checks shared by the models' tests (`me`: test_model_exchange.Me) --------
+def states_and_derivatives(me):
+    """The names of the states and of their derivatives (in the order of <Derivatives>), the
+    states' nominals and their values now, once the FMU says it gives directional derivatives."""
+    assert me.md.modelExchange.providesDirectionalDerivative
+    states = [d.variable.derivative.name for d in me.md.derivatives]
+    ders = [d.variable.name for d in me.md.derivatives]
+    _, nom = me.array("GetNominalsOfContinuousStates")
+    _, x = me.array("GetContinuousStates")
+    return states, ders, np.array(nom), x
+
+
 def jacobian_and_central_differences(me, ders, states, nom, x):
     """At the states `x`: d(der x)/dx column by column from fmi2GetDirectionalDerivative, and a
     central difference of fmi2GetDerivatives with step 1e-6 of the state's magnitude or nominal

@@ -16,14 +16,9 @@ import pytest
 from fmpy import extract, read_model_description, simulate_fmu
 
 from conftest import fmu_path
-from fmi_harness import (
-    OK,
-    event_trace,
-    fmu_state_replays,
-    jacobian_and_central_differences,
-    perturbations_moving_derivatives,
-    scaled_jacobian_error,
-)
+from fmi_harness import (OK, event_trace, fmu_state_replays, jacobian_and_central_differences,
+                         perturbations_moving_derivatives, scaled_jacobian_error,
+                         states_and_derivatives)
 from test_model_exchange import Me
 
 sys.path.insert(0, str(Path(__file__).parent / "reference"))
@@ -179,12 +174,7 @@ def test_directional_derivatives_match_central_differences(me):
     form d(der(omega))/d(tau_ext) = 1/I, I = link_inertia + load_mass load_radius^2."""
     me.start({"u_left": 4.0, "u_right": -3.0, "tau_ext": 1.5},
              {"internal_controller": False, **ALL_ON})
-    assert me.md.modelExchange.providesDirectionalDerivative
-    states = [d.variable.derivative.name for d in me.md.derivatives]
-    ders = [d.variable.name for d in me.md.derivatives]
-    _, nom = me.array("GetNominalsOfContinuousStates")
-    nom = np.array(nom)
-    _, rest = me.array("GetContinuousStates")
+    states, ders, nom, rest = states_and_derivatives(me)
     for point, x in {"rest": rest, **POINTS}.items():
         jac, fd = jacobian_and_central_differences(me, ders, states, nom, x)
         assert jac.shape == (18, 18)

@@ -3,6 +3,9 @@
 //! finite differences, the event flags against what the event did to the states, and a short
 //! explicit Euler run whose states can be compared bit for bit (FMU state save/restore).
 //!
+//! The check of a restored FMU state ([`check_state_restore`]) serves the Co-Simulation probe of
+//! FMI 3.0 too.
+//!
 //! Each check returns `Ok(None)` when the FMU does what the standard says, `Ok(Some(message))`
 //! with what it did instead, and `Err` when a call the standard allows failed.
 
@@ -262,4 +265,64 @@ pub fn check_event<M: ModelExchange>(me: &mut M, from: Reached, h: f64) -> Verdi
         std::mem::swap(&mut z0, &mut z1);
     }
     Ok(None)
+}
+
+/// How one FMI version's messages name the FMU state calls.
+pub(crate) struct StateCallNames {
+    /// The call that saves a state (`fmi2GetFMUstate`).
+    pub get: &'static str,
+    /// The call that restores one (`fmi2SetFMUstate`).
+    pub set: &'static str,
+    /// Serialize, deserialize and set, as one phrase.
+    pub copy: &'static str,
+}
+
+/// The FMU state calls of one FMI version's instance, as [`check_state_restore`] uses them;
+/// a failing call is its error message.
+pub(crate) trait FmuStates {
+    /// A saved FMU state.
+    type State;
+    /// The names of the calls in this version's spelling.
+    const NAMES: StateCallNames;
+    /// Saves the instance's state.
+    fn get_state(&mut self) -> Result<Self::State, String>;
+    /// Restores `state`.
+    fn set_state(&mut self, state: &Self::State) -> Result<(), String>;
+    /// Serializes `state` and deserializes the bytes into a new state.
+    fn serialized_copy(&mut self, state: &Self::State) -> Result<Self::State, String>;
+    /// Frees `state` (a failure changes no verdict: the check is made).
+    fn free_state(&mut self, state: Self::State);
+}
+
+/// Saves the FMU state, runs `run`, restores the state and runs it again, then (if `serialize`)
+/// the same from a serialized and deserialized copy: what `run` gives (its `what`, in the
+/// messages) must be the same bits each time (FMI 2.0.4 section 2.1.8, FMI 3.0.2 section
+/// 2.2.7.4). Both states are freed.
+pub(crate) fn check_state_restore<I: FmuStates>(
+    inst: &mut I,
+    (what, serialize): (&str, bool),
+    run: &mut dyn FnMut(&mut I) -> Result<Vec<u64>, String>,
+) -> Verdict {
+    let StateCallNames { get, set, copy } = I::NAMES;
+    let saved = inst.get_state()?;
+    let result = (|| -> Verdict {
+        let first = run(inst)?;
+        inst.set_state(&saved)?;
+        if run(inst)? != first {
+            return Ok(Some(format!(
+                "after {set} the {what} differ from those after {get} (the state is not fully \
+                 restored)"
+            )));
+        }
+        if !serialize {
+            return Ok(None);
+        }
+        let restored = inst.serialized_copy(&saved)?;
+        let again = inst.set_state(&restored).and_then(|()| run(inst));
+        inst.free_state(restored);
+        Ok((again? != first)
+            .then(|| format!("after {copy} the {what} differ from those after {get}")))
+    })();
+    inst.free_state(saved);
+    result
 }

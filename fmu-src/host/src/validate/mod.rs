@@ -14,7 +14,8 @@
 //!   (the CLI does) so that a crashing FMU becomes a finding.
 //! - [`probe3`](mod@probe3): the same for FMI 3.0 Co-Simulation and Model Exchange.
 //! - [`me_checks`]: the Model Exchange checks both probes share (directional derivatives
-//!   against finite differences, the event flags at a state event, Euler runs to compare).
+//!   against finite differences, the event flags at a state event, Euler runs to compare) and
+//!   the check of a restored FMU state.
 
 pub mod binary;
 pub mod description;

@@ -1,11 +1,11 @@
 //! The runtime state-machine probe: calls in wrong states or with bad arguments, a normal run,
 //! FMU state save/restore (FMI 2.0.4 sections 2.1 and 4.2.4).
 
-use super::me_checks::{self, Reached, Verdict};
+use super::me_checks::{self, FmuStates, Reached, StateCallNames, Verdict};
 use super::Finding;
 use crate::error::{HostError, Status};
 use crate::fmu::Fmu;
-use crate::instance::Instance;
+use crate::instance::{FmuStateHandle, Instance};
 use crate::md::{Causality, ScalarVariable, StartValue, VarKind, Variability};
 use crate::me::fmi2::Fmi2Me;
 use crate::me::ModelExchange;
@@ -466,42 +466,43 @@ fn me_check_case(
     });
 }
 
-/// In Continuous-Time Mode at `t`: saves the FMU state (`fmi2GetFMUstate`), takes 5 explicit
-/// Euler steps of `h`, restores it (and, if `serialize`, a serialized and deserialized copy) and
-/// takes them again: the continuous states after each step must be bit-identical (FMI 2.0.4
-/// section 2.1.8).
+/// In Continuous-Time Mode at `t`: the continuous states after each of 5 explicit Euler steps
+/// of `h` must repeat to the bit from a restored FMU state (FMI 2.0.4 section 2.1.8).
 fn check_fmu_state_me(inst: &mut Instance<'_>, t: f64, h: f64, serialize: bool) -> Verdict {
-    let s = |e: HostError| e.to_string();
-    let me = |inst: &mut Instance<'_>| -> Result<Vec<u64>, String> {
-        me_checks::euler_run(&mut Fmi2Me::new(inst).map_err(s)?, t, h, 5)
+    let what = "continuous states of the next 5 Euler steps";
+    me_checks::check_state_restore(inst, (what, serialize), &mut |inst| {
+        let mut me = Fmi2Me::new(inst).map_err(|e| e.to_string())?;
+        me_checks::euler_run(&mut me, t, h, 5)
+    })
+}
+
+impl FmuStates for Instance<'_> {
+    type State = FmuStateHandle;
+    const NAMES: StateCallNames = StateCallNames {
+        get: "fmi2GetFMUstate",
+        set: "fmi2SetFMUstate",
+        copy: "fmi2SerializeFMUstate, fmi2DeSerializeFMUstate and fmi2SetFMUstate",
     };
-    let saved = inst.get_fmu_state().map_err(s)?;
-    let result = (|| -> Verdict {
-        let first = me(inst)?;
-        inst.set_fmu_state(&saved).map_err(s)?;
-        if me(inst)? != first {
-            return Ok(Some(
-                "after fmi2SetFMUstate the continuous states of the next 5 Euler steps differ \
-                 from those after fmi2GetFMUstate (the state is not fully restored)"
-                    .into(),
-            ));
-        }
-        if !serialize {
-            return Ok(None);
-        }
-        let bytes = inst.serialize_fmu_state(&saved).map_err(s)?;
-        let copy = inst.deserialize_fmu_state(&bytes).map_err(s)?;
-        let again = inst.set_fmu_state(&copy).map_err(s).and_then(|_| me(inst));
-        let _ = inst.free_fmu_state(copy);
-        Ok((again? != first).then(|| {
-            "after fmi2SerializeFMUstate, fmi2DeSerializeFMUstate and fmi2SetFMUstate the \
-             continuous states of the next 5 Euler steps differ from those after \
-             fmi2GetFMUstate"
-                .to_string()
-        }))
-    })();
-    let _ = inst.free_fmu_state(saved);
-    result
+
+    fn get_state(&mut self) -> Result<FmuStateHandle, String> {
+        self.get_fmu_state().map_err(|e| e.to_string())
+    }
+
+    fn set_state(&mut self, state: &FmuStateHandle) -> Result<(), String> {
+        self.set_fmu_state(state)
+            .map(drop)
+            .map_err(|e| e.to_string())
+    }
+
+    fn serialized_copy(&mut self, state: &FmuStateHandle) -> Result<FmuStateHandle, String> {
+        let bytes = self.serialize_fmu_state(state).map_err(|e| e.to_string())?;
+        self.deserialize_fmu_state(&bytes)
+            .map_err(|e| e.to_string())
+    }
+
+    fn free_state(&mut self, state: FmuStateHandle) {
+        let _ = self.free_fmu_state(state);
+    }
 }
 
 /// A finding of the Model Exchange probe, with its FMI 2.0.4 clause.

@@ -7,7 +7,7 @@
 //! instantiates with `loggingOn = fmi3False`, with which the FMU must not call the logger
 //! (section 2.3.1), so an error without a logged message is no finding here.
 
-use super::me_checks::{self, Reached, Verdict};
+use super::me_checks::{self, FmuStates, Reached, StateCallNames, Verdict};
 use super::probe::{event_search_step, me_sequence, probe_step, unknown_value_reference};
 use super::Finding;
 use crate::error::{HostError, Status};
@@ -105,10 +105,10 @@ fn me<'i, 'a>(inst: &'i mut Instance3<'a>) -> Result<Fmi3Me<'i, 'a>, String> {
 }
 
 /// A saved FMU state of an instance (`fmi3GetFMUState`), freed with `fmi3FreeFMUState`.
-struct Saved3(FmuState3);
+pub(crate) struct Saved3(FmuState3);
 
 /// `fmi3GetFMUState` of `inst` into a new state.
-fn get_state(inst: &mut Instance3<'_>) -> Result<Saved3, HostError> {
+fn get_state_raw(inst: &mut Instance3<'_>) -> Result<Saved3, HostError> {
     let missing = |n: &str| HostError::Request(format!("the binary does not export {n}"));
     let f = inst
         .fmu
@@ -123,7 +123,7 @@ fn get_state(inst: &mut Instance3<'_>) -> Result<Saved3, HostError> {
 }
 
 /// `fmi3SetFMUState` of `inst` to `saved`.
-fn set_state(inst: &mut Instance3<'_>, saved: &Saved3) -> Result<(), HostError> {
+fn set_state_raw(inst: &mut Instance3<'_>, saved: &Saved3) -> Result<(), HostError> {
     let f =
         inst.fmu.functions.set_fmu_state.ok_or_else(|| {
             HostError::Request("the binary does not export fmi3SetFMUState".into())
@@ -135,7 +135,7 @@ fn set_state(inst: &mut Instance3<'_>, saved: &Saved3) -> Result<(), HostError> 
 
 /// `fmi3SerializeFMUState` of `saved`, then `fmi3DeserializeFMUState` of those bytes: a new
 /// state, which must be the same (FMI 3.0.2 section 2.2.7.4).
-fn serialized_copy(inst: &mut Instance3<'_>, saved: &Saved3) -> Result<Saved3, HostError> {
+fn serialized_copy_raw(inst: &mut Instance3<'_>, saved: &Saved3) -> Result<Saved3, HostError> {
     let f = &inst.fmu.functions;
     let (Some(size), Some(serialize), Some(deserialize)) = (
         f.serialized_fmu_state_size,
@@ -178,7 +178,7 @@ fn can_serialize(fmu: &Fmu3, model_exchange: bool) -> bool {
 }
 
 /// `fmi3FreeFMUState` of `saved` (before the instance is freed).
-fn free_state(inst: &mut Instance3<'_>, mut saved: Saved3) {
+fn free_state_raw(inst: &mut Instance3<'_>, mut saved: Saved3) {
     if let Some(f) = inst.fmu.functions.free_fmu_state {
         // SAFETY: live instance and a state it returned, freed once.
         unsafe { f(inst.instance, &mut saved.0) };
@@ -312,8 +312,8 @@ pub fn probe3(fmu: &Fmu3, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding> {
     f
 }
 
-/// Steps 5 times, saves the FMU state, steps 5 more recording the Float64 outputs, restores the
-/// state and repeats the 5 steps: the outputs must be bit-identical.
+/// Steps 5 times, then the Float64 outputs after each of 5 more steps must repeat to the bit
+/// from a restored FMU state.
 fn check_fmu_state_cs(fmu: &Fmu3, t0: f64, h: f64) -> Verdict {
     let md = fmu.model_description();
     let outs: Vec<u32> = md
@@ -328,42 +328,19 @@ fn check_fmu_state_cs(fmu: &Fmu3, t0: f64, h: f64) -> Verdict {
     for k in 0..5 {
         inst.do_step(t(k), h, false).map_err(s)?;
     }
-    let saved = get_state(&mut inst).map_err(s)?;
-    let run5 = |inst: &mut Instance3<'_>| -> Result<Vec<u64>, HostError> {
+    let mut run5 = |inst: &mut Instance3<'_>| -> Result<Vec<u64>, String> {
         let mut bits = Vec::new();
         for k in 5..10 {
-            inst.do_step(t(k), h, false)?;
-            if let Values::Float64(v) = inst.get(Type3::Float64, &outs, outs.len())? {
+            inst.do_step(t(k), h, false).map_err(s)?;
+            if let Values::Float64(v) = inst.get(Type3::Float64, &outs, outs.len()).map_err(s)? {
                 bits.extend(v.iter().map(|x| x.to_bits()));
             }
         }
         Ok(bits)
     };
+    let what = "Float64 outputs of the next 5 steps";
     let serialize = can_serialize(fmu, false);
-    let result = (|| -> Result<Option<String>, HostError> {
-        let first = run5(&mut inst)?;
-        set_state(&mut inst, &saved)?;
-        if run5(&mut inst)? != first {
-            return Ok(Some(
-                "after fmi3SetFMUState the Float64 outputs of the next 5 steps differ from \
-                 those after fmi3GetFMUState (the state is not fully restored)"
-                    .into(),
-            ));
-        }
-        if !serialize {
-            return Ok(None);
-        }
-        let copy = serialized_copy(&mut inst, &saved)?;
-        let again = set_state(&mut inst, &copy).and_then(|()| run5(&mut inst));
-        free_state(&mut inst, copy);
-        Ok((again? != first).then(|| {
-            "after fmi3SerializeFMUState, fmi3DeserializeFMUState and fmi3SetFMUState the \
-             Float64 outputs of the next 5 steps differ from those after fmi3GetFMUState"
-                .to_string()
-        }))
-    })();
-    free_state(&mut inst, saved);
-    result.map_err(s)
+    me_checks::check_state_restore(&mut inst, (what, serialize), &mut run5)
 }
 
 /// The Model Exchange probe of `fmu` (opened for Model Exchange): a normal run (initialization,
@@ -446,39 +423,37 @@ pub fn probe3_me(fmu: &Fmu3, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding>
     f
 }
 
-/// In Continuous-Time Mode at `t`: saves the FMU state, takes 5 explicit Euler steps of `h`,
-/// restores the state and takes them again: the continuous states after each step must be
-/// bit-identical.
+/// In Continuous-Time Mode at `t`: the continuous states after each of 5 explicit Euler steps
+/// of `h` must repeat to the bit from a restored FMU state.
 fn check_fmu_state_me(inst: &mut Instance3<'_>, t: f64, h: f64) -> Verdict {
-    let s = |e: HostError| e.to_string();
+    let what = "continuous states of the next 5 Euler steps";
     let serialize = can_serialize(inst.fmu, true);
-    let saved = get_state(inst).map_err(s)?;
-    let result = (|| -> Verdict {
-        let first = me_checks::euler_run(&mut me(inst)?, t, h, 5)?;
-        set_state(inst, &saved).map_err(s)?;
-        if me_checks::euler_run(&mut me(inst)?, t, h, 5)? != first {
-            return Ok(Some(
-                "after fmi3SetFMUState the continuous states of the next 5 Euler steps differ \
-                 from those after fmi3GetFMUState (the state is not fully restored)"
-                    .into(),
-            ));
-        }
-        if !serialize {
-            return Ok(None);
-        }
-        let copy = serialized_copy(inst, &saved).map_err(s)?;
-        let again = match set_state(inst, &copy) {
-            Ok(()) => me(inst).and_then(|mut m| me_checks::euler_run(&mut m, t, h, 5)),
-            Err(e) => Err(e.to_string()),
-        };
-        free_state(inst, copy);
-        Ok((again? != first).then(|| {
-            "after fmi3SerializeFMUState, fmi3DeserializeFMUState and fmi3SetFMUState the \
-             continuous states of the next 5 Euler steps differ from those after \
-             fmi3GetFMUState"
-                .to_string()
-        }))
-    })();
-    free_state(inst, saved);
-    result
+    me_checks::check_state_restore(inst, (what, serialize), &mut |inst| {
+        me_checks::euler_run(&mut me(inst)?, t, h, 5)
+    })
+}
+
+impl FmuStates for Instance3<'_> {
+    type State = Saved3;
+    const NAMES: StateCallNames = StateCallNames {
+        get: "fmi3GetFMUState",
+        set: "fmi3SetFMUState",
+        copy: "fmi3SerializeFMUState, fmi3DeserializeFMUState and fmi3SetFMUState",
+    };
+
+    fn get_state(&mut self) -> Result<Saved3, String> {
+        get_state_raw(self).map_err(|e| e.to_string())
+    }
+
+    fn set_state(&mut self, state: &Saved3) -> Result<(), String> {
+        set_state_raw(self, state).map_err(|e| e.to_string())
+    }
+
+    fn serialized_copy(&mut self, state: &Saved3) -> Result<Saved3, String> {
+        serialized_copy_raw(self, state).map_err(|e| e.to_string())
+    }
+
+    fn free_state(&mut self, state: Saved3) {
+        free_state_raw(self, state);
+    }
 }
