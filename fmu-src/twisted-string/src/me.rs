@@ -189,8 +189,6 @@ pub fn jacobian(par: &Params, inp: Inputs, x: &[f64]) -> [[f64; STATES]; STATES]
     j
 }
 
-/// Write the states that are not outputs and every `der(...)` variable (shared by Model
-/// Exchange and Co-Simulation, where they are informative locals).
 /// Parameter groups (table positions) by the part of the model they enter, for the FMI 3.0
 /// `<ModelStructure>` (FMI 3.0.2 section 2.4.8: parameters are knowns of the outputs and
 /// derivatives; `Plant::eval`). The twist angle at the gearhead output: the gear ratio, with
@@ -330,6 +328,8 @@ static PARAMETER_DEPENDENCIES: [(usize, &[usize]); 24] = [
     (V::DER_P as usize, &[]),
 ];
 
+/// Write the states that are not outputs and every `der(...)` variable (shared by Model
+/// Exchange and Co-Simulation, where they are informative locals).
 pub(crate) fn write_state_variables(out: &mut ValuesMut, y: &[f64; DIM], aux: &Aux, f_load: f64) {
     out.set(V::CURRENT_INTEGRAL, y[ix::ZI]);
     out.set(V::SPEED_INTEGRAL, y[ix::ZW]);
