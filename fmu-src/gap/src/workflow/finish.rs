@@ -5,7 +5,7 @@ use super::diagnose::errors;
 use super::offsets::offset_estimates;
 use super::screen::FINAL_LIMITS;
 use super::{
-    ensure_jacobian, fit_state, fit_state_holding, Ctx, Data, Estimate, FitOut, GapError,
+    ensure_jacobian, fit_state, fit_state_holding, Ctx, Data, Estimate, FitOut, GapError, Limits,
     ModelState, OutputErrors, OutputTrace,
 };
 use crate::lm;
@@ -56,25 +56,23 @@ pub(super) fn final_fit<S: GridModel + ?Sized>(
         || {
             rayon::join(
                 || fit_state(ctx, restart.as_ref()?, None, &[], n, limits).ok(),
-                || held_restart(ctx, restart.as_ref()?, &moved, n),
+                || held_restart(ctx, restart.as_ref()?, &moved, n, limits),
             )
         },
     );
     let best = [
-        (a, ""),
-        (b, "the calibration's start"),
-        (c, "the wandered parameters held at their starts"),
+        (a, None),
+        (b, Some("the calibration's start")),
+        (c, Some("the wandered parameters held at their starts")),
     ]
     .into_iter()
     .filter_map(|(f, how)| f.map(|f| (f, how)))
     .min_by(|x, y| x.0.fit.sse.total_cmp(&y.0.fit.sse));
-    if let Some((f, how)) = &best {
-        if !how.is_empty() {
-            ctx.stage(format!(
-                "final fit: restarted from {how}, sum {:.1}",
-                f.fit.sse
-            ));
-        }
+    if let Some((f, Some(how))) = &best {
+        ctx.stage(format!(
+            "final fit: restarted from {how}, sum {:.1}",
+            f.fit.sse
+        ));
     }
     match best {
         Some((mut f, _)) if f.fit.sse < lm::sse(cur_full_r) => {
@@ -92,8 +90,8 @@ fn held_restart<S: GridModel + ?Sized>(
     restart: &ModelState,
     held: &[usize],
     n: usize,
+    limits: Limits,
 ) -> Option<FitOut> {
-    let limits = FINAL_LIMITS.without_final_jacobian();
     let keep: Vec<usize> = (0..restart.idx.len())
         .filter(|j| !held.contains(j))
         .collect();
