@@ -112,7 +112,9 @@ fn scalar(md: &ModelDescription3, v: &Variable3) -> Option<ScalarVariable> {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use super::fmi2_view;
+    use crate::fmi3::md::ModelDescription3;
+    use crate::md::{StartValue, VarKind};
 
     #[test]
     fn scalars_map_to_fmi2_kinds_and_arrays_and_wide_types_are_left_out() {
