@@ -132,7 +132,24 @@ pub struct SimulationResult {
     pub ended_by_fmu: Option<f64>,
 }
 
+/// What a recorder holds at the end of a run: the numeric variables' names, their columns, and
+/// the text columns, each in the order asked for.
+pub(crate) type Recorded = (Vec<String>, Vec<Vec<f64>>, TextColumns);
+
 impl SimulationResult {
+    /// The result of a run that recorded `recorded` at the times `time` (every interface and
+    /// FMI version records this way).
+    pub(crate) fn of_rows(time: Vec<f64>, recorded: Recorded, ended_by_fmu: Option<f64>) -> Self {
+        let (names, columns, text) = recorded;
+        SimulationResult {
+            time,
+            names,
+            columns,
+            text,
+            ended_by_fmu,
+        }
+    }
+
     /// Values of the String variable `name`.
     pub fn text_column(&self, name: &str) -> Option<&[String]> {
         self.text
@@ -248,8 +265,7 @@ fn lookup<'m>(md: &'m ModelDescription, name: &str) -> Result<&'m ScalarVariable
 /// freed and a new one made.
 pub struct Simulator<'a> {
     fmu: &'a Fmu,
-    instance: Option<Instance<'a>>,
-    used: bool,
+    instance: ReusedInstance<Instance<'a>>,
 }
 
 impl<'a> Simulator<'a> {
@@ -257,37 +273,74 @@ impl<'a> Simulator<'a> {
     pub fn new(fmu: &'a Fmu) -> Result<Self> {
         Ok(Simulator {
             fmu,
-            instance: Some(fmu.instantiate("host")?),
-            used: false,
+            instance: ReusedInstance::new(fmu.instantiate("host")?),
         })
     }
 
     /// The instance (for direct calls between runs); None only after a failed re-instantiation.
     pub fn instance(&mut self) -> Option<&mut Instance<'a>> {
-        self.instance.as_mut()
+        self.instance.get()
     }
 
     /// Runs one simulation. After any run the instance is reset before the next.
     pub fn run(&mut self, req: &SimulationRequest) -> Result<SimulationResult> {
-        if self.used {
-            let reset = match self.instance.as_mut() {
-                Some(inst) => inst.reset().map(|_| ()),
-                None => Err(HostError::Request("no instance".into())),
-            };
-            if let Err(e) = reset {
-                // A failed reset leaves the instance unusable: free it, then make a new one.
-                self.instance = None;
-                self.instance = Some(self.fmu.instantiate("host").map_err(|_| e)?);
-            }
-        }
-        self.used = true;
-        let inst = match self.instance.as_mut() {
-            Some(i) => i,
-            None => return Err(HostError::Request("no instance".into())),
-        };
+        let fmu = self.fmu;
+        let inst = self
+            .instance
+            .ready(Instance::reset, || fmu.instantiate("host"))?;
         let _ = inst.take_log();
         run_on(inst, req)
     }
+}
+
+/// An instance reused across runs: reset before every run but the first, and made again when a
+/// reset fails (a failed reset leaves it unusable). The FMI 2.0 and FMI 3.0 simulators keep
+/// theirs in one; each brings its own reset and instantiate calls.
+pub(crate) struct ReusedInstance<I> {
+    instance: Option<I>,
+    used: bool,
+}
+
+impl<I> ReusedInstance<I> {
+    /// A fresh instance, not reset before its first run.
+    pub(crate) fn new(instance: I) -> Self {
+        ReusedInstance {
+            instance: Some(instance),
+            used: false,
+        }
+    }
+
+    /// The instance; None only after a failed re-instantiation.
+    pub(crate) fn get(&mut self) -> Option<&mut I> {
+        self.instance.as_mut()
+    }
+
+    /// The instance, ready for a run: after an earlier run, `reset`; when that fails, freed
+    /// and made again with `instantiate`, reporting the reset's error if that fails too.
+    pub(crate) fn ready<S>(
+        &mut self,
+        reset: impl FnOnce(&mut I) -> Result<S>,
+        instantiate: impl FnOnce() -> Result<I>,
+    ) -> Result<&mut I> {
+        let ran_before = self.used;
+        self.used = true;
+        if ran_before {
+            let reset = match self.instance.as_mut() {
+                Some(inst) => reset(inst).map(|_| ()),
+                None => Err(no_instance()),
+            };
+            if let Err(e) = reset {
+                self.instance = None;
+                self.instance = Some(instantiate().map_err(|_| e)?);
+            }
+        }
+        self.instance.as_mut().ok_or_else(no_instance)
+    }
+}
+
+/// A simulator whose instance was lost: its reset and a new instantiation both failed before.
+fn no_instance() -> HostError {
+    HostError::Request("no instance".into())
 }
 
 /// Simulates `req` on a fresh instance of `fmu`.
@@ -328,42 +381,65 @@ fn run_on(inst: &mut Instance<'_>, req: &SimulationRequest) -> Result<Simulation
     inst.enter_initialization_mode()?;
     inst.exit_initialization_mode()?;
 
+    let (time, ended_by_fmu) = step_through(
+        inst,
+        &times,
+        |inst, t| inputs.apply(inst, t),
+        co_simulation_step,
+        |inst| rec.record(inst),
+    )?;
+    let _ = inst.terminate();
+    Ok(SimulationResult::of_rows(time, rec.finish(), ended_by_fmu))
+}
+
+/// One fmi2DoStep from `t` by `h`: the FMU's fmi2LastSuccessfulTime when it ended the
+/// simulation, None when the step completed. FMI 2.0.4 section 4.2.3: after fmi2Discard,
+/// fmi2Terminated true means the FMU ended the simulation; its results are valid up to
+/// fmi2LastSuccessfulTime.
+fn co_simulation_step(inst: &mut Instance<'_>, t: f64, h: f64) -> Result<Option<f64>> {
+    match inst.do_step(t, h, true) {
+        Ok(_) => Ok(None),
+        Err(e) if e.status() == Some(Status::Discard) && inst.terminated().unwrap_or(false) => {
+            inst.last_successful_time().map(Some)
+        }
+        Err(e) => Err(e),
+    }
+}
+
+/// Steps a Co-Simulation instance through the communication points `times`, recording at each:
+/// `apply_inputs` sets the inputs at a point (those at the start are set before
+/// initialization), `step` does one step from `t` by `h` and gives the FMU's last successful
+/// time when the FMU ended the simulation, `record` reads the outputs. An FMU that ends the
+/// simulation keeps the rows up to its last successful time. Returns the recorded times and,
+/// when the FMU ended the simulation, the last of them. FMI 2.0 and FMI 3.0 differ only in how
+/// a step says the FMU ended the simulation.
+pub(crate) fn step_through<I>(
+    inst: &mut I,
+    times: &[f64],
+    mut apply_inputs: impl FnMut(&mut I, f64) -> Result<()>,
+    mut step: impl FnMut(&mut I, f64, f64) -> Result<Option<f64>>,
+    mut record: impl FnMut(&mut I) -> Result<()>,
+) -> Result<(Vec<f64>, Option<f64>)> {
     let mut time = Vec::with_capacity(times.len());
-    rec.record(inst)?;
+    record(inst)?;
     time.push(times[0]);
-    let mut ended_by_fmu = None;
     for k in 0..times.len().saturating_sub(1) {
         let (t, t1) = (times[k], times[k + 1]);
         if k > 0 {
-            inputs.apply(inst, t)?;
+            apply_inputs(inst, t)?;
         }
-        match inst.do_step(t, t1 - t, true) {
-            Ok(_) => {}
-            Err(e) if e.status() == Some(Status::Discard) && inst.terminated().unwrap_or(false) => {
-                // FMI 2.0.4 section 4.2.3: after fmi2Discard, fmi2Terminated true means the FMU
-                // ended the simulation; its results are valid up to fmi2LastSuccessfulTime.
-                let last = inst.last_successful_time()?;
-                if last > t && last.is_finite() {
-                    rec.record(inst)?;
-                    time.push(last.min(t1));
-                }
-                ended_by_fmu = Some(*time.last().unwrap_or(&t));
-                break;
+        if let Some(last) = step(inst, t, t1 - t)? {
+            if last > t && last.is_finite() {
+                record(inst)?;
+                time.push(last.min(t1));
             }
-            Err(e) => return Err(e),
+            let ended_at = *time.last().unwrap_or(&t);
+            return Ok((time, Some(ended_at)));
         }
-        rec.record(inst)?;
+        record(inst)?;
         time.push(t1);
     }
-    let _ = inst.terminate();
-    let (names, columns, text) = rec.finish();
-    Ok(SimulationResult {
-        time,
-        names,
-        columns,
-        text,
-        ended_by_fmu,
-    })
+    Ok((time, None))
 }
 
 /// Most values one run records (8 bytes each): a step far too small for the interval, or an FMU
@@ -492,14 +568,21 @@ fn input_events(plan: &InputPlan<'_>, series: &InputSeries) -> Vec<f64> {
 impl InputPlan<'_> {
     /// The first input event after `t` (not within 1e-9 relative of it); infinite: none.
     pub(crate) fn next_event(&self, t: f64) -> f64 {
-        let close = |e: f64| (e - t).abs() <= 1e-9 * e.abs().max(t.abs());
-        let from = self.input_events.partition_point(|&e| e <= t);
-        self.input_events[from..]
-            .iter()
-            .copied()
-            .find(|&e| !close(e))
-            .unwrap_or(f64::INFINITY)
+        first_event_after(&self.input_events, t)
     }
+}
+
+/// The first of the ascending event times `events` after `t`, not within 1e-9 relative of it
+/// (an event at `t` itself has been handled); infinite: none. FMI 2.0 and FMI 3.0 input plans
+/// find their events in their own way and look up the next one with this.
+pub(crate) fn first_event_after(events: &[f64], t: f64) -> f64 {
+    let close = |e: f64| (e - t).abs() <= 1e-9 * e.abs().max(t.abs());
+    let from = events.partition_point(|&e| e <= t);
+    events[from..]
+        .iter()
+        .copied()
+        .find(|&e| !close(e))
+        .unwrap_or(f64::INFINITY)
 }
 
 impl<'r> InputPlan<'r> {
@@ -705,7 +788,7 @@ impl Recorder {
     }
 
     /// (numeric names, their columns, String columns), each in the order asked for.
-    pub(crate) fn finish(self) -> (Vec<String>, Vec<Vec<f64>>, TextColumns) {
+    pub(crate) fn finish(self) -> Recorded {
         let is_text: Vec<bool> = (0..self.names.len())
             .map(|j| self.by_type.string.iter().any(|&(k, _)| k == j))
             .collect();

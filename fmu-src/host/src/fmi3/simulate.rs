@@ -21,7 +21,10 @@ use super::md::{Causality3, ModelDescription3, Variable3};
 use super::value::{Type3, Values};
 use crate::error::{HostError, Result};
 use crate::kind::Interface;
-use crate::simulate::{communication_points, hold_index, interpolate, SimulationResult};
+use crate::simulate::{
+    communication_points, first_event_after, hold_index, interpolate, step_through, Recorded,
+    ReusedInstance, SimulationResult,
+};
 use fmi2_types::Variability;
 
 /// Input columns of an FMI 3.0 run: a time axis and text cells (see [`super::value`]).
@@ -86,8 +89,7 @@ pub fn simulate3(fmu: &Fmu3, req: &Request3) -> Result<SimulationResult> {
 /// freed and a new one made.
 pub struct Simulator3<'a> {
     fmu: &'a Fmu3,
-    instance: Option<Instance3<'a>>,
-    used: bool,
+    instance: ReusedInstance<Instance3<'a>>,
 }
 
 impl<'a> Simulator3<'a> {
@@ -95,28 +97,16 @@ impl<'a> Simulator3<'a> {
     pub fn new(fmu: &'a Fmu3) -> Result<Self> {
         Ok(Simulator3 {
             fmu,
-            instance: Some(fmu.instantiate("host")?),
-            used: false,
+            instance: ReusedInstance::new(fmu.instantiate("host")?),
         })
     }
 
     /// Runs one simulation; the instance is reset before every run but the first.
     pub fn run(&mut self, req: &Request3) -> Result<SimulationResult> {
-        if self.used {
-            let reset = match self.instance.as_mut() {
-                Some(inst) => inst.reset().map(|_| ()),
-                None => Err(HostError::Request("no instance".into())),
-            };
-            if let Err(e) = reset {
-                self.instance = None;
-                self.instance = Some(self.fmu.instantiate("host").map_err(|_| e)?);
-            }
-        }
-        self.used = true;
+        let fmu = self.fmu;
         let inst = self
             .instance
-            .as_mut()
-            .ok_or_else(|| HostError::Request("no instance".into()))?;
+            .ready(Instance3::reset, || fmu.instantiate("host"))?;
         let _ = inst.take_log();
         run_on(inst, req)
     }
@@ -149,52 +139,26 @@ fn run_on(inst: &mut Instance3<'_>, req: &Request3) -> Result<SimulationResult> 
     inputs.apply(inst, req.start_time)?;
     inst.enter_initialization_mode(req.tolerance, req.start_time, Some(req.stop_time))?;
     inst.exit_initialization_mode()?;
-    if inst.fmu().interface() == Interface::ModelExchange {
-        let (time, ended_by_fmu) = crate::me::fmi3::run(inst, req, &mut inputs, &mut rec)?;
-        let _ = inst.terminate();
-        let (names, columns, text) = rec.finish();
-        return Ok(SimulationResult {
-            time,
-            names,
-            columns,
-            text,
-            ended_by_fmu,
-        });
-    }
-
-    let mut time = Vec::with_capacity(times.len());
-    rec.record(inst)?;
-    time.push(times[0]);
-    let mut ended_by_fmu = None;
-    for k in 0..times.len().saturating_sub(1) {
-        let (t, t1) = (times[k], times[k + 1]);
-        if k > 0 {
-            inputs.apply(inst, t)?;
-        }
-        let out = inst.do_step(t, t1 - t, true)?;
-        if out.terminate {
-            // FMI 3.0.2 section 4.2.1 (fmi3DoStep): terminateSimulation asks the importer to
-            // end the run; the results are valid up to lastSuccessfulTime.
-            let last = out.last_successful_time;
-            if last > t && last.is_finite() {
-                rec.record(inst)?;
-                time.push(last.min(t1));
-            }
-            ended_by_fmu = Some(*time.last().unwrap_or(&t));
-            break;
-        }
-        rec.record(inst)?;
-        time.push(t1);
-    }
+    let (time, ended_by_fmu) = match inst.fmu().interface() {
+        Interface::ModelExchange => crate::me::fmi3::run(inst, req, &mut inputs, &mut rec)?,
+        Interface::CoSimulation => step_through(
+            inst,
+            &times,
+            |inst, t| inputs.apply(inst, t),
+            co_simulation_step,
+            |inst| rec.record(inst),
+        )?,
+    };
     let _ = inst.terminate();
-    let (names, columns, text) = rec.finish();
-    Ok(SimulationResult {
-        time,
-        names,
-        columns,
-        text,
-        ended_by_fmu,
-    })
+    Ok(SimulationResult::of_rows(time, rec.finish(), ended_by_fmu))
+}
+
+/// One fmi3DoStep from `t` by `h`: the FMU's lastSuccessfulTime when it ended the simulation,
+/// None when the step completed. FMI 3.0.2 section 4.2.1 (fmi3DoStep): terminateSimulation
+/// asks the importer to end the run; the results are valid up to lastSuccessfulTime.
+fn co_simulation_step(inst: &mut Instance3<'_>, t: f64, h: f64) -> Result<Option<f64>> {
+    let out = inst.do_step(t, h, true)?;
+    Ok(out.terminate.then_some(out.last_successful_time))
 }
 
 fn lookup<'m>(md: &'m ModelDescription3, name: &str) -> Result<&'m Variable3> {
@@ -469,13 +433,7 @@ impl InputPlan3<'_> {
     /// The first input event after `t` (not within 1e-9 relative of it; infinite: none): a
     /// repeated row time, or a row at which a held input changes (FMPy's `Input.findEvents`).
     pub(crate) fn next_event(&self, t: f64) -> f64 {
-        let close = |e: f64| (e - t).abs() <= 1e-9 * e.abs().max(t.abs());
-        let from = self.events.partition_point(|&e| e <= t);
-        self.events[from..]
-            .iter()
-            .copied()
-            .find(|&e| !close(e))
-            .unwrap_or(f64::INFINITY)
+        first_event_after(&self.events, t)
     }
 
     /// The row times at which an input event happens, in time order: a repeated row time, or a
@@ -715,7 +673,7 @@ impl Recorder3 {
     }
 
     /// (numeric names, their columns, text columns), each in the order asked for.
-    fn finish(self) -> (Vec<String>, Vec<Vec<f64>>, crate::TextColumns) {
+    fn finish(self) -> Recorded {
         let mut numbers: Vec<Option<Vec<f64>>> = self.numbers.into_iter().map(Some).collect();
         let mut text: Vec<Option<Vec<String>>> = self.text.into_iter().map(Some).collect();
         let (mut names, mut columns, mut texts) = (Vec::new(), Vec::new(), Vec::new());

@@ -356,15 +356,13 @@ pub fn run_on(inst: &mut Instance<'_>, req: &SimulationRequest) -> Result<Simula
         me::run(&mut fmu, &mut env, &settings)?
     };
     let _ = inst.terminate();
-    let (names, columns, text) = env.recorder.finish();
-    Ok(SimulationResult {
-        ended_by_fmu: match ending {
-            Ending::Stop => None,
-            Ending::Terminated(t) => Some(t),
-        },
-        time: env.time,
-        names,
-        columns,
-        text,
-    })
+    let ended_by_fmu = match ending {
+        Ending::Stop => None,
+        Ending::Terminated(t) => Some(t),
+    };
+    Ok(SimulationResult::of_rows(
+        env.time,
+        env.recorder.finish(),
+        ended_by_fmu,
+    ))
 }
