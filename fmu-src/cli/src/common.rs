@@ -10,7 +10,7 @@ macro_rules! out {
     }};
 }
 
-use host::md::ModelDescription;
+use host::md::{Causality, ModelDescription};
 use host::{Interface, Value};
 
 /// `--interface`: which FMI interface of the FMU runs.
@@ -114,6 +114,23 @@ pub fn refuse_overwriting(
 /// Result of a subcommand: the exit status on success.
 pub type CliResult = Result<i32, CliError>;
 
+/// Splits the `--set NAME=VALUE` argument `set` into its trimmed name and its value text, and
+/// finds the variable it names with `lookup`: FMI 2.0 and FMI 3.0 keep their variables in types
+/// of their own, the argument's form and its two messages are the same for both.
+pub fn set_target<'s, 'm, V>(
+    set: &'s str,
+    lookup: impl FnOnce(&str) -> Option<&'m V>,
+) -> Result<(&'s str, &'s str, &'m V), CliError> {
+    let (name, value) = set
+        .split_once('=')
+        .ok_or_else(|| CliError::input(format!("--set '{set}': expected NAME=VALUE")))?;
+    let name = name.trim();
+    let var = lookup(name).ok_or_else(|| {
+        CliError::input(format!("--set '{set}': the FMU has no variable '{name}'"))
+    })?;
+    Ok((name, value, var))
+}
+
 /// Parses `--set NAME=VALUE` arguments against the model description (`true`/`false` for
 /// Booleans, numbers otherwise). Errors name the offending argument.
 pub fn parse_sets(
@@ -122,14 +139,7 @@ pub fn parse_sets(
 ) -> Result<Vec<(String, Value)>, CliError> {
     sets.iter()
         .map(|s| {
-            let (name, value) = s
-                .split_once('=')
-                .ok_or_else(|| CliError::input(format!("--set '{s}': expected NAME=VALUE")))?;
-            let name = name.trim();
-            let var = md.variable(name).ok_or_else(|| {
-                CliError::input(format!("--set '{s}': the FMU has no variable '{name}'"))
-            })?;
-            use host::md::Causality;
+            let (name, value, var) = set_target(s, |name| md.variable(name))?;
             if !matches!(var.causality, Causality::Parameter | Causality::Input) {
                 return Err(CliError::input(format!(
                     "--set '{s}': '{name}' is {} {}: only parameters and inputs can be set",

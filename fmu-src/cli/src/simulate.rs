@@ -2,9 +2,10 @@
 //! [--interface cs|me] --out out.csv`
 
 use crate::common::{parse_sets, refuse_overwriting, run_error, CliError, CliResult};
-use host::csv::{read_csv_for, write_csv_text};
+use host::csv::{read_csv_for, sample_interval, write_csv_text};
+use host::md::{DefaultExperiment, ModelDescription};
 use host::{simulate, Fmu, InputSeries, SimulationRequest};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Arguments of `simulate`.
 #[derive(clap::Args)]
@@ -75,6 +76,107 @@ pub(crate) fn auto_interval(span: f64) -> f64 {
     }
 }
 
+/// Where a run starts and stops and its communication step [s].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct TimeGrid {
+    /// Start time [s].
+    pub start: f64,
+    /// Stop time [s], not before `start`.
+    pub stop: f64,
+    /// Communication step [s], positive.
+    pub step: f64,
+}
+
+/// The time grid of a run and the checks of `--step`, `--stop` and `--tolerance`, shared by
+/// FMI 2.0 and FMI 3.0 so that both take the same defaults and refuse the same arguments with
+/// the same messages in the same order. `data_time` is the time column read from `--data`
+/// (unused without `--data`); `experiment` is the FMU's DefaultExperiment.
+pub(crate) fn time_grid(
+    a: &Args,
+    data_time: &[f64],
+    experiment: &DefaultExperiment,
+) -> Result<TimeGrid, CliError> {
+    let grid = match &a.data {
+        Some(path) => grid_of_data(a, path, data_time)?,
+        None => grid_of_experiment(a, experiment),
+    };
+    check_grid(&grid)?;
+    check_tolerance(a.tolerance)?;
+    Ok(grid)
+}
+
+/// A run on the `--data` CSV at `path`: from its first row to `--stop`, else its last row, by
+/// `--step`, else its sample interval (a single row has none).
+fn grid_of_data(a: &Args, path: &Path, time: &[f64]) -> Result<TimeGrid, CliError> {
+    let start = time[0];
+    let stop = a.stop.unwrap_or(*time.last().unwrap_or(&start));
+    let step = a.step.or(sample_interval(time)).ok_or_else(|| {
+        CliError::input(format!(
+            "{}: a single row has no sample interval: give --step",
+            path.display()
+        ))
+    })?;
+    Ok(TimeGrid { start, stop, step })
+}
+
+/// A run without data: the DefaultExperiment's start (else 0), `--stop`, else its stop (else
+/// 1 s after the start), `--step`, else its step size (else [`auto_interval`]).
+fn grid_of_experiment(a: &Args, experiment: &DefaultExperiment) -> TimeGrid {
+    let start = experiment.start_time.unwrap_or(0.0);
+    let stop = a.stop.or(experiment.stop_time).unwrap_or(start + 1.0);
+    let step = a
+        .step
+        .or(experiment.step_size)
+        .unwrap_or_else(|| auto_interval(stop - start));
+    TimeGrid { start, stop, step }
+}
+
+/// Refuses a step that is not a positive finite number and a stop before the start (or not
+/// finite), whichever option or default gave them: the host could not lay out the grid.
+fn check_grid(grid: &TimeGrid) -> Result<(), CliError> {
+    let TimeGrid { start, stop, step } = *grid;
+    if !(step > 0.0 && step.is_finite()) {
+        return Err(CliError::input(format!(
+            "--step must be a positive number, got {step}"
+        )));
+    }
+    if !(stop >= start && stop.is_finite()) {
+        return Err(CliError::input(format!(
+            "--stop {stop} is before the start time {start}"
+        )));
+    }
+    Ok(())
+}
+
+/// Refuses a `--tolerance` that is not a positive finite number: no integrator can meet it.
+fn check_tolerance(tolerance: Option<f64>) -> Result<(), CliError> {
+    match tolerance.filter(|t| !(*t > 0.0 && t.is_finite())) {
+        Some(tol) => Err(CliError::input(format!(
+            "--tolerance must be a positive number, got {tol}"
+        ))),
+        None => Ok(()),
+    }
+}
+
+/// The `--data` CSV at `path` as the inputs of an FMI 2.0 run: every column must be an input
+/// or an output of the FMU; the inputs' columns are kept, numbers and text apart.
+fn read_inputs(path: &Path, md: &ModelDescription) -> Result<InputSeries, CliError> {
+    let table = read_csv_for(path, md).map_err(CliError::input)?;
+    table.check_against(md).map_err(CliError::input)?;
+    let mut series = InputSeries {
+        time: table.time.clone(),
+        ..Default::default()
+    };
+    for n in table.input_columns(md) {
+        if let Some(c) = table.column(&n) {
+            series.columns.push((n, c.to_vec()));
+        } else if let Some(c) = table.text_column(&n) {
+            series.text.push((n, c.to_vec()));
+        }
+    }
+    Ok(series)
+}
+
 /// Runs `simulate`.
 pub fn run(a: Args) -> CliResult {
     if host::fmi_version_of(&a.fmu).map_err(CliError::input)? == host::FmiVersion::Fmi3 {
@@ -90,66 +192,18 @@ pub fn run(a: Args) -> CliResult {
     let fmu = Fmu::open_with(&a.fmu, &opts).map_err(CliError::input)?;
     let md = fmu.model_description();
     let start_values = parse_sets(md, &a.set)?;
-    let de = md.default_experiment.clone().unwrap_or_default();
-    let (start, stop, step, inputs) = match &a.data {
-        Some(path) => {
-            let table = read_csv_for(path, md).map_err(CliError::input)?;
-            table.check_against(md).map_err(CliError::input)?;
-            let start = table.time[0];
-            let stop = a.stop.unwrap_or(*table.time.last().unwrap_or(&start));
-            let step = match a.step.or(table.sample_interval()) {
-                Some(h) => h,
-                None => {
-                    return Err(CliError::input(format!(
-                        "{}: a single row has no sample interval: give --step",
-                        path.display()
-                    )))
-                }
-            };
-            let mut series = InputSeries {
-                time: table.time.clone(),
-                ..Default::default()
-            };
-            for n in table.input_columns(md) {
-                if let Some(c) = table.column(&n) {
-                    series.columns.push((n, c.to_vec()));
-                } else if let Some(c) = table.text_column(&n) {
-                    series.text.push((n, c.to_vec()));
-                }
-            }
-            (start, stop, step, series)
-        }
-        None => {
-            let start = de.start_time.unwrap_or(0.0);
-            let stop = a.stop.or(de.stop_time).unwrap_or(start + 1.0);
-            let step = a
-                .step
-                .or(de.step_size)
-                .unwrap_or_else(|| auto_interval(stop - start));
-            (start, stop, step, InputSeries::default())
-        }
+    let experiment = md.default_experiment.clone().unwrap_or_default();
+    let inputs = match &a.data {
+        Some(path) => read_inputs(path, md)?,
+        None => InputSeries::default(),
     };
-    if !(step > 0.0 && step.is_finite()) {
-        return Err(CliError::input(format!(
-            "--step must be a positive number, got {step}"
-        )));
-    }
-    if !(stop >= start && stop.is_finite()) {
-        return Err(CliError::input(format!(
-            "--stop {stop} is before the start time {start}"
-        )));
-    }
-    if let Some(tol) = a.tolerance.filter(|t| !(*t > 0.0 && t.is_finite())) {
-        return Err(CliError::input(format!(
-            "--tolerance must be a positive number, got {tol}"
-        )));
-    }
+    let grid = time_grid(&a, &inputs.time, &experiment)?;
     let req = SimulationRequest {
         start_values,
         inputs,
         record_events: true,
         tolerance: a.tolerance,
-        ..SimulationRequest::new(start, stop, step)
+        ..SimulationRequest::new(grid.start, grid.stop, grid.step)
     };
     let res = simulate(&fmu, &req).map_err(|e| run_error(&a.fmu.display().to_string(), e))?;
     write_csv_text(&a.out, &res.time, &res.names, &res.columns, &res.text)

@@ -2,10 +2,11 @@
 //! FMI 2.0, with every FMI 3.0 type in the CSV (arrays one column each, elements row-major
 //! separated by spaces, or one column per element `u[1]`; Binary as hex).
 
-use crate::common::{refuse_overwriting, run_error, CliError, CliResult};
-use crate::simulate::{auto_interval, Args};
+use crate::common::{refuse_overwriting, run_error, set_target, CliError, CliResult};
+use crate::simulate::{time_grid, Args};
 use host::csv::{format_number, read_csv_with_text, write_csv_text};
 use host::fmi3::{simulate3, Causality3, Fmu3, Inputs3, ModelDescription3, Request3};
+use host::md::DefaultExperiment;
 
 /// Runs `simulate` on an FMI 3.0 FMU.
 pub fn run(a: Args) -> CliResult {
@@ -16,54 +17,22 @@ pub fn run(a: Args) -> CliResult {
     let fmu = Fmu3::open_with(&a.fmu, interface).map_err(CliError::input)?;
     let md = fmu.model_description();
     let start_values = parse_sets3(md, &a.set)?;
-    let de = md.default_experiment.clone().unwrap_or_default();
-    let (start, stop, step, inputs) = match &a.data {
-        Some(path) => {
-            let inputs = read_inputs(path, md)?;
-            let start = inputs.time[0];
-            let stop = a.stop.unwrap_or(*inputs.time.last().unwrap_or(&start));
-            let step = match a.step.or(host::csv::sample_interval(&inputs.time)) {
-                Some(h) => h,
-                None => {
-                    return Err(CliError::input(format!(
-                        "{}: a single row has no sample interval: give --step",
-                        path.display()
-                    )))
-                }
-            };
-            (start, stop, step, inputs)
-        }
-        None => {
-            let start = de.start_time.unwrap_or(0.0);
-            let stop = a.stop.or(de.stop_time).unwrap_or(start + 1.0);
-            let step = a
-                .step
-                .or(de.step_size)
-                .unwrap_or_else(|| auto_interval(stop - start));
-            (start, stop, step, Inputs3::default())
-        }
+    let experiment = md
+        .default_experiment
+        .as_ref()
+        .map(DefaultExperiment::from)
+        .unwrap_or_default();
+    let inputs = match &a.data {
+        Some(path) => read_inputs(path, md)?,
+        None => Inputs3::default(),
     };
-    if !(step > 0.0 && step.is_finite()) {
-        return Err(CliError::input(format!(
-            "--step must be a positive number, got {step}"
-        )));
-    }
-    if !(stop >= start && stop.is_finite()) {
-        return Err(CliError::input(format!(
-            "--stop {stop} is before the start time {start}"
-        )));
-    }
-    if let Some(tol) = a.tolerance.filter(|t| !(*t > 0.0 && t.is_finite())) {
-        return Err(CliError::input(format!(
-            "--tolerance must be a positive number, got {tol}"
-        )));
-    }
+    let grid = time_grid(&a, &inputs.time, &experiment)?;
     let req = Request3 {
         start_values,
         tolerance: a.tolerance,
         inputs,
         record_events: true,
-        ..Request3::new(start, stop, step)
+        ..Request3::new(grid.start, grid.stop, grid.step)
     };
     let res = simulate3(&fmu, &req).map_err(|e| run_error(&a.fmu.display().to_string(), e))?;
     write_csv_text(&a.out, &res.time, &res.names, &res.columns, &res.text)
@@ -89,13 +58,7 @@ pub fn run(a: Args) -> CliResult {
 fn parse_sets3(md: &ModelDescription3, sets: &[String]) -> Result<Vec<(String, String)>, CliError> {
     sets.iter()
         .map(|s| {
-            let (name, value) = s
-                .split_once('=')
-                .ok_or_else(|| CliError::input(format!("--set '{s}': expected NAME=VALUE")))?;
-            let name = name.trim();
-            let var = md.variable(name).ok_or_else(|| {
-                CliError::input(format!("--set '{s}': the FMU has no variable '{name}'"))
-            })?;
+            let (name, value, var) = set_target(s, |name| md.variable(name))?;
             if !matches!(
                 var.causality,
                 Causality3::Parameter | Causality3::StructuralParameter | Causality3::Input

@@ -907,11 +907,13 @@ pub unsafe fn get_directional_derivative<M: Model>(
 #[macro_export]
 macro_rules! export_model {
     ($model:ty) => {
+        /// The exported model type, named where the macro is invoked (so a bare name resolves).
+        type Fmi2ExportedModel = $model;
+
         mod fmi2_exports {
             #![allow(non_snake_case, unused_imports, clippy::missing_safety_doc)]
-            use super::*;
+            use super::Fmi2ExportedModel as M;
             use $crate::ffi::*;
-            type M = $model;
 
             #[no_mangle]
             pub extern "C" fn fmi2GetTypesPlatform() -> Fmi2String {

@@ -343,7 +343,7 @@ impl ValuesMut<'_> {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use super::{index_of, references_unique, Variable};
 
     crate::declare_variables! {
         A = 7 => Variable::parameter("a", 1.0, "m", "first"),

@@ -256,7 +256,8 @@ fn member_problems(p: &Param) -> Result<Vec<Problem>, Problem> {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use super::{scan, Param, Problem};
+    use crate::{VarKind, Variability};
 
     fn real<'a>(name: &'a str, range: Option<(f64, f64)>, description: &'a str) -> Param<'a> {
         Param {

@@ -150,7 +150,10 @@ pub fn settable_in_step_mode(c: Causality, v: Variability) -> bool {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use super::{
+        combination_allowed, default_initial, initial_allowed, Causality, Initial, VarKind,
+        Variability,
+    };
 
     #[test]
     fn spellings_round_trip() {

@@ -70,7 +70,7 @@ impl fmt::Display for Status {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use super::Status;
 
     #[test]
     fn raw_values_round_trip() {

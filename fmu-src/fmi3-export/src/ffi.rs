@@ -971,7 +971,7 @@ pub unsafe fn deserialize_fmu_state<M: Model>(
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use super::{allowed, fmi3_message};
     use fmi2_export::instance::allowed as fmi2;
 
     /// This layer checks the FMI 3.0 state first and then calls the shared instance, whose own

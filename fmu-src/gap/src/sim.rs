@@ -200,7 +200,9 @@ impl<'a, S: GridModel + ?Sized> Counted<'a, S> {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use super::{Counted, GridModel, SimError, MEMORY_VALUES};
+    use crate::spec::ParamSpec;
+    use std::sync::atomic::{AtomicUsize, Ordering};
 
     /// Outputs `[p0 + i]` for sample i, counting its runs.
     struct Ramp {

@@ -127,7 +127,7 @@ pub fn initial_state(params: &[ParamSpec]) -> Vec<usize> {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use super::{default_calibration, find_effects, ParamSpec};
 
     #[test]
     fn effects_follow_the_naming_convention() {

@@ -291,7 +291,9 @@ pub fn region_bins(r: &[f64], v: &[f64], nbins: usize) -> (Vec<RegionBin>, f64) 
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use super::{
+        autocorr, chi2_sf, ljung_box, max_cross_corr, n_eff, n_eff_series, noise_sigma, region_bins,
+    };
 
     /// Deterministic Gaussian noise (xorshift + Box–Muller) for the tests.
     pub(crate) fn gauss(seed: u64, n: usize) -> Vec<f64> {

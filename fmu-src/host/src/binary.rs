@@ -152,7 +152,7 @@ fn macho_slice(m: &goblin::mach::MachO) -> Result<Slice, String> {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use super::inspect;
 
     #[test]
     fn this_test_binary_is_read_as_the_platform_it_runs_on() {

@@ -615,7 +615,10 @@ pub fn write_atomically(
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use super::{
+        parse_csv, parse_csv_with_text, read_csv, write_csv_text_to, write_csv_to, CsvError, Table,
+        MAX_LINE_BYTES,
+    };
 
     fn e(text: &str) -> CsvError {
         parse_csv(text, "d.csv").unwrap_err()

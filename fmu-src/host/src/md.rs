@@ -707,7 +707,7 @@ fn var_kind(name: &str) -> Option<VarKind> {
 
 #[cfg(test)]
 pub(crate) mod tests {
-    use super::*;
+    use super::{Causality, Initial, ModelDescription, StartValue, VarKind, Variability};
 
     pub(crate) const SAMPLE: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
 <fmiModelDescription fmiVersion="2.0" modelName="Osc" guid="{1234}" description="A &amp; B"

@@ -730,7 +730,7 @@ impl Recorder {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use super::{communication_points, hold_index, interpolate};
 
     #[test]
     fn communication_points_hit_stop_exactly_without_drift() {

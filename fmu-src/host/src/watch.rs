@@ -349,7 +349,7 @@ impl Monitor {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use super::{attach, enter, enter3, Call, InCall, Monitor, FMI3, IN_CALL};
 
     #[test]
     fn model_exchange_calls_are_named_as_each_version_names_them() {

@@ -76,7 +76,7 @@ pub fn controller_update(
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use super::{controller_update, ControllerParams, DEAD_BAND_BLEND};
     use crate::physics::dead_band;
 
     fn params() -> ControllerParams {

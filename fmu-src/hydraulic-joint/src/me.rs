@@ -508,10 +508,11 @@ impl ModelExchange for HydraulicJoint {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
-    use crate::plant::{piston, OM};
-    use crate::vars::VARIABLES;
-    use fmi2_export::Model;
+    use super::{STATES, X_SPOOL};
+    use crate::model::HydraulicJoint;
+    use crate::plant::{piston, OM, TH};
+    use crate::vars::{V, VARIABLES};
+    use fmi2_export::{Model, ModelExchange};
 
     fn initialized(setup: impl Fn(&mut [f64])) -> (HydraulicJoint, Vec<f64>) {
         let mut vars: Vec<f64> = VARIABLES.iter().map(|v| v.start).collect();

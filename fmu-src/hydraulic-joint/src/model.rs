@@ -355,8 +355,11 @@ impl Model for HydraulicJoint {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use super::{read_params, HydraulicJoint};
     use crate::physics::free_piston_slopes;
+    use crate::plant::Plant;
+    use crate::vars::{V, VARIABLES};
+    use fmi2_export::Model;
 
     fn defaults() -> Vec<f64> {
         VARIABLES.iter().map(|v| v.start).collect()

@@ -320,7 +320,13 @@ pub fn free_piston_slopes(a1: f64, a2: f64, ps: f64, pr: f64, c: &[f64; 4]) -> (
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use super::{
+        air_oil_state, cable_tension, capstan_joint_tension, chamber_volumes, dead_band,
+        dead_band_inverse, dead_band_slope, effective_bulk_modulus, end_stop_force,
+        free_piston_slopes, friction_memory_rate, leakage_flow, mixture_volume, oil_state,
+        orifice_flow, piston_force, pressure_rate, seal_friction, signed_sqrt_reg,
+        signed_sqrt_reg_slope, smooth_pos, smooth_pos_slope, spool_accel, valve_flows,
+    };
 
     const C: [f64; 4] = [0.3667e-8, 0.3404e-8, 0.3282e-8, 0.3276e-8];
 

@@ -712,7 +712,7 @@ impl ode::OdeSystem for Plant<'_> {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use super::{CableFriction, EntrainedAir, Plant, SealFriction, ValveDynamics};
     use crate::vars::VARIABLES;
     use ode::OdeSystem;
 

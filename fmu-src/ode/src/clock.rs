@@ -143,7 +143,7 @@ impl Iterator for Segments {
 
 #[cfg(test)]
 mod sampled_loop_tests {
-    use super::*;
+    use super::SampleClock;
 
     #[test]
     fn a_communication_point_rounded_just_before_a_sample_counts_as_the_sample() {

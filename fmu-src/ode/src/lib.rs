@@ -792,7 +792,8 @@ fn lu_solve_n(lu: &[f64], n: usize, piv: &[usize], dinv: &[f64], b: &mut [f64]) 
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use super::{all_finite, lu_in_place, lu_solve};
+    use nalgebra::DMatrix;
 
     #[test]
     fn lu_matches_nalgebra() {

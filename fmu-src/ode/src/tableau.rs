@@ -168,7 +168,7 @@ pub(crate) static RODAS5P: Tableau = Tableau {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use super::{RODAS4, RODAS5P};
     use nalgebra::{DMatrix, DVector};
 
     /// Recover the original Rosenbrock matrix Gamma from the transformed coefficients

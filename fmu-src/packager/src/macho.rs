@@ -51,7 +51,7 @@ pub fn universal(slices: &[Vec<u8>]) -> Result<Vec<u8>, String> {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use super::{universal, FAT_MAGIC, MH_MAGIC_64};
 
     fn slice(cpu: u32, len: usize) -> Vec<u8> {
         let mut s = vec![0u8; len];

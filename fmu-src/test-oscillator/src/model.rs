@@ -203,7 +203,9 @@ impl ModelExchange for Oscillator {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use super::Oscillator;
+    use crate::vars::{V, VARIABLES};
+    use fmi2_export::Model;
 
     #[test]
     fn free_oscillation_matches_closed_form() {

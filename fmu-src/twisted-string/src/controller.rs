@@ -62,7 +62,7 @@ pub struct PositionLoop {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use super::{pi_integrator_rate, pi_output, position_loop};
 
     #[test]
     fn pi_saturates_and_tracks() {

@@ -460,10 +460,12 @@ impl ModelExchange for TwistedString {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use super::{jacobian, pack, rates, sx, unpack, STATES, STATE_VARIABLES};
+    use crate::model::TwistedString;
     use crate::physics::GRAVITY;
-    use crate::vars::VARIABLES;
-    use fmi2_export::Model;
+    use crate::plant::{Inputs, Params, DIM, NOMINAL};
+    use crate::vars::{V, VARIABLES};
+    use fmi2_export::{Model, ModelExchange};
 
     #[test]
     fn pack_unpack_roundtrip() {

@@ -418,7 +418,11 @@ impl Model for TwistedString {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use super::{TwistedString, TOL_NORM_SCALE, TOL_NORM_SCALE_BACKLASH};
+    use crate::physics::GRAVITY;
+    use crate::plant::{self, ix, DIM, DIM_BASE};
+    use crate::vars::{POSITION_P_SI, RPM8000, SPEED_P_SI, V, VARIABLES};
+    use fmi2_export::{Model, Values};
 
     fn start_vars() -> Vec<f64> {
         VARIABLES.iter().map(|v| v.start).collect()

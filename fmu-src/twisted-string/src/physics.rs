@@ -354,7 +354,16 @@ pub fn load_potential(mass: f64, p: f64, l0: f64, k: f64, preload: f64) -> f64 {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use super::{
+        armature_current_rate, axial_force, axial_stiffness, axial_stiffness_load_form,
+        bundle_radius, encoder_quantize, flank_energy, flank_torque, free_length,
+        gear_efficiency_factor, guide_friction, helix_position, helix_slope, load_acceleration,
+        load_form_forces, load_potential, motor_friction, motor_torque, quadratic_energy, sign_fwd,
+        smooth_pos, smooth_pos_inverse, smooth_pos_primitive, spring_force, strand_friction,
+        strand_length, tangential_force, transmission_ratio, twist_arc, twist_torque, Mesh,
+        GRAVITY,
+    };
+    use std::f64::consts::PI;
 
     #[test]
     fn smooth_pos_limits_and_inverse() {

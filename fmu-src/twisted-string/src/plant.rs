@@ -722,7 +722,11 @@ pub fn rest_position(q: &Params, f_load: f64) -> Result<f64, ModelError> {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use super::{
+        ix, rest_position, stored_energy, Inputs, Params, Plant, DIM, DIM_BASE,
+        EFFICIENCY_POWER_WIDTH, GEAR_OUTPUT_INERTIA, MESH, NOMINAL,
+    };
+    use crate::physics::{bundle_radius, free_length, helix_position, twist_arc, GRAVITY};
 
     pub fn defaults() -> Params {
         Params {

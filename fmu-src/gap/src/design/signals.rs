@@ -154,7 +154,7 @@ pub fn constants(t: &[f64], lo: f64, hi: f64, start: f64, unit: &str) -> Vec<Sig
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use super::{constants, library, shaped, square};
 
     fn grid() -> Vec<f64> {
         (0..=1000).map(|i| i as f64 * 0.01).collect()

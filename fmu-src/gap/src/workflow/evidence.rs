@@ -326,8 +326,9 @@ pub(super) fn best_refit_delta_bic(ranked: &[Candidate]) -> f64 {
 
 #[cfg(test)]
 mod covariance_tests {
-    use super::*;
+    use super::covariance;
     use crate::workflow::Z95;
+    use nalgebra::DMatrix;
 
     /// Ordinary inverse of XᵀX (reference for the identifiable case).
     fn plain_inv(x: &DMatrix<f64>) -> DMatrix<f64> {
@@ -435,7 +436,7 @@ fn errors_after(rmse: f64, mean: f64, sigma: f64) -> OutputErrors {
 
 #[cfg(test)]
 mod offset_tests {
-    use super::*;
+    use super::{errors_after, offset_warnings};
     use crate::workflow::BTreeMap;
     use crate::workflow::OutputErrors;
 
@@ -461,7 +462,7 @@ mod offset_tests {
 
 #[cfg(test)]
 mod bound_tests {
-    use super::*;
+    use super::{bound_hit, bound_warnings, errors_after, far_from_data_warning};
     use crate::workflow::BTreeMap;
     use crate::workflow::Estimate;
     use crate::ParamSpec;

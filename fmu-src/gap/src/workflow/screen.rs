@@ -393,7 +393,8 @@ pub(super) fn screen<S: GridModel + ?Sized>(
 
 #[cfg(test)]
 mod visibility_tests {
-    use super::*;
+    use super::visibility;
+    use nalgebra::DMatrix;
 
     /// Base Jacobian with columns 1 and t on t = 0..1 (an offset and a slope the base can absorb).
     fn base_jac(n: usize) -> DMatrix<f64> {

@@ -501,7 +501,10 @@ fn names(params: &[ParamSpec], idx: &[usize]) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use super::{
+        begins_alike, concentrated_at_start, start_misses, what_to_do, StartMiss, START_MAX_Z,
+        START_SAMPLES,
+    };
     use crate::ParamSpec;
 
     /// The output whose first `m` samples the model misses most beyond a constant offset

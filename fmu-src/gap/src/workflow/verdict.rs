@@ -107,7 +107,7 @@ pub(super) fn reasons(c: &Candidate, min_delta_bic: f64, no_holdout: bool) -> Ve
 
 #[cfg(test)]
 mod text_tests {
-    use super::*;
+    use super::{hidden_from_data, only_screened, visibility_scale};
     use crate::workflow::reliably_visible;
     use crate::workflow::BTreeMap;
     use crate::workflow::Candidate;
@@ -209,7 +209,7 @@ mod text_tests {
 
 #[cfg(test)]
 mod convention_tests {
-    use super::*;
+    use super::convention_warnings;
     use crate::ParamSpec;
 
     fn params() -> Vec<ParamSpec> {

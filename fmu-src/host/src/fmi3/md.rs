@@ -722,7 +722,8 @@ fn interface(doc: &Doc<'_>, a: &Attrs) -> Result<Interface3, HostError> {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use super::{Causality3, Initial, ModelDescription3, Variability};
+    use crate::fmi3::value::{Type3, Values};
 
     const SAMPLE: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
 <fmiModelDescription fmiVersion="3.0" modelName="M" instantiationToken="{abc}">

@@ -734,7 +734,7 @@ impl Recorder3 {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use super::element_index;
 
     #[test]
     fn element_names_map_row_major_and_refuse_what_is_not_an_element() {

@@ -354,7 +354,7 @@ pub fn unhex(text: &str) -> Result<Vec<u8>, String> {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use super::{Type3, Values};
 
     #[test]
     fn tokens_parse_to_their_type_and_refuse_values_out_of_range() {

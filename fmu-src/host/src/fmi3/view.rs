@@ -8,7 +8,7 @@
 //! it is no model quantity to calibrate). Left out: arrays, Int64/UInt64 (beyond the FMI 2.0
 //! Integer range), Binary and Clock.
 
-use super::md::{Causality3, ModelDescription3, Variable3};
+use super::md::{Causality3, DefaultExperiment3, ModelDescription3, Variable3};
 use super::value::Type3;
 use crate::md::{
     Causality, CoSimulation, DefaultExperiment, ModelDescription, ScalarVariable, StartValue,
@@ -27,14 +27,21 @@ pub fn fmi2_view(md: &ModelDescription3) -> ModelDescription {
             model_identifier: c.model_identifier.clone(),
             ..Default::default()
         }),
-        default_experiment: md.default_experiment.as_ref().map(|d| DefaultExperiment {
-            start_time: d.start_time,
-            stop_time: d.stop_time,
-            tolerance: d.tolerance,
-            step_size: d.step_size,
-        }),
+        default_experiment: md.default_experiment.as_ref().map(DefaultExperiment::from),
         model_variables: md.variables.iter().filter_map(|v| scalar(md, v)).collect(),
         ..Default::default()
+    }
+}
+
+/// FMI 3.0.2 gives `<DefaultExperiment>` the four attributes of FMI 2.0.4: a plain copy.
+impl From<&DefaultExperiment3> for DefaultExperiment {
+    fn from(experiment: &DefaultExperiment3) -> Self {
+        DefaultExperiment {
+            start_time: experiment.start_time,
+            stop_time: experiment.stop_time,
+            tolerance: experiment.tolerance,
+            step_size: experiment.step_size,
+        }
     }
 }
 
@@ -105,7 +112,9 @@ fn scalar(md: &ModelDescription3, v: &Variable3) -> Option<ScalarVariable> {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use super::fmi2_view;
+    use crate::fmi3::md::ModelDescription3;
+    use crate::md::{StartValue, VarKind};
 
     #[test]
     fn scalars_map_to_fmi2_kinds_and_arrays_and_wide_types_are_left_out() {

@@ -702,7 +702,7 @@ fn first_crossing(domain: &[Option<bool>], b: &Bracket) -> usize {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use super::{crossed, domains, isclose, ColumnGroups};
 
     #[test]
     fn an_indicator_leaving_zero_after_an_event_is_no_crossing() {

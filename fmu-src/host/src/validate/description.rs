@@ -679,7 +679,9 @@ pub fn check_effect_convention(md: &ModelDescription) -> Vec<Finding> {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use super::{check_effect_convention, check_model_description, combination_allowed};
+    use crate::md::{Causality, ModelDescription, Variability};
+    use crate::validate::Finding;
 
     fn md_with_vars(vars: &str, structure: &str) -> ModelDescription {
         let xml = format!(

@@ -786,7 +786,7 @@ pub fn check_platform_binaries3(
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use super::required_functions;
 
     #[test]
     fn every_function_of_the_header_is_required_once() {
