@@ -67,7 +67,12 @@
 //!    Once the residuals are noise, the candidates left are screened against the final model
 //!    (a last round): their visibility there is what the data show beyond the named effects.
 //! 6. Final fit: the chosen model (base plus named effects) is refitted on the whole trace; its
-//!    parameters and intervals are the reported ones, its errors the "after" column.
+//!    parameters and intervals are the reported ones, its errors the "after" column. The 95 %
+//!    intervals are linearised (from secants, widened by the jumps' spread, when the sum of
+//!    squares is rough), then each end is checked against the sum itself along the first-order
+//!    path of its profile and, where the valley is flat or bends, by fits with the parameter held
+//!    at the end; every interval also holds each point such a held fit reached below the 95 %
+//!    level (`workflow`'s `rough` and `ends` modules).
 //! 7. Report ([`report`]: `report.json`, `report.md`) and plots ([`plots`]). Outputs the final
 //!    model still misses by more than 1.5 × their noise level (or 1.2 × with a residual that is
 //!    not white) are a disagreement no candidate explains: the report says where (outputs, time

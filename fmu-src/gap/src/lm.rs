@@ -712,7 +712,12 @@ pub fn levenberg_marquardt<P: Problem>(
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use super::{
+        interval_ends, jacobian, levenberg_marquardt, refresh_jacobian, roughness, secant_jacobian,
+        to_p, Bounded, Coord, LmOptions, Problem, MAX_END_WIDENING,
+    };
+    use crate::sim::SimError;
+    use nalgebra::DMatrix;
 
     struct Decay {
         t: Vec<f64>,

@@ -32,6 +32,10 @@ const GROWTH: f64 = 4.0;
 /// LM iterations of each held fit of the profile search.
 const HELD_FIT_ITERATIONS: usize = 5;
 
+/// Factor by which [`lm::interval_ends`] must have moved an end out for it to count as bent
+/// (a few per cent is the interpolation's own play on a quadratic sum).
+const BENT: f64 = 1.05;
+
 /// The ends `ends` (multipliers of each parameter's standard error in its fitting coordinate,
 /// from `cov`), each moved out where the profile shows it too close; `w` weighs the residual
 /// rows as in `cov`. Every end is at least its given value.
@@ -40,7 +44,11 @@ const HELD_FIT_ITERATIONS: usize = 5;
 /// probe, short of the parameter's bound, stays below `t²`), it also bends in ways the linearisation does not see (a
 /// TwistedString load mass whose profile followed the spring stiffness and guide damping across
 /// their ranges), and every end is then checked by a fit of the others with its parameter held
-/// there.
+/// there. An end the first-order path already moved out ([`lm::interval_ends`] found the sum
+/// rising less than quadratically along it: a bending valley) is checked by a held fit too,
+/// whatever its axis probe shows: a TwistedString return spring fitted at 4612 N/m, whose axis
+/// probe rose by 11906 and whose path end sat at 1305 N/m, had a profile 0.4 above the minimum
+/// at its true 99 N/m (the string compliance and radius readjusting along the valley).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn profile_ends<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
@@ -83,6 +91,8 @@ pub(super) fn profile_ends<S: GridModel + ?Sized>(
         })
         .collect();
     let thorough = shows_flat_valley(sides.iter().zip(&axis).map(|(s, &r)| (s.2, s.4, r)), t);
+    // Points a held fit reached below t² (in z): witnesses for every parameter's interval.
+    let witnesses = std::sync::Mutex::new(Vec::new());
     // The profile's rise with parameter j held at multiplier k, the others fitted from `from`.
     let held = |j: usize, sign: f64, sd: f64, k: f64, from: &[f64]| -> Option<(f64, Vec<f64>)> {
         let st = ModelState {
@@ -96,7 +106,17 @@ pub(super) fn profile_ends<S: GridModel + ?Sized>(
         let held = [(fin.state.idx[j], fin.bounds[j].to_p(at(j, sign, sd, k)))];
         let limits = Limits::new(HELD_FIT_ITERATIONS, 1e-4).without_final_jacobian();
         let f = fit_state_holding(ctx, &st, None, &[], &held, n_fin, limits).ok()?;
-        Some((lm::weighted_sse(&f.fit.residuals, w) - c0, f.state.val))
+        let rise = lm::weighted_sse(&f.fit.residuals, w) - c0;
+        if rise < t * t {
+            let mut zw: Vec<f64> = (0..m)
+                .filter(|&i| i != j)
+                .zip(&f.state.val)
+                .map(|(i, &v)| fin.bounds[i].to_z(v))
+                .collect();
+            zw.insert(j, at(j, sign, sd, k));
+            witnesses.lock().unwrap_or_else(|e| e.into_inner()).push(zw);
+        }
+        Some((rise, f.state.val))
     };
     let moved: Vec<f64> = sides
         .par_iter()
@@ -111,7 +131,7 @@ pub(super) fn profile_ends<S: GridModel + ?Sized>(
                 .collect();
             let mut last = (k, rise);
             if rise >= t * t {
-                if !thorough {
+                if !thorough && !bent(k, t) {
                     return k;
                 }
                 match held(j, sign, sd, k, &others) {
@@ -148,7 +168,38 @@ pub(super) fn profile_ends<S: GridModel + ?Sized>(
             .map(|k| (k * 100.0).round() / 100.0)
             .collect::<Vec<_>>(),
     ));
-    moved.chunks(2).map(|c| (c[0], c[1])).collect()
+    let witnesses = witnesses.into_inner().unwrap_or_else(|e| e.into_inner());
+    let moved: Vec<(f64, f64)> = moved.chunks(2).map(|c| (c[0], c[1])).collect();
+    spanning(moved, &witnesses, z, cov)
+}
+
+/// The ends `ends` (multipliers of each parameter's standard error from `cov`, about `z`) moved
+/// out to hold every witness: a point whose sum rises less than `t²` above the minimum. Such a
+/// point bounds from above the profile of each parameter at its own coordinate, so each of its
+/// coordinates lies inside that parameter's profile interval: a held fit that followed a curved
+/// valley (the return spring's, taking the string compliance and radius with it) shows how far
+/// the other parameters reach along it, where their own first-order paths climb its walls.
+fn spanning(
+    mut ends: Vec<(f64, f64)>,
+    witnesses: &[Vec<f64>],
+    z: &[f64],
+    cov: &DMatrix<f64>,
+) -> Vec<(f64, f64)> {
+    for (j, end) in ends.iter_mut().enumerate() {
+        let sd = cov[(j, j)].sqrt();
+        if !(sd.is_finite() && sd > 0.0) {
+            continue;
+        }
+        for zw in witnesses {
+            let d = (zw[j] - z[j]) / sd;
+            if d < 0.0 {
+                end.0 = end.0.max(-d);
+            } else {
+                end.1 = end.1.max(d);
+            }
+        }
+    }
+    ends
 }
 
 /// Whether the axis probes (multiplier, multiplier at the bound, rise) show a flat valley: a
@@ -161,6 +212,12 @@ fn shows_flat_valley(probes: impl IntoIterator<Item = (f64, f64, Option<f64>)>, 
     probes
         .into_iter()
         .any(|(k, k_bound, rise)| k < k_bound && rise.is_some_and(|r| r < t * t))
+}
+
+/// Whether an end's multiplier `k` was moved out from `t` by the first-order path's check
+/// (by more than [`BENT`]): the sum rose less than quadratically along it.
+fn bent(k: f64, t: f64) -> bool {
+    k > BENT * t
 }
 
 /// The profile search of one end: from `last` (multiplier, rise below `t²`), the end moves out
@@ -197,7 +254,8 @@ fn move_out(
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use super::{bent, move_out, shows_flat_valley, spanning};
+    use nalgebra::DMatrix;
 
     #[test]
     fn only_a_probe_short_of_the_bound_shows_a_flat_valley() {
@@ -211,6 +269,32 @@ mod tests {
             [(t, 10.0, Some(t * t)), (t, 10.0, None)],
             t
         ));
+    }
+
+    #[test]
+    fn only_an_end_moved_out_by_more_than_the_interpolations_play_is_bent() {
+        let t: f64 = 1.96;
+        assert!(!bent(t, t));
+        assert!(!bent(1.04 * t, t));
+        assert!(bent(1.06 * t, t));
+    }
+
+    #[test]
+    fn every_end_moves_out_to_hold_the_witnesses_and_none_moves_in() {
+        // Two parameters at z = (1, 2), standard errors 0.5 and 2.
+        let cov = DMatrix::from_row_slice(2, 2, &[0.25, 0.0, 0.0, 4.0]);
+        let ends = vec![(1.96, 1.96), (3.0, 1.96)];
+        // A witness 3 standard errors below the first and 1.5 above the second, another 4
+        // above the first.
+        let witnesses = vec![vec![-0.5, 5.0], vec![3.0, 2.0]];
+        let spanned = spanning(ends, &witnesses, &[1.0, 2.0], &cov);
+        assert_eq!(spanned, vec![(3.0, 4.0), (3.0, 1.96)]);
+        // A parameter without a finite standard error keeps its ends.
+        let cov = DMatrix::from_row_slice(1, 1, &[f64::NAN]);
+        assert_eq!(
+            spanning(vec![(1.96, 1.96)], &[vec![9.0]], &[0.0], &cov),
+            vec![(1.96, 1.96)]
+        );
     }
 
     #[test]
