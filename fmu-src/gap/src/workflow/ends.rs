@@ -44,7 +44,10 @@ const BENT: f64 = 1.05;
 /// probe, short of the parameter's bound, stays below `t²`), it also bends in ways the linearisation does not see (a
 /// TwistedString load mass whose profile followed the spring stiffness and guide damping across
 /// their ranges), and every end is then checked by a fit of the others with its parameter held
-/// there. An end the first-order path already moved out ([`lm::interval_ends`] found the sum
+/// there. So is every end when the sum is `rough` (a quantised signal in the model's loop,
+/// [`super::rough`]): its first-order path comes from secants and says little about the valley
+/// (a TwistedString guide damping fitted at 685 N·s/m whose path rose by 27 at its linearised end,
+/// 37 N·s/m, where the profile rose by 5 and stayed there down to the true 17). An end the first-order path already moved out ([`lm::interval_ends`] found the sum
 /// rising less than quadratically along it: a bending valley) is checked by a held fit too,
 /// whatever its axis probe shows: a TwistedString return spring fitted at 4612 N/m, whose axis
 /// probe rose by 11906 and whose path end sat at 1305 N/m, had a profile 0.4 above the minimum
@@ -59,6 +62,7 @@ pub(super) fn profile_ends<S: GridModel + ?Sized>(
     cov: &DMatrix<f64>,
     t: f64,
     ends: Vec<(f64, f64)>,
+    rough: bool,
 ) -> Vec<(f64, f64)> {
     let m = ends.len();
     let c0 = lm::weighted_sse(&fin.fit.residuals, w);
@@ -90,7 +94,8 @@ pub(super) fn profile_ends<S: GridModel + ?Sized>(
                 .map(|r| lm::weighted_sse(&r, w) - c0)
         })
         .collect();
-    let thorough = shows_flat_valley(sides.iter().zip(&axis).map(|(s, &r)| (s.2, s.4, r)), t);
+    let thorough =
+        rough || shows_flat_valley(sides.iter().zip(&axis).map(|(s, &r)| (s.2, s.4, r)), t);
     // Points a held fit reached below t² (in z): witnesses for every parameter's interval.
     let witnesses = std::sync::Mutex::new(Vec::new());
     // The profile's rise with parameter j held at multiplier k, the others fitted from `from`.
@@ -131,7 +136,7 @@ pub(super) fn profile_ends<S: GridModel + ?Sized>(
                 .collect();
             let mut last = (k, rise);
             if rise >= t * t {
-                if !thorough && !bent(k, t) {
+                if !thorough && !bent(k, t) && !clamped(&fin.bounds, z, cov, j, sign * k) {
                     return k;
                 }
                 match held(j, sign, sd, k, &others) {
@@ -155,7 +160,7 @@ pub(super) fn profile_ends<S: GridModel + ?Sized>(
             .map(|r| r.map(|r| (r * 10.0).round() / 10.0))
             .collect::<Vec<_>>(),
         if thorough {
-            "flat valley, every end checked by a held fit"
+            "flat valley or rough sum, every end checked by a held fit"
         } else {
             "no flat end"
         },
@@ -220,6 +225,20 @@ fn bent(k: f64, t: f64) -> bool {
     k > BENT * t
 }
 
+/// Whether the first-order path of parameter `j`'s profile, `z + s · cov[:, j] / σ_j` out to
+/// `s` standard errors, leaves another parameter's bounds: [`lm::interval_ends`] clamps it there,
+/// so its rise is no longer the profile's (a TwistedString return spring fitted at 0 N/m took
+/// the guide damping's path up a wall: 27 at its linearised end, where the profile rose by 5 at
+/// the true damping, 3.2 standard errors away).
+fn clamped(b: &[lm::Bounded], z: &[f64], cov: &DMatrix<f64>, j: usize, s: f64) -> bool {
+    let sd = cov[(j, j)].sqrt();
+    (0..z.len()).filter(|&i| i != j).any(|i| {
+        let (lo, hi) = b[i].z_bounds();
+        let zi = z[i] + s * cov[(i, j)] / sd;
+        zi < lo || zi > hi
+    })
+}
+
 /// The profile search of one end: from `last` (multiplier, rise below `t²`), the end moves out
 /// by [`GROWTH`] per step up to `k_bound`, each step's rise from `held(k, from)` (a fit of the
 /// others started at `from`, returning its rise and values), until the rise reaches `t²`; the end
@@ -254,7 +273,8 @@ fn move_out(
 
 #[cfg(test)]
 mod tests {
-    use super::{bent, move_out, shows_flat_valley, spanning};
+    use super::{bent, clamped, move_out, shows_flat_valley, spanning};
+    use crate::lm::Bounded;
     use nalgebra::DMatrix;
 
     #[test]
@@ -277,6 +297,22 @@ mod tests {
         assert!(!bent(t, t));
         assert!(!bent(1.04 * t, t));
         assert!(bent(1.06 * t, t));
+    }
+
+    #[test]
+    fn a_path_is_clamped_only_where_another_parameter_leaves_its_bounds() {
+        // Parameter 0 free; parameter 1 at z = 0.5 within [0, 10] (linear, start 0.5), falling
+        // by 0.2 per standard error of parameter 0 along its path.
+        let b = [
+            Bounded::new(1.0, None, None),
+            Bounded::new(0.5, Some(0.0), Some(10.0)),
+        ];
+        let z = [b[0].to_z(1.0), b[1].to_z(0.5)];
+        let d1 = b[1].dp_dz(z[1]);
+        let cov = DMatrix::from_row_slice(2, 2, &[1.0, -0.2 / d1, -0.2 / d1, 1.0]);
+        assert!(!clamped(&b, &z, &cov, 0, 2.0));
+        assert!(clamped(&b, &z, &cov, 0, 3.0));
+        assert!(!clamped(&b, &z, &cov, 0, -3.0));
     }
 
     #[test]

@@ -127,7 +127,17 @@ pub(super) fn interval_basis<S: GridModel + ?Sized>(
     let ends = match covariance(&jac, scale, n_fin) {
         Some(cov) => {
             let ends = lm::interval_ends(&problem, &fin.bounds, &fin.fit.z, r0, &w, &cov, z);
-            profile_ends(ctx, fin, n_fin, &problem, &w, &cov, z, ends)
+            profile_ends(
+                ctx,
+                fin,
+                n_fin,
+                &problem,
+                &w,
+                &cov,
+                z,
+                ends,
+                roughness.is_some(),
+            )
         }
         None => vec![(z, z); m],
     };
