@@ -22,7 +22,9 @@
 //! ([`lm::interval_ends`]): along the first-order path of the parameter's profile, an end where
 //! the sum rises less than the quadratic model says (a flatter or bending valley, or a fit that
 //! stopped short of the minimum) moves out to where it rises by as much. A 95 % interval is thus
-//! never narrower than its likelihood-ratio end along that path.
+//! never narrower than its likelihood-ratio end along that path. The ends are then checked
+//! against the profile itself ([`super::ends`]: fits with the parameter held at the end), every
+//! end when the sum is rough, where secants say little about the valley's shape.
 
 use super::ends::profile_ends;
 use super::evidence::{covariance, row_weights};
