@@ -17,11 +17,12 @@
 //! point's values, following the valley), until the profile reaches `t²` (the end interpolated
 //! in the squared distance) or the parameter's bound.
 
-use super::{fit_state_holding, Ctx, FitOut, FitProblem, Limits, ModelState};
+use super::{fit_state_holding, Ctx, FitOut, FitProblem, Limits, ModelState, Z95};
 use crate::lm;
 use crate::sim::GridModel;
 use nalgebra::DMatrix;
 use rayon::iter::{IndexedParallelIterator, IntoParallelRefIterator, ParallelIterator};
+use std::sync::Mutex;
 
 /// Held fits of the profile search per end; each moves the end out by [`GROWTH`].
 const MAX_HELD_FITS: usize = 4;
@@ -63,7 +64,7 @@ pub(super) fn profile_ends<S: GridModel + ?Sized>(
     t: f64,
     ends: Vec<(f64, f64)>,
     rough: bool,
-) -> Vec<(f64, f64)> {
+) -> ProfileEnds {
     let m = ends.len();
     let c0 = lm::weighted_sse(&fin.fit.residuals, w);
     let z = &fin.fit.z;
@@ -97,7 +98,9 @@ pub(super) fn profile_ends<S: GridModel + ?Sized>(
     let thorough =
         rough || shows_flat_valley(sides.iter().zip(&axis).map(|(s, &r)| (s.2, s.4, r)), t);
     // Points a held fit reached below t² (in z): witnesses for every parameter's interval.
-    let witnesses = std::sync::Mutex::new(Vec::new());
+    let witnesses = Mutex::new(Vec::new());
+    // The held fit's point lowest below the minimum (rise, every parameter's value).
+    let lowest: Mutex<Option<(f64, Vec<f64>)>> = Mutex::new(None);
     // The profile's rise with parameter j held at multiplier k, the others fitted from `from`.
     let held = |j: usize, sign: f64, sd: f64, k: f64, from: &[f64]| -> Option<(f64, Vec<f64>)> {
         let st = ModelState {
@@ -121,6 +124,13 @@ pub(super) fn profile_ends<S: GridModel + ?Sized>(
             zw.insert(j, at(j, sign, sd, k));
             witnesses.lock().unwrap_or_else(|e| e.into_inner()).push(zw);
         }
+        let mut low = lowest.lock().unwrap_or_else(|e| e.into_inner());
+        if rise < low.as_ref().map_or(0.0, |l| l.0) {
+            let mut val = f.state.val.clone();
+            val.insert(j, held[0].1);
+            *low = Some((rise, val));
+        }
+        drop(low);
         Some((rise, f.state.val))
     };
     let moved: Vec<f64> = sides
@@ -175,7 +185,29 @@ pub(super) fn profile_ends<S: GridModel + ?Sized>(
     ));
     let witnesses = witnesses.into_inner().unwrap_or_else(|e| e.into_inner());
     let moved: Vec<(f64, f64)> = moved.chunks(2).map(|c| (c[0], c[1])).collect();
-    spanning(moved, &witnesses, z, cov)
+    let lower = lowest.into_inner().unwrap_or_else(|e| e.into_inner());
+    ProfileEnds {
+        ends: spanning(moved, &witnesses, z, cov),
+        lower: lower
+            .filter(|(rise, _)| *rise < -lower_by(t))
+            .map(|(_, val)| val),
+    }
+}
+
+/// What the profile search found: the ends, and a point whose sum lies clearly below the fit's
+/// (by more than [`lower_by`]), when a held fit reached one.
+pub(super) struct ProfileEnds {
+    /// Per parameter, the (lower, upper) multipliers of its standard error.
+    pub ends: Vec<(f64, f64)>,
+    /// Every parameter's value (in the fit's order) at that point.
+    pub lower: Option<Vec<f64>>,
+}
+
+/// How far below the fit's sum a held fit's point must lie to show the fit is not the minimum:
+/// one chi-square unit on a smooth sum; on a rough one (`t = 1.96 + √(2F)`) the jumps' spread
+/// `t² − 1.96²` (at least `2F`), which a point can gain by where the jumps fall alone.
+fn lower_by(t: f64) -> f64 {
+    (t * t - Z95 * Z95).max(1.0)
 }
 
 /// The ends `ends` (multipliers of each parameter's standard error from `cov`, about `z`) moved

@@ -83,6 +83,34 @@ pub(super) fn final_fit<S: GridModel + ?Sized>(
     }
 }
 
+/// The final fit started again from `values` (every parameter of `fin`, a point the profile
+/// search found clearly below `fin`'s sum), kept if it ends below `fin`'s sum, with its Jacobian.
+pub(super) fn refit_from_lower<S: GridModel + ?Sized>(
+    ctx: &Ctx<'_, S>,
+    fin: &FitOut,
+    values: Vec<f64>,
+    n_fin: usize,
+) -> Option<FitOut> {
+    let limits = FINAL_LIMITS.without_final_jacobian();
+    let mut lower = fit_state(
+        ctx,
+        &fin.state.with_values(values),
+        None,
+        &[],
+        n_fin,
+        limits,
+    )
+    .ok()?;
+    ctx.stage(format!(
+        "final fit: the profile search found a lower valley, refitted from there: sum {:.1} against {:.1}",
+        lower.fit.sse, fin.fit.sse
+    ));
+    (lower.fit.sse < fin.fit.sse).then(|| {
+        ensure_jacobian(ctx, &mut lower, n_fin);
+        lower
+    })
+}
+
 /// The fit from `restart` with the parameters `held` (indices into its parameters, at its
 /// values) kept there while the others are fitted, then every parameter fitted from there.
 fn held_restart<S: GridModel + ?Sized>(

@@ -19,7 +19,7 @@ use crate::spec::{EffectSpec, ParamSpec};
 use crate::{lm, stats};
 use diagnose::diagnose;
 use evidence::{bound_warnings, estimates, far_from_data_warning, offset_warnings, row_scale};
-use finish::{final_fit, final_outputs, output_errors};
+use finish::{final_fit, final_outputs, output_errors, refit_from_lower};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rough::{interval_basis, recentre, roughness_note};
 use rounds::{run_rounds, RoundInputs, Rounds};
@@ -1065,9 +1065,25 @@ fn finish<S: GridModel + ?Sized>(
     let (fin, n_fin) = final_fit(ctx, cur.0, cur.1, st0);
     let scale = row_scale(&fin.fit.residuals, ctx.out_idx.len());
     let (fin, measured) = recentre(ctx, fin, n_fin, &scale);
+    let mut basis = interval_basis(ctx, &fin, n_fin, &scale, measured);
+    // A held fit of the profile search that found a clearly lower sum: the fit stopped in a
+    // valley that is not the lowest; refitted from that point once, its intervals made anew.
+    let fin = match basis
+        .lower
+        .take()
+        .and_then(|v| refit_from_lower(ctx, &fin, v, n_fin))
+    {
+        Some(lower) => {
+            let scale = row_scale(&lower.fit.residuals, ctx.out_idx.len());
+            let (lower, measured) = recentre(ctx, lower, n_fin, &scale);
+            basis = interval_basis(ctx, &lower, n_fin, &scale, measured);
+            lower
+        }
+        None => fin,
+    };
+    let scale = row_scale(&fin.fit.residuals, ctx.out_idx.len());
     let data_names: Vec<String> = data.outputs.iter().map(|(s, _)| s.clone()).collect();
     let (final_y, offsets) = final_outputs(ctx, &fin, n_fin, &data_names)?;
-    let basis = interval_basis(ctx, &fin, n_fin, &scale, measured);
     let parameters = estimates(
         &ctx.params,
         &fin.state.idx,

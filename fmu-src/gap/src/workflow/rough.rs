@@ -26,7 +26,7 @@
 //! against the profile itself ([`super::ends`]: fits with the parameter held at the end), every
 //! end when the sum is rough, where secants say little about the valley's shape.
 
-use super::ends::profile_ends;
+use super::ends::{profile_ends, ProfileEnds};
 use super::evidence::{covariance, row_weights};
 use super::{Ctx, FitOut, FitProblem, Z95};
 use crate::lm::{self, LmOptions};
@@ -52,6 +52,9 @@ pub(super) struct IntervalBasis {
     pub ends: Vec<(f64, f64)>,
     /// The measured roughness (chi-square of one jump), when it mattered.
     pub roughness: Option<f64>,
+    /// Every parameter's value at a point the profile search found clearly below the fit's sum
+    /// ([`ProfileEnds`]): the fit stopped in a valley that is not the lowest.
+    pub lower: Option<Vec<f64>>,
 }
 
 /// What [`recentre`] measured at a final fit it left where it stopped: the roughness over a
@@ -111,6 +114,7 @@ pub(super) fn interval_basis<S: GridModel + ?Sized>(
             fit: fin.fit.clone(),
             ends: Vec::new(),
             roughness: None,
+            lower: None,
         };
     }
     let problem = FitProblem::of(ctx, fin, n_fin);
@@ -141,8 +145,12 @@ pub(super) fn interval_basis<S: GridModel + ?Sized>(
                 roughness.is_some(),
             )
         }
-        None => vec![(z, z); m],
+        None => ProfileEnds {
+            ends: vec![(z, z); m],
+            lower: None,
+        },
     };
+    let ProfileEnds { ends, lower } = ends;
     IntervalBasis {
         fit: lm::LmFit {
             jac,
@@ -150,6 +158,7 @@ pub(super) fn interval_basis<S: GridModel + ?Sized>(
         },
         ends,
         roughness,
+        lower,
     }
 }
 
