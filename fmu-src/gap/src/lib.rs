@@ -70,8 +70,8 @@
 //!    parameters and intervals are the reported ones, its errors the "after" column. The 95 %
 //!    intervals are linearised (from secants, widened by the jumps' spread, when the sum of
 //!    squares is rough), then each end is checked against the sum itself along the first-order
-//!    path of its profile and, where the valley is flat or bends, by fits with the parameter held
-//!    at the end; every interval also holds each point such a held fit reached below the 95 %
+//!    path of its profile and, where the valley is flat or bends or a parameter sits on a bound,
+//!    by fits with the parameter held at the end; every interval also holds each point such a held fit reached below the 95 %
 //!    level (`workflow`'s `rough` and `ends` modules). A held fit that lands clearly below the
 //!    fit's sum shows the fit stopped in a valley that is not the lowest: the final fit starts
 //!    again from there, once, and its intervals are made anew.

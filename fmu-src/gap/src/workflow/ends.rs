@@ -45,14 +45,16 @@ const BENT: f64 = 1.05;
 /// probe, short of the parameter's bound, stays below `t²`), it also bends in ways the linearisation does not see (a
 /// TwistedString load mass whose profile followed the spring stiffness and guide damping across
 /// their ranges), and every end is then checked by a fit of the others with its parameter held
-/// there. So is every end when the sum is `rough` (a quantised signal in the model's loop,
-/// [`super::rough`]): its first-order path comes from secants and says little about the valley
-/// (a TwistedString guide damping fitted at 685 N·s/m whose path rose by 27 at its linearised end,
-/// 37 N·s/m, where the profile rose by 5 and stayed there down to the true 17). An end the first-order path already moved out ([`lm::interval_ends`] found the sum
-/// rising less than quadratically along it: a bending valley) is checked by a held fit too,
-/// whatever its axis probe shows: a TwistedString return spring fitted at 4612 N/m, whose axis
-/// probe rose by 11906 and whose path end sat at 1305 N/m, had a profile 0.4 above the minimum
-/// at its true 99 N/m (the string compliance and radius readjusting along the valley).
+/// there. So is every end when a parameter sits on one of its bounds ([`at_a_bound`]): a
+/// TwistedString guide damping fitted at 685 N·s/m with the return spring at 0 N/m, whose
+/// first-order path rose by 27 at its linearised end, 37 N·s/m, where the profile rose by 5 and
+/// stayed there down to the true 17. An end the first-order path already moved out
+/// ([`lm::interval_ends`] found the sum rising less than quadratically along it: a bending
+/// valley) is checked by a held fit too, whatever its axis probe shows: a TwistedString return
+/// spring fitted at 4612 N/m, whose axis probe rose by 11906 and whose path end sat at
+/// 1305 N/m, had a profile 0.4 above the minimum at its true 99 N/m (the string compliance and
+/// radius readjusting along the valley). So is an end whose first-order path leaves another
+/// parameter's bounds ([`clamped`]).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn profile_ends<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
@@ -63,7 +65,6 @@ pub(super) fn profile_ends<S: GridModel + ?Sized>(
     cov: &DMatrix<f64>,
     t: f64,
     ends: Vec<(f64, f64)>,
-    rough: bool,
 ) -> ProfileEnds {
     let m = ends.len();
     let c0 = lm::weighted_sse(&fin.fit.residuals, w);
@@ -95,8 +96,8 @@ pub(super) fn profile_ends<S: GridModel + ?Sized>(
                 .map(|r| lm::weighted_sse(&r, w) - c0)
         })
         .collect();
-    let thorough =
-        rough || shows_flat_valley(sides.iter().zip(&axis).map(|(s, &r)| (s.2, s.4, r)), t);
+    let thorough = at_a_bound(&fin.bounds, z)
+        || shows_flat_valley(sides.iter().zip(&axis).map(|(s, &r)| (s.2, s.4, r)), t);
     // Points a held fit reached below t² (in z): witnesses for every parameter's interval.
     let witnesses = Mutex::new(Vec::new());
     // The held fit's point lowest below the minimum (rise, every parameter's value).
@@ -170,7 +171,7 @@ pub(super) fn profile_ends<S: GridModel + ?Sized>(
             .map(|r| r.map(|r| (r * 10.0).round() / 10.0))
             .collect::<Vec<_>>(),
         if thorough {
-            "flat valley or rough sum, every end checked by a held fit"
+            "flat valley or a parameter on a bound, every end checked by a held fit"
         } else {
             "no flat end"
         },
@@ -251,6 +252,16 @@ fn shows_flat_valley(probes: impl IntoIterator<Item = (f64, f64, Option<f64>)>, 
         .any(|(k, k_bound, rise)| k < k_bound && rise.is_some_and(|r| r < t * t))
 }
 
+/// Whether some parameter sits on one of its bounds at `z`: the minimum is then a constrained
+/// one, where the quadratic model of the sum, and the covariance from it, do not describe the
+/// profile (Self & Liang 1987, likelihood ratios on the boundary of the parameter space).
+fn at_a_bound(b: &[lm::Bounded], z: &[f64]) -> bool {
+    b.iter().zip(z).any(|(b, &zi)| {
+        let (lo, hi) = b.z_bounds();
+        zi <= lo || zi >= hi
+    })
+}
+
 /// Whether an end's multiplier `k` was moved out from `t` by the first-order path's check
 /// (by more than [`BENT`]): the sum rose less than quadratically along it.
 fn bent(k: f64, t: f64) -> bool {
@@ -259,9 +270,7 @@ fn bent(k: f64, t: f64) -> bool {
 
 /// Whether the first-order path of parameter `j`'s profile, `z + s · cov[:, j] / σ_j` out to
 /// `s` standard errors, leaves another parameter's bounds: [`lm::interval_ends`] clamps it there,
-/// so its rise is no longer the profile's (a TwistedString return spring fitted at 0 N/m took
-/// the guide damping's path up a wall: 27 at its linearised end, where the profile rose by 5 at
-/// the true damping, 3.2 standard errors away).
+/// so its rise is no longer the profile's.
 fn clamped(b: &[lm::Bounded], z: &[f64], cov: &DMatrix<f64>, j: usize, s: f64) -> bool {
     let sd = cov[(j, j)].sqrt();
     (0..z.len()).filter(|&i| i != j).any(|i| {
@@ -305,7 +314,7 @@ fn move_out(
 
 #[cfg(test)]
 mod tests {
-    use super::{bent, clamped, move_out, shows_flat_valley, spanning};
+    use super::{at_a_bound, bent, clamped, move_out, shows_flat_valley, spanning};
     use crate::lm::Bounded;
     use nalgebra::DMatrix;
 
@@ -345,6 +354,19 @@ mod tests {
         assert!(!clamped(&b, &z, &cov, 0, 2.0));
         assert!(clamped(&b, &z, &cov, 0, 3.0));
         assert!(!clamped(&b, &z, &cov, 0, -3.0));
+    }
+
+    #[test]
+    fn a_parameter_exactly_on_a_bound_is_at_a_bound() {
+        let b = [
+            Bounded::new(1.0, Some(0.0), Some(10.0)),
+            Bounded::new(1.0, None, None),
+        ];
+        let z = |p0: f64| [b[0].to_z(p0), b[1].to_z(1.0)];
+        assert!(at_a_bound(&b, &z(0.0)));
+        assert!(at_a_bound(&b, &z(10.0)));
+        assert!(!at_a_bound(&b, &z(1e-9)));
+        assert!(!at_a_bound(&b, &z(5.0)));
     }
 
     #[test]

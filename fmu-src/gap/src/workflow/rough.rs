@@ -23,8 +23,8 @@
 //! the sum rises less than the quadratic model says (a flatter or bending valley, or a fit that
 //! stopped short of the minimum) moves out to where it rises by as much. A 95 % interval is thus
 //! never narrower than its likelihood-ratio end along that path. The ends are then checked
-//! against the profile itself ([`super::ends`]: fits with the parameter held at the end), every
-//! end when the sum is rough, where secants say little about the valley's shape.
+//! against the profile itself where the valley is flat, bent or constrained by a bound
+//! ([`super::ends`]: fits with the parameter held at the end).
 
 use super::ends::{profile_ends, ProfileEnds};
 use super::evidence::{covariance, row_weights};
@@ -133,17 +133,7 @@ pub(super) fn interval_basis<S: GridModel + ?Sized>(
     let ends = match covariance(&jac, scale, n_fin) {
         Some(cov) => {
             let ends = lm::interval_ends(&problem, &fin.bounds, &fin.fit.z, r0, &w, &cov, z);
-            profile_ends(
-                ctx,
-                fin,
-                n_fin,
-                &problem,
-                &w,
-                &cov,
-                z,
-                ends,
-                roughness.is_some(),
-            )
+            profile_ends(ctx, fin, n_fin, &problem, &w, &cov, z, ends)
         }
         None => ProfileEnds {
             ends: vec![(z, z); m],
