@@ -116,22 +116,22 @@ pub(super) fn profile_ends<S: GridModel + ?Sized>(
         let limits = Limits::new(HELD_FIT_ITERATIONS, 1e-4).without_final_jacobian();
         let f = fit_state_holding(ctx, &st, None, &[], &held, n_fin, limits).ok()?;
         let rise = lm::weighted_sse(&f.fit.residuals, w) - c0;
+        // Every parameter's value at this point, the held one included.
+        let mut val = f.state.val.clone();
+        val.insert(j, held[0].1);
         if rise < t * t {
-            let mut zw: Vec<f64> = (0..m)
-                .filter(|&i| i != j)
-                .zip(&f.state.val)
-                .map(|(i, &v)| fin.bounds[i].to_z(v))
+            let mut zw: Vec<f64> = val
+                .iter()
+                .zip(&fin.bounds)
+                .map(|(&v, b)| b.to_z(v))
                 .collect();
-            zw.insert(j, at(j, sign, sd, k));
+            zw[j] = at(j, sign, sd, k);
             witnesses.lock().unwrap_or_else(|e| e.into_inner()).push(zw);
         }
         let mut low = lowest.lock().unwrap_or_else(|e| e.into_inner());
         if rise < low.as_ref().map_or(0.0, |l| l.0) {
-            let mut val = f.state.val.clone();
-            val.insert(j, held[0].1);
             *low = Some((rise, val));
         }
-        drop(low);
         Some((rise, f.state.val))
     };
     let moved: Vec<f64> = sides

@@ -21,7 +21,7 @@ use diagnose::diagnose;
 use evidence::{bound_warnings, estimates, far_from_data_warning, offset_warnings, row_scale};
 use finish::{final_fit, final_outputs, output_errors, refit_from_lower};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use rough::{interval_basis, recentre, roughness_note};
+use rough::{interval_basis, recentre, roughness_note, IntervalBasis};
 use rounds::{run_rounds, RoundInputs, Rounds};
 use screen::LM_ABS_TOL;
 use serde::Serialize;
@@ -1052,6 +1052,20 @@ struct Ending {
     roughness: Option<f64>,
 }
 
+/// The final fit `fin` moved to its smooth part's minimum where its sum is rough
+/// ([`recentre`]), with the per-output scale of its intervals and their basis
+/// ([`interval_basis`]), both made from its residuals before that move.
+fn settle<S: GridModel + ?Sized>(
+    ctx: &Ctx<'_, S>,
+    fin: FitOut,
+    n_fin: usize,
+) -> (FitOut, Vec<f64>, IntervalBasis) {
+    let scale = row_scale(&fin.fit.residuals, ctx.out_idx.len());
+    let (fin, measured) = recentre(ctx, fin, n_fin, &scale);
+    let basis = interval_basis(ctx, &fin, n_fin, &scale, measured);
+    (fin, scale, basis)
+}
+
 /// The final fit on the whole trace (`final_fit`) of the rounds' model (`cur`: its fit and
 /// whole-trace residual), its parameters with their intervals, and the errors per output of the
 /// model as given, the base fit and the final model (`before` holds the first two).
@@ -1063,25 +1077,17 @@ fn finish<S: GridModel + ?Sized>(
     before: [&[Vec<f64>]; 2],
 ) -> Result<Ending, GapError> {
     let (fin, n_fin) = final_fit(ctx, cur.0, cur.1, st0);
-    let scale = row_scale(&fin.fit.residuals, ctx.out_idx.len());
-    let (fin, measured) = recentre(ctx, fin, n_fin, &scale);
-    let mut basis = interval_basis(ctx, &fin, n_fin, &scale, measured);
+    let (fin, scale, mut basis) = settle(ctx, fin, n_fin);
     // A held fit of the profile search that found a clearly lower sum: the fit stopped in a
     // valley that is not the lowest; refitted from that point once, its intervals made anew.
-    let fin = match basis
+    let lower = basis
         .lower
         .take()
-        .and_then(|v| refit_from_lower(ctx, &fin, v, n_fin))
-    {
-        Some(lower) => {
-            let scale = row_scale(&lower.fit.residuals, ctx.out_idx.len());
-            let (lower, measured) = recentre(ctx, lower, n_fin, &scale);
-            basis = interval_basis(ctx, &lower, n_fin, &scale, measured);
-            lower
-        }
-        None => fin,
+        .and_then(|v| refit_from_lower(ctx, &fin, v, n_fin));
+    let (fin, scale, basis) = match lower {
+        Some(lower) => settle(ctx, lower, n_fin),
+        None => (fin, scale, basis),
     };
-    let scale = row_scale(&fin.fit.residuals, ctx.out_idx.len());
     let data_names: Vec<String> = data.outputs.iter().map(|(s, _)| s.clone()).collect();
     let (final_y, offsets) = final_outputs(ctx, &fin, n_fin, &data_names)?;
     let parameters = estimates(
