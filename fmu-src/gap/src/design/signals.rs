@@ -1,10 +1,11 @@
 //! The library of input signals an experiment design chooses from: for one input with range
 //! `[lo, hi]` on a time grid, square waves, staircases, triangles and raised cosines between the
-//! ends of several windows of the range (all of it, its lower and upper fifths, and windows
+//! ends of several windows of the range (all of it, its lower and upper fifths, half the way from the start value to each end, and windows
 //! around zero when the range spans it: small reversals are what a backlash or a friction
 //! reversal needs), at two periods. Every signal starts at the input's start value and leaves it
 //! along a minimum-jerk move, so the model starts at rest and no step excites what the effect
-//! should explain. Deterministic: the same grid and range give the same signals.
+//! should explain. [`gentlest_first`] orders them for the search. Deterministic: the same grid
+//! and range give the same signals.
 
 use std::f64::consts::PI;
 
@@ -22,16 +23,34 @@ fn min_jerk(s: f64) -> f64 {
     s * s * s * (10.0 - 15.0 * s + 6.0 * s * s)
 }
 
-/// The windows `(a, b)` of `[lo, hi]` the library excites.
-fn windows(lo: f64, hi: f64) -> Vec<(&'static str, f64, f64)> {
+/// The windows `(a, b)` of `[lo, hi]` the library excites: the whole range, its lower and upper
+/// fifths, half the way from the start value towards each end, and, when the range spans zero,
+/// windows around zero of 2, 10 and 25 % of the range each side. The intermediate ones let the
+/// design stop short of the range's ends when less already shows the effect (see
+/// [`super::ENOUGH`]).
+fn windows(lo: f64, hi: f64, start: f64) -> Vec<(&'static str, f64, f64)> {
     let w = hi - lo;
     let mut v = vec![
         ("whole range", lo, hi),
         ("lower fifth", lo, lo + 0.2 * w),
         ("upper fifth", hi - 0.2 * w, hi),
     ];
+    if hi > start {
+        v.push((
+            "half way up from the start",
+            start,
+            start + 0.5 * (hi - start),
+        ));
+    }
+    if lo < start {
+        v.push((
+            "half way down from the start",
+            start - 0.5 * (start - lo),
+            start,
+        ));
+    }
     if lo < 0.0 && hi > 0.0 {
-        for f in [0.1, 0.02] {
+        for f in [0.25, 0.1, 0.02] {
             v.push(("around zero", (-f * w).max(lo), (f * w).min(hi)));
         }
     }
@@ -111,7 +130,7 @@ pub fn library(t: &[f64], lo: f64, hi: f64, start: f64, unit: &str) -> Vec<Signa
     let dur = t[t.len() - 1] - t[0];
     let start = start.clamp(lo, hi);
     let mut out = Vec::new();
-    for (wname, a, b) in windows(lo, hi) {
+    for (wname, a, b) in windows(lo, hi, start) {
         for (gname, g) in WAVES {
             for f in PERIODS {
                 let period = f * dur;
@@ -125,6 +144,32 @@ pub fn library(t: &[f64], lo: f64, hi: f64, start: f64, unit: &str) -> Vec<Signa
         }
     }
     out
+}
+
+/// Largest distance of a signal from the start value.
+pub fn excursion(values: &[f64], start: f64) -> f64 {
+    values.iter().fold(0.0_f64, |m, v| m.max((v - start).abs()))
+}
+
+/// Signals in the order the design's search tries them, which takes the first that is good
+/// enough: within `envelope` (the excursion of the data at hand) the widest first, since they
+/// excite the base parameters at least as the data did; beyond it the least excursion first, to
+/// leave the operating range the base parameters were calibrated in no further than needed.
+/// Stable within equal keys.
+pub fn gentlest_first(mut signals: Vec<Signal>, start: f64, envelope: f64) -> Vec<Signal> {
+    let key = |s: &Signal| {
+        let e = excursion(&s.values, start);
+        if e <= envelope {
+            (0, -e)
+        } else {
+            (1, e)
+        }
+    };
+    signals.sort_by(|a, b| {
+        let (ka, kb) = (key(a), key(b));
+        ka.0.cmp(&kb.0).then(ka.1.total_cmp(&kb.1))
+    });
+    signals
 }
 
 /// Levels for an input that accompanies another one's signal: its start value, the ends and the
@@ -154,7 +199,7 @@ pub fn constants(t: &[f64], lo: f64, hi: f64, start: f64, unit: &str) -> Vec<Sig
 
 #[cfg(test)]
 mod tests {
-    use super::{constants, library, shaped, square};
+    use super::{constants, excursion, gentlest_first, library, shaped, square};
 
     fn grid() -> Vec<f64> {
         (0..=1000).map(|i| i as f64 * 0.01).collect()
@@ -164,8 +209,8 @@ mod tests {
     fn every_signal_starts_at_rest_and_stays_in_range() {
         let t = grid();
         let lib = library(&t, -2.0, 6.0, 0.0, "rad");
-        // 5 windows (the range spans zero) x 4 waves x 2 periods.
-        assert_eq!(lib.len(), 40);
+        // 8 windows (two from the start, three around zero) x 4 waves x 2 periods.
+        assert_eq!(lib.len(), 64);
         for s in &lib {
             assert_eq!(s.values[0], 0.0, "{}", s.label);
             assert!(
@@ -180,6 +225,31 @@ mod tests {
                 .fold((f64::MAX, f64::MIN), |(a, b), &v| (a.min(v), b.max(v)));
             assert!(mx - mn > 0.01, "{}", s.label);
         }
+    }
+
+    #[test]
+    fn within_the_envelope_the_widest_first_beyond_it_the_least_excursion() {
+        let t = grid();
+        let lib = gentlest_first(library(&t, -2.0, 6.0, 0.0, "rad"), 0.0, 1.0);
+        let reaches: Vec<f64> = lib.iter().map(|s| excursion(&s.values, 0.0)).collect();
+        let inside = reaches.iter().take_while(|&&e| e <= 1.0).count();
+        // Inside: around zero at 10 % (0.8) then 2 % (0.16) of the range, and half way down (1).
+        assert_eq!(inside, 24, "{reaches:?}");
+        assert!(
+            reaches[..inside].windows(2).all(|w| w[0] >= w[1]),
+            "{reaches:?}"
+        );
+        assert!(
+            reaches[inside..].windows(2).all(|w| w[0] <= w[1]),
+            "{reaches:?}"
+        );
+        // The nearest window beyond reaches 2 (a fifth, or 25 % around zero).
+        assert!(
+            reaches[inside] > 1.9 && reaches[inside] <= 2.0,
+            "{}",
+            reaches[inside]
+        );
+        assert!((reaches[reaches.len() - 1] - 6.0).abs() < 1e-9);
     }
 
     #[test]

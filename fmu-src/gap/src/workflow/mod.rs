@@ -164,8 +164,8 @@ pub struct Candidate {
     /// The refit was restarted from the best point of the effect's profile (see
     /// `profile_restart`), which fitted better.
     pub profiled: bool,
-    /// Refitted and not named, with some evidence short of the threshold (0 < ΔBIC < min ΔBIC):
-    /// the data neither show the effect nor rule it out at its fitted strength.
+    /// Not named, with some evidence short of the threshold (0 < ΔBIC < min ΔBIC, refitted or
+    /// linearised): the data neither show the effect nor rule it out at that strength.
     pub inconclusive: bool,
 }
 
@@ -237,6 +237,16 @@ impl Candidate {
             profiled: false,
             inconclusive: false,
         }
+    }
+
+    /// Marks a screened-only candidate whose linearised ΔBIC is positive yet below the naming
+    /// threshold: its chi-square drop exceeds its parameters' BIC penalty (for one parameter,
+    /// p ≈ 0.003 under no effect), a hint the data neither confirm nor rule out. Residuals at the
+    /// noise level are not refitted, so this is how such a hint reaches the report, with the
+    /// experiment that would settle it.
+    fn hinted(mut self, min_delta_bic: f64) -> Self {
+        self.inconclusive = !self.refit && self.delta_bic > 0.0 && self.delta_bic < min_delta_bic;
+        self
     }
 }
 

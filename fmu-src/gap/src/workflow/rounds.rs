@@ -147,7 +147,8 @@ fn one_round<S: GridModel + ?Sized>(
                 with_visibility(
                     ctx,
                     &sc,
-                    Candidate::screened_only(&ctx.effects[e].name, sc.corrected[&e], score),
+                    Candidate::screened_only(&ctx.effects[e].name, sc.corrected[&e], score)
+                        .hinted(cfg.min_delta_bic),
                 )
             })
             .collect();
@@ -218,11 +219,10 @@ fn one_round<S: GridModel + ?Sized>(
             .unwrap_or(std::cmp::Ordering::Equal)
     });
     for &(e, score) in sc.order.iter().filter(|c| !top.iter().any(|t| t.0 == c.0)) {
-        ranked.push(Candidate::screened_only(
-            &ctx.effects[e].name,
-            sc.corrected[&e],
-            score,
-        ));
+        ranked.push(
+            Candidate::screened_only(&ctx.effects[e].name, sc.corrected[&e], score)
+                .hinted(cfg.min_delta_bic),
+        );
     }
     if ranked.is_empty() {
         return Ok(Outcome::Exhausted);
@@ -288,7 +288,8 @@ fn closing_screen<S: GridModel + ?Sized>(
         .order
         .iter()
         .map(|&(e, score)| {
-            let mut c = Candidate::screened_only(&ctx.effects[e].name, sc.corrected[&e], score);
+            let mut c = Candidate::screened_only(&ctx.effects[e].name, sc.corrected[&e], score)
+                .hinted(inp.cfg.min_delta_bic);
             c.verdict = format!(
                 "screened against the final model (with {}), whose residuals are at the noise level",
                 st.named.join(", ")

@@ -179,6 +179,32 @@ mod text_tests {
     }
 
     #[test]
+    fn a_positive_linearised_delta_bic_below_the_threshold_is_a_hint_to_settle() {
+        let shown_at_weakest = |c: Candidate| {
+            let mut c = c;
+            c.visibility = Some(500.0);
+            c.visibility_needed = 18.0;
+            c.visibility_scan = vec![VisibilityPoint {
+                parameters: BTreeMap::new(),
+                fraction: 0.0,
+                visibility: Some(400.0),
+            }];
+            c
+        };
+        let hint = shown_at_weakest(Candidate::screened_only("valve", 2.3, 2.3).hinted(10.0));
+        assert!(hint.inconclusive && hint.may_hide());
+        for delta_bic in [-1.8, 10.0, 25.0] {
+            let c =
+                shown_at_weakest(Candidate::screened_only("valve", delta_bic, 0.0).hinted(10.0));
+            assert!(!c.inconclusive && !c.may_hide(), "{delta_bic}");
+        }
+        // A refitted candidate's own ΔBIC decides (in `choose`), not the linearised one.
+        let mut refitted = Candidate::screened_only("valve", 2.3, 2.3);
+        refitted.refit = true;
+        assert!(!refitted.hinted(10.0).inconclusive);
+    }
+
+    #[test]
     fn a_detectable_candidate_only_screened_is_said_so_with_the_reason() {
         let mut seen = Candidate::screened_only("backlash", 3.2, 3.2);
         seen.visibility = Some(500.0);
