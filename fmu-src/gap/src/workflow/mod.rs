@@ -199,10 +199,16 @@ impl Candidate {
     }
 
     /// Whether the data would reveal this effect even at the weakest setting of its range (the
-    /// first scanned setting) with 95 % probability ([`reliably_visible`]); without a scan, as
-    /// [`Candidate::detectable`].
+    /// least visible scanned setting: a spool's lag is weakest at the top of its frequency
+    /// range, not at the min of its parameters) with 95 % probability ([`reliably_visible`]);
+    /// without a scan, as [`Candidate::detectable`].
     pub fn detectable_at_weakest(&self) -> bool {
-        match self.visibility_scan.first().and_then(|p| p.visibility) {
+        let weakest = self
+            .visibility_scan
+            .iter()
+            .filter_map(|p| p.visibility)
+            .min_by(f64::total_cmp);
+        match weakest {
             Some(v) => reliably_visible(v, self.visibility_needed),
             None => self.detectable(),
         }

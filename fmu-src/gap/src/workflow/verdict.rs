@@ -176,6 +176,10 @@ mod text_tests {
         c.visibility_scan[0].visibility = Some(54.0);
         c.inconclusive = true;
         assert!(c.detectable_at_weakest() && c.may_hide());
+        // The weak end may be the top of the range (a valve lag at its highest frequency).
+        c.inconclusive = false;
+        c.visibility_scan = vec![point(0.0, 500.0), point(0.5, 80.0), point(1.0, 21.6)];
+        assert!(!c.detectable_at_weakest() && c.may_hide());
     }
 
     #[test]
