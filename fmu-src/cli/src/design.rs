@@ -139,12 +139,7 @@ fn experiment(a: &Args, md: &ModelDescription) -> Result<DesignConfig, CliError>
     }
     if let Some(path) = &a.data {
         let data = load_data(md, path)?;
-        cfg.noise = Noise::Sigma(
-            data.outputs
-                .iter()
-                .map(|(_, y)| gap::stats::noise_sigma(y))
-                .collect(),
-        );
+        cfg.noise = Noise::Measured(data.outputs.iter().map(|(_, y)| y.clone()).collect());
         cfg.outputs = data.outputs.into_iter().map(|(n, _)| n).collect();
         cfg.time = data.time;
         cfg.given = Some(data.inputs);

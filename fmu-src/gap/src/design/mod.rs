@@ -18,8 +18,10 @@
 //!    [`ENOUGH`]; the search tries signals within the data's envelope first, widest first, then
 //!    beyond it, least excursion first, and keeps the first that reaches the cap; the linearisation
 //!    uses the base parameters at their start values (or `--set` values), a finite-difference
-//!    Jacobian of the measured outputs, and the noise level of the data at hand (or a fraction of
-//!    each output's range in that experiment).
+//!    Jacobian of the measured outputs, and the noise model of the data at hand (each output's
+//!    level and AR(1) correlation, fitted as the gap workflow fits them: a correlated output's
+//!    samples count with their effective number) or a fraction of each output's range in that
+//!    experiment.
 //! 4. Search: each input alone runs through the signal library ([`signals`]) while the others
 //!    rest at their start values; then, from the best, every other input runs through the
 //!    library and levels (reached from the start value by a minimum-jerk move), one input after
@@ -36,7 +38,7 @@ pub mod signals;
 use crate::lm::{Bounded, Coord};
 use crate::sim::{Counted, GridModel, SimError};
 use crate::spec::{self, ParamSpec};
-use crate::workflow::{regress, Data, GapError};
+use crate::workflow::{noise, regress, Data, GapError};
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -55,8 +57,13 @@ pub struct InputSpec {
 /// How the noise level of each measured output is known.
 #[derive(Clone, Debug)]
 pub enum Noise {
-    /// The noise standard deviation of each measured output (from the data at hand).
+    /// The noise standard deviation of each measured output, white.
     Sigma(Vec<f64>),
+    /// The measured outputs of the data at hand (in `outputs` order): the noise model is that of
+    /// the gap workflow, fitted to their residual against the model at the given settings (the
+    /// level and the AR(1) coefficient of each output; a chi-square then counts a correlated
+    /// output's samples with their effective number, `(1 − ρ)/(1 + ρ)` per sample).
+    Measured(Vec<Vec<f64>>),
     /// A fraction of each output's range in the experiment itself (a sensor scaled to what it
     /// measures).
     Fraction(f64),
@@ -154,13 +161,6 @@ where
     let probe = make(&data_with(cfg, &rest))?;
     let mut plan = plan(probe.params(), probe.output_names(), cfg)?;
     let counter = std::sync::atomic::AtomicUsize::new(0);
-    let visible = |plan: &Plan, inputs: &[(String, Vec<f64>)]| -> Option<Vec<Option<f64>>> {
-        let sim = make(&data_with(cfg, inputs)).ok()?;
-        let counted = Counted::new(&sim);
-        let v = visibilities(&counted, plan, &cfg.noise).ok();
-        counter.fetch_add(counted.count(), std::sync::atomic::Ordering::SeqCst);
-        v
-    };
     let given_inputs = cfg.given.as_ref().map(|g| {
         let mut inputs = rest.clone();
         for (n, v) in g {
@@ -170,6 +170,28 @@ where
         }
         inputs
     });
+    let levels = match (&cfg.noise, &given_inputs) {
+        (Noise::Fraction(f), _) => Levels::Fraction(*f),
+        (Noise::Sigma(s), _) => Levels::Fixed {
+            sigma: s.clone(),
+            weight: vec![1.0; s.len()],
+        },
+        (Noise::Measured(y), Some(inputs)) => {
+            let sim = make(&data_with(cfg, inputs))?;
+            let counted = Counted::new(&sim);
+            let levels = measured_levels(&counted, &plan, y);
+            counter.fetch_add(counted.count(), std::sync::atomic::Ordering::SeqCst);
+            levels
+        }
+        (Noise::Measured(_), None) => unreachable!("checked: measured outputs come with inputs"),
+    };
+    let visible = |plan: &Plan, inputs: &[(String, Vec<f64>)]| -> Option<Vec<Option<f64>>> {
+        let sim = make(&data_with(cfg, inputs)).ok()?;
+        let counted = Counted::new(&sim);
+        let v = visibilities(&counted, plan, &levels).ok();
+        counter.fetch_add(counted.count(), std::sync::atomic::Ordering::SeqCst);
+        v
+    };
     if let Some(inputs) = &given_inputs {
         plan.effects = weakest_corners(probe.params(), &plan, |p| visible(p, inputs));
     }
@@ -221,6 +243,18 @@ fn check(cfg: &DesignConfig) -> Result<(), GapError> {
     }
     if cfg.outputs.is_empty() {
         return Err(GapError::Usage("no measured output to design for".into()));
+    }
+    if let Noise::Measured(y) = &cfg.noise {
+        if y.len() != cfg.outputs.len() || y.iter().any(|v| v.len() != cfg.time.len()) {
+            return Err(GapError::Usage(
+                "the measured outputs must match the outputs and the time grid".into(),
+            ));
+        }
+        if cfg.given.is_none() {
+            return Err(GapError::Usage(
+                "a noise model from measured outputs needs the inputs that made them".into(),
+            ));
+        }
     }
     if let Noise::Sigma(s) = &cfg.noise {
         if s.len() != cfg.outputs.len() || s.iter().any(|x| !(x.is_finite() && *x > 0.0)) {
@@ -460,26 +494,74 @@ fn measured<S: GridModel + ?Sized>(
     sim.measured(&set, plan.n_train, &plan.out_idx)
 }
 
-/// Each effect's visibility in one experiment (the simulator carries its inputs).
+/// The noise of each measured output as the visibilities use it.
+#[derive(Clone, Debug)]
+enum Levels {
+    /// A fraction of each output's range in the experiment, white.
+    Fraction(f64),
+    /// Standard deviation and effective samples per sample of each output.
+    Fixed { sigma: Vec<f64>, weight: Vec<f64> },
+}
+
+/// The noise model of the data at hand (see [`Noise::Measured`]): the residual of the measured
+/// outputs against the model at the plan's settings, in units of each output's second-difference
+/// level, fitted as the gap workflow fits it. A failed simulation leaves the white
+/// second-difference levels.
+fn measured_levels<S: GridModel + ?Sized>(
+    sim: &Counted<'_, S>,
+    plan: &Plan,
+    measured: &[Vec<f64>],
+) -> Levels {
+    let level: Vec<f64> = measured
+        .iter()
+        .map(|y| noise::difference_level(y))
+        .collect();
+    let white = Levels::Fixed {
+        sigma: level.clone(),
+        weight: vec![1.0; measured.len()],
+    };
+    let Ok(model) = self::measured(sim, plan, &[]) else {
+        return white;
+    };
+    let fits: Vec<noise::NoiseFit> = measured
+        .iter()
+        .zip(&model)
+        .zip(&level)
+        .map(|((y, m), l)| {
+            let r: Vec<f64> = y.iter().zip(m).map(|(a, b)| (a - b) / l).collect();
+            noise::noise_fit(&r)
+        })
+        .collect();
+    Levels::Fixed {
+        sigma: fits.iter().zip(&level).map(|(f, l)| f.level * l).collect(),
+        weight: fits.iter().map(|f| (1.0 - f.rho) / (1.0 + f.rho)).collect(),
+    }
+}
+
+/// Each effect's visibility in one experiment (the simulator carries its inputs): the
+/// chi-square, counted with each output's effective samples, of its change that the calibrated
+/// parameters cannot absorb.
 fn visibilities<S: GridModel + ?Sized>(
     sim: &Counted<'_, S>,
     plan: &Plan,
-    noise: &Noise,
+    levels: &Levels,
 ) -> Result<Vec<Option<f64>>, SimError> {
     let y0 = measured(sim, plan, &[])?;
-    let sigma: Vec<f64> = match noise {
-        Noise::Sigma(s) => s.clone(),
-        Noise::Fraction(f) => y0
-            .iter()
-            .map(|y| {
-                let r = crate::stats::range(y);
-                if r > 0.0 {
-                    f * r
-                } else {
-                    f64::INFINITY // a flat output carries no information
-                }
-            })
-            .collect(),
+    let (sigma, weight): (Vec<f64>, Vec<f64>) = match levels {
+        Levels::Fixed { sigma, weight } => (sigma.clone(), weight.clone()),
+        Levels::Fraction(f) => (
+            y0.iter()
+                .map(|y| {
+                    let r = crate::stats::range(y);
+                    if r > 0.0 {
+                        f * r
+                    } else {
+                        f64::INFINITY // a flat output carries no information
+                    }
+                })
+                .collect(),
+            vec![1.0; y0.len()],
+        ),
     };
     let weighted = |y: &[Vec<f64>]| -> Vec<f64> {
         let mut r = Vec::with_capacity(plan.n_train * y.len());
@@ -503,7 +585,12 @@ fn visibilities<S: GridModel + ?Sized>(
         .iter()
         .map(|(_, set)| {
             let d = weighted(&measured(sim, plan, set).ok()?);
-            let v = crate::lm::sse(&regress(&jac, &d).0);
+            let res = regress(&jac, &d).0;
+            let v: f64 = res
+                .chunks(plan.n_train)
+                .zip(&weight)
+                .map(|(c, w)| w * crate::lm::sse(c))
+                .sum();
             v.is_finite().then_some(v)
         })
         .collect())
@@ -787,7 +874,61 @@ where
 
 #[cfg(test)]
 mod tests {
-    use super::{objective, ENOUGH};
+    use super::{design, objective, DesignConfig, InputSpec, Noise, ENOUGH};
+    use crate::synthetic::{input, measure, Msd, Rng};
+    use crate::workflow::{Data, GapError};
+
+    /// The data's visibility of the lag (the synthetic model's input lag) under the noise model
+    /// fitted from the measured outputs, and under their white second-difference levels.
+    fn given_visibility(ar: f64) -> (f64, f64) {
+        let (n, dt) = (800, 0.01);
+        let time: Vec<f64> = (0..n).map(|i| i as f64 * dt).collect();
+        let mut rng = Rng::new(7);
+        let u = input(&mut rng, n, dt);
+        let msd = Msd::new(time.clone(), u.clone());
+        let data = measure(&msd, &[], &mut rng, 0.01, ar, &[0, 1]);
+        let cfg = |noise: Noise| DesignConfig {
+            effects: Some(vec!["lag".into()]),
+            fit: None,
+            fixed: Vec::new(),
+            time: time.clone(),
+            inputs: vec![InputSpec {
+                name: "u".into(),
+                start: 0.0,
+                range: Some((-5.0, 5.0)),
+                unit: "N".into(),
+            }],
+            outputs: vec!["x".into(), "v".into()],
+            noise,
+            given: Some(data.inputs.clone()),
+            holdout: 0.3,
+            min_delta_bic: 10.0,
+        };
+        let make = |d: &Data| -> Result<Msd, GapError> {
+            Ok(Msd::new(d.time.clone(), d.inputs[0].1.clone()))
+        };
+        let measured: Vec<Vec<f64>> = data.outputs.iter().map(|(_, y)| y.clone()).collect();
+        let levels = measured
+            .iter()
+            .map(|y| crate::stats::noise_sigma(y))
+            .collect();
+        let with = |noise| design(make, &cfg(noise)).expect("design").effects[0].given;
+        (
+            with(Noise::Measured(measured)).expect("visibility"),
+            with(Noise::Sigma(levels)).expect("visibility"),
+        )
+    }
+
+    #[test]
+    fn correlated_noise_counts_with_its_effective_samples() {
+        // White noise: the fitted model is white at the second-difference level.
+        let (fitted, white) = given_visibility(0.0);
+        assert!((fitted / white - 1.0).abs() < 0.05, "{fitted} {white}");
+        // AR(1) 0.9: the marginal level is about 4× the second-difference one and a sample
+        // counts about 1/19: hundreds of times less visible than the white reading says.
+        let (fitted, white) = given_visibility(0.9);
+        assert!(fitted < white / 100.0, "{fitted} {white}");
+    }
 
     #[test]
     fn an_experiment_scores_its_least_visible_effect_up_to_the_margin() {

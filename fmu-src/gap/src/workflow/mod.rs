@@ -36,7 +36,7 @@ mod disagreement;
 mod ends;
 mod evidence;
 mod finish;
-mod noise;
+pub(crate) mod noise;
 mod offsets;
 mod refit;
 mod rough;

@@ -61,9 +61,9 @@ pub(super) fn ar1_coefficient(r: &[f64]) -> f64 {
 /// output's second-difference level): the AR(1) coefficient and the factor from that level to
 /// the marginal one.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(super) struct NoiseFit {
-    pub(super) rho: f64,
-    pub(super) level: f64,
+pub(crate) struct NoiseFit {
+    pub(crate) rho: f64,
+    pub(crate) level: f64,
 }
 
 /// [`NoiseFit`] of residual `r`. Correlation is detected on the differences
@@ -76,7 +76,7 @@ pub(super) struct NoiseFit {
 /// is noise then gives the coefficient directly (its lag-1 autocorrelation, far less variable
 /// near 1 than the differences' estimate) and the marginal level: the closed form, but not
 /// above the residual's own RMS (the closed form's factor grows without bound as ρ nears 1).
-pub(super) fn noise_fit(r: &[f64]) -> NoiseFit {
+pub(crate) fn noise_fit(r: &[f64]) -> NoiseFit {
     let white = NoiseFit {
         rho: 0.0,
         level: 1.0,
@@ -105,7 +105,7 @@ pub(super) fn noise_fit(r: &[f64]) -> NoiseFit {
 
 /// The second-difference noise level of a measured output ([`stats::noise_sigma`]), kept above
 /// 1e-4 of its range so that a noiseless output does not get an infinite weight.
-pub(super) fn difference_level(y: &[f64]) -> f64 {
+pub(crate) fn difference_level(y: &[f64]) -> f64 {
     stats::noise_sigma(y).max(1e-4 * stats::range(y)).max(1e-12)
 }
 
