@@ -103,6 +103,51 @@ pub(crate) fn noise_fit(r: &[f64]) -> NoiseFit {
     }
 }
 
+/// [`noise_fit`] with the AR(1) coefficient from the ratio of the robust scales (MAD) of the
+/// residual's second and first differences instead of their autocorrelation: for AR(1) noise
+/// `var(Δ²e) / var(Δe) = 3 − ρ` (`var(Δe) = 2σ²(1 − ρ)`, `var(Δ²e) = 2σ²(1 − ρ)(3 − ρ)`), and
+/// a median-based scale ignores the few large differences a model's misfit makes where an
+/// output switches (TwistedString's current at the motor's starts and stops: AR(1) noise of
+/// 0.97 read as 0.65 by the clipped autocorrelation, and as white). Used only to clear a
+/// record refused as begun away from the model's state: it can only find noise, never an
+/// effect.
+pub(super) fn spike_robust_fit(r: &[f64]) -> NoiseFit {
+    let white = NoiseFit {
+        rho: 0.0,
+        level: 1.0,
+    };
+    if r.len() < 20 {
+        return white;
+    }
+    let mad_scale = |d: &[f64]| {
+        let med = stats::median(d);
+        let dev: Vec<f64> = d.iter().map(|v| (v - med).abs()).collect();
+        1.4826 * stats::median(&dev)
+    };
+    let d1: Vec<f64> = r.windows(2).map(|w| w[1] - w[0]).collect();
+    let d2: Vec<f64> = d1.windows(2).map(|w| w[1] - w[0]).collect();
+    let (s1, s2) = (mad_scale(&d1), mad_scale(&d2));
+    if !(s1 > 0.0 && s2.is_finite()) {
+        return white;
+    }
+    let rho_r = (3.0 - stats::sq(s2 / s1)).clamp(0.0, MAX_RHO);
+    if rho_r < MIN_RHO {
+        return white;
+    }
+    let rms = stats::rms(r);
+    let rho_a = stats::autocorr(r, 1).clamp(MIN_RHO, MAX_RHO);
+    let agree = (rho_a - rho_r).abs() <= 6.0 / (r.len() as f64).sqrt();
+    let noise_like =
+        rms <= 1.5 * marginal_factor(rho_r) || (agree && rms <= 1.5 * marginal_factor(rho_a));
+    if !noise_like {
+        return white;
+    }
+    NoiseFit {
+        rho: rho_a,
+        level: marginal_factor(rho_a).min(rms).max(1.0),
+    }
+}
+
 /// The second-difference noise level of a measured output ([`stats::noise_sigma`]), kept above
 /// 1e-4 of its range so that a noiseless output does not get an infinite weight.
 pub(crate) fn difference_level(y: &[f64]) -> f64 {
@@ -200,7 +245,10 @@ pub(super) fn innovations(r: &[f64], rho: f64) -> Vec<f64> {
 
 #[cfg(test)]
 mod tests {
-    use super::{ar1_coefficient, innovations, marginal_factor, mean_variance_factor, noise_fit};
+    use super::{
+        ar1_coefficient, innovations, marginal_factor, mean_variance_factor, noise_fit,
+        spike_robust_fit,
+    };
     use crate::stats;
 
     /// AR(1) series of marginal standard deviation 1 (LCG + Box–Muller, deterministic).
@@ -257,6 +305,30 @@ mod tests {
             .map(|(i, v)| v + 3.0 * libm::sin(i as f64 / 250.0 * std::f64::consts::PI))
             .collect();
         assert_eq!(noise_fit(&e).rho, 0.0);
+    }
+
+    #[test]
+    fn switching_misfits_hide_correlation_from_the_differences_not_from_their_scales() {
+        // AR(1) 0.97 noise in second-difference units, plus a one-sample misfit of 20 of them
+        // every 25 samples (a current missed at a motor's starts and stops). The
+        // autocorrelation of r (the coefficient taken) is lowered by the spikes too.
+        let e = ar1(700, 0.97, 11);
+        let s_d2 = stats::noise_sigma(&e);
+        let r: Vec<f64> = e
+            .iter()
+            .enumerate()
+            .map(|(i, v)| v / s_d2 + if i % 25 == 0 { 20.0 } else { 0.0 })
+            .collect();
+        assert_eq!(noise_fit(&r).rho, 0.0, "{:?}", noise_fit(&r));
+        let fit = spike_robust_fit(&r);
+        assert!(fit.rho > 0.5, "{fit:?}");
+        // White noise with the same misfit stays white.
+        let w: Vec<f64> = ar1(700, 0.0, 12)
+            .iter()
+            .enumerate()
+            .map(|(i, v)| v + if i % 25 == 0 { 20.0 } else { 0.0 })
+            .collect();
+        assert_eq!(spike_robust_fit(&w).rho, 0.0, "{:?}", spike_robust_fit(&w));
     }
 
     #[test]
