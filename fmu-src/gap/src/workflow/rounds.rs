@@ -188,10 +188,12 @@ fn one_round<S: GridModel + ?Sized>(
     let (mut ranked, mut fits) = refit_all(ctx, inp, st, &sc, &top, round);
     // Far from the data the linearised ranking means little, and after a named effect so does a
     // linearisation about a model that already mimics part of the next effect (a friction fitted
-    // in place of strand hysteresis): when residuals beyond noise remain and no refit reaches the
-    // naming threshold, the other candidates (up to `max_refit`; near the data, those whose scan
-    // says the data could show them) get theirs.
-    if (far || (round > 1 && !at_noise)) && ranked.iter().all(|c| c.delta_bic < cfg.min_delta_bic) {
+    // in place of strand hysteresis), and so does the linearisation of an effect coupled to a
+    // base parameter (a radius growth pays off only once the string radius moves with it:
+    // linearised ΔBIC −16 on a record whose growth, refitted, is named): when residuals beyond
+    // noise remain and no refit reaches the naming threshold, the other candidates (up to
+    // `max_refit`; near the data, those whose scan says the data could show them) get theirs.
+    if (far || !at_noise) && ranked.iter().all(|c| c.delta_bic < cfg.min_delta_bic) {
         let rest: Vec<(usize, f64)> = sc
             .order
             .iter()
