@@ -32,9 +32,15 @@ pub fn noise_sigma(y: &[f64]) -> f64 {
         return 0.0;
     }
     let d: Vec<f64> = y.windows(3).map(|w| w[2] - 2.0 * w[1] + w[0]).collect();
-    let m = median(&d);
-    let dev: Vec<f64> = d.iter().map(|v| (v - m).abs()).collect();
-    1.4826 * median(&dev) / 6f64.sqrt()
+    robust_scale(&d) / 6f64.sqrt()
+}
+
+/// Robust standard deviation: the median absolute deviation from the median × 1.4826
+/// (consistent for Gaussian data), which a few outliers do not move.
+pub fn robust_scale(x: &[f64]) -> f64 {
+    let m = median(x);
+    let dev: Vec<f64> = x.iter().map(|v| (v - m).abs()).collect();
+    1.4826 * median(&dev)
 }
 
 /// Range (max − min) of a signal.

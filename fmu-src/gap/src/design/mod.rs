@@ -54,6 +54,14 @@ pub struct InputSpec {
     pub unit: String,
 }
 
+impl InputSpec {
+    /// The start value, within the range where one is given: where every signal begins.
+    fn rest_value(&self) -> f64 {
+        self.range
+            .map_or(self.start, |(lo, hi)| self.start.clamp(lo, hi))
+    }
+}
+
 /// How the noise level of each measured output is known.
 #[derive(Clone, Debug)]
 pub enum Noise {
@@ -704,7 +712,7 @@ where
         if with_constants {
             v.extend(signals::constants(&cfg.time, lo, hi, inp.start, &inp.unit));
         }
-        signals::gentlest_first(v, inp.start.clamp(lo, hi), envelope[j])
+        signals::gentlest_first(v, inp.rest_value(), envelope[j])
     };
     // Stage 1: each input alone.
     let mut trials: Vec<(usize, signals::Signal)> = active
@@ -798,7 +806,7 @@ fn envelopes(cfg: &DesignConfig) -> Vec<f64> {
             let Some((lo, hi)) = inp.range else {
                 return 0.0;
             };
-            let start = inp.start.clamp(lo, hi);
+            let start = inp.rest_value();
             let given = cfg
                 .given
                 .as_ref()
@@ -832,11 +840,7 @@ fn shrink<E>(
 where
     E: Fn(&[(String, Vec<f64>)]) -> Option<Vec<Option<f64>>> + Sync,
 {
-    let start = |j: usize| {
-        let inp = &cfg.inputs[j];
-        inp.range
-            .map_or(inp.start, |(lo, hi)| inp.start.clamp(lo, hi))
-    };
+    let start = |j: usize| cfg.inputs[j].rest_value();
     let scaled = |s: f64| -> Vec<(usize, String, Vec<f64>)> {
         chosen
             .iter()

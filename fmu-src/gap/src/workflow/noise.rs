@@ -66,22 +66,27 @@ pub(crate) struct NoiseFit {
     pub(crate) level: f64,
 }
 
-/// [`NoiseFit`] of residual `r`. Correlation is detected on the differences
-/// ([`ar1_coefficient`]) and kept only if the residual can be that noise: its RMS within 1.5 ×
-/// the marginal level that coefficient implies ([`marginal_factor`]), or that of the
-/// residual's own lag-1 coefficient where the two coefficients agree within their sampling
-/// error. A residual far above it
-/// holds a misfit of the model, whose smooth course also correlates the differences: its
-/// coefficient says nothing about the noise, and the noise is taken as white. A residual that
-/// is noise then gives the coefficient directly (its lag-1 autocorrelation, far less variable
-/// near 1 than the differences' estimate) and the marginal level: the closed form, but not
-/// above the residual's own RMS (the closed form's factor grows without bound as ρ nears 1).
+/// [`NoiseFit`] of residual `r`, its correlation detected on the differences
+/// ([`ar1_coefficient`]; see [`fit_with`]).
 pub(crate) fn noise_fit(r: &[f64]) -> NoiseFit {
+    fit_with(r, ar1_coefficient(r))
+}
+
+/// [`NoiseFit`] of residual `r` from `rho_d`, its AR(1) coefficient as estimated on the
+/// differences (0: no correlation found). The correlation is kept only if the residual can be
+/// that noise: its RMS within 1.5 × the marginal level that coefficient implies
+/// ([`marginal_factor`]), or that of the residual's own lag-1 coefficient where the two
+/// coefficients agree within their sampling error. A residual far above it holds a misfit of
+/// the model, whose smooth course also correlates the differences: its coefficient says nothing
+/// about the noise, and the noise is taken as white. A residual that is noise then gives the
+/// coefficient directly (its lag-1 autocorrelation, far less variable near 1 than the
+/// differences' estimate) and the marginal level: the closed form, but not above the
+/// residual's own RMS (the closed form's factor grows without bound as ρ nears 1).
+fn fit_with(r: &[f64], rho_d: f64) -> NoiseFit {
     let white = NoiseFit {
         rho: 0.0,
         level: 1.0,
     };
-    let rho_d = ar1_coefficient(r);
     if rho_d == 0.0 {
         return white;
     }
@@ -112,39 +117,26 @@ pub(crate) fn noise_fit(r: &[f64]) -> NoiseFit {
 /// record refused as begun away from the model's state: it can only find noise, never an
 /// effect.
 pub(super) fn spike_robust_fit(r: &[f64]) -> NoiseFit {
-    let white = NoiseFit {
-        rho: 0.0,
-        level: 1.0,
-    };
+    fit_with(r, scale_ratio_coefficient(r))
+}
+
+/// `3 − (s₂/s₁)²` from the robust scales of the first and second differences of `r`, clamped to
+/// [0, [`MAX_RHO`]]; 0 below [`MIN_RHO`] or for a residual too short or too flat to tell.
+fn scale_ratio_coefficient(r: &[f64]) -> f64 {
     if r.len() < 20 {
-        return white;
+        return 0.0;
     }
-    let mad_scale = |d: &[f64]| {
-        let med = stats::median(d);
-        let dev: Vec<f64> = d.iter().map(|v| (v - med).abs()).collect();
-        1.4826 * stats::median(&dev)
-    };
     let d1: Vec<f64> = r.windows(2).map(|w| w[1] - w[0]).collect();
     let d2: Vec<f64> = d1.windows(2).map(|w| w[1] - w[0]).collect();
-    let (s1, s2) = (mad_scale(&d1), mad_scale(&d2));
+    let (s1, s2) = (stats::robust_scale(&d1), stats::robust_scale(&d2));
     if !(s1 > 0.0 && s2.is_finite()) {
-        return white;
+        return 0.0;
     }
-    let rho_r = (3.0 - stats::sq(s2 / s1)).clamp(0.0, MAX_RHO);
-    if rho_r < MIN_RHO {
-        return white;
-    }
-    let rms = stats::rms(r);
-    let rho_a = stats::autocorr(r, 1).clamp(MIN_RHO, MAX_RHO);
-    let agree = (rho_a - rho_r).abs() <= 6.0 / (r.len() as f64).sqrt();
-    let noise_like =
-        rms <= 1.5 * marginal_factor(rho_r) || (agree && rms <= 1.5 * marginal_factor(rho_a));
-    if !noise_like {
-        return white;
-    }
-    NoiseFit {
-        rho: rho_a,
-        level: marginal_factor(rho_a).min(rms).max(1.0),
+    let rho = (3.0 - stats::sq(s2 / s1)).clamp(0.0, MAX_RHO);
+    if rho < MIN_RHO {
+        0.0
+    } else {
+        rho
     }
 }
 
