@@ -375,28 +375,10 @@ pub fn roughness<P: Problem>(
     h: &[f64],
     patterns: usize,
 ) -> f64 {
-    let m = z.len();
-    let signs = |k: usize, j: usize| -> f64 {
-        // Rademacher signs from a fixed integer hash: the same on every machine.
-        let x = (k as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15)
-            ^ (j as u64).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        if (x >> 29) & 1 == 0 {
-            1.0
-        } else {
-            -1.0
-        }
-    };
     let vals: Vec<f64> = (0..patterns)
         .into_par_iter()
         .filter_map(|k| {
-            let (mut zp, mut zm) = (z.to_vec(), z.to_vec());
-            for j in 0..m {
-                let (lo, hi) = b[j].z_bounds();
-                if h[j].is_finite() && z[j] - h[j] >= lo && z[j] + h[j] <= hi {
-                    zp[j] += h[j] * signs(k, j);
-                    zm[j] -= h[j] * signs(k, j);
-                }
-            }
+            let (zp, zm) = mirrored(b, z, h, k, |_, _| 1.0);
             let rp = problem.residuals(&to_p(b, &zp)).ok()?;
             let rm = problem.residuals(&to_p(b, &zm)).ok()?;
             if rp.len() != r0.len() || rm.len() != r0.len() {
@@ -413,6 +395,83 @@ pub fn roughness<P: Problem>(
     } else {
         vals.iter().sum::<f64>() / vals.len() as f64
     }
+}
+
+/// Sign `±1` of coordinate `j` in pattern `k`, from a fixed integer hash: the same on every
+/// machine.
+fn rademacher(k: usize, j: usize) -> f64 {
+    let x = (k as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15)
+        ^ (j as u64).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    if (x >> 29) & 1 == 0 {
+        1.0
+    } else {
+        -1.0
+    }
+}
+
+/// A fraction in `[1/2, 1)` for coordinate `j` of pattern `k`, from another fixed integer
+/// hash: with two coordinates there are only two sign patterns up to mirroring, so points
+/// that must differ also differ in their magnitudes.
+fn magnitude(k: usize, j: usize) -> f64 {
+    let x = (k as u64 + 1).wrapping_mul(0xD6E8_FEB8_6659_FD93)
+        ^ (j as u64 + 1).wrapping_mul(0x94D0_49BB_1331_11EB);
+    0.5 + 0.5 * ((x >> 11) as f64 / (1u64 << 53) as f64)
+}
+
+/// The points `z + u` and `z − u` of pattern `k`: coordinate `j` moves by `±h[j]` times
+/// `scaled(k, j)` with a sign from [`rademacher`]; one whose move would leave its bounds
+/// either way stays.
+fn mirrored(
+    b: &[Bounded],
+    z: &[f64],
+    h: &[f64],
+    k: usize,
+    scaled: fn(usize, usize) -> f64,
+) -> (Vec<f64>, Vec<f64>) {
+    let (mut zp, mut zm) = (z.to_vec(), z.to_vec());
+    for j in 0..z.len() {
+        let (lo, hi) = b[j].z_bounds();
+        let d = h[j] * scaled(k, j);
+        if d.is_finite() && z[j] - d >= lo && z[j] + d <= hi {
+            zp[j] += d * rademacher(k, j);
+            zm[j] -= d * rademacher(k, j);
+        }
+    }
+    (zp, zm)
+}
+
+/// The residuals of a rough objective's smooth part at `z`: the mean of the residuals at the
+/// `2·pairs` points `z ± u_k` of [`mirrored`]'s patterns (coordinate `j` moved by between
+/// `h[j]/2` and `h[j]`, [`magnitude`]). The pairs cancel the linear part exactly and leave the curvature over `h`, while a
+/// model with a quantised or switched signal carries, at each point, the jumps of the decisions
+/// that step flipped: independent between points, so the mean carries `1/√(2·pairs)` of them
+/// where the residuals at `z` alone carry all of their own (the centred simplex gradient's
+/// averaging, Kelley 1999, "Iterative methods for optimization", §6.2). `None` when any point
+/// fails to simulate.
+pub fn smoothed_residuals<P: Problem>(
+    problem: &P,
+    b: &[Bounded],
+    z: &[f64],
+    h: &[f64],
+    pairs: usize,
+    len: usize,
+) -> Option<Vec<f64>> {
+    let points: Vec<Option<Vec<f64>>> = (0..2 * pairs)
+        .into_par_iter()
+        .map(|i| {
+            let (zp, zm) = mirrored(b, z, h, i / 2, magnitude);
+            residuals_at(problem, b, if i % 2 == 0 { &zp } else { &zm }, len)
+        })
+        .collect();
+    let mut mean = vec![0.0; len];
+    for r in points {
+        for (m, v) in mean.iter_mut().zip(r?) {
+            *m += v;
+        }
+    }
+    let count = (2 * pairs) as f64;
+    mean.iter_mut().for_each(|m| *m /= count);
+    Some(mean)
 }
 
 /// Jacobian of a rough objective (see [`roughness`]): each column is the secant over the
@@ -714,9 +773,10 @@ pub fn levenberg_marquardt<P: Problem>(
 mod tests {
     use super::{
         interval_ends, jacobian, levenberg_marquardt, refresh_jacobian, roughness, secant_jacobian,
-        to_p, Bounded, Coord, LmOptions, Problem, MAX_END_WIDENING,
+        smoothed_residuals, to_p, Bounded, Coord, LmOptions, Problem, MAX_END_WIDENING,
     };
     use crate::sim::SimError;
+    use crate::stats::sq;
     use nalgebra::DMatrix;
 
     struct Decay {
@@ -986,6 +1046,33 @@ mod tests {
         let norm = |m: &DMatrix<f64>| m.column(1).norm() / (r0.len() as f64).sqrt();
         assert!(norm(&fd) > 2.0, "finite difference {}", norm(&fd));
         assert!((norm(&sec) - 1.0).abs() < 0.25, "secant {}", norm(&sec));
+    }
+
+    #[test]
+    fn smoothed_residuals_keep_a_smooth_line_and_average_a_quantisers_jumps() {
+        let h = [0.0237, 0.0237];
+        let (pr, b, z, r0) = stairs(0.0);
+        let smooth = smoothed_residuals(&pr, &b, &z, &h, 8, r0.len()).unwrap();
+        // Linear in p on ln coordinates: the mirrored pairs cancel the slope; what is left is
+        // the curvature of exp over h, h²/2 of the slope.
+        for i in 0..r0.len() {
+            let slopes = 2.0 * pr.t[i] + 1.0;
+            assert!((smooth[i] - r0[i]).abs() <= h[0] * h[0] * slopes, "row {i}");
+        }
+        // Quantised by q: each point's residual is the line's (0 at the truth) plus the
+        // quantiser's error in [−q, 0), mean −q/2. Steps of 2.4 % move the line by 2.4 q and more,
+        // so each of the 16 points carries its own error and their mean's spread about −q/2 is
+        // about a quarter of one point's.
+        let q = 0.01;
+        let (pr, b, z, r0) = stairs(q);
+        let smooth = smoothed_residuals(&pr, &b, &z, &h, 8, r0.len()).unwrap();
+        let spread = |r: &[f64]| r.iter().map(|v| sq(v + 0.5 * q)).sum::<f64>().sqrt();
+        assert!(
+            spread(&smooth) < 0.4 * spread(&r0),
+            "{} against {}",
+            spread(&smooth),
+            spread(&r0)
+        );
     }
 
     /// One residual `a f(p − c)` in a linear coordinate (z = p).
