@@ -378,7 +378,8 @@ pub fn roughness<P: Problem>(
     let vals: Vec<f64> = (0..patterns)
         .into_par_iter()
         .filter_map(|k| {
-            let (zp, zm) = mirrored(b, z, h, k, |_, _| 1.0);
+            let zp = mirrored(b, z, h, (k, 1.0), |_, _| 1.0);
+            let zm = mirrored(b, z, h, (k, -1.0), |_, _| 1.0);
             let rp = problem.residuals(&to_p(b, &zp)).ok()?;
             let rm = problem.residuals(&to_p(b, &zm)).ok()?;
             if rp.len() != r0.len() || rm.len() != r0.len() {
@@ -418,33 +419,32 @@ fn magnitude(k: usize, j: usize) -> f64 {
     0.5 + 0.5 * ((x >> 11) as f64 / (1u64 << 53) as f64)
 }
 
-/// The points `z + u` and `z − u` of pattern `k`: coordinate `j` moves by `±h[j]` times
-/// `scaled(k, j)` with a sign from [`rademacher`]; one whose move would leave its bounds
-/// either way stays.
+/// The point `z + sign·u` of pattern `k`: coordinate `j` moves by `h[j]` times `scaled(k, j)`
+/// with a sign from [`rademacher`] (times `sign`, ±1); one whose move would leave its bounds
+/// either way stays, so `sign` ±1 give a mirrored pair.
 fn mirrored(
     b: &[Bounded],
     z: &[f64],
     h: &[f64],
-    k: usize,
+    (k, sign): (usize, f64),
     scaled: fn(usize, usize) -> f64,
-) -> (Vec<f64>, Vec<f64>) {
-    let (mut zp, mut zm) = (z.to_vec(), z.to_vec());
+) -> Vec<f64> {
+    let mut point = z.to_vec();
     for j in 0..z.len() {
         let (lo, hi) = b[j].z_bounds();
         let d = h[j] * scaled(k, j);
         if d.is_finite() && z[j] - d >= lo && z[j] + d <= hi {
-            zp[j] += d * rademacher(k, j);
-            zm[j] -= d * rademacher(k, j);
+            point[j] += sign * d * rademacher(k, j);
         }
     }
-    (zp, zm)
+    point
 }
 
 /// The residuals of a rough objective's smooth part at `z`: the mean of the residuals at the
 /// `2·pairs` points `z ± u_k` of [`mirrored`]'s patterns (coordinate `j` moved by between
-/// `h[j]/2` and `h[j]`, [`magnitude`]). The pairs cancel the linear part exactly and leave the curvature over `h`, while a
-/// model with a quantised or switched signal carries, at each point, the jumps of the decisions
-/// that step flipped: independent between points, so the mean carries `1/√(2·pairs)` of them
+/// `h[j]/2` and `h[j]`, [`magnitude`]). The pairs cancel the linear part exactly and leave the
+/// curvature over `h`, while a model with a quantised or switched signal carries, at each
+/// point, the jumps of the decisions that step flipped: independent between points, so the mean carries `1/√(2·pairs)` of them
 /// where the residuals at `z` alone carry all of their own (the centred simplex gradient's
 /// averaging, Kelley 1999, "Iterative methods for optimization", §6.2). `None` when any point
 /// fails to simulate.
@@ -459,8 +459,13 @@ pub fn smoothed_residuals<P: Problem>(
     let points: Vec<Option<Vec<f64>>> = (0..2 * pairs)
         .into_par_iter()
         .map(|i| {
-            let (zp, zm) = mirrored(b, z, h, i / 2, magnitude);
-            residuals_at(problem, b, if i % 2 == 0 { &zp } else { &zm }, len)
+            let sign = if i % 2 == 0 { 1.0 } else { -1.0 };
+            residuals_at(
+                problem,
+                b,
+                &mirrored(b, z, h, (i / 2, sign), magnitude),
+                len,
+            )
         })
         .collect();
     let mut mean = vec![0.0; len];

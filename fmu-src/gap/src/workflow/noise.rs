@@ -41,8 +41,7 @@ pub(super) fn ar1_coefficient(r: &[f64]) -> f64 {
     }
     let d: Vec<f64> = r.windows(2).map(|w| w[1] - w[0]).collect();
     let med = stats::median(&d);
-    let dev: Vec<f64> = d.iter().map(|v| (v - med).abs()).collect();
-    let lim = 5.0 * 1.4826 * stats::median(&dev);
+    let lim = 5.0 * stats::robust_scale(&d);
     if lim.is_nan() || lim <= 0.0 {
         return 0.0;
     }

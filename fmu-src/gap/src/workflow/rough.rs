@@ -88,17 +88,17 @@ fn tiny_step_roughness<S: GridModel + ?Sized>(
     )
 }
 
-/// The secant Jacobian at the final fit for roughness `f0`: slopes over steps whose change
-/// reaches [`SECANT_TARGET`] times it.
+/// The secant Jacobian at `z` (residuals `r0` there) for roughness `f0`: slopes over steps
+/// whose change reaches [`SECANT_TARGET`] times it.
 fn secants<S: GridModel + ?Sized>(
     problem: &FitProblem<'_, '_, S>,
-    fin: &FitOut,
+    bounds: &[lm::Bounded],
+    (z, r0): (&[f64], &[f64]),
     w: &[f64],
     f0: f64,
 ) -> DMatrix<f64> {
     let h = LmOptions::default().fd_step;
-    let (z, r0) = (&fin.fit.z, &fin.fit.residuals);
-    lm::secant_jacobian(problem, &fin.bounds, z, r0, w, h, SECANT_TARGET * f0)
+    lm::secant_jacobian(problem, bounds, z, r0, w, h, SECANT_TARGET * f0)
 }
 
 /// Measure the roughness at the final fit `fin` (over its `n_fin` samples, rows weighted by
@@ -130,7 +130,8 @@ pub(super) fn interval_basis<S: GridModel + ?Sized>(
     let (jac, z, roughness) = if f0 <= NEGLIGIBLE {
         (fin.fit.jac.clone(), Z95, None)
     } else {
-        let jac = secant.unwrap_or_else(|| secants(&problem, fin, &w, f0));
+        let at = (fin.fit.z.as_slice(), fin.fit.residuals.as_slice());
+        let jac = secant.unwrap_or_else(|| secants(&problem, &fin.bounds, at, &w, f0));
         rough_jacobian(&problem, fin, n_fin, scale, &w, f0, jac)
     };
     let ends = match covariance(&jac, scale, n_fin) {
@@ -257,7 +258,8 @@ pub(super) fn recentre<S: GridModel + ?Sized>(
         ));
         return (fin, Some(Measured { f0, secant: None }));
     }
-    let jac0 = secants(&problem, &fin, &w, f0);
+    let at = (fin.fit.z.as_slice(), fin.fit.residuals.as_slice());
+    let jac0 = secants(&problem, &fin.bounds, at, &w, f0);
     let h = smoothing_steps(&jac0, scale, n_fin);
     let descent = Smooth::at(&problem, &fin.bounds, fin.fit.z.clone(), &h, len)
         .map(|start| descend(&problem, &fin.bounds, (start, jac0.clone()), &h, &w, f0))
@@ -328,9 +330,7 @@ fn descend<S: GridModel + ?Sized>(
             return (here.z, jac, steps);
         };
         here = there;
-        let h0 = LmOptions::default().fd_step;
-        let target = SECANT_TARGET * f0;
-        jac = lm::secant_jacobian(problem, bounds, &here.z, here.r.as_slice(), w, h0, target);
+        jac = secants(problem, bounds, (&here.z, here.r.as_slice()), w, f0);
     }
     (here.z, jac, RECENTRE_STEPS)
 }
