@@ -73,8 +73,9 @@
 //!    path of its profile and, where the valley is flat or bends or a parameter sits on a bound,
 //!    by fits with the parameter held at the end; every interval also holds each point such a held fit reached below the 95 %
 //!    level (`workflow`'s `rough` and `ends` modules). A held fit that lands clearly below the
-//!    fit's sum shows the fit stopped in a valley that is not the lowest: the final fit starts
-//!    again from there, once, and its intervals are made anew.
+//!    fit's sum (by a chi-square unit; on a rough sum, below on its smooth part as well, by
+//!    twice the spread of two smoothed sums) shows the fit stopped in a valley that is not the
+//!    lowest: the final fit starts again from there, once, and its intervals are made anew.
 //! 7. Report ([`report`]: `report.json`, `report.md`) and plots ([`plots`]). Outputs the final
 //!    model still misses by more than 1.5 × their noise level (or 1.2 × with a residual that is
 //!    not white) are a disagreement no candidate explains: the report says where (outputs, time

@@ -17,7 +17,7 @@
 //! point's values, following the valley), until the profile reaches `t²` (the end interpolated
 //! in the squared distance) or the parameter's bound.
 
-use super::{fit_state_holding, Ctx, FitOut, FitProblem, Limits, ModelState, Z95};
+use super::{fit_state_holding, Ctx, FitOut, FitProblem, Limits, ModelState};
 use crate::lm;
 use crate::sim::GridModel;
 use nalgebra::DMatrix;
@@ -189,27 +189,24 @@ pub(super) fn profile_ends<S: GridModel + ?Sized>(
     let lower = lowest.into_inner().unwrap_or_else(|e| e.into_inner());
     ProfileEnds {
         ends: spanning(moved, &witnesses, z, cov),
-        lower: lower
-            .filter(|(rise, _)| *rise < -lower_by(t))
-            .map(|(_, val)| val),
+        lower: lower.filter(|(rise, _)| *rise < -LOWER_BY),
     }
 }
 
-/// What the profile search found: the ends, and a point whose sum lies clearly below the fit's
-/// (by more than [`lower_by`]), when a held fit reached one.
+/// What the profile search found: the ends, and a point whose sum lies below the fit's (by
+/// more than [`LOWER_BY`]), when a held fit reached one.
 pub(super) struct ProfileEnds {
     /// Per parameter, the (lower, upper) multipliers of its standard error.
     pub ends: Vec<(f64, f64)>,
-    /// Every parameter's value (in the fit's order) at that point.
-    pub lower: Option<Vec<f64>>,
+    /// That point's rise above the fit's sum (negative) and every parameter's value there (in
+    /// the fit's order). On a rough sum the caller confirms it on the smooth part
+    /// ([`super::rough`]): a point can gain by where the jumps fall alone.
+    pub lower: Option<(f64, Vec<f64>)>,
 }
 
 /// How far below the fit's sum a held fit's point must lie to show the fit is not the minimum:
-/// one chi-square unit on a smooth sum; on a rough one (`t = 1.96 + √(2F)`) the jumps' spread
-/// `t² − 1.96²` (at least `2F`), which a point can gain by where the jumps fall alone.
-fn lower_by(t: f64) -> f64 {
-    (t * t - Z95 * Z95).max(1.0)
-}
+/// one chi-square unit.
+const LOWER_BY: f64 = 1.0;
 
 /// The ends `ends` (multipliers of each parameter's standard error from `cov`, about `z`) moved
 /// out to hold every witness: a point whose sum rises less than `t²` above the minimum. Such a

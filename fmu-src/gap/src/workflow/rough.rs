@@ -27,7 +27,10 @@
 //! stopped short of the minimum) moves out to where it rises by as much. A 95 % interval is thus
 //! never narrower than its likelihood-ratio end along that path. The ends are then checked
 //! against the profile itself where the valley is flat, bent or constrained by a bound
-//! ([`super::ends`]: fits with the parameter held at the end).
+//! ([`super::ends`]: fits with the parameter held at the end). A held fit that ends below the
+//! fit shows that the fit stopped in a valley that is not the lowest, and the final fit is made
+//! again from there; on a rough sum only when the point lies below on the smooth part as well
+//! ([`clearly_lower`]).
 
 use super::ends::{profile_ends, ProfileEnds};
 use super::evidence::{covariance, row_weights};
@@ -145,6 +148,13 @@ pub(super) fn interval_basis<S: GridModel + ?Sized>(
         },
     };
     let ProfileEnds { ends, lower } = ends;
+    let lower = lower.and_then(|(rise, values)| match roughness {
+        None => Some(values),
+        Some(f) => {
+            let smoothing = (&jac, scale, n_fin);
+            clearly_lower(ctx, &problem, fin, smoothing, (rise, values), f)
+        }
+    });
     IntervalBasis {
         fit: lm::LmFit {
             jac,
@@ -154,6 +164,49 @@ pub(super) fn interval_basis<S: GridModel + ?Sized>(
         roughness,
         lower,
     }
+}
+
+/// Spreads of the difference of two smoothed sums by which a point must lie below the fit on a
+/// rough sum to show that the fit stopped in a valley that is not the lowest.
+const LOWER_SPREADS: f64 = 2.0;
+
+/// `point` (its raw rise above the fit `fin`'s sum, negative, and every parameter's value),
+/// where a held fit of the profile search ended, if it lies below the fit on the smooth part of
+/// a sum of roughness `f`. Its raw sum can gain by where the jumps fall alone; the widened
+/// intervals' own rule for that, `t² − 1.96²` (15 chi-square units at `F` = 2.4), let a point
+/// 10 units below stand unexplored, and the fit then ended in one valley or the other of a
+/// spring stiffness / string compliance trade-off as a change of the FMU's tolerance decided.
+/// The smoothed sums ([`lm::smoothed_residuals`], spreads `smoothing`: the secant Jacobian,
+/// the output scale and the sample count) carry about `F / 16` of each point's jumps, which
+/// moves a sum by its cross term with the residuals, `2 √(F / 16)` at one standard deviation,
+/// and their difference by `√2` times that; the point counts when it lies [`LOWER_SPREADS`]
+/// such spreads (at least one chi-square unit) below.
+fn clearly_lower<S: GridModel + ?Sized>(
+    ctx: &Ctx<'_, S>,
+    problem: &FitProblem<'_, '_, S>,
+    fin: &FitOut,
+    (jac, scale, n_fin): (&DMatrix<f64>, &[f64], usize),
+    (rise, values): (f64, Vec<f64>),
+    f: f64,
+) -> Option<Vec<f64>> {
+    let h = smoothing_steps(jac, scale, n_fin);
+    let len = fin.fit.residuals.len();
+    let z: Vec<f64> = values
+        .iter()
+        .zip(&fin.bounds)
+        .map(|(&v, b)| b.to_z(v))
+        .collect();
+    let low = Smooth::at(problem, &fin.bounds, z, &h, len)?;
+    let here = Smooth::at(problem, &fin.bounds, fin.fit.z.clone(), &h, len)?;
+    let points = (2 * SMOOTHING_PAIRS) as f64;
+    let spread = std::f64::consts::SQRT_2 * 2.0 * (f / points).sqrt();
+    let margin = (LOWER_SPREADS * spread).max(1.0);
+    let drop = here.ssq - low.ssq;
+    ctx.stage(format!(
+        "profile search: a held fit ended {:.1} below the fit; on the smooth part {drop:.1} (needed {margin:.1})",
+        -rise
+    ));
+    (drop > margin).then_some(values)
 }
 
 /// Largest roughness at which the estimate is moved to the smooth part's minimum: jumps whose
