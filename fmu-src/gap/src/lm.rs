@@ -210,6 +210,11 @@ pub fn to_p(b: &[Bounded], z: &[f64]) -> Vec<f64> {
     b.iter().zip(z).map(|(b, &z)| b.to_p(z)).collect()
 }
 
+/// Coordinates of the physical values `p` (each clamped into its bounds first).
+pub fn to_z(b: &[Bounded], p: &[f64]) -> Vec<f64> {
+    b.iter().zip(p).map(|(b, &p)| b.to_z(p)).collect()
+}
+
 /// The residuals at the coordinates `z` when they are usable: the simulation ran and gave `len`
 /// finite values (None otherwise).
 pub fn residuals_at<P: Problem>(
@@ -606,7 +611,7 @@ pub fn levenberg_marquardt<P: Problem>(
     tick: &(dyn Fn() + Sync),
 ) -> Result<LmFit, SimError> {
     let m = p0.len();
-    let mut z: Vec<f64> = b.iter().zip(p0).map(|(b, &p)| b.to_z(p)).collect();
+    let mut z = to_z(b, p0);
     let mut r = problem.residuals(&to_p(b, &z))?;
     if r.iter().any(|v| !v.is_finite()) {
         return Err(SimError::NonFiniteStart);

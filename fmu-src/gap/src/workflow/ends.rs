@@ -120,11 +120,7 @@ pub(super) fn profile_ends<S: GridModel + ?Sized>(
         let mut val = f.state.val.clone();
         val.insert(j, held[0].1);
         if rise < t * t {
-            let mut zw: Vec<f64> = val
-                .iter()
-                .zip(&fin.bounds)
-                .map(|(&v, b)| b.to_z(v))
-                .collect();
+            let mut zw = lm::to_z(&fin.bounds, &val);
             zw[j] = at(j, sign, sd, k);
             witnesses.lock().unwrap_or_else(|e| e.into_inner()).push(zw);
         }

@@ -173,9 +173,9 @@ const LOWER_SPREADS: f64 = 2.0;
 /// `point` (its raw rise above the fit `fin`'s sum, negative, and every parameter's value),
 /// where a held fit of the profile search ended, if it lies below the fit on the smooth part of
 /// a sum of roughness `f`. Its raw sum can gain by where the jumps fall alone; the widened
-/// intervals' own rule for that, `t² − 1.96²` (15 chi-square units at `F` = 2.4), let a point
-/// 10 units below stand unexplored, and the fit then ended in one valley or the other of a
-/// spring stiffness / string compliance trade-off as a change of the FMU's tolerance decided.
+/// intervals' own rule for that, `t² − 1.96²` (15.3 chi-square units on that record), let a
+/// point 10 units below stand unexplored, and the fit then ended in one valley or the other of
+/// a spring stiffness / string compliance trade-off as a change of the FMU's tolerance decided.
 /// The smoothed sums ([`lm::smoothed_residuals`], spreads `smoothing`: the secant Jacobian,
 /// the output scale and the sample count) carry about `F / 16` of each point's jumps, which
 /// moves a sum by its cross term with the residuals, `2 √(F / 16)` at one standard deviation,
@@ -191,12 +191,13 @@ fn clearly_lower<S: GridModel + ?Sized>(
 ) -> Option<Vec<f64>> {
     let h = smoothing_steps(jac, scale, n_fin);
     let len = fin.fit.residuals.len();
-    let z: Vec<f64> = values
-        .iter()
-        .zip(&fin.bounds)
-        .map(|(&v, b)| b.to_z(v))
-        .collect();
-    let low = Smooth::at(problem, &fin.bounds, z, &h, len)?;
+    let low = Smooth::at(
+        problem,
+        &fin.bounds,
+        lm::to_z(&fin.bounds, &values),
+        &h,
+        len,
+    )?;
     let here = Smooth::at(problem, &fin.bounds, fin.fit.z.clone(), &h, len)?;
     let points = (2 * SMOOTHING_PAIRS) as f64;
     let spread = std::f64::consts::SQRT_2 * 2.0 * (f / points).sqrt();
