@@ -202,7 +202,7 @@ pub(super) struct ProfileEnds {
 
 /// How far below the fit's sum a held fit's point must lie to show the fit is not the minimum:
 /// one chi-square unit.
-const LOWER_BY: f64 = 1.0;
+pub(super) const LOWER_BY: f64 = 1.0;
 
 /// The ends `ends` (multipliers of each parameter's standard error from `cov`, about `z`) moved
 /// out to hold every witness: a point whose sum rises less than `t²` above the minimum. Such a

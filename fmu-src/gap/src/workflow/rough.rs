@@ -33,7 +33,7 @@
 //! again from there; on a rough sum only when the point lies below on the smooth part as well
 //! ([`clearly_lower`]).
 
-use super::ends::{profile_ends, ProfileEnds};
+use super::ends::{profile_ends, ProfileEnds, LOWER_BY};
 use super::evidence::{covariance, row_weights};
 use super::{Ctx, FitOut, FitProblem, Z95};
 use crate::lm::{self, LmOptions};
@@ -178,10 +178,10 @@ const LOWER_SPREADS: f64 = 2.0;
 /// point 10 units below stand unexplored, and the fit then ended in one valley or the other of
 /// a spring stiffness / string compliance trade-off as a change of the FMU's tolerance decided.
 /// The smoothed sums ([`lm::smoothed_residuals`], spreads `smoothing`: the secant Jacobian,
-/// the output scale and the sample count) carry about `F / 16` of each point's jumps, which
-/// moves a sum by its cross term with the residuals, `2 √(F / 16)` at one standard deviation,
-/// and their difference by `√2` times that; the point counts when it lies [`LOWER_SPREADS`]
-/// such spreads (at least one chi-square unit) below.
+/// the output scale and the sample count; `n` points, [`smoothing_pairs`]) carry about `F / n`
+/// of each point's jumps, which moves a sum by its cross term with the residuals, `2 √(F / n)`
+/// at one standard deviation, and their difference by `√2` times that; the point counts when it
+/// lies [`LOWER_SPREADS`] such spreads (at least [`LOWER_BY`], the rule of a smooth sum) below.
 fn clearly_lower<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     problem: &FitProblem<'_, '_, S>,
@@ -203,7 +203,7 @@ fn clearly_lower<S: GridModel + ?Sized>(
     let here = Smooth::at(problem, &fin.bounds, fin.fit.z.clone(), (&h, pairs), len)?;
     let points = (2 * pairs) as f64;
     let spread = std::f64::consts::SQRT_2 * 2.0 * (f / points).sqrt();
-    let margin = (LOWER_SPREADS * spread).max(1.0);
+    let margin = (LOWER_SPREADS * spread).max(LOWER_BY);
     let drop = here.ssq - low.ssq;
     ctx.stage(format!(
         "profile search: a held fit ended {:.1} below the fit; on the smooth part {drop:.1} (needed {margin:.1})",
@@ -337,19 +337,23 @@ pub(super) fn recentre<S: GridModel + ?Sized>(
     let at = (fin.fit.z.as_slice(), fin.fit.residuals.as_slice());
     let jac0 = secants(&problem, &fin.bounds, at, &w, f0);
     let h = smoothing_steps(&jac0, scale, n_fin);
-    let descent = Smooth::at(
-        &problem,
-        &fin.bounds,
-        fin.fit.z.clone(),
-        (&h, smoothing_pairs(f0)),
-        len,
-    )
-    .map(|start| descend(&problem, &fin.bounds, (start, jac0.clone()), &h, &w, f0))
-    .filter(|&(_, _, steps)| steps > 0)
-    .and_then(|(here, jac, steps)| {
-        let r = lm::residuals_at(&problem, &fin.bounds, &here, len)?;
-        Some((here, jac, steps, r))
-    });
+    let smoothing = (h.as_slice(), smoothing_pairs(f0));
+    let descent = Smooth::at(&problem, &fin.bounds, fin.fit.z.clone(), smoothing, len)
+        .map(|start| {
+            descend(
+                &problem,
+                &fin.bounds,
+                (start, jac0.clone()),
+                smoothing,
+                &w,
+                f0,
+            )
+        })
+        .filter(|&(_, _, steps)| steps > 0)
+        .and_then(|(here, jac, steps)| {
+            let r = lm::residuals_at(&problem, &fin.bounds, &here, len)?;
+            Some((here, jac, steps, r))
+        });
     let Some((here, jac, steps, r)) = descent else {
         ctx.stage(format!(
             "final fit: roughness {f0:.3}; no step lowered the smooth part's sum"
@@ -384,7 +388,8 @@ pub(super) fn recentre<S: GridModel + ?Sized>(
 /// Gauss–Newton steps on the smooth part from `start` (its point and secant Jacobian), each
 /// the first of [`RECENTRE_TRIALS`] that lowers the smooth part's sum, until the model predicts
 /// less than [`RECENTRE_CONVERGED`] to gain or after [`RECENTRE_STEPS`]; the secants are taken
-/// again at each new point. Returns the last point, its Jacobian and the steps taken.
+/// again at each new point; each smooth part is the mean over `smoothing` (spreads and mirrored
+/// pairs, [`Smooth::at`]). Returns the last point, its Jacobian and the steps taken.
 /// Accepting steps that raise the smooth part's sum by up to its own spread and taking the mean
 /// of the points visited (against the two-point cycles a flat valley makes) measured worse on
 /// the records of `scripts/gap-robustness` (TwistedString, 20 records: 101/104 and 94/104
@@ -393,7 +398,7 @@ fn descend<S: GridModel + ?Sized>(
     problem: &FitProblem<'_, '_, S>,
     bounds: &[lm::Bounded],
     start: (Smooth, DMatrix<f64>),
-    h: &[f64],
+    smoothing: (&[f64], usize),
     w: &[f64],
     f0: f64,
 ) -> (Vec<f64>, DMatrix<f64>, usize) {
@@ -405,7 +410,7 @@ fn descend<S: GridModel + ?Sized>(
             if trial == RECENTRE_TRIALS[0] && predicted < RECENTRE_CONVERGED {
                 return Some(None);
             }
-            let there = Smooth::at(problem, bounds, zn, (h, smoothing_pairs(f0)), len)?;
+            let there = Smooth::at(problem, bounds, zn, smoothing, len)?;
             (there.ssq < here.ssq).then_some(Some(there))
         });
         let Some(Some(there)) = next else {
