@@ -6,6 +6,8 @@ import os
 import subprocess
 from pathlib import Path
 
+import pytest
+
 REPO = Path(__file__).resolve().parent.parent
 DIST = REPO / "dist"
 TEST_FMUS = REPO / "target" / "fmus"
@@ -43,3 +45,18 @@ def cli_path() -> str:
 
 
 os.environ.setdefault("ACTUATOR_FMU_REPO", str(REPO))
+
+
+@pytest.fixture(scope="session")
+def toy(tmp_path_factory):
+    """toy(name, version=2): the toy FMU `name` of tests/fixtures/toy-fmus (FMI 2.0 or 3.0),
+    built with gcc into a session temporary directory the first time it is asked for."""
+    import toy_fmus
+    directory = tmp_path_factory.mktemp("toy-fmus")
+    built = {}
+
+    def get(name, version=2):
+        if (name, version) not in built:
+            built[name, version] = toy_fmus.build(directory, name, version)
+        return built[name, version]
+    return get

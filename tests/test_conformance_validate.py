@@ -13,7 +13,6 @@ import re
 import shutil
 import subprocess
 import zipfile
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -122,15 +121,23 @@ def test_binary_crashing_on_wrong_call_order_is_found(name, tmp_path):
     assert r.returncode == 1 and "OK (no findings)" in r.stdout
 
 
-# Model Exchange (FMI 2.0.4 chapter 3): broken copies of the FMI 2.0 Reference-FMU VanDerPol,
-# which declares <ModelExchange> and <CoSimulation> with one binary for both.
-REF2_VDP = REPO / "tests" / "fixtures" / "reference-fmus" / "VanDerPol.fmu"
+# Model Exchange (FMI 2.0.4 chapter 3): broken copies of the FMI 2.0 toy FMU VanDerPol
+# (tests/fixtures/toy-fmus), which declares <ModelExchange> and <CoSimulation> with one binary
+# for both.
 VDP_SO = "binaries/linux64/VanDerPol.so"
-CS_ELEMENT = re.compile(r"\s*<CoSimulation.*?</CoSimulation>", re.S)
-ME_ELEMENT = re.compile(r"\s*<ModelExchange.*?</ModelExchange>", re.S)
+# an interface element, self-closing or with content
+CS_ELEMENT = re.compile(r"\s*<CoSimulation\b(?:[^>]*/>|.*?</CoSimulation>)", re.S)
+ME_ELEMENT = re.compile(r"\s*<ModelExchange\b(?:[^>]*/>|.*?</ModelExchange>)", re.S)
 
 
-def vdp_copy(tmp_path, label, md=lambda x: x, so=lambda b: b):
+@pytest.fixture
+def vdp_copy(toy):
+    """vdp_copy(tmp_path, label, md, so): a copy of VanDerPol with its description passed
+    through md(text) and its binary through so(bytes)."""
+    return lambda *args, **kw: _vdp_copy(toy("VanDerPol"), *args, **kw)
+
+
+def _vdp_copy(src, tmp_path, label, md=lambda x: x, so=lambda b: b):
     def replace(member, data):
         if member == "modelDescription.xml":
             text = data.decode()
@@ -139,7 +146,7 @@ def vdp_copy(tmp_path, label, md=lambda x: x, so=lambda b: b):
             return out.encode()
         return so(data) if member == VDP_SO else data
 
-    return rewrite_fmu(REF2_VDP, tmp_path / f"{label}.fmu", replace)
+    return rewrite_fmu(src, tmp_path / f"{label}.fmu", replace)
 
 
 def drop(pattern):
@@ -174,11 +181,11 @@ def findings_of(fmu):
     return report["findings"]
 
 
-def test_a_model_exchange_only_fmu_is_no_finding(tmp_path):
+def test_a_model_exchange_only_fmu_is_no_finding(vdp_copy, tmp_path):
     assert findings_of(vdp_copy(tmp_path, "me-only", md=drop(CS_ELEMENT))) == []
 
 
-def test_a_derivative_of_a_non_state_is_found(tmp_path):
+def test_a_derivative_of_a_non_state_is_found(vdp_copy, tmp_path):
     # der(x0) names mu (index 6, a fixed parameter) as its state instead of x0 (index 2)
     fmu = vdp_copy(tmp_path, "bad-derivative",
                    md=lambda t: t.replace('<Real derivative="2"/>', '<Real derivative="6"/>'))
@@ -189,7 +196,7 @@ def test_a_derivative_of_a_non_state_is_found(tmp_path):
     assert "2.2.8" in found[0]["clause"], found
 
 
-def test_a_negative_number_of_event_indicators_is_found(tmp_path):
+def test_a_negative_number_of_event_indicators_is_found(vdp_copy, tmp_path):
     fmu = vdp_copy(tmp_path, "negative-indicators",
                    md=lambda t: t.replace('numberOfEventIndicators="0"',
                                           'numberOfEventIndicators="-1"'))
@@ -198,7 +205,7 @@ def test_a_negative_number_of_event_indicators_is_found(tmp_path):
     assert "numberOfEventIndicators" in found[0]["message"], found
 
 
-def test_a_model_exchange_function_not_exported_is_found_only_when_declared(tmp_path):
+def test_a_model_exchange_function_not_exported_is_found_only_when_declared(vdp_copy, tmp_path):
     so = rename_export("fmi2SetTime", "fmi2SetTame")
     found = findings_of(vdp_copy(tmp_path, "me-no-settime", md=drop(CS_ELEMENT), so=so))
     assert "symbols" in [f["check"] for f in found], found
@@ -210,8 +217,14 @@ def test_a_model_exchange_function_not_exported_is_found_only_when_declared(tmp_
     assert not [f for f in found if f["check"] == "symbols"], found
 
 
-def _me_shim_copy(tmp_path, label, *defines, model="VanDerPol"):
-    """A Model Exchange-only copy of the FMI 2.0 Reference-FMU `model` whose binary is
+@pytest.fixture
+def me_shim_copy(toy):
+    """me_shim_copy(tmp_path, label, *defines, model="VanDerPol"): see _me_shim_copy."""
+    return lambda *args, **kw: _me_shim_copy(toy, *args, **kw)
+
+
+def _me_shim_copy(toy, tmp_path, label, *defines, model="VanDerPol"):
+    """A Model Exchange-only copy of the FMI 2.0 toy FMU `model` whose binary is
     crash_shim.c forwarding to the real one, built with `defines` (ME_FAIL_AT: fmi2GetDerivatives
     fails from that time on; the Model Exchange defects listed in crash_shim.c)."""
     if shutil.which("gcc") is None:
@@ -229,34 +242,34 @@ def _me_shim_copy(tmp_path, label, *defines, model="VanDerPol"):
             return [(binary, so.read_bytes()), (f"binaries/linux64/real_{model}.so", data)]
         return data
 
-    return rewrite_fmu(REF2_VDP.parent / f"{model}.fmu", tmp_path / f"{label}.fmu", replace)
+    return rewrite_fmu(toy(model), tmp_path / f"{label}.fmu", replace)
 
 
-def test_the_model_exchange_probe_runs_the_fmu(tmp_path):
+def test_the_model_exchange_probe_runs_the_fmu(me_shim_copy, tmp_path):
     # the shim alone (forwarding every call) is clean: the probe's calls are a legal sequence
-    assert findings_of(_me_shim_copy(tmp_path, "me-shim")) == []
+    assert findings_of(me_shim_copy(tmp_path, "me-shim")) == []
     # fmi2GetDerivatives answering fmi2Error in a legal sequence: the normal run fails
-    found = findings_of(_me_shim_copy(tmp_path, "me-error", "-DME_FAIL_AT=0", "-DME_ERROR"))
+    found = findings_of(me_shim_copy(tmp_path, "me-error", "-DME_FAIL_AT=0", "-DME_ERROR"))
     assert [f["check"] for f in found] == ["probe-normal-run"], found
     assert found[0]["location"] == "probe me-normal-run", found
     assert "fmi2GetDerivatives" in found[0]["message"], found
     # fmi2GetDerivatives never returning: a timeout finding at that probe step
-    r = validate_args(_me_shim_copy(tmp_path, "me-hang", "-DME_FAIL_AT=0", "-DHANG"),
+    r = validate_args(me_shim_copy(tmp_path, "me-hang", "-DME_FAIL_AT=0", "-DHANG"),
                       "--timeout", "2")
     assert [(f["check"], f["location"]) for f in r] == [("probe-timeout", "probe me-normal-run")]
     # fmi2GetDerivatives crashing: a finding naming the probe step and the signal
-    found = findings_of(_me_shim_copy(tmp_path, "me-crash", "-DME_FAIL_AT=0"))
+    found = findings_of(me_shim_copy(tmp_path, "me-crash", "-DME_FAIL_AT=0"))
     assert [f["check"] for f in found] == ["probe-crash"], found
     assert found[0]["location"] == "probe me-normal-run", found
     assert "SIGSEGV" in found[0]["message"], found
 
 
-def test_a_wrong_directional_derivative_is_found(tmp_path):
+def test_a_wrong_directional_derivative_is_found(me_shim_copy, tmp_path):
     # VanDerPol provides directional derivatives; the shim doubles them. The first column
     # (states in order) with a nonzero entry: d der(x1) / d x0 = -2 mu x0 x1 - 1 (der(x1) =
     # mu (1 - x0^2) x1 - x0), which the FMU gives twice. FMI 2.0.4 section 2.1.9.
-    assert findings_of(_me_shim_copy(tmp_path, "me-shim")) == []
-    found = findings_of(_me_shim_copy(tmp_path, "me-dd", "-DWRONG_DIRECTIONAL"))
+    assert findings_of(me_shim_copy(tmp_path, "me-shim")) == []
+    found = findings_of(me_shim_copy(tmp_path, "me-dd", "-DWRONG_DIRECTIONAL"))
     assert [(f["check"], f["location"]) for f in found] == [
         ("probe-directional-derivative", "probe me-directional-derivatives")], found
     m = re.search(r"d der\(x1\) / d x0 .* is (\S+) from the directional derivative but (\S+) "
@@ -268,11 +281,11 @@ def test_a_wrong_directional_derivative_is_found(tmp_path):
     assert "FMI 2.0.4 §2.1.9" in found[0]["clause"], found
 
 
-def test_states_re_initialized_without_telling_the_importer_is_found(tmp_path):
+def test_states_re_initialized_without_telling_the_importer_is_found(me_shim_copy, tmp_path):
     # BouncingBall re-initializes v at the bounce; the shim reports
     # valuesOfContinuousStatesChanged = false (FMI 2.0.4 section 3.2.2)
-    assert findings_of(_me_shim_copy(tmp_path, "bb-shim", model="BouncingBall")) == []
-    found = findings_of(_me_shim_copy(tmp_path, "bb-event", "-DNO_VALUES_CHANGED",
+    assert findings_of(me_shim_copy(tmp_path, "bb-shim", model="BouncingBall")) == []
+    found = findings_of(me_shim_copy(tmp_path, "bb-event", "-DNO_VALUES_CHANGED",
                                       model="BouncingBall"))
     assert [(f["check"], f["location"]) for f in found] == [
         ("probe-event", "probe me-state-event")], found
@@ -280,8 +293,8 @@ def test_states_re_initialized_without_telling_the_importer_is_found(tmp_path):
     assert "FMI 2.0.4 §3.2.2" in found[0]["clause"], found
 
 
-def test_a_model_exchange_call_in_the_wrong_state_answered_ok_is_a_note(tmp_path):
-    fmu = _me_shim_copy(tmp_path, "me-lenient", "-DLENIENT_ME")
+def test_a_model_exchange_call_in_the_wrong_state_answered_ok_is_a_note(me_shim_copy, tmp_path):
+    fmu = me_shim_copy(tmp_path, "me-lenient", "-DLENIENT_ME")
     r = validate(fmu, json_out=True)
     assert r.returncode == 0, r.stdout + r.stderr
     [report] = json.loads(r.stdout)
@@ -294,10 +307,10 @@ def test_a_model_exchange_call_in_the_wrong_state_answered_ok_is_a_note(tmp_path
                if n["location"].startswith("probe me-")), report
 
 
-def test_a_model_exchange_error_without_a_message_is_a_note(tmp_path):
+def test_a_model_exchange_error_without_a_message_is_a_note(me_shim_copy, tmp_path):
     # FMI 2.0.4 section 2.1.5: the logger "should" be called; loggingOn only switches debug
     # logging, so an error without a message is a note (FMI 3.0 differs: tests/test_validate_built)
-    r = validate(_me_shim_copy(tmp_path, "me-silent", "-DSILENT_ME"), json_out=True)
+    r = validate(me_shim_copy(tmp_path, "me-silent", "-DSILENT_ME"), json_out=True)
     assert r.returncode == 0, r.stdout + r.stderr
     [report] = json.loads(r.stdout)
     notes = [(n["check"], n["location"]) for n in report["notes"] if "me-" in n["location"]]
@@ -306,10 +319,10 @@ def test_a_model_exchange_error_without_a_message_is_a_note(tmp_path):
                if n["check"] == "probe-log"), report
 
 
-def test_a_model_exchange_state_not_restored_is_found(tmp_path):
+def test_a_model_exchange_state_not_restored_is_found(me_shim_copy, tmp_path):
     # VanDerPol declares canGetAndSetFMUstate in <ModelExchange>; the shim's fmi2SetFMUstate
     # restores nothing (FMI 2.0.4 section 2.1.8)
-    found = findings_of(_me_shim_copy(tmp_path, "me-no-restore", "-DNO_RESTORE"))
+    found = findings_of(me_shim_copy(tmp_path, "me-no-restore", "-DNO_RESTORE"))
     assert [(f["check"], f["location"]) for f in found] == [
         ("probe-fmu-state", "probe me-fmu-state")], found
     assert "after fmi2SetFMUstate the continuous states" in found[0]["message"], found

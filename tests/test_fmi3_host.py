@@ -1,10 +1,13 @@
-"""The host on FMI 3.0 FMUs: the Modelica Reference-FMUs v0.0.41 built as FMI 3.0
-(tests/fixtures/reference-fmus-fmi3/, BSD-2, with their licence and build notes).
+"""The host on FMI 3.0 FMUs: the toy FMUs of tests/fixtures/toy-fmus/ built as FMI 3.0 (plain C
+models behind their own FMI 3.0 frame, built with gcc by the session fixture `toy`).
 
 - `simulate` of every fixture offering Co-Simulation agrees with
   `fmpy.simulate_fmu(fmi_type='CoSimulation')` (an independent importer) on the same inputs and
   communication grid: Floats within 1e-6 relative, discrete values exactly; arrays are one column
-  each, elements row-major separated by spaces (as FMPy's and the Reference-FMUs' CSV files).
+  each, elements row-major separated by spaces (as FMPy's CSV files); and with each model's
+  independent solution (closed forms; SciPy for Van der Pol).
+- Structural parameters set in Configuration Mode resize the arrays (StateSpace with m = 2
+  follows its closed form).
 - An FMU that ends the run (Stair: terminateSimulation from fmi3DoStep) stops cleanly with its
   rows up to the last successful time; Scheduled Execution (Clocks) is refused naming it.
 - Hostile FMI 3.0 descriptions (a modelIdentifier that is a path, an oversized file) are refused
@@ -26,10 +29,9 @@ from conftest import REPO, cli_path
 
 fmpy = pytest.importorskip("fmpy")
 
-REF3 = REPO / "tests" / "fixtures" / "reference-fmus-fmi3"
 CS_MODELS = ["Dahlquist", "VanDerPol", "Stair", "Resource", "StateSpace"]
 linux_only = pytest.mark.skipif(sys.platform != "linux" or not hasattr(np, "float64"),
-                                reason="the fixtures hold x86_64-linux binaries only")
+                                reason="the fixtures are built for x86_64-linux")
 
 
 def run(*args):
@@ -77,8 +79,9 @@ def compare(out_csv, ref, md):
 
 @linux_only
 @pytest.mark.parametrize("model", CS_MODELS)
-def test_simulate_agrees_with_fmpy_co_simulation(model, tmp_path):
-    fmu = REF3 / f"{model}.fmu"
+def test_simulate_agrees_with_fmpy_co_simulation(model, toy, tmp_path):
+    from test_toy_fmus import independent_solution
+    fmu = toy(model, 3)
     md = fmpy.read_model_description(str(fmu))
     stop = float(md.defaultExperiment.stopTime)
     step = float(md.defaultExperiment.stepSize or 0.1)
@@ -95,11 +98,35 @@ def test_simulate_agrees_with_fmpy_co_simulation(model, tmp_path):
     r = run(*args)
     assert r.returncode == 0, r.stderr
     compare(tmp_path / "out.csv", fmpy.simulate_fmu(str(fmu), **kw), md)
+    header, rows = read_csv(tmp_path / "out.csv")
+    ours = {name: np.array([[float(x) for x in row[j].split()] for row in rows])
+            for j, name in enumerate(header)}
+    grid = ours["time"][:, 0]
+    if model == "StateSpace":
+        solution = {"y": state_space_held(grid, t, u)}
+    else:
+        solution = {name: want[:, None] for name, want in independent_solution(model, grid).items()}
+    for name, want in solution.items():
+        np.testing.assert_allclose(ours[name], want, rtol=0,
+                                   atol=1e-8 * max(1.0, np.abs(want).max()), err_msg=name)
+
+
+def state_space_held(grid, t, u):
+    """StateSpace's outputs in Co-Simulation at its start values (A = B = C = D = I, x0 = 0:
+    x' = x + u, y = x + u), the input set at each communication point (u interpolated linearly
+    between the rows t) and held over the step: x_{k+1} = e^h x_k + (e^h - 1) u_k. The output
+    after a step is computed with the input set before it: y_0 = x_0 + u_0, y_k = x_k + u_{k-1}."""
+    uk = np.stack([np.interp(grid, t, u[:, i]) for i in range(u.shape[1])], axis=1)
+    x = np.zeros_like(uk)
+    for k in range(len(grid) - 1):
+        g = np.exp(grid[k + 1] - grid[k])
+        x[k + 1] = g * x[k] + (g - 1) * uk[k]
+    return x + np.concatenate([uk[:1], uk[:-1]])
 
 
 @linux_only
-def test_array_inputs_may_come_one_column_per_element(tmp_path):
-    fmu = REF3 / "StateSpace.fmu"
+def test_array_inputs_may_come_one_column_per_element(toy, tmp_path):
+    fmu = toy("StateSpace", 3)
     t = np.round(np.arange(0.0, 1.0 + 1e-9, 0.1), 10)
     u = state_space_inputs(t)
     outs = []
@@ -117,24 +144,32 @@ def test_array_inputs_may_come_one_column_per_element(tmp_path):
 
 
 @linux_only
-def test_structural_parameters_are_set_in_configuration_mode_and_resize_the_arrays(tmp_path):
-    fmu = REF3 / "StateSpace.fmu"
+def test_structural_parameters_are_set_in_configuration_mode_and_resize_the_arrays(toy, tmp_path):
+    fmu = toy("StateSpace", 3)
     # with m = 2 the input u has 2 elements: 3 values are refused before the FMU is called
     r = run("simulate", fmu, "--set", "m=2", "--set", "u=1 2 3", "--out", tmp_path / "o.csv")
     assert r.returncode == 2 and "'u' has 2 element(s), 3 value(s) given" in r.stderr, r.stderr
-    # StateSpace v0.0.41 refuses every fmi3SetUInt64 of one value (its ASSERT_NVALUES counts
-    # the element it has just read), but only after checking the state: its message shows
-    # the call came in Configuration Mode (FMPy sets it outside and gets "can only be set in
-    # Configuration Mode")
-    r = run("simulate", fmu, "--set", "m=2", "--set", "u=1 2", "--out", tmp_path / "o.csv")
-    assert "fmi3SetUInt64 returned fmi3Error" in r.stderr, r.stderr
-    assert "Configuration Mode" not in r.stderr and "Expected nValues" in r.stderr, r.stderr
+    # StateSpace takes m in Configuration Mode only: FMPy, which sets it after instantiation
+    # outside that mode, is refused, so a run that follows the resized model shows the host
+    # set it in Configuration Mode
+    with pytest.raises(Exception, match="fmi3SetUInt64"):
+        fmpy.simulate_fmu(str(fmu), fmi_type="CoSimulation", stop_time=1.0, start_values={"m": 2})
+    r = run("simulate", fmu, "--set", "m=2", "--set", "u=1 2", "--stop", 1, "--step", 0.25,
+            "--out", tmp_path / "o.csv")
+    assert r.returncode == 0, r.stderr
+    header, rows = read_csv(tmp_path / "o.csv")
+    # B and D are 3 x 2 with ones on the diagonal: B u = D u = (1, 2, 0); from x0 = 0 with u
+    # held, x = (e^t - 1) B u and y = x + D u = e^t (1, 2, 0)
+    t = np.array([float(row[0]) for row in rows])
+    y = np.array([[float(x) for x in row[header.index("y")].split()] for row in rows])
+    assert y.shape == (5, 3), y
+    np.testing.assert_allclose(y, np.exp(t)[:, None] * [1.0, 2.0, 0.0], rtol=1e-9, atol=1e-12)
 
 
 @linux_only
-def test_an_fmu_that_ends_the_run_stops_cleanly_at_its_last_successful_time(tmp_path):
+def test_an_fmu_that_ends_the_run_stops_cleanly_at_its_last_successful_time(toy, tmp_path):
     out = tmp_path / "stair.csv"
-    r = run("simulate", REF3 / "Stair.fmu", "--out", out)
+    r = run("simulate", toy("Stair", 3), "--out", out)
     assert r.returncode == 0, r.stderr
     assert "ended the simulation at t = 9" in r.stderr and "fmi3DoStep" in r.stderr, r.stderr
     assert len(r.stderr.strip().splitlines()) == 1, r.stderr
@@ -144,8 +179,8 @@ def test_an_fmu_that_ends_the_run_stops_cleanly_at_its_last_successful_time(tmp_
 
 
 @linux_only
-def test_scheduled_execution_is_refused_naming_what_is_unsupported(tmp_path):
-    r = run("simulate", REF3 / "Clocks.fmu", "--out", tmp_path / "o.csv")
+def test_scheduled_execution_is_refused_naming_what_is_unsupported(toy, tmp_path):
+    r = run("simulate", toy("Clocks", 3), "--out", tmp_path / "o.csv")
     assert r.returncode == 2, r.stderr
     assert "Scheduled Execution is not supported" in r.stderr, r.stderr
     assert len(r.stderr.strip().splitlines()) == 1 and not (tmp_path / "o.csv").exists()
@@ -161,19 +196,20 @@ def rewrite(src, dst, edit):
     return dst
 
 
-def test_hostile_fmi3_descriptions_are_refused_before_anything_is_loaded(tmp_path):
-    fmu = rewrite(REF3 / "Dahlquist.fmu", tmp_path / "path.fmu",
+@linux_only
+def test_hostile_fmi3_descriptions_are_refused_before_anything_is_loaded(toy, tmp_path):
+    fmu = rewrite(toy("Dahlquist", 3), tmp_path / "path.fmu",
                   lambda md: md.replace('modelIdentifier="Dahlquist"', 'modelIdentifier="../../x"'))
     r = run("simulate", fmu, "--out", tmp_path / "o.csv")
     assert r.returncode == 2 and "is not a C identifier" in r.stderr, r.stderr
     # above 64 MiB: refused by size, before parsing (a comment padded to 65 MiB compresses to
     # some 65 kB)
-    fmu = rewrite(REF3 / "Dahlquist.fmu", tmp_path / "huge.fmu",
+    fmu = rewrite(toy("Dahlquist", 3), tmp_path / "huge.fmu",
                   lambda md: md.replace("<ModelVariables>", "<!--" + " " * (65 << 20) + "-->\n<ModelVariables>"))
     r = run("simulate", fmu, "--out", tmp_path / "o.csv")
     assert r.returncode == 2 and "larger than" in r.stderr, r.stderr
     # a start value outside its type's range: one located message
-    fmu = rewrite(REF3 / "Stair.fmu", tmp_path / "range.fmu",
+    fmu = rewrite(toy("Stair", 3), tmp_path / "range.fmu",
                   lambda md: md.replace('start="1" max="10"', 'start="99999999999" max="10"'))
     r = run("simulate", fmu, "--out", tmp_path / "o.csv")
     assert r.returncode == 2 and "outside the range of Int32" in r.stderr, r.stderr

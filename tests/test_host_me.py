@@ -1,34 +1,36 @@
-"""Model Exchange in the host: `simulate --interface me` integrates the Reference-FMUs (FMI 2.0,
-tests/fixtures/reference-fmus/, all declare <ModelExchange>) with the host's Rosenbrock solver and
+"""Model Exchange in the host: `simulate --interface me` integrates the toy FMUs (FMI 2.0 and
+3.0, tests/fixtures/toy-fmus/, all declare <ModelExchange>) with the host's Rosenbrock solver and
 agrees with FMPy's ModelExchange run (CVode) on the same output grid: the same rows (the output
 points, plus a row before and one after each event at its time, as FMPy's record_events),
 Reals within the tolerance, event times within it, discrete values exactly. The reference is
 FMPy at relative tolerance 1e-10, so that the comparison measures our error at RTOL, not
-CVode's (whose global error at its own 1e-6 is some 20 times the tolerance on VanDerPol).
+CVode's (whose global error at its own 1e-6 is some 20 times the tolerance on VanDerPol). The
+continuous models are also held to their independent solutions (Dahlquist's exponential,
+SciPy's Van der Pol, the bouncing ball's closed-form bounce times, StateSpace integrated by
+SciPy).
 
 A crash inside an ME call is reported with the call and the time, as for Co-Simulation.
 """
 import csv
+import math
 import shutil
 import subprocess
 import sys
 import zipfile
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from conftest import REPO, cli_path
-from test_reference_fmus import feedthrough_inputs, fmpy_signals, write_inputs
+from test_toy_fmus import feedthrough_inputs, fmpy_signals, independent_solution, write_inputs
 
 fmpy = pytest.importorskip("fmpy")
 
-REF = REPO / "tests" / "fixtures" / "reference-fmus"
 MODELS = ["BouncingBall", "Dahlquist", "VanDerPol", "Feedthrough", "Resource", "Stair"]
 RTOL = 1e-6
 
 pytestmark = pytest.mark.skipif(sys.platform != "linux",
-                                reason="the fixtures hold linux64 binaries only")
+                                reason="the fixtures are built for linux64")
 
 
 def run(*args):
@@ -49,8 +51,8 @@ def event_times(t):
 
 
 @pytest.mark.parametrize("model", MODELS)
-def test_model_exchange_agrees_with_fmpy(model, tmp_path):
-    fmu = REF / f"{model}.fmu"
+def test_model_exchange_agrees_with_fmpy(model, toy, tmp_path):
+    fmu = toy(model)
     md = fmpy.read_model_description(str(fmu))
     de = md.defaultExperiment
     stop = float(de.stopTime)
@@ -89,12 +91,16 @@ def test_model_exchange_agrees_with_fmpy(model, tmp_path):
             np.testing.assert_allclose(ours[name], want, rtol=0, atol=RTOL * scale, err_msg=name)
         else:
             assert np.array_equal(ours[name], want), (name, ours[name][:12], want[:12])
+    if model in ("Dahlquist", "VanDerPol"):
+        for name, want in independent_solution(model, ours["time"]).items():
+            scale = max(1.0, np.abs(want).max())
+            np.testing.assert_allclose(ours[name], want, rtol=0, atol=RTOL * scale, err_msg=name)
 
 
-def test_bouncing_ball_bounces_at_the_closed_form_times(tmp_path):
+def test_bouncing_ball_bounces_at_the_closed_form_times(toy, tmp_path):
     """h'' = -g from h0 = 1, v0 = 0, v -> -e v at h = 0 (BouncingBall's equations, g = 9.81,
     e = 0.7): the k-th bounce at t1 = sqrt(2 h0 / g), then t_{k+1} = t_k + 2 e^k v1 / g."""
-    r = run("simulate", REF / "BouncingBall.fmu", "--interface", "me", "--stop", 2,
+    r = run("simulate", toy("BouncingBall"), "--interface", "me", "--stop", 2,
             "--step", 0.01, "--out", tmp_path / "o.csv")
     assert r.returncode == 0, r.stderr
     _, rows = read_csv(tmp_path / "o.csv")
@@ -109,14 +115,14 @@ def test_bouncing_ball_bounces_at_the_closed_form_times(tmp_path):
     np.testing.assert_allclose(got, want, rtol=1e-5)
 
 
-def test_interface_cs_is_the_default_and_me_is_refused_without_model_exchange(tmp_path):
-    r = run("simulate", REF / "Dahlquist.fmu", "--stop", 1, "--step", 0.5, "--out",
+def test_interface_cs_is_the_default_and_me_is_refused_without_model_exchange(toy, tmp_path):
+    r = run("simulate", toy("Dahlquist"), "--stop", 1, "--step", 0.5, "--out",
             tmp_path / "cs.csv")
     assert r.returncode == 0, r.stderr
-    r = run("simulate", REF / "Dahlquist.fmu", "--stop", 1, "--step", 0.5, "--interface", "cs",
+    r = run("simulate", toy("Dahlquist"), "--stop", 1, "--step", 0.5, "--interface", "cs",
             "--out", tmp_path / "cs2.csv")
     assert (tmp_path / "cs.csv").read_text() == (tmp_path / "cs2.csv").read_text()
-    only_cs = without_element(REF / "Dahlquist.fmu", tmp_path / "cs-only.fmu", "ModelExchange")
+    only_cs = without_element(toy("Dahlquist"), tmp_path / "cs-only.fmu", "ModelExchange")
     r = run("simulate", only_cs, "--interface", "me", "--out", tmp_path / "me.csv")
     assert r.returncode == 2 and "no <ModelExchange> element" in r.stderr, r.stderr
     assert not (tmp_path / "me.csv").exists()
@@ -137,9 +143,9 @@ def without_element(src, dst, element):
     return dst
 
 
-@pytest.mark.parametrize("ref", ["reference-fmus", "reference-fmus-fmi3"])
-def test_an_fmu_without_co_simulation_runs_as_model_exchange_by_default(ref, tmp_path):
-    fmu = REPO / "tests" / "fixtures" / ref / "Dahlquist.fmu"
+@pytest.mark.parametrize("version", [2, 3])
+def test_an_fmu_without_co_simulation_runs_as_model_exchange_by_default(version, toy, tmp_path):
+    fmu = toy("Dahlquist", version)
     only_me = without_element(fmu, tmp_path / "me-only.fmu", "CoSimulation")
     common = ["--stop", 1, "--step", 0.1, "--tolerance", RTOL]
     r = run("simulate", only_me, *common, "--out", tmp_path / "default.csv")
@@ -151,7 +157,7 @@ def test_an_fmu_without_co_simulation_runs_as_model_exchange_by_default(ref, tmp
     assert r.returncode == 2 and "<CoSimulation>" in r.stderr, r.stderr
 
 
-def crashing_me_copy(tmp_path, *defines):
+def crashing_me_copy(toy, tmp_path, *defines):
     """BouncingBall whose fmi2GetDerivatives crashes (with -DHANG: hangs) from t = 0.5 s on (the
     crash shim of tests/drivers/broken, which forwards every other call to the real binary)."""
     if shutil.which("gcc") is None:
@@ -162,7 +168,7 @@ def crashing_me_copy(tmp_path, *defines):
                     str(REPO / "tests/drivers/broken/crash_shim.c"), "-ldl"], check=True)
     binary = "binaries/linux64/BouncingBall.so"
     dst = tmp_path / "crash-me.fmu"
-    with zipfile.ZipFile(REF / "BouncingBall.fmu") as zin, \
+    with zipfile.ZipFile(toy("BouncingBall")) as zin, \
             zipfile.ZipFile(dst, "w", zipfile.ZIP_DEFLATED) as zout:
         for item in zin.infolist():
             data = zin.read(item.filename)
@@ -173,8 +179,8 @@ def crashing_me_copy(tmp_path, *defines):
     return dst
 
 
-def test_a_crash_in_a_model_exchange_call_is_reported_with_the_call_and_time(tmp_path):
-    fmu = crashing_me_copy(tmp_path)
+def test_a_crash_in_a_model_exchange_call_is_reported_with_the_call_and_time(toy, tmp_path):
+    fmu = crashing_me_copy(toy, tmp_path)
     out = tmp_path / "o.csv"
     r = run("simulate", fmu, "--interface", "me", "--stop", 1, "--step", 0.1, "--out", out)
     assert r.returncode == 2, (r.returncode, r.stderr)
@@ -187,7 +193,6 @@ def test_a_crash_in_a_model_exchange_call_is_reported_with_the_call_and_time(tmp
     assert r.returncode == 0, r.stderr
 
 
-REF3 = REPO / "tests" / "fixtures" / "reference-fmus-fmi3"
 FMI3_MODELS = ["Dahlquist", "VanDerPol", "Stair", "Resource", "StateSpace"]
 
 
@@ -212,11 +217,11 @@ def state_space_reference(grid, t, u):
 
 
 @pytest.mark.parametrize("model", FMI3_MODELS)
-def test_fmi3_model_exchange_agrees_with_fmpy(model, tmp_path):
+def test_fmi3_model_exchange_agrees_with_fmpy(model, toy, tmp_path):
     """The same loop through the FMI 3.0 binding (fmi3InstantiateModelExchange,
     fmi3UpdateDiscreteStates, ...): StateSpace with an array input and array states."""
     from test_fmi3_host import state_space_inputs, write_array_input
-    fmu = REF3 / f"{model}.fmu"
+    fmu = toy(model, 3)
     md = fmpy.read_model_description(str(fmu))
     stop = float(md.defaultExperiment.stopTime)
     step = float(md.defaultExperiment.stepSize or 0.1)
@@ -266,8 +271,8 @@ def test_fmi3_model_exchange_agrees_with_fmpy(model, tmp_path):
             assert np.array_equal(got, want), (name, got[:12], want[:12])
 
 
-def test_a_hang_in_a_model_exchange_call_is_stopped_after_the_timeout(tmp_path):
-    fmu = crashing_me_copy(tmp_path, "-DHANG")
+def test_a_hang_in_a_model_exchange_call_is_stopped_after_the_timeout(toy, tmp_path):
+    fmu = crashing_me_copy(toy, tmp_path, "-DHANG")
     out = tmp_path / "o.csv"
     r = run("simulate", fmu, "--interface", "me", "--stop", 1, "--step", 0.1, "--timeout", 1,
             "--out", out)
@@ -298,8 +303,8 @@ def test_our_oscillator_agrees_between_its_interfaces(tmp_path):
         assert np.abs(me[name] - cs[name]).max() <= 1e-8 * span, name
 
 
-def test_an_error_status_from_a_model_exchange_call_ends_the_run_naming_the_call(tmp_path):
-    fmu = crashing_me_copy(tmp_path, "-DME_ERROR")
+def test_an_error_status_from_a_model_exchange_call_ends_the_run_naming_the_call(toy, tmp_path):
+    fmu = crashing_me_copy(toy, tmp_path, "-DME_ERROR")
     out = tmp_path / "o.csv"
     r = run("simulate", fmu, "--interface", "me", "--stop", 1, "--step", 0.1, "--out", out)
     assert r.returncode == 1, (r.returncode, r.stderr)
@@ -308,16 +313,14 @@ def test_an_error_status_from_a_model_exchange_call_ends_the_run_naming_the_call
     assert not out.exists()
 
 
-def test_gap_calibrates_an_fmi2_model_exchange_fmu(tmp_path):
-    """gap through --interface me (FMI 2.0): Dahlquist's k recovered from FMPy's CVode
-    trajectory (rtol 1e-10) with k = 1.5 (start 1)."""
+def test_gap_calibrates_an_fmi2_model_exchange_fmu(toy, tmp_path):
+    """gap through --interface me (FMI 2.0): Dahlquist's k recovered from the closed form
+    x = exp(-k t) with k = 1.5 (start 1)."""
     import json
-    fmu = REF / "Dahlquist.fmu"
-    r = fmpy.simulate_fmu(str(fmu), fmi_type="ModelExchange", stop_time=3.0, output_interval=0.05,
-                          start_values={"k": 1.5}, relative_tolerance=1e-10)
+    fmu = toy("Dahlquist")
+    t = np.round(np.arange(0, 61) * 0.05, 12)
     with open(tmp_path / "d.csv", "w") as f:
-        f.write("time,x\n" + "".join(f"{t!r},{x!r}\n"
-                                     for t, x in zip(r["time"].tolist(), r["x"].tolist())))
+        f.write("time,x\n" + "".join(f"{ti!r},{math.exp(-1.5 * ti)!r}\n" for ti in t.tolist()))
     p = run("gap", fmu, "--interface", "me", "--data", tmp_path / "d.csv", "--out",
             tmp_path / "g", "--fit", "k", "--quiet")
     assert p.returncode == 0, p.stderr

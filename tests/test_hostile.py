@@ -255,12 +255,12 @@ def test_an_interrupted_run_removes_its_temporary_files(tmp_path, sig):
     assert not (tmp_path / "o.csv").exists()
 
 
-def test_ctrl_c_while_simulate_writes_its_output_leaves_no_partial_file(tmp_path):
+def test_ctrl_c_while_simulate_writes_its_output_leaves_no_partial_file(toy, tmp_path):
     """A run writing a large result (2 million rows, some 50 MB), SIGINT to its process group
     (Ctrl-C in a shell) once the temporary output file exists next to the output: the worker
     dies while writing; the supervisor removes the file the worker listed before creating it."""
     out = tmp_path / "o.csv"
-    dahlquist = Path(__file__).resolve().parent / "fixtures" / "reference-fmus" / "Dahlquist.fmu"
+    dahlquist = toy("Dahlquist")
     p = subprocess.Popen([cli_path(), "simulate", dahlquist, "--stop", "2", "--step", "1e-6",
                           "--out", out], stderr=subprocess.PIPE, text=True,
                          start_new_session=True)

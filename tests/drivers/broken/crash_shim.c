@@ -133,9 +133,16 @@ S fmi2SetFMUstate(C c, void *s) {
 #endif
     return real_set_state(c, s);
 }
+#ifdef LENIENT_ME
+static void forget_continuous(C c);
+#endif
 void fmi2FreeInstance(C c) {
     LOAD(real_free, "fmi2FreeInstance");
     mark(c, 0);
+#ifdef LENIENT_ME
+    /* the next instance may get the same address */
+    forget_continuous(c);
+#endif
     real_free(c);
 }
 S fmi2DoStep(C c, double t, double h, int no_prior) {
@@ -166,11 +173,14 @@ typedef struct { int a, b, c, d, e; double t; } EventInfo;
 FWD(S, fmi2EnterEventMode, (C c), (c))
 #else
 static C continuous[256]; /* instances in Continuous-Time Mode */
+static void forget_continuous(C c) {
+    for (int i = 0; i < 256; i++)
+        if (continuous[i] == c) continuous[i] = NULL;
+}
 S fmi2EnterEventMode(C c) {
     static S (*fp)(C);
     if (!fp) *(void **)&fp = dlsym(real(), "fmi2EnterEventMode");
-    for (int i = 0; i < 256; i++)
-        if (continuous[i] == c) continuous[i] = NULL;
+    forget_continuous(c);
     return fp(c);
 }
 #endif

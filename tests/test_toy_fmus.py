@@ -1,11 +1,14 @@
-"""Third-party FMUs: the Modelica Reference-FMUs v0.0.41 (BSD-2, tests/fixtures/reference-fmus/
-with their licence and build notes), FMI 2.0 Co-Simulation for linux64.
+"""FMUs not made by our crates: the toy FMUs of tests/fixtures/toy-fmus/ (plain C models behind
+their own FMI 2.0 frame, built with gcc by the session fixture `toy`), FMI 2.0 Co-Simulation for
+linux64.
 
 - `validate` reports no finding on any of them (what the standard permits them to do differently,
   such as accepting NaN, comes as notes and exit 0), and every finding or note cites its clause.
 - `simulate` agrees with `fmpy.simulate_fmu` (an independent importer) on the same inputs and
   communication grid: Reals within 1e-6 relative, discrete values exactly; discrete inputs are
-  held between rows, continuous Reals interpolated.
+  held between rows, continuous Reals interpolated. Its results also match each model's
+  independent solution: closed forms (Dahlquist's exponential, the bouncing ball's parabolas, the
+  stair's count, the resource file's first byte) and SciPy for Van der Pol.
 - String variables are set from the CSV and recorded as quoted text; an FMU that ends the run
   (Stair: fmi2Discard with fmi2Terminated) stops cleanly with its rows up to the last successful
   time.
@@ -14,7 +17,6 @@ import csv
 import json
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -23,7 +25,6 @@ from conftest import REPO, cli_path
 
 fmpy = pytest.importorskip("fmpy")
 
-REF = REPO / "tests" / "fixtures" / "reference-fmus"
 MODELS = ["BouncingBall", "Dahlquist", "VanDerPol", "Feedthrough", "Resource", "Stair"]
 
 
@@ -37,10 +38,13 @@ def read_csv(path):
     return rows[0], rows[1:]
 
 
-@pytest.mark.skipif(sys.platform != "linux", reason="the fixtures hold linux64 binaries only")
+linux_only = pytest.mark.skipif(sys.platform != "linux", reason="the fixtures are built for linux64")
+
+
+@linux_only
 @pytest.mark.parametrize("model", MODELS)
-def test_validate_finds_nothing_in_a_conforming_reference_fmu(model):
-    r = run("validate", "--json", REF / f"{model}.fmu")
+def test_validate_finds_nothing_in_a_conforming_toy_fmu(model, toy):
+    r = run("validate", "--json", toy(model))
     assert r.returncode == 0, r.stdout + r.stderr
     report = json.loads(r.stdout)[0]
     assert report["findings"] == [], report["findings"]
@@ -48,14 +52,15 @@ def test_validate_finds_nothing_in_a_conforming_reference_fmu(model):
         assert note["severity"] == "note" and "FMI 2.0.4 §" in note["clause"], note
 
 
-def test_probe_results_the_standard_permits_are_notes_with_their_clause():
+@linux_only
+def test_probe_results_the_standard_permits_are_notes_with_their_clause(toy):
     # BouncingBall accepts NaN for a parameter and a fixed parameter set after initialization;
     # the standard does not require an FMU to refuse either.
-    r = run("validate", "--json", REF / "BouncingBall.fmu")
+    r = run("validate", "--json", toy("BouncingBall"))
     notes = json.loads(r.stdout)[0]["notes"]
     assert {n["check"] for n in notes} == {"probe-nan", "probe-wrong-call"}, notes
     assert any("§4.2.4" in n["clause"] for n in notes), notes
-    r = run("validate", REF / "BouncingBall.fmu")
+    r = run("validate", toy("BouncingBall"))
     assert r.returncode == 0 and "OK (no findings, 2 note(s))" in r.stdout, r.stdout
 
 
@@ -93,10 +98,55 @@ def fmpy_signals(t, inputs):
     return sig
 
 
-@pytest.mark.skipif(sys.platform != "linux", reason="the fixtures hold linux64 binaries only")
+def bouncing_ball(t, h0=1.0, g=9.81, e=0.7, v_min=0.1):
+    """h and v of the ball dropped from h0 at the times t: parabolas between bounces, v -> -e v
+    at each, at rest once a bounce leaves less than v_min."""
+    hits, v_up = [np.sqrt(2 * h0 / g)], np.sqrt(2 * g * h0) * e
+    while v_up >= v_min:
+        hits.append(hits[-1] + 2 * v_up / g)
+        v_up *= e
+    h, v = np.zeros(len(t)), np.zeros(len(t))
+    for i, ti in enumerate(t):
+        if ti < hits[0]:
+            h[i], v[i] = h0 - g * ti ** 2 / 2, -g * ti
+            continue
+        k = np.searchsorted(hits, ti, side="right") - 1
+        if k == len(hits) - 1:
+            continue  # at rest on the floor
+        s, up = ti - hits[k], np.sqrt(2 * g * h0) * e ** (k + 1)
+        h[i], v[i] = up * s - g * s ** 2 / 2, up - g * s
+    return {"h": h, "v": v}
+
+
+def van_der_pol(t, mu=1.0):
+    from scipy.integrate import solve_ivp
+    sol = solve_ivp(lambda s, x: [x[1], mu * (1 - x[0] ** 2) * x[1] - x[0]], (t[0], t[-1]),
+                    [2.0, 0.0], method="DOP853", t_eval=t, rtol=1e-12, atol=1e-12)
+    return {"x0": sol.y[0], "x1": sol.y[1]}
+
+
+def independent_solution(model, t):
+    """Each toy model's outputs at the times t from its equations, not from the FMU: closed
+    forms, SciPy (DOP853 at rtol 1e-12) for Van der Pol; None for Feedthrough (its outputs are
+    its inputs, checked against FMPy and by the String test)."""
+    if model == "Dahlquist":
+        return {"x": np.exp(-t)}
+    if model == "VanDerPol":
+        return van_der_pol(t)
+    if model == "BouncingBall":
+        return bouncing_ball(t)
+    if model == "Stair":  # one more every whole second from 1
+        return {"counter": 1 + np.floor(t + 1e-9)}
+    if model == "Resource":  # the first byte of resources/y.txt
+        first = (REPO / "tests" / "fixtures" / "toy-fmus" / "y.txt").read_bytes()[0]
+        return {"y": np.full(len(t), float(first))}
+    return None
+
+
+@linux_only
 @pytest.mark.parametrize("model", MODELS)
-def test_simulate_agrees_with_fmpy(model, tmp_path):
-    fmu = REF / f"{model}.fmu"
+def test_simulate_agrees_with_fmpy_and_the_models_solution(model, toy, tmp_path):
+    fmu = toy(model)
     md = fmpy.read_model_description(str(fmu))
     de = md.defaultExperiment
     stop = float(de.stopTime)
@@ -125,15 +175,22 @@ def test_simulate_agrees_with_fmpy(model, tmp_path):
                                        err_msg=name)
         else:
             assert np.array_equal(got, want), (name, got[:12], want[:12])
+    # Co-Simulation: Dahlquist and the ball step with their closed forms, Van der Pol with
+    # 1 ms Runge-Kutta steps (error some 1e-10 over 20 s)
+    solution = independent_solution(model, np.array([float(x) for x in ours["time"]]))
+    for name, want in (solution or {}).items():
+        got = np.array([float(x) for x in ours[name]])
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-8 * max(1.0, np.abs(want).max()),
+                                   err_msg=name)
 
 
-@pytest.mark.skipif(sys.platform != "linux", reason="the fixtures hold linux64 binaries only")
-def test_string_variables_are_set_from_the_csv_and_recorded_as_quoted_text(tmp_path):
+@linux_only
+def test_string_variables_are_set_from_the_csv_and_recorded_as_quoted_text(toy, tmp_path):
     t = np.round(np.arange(0.0, 0.5 + 1e-9, 0.1), 10)
     inputs = {"Int32_input": np.arange(len(t))}
     words = ['plain', 'with, comma', 'say "hi"', ' padded ', '', 'ünïcode']
     write_inputs(tmp_path / "in.csv", t, inputs, text={"String_input": words})
-    r = run("simulate", REF / "Feedthrough.fmu", "--data", tmp_path / "in.csv", "--step", 0.1,
+    r = run("simulate", toy("Feedthrough"), "--data", tmp_path / "in.csv", "--step", 0.1,
             "--out", tmp_path / "out.csv")
     assert r.returncode == 0, r.stderr
     header, rows = read_csv(tmp_path / "out.csv")
@@ -147,10 +204,10 @@ def test_string_variables_are_set_from_the_csv_and_recorded_as_quoted_text(tmp_p
     assert '"with, comma"' in raw and '"say ""hi"""' in raw, raw
 
 
-@pytest.mark.skipif(sys.platform != "linux", reason="the fixtures hold linux64 binaries only")
-def test_an_fmu_that_ends_the_run_stops_cleanly_at_its_last_successful_time(tmp_path):
+@linux_only
+def test_an_fmu_that_ends_the_run_stops_cleanly_at_its_last_successful_time(toy, tmp_path):
     out = tmp_path / "stair.csv"
-    r = run("simulate", REF / "Stair.fmu", "--out", out)
+    r = run("simulate", toy("Stair"), "--out", out)
     assert r.returncode == 0, r.stderr
     assert "ended the simulation at t = 9" in r.stderr, r.stderr
     assert len(r.stderr.strip().splitlines()) == 1, r.stderr
@@ -214,8 +271,8 @@ def test_a_pythonfmu_fmu_without_a_python_runtime_gets_one_line_saying_what_it_n
     assert len(lines) == 1 and "needs a Python runtime" in lines[0] and "--python" in lines[0], lines
 
 
-@pytest.mark.skipif(sys.platform != "linux", reason="the fixtures hold linux64 binaries only")
-def test_gap_runs_on_a_foreign_fmu_with_string_variables(tmp_path):
+@linux_only
+def test_gap_runs_on_a_foreign_fmu_with_string_variables(toy, tmp_path):
     """Feedthrough's outputs include a String and an Enumeration: gap compares the numeric
     columns of the data and ignores the rest. The data are the FMU's own response (the output
     after a step is the input set before it), so nothing is missing."""
@@ -226,7 +283,7 @@ def test_gap_runs_on_a_foreign_fmu_with_string_variables(tmp_path):
         f.write("time,Float64_continuous_input,Float64_continuous_output\n")
         for row in zip(t, u, y):
             f.write(",".join(repr(float(x)) for x in row) + "\n")
-    r = run("gap", REF / "Feedthrough.fmu", "--data", tmp_path / "d.csv", "--out", tmp_path / "g",
+    r = run("gap", toy("Feedthrough"), "--data", tmp_path / "d.csv", "--out", tmp_path / "g",
             "--fit", "Float64_tunable_parameter", "--quiet")
     assert r.returncode == 0, r.stderr
     report = json.loads((tmp_path / "g" / "report.json").read_text())
