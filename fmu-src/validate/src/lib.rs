@@ -32,7 +32,7 @@ pub use fmi3::{check_model_description3, check_platform_binaries3};
 pub use probe::{probe, probe_me, ME_PROBE_CASES, PROBE_CASES};
 pub use probe3::{probe3, probe3_me, PROBE3_CASES};
 
-use crate::md::ScalarVariable;
+use host::md::ScalarVariable;
 use std::fmt;
 
 /// Whether the standard requires what a check found, or only permits better.

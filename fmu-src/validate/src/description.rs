@@ -2,10 +2,10 @@
 //! convention of the gap workflow.
 
 use super::{var_loc, Finding};
-use crate::md::{
+use fmi2_types::effects;
+use host::md::{
     Causality, Initial, ModelDescription, ScalarVariable, StartValue, VarKind, Variability,
 };
-use fmi2_types::effects;
 use std::collections::{BTreeSet, HashMap};
 
 fn is_c_identifier(s: &str) -> bool {
@@ -605,7 +605,7 @@ fn check_model_structure(md: &ModelDescription, f: &mut Vec<Finding>) {
 fn check_listed_derivative(
     md: &ModelDescription,
     v: &ScalarVariable,
-    u: &crate::md::Unknown,
+    u: &host::md::Unknown,
     f: &mut Vec<Finding>,
 ) {
     let loc = format!(
@@ -680,8 +680,8 @@ pub fn check_effect_convention(md: &ModelDescription) -> Vec<Finding> {
 #[cfg(test)]
 mod tests {
     use super::{check_effect_convention, check_model_description, combination_allowed};
-    use crate::md::{Causality, ModelDescription, Variability};
-    use crate::validate::Finding;
+    use crate::Finding;
+    use host::md::{Causality, ModelDescription, Variability};
 
     fn md_with_vars(vars: &str, structure: &str) -> ModelDescription {
         let xml = format!(
@@ -726,7 +726,7 @@ mod tests {
 
     #[test]
     fn the_fixture_description_has_no_findings() {
-        let xml = include_str!("../../tests/fixtures/modelDescription.xml");
+        let xml = include_str!("../../host/tests/fixtures/modelDescription.xml");
         let md = ModelDescription::parse(xml, "md.xml").unwrap();
         assert_eq!(check_model_description(&md), vec![]);
     }
@@ -758,7 +758,7 @@ mod tests {
         md.variable_naming_convention = Some("dotted".into());
         only(&md, "naming-convention");
         let mut md = md_with_vars(GOOD_VARS, GOOD_STRUCT);
-        md.default_experiment = Some(crate::md::DefaultExperiment {
+        md.default_experiment = Some(host::md::DefaultExperiment {
             start_time: Some(1.0),
             stop_time: Some(0.0),
             ..Default::default()
@@ -931,16 +931,17 @@ mod tests {
     #[test]
     fn effect_convention() {
         let md = ModelDescription::parse(
-            include_str!("../../tests/fixtures/modelDescription.xml"),
+            include_str!("../../host/tests/fixtures/modelDescription.xml"),
             "md.xml",
         )
         .unwrap();
         assert_eq!(check_effect_convention(&md), vec![]);
         let bad = |from: &str, to: &str| {
-            let xml = include_str!("../../tests/fixtures/modelDescription.xml").replace(from, to);
+            let xml =
+                include_str!("../../host/tests/fixtures/modelDescription.xml").replace(from, to);
             assert_ne!(
                 xml,
-                include_str!("../../tests/fixtures/modelDescription.xml")
+                include_str!("../../host/tests/fixtures/modelDescription.xml")
             );
             check_effect_convention(&ModelDescription::parse(&xml, "md.xml").unwrap())
         };

@@ -10,14 +10,13 @@
 use super::me_checks::{self, FmuStates, Reached, StateCallNames, Verdict};
 use super::probe::{event_search_step, me_sequence, probe_step, unknown_value_reference};
 use super::Finding;
-use crate::error::{HostError, Status};
-use crate::fmi3::ffi::FmuState3;
-use crate::fmi3::md::Causality3;
-use crate::fmi3::value::{Type3, Values};
-use crate::fmi3::{Fmu3, Instance3};
-use crate::md::Variability;
-use crate::me::fmi3::Fmi3Me;
-use crate::me::ModelExchange;
+use host::fmi3::md::Causality3;
+use host::fmi3::value::{Type3, Values};
+use host::fmi3::{Fmu3, Instance3};
+use host::md::Variability;
+use host::me::fmi3::Fmi3Me;
+use host::me::ModelExchange;
+use host::{FmuStateHandle3, HostError, Status};
 
 /// Names of the FMI 3.0 probe cases in the order [`probe3`] and [`probe3_me`] run them.
 pub const PROBE3_CASES: &[&str] = &[
@@ -104,68 +103,6 @@ fn me<'i, 'a>(inst: &'i mut Instance3<'a>) -> Result<Fmi3Me<'i, 'a>, String> {
     Fmi3Me::new(inst).map_err(|e| e.to_string())
 }
 
-/// A saved FMU state of an instance (`fmi3GetFMUState`), freed with `fmi3FreeFMUState`.
-pub(crate) struct Saved3(FmuState3);
-
-/// `fmi3GetFMUState` of `inst` into a new state.
-fn get_state_raw(inst: &mut Instance3<'_>) -> Result<Saved3, HostError> {
-    let missing = |n: &str| HostError::Request(format!("the binary does not export {n}"));
-    let f = inst
-        .fmu
-        .functions
-        .get_fmu_state
-        .ok_or_else(|| missing("fmi3GetFMUState"))?;
-    let mut state: FmuState3 = std::ptr::null_mut();
-    // SAFETY: live instance; a NULL state asks the FMU for a new one (FMI 3.0.2 section 2.2.7.4).
-    let raw = unsafe { f(inst.instance, &mut state) };
-    inst.check("fmi3GetFMUState", raw)?;
-    Ok(Saved3(state))
-}
-
-/// `fmi3SetFMUState` of `inst` to `saved`.
-fn set_state_raw(inst: &mut Instance3<'_>, saved: &Saved3) -> Result<(), HostError> {
-    let f =
-        inst.fmu.functions.set_fmu_state.ok_or_else(|| {
-            HostError::Request("the binary does not export fmi3SetFMUState".into())
-        })?;
-    // SAFETY: live instance and a state it returned from fmi3GetFMUState, not yet freed.
-    let raw = unsafe { f(inst.instance, saved.0) };
-    inst.check("fmi3SetFMUState", raw).map(drop)
-}
-
-/// `fmi3SerializeFMUState` of `saved`, then `fmi3DeserializeFMUState` of those bytes: a new
-/// state, which must be the same (FMI 3.0.2 section 2.2.7.4).
-fn serialized_copy_raw(inst: &mut Instance3<'_>, saved: &Saved3) -> Result<Saved3, HostError> {
-    let f = &inst.fmu.functions;
-    let (Some(size), Some(serialize), Some(deserialize)) = (
-        f.serialized_fmu_state_size,
-        f.serialize_fmu_state,
-        f.deserialize_fmu_state,
-    ) else {
-        return Err(HostError::Request(
-            "the binary does not export the FMU state serialization functions".into(),
-        ));
-    };
-    let mut n = 0usize;
-    // SAFETY: live instance, a state it returned, a valid out pointer.
-    let raw = unsafe { size(inst.instance, saved.0, &mut n) };
-    inst.check("fmi3SerializedFMUStateSize", raw)?;
-    if n > 1 << 30 {
-        return Err(HostError::Request(format!(
-            "fmi3SerializedFMUStateSize gives {n} bytes"
-        )));
-    }
-    let mut bytes = vec![0u8; n];
-    // SAFETY: `bytes` has the n bytes the FMU asked for.
-    let raw = unsafe { serialize(inst.instance, saved.0, bytes.as_mut_ptr(), n) };
-    inst.check("fmi3SerializeFMUState", raw)?;
-    let mut state: FmuState3 = std::ptr::null_mut();
-    // SAFETY: n bytes the FMU serialized; a NULL state asks it for a new one.
-    let raw = unsafe { deserialize(inst.instance, bytes.as_ptr(), n, &mut state) };
-    inst.check("fmi3DeserializeFMUState", raw)?;
-    Ok(Saved3(state))
-}
-
 /// Whether the description declares `canSerializeFMUState` for the interface.
 fn can_serialize(fmu: &Fmu3, model_exchange: bool) -> bool {
     let md = fmu.model_description();
@@ -175,14 +112,6 @@ fn can_serialize(fmu: &Fmu3, model_exchange: bool) -> bool {
         md.co_simulation.as_ref()
     };
     element.is_some_and(|e| e.flag("canSerializeFMUState"))
-}
-
-/// `fmi3FreeFMUState` of `saved` (before the instance is freed).
-fn free_state_raw(inst: &mut Instance3<'_>, mut saved: Saved3) {
-    if let Some(f) = inst.fmu.functions.free_fmu_state {
-        // SAFETY: live instance and a state it returned, freed once.
-        unsafe { f(inst.instance, &mut saved.0) };
-    }
 }
 
 /// Whether the description declares `canGetAndSetFMUState` for `interface`.
@@ -427,33 +356,37 @@ pub fn probe3_me(fmu: &Fmu3, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding>
 /// of `h` must repeat to the bit from a restored FMU state.
 fn check_fmu_state_me(inst: &mut Instance3<'_>, t: f64, h: f64) -> Verdict {
     let what = "continuous states of the next 5 Euler steps";
-    let serialize = can_serialize(inst.fmu, true);
+    let serialize = can_serialize(inst.fmu(), true);
     me_checks::check_state_restore(inst, (what, serialize), &mut |inst| {
         me_checks::euler_run(&mut me(inst)?, t, h, 5)
     })
 }
 
 impl FmuStates for Instance3<'_> {
-    type State = Saved3;
+    type State = FmuStateHandle3;
     const NAMES: StateCallNames = StateCallNames {
         get: "fmi3GetFMUState",
         set: "fmi3SetFMUState",
         copy: "fmi3SerializeFMUState, fmi3DeserializeFMUState and fmi3SetFMUState",
     };
 
-    fn get_state(&mut self) -> Result<Saved3, String> {
-        get_state_raw(self).map_err(|e| e.to_string())
+    fn get_state(&mut self) -> Result<FmuStateHandle3, String> {
+        self.get_fmu_state().map_err(|e| e.to_string())
     }
 
-    fn set_state(&mut self, state: &Saved3) -> Result<(), String> {
-        set_state_raw(self, state).map_err(|e| e.to_string())
+    fn set_state(&mut self, state: &FmuStateHandle3) -> Result<(), String> {
+        self.set_fmu_state(state)
+            .map(drop)
+            .map_err(|e| e.to_string())
     }
 
-    fn serialized_copy(&mut self, state: &Saved3) -> Result<Saved3, String> {
-        serialized_copy_raw(self, state).map_err(|e| e.to_string())
+    fn serialized_copy(&mut self, state: &FmuStateHandle3) -> Result<FmuStateHandle3, String> {
+        let bytes = self.serialize_fmu_state(state).map_err(|e| e.to_string())?;
+        self.deserialize_fmu_state(&bytes)
+            .map_err(|e| e.to_string())
     }
 
-    fn free_state(&mut self, state: Saved3) {
-        free_state_raw(self, state);
+    fn free_state(&mut self, state: FmuStateHandle3) {
+        let _ = self.free_fmu_state(state);
     }
 }

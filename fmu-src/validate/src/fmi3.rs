@@ -3,10 +3,10 @@
 //! exporting the functions of the interfaces the description declares).
 
 use super::Finding;
-use crate::fmi3::md::{Causality3, Interface3, ModelDescription3, Unknown3, Variable3};
-use crate::fmi3::value::Type3;
-use crate::md::{Initial, Variability};
 use fmi2_types::schema::{combination_allowed, initial_allowed, Causality};
+use host::fmi3::md::{Causality3, Interface3, ModelDescription3, Unknown3, Variable3};
+use host::fmi3::value::Type3;
+use host::md::{Initial, Variability};
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::path::Path;
 
@@ -193,7 +193,7 @@ fn check_display_units(md: &ModelDescription3, f: &mut Vec<Finding>) {
             }
         }
     }
-    let types: HashMap<&str, &crate::fmi3::md::TypeDefinition3> = md
+    let types: HashMap<&str, &host::fmi3::md::TypeDefinition3> = md
         .type_definitions
         .iter()
         .map(|t| (t.name.as_str(), t))
@@ -431,7 +431,7 @@ fn check_start(v: &Variable3, loc: &str, f: &mut Vec<Finding>) {
 fn check_dimension(
     md: &ModelDescription3,
     v: &Variable3,
-    d: &crate::fmi3::md::Dimension,
+    d: &host::fmi3::md::Dimension,
     f: &mut Vec<Finding>,
 ) {
     let loc = format!(
@@ -676,7 +676,7 @@ pub const FMI3_CAPABILITY_FUNCTIONS: [&str; 13] = [
 /// only needed for interface types or optional capabilities that the FMU does not support"
 /// (FMI 3.0.2 section 2.5).
 fn required_functions() -> Vec<&'static str> {
-    let mut need: Vec<&'static str> = crate::fmi3::ffi::FMI3_COMMON_FUNCTIONS.to_vec();
+    let mut need: Vec<&'static str> = host::fmi3::ffi::FMI3_COMMON_FUNCTIONS.to_vec();
     need.extend_from_slice(&FMI3_ME_FUNCTIONS);
     need.extend_from_slice(&FMI3_CS_FUNCTIONS);
     need.extend_from_slice(&FMI3_SE_FUNCTIONS);
@@ -739,7 +739,7 @@ pub fn check_platform_binaries3(
                 findings.push(finding("binary", &entry, m));
                 continue;
             };
-            let info = match crate::binary::inspect(&bytes) {
+            let info = match host::binary::inspect(&bytes) {
                 Ok(info) => info,
                 Err(e) => {
                     findings.push(finding("binary-format", &entry, e));

@@ -2,10 +2,10 @@
 //! FMI function (FMI 2.0.4 sections 2.1, 2.3 and 4.2).
 
 use super::Finding;
-use crate::ffi::{FMI2_CS_FUNCTIONS, FMI2_ME_FUNCTIONS};
-use crate::fmu::{Extracted, PLATFORM};
-use crate::kind::Interface;
-use crate::md::ModelDescription;
+use host::ffi::{FMI2_CS_FUNCTIONS, FMI2_ME_FUNCTIONS};
+use host::md::ModelDescription;
+use host::Interface;
+use host::{Extracted, PLATFORM};
 
 /// File-level checks: the binary for this platform exists under `binaries/linux64/`.
 pub fn check_files(fmu: &Extracted) -> Vec<Finding> {
@@ -38,7 +38,7 @@ pub fn check_files(fmu: &Extracted) -> Vec<Finding> {
 }
 
 /// Every binary under `binaries/<platform>/<modelIdentifier>.<so|dll|dylib>`, read without
-/// loading it ([`crate::binary`]), with the findings it raises: a format or architecture that is
+/// loading it ([`host::binary`]), with the findings it raises: a format or architecture that is
 /// not the platform's (FMI 2.0.4 section 2.4), or a function of an interface the description
 /// declares missing from a slice (sections 2.1, 3.2 and 4.2).
 pub fn check_platform_binaries(fmu: &Extracted) -> (Vec<Finding>, Vec<PlatformBinary>) {
@@ -57,7 +57,7 @@ pub fn check_platform_binaries(fmu: &Extracted) -> (Vec<Finding>, Vec<PlatformBi
         .collect();
     platforms.sort();
     for platform in platforms {
-        let Some((format, archs)) = crate::binary::expected_format(&platform) else {
+        let Some((format, archs)) = host::binary::expected_format(&platform) else {
             continue;
         };
         let ext = match format {
@@ -125,9 +125,8 @@ fn check_binary(
     format: &str,
     archs: &[&str],
     need: &[&str],
-) -> Result<(Vec<Finding>, crate::binary::BinaryInfo), Finding> {
-    let info =
-        crate::binary::inspect(bytes).map_err(|e| Finding::new("binary-format", entry, e))?;
+) -> Result<(Vec<Finding>, host::binary::BinaryInfo), Finding> {
+    let info = host::binary::inspect(bytes).map_err(|e| Finding::new("binary-format", entry, e))?;
     let mut findings = Vec::new();
     if info.format != format {
         let m = format!("is {}, but {platform} needs {format}", info.format);
@@ -163,7 +162,7 @@ pub struct PlatformBinary {
     pub entry: String,
     /// Format, architectures, exports, glibc needs.
     #[serde(flatten)]
-    pub info: crate::binary::BinaryInfo,
+    pub info: host::binary::BinaryInfo,
 }
 
 /// Loads the binary and reports every FMI 2.0 CS function it does not export.
@@ -180,9 +179,9 @@ pub fn check_symbols(fmu: &Extracted) -> Vec<Finding> {
         bin.file_name().unwrap_or_default().to_string_lossy()
     );
     // SAFETY: the validator's purpose is to load the FMU (in a child process).
-    match unsafe { crate::ffi::load_library(&bin) } {
+    match unsafe { host::ffi::load_library(&bin) } {
         Err(e) => vec![Finding::new("binary", loc, e.to_string())],
-        Ok(lib) => crate::ffi::missing_symbols(&lib)
+        Ok(lib) => host::ffi::missing_symbols(&lib)
             .into_iter()
             .map(|s| Finding::new("symbols", &loc, format!("does not export {s}")))
             .collect(),

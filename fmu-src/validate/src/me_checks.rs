@@ -10,8 +10,8 @@
 //! with what it did instead, and `Err` when a call the standard allows failed.
 
 use super::Finding;
-use crate::error::HostError;
-use crate::me::ModelExchange;
+use host::me::ModelExchange;
+use host::HostError;
 
 /// What a check found: `Ok(None)` conforming, `Ok(Some(message))` a finding, `Err` a failing
 /// call the standard allows.

@@ -3,12 +3,12 @@
 
 use super::me_checks::{self, FmuStates, Reached, StateCallNames, Verdict};
 use super::Finding;
-use crate::error::{HostError, Status};
-use crate::fmu::Fmu;
-use crate::instance::{FmuStateHandle, Instance};
-use crate::md::{Causality, ScalarVariable, StartValue, VarKind, Variability};
-use crate::me::fmi2::Fmi2Me;
-use crate::me::ModelExchange;
+use host::md::{Causality, ScalarVariable, StartValue, VarKind, Variability};
+use host::me::fmi2::Fmi2Me;
+use host::me::ModelExchange;
+use host::Fmu;
+use host::{FmuStateHandle, Instance};
+use host::{HostError, Status};
 use std::collections::BTreeSet;
 
 /// Names of the probe cases in the order [`probe`] runs them.
