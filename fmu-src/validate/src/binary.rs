@@ -2,10 +2,12 @@
 //! FMI function (FMI 2.0.4 sections 2.1, 2.3 and 4.2).
 
 use super::Finding;
+use host::binary::Slice;
 use host::ffi::{FMI2_CS_FUNCTIONS, FMI2_ME_FUNCTIONS};
 use host::md::ModelDescription;
 use host::Interface;
 use host::{Extracted, PLATFORM};
+use std::path::Path;
 
 /// File-level checks: the binary for this platform exists under `binaries/linux64/`.
 pub fn check_files(fmu: &Extracted) -> Vec<Finding> {
@@ -48,23 +50,11 @@ pub fn check_platform_binaries(fmu: &Extracted) -> (Vec<Finding>, Vec<PlatformBi
         .filter_map(|i| fmu.model_identifier_for(i).ok())
         .collect();
     ids.dedup();
-    let Ok(dirs) = std::fs::read_dir(fmu.dir.join("binaries")) else {
-        return (findings, binaries);
-    };
-    let mut platforms: Vec<String> = dirs
-        .filter_map(|e| e.ok())
-        .map(|e| e.file_name().to_string_lossy().into_owned())
-        .collect();
-    platforms.sort();
-    for platform in platforms {
+    for platform in platform_dirs(&fmu.dir, false) {
         let Some((format, archs)) = host::binary::expected_format(&platform) else {
             continue;
         };
-        let ext = match format {
-            "PE" => "dll",
-            "Mach-O" => "dylib",
-            _ => "so",
-        };
+        let ext = library_extension(format);
         for id in &ids {
             let entry = format!("binaries/{platform}/{id}.{ext}");
             let Ok(bytes) = std::fs::read(fmu.dir.join(&entry)) else {
@@ -81,6 +71,38 @@ pub fn check_platform_binaries(fmu: &Extracted) -> (Vec<Finding>, Vec<PlatformBi
         }
     }
     (findings, binaries)
+}
+
+/// The folders under `binaries/` of the FMU extracted at `dir`, sorted by name (only
+/// directories when `dirs_only`); none when there is no `binaries/`.
+pub(crate) fn platform_dirs(dir: &Path, dirs_only: bool) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir.join("binaries"))
+        .map(|rd| {
+            rd.filter_map(|e| e.ok())
+                .filter(|e| !dirs_only || e.path().is_dir())
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .collect()
+        })
+        .unwrap_or_default();
+    names.sort();
+    names
+}
+
+/// The file extension of a shared library in `format` (`ELF`, `PE` or `Mach-O`).
+pub(crate) fn library_extension(format: &str) -> &'static str {
+    match format {
+        "PE" => "dll",
+        "Mach-O" => "dylib",
+        _ => "so",
+    }
+}
+
+/// The functions of `need` that `slice` does not export, in the order of `need`.
+pub(crate) fn missing_exports<'n>(need: &[&'n str], slice: &Slice) -> Vec<&'n str> {
+    need.iter()
+        .copied()
+        .filter(|f| slice.exports.binary_search(&f.to_string()).is_err())
+        .collect()
 }
 
 /// Functions of FMI 2.0 Co-Simulation that Model Exchange does not have (FMI 2.0.4 section
@@ -137,11 +159,7 @@ fn check_binary(
             let m = format!("holds a {} slice, not one of {archs:?}", slice.architecture);
             findings.push(Finding::new("binary-format", entry, m));
         }
-        let missing: Vec<&str> = need
-            .iter()
-            .copied()
-            .filter(|f| slice.exports.binary_search(&f.to_string()).is_err())
-            .collect();
+        let missing = missing_exports(need, slice);
         if !missing.is_empty() {
             let m = format!(
                 "the {} slice does not export {} FMI function(s): {}",

@@ -1,18 +1,13 @@
 //! Checks of `modelDescription.xml` (FMI 2.0.4 chapter 2.2) and of the candidate-effect
 //! convention of the gap workflow.
 
+use super::rules::{apply, defined_again, is_c_identifier, start_problem, Rule};
 use super::{var_loc, Finding};
 use fmi2_types::effects;
 use host::md::{
     Causality, Initial, ModelDescription, ScalarVariable, StartValue, VarKind, Variability,
 };
 use std::collections::{BTreeSet, HashMap};
-
-fn is_c_identifier(s: &str) -> bool {
-    let mut chars = s.chars();
-    matches!(chars.next(), Some(c) if c.is_ascii_alphabetic() || c == '_')
-        && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
-}
 
 pub use fmi2_types::schema::{combination_allowed, initial_allowed};
 
@@ -113,9 +108,8 @@ pub fn check_model_description(md: &ModelDescription) -> Vec<Finding> {
             ));
         }
     }
-    check_units(md, &mut f);
-    check_variables(md, &mut f);
-    check_model_structure(md, &mut f);
+    let rules: [Rule<ModelDescription>; 3] = [check_units, check_variables, check_model_structure];
+    apply(md, &rules, &mut f);
     f
 }
 
@@ -123,12 +117,8 @@ fn check_units(md: &ModelDescription, f: &mut Vec<Finding>) {
     let mut seen = HashMap::new();
     for u in &md.unit_definitions {
         let loc = format!("modelDescription.xml:{} (unit '{}')", u.line, u.name);
-        if let Some(first) = seen.insert(u.name.as_str(), u.line) {
-            f.push(Finding::new(
-                "unique-units",
-                &loc,
-                format!("unit '{}' is already defined on line {first}", u.name),
-            ));
+        if let Some(m) = defined_again(&mut seen, ("unit", "defined"), &u.name, u.line) {
+            f.push(Finding::new("unique-units", &loc, m));
         }
         let mut names = BTreeSet::new();
         for d in &u.display_units {
@@ -150,12 +140,9 @@ fn check_units(md: &ModelDescription, f: &mut Vec<Finding>) {
     }
     let mut types = HashMap::new();
     for t in &md.type_definitions {
-        if let Some(first) = types.insert(t.name.as_str(), t.line) {
-            f.push(Finding::new(
-                "unique-types",
-                format!("modelDescription.xml:{} (type '{}')", t.line, t.name),
-                format!("type '{}' is already defined on line {first}", t.name),
-            ));
+        if let Some(m) = defined_again(&mut types, ("type", "defined"), &t.name, t.line) {
+            let loc = format!("modelDescription.xml:{} (type '{}')", t.line, t.name);
+            f.push(Finding::new("unique-types", loc, m));
         }
         if let Some(u) = &t.unit {
             check_unit_ref(
@@ -215,12 +202,8 @@ fn check_variables(md: &ModelDescription, f: &mut Vec<Finding>) {
         if v.name.trim().is_empty() {
             f.push(Finding::new("variable-name", &loc, "empty variable name"));
         }
-        if let Some(first) = names.insert(v.name.as_str(), v.line) {
-            f.push(Finding::new(
-                "unique-names",
-                &loc,
-                format!("name '{}' is already used on line {first}", v.name),
-            ));
+        if let Some(m) = defined_again(&mut names, ("name", "used"), &v.name, v.line) {
+            f.push(Finding::new("unique-names", &loc, m));
         }
         let base = match v.kind {
             VarKind::Real => 0,
@@ -276,32 +259,16 @@ fn check_variables(md: &ModelDescription, f: &mut Vec<Finding>) {
         }
         // start required / forbidden (FMI 2.0.4 section 2.2.7, attribute start)
         let initial = v.effective_initial();
-        let required = v.causality == Causality::Input
-            || v.variability == Variability::Constant
-            || matches!(initial, Some(Initial::Exact | Initial::Approx));
-        let forbidden =
-            v.causality == Causality::Independent || initial == Some(Initial::Calculated);
-        if required && v.start.is_none() {
-            f.push(Finding::new(
-                "start",
-                &loc,
-                format!(
-                    "start is required (causality {:?}, initial {:?})",
-                    v.causality, initial
-                )
-                .to_lowercase(),
-            ));
-        }
-        if forbidden && v.start.is_some() {
-            f.push(Finding::new(
-                "start",
-                &loc,
-                format!(
-                    "start is not allowed (causality {:?}, initial {:?})",
-                    v.causality, initial
-                )
-                .to_lowercase(),
-            ));
+        let io = (
+            v.causality == Causality::Input,
+            v.causality == Causality::Independent,
+        );
+        if let Some(problem) = start_problem(io, v.variability, initial, v.start.is_some()) {
+            let m = format!(
+                "{problem} (causality {:?}, initial {initial:?})",
+                v.causality
+            );
+            f.push(Finding::new("start", &loc, m.to_lowercase()));
         }
         // ranges
         let (min, max) = effective_range(md, v);
@@ -702,6 +669,21 @@ mod tests {
 <ScalarVariable name="u" valueReference="2" causality="input"><Real start="0"/></ScalarVariable>"#;
     const GOOD_STRUCT: &str = r#"<Outputs><Unknown index="1"/></Outputs><InitialUnknowns><Unknown index="1"/></InitialUnknowns>"#;
 
+    /// The good description with the variables `vars`.
+    fn with_vars(vars: &str) -> ModelDescription {
+        md_with_vars(vars, GOOD_STRUCT)
+    }
+
+    /// The good description with `from` replaced by `to` in its variables.
+    fn replaced(from: &str, to: &str) -> ModelDescription {
+        with_vars(&GOOD_VARS.replace(from, to))
+    }
+
+    /// The good description with `var` added after its variables.
+    fn with_extra(var: &str) -> ModelDescription {
+        with_vars(&format!("{GOOD_VARS}\n{var}"))
+    }
+
     fn checks(md: &ModelDescription) -> Vec<String> {
         check_model_description(md)
             .iter()
@@ -768,20 +750,17 @@ mod tests {
 
     #[test]
     fn duplicate_names_and_value_references() {
-        let vars = format!("{GOOD_VARS}\n<ScalarVariable name=\"p\" valueReference=\"9\" causality=\"local\"><Real/></ScalarVariable>");
-        let f = only(&md_with_vars(&vars, GOOD_STRUCT), "unique-names");
+        let f = only(&with_extra("<ScalarVariable name=\"p\" valueReference=\"9\" causality=\"local\"><Real/></ScalarVariable>"), "unique-names");
         assert!(f.message.contains("already used on line"), "{f}");
-        let vars = format!("{GOOD_VARS}\n<ScalarVariable name=\"q\" valueReference=\"1\" causality=\"parameter\" variability=\"fixed\"><Real start=\"3\"/></ScalarVariable>");
-        let f = only(&md_with_vars(&vars, GOOD_STRUCT), "unique-value-references");
+        let f = only(&with_extra("<ScalarVariable name=\"q\" valueReference=\"1\" causality=\"parameter\" variability=\"fixed\"><Real start=\"3\"/></ScalarVariable>"), "unique-value-references");
         assert!(
             f.message.contains("valueReference 1 is shared by p, q"),
             "{f}"
         );
         // A Real and a Boolean may share a number (value references are per base type),
         // and a local may alias an output.
-        let vars = format!("{GOOD_VARS}\n<ScalarVariable name=\"b\" valueReference=\"1\" causality=\"local\" variability=\"discrete\"><Boolean/></ScalarVariable>\n<ScalarVariable name=\"y_alias\" valueReference=\"0\"><Real/></ScalarVariable>");
         assert_eq!(
-            checks(&md_with_vars(&vars, GOOD_STRUCT)),
+            checks(&with_extra("<ScalarVariable name=\"b\" valueReference=\"1\" causality=\"local\" variability=\"discrete\"><Boolean/></ScalarVariable>\n<ScalarVariable name=\"y_alias\" valueReference=\"0\"><Real/></ScalarVariable>")),
             Vec::<String>::new()
         );
     }
@@ -795,8 +774,7 @@ mod tests {
             ("independent", "discrete"),
             ("calculatedParameter", "constant"),
         ] {
-            let vars = format!("{GOOD_VARS}\n<ScalarVariable name=\"z\" valueReference=\"9\" causality=\"{c}\" variability=\"{v}\"><Real start=\"0\"/></ScalarVariable>");
-            let all = check_model_description(&md_with_vars(&vars, GOOD_STRUCT));
+            let all = check_model_description(&with_extra(&format!("<ScalarVariable name=\"z\" valueReference=\"9\" causality=\"{c}\" variability=\"{v}\"><Real start=\"0\"/></ScalarVariable>")));
             assert!(
                 all.iter().any(|f| f.check == "causality-variability"),
                 "{c}/{v}: {all:#?}"
@@ -814,76 +792,83 @@ mod tests {
 
     #[test]
     fn initial_not_allowed() {
-        let vars = format!("{GOOD_VARS}\n<ScalarVariable name=\"z\" valueReference=\"9\" causality=\"parameter\" variability=\"fixed\" initial=\"calculated\"><Real/></ScalarVariable>");
-        let f = only(&md_with_vars(&vars, GOOD_STRUCT), "initial");
+        let f = only(&with_extra("<ScalarVariable name=\"z\" valueReference=\"9\" causality=\"parameter\" variability=\"fixed\" initial=\"calculated\"><Real/></ScalarVariable>"), "initial");
         assert!(f.message.contains("initial=\"calculated\""), "{f}");
-        let vars = format!("{GOOD_VARS}\n<ScalarVariable name=\"z\" valueReference=\"9\" causality=\"input\" initial=\"exact\"><Real start=\"1\"/></ScalarVariable>");
-        only(&md_with_vars(&vars, GOOD_STRUCT), "initial");
+        only(&with_extra("<ScalarVariable name=\"z\" valueReference=\"9\" causality=\"input\" initial=\"exact\"><Real start=\"1\"/></ScalarVariable>"), "initial");
     }
 
     #[test]
     fn start_required_and_forbidden() {
-        let vars = GOOD_VARS.replace("<Real start=\"0\"/>", "<Real/>");
-        let f = only(&md_with_vars(&vars, GOOD_STRUCT), "start");
+        let f = only(&replaced("<Real start=\"0\"/>", "<Real/>"), "start");
         assert!(f.message.contains("required"), "{f}");
         assert!(f.location.contains("variable 'u'"), "{f}");
-        let vars = GOOD_VARS.replace(
-            "<Real unit=\"m\" displayUnit=\"mm\"/>",
-            "<Real unit=\"m\" start=\"2\"/>",
+        let f = only(
+            &replaced(
+                "<Real unit=\"m\" displayUnit=\"mm\"/>",
+                "<Real unit=\"m\" start=\"2\"/>",
+            ),
+            "start",
         );
-        let f = only(&md_with_vars(&vars, GOOD_STRUCT), "start");
         assert!(f.message.contains("not allowed"), "{f}");
     }
 
     #[test]
     fn continuous_non_real_and_independent() {
-        let vars = format!("{GOOD_VARS}\n<ScalarVariable name=\"b\" valueReference=\"9\" causality=\"local\"><Boolean/></ScalarVariable>");
-        let f = only(&md_with_vars(&vars, GOOD_STRUCT), "variability-type");
+        let f = only(&with_extra("<ScalarVariable name=\"b\" valueReference=\"9\" causality=\"local\"><Boolean/></ScalarVariable>"), "variability-type");
         assert!(
             f.message.contains("variability defaults to continuous"),
             "{f}"
         );
-        let vars = format!("{GOOD_VARS}\n<ScalarVariable name=\"t\" valueReference=\"9\" causality=\"independent\"><Real/></ScalarVariable>\n<ScalarVariable name=\"t2\" valueReference=\"10\" causality=\"independent\"><Real/></ScalarVariable>");
-        only(&md_with_vars(&vars, GOOD_STRUCT), "independent");
+        only(&with_extra("<ScalarVariable name=\"t\" valueReference=\"9\" causality=\"independent\"><Real/></ScalarVariable>\n<ScalarVariable name=\"t2\" valueReference=\"10\" causality=\"independent\"><Real/></ScalarVariable>"), "independent");
     }
 
     #[test]
     fn ranges() {
-        let vars = GOOD_VARS.replace(
-            "start=\"1\" min=\"0\" max=\"2\"",
-            "start=\"3\" min=\"0\" max=\"2\"",
+        let f = only(
+            &replaced(
+                "start=\"1\" min=\"0\" max=\"2\"",
+                "start=\"3\" min=\"0\" max=\"2\"",
+            ),
+            "start-range",
         );
-        let f = only(&md_with_vars(&vars, GOOD_STRUCT), "start-range");
         assert_eq!(f.message, "start 3 is outside [0, 2]");
-        let vars = GOOD_VARS.replace(
+        assert!(checks(&replaced(
             "start=\"1\" min=\"0\" max=\"2\"",
-            "start=\"1\" min=\"2\" max=\"0\"",
+            "start=\"1\" min=\"2\" max=\"0\""
+        ))
+        .contains(&"min-max".to_string()));
+        only(
+            &replaced(
+                "start=\"1\" min=\"0\" max=\"2\"",
+                "start=\"1\" nominal=\"0\"",
+            ),
+            "nominal",
         );
-        assert!(checks(&md_with_vars(&vars, GOOD_STRUCT)).contains(&"min-max".to_string()));
-        let vars = GOOD_VARS.replace(
-            "start=\"1\" min=\"0\" max=\"2\"",
-            "start=\"1\" nominal=\"0\"",
-        );
-        only(&md_with_vars(&vars, GOOD_STRUCT), "nominal");
     }
 
     #[test]
     fn units_and_display_units_must_be_declared() {
-        let vars = GOOD_VARS.replace("unit=\"m\" displayUnit=\"mm\"", "unit=\"rad\"");
-        let f = only(&md_with_vars(&vars, GOOD_STRUCT), "unit-declared");
+        let f = only(
+            &replaced("unit=\"m\" displayUnit=\"mm\"", "unit=\"rad\""),
+            "unit-declared",
+        );
         assert!(f.message.contains("unit 'rad' is not defined"), "{f}");
-        let vars = GOOD_VARS.replace("displayUnit=\"mm\"", "displayUnit=\"km\"");
-        let f = only(&md_with_vars(&vars, GOOD_STRUCT), "display-unit-declared");
+        let f = only(
+            &replaced("displayUnit=\"mm\"", "displayUnit=\"km\""),
+            "display-unit-declared",
+        );
         assert!(
             f.message
                 .contains("'km' is not a <DisplayUnit> of unit 'm'"),
             "{f}"
         );
-        let vars = GOOD_VARS.replace(
-            "<Real start=\"0\"/>",
-            "<Real start=\"0\" declaredType=\"Angle\"/>",
+        only(
+            &replaced(
+                "<Real start=\"0\"/>",
+                "<Real start=\"0\" declaredType=\"Angle\"/>",
+            ),
+            "declared-type",
         );
-        only(&md_with_vars(&vars, GOOD_STRUCT), "declared-type");
     }
 
     #[test]

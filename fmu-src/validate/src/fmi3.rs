@@ -2,6 +2,8 @@
 //! binaries (section 2.5: `binaries/<platformTuple>/<modelIdentifier>.<so|dll|dylib>`, each
 //! exporting the functions of the interfaces the description declares).
 
+use super::binary::{library_extension, missing_exports, platform_dirs};
+use super::rules::{apply, defined_again, is_c_identifier, start_problem, Rule};
 use super::Finding;
 use fmi2_types::schema::{combination_allowed, initial_allowed, Causality};
 use host::fmi3::md::{Causality3, Interface3, ModelDescription3, Unknown3, Variable3};
@@ -59,12 +61,6 @@ fn var_loc(v: &Variable3) -> String {
     format!("modelDescription.xml:{} (variable '{}')", v.line, v.name)
 }
 
-fn is_c_identifier(s: &str) -> bool {
-    let mut chars = s.chars();
-    matches!(chars.next(), Some(c) if c.is_ascii_alphabetic() || c == '_')
-        && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
-}
-
 /// The interfaces an FMU declares, by element name.
 fn interfaces(md: &ModelDescription3) -> Vec<(&'static str, &Interface3)> {
     [
@@ -109,11 +105,14 @@ pub fn check_model_description3(md: &ModelDescription3) -> Vec<Finding> {
             ));
         }
     }
-    check_units_and_types(md, &mut f);
-    check_display_units(md, &mut f);
-    check_variables(md, &mut f);
-    check_clocks(md, &mut f);
-    check_model_structure(md, &mut f);
+    let rules: [Rule<ModelDescription3>; 5] = [
+        check_units_and_types,
+        check_display_units,
+        check_variables,
+        check_clocks,
+        check_model_structure,
+    ];
+    apply(md, &rules, &mut f);
     f
 }
 
@@ -122,22 +121,16 @@ pub fn check_model_description3(md: &ModelDescription3) -> Vec<Finding> {
 fn check_units_and_types(md: &ModelDescription3, f: &mut Vec<Finding>) {
     let mut units = HashMap::new();
     for u in &md.units {
-        if let Some(first) = units.insert(u.name.as_str(), u.line) {
-            f.push(finding(
-                "unique-units",
-                format!("modelDescription.xml:{} (unit '{}')", u.line, u.name),
-                format!("unit '{}' is already defined on line {first}", u.name),
-            ));
+        if let Some(m) = defined_again(&mut units, ("unit", "defined"), &u.name, u.line) {
+            let loc = format!("modelDescription.xml:{} (unit '{}')", u.line, u.name);
+            f.push(finding("unique-units", loc, m));
         }
     }
-    let mut types = HashMap::new();
+    let (mut types, mut type_lines) = (HashMap::new(), HashMap::new());
     for t in &md.type_definitions {
         let loc = format!("modelDescription.xml:{} (type '{}')", t.line, t.name);
-        if let Some(first) = types.insert(t.name.as_str(), t) {
-            let m = format!(
-                "type '{}' is already defined on line {}",
-                t.name, first.line
-            );
+        types.insert(t.name.as_str(), t);
+        if let Some(m) = defined_again(&mut type_lines, ("type", "defined"), &t.name, t.line) {
             f.push(finding("unique-types", &loc, m));
         }
         if let Some(u) = t.unit.as_deref().filter(|u| !units.contains_key(u)) {
@@ -328,8 +321,7 @@ fn check_variables(md: &ModelDescription3, f: &mut Vec<Finding>) {
         if v.name.trim().is_empty() {
             f.push(finding("variable-name", &loc, "empty variable name"));
         }
-        if let Some(first) = names.insert(v.name.as_str(), v.line) {
-            let m = format!("name '{}' is already used on line {first}", v.name);
+        if let Some(m) = defined_again(&mut names, ("name", "used"), &v.name, v.line) {
             f.push(finding("unique-names", &loc, m));
         }
         vrs.entry(v.value_reference).or_default().push(v);
@@ -405,21 +397,14 @@ fn check_combination(v: &Variable3, loc: &str, f: &mut Vec<Finding>) {
 /// the independent variable and `initial` calculated (FMI 3.0.2 section 2.4.7.5).
 fn check_start(v: &Variable3, loc: &str, f: &mut Vec<Finding>) {
     let initial = v.effective_initial();
-    let required = v.causality == Causality3::Input
-        || v.variability == Variability::Constant
-        || matches!(initial, Some(Initial::Exact | Initial::Approx));
-    let forbidden = v.causality == Causality3::Independent || initial == Some(Initial::Calculated);
-    let initial_name = initial.map_or("none".to_string(), |i| format!("{i:?}").to_lowercase());
-    if required && v.start.is_none() {
+    let io = (
+        v.causality == Causality3::Input,
+        v.causality == Causality3::Independent,
+    );
+    if let Some(problem) = start_problem(io, v.variability, initial, v.start.is_some()) {
+        let initial_name = initial.map_or("none".to_string(), |i| format!("{i:?}").to_lowercase());
         let m = format!(
-            "start is required (causality {}, initial {initial_name})",
-            v.causality
-        );
-        f.push(finding("start", loc, m));
-    }
-    if forbidden && v.start.is_some() {
-        let m = format!(
-            "start is not allowed (causality {}, initial {initial_name})",
+            "{problem} (causality {}, initial {initial_name})",
             v.causality
         );
         f.push(finding("start", loc, m));
@@ -702,15 +687,7 @@ pub fn check_platform_binaries3(
         .collect();
     ids.sort_unstable();
     ids.dedup();
-    let mut tuples: Vec<String> = std::fs::read_dir(dir.join("binaries"))
-        .map(|rd| {
-            rd.filter_map(|e| e.ok())
-                .filter(|e| e.path().is_dir())
-                .map(|e| e.file_name().to_string_lossy().into_owned())
-                .collect()
-        })
-        .unwrap_or_default();
-    tuples.sort();
+    let tuples = platform_dirs(dir, true);
     if tuples.is_empty() && !dir.join("sources").is_dir() {
         let m = "no binaries/<platformTuple>/ directory and no sources/: nothing to run";
         findings.push(finding("binary", "binaries/", m));
@@ -727,11 +704,7 @@ pub fn check_platform_binaries3(
         let Some((format, arch)) = expected_format3(&tuple) else {
             continue;
         };
-        let ext = match format {
-            "PE" => "dll",
-            "Mach-O" => "dylib",
-            _ => "so",
-        };
+        let ext = library_extension(format);
         for id in &ids {
             let entry = format!("binaries/{tuple}/{id}.{ext}");
             let Ok(bytes) = std::fs::read(dir.join(&entry)) else {
@@ -762,11 +735,7 @@ pub fn check_platform_binaries3(
             }
             let need = required_functions();
             for slice in &info.slices {
-                let missing: Vec<&str> = need
-                    .iter()
-                    .copied()
-                    .filter(|f| slice.exports.binary_search(&f.to_string()).is_err())
-                    .collect();
+                let missing = missing_exports(&need, slice);
                 if !missing.is_empty() {
                     let m = format!(
                         "the {} slice does not export {} of the functions of fmi3Functions.h, \

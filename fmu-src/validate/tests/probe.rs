@@ -8,10 +8,18 @@
 mod common;
 
 use host::Fmu;
+use std::path::PathBuf;
+
+/// The test FMU compiled with `defines` as `name`, in a directory that lives as long as the
+/// first of the pair.
+fn built(name: &str, defines: &[&str]) -> (tempfile::TempDir, PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = common::build_fmu(dir.path(), name, defines, &common::fixture_md());
+    (dir, path)
+}
 
 fn dummy() -> (tempfile::TempDir, Fmu) {
-    let dir = tempfile::tempdir().unwrap();
-    let path = common::build_fmu(dir.path(), "Dummy", &[], &common::fixture_md());
+    let (dir, path) = built("Dummy", &[]);
     let fmu = Fmu::open(&path).unwrap();
     (dir, fmu)
 }
@@ -47,13 +55,7 @@ fn probe_finds_nothing_in_a_conforming_fmu() {
 
 #[test]
 fn probe_notes_every_wrong_call_a_lax_fmu_accepts() {
-    let dir = tempfile::tempdir().unwrap();
-    let path = common::build_fmu(
-        dir.path(),
-        "Lax",
-        &["-DLAX", "-DMISSING_SYMBOL"],
-        &common::fixture_md(),
-    );
+    let (_dir, path) = built("Lax", &["-DLAX", "-DMISSING_SYMBOL"]);
     let fmu = Fmu::open(&path).unwrap();
     assert_eq!(fmu.missing_functions(), vec!["fmi2GetStringStatus"]);
     let f = validate::probe(&fmu, &mut |_| true);
@@ -112,13 +114,7 @@ fn check_files_reports_a_missing_binary() {
 
 #[test]
 fn probe_catches_a_state_that_is_not_fully_restored() {
-    let dir = tempfile::tempdir().unwrap();
-    let path = common::build_fmu(
-        dir.path(),
-        "BrokenState",
-        &["-DBROKEN_STATE"],
-        &common::fixture_md(),
-    );
+    let (_dir, path) = built("BrokenState", &["-DBROKEN_STATE"]);
     let fmu = Fmu::open(&path).unwrap();
     let f = validate::probe(&fmu, &mut |_| true);
     assert_eq!(f.len(), 1, "{f:#?}");
