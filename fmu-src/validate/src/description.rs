@@ -1,7 +1,7 @@
 //! Checks of `modelDescription.xml` (FMI 2.0.4 chapter 2.2) and of the candidate-effect
 //! convention of the gap workflow.
 
-use super::rules::{apply, defined_again, is_c_identifier, start_problem, Rule};
+use super::rules::{apply, defined_again, is_c_identifier, name_problems, start_problem, Rule};
 use super::{var_loc, Finding};
 use fmi2_types::effects;
 use host::md::{
@@ -199,11 +199,8 @@ fn check_variables(md: &ModelDescription, f: &mut Vec<Finding>) {
     let mut independents = 0;
     for v in &md.model_variables {
         let loc = var_loc(v);
-        if v.name.trim().is_empty() {
-            f.push(Finding::new("variable-name", &loc, "empty variable name"));
-        }
-        if let Some(m) = defined_again(&mut names, ("name", "used"), &v.name, v.line) {
-            f.push(Finding::new("unique-names", &loc, m));
+        for (check, m) in name_problems(&mut names, &v.name, v.line) {
+            f.push(Finding::new(check, &loc, m));
         }
         let base = match v.kind {
             VarKind::Real => 0,
@@ -212,41 +209,7 @@ fn check_variables(md: &ModelDescription, f: &mut Vec<Finding>) {
             VarKind::String => 3,
         };
         vrs.entry((base, v.value_reference)).or_default().push(v);
-
-        if !combination_allowed(v.causality, v.variability) {
-            f.push(Finding::new(
-                "causality-variability",
-                &loc,
-                format!(
-                    "causality {:?} with variability {:?} is not allowed by FMI 2.0",
-                    v.causality, v.variability
-                )
-                .to_lowercase()
-                .replace("fmi 2.0", "FMI 2.0"),
-            ));
-        } else if !initial_allowed(v.causality, v.variability).contains(&v.initial) {
-            f.push(Finding::new(
-                "initial",
-                &loc,
-                format!(
-                    "initial=\"{}\" is not allowed for causality {:?} and variability {:?}",
-                    format!("{:?}", v.initial.unwrap()).to_lowercase(),
-                    v.causality,
-                    v.variability
-                ),
-            ));
-        }
-        if v.variability == Variability::Continuous && v.kind != VarKind::Real {
-            f.push(Finding::new(
-                "variability-type",
-                &loc,
-                format!(
-                    "a {:?} variable cannot be continuous{}",
-                    v.kind,
-                    if v.variability_given { "" } else { " (variability defaults to continuous: declare it discrete, fixed, tunable or constant)" }
-                ),
-            ));
-        }
+        check_combination(v, &loc, f);
         if v.causality == Causality::Independent {
             independents += 1;
             if v.kind != VarKind::Real {
@@ -257,86 +220,9 @@ fn check_variables(md: &ModelDescription, f: &mut Vec<Finding>) {
                 ));
             }
         }
-        // start required / forbidden (FMI 2.0.4 section 2.2.7, attribute start)
-        let initial = v.effective_initial();
-        let io = (
-            v.causality == Causality::Input,
-            v.causality == Causality::Independent,
-        );
-        if let Some(problem) = start_problem(io, v.variability, initial, v.start.is_some()) {
-            let m = format!(
-                "{problem} (causality {:?}, initial {initial:?})",
-                v.causality
-            );
-            f.push(Finding::new("start", &loc, m.to_lowercase()));
-        }
-        // ranges
-        let (min, max) = effective_range(md, v);
-        if let (Some(a), Some(b)) = (min, max) {
-            if a > b {
-                f.push(Finding::new("min-max", &loc, format!("min {a} > max {b}")));
-            }
-        }
-        if let Some(s) = v.start.as_ref().and_then(StartValue::as_f64) {
-            if v.kind != VarKind::Boolean {
-                if matches!(min, Some(a) if s < a) || matches!(max, Some(b) if s > b) {
-                    f.push(Finding::new(
-                        "start-range",
-                        &loc,
-                        format!("start {s} is outside [{}, {}]", fmt_opt(min), fmt_opt(max)),
-                    ));
-                }
-                if !s.is_finite() {
-                    f.push(Finding::new(
-                        "start-range",
-                        &loc,
-                        format!("start {s} is not finite"),
-                    ));
-                }
-            }
-        }
-        if matches!(v.nominal, Some(n) if !(n > 0.0 && n.is_finite())) {
-            f.push(Finding::new(
-                "nominal",
-                &loc,
-                format!("nominal {} must be > 0", v.nominal.unwrap()),
-            ));
-        }
-        if let Some(t) = &v.declared_type {
-            match md.simple_type(t) {
-                None => f.push(Finding::new(
-                    "declared-type",
-                    &loc,
-                    format!("declaredType '{t}' is not defined in <TypeDefinitions>"),
-                )),
-                Some(st) => {
-                    if let Some(kind) = st.kind.filter(|k| *k != v.kind) {
-                        f.push(Finding::new(
-                            "declared-type",
-                            &loc,
-                            format!(
-                                "declaredType '{t}' is {kind:?}, the variable is {:?}",
-                                v.kind
-                            ),
-                        ));
-                    }
-                }
-            }
-        }
-        if v.kind == VarKind::Real {
-            if let Some(u) = &v.unit {
-                check_unit_ref(md, u, v.display_unit.as_deref(), &loc, f);
-            } else if let Some(d) = &v.display_unit {
-                match md.effective_unit(v) {
-                    Some(u) => check_unit_ref(md, u, Some(d), &loc, f),
-                    None => f.push(Finding::new(
-                        "display-unit-declared",
-                        &loc,
-                        format!("displayUnit '{d}' given without a unit"),
-                    )),
-                }
-            }
-        }
+        check_start(v, &loc, f);
+        check_range(md, v, &loc, f);
+        check_type_and_unit(md, v, &loc, f);
         if let Some(d) = v.derivative {
             if d == 0 || d > md.model_variables.len() {
                 f.push(Finding::new(
@@ -354,8 +240,138 @@ fn check_variables(md: &ModelDescription, f: &mut Vec<Finding>) {
             format!("{independents} independent variables, at most one is allowed"),
         ));
     }
-    // Value references: variables of one base type that share a reference form an alias set;
-    // at most one non-constant member may have a start value, and inputs/parameters may not be aliased.
+    check_aliases(&vrs, f);
+}
+
+/// Causality against variability, and `initial` for an allowed combination (FMI 2.0.4 section
+/// 2.2.7, the two tables); only Real variables may be continuous.
+fn check_combination(v: &ScalarVariable, loc: &str, f: &mut Vec<Finding>) {
+    if !combination_allowed(v.causality, v.variability) {
+        f.push(Finding::new(
+            "causality-variability",
+            loc,
+            format!(
+                "causality {:?} with variability {:?} is not allowed by FMI 2.0",
+                v.causality, v.variability
+            )
+            .to_lowercase()
+            .replace("fmi 2.0", "FMI 2.0"),
+        ));
+    } else if !initial_allowed(v.causality, v.variability).contains(&v.initial) {
+        f.push(Finding::new(
+            "initial",
+            loc,
+            format!(
+                "initial=\"{}\" is not allowed for causality {:?} and variability {:?}",
+                format!("{:?}", v.initial.unwrap()).to_lowercase(),
+                v.causality,
+                v.variability
+            ),
+        ));
+    }
+    if v.variability == Variability::Continuous && v.kind != VarKind::Real {
+        f.push(Finding::new(
+            "variability-type",
+            loc,
+            format!(
+                "a {:?} variable cannot be continuous{}",
+                v.kind,
+                if v.variability_given { "" } else { " (variability defaults to continuous: declare it discrete, fixed, tunable or constant)" }
+            ),
+        ));
+    }
+}
+
+/// start required / forbidden (FMI 2.0.4 section 2.2.7, attribute start).
+fn check_start(v: &ScalarVariable, loc: &str, f: &mut Vec<Finding>) {
+    let initial = v.effective_initial();
+    let io = (
+        v.causality == Causality::Input,
+        v.causality == Causality::Independent,
+    );
+    if let Some(problem) = start_problem(io, v.variability, initial, v.start.is_some()) {
+        let m = format!(
+            "{problem} (causality {:?}, initial {initial:?})",
+            v.causality
+        );
+        f.push(Finding::new("start", loc, m.to_lowercase()));
+    }
+}
+
+/// min <= max, start within them and finite, nominal > 0.
+fn check_range(md: &ModelDescription, v: &ScalarVariable, loc: &str, f: &mut Vec<Finding>) {
+    let (min, max) = effective_range(md, v);
+    if let (Some(a), Some(b)) = (min, max) {
+        if a > b {
+            f.push(Finding::new("min-max", loc, format!("min {a} > max {b}")));
+        }
+    }
+    if let Some(s) = v.start.as_ref().and_then(StartValue::as_f64) {
+        if v.kind != VarKind::Boolean {
+            if matches!(min, Some(a) if s < a) || matches!(max, Some(b) if s > b) {
+                f.push(Finding::new(
+                    "start-range",
+                    loc,
+                    format!("start {s} is outside [{}, {}]", fmt_opt(min), fmt_opt(max)),
+                ));
+            }
+            if !s.is_finite() {
+                f.push(Finding::new(
+                    "start-range",
+                    loc,
+                    format!("start {s} is not finite"),
+                ));
+            }
+        }
+    }
+    if matches!(v.nominal, Some(n) if !(n > 0.0 && n.is_finite())) {
+        f.push(Finding::new(
+            "nominal",
+            loc,
+            format!("nominal {} must be > 0", v.nominal.unwrap()),
+        ));
+    }
+}
+
+/// The declared type exists and has the variable's type; a Real's unit and display unit are
+/// defined.
+fn check_type_and_unit(md: &ModelDescription, v: &ScalarVariable, loc: &str, f: &mut Vec<Finding>) {
+    if let Some(t) = &v.declared_type {
+        let problem = match md.simple_type(t) {
+            None => Some(format!(
+                "declaredType '{t}' is not defined in <TypeDefinitions>"
+            )),
+            Some(st) => st.kind.filter(|k| *k != v.kind).map(|kind| {
+                format!(
+                    "declaredType '{t}' is {kind:?}, the variable is {:?}",
+                    v.kind
+                )
+            }),
+        };
+        if let Some(m) = problem {
+            f.push(Finding::new("declared-type", loc, m));
+        }
+    }
+    if v.kind == VarKind::Real {
+        if let Some(u) = &v.unit {
+            check_unit_ref(md, u, v.display_unit.as_deref(), loc, f);
+        } else if let Some(d) = &v.display_unit {
+            match md.effective_unit(v) {
+                Some(u) => check_unit_ref(md, u, Some(d), loc, f),
+                None => f.push(Finding::new(
+                    "display-unit-declared",
+                    loc,
+                    format!("displayUnit '{d}' given without a unit"),
+                )),
+            }
+        }
+    }
+}
+
+/// Value references: variables of one base type that share a reference form an alias set; at
+/// most one non-constant member may have a start value, and inputs/parameters may not be
+/// aliased.
+fn check_aliases(vrs: &HashMap<(u8, u32), Vec<&ScalarVariable>>, f: &mut Vec<Finding>) {
     let mut keys: Vec<_> = vrs.keys().copied().collect();
     keys.sort();
     for key in keys {
@@ -645,330 +661,4 @@ pub fn check_effect_convention(md: &ModelDescription) -> Vec<Finding> {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::{check_effect_convention, check_model_description, combination_allowed};
-    use crate::Finding;
-    use host::md::{Causality, ModelDescription, Variability};
-
-    fn md_with_vars(vars: &str, structure: &str) -> ModelDescription {
-        let xml = format!(
-            r#"<fmiModelDescription fmiVersion="2.0" modelName="T" guid="{{g}}">
-<CoSimulation modelIdentifier="T"/>
-<UnitDefinitions><Unit name="m"><DisplayUnit name="mm" factor="1000"/></Unit></UnitDefinitions>
-<ModelVariables>
-{vars}
-</ModelVariables>
-<ModelStructure>{structure}</ModelStructure>
-</fmiModelDescription>"#
-        );
-        ModelDescription::parse(&xml, "md.xml").unwrap()
-    }
-
-    const GOOD_VARS: &str = r#"<ScalarVariable name="y" valueReference="0" causality="output"><Real unit="m" displayUnit="mm"/></ScalarVariable>
-<ScalarVariable name="p" valueReference="1" causality="parameter" variability="fixed"><Real start="1" min="0" max="2"/></ScalarVariable>
-<ScalarVariable name="u" valueReference="2" causality="input"><Real start="0"/></ScalarVariable>"#;
-    const GOOD_STRUCT: &str = r#"<Outputs><Unknown index="1"/></Outputs><InitialUnknowns><Unknown index="1"/></InitialUnknowns>"#;
-
-    /// The good description with the variables `vars`.
-    fn with_vars(vars: &str) -> ModelDescription {
-        md_with_vars(vars, GOOD_STRUCT)
-    }
-
-    /// The good description with `from` replaced by `to` in its variables.
-    fn replaced(from: &str, to: &str) -> ModelDescription {
-        with_vars(&GOOD_VARS.replace(from, to))
-    }
-
-    /// The good description with `var` added after its variables.
-    fn with_extra(var: &str) -> ModelDescription {
-        with_vars(&format!("{GOOD_VARS}\n{var}"))
-    }
-
-    fn checks(md: &ModelDescription) -> Vec<String> {
-        check_model_description(md)
-            .iter()
-            .map(|f| f.check.clone())
-            .collect()
-    }
-
-    fn only(md: &ModelDescription, check: &str) -> Finding {
-        let all = check_model_description(md);
-        assert_eq!(all.len(), 1, "expected exactly one finding, got {all:#?}");
-        assert_eq!(all[0].check, check, "{all:#?}");
-        all[0].clone()
-    }
-
-    #[test]
-    fn a_correct_description_has_no_findings() {
-        assert_eq!(
-            checks(&md_with_vars(GOOD_VARS, GOOD_STRUCT)),
-            Vec::<String>::new()
-        );
-    }
-
-    #[test]
-    fn the_fixture_description_has_no_findings() {
-        let xml = include_str!("../../host/tests/fixtures/modelDescription.xml");
-        let md = ModelDescription::parse(xml, "md.xml").unwrap();
-        assert_eq!(check_model_description(&md), vec![]);
-    }
-
-    #[test]
-    fn root_attributes() {
-        let mut md = md_with_vars(GOOD_VARS, GOOD_STRUCT);
-        md.guid.clear();
-        assert_eq!(only(&md, "guid").message, "guid is missing or empty");
-        let mut md = md_with_vars(GOOD_VARS, GOOD_STRUCT);
-        md.fmi_version = "3.0".into();
-        only(&md, "fmi-version");
-        let mut md = md_with_vars(GOOD_VARS, GOOD_STRUCT);
-        md.model_name = " ".into();
-        only(&md, "model-name");
-        let mut md = md_with_vars(GOOD_VARS, GOOD_STRUCT);
-        md.co_simulation = None;
-        only(&md, "co-simulation");
-        let mut md = md_with_vars(GOOD_VARS, GOOD_STRUCT);
-        md.co_simulation.as_mut().unwrap().model_identifier = "9 bad".into();
-        assert!(only(&md, "model-identifier").clause.contains("§4.3.1"));
-        let mut md = md_with_vars(GOOD_VARS, GOOD_STRUCT);
-        md.model_exchange = Some("9 bad".into());
-        assert!(only(&md, "model-identifier").clause.contains("§3.3.1"));
-        let mut md = md_with_vars(GOOD_VARS, GOOD_STRUCT);
-        md.co_simulation.as_mut().unwrap().can_serialize_fmu_state = true;
-        only(&md, "capability-flags");
-        let mut md = md_with_vars(GOOD_VARS, GOOD_STRUCT);
-        md.variable_naming_convention = Some("dotted".into());
-        only(&md, "naming-convention");
-        let mut md = md_with_vars(GOOD_VARS, GOOD_STRUCT);
-        md.default_experiment = Some(host::md::DefaultExperiment {
-            start_time: Some(1.0),
-            stop_time: Some(0.0),
-            ..Default::default()
-        });
-        only(&md, "default-experiment");
-    }
-
-    #[test]
-    fn duplicate_names_and_value_references() {
-        let f = only(&with_extra("<ScalarVariable name=\"p\" valueReference=\"9\" causality=\"local\"><Real/></ScalarVariable>"), "unique-names");
-        assert!(f.message.contains("already used on line"), "{f}");
-        let f = only(&with_extra("<ScalarVariable name=\"q\" valueReference=\"1\" causality=\"parameter\" variability=\"fixed\"><Real start=\"3\"/></ScalarVariable>"), "unique-value-references");
-        assert!(
-            f.message.contains("valueReference 1 is shared by p, q"),
-            "{f}"
-        );
-        // A Real and a Boolean may share a number (value references are per base type),
-        // and a local may alias an output.
-        assert_eq!(
-            checks(&with_extra("<ScalarVariable name=\"b\" valueReference=\"1\" causality=\"local\" variability=\"discrete\"><Boolean/></ScalarVariable>\n<ScalarVariable name=\"y_alias\" valueReference=\"0\"><Real/></ScalarVariable>")),
-            Vec::<String>::new()
-        );
-    }
-
-    #[test]
-    fn causality_variability_combinations() {
-        for (c, v) in [
-            ("parameter", "continuous"),
-            ("input", "fixed"),
-            ("output", "tunable"),
-            ("independent", "discrete"),
-            ("calculatedParameter", "constant"),
-        ] {
-            let all = check_model_description(&with_extra(&format!("<ScalarVariable name=\"z\" valueReference=\"9\" causality=\"{c}\" variability=\"{v}\"><Real start=\"0\"/></ScalarVariable>")));
-            assert!(
-                all.iter().any(|f| f.check == "causality-variability"),
-                "{c}/{v}: {all:#?}"
-            );
-        }
-        assert!(combination_allowed(
-            Causality::Output,
-            Variability::Constant
-        ));
-        assert!(!combination_allowed(
-            Causality::Input,
-            Variability::Constant
-        ));
-    }
-
-    #[test]
-    fn initial_not_allowed() {
-        let f = only(&with_extra("<ScalarVariable name=\"z\" valueReference=\"9\" causality=\"parameter\" variability=\"fixed\" initial=\"calculated\"><Real/></ScalarVariable>"), "initial");
-        assert!(f.message.contains("initial=\"calculated\""), "{f}");
-        only(&with_extra("<ScalarVariable name=\"z\" valueReference=\"9\" causality=\"input\" initial=\"exact\"><Real start=\"1\"/></ScalarVariable>"), "initial");
-    }
-
-    #[test]
-    fn start_required_and_forbidden() {
-        let f = only(&replaced("<Real start=\"0\"/>", "<Real/>"), "start");
-        assert!(f.message.contains("required"), "{f}");
-        assert!(f.location.contains("variable 'u'"), "{f}");
-        let f = only(
-            &replaced(
-                "<Real unit=\"m\" displayUnit=\"mm\"/>",
-                "<Real unit=\"m\" start=\"2\"/>",
-            ),
-            "start",
-        );
-        assert!(f.message.contains("not allowed"), "{f}");
-    }
-
-    #[test]
-    fn continuous_non_real_and_independent() {
-        let f = only(&with_extra("<ScalarVariable name=\"b\" valueReference=\"9\" causality=\"local\"><Boolean/></ScalarVariable>"), "variability-type");
-        assert!(
-            f.message.contains("variability defaults to continuous"),
-            "{f}"
-        );
-        only(&with_extra("<ScalarVariable name=\"t\" valueReference=\"9\" causality=\"independent\"><Real/></ScalarVariable>\n<ScalarVariable name=\"t2\" valueReference=\"10\" causality=\"independent\"><Real/></ScalarVariable>"), "independent");
-    }
-
-    #[test]
-    fn ranges() {
-        let f = only(
-            &replaced(
-                "start=\"1\" min=\"0\" max=\"2\"",
-                "start=\"3\" min=\"0\" max=\"2\"",
-            ),
-            "start-range",
-        );
-        assert_eq!(f.message, "start 3 is outside [0, 2]");
-        assert!(checks(&replaced(
-            "start=\"1\" min=\"0\" max=\"2\"",
-            "start=\"1\" min=\"2\" max=\"0\""
-        ))
-        .contains(&"min-max".to_string()));
-        only(
-            &replaced(
-                "start=\"1\" min=\"0\" max=\"2\"",
-                "start=\"1\" nominal=\"0\"",
-            ),
-            "nominal",
-        );
-    }
-
-    #[test]
-    fn units_and_display_units_must_be_declared() {
-        let f = only(
-            &replaced("unit=\"m\" displayUnit=\"mm\"", "unit=\"rad\""),
-            "unit-declared",
-        );
-        assert!(f.message.contains("unit 'rad' is not defined"), "{f}");
-        let f = only(
-            &replaced("displayUnit=\"mm\"", "displayUnit=\"km\""),
-            "display-unit-declared",
-        );
-        assert!(
-            f.message
-                .contains("'km' is not a <DisplayUnit> of unit 'm'"),
-            "{f}"
-        );
-        only(
-            &replaced(
-                "<Real start=\"0\"/>",
-                "<Real start=\"0\" declaredType=\"Angle\"/>",
-            ),
-            "declared-type",
-        );
-    }
-
-    #[test]
-    fn outputs_must_match_model_structure() {
-        let f = only(
-            &md_with_vars(
-                GOOD_VARS,
-                r#"<Outputs></Outputs><InitialUnknowns><Unknown index="1"/></InitialUnknowns>"#,
-            ),
-            "outputs-listed",
-        );
-        assert!(f.message.contains("output 'y' (index 1) is missing"), "{f}");
-        let all = check_model_description(&md_with_vars(
-            GOOD_VARS,
-            r#"<Outputs><Unknown index="1"/><Unknown index="2"/></Outputs><InitialUnknowns><Unknown index="1"/></InitialUnknowns>"#,
-        ));
-        assert!(
-            all.iter()
-                .any(|f| f.check == "outputs-listed"
-                    && f.message.contains("'p' is listed in <Outputs>")),
-            "{all:#?}"
-        );
-        let f = only(
-            &md_with_vars(
-                GOOD_VARS,
-                r#"<Outputs><Unknown index="1" dependencies="7"/></Outputs><InitialUnknowns><Unknown index="1"/></InitialUnknowns>"#,
-            ),
-            "model-structure",
-        );
-        assert!(f.message.contains("dependency 7"), "{f}");
-        let all = check_model_description(&md_with_vars(
-            GOOD_VARS,
-            r#"<Outputs><Unknown index="1"/><Unknown index="1"/></Outputs><InitialUnknowns><Unknown index="1"/></InitialUnknowns>"#,
-        ));
-        assert!(
-            all.iter().any(|f| f.message.contains("ordered")),
-            "{all:#?}"
-        );
-        let md = md_with_vars(GOOD_VARS, GOOD_STRUCT);
-        let mut md2 = md.clone();
-        md2.model_structure.present = false;
-        only(&md2, "model-structure");
-    }
-
-    #[test]
-    fn effect_convention() {
-        let md = ModelDescription::parse(
-            include_str!("../../host/tests/fixtures/modelDescription.xml"),
-            "md.xml",
-        )
-        .unwrap();
-        assert_eq!(check_effect_convention(&md), vec![]);
-        let bad = |from: &str, to: &str| {
-            let xml =
-                include_str!("../../host/tests/fixtures/modelDescription.xml").replace(from, to);
-            assert_ne!(
-                xml,
-                include_str!("../../host/tests/fixtures/modelDescription.xml")
-            );
-            check_effect_convention(&ModelDescription::parse(&xml, "md.xml").unwrap())
-        };
-        let f = bad(
-            r#"<Real start="0.5" min="0.01" max="5" unit="N.s/m"/>"#,
-            r#"<Real start="0.5" min="0.01" unit="N.s/m"/>"#,
-        );
-        assert_eq!(f.len(), 1);
-        assert!(f[0].message.contains("finite min < max"), "{f:?}");
-        let f = bad(
-            r#"<Real start="0.5" min="0.01" max="5" unit="N.s/m"/>"#,
-            r#"<Real start="0.5" min="0.01" max="5"/>"#,
-        );
-        assert_eq!(f[0].message, "an effect parameter needs a unit");
-        let f = bad(r#"<Boolean start="false"/>"#, r#"<Boolean start="true"/>"#);
-        assert_eq!(
-            f[0].message,
-            "an effect switch must start false (effect off)"
-        );
-        let f = bad("[calibrate] spring stiffness", "spring stiffness");
-        assert!(f[0].message.contains("[calibrate]"));
-        let f = bad(r#"name="damping.d""#, r#"name="dampingd""#);
-        assert!(
-            f[0].message.contains("no parameter 'damping.<name>'"),
-            "{f:?}"
-        );
-    }
-
-    #[test]
-    fn initial_unknowns_required_and_allowed() {
-        let f = only(
-            &md_with_vars(GOOD_VARS, r#"<Outputs><Unknown index="1"/></Outputs>"#),
-            "initial-unknowns",
-        );
-        assert!(f.message.contains("'y' (index 1) must be listed"), "{f}");
-        let f = only(
-            &md_with_vars(
-                GOOD_VARS,
-                r#"<Outputs><Unknown index="1"/></Outputs><InitialUnknowns><Unknown index="1"/><Unknown index="3"/></InitialUnknowns>"#,
-            ),
-            "initial-unknowns",
-        );
-        assert!(f.message.contains("'u' may not be listed"), "{f}");
-    }
-}
+mod tests;

@@ -3,7 +3,7 @@
 //! exporting the functions of the interfaces the description declares).
 
 use super::binary::{library_extension, missing_exports, platform_dirs};
-use super::rules::{apply, defined_again, is_c_identifier, start_problem, Rule};
+use super::rules::{apply, defined_again, is_c_identifier, name_problems, start_problem, Rule};
 use super::Finding;
 use fmi2_types::schema::{combination_allowed, initial_allowed, Causality};
 use host::fmi3::md::{Causality3, Interface3, ModelDescription3, Unknown3, Variable3};
@@ -318,11 +318,8 @@ fn check_variables(md: &ModelDescription3, f: &mut Vec<Finding>) {
     let mut vrs: BTreeMap<u32, Vec<&Variable3>> = BTreeMap::new();
     for v in &md.variables {
         let loc = var_loc(v);
-        if v.name.trim().is_empty() {
-            f.push(finding("variable-name", &loc, "empty variable name"));
-        }
-        if let Some(m) = defined_again(&mut names, ("name", "used"), &v.name, v.line) {
-            f.push(finding("unique-names", &loc, m));
+        for (check, m) in name_problems(&mut names, &v.name, v.line) {
+            f.push(finding(check, &loc, m));
         }
         vrs.entry(v.value_reference).or_default().push(v);
         check_combination(v, &loc, f);
@@ -397,18 +394,21 @@ fn check_combination(v: &Variable3, loc: &str, f: &mut Vec<Finding>) {
 /// the independent variable and `initial` calculated (FMI 3.0.2 section 2.4.7.5).
 fn check_start(v: &Variable3, loc: &str, f: &mut Vec<Finding>) {
     let initial = v.effective_initial();
-    let io = (
+    let (input, independent) = (
         v.causality == Causality3::Input,
         v.causality == Causality3::Independent,
     );
-    if let Some(problem) = start_problem(io, v.variability, initial, v.start.is_some()) {
-        let initial_name = initial.map_or("none".to_string(), |i| format!("{i:?}").to_lowercase());
-        let m = format!(
-            "{problem} (causality {}, initial {initial_name})",
-            v.causality
-        );
-        f.push(finding("start", loc, m));
-    }
+    let has_start = v.start.is_some();
+    let Some(problem) = start_problem((input, independent), v.variability, initial, has_start)
+    else {
+        return;
+    };
+    let initial_name = initial.map_or("none".to_string(), |i| format!("{i:?}").to_lowercase());
+    let m = format!(
+        "{problem} (causality {}, initial {initial_name})",
+        v.causality
+    );
+    f.push(finding("start", loc, m));
 }
 
 /// A `<Dimension>` has exactly one of start and valueReference; a valueReference names a UInt64

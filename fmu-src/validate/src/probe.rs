@@ -3,9 +3,7 @@
 //! and 4.2.4) and Model Exchange ([`probe_me`], written once for both versions in
 //! [`super::probe_me`]).
 
-use super::cases::{
-    probe_step, unknown_value_reference, CaseRules, Progress, SetupFailure, WrongCall, FMI2,
-};
+use super::cases::{self, CaseRules, Progress, SetupFailure, WrongCall, FMI2};
 use super::error::{at, ProbeError, Stage, Verdict};
 use super::instance::{Probed, ProbedFmu};
 use super::probe_me::{probe_model_exchange, MeProbe};
@@ -44,7 +42,7 @@ pub fn probe(fmu: &Fmu, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding> {
     let md = fmu.model_description();
     let mut f = Vec::new();
     let experiment = fmu.experiment();
-    let (t0, h) = (experiment.start, probe_step(experiment.step_size));
+    let (t0, h) = (experiment.start, cases::probe_step(experiment.step_size));
     if !step("normal-run") {
         return f;
     }
@@ -225,7 +223,8 @@ fn variable_cases<'f>(fmu: &'f Fmu, t0: f64, (step, f): Progress<'_>) {
             let case = cs_case(name, what, before_init, t0);
             CS_RULES.run(fmu, &case, (&mut *step, &mut *f), call);
         };
-    let unknown_vr = unknown_value_reference(md.model_variables.iter().map(|v| v.value_reference));
+    let unknown_vr =
+        cases::unknown_value_reference(md.model_variables.iter().map(|v| v.value_reference));
     case(
         "unknown-value-reference",
         &format!("fmi2GetReal of unknown valueReference {unknown_vr}"),

@@ -8,9 +8,7 @@
 //! with which the FMU must not call the logger (section 2.3.1), so an error without a logged
 //! message is no finding here.
 
-use super::cases::{
-    probe_step, unknown_value_reference, CaseRules, Progress, SetupFailure, WrongCall, FMI3,
-};
+use super::cases::{self, CaseRules, Progress, SetupFailure, WrongCall, FMI3};
 use super::error::{ProbeError, Verdict};
 use super::instance::{declares, Probed, ProbedFmu};
 use super::me_checks;
@@ -80,7 +78,7 @@ const CS_RULES: CaseRules = CaseRules {
 /// The probe of `fmu` (opened for Co-Simulation); `step` as for [`super::probe`].
 pub fn probe3(fmu: &Fmu3, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding> {
     let experiment = fmu.experiment();
-    let (t0, h) = (experiment.start, probe_step(experiment.step_size));
+    let (t0, h) = (experiment.start, cases::probe_step(experiment.step_size));
     let mut f = Vec::new();
     if !step("fmi3-normal-run") {
         return f;
@@ -173,7 +171,7 @@ fn wrong_calls<'f>(fmu: &'f Fmu3, (t0, h): (f64, f64), (step, f): Progress<'_>) 
         true,
         &mut |i| i.do_step(t0 + 100.0 * h + 1.0, h, true).map(drop),
     );
-    let unknown_vr = unknown_value_reference(md.variables.iter().map(|v| v.value_reference));
+    let unknown_vr = cases::unknown_value_reference(md.variables.iter().map(|v| v.value_reference));
     case(
         "fmi3-unknown-value-reference",
         &format!("fmi3GetFloat64 of unknown valueReference {unknown_vr}"),

@@ -26,6 +26,23 @@ pub(crate) fn defined_again<'a>(
     Some(format!("{kind} '{name}' is already {verb} on line {first}"))
 }
 
+/// What is wrong with a variable's name (FMI 2.0.4 section 2.2.7, FMI 3.0.2 section 2.4.7): empty,
+/// or the name of an earlier variable (recorded in `names`); as (check, message).
+pub(crate) fn name_problems<'a>(
+    names: &mut HashMap<&'a str, usize>,
+    name: &'a str,
+    line: usize,
+) -> Vec<(&'static str, String)> {
+    let mut problems = Vec::new();
+    if name.trim().is_empty() {
+        problems.push(("variable-name", "empty variable name".to_string()));
+    }
+    if let Some(m) = defined_again(names, ("name", "used"), name, line) {
+        problems.push(("unique-names", m));
+    }
+    problems
+}
+
 /// What is wrong with a variable's start value, if anything (FMI 2.0.4 section 2.2.7, FMI 3.0.2
 /// section 2.4.7.5): it is required for inputs, constants and `initial` exact or approx, and not
 /// allowed for the independent variable and `initial` calculated. The text starts the finding.
