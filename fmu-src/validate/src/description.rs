@@ -1,7 +1,7 @@
 //! Checks of `modelDescription.xml` (FMI 2.0.4 chapter 2.2) and of the candidate-effect
 //! convention of the gap workflow.
 
-use super::rules::{apply, defined_again, is_c_identifier, name_problems, start_problem, Rule};
+use super::rules::{apply, defined_again, identifier_problem, name_problems, start_problem, Rule};
 use super::{var_loc, Finding};
 use fmi2_types::effects;
 use host::md::{
@@ -14,6 +14,20 @@ pub use fmi2_types::schema::{combination_allowed, initial_allowed};
 /// Checks of `modelDescription.xml` for a Co-Simulation FMU.
 pub fn check_model_description(md: &ModelDescription) -> Vec<Finding> {
     let mut f = Vec::new();
+    let rules: [Rule<ModelDescription>; 6] = [
+        check_root,
+        check_interfaces,
+        check_default_experiment,
+        check_units,
+        check_variables,
+        check_model_structure,
+    ];
+    apply(md, &rules, &mut f);
+    f
+}
+
+/// The attributes of `<fmiModelDescription>` (FMI 2.0.4 section 2.2.1).
+fn check_root(md: &ModelDescription, f: &mut Vec<Finding>) {
     let root = "modelDescription.xml:<fmiModelDescription>";
     if md.fmi_version != "2.0" {
         f.push(Finding::new(
@@ -41,15 +55,17 @@ pub fn check_model_description(md: &ModelDescription) -> Vec<Finding> {
             ));
         }
     }
-    if let Some(id) = md
-        .model_exchange
-        .as_deref()
-        .filter(|id| !is_c_identifier(id))
-    {
+}
+
+/// A `<CoSimulation>` or `<ModelExchange>` element, each with a C identifier (FMI 2.0.4
+/// sections 3.3.1 and 4.3.1), and the Co-Simulation capability flags consistent.
+fn check_interfaces(md: &ModelDescription, f: &mut Vec<Finding>) {
+    let root = "modelDescription.xml:<fmiModelDescription>";
+    if let Some(m) = md.model_exchange.as_deref().and_then(identifier_problem) {
         let mut finding = Finding::new(
             "model-identifier",
             "modelDescription.xml:<ModelExchange>",
-            format!("modelIdentifier \"{id}\" is not a valid C identifier"),
+            m,
         );
         finding.clause = "FMI 2.0.4 §3.3.1: ModelExchange element".into();
         f.push(finding);
@@ -63,15 +79,9 @@ pub fn check_model_description(md: &ModelDescription) -> Vec<Finding> {
              Exchange FMU",
         )),
         Some(cs) => {
-            if !is_c_identifier(&cs.model_identifier) {
-                f.push(Finding::new(
-                    "model-identifier",
-                    "modelDescription.xml:<CoSimulation>",
-                    format!(
-                        "modelIdentifier \"{}\" is not a valid C identifier",
-                        cs.model_identifier
-                    ),
-                ));
+            if let Some(m) = identifier_problem(&cs.model_identifier) {
+                let loc = "modelDescription.xml:<CoSimulation>";
+                f.push(Finding::new("model-identifier", loc, m));
             }
             if cs.can_serialize_fmu_state && !cs.can_get_and_set_fmu_state {
                 f.push(Finding::new(
@@ -82,6 +92,11 @@ pub fn check_model_description(md: &ModelDescription) -> Vec<Finding> {
             }
         }
     }
+}
+
+/// `<DefaultExperiment>` (FMI 2.0.4 section 2.2.5): stop after start, positive step and
+/// tolerance.
+fn check_default_experiment(md: &ModelDescription, f: &mut Vec<Finding>) {
     if let Some(de) = &md.default_experiment {
         let loc = "modelDescription.xml:<DefaultExperiment>";
         if let (Some(a), Some(b)) = (de.start_time, de.stop_time) {
@@ -108,9 +123,6 @@ pub fn check_model_description(md: &ModelDescription) -> Vec<Finding> {
             ));
         }
     }
-    let rules: [Rule<ModelDescription>; 3] = [check_units, check_variables, check_model_structure];
-    apply(md, &rules, &mut f);
-    f
 }
 
 fn check_units(md: &ModelDescription, f: &mut Vec<Finding>) {
@@ -422,7 +434,6 @@ fn fmt_opt(x: Option<f64>) -> String {
 
 fn check_model_structure(md: &ModelDescription, f: &mut Vec<Finding>) {
     let ms = &md.model_structure;
-    let n = md.model_variables.len();
     if !ms.present {
         f.push(Finding::new(
             "model-structure",
@@ -431,72 +442,94 @@ fn check_model_structure(md: &ModelDescription, f: &mut Vec<Finding>) {
         ));
         return;
     }
-    let var = |i: usize| {
-        if i >= 1 && i <= n {
-            Some(&md.model_variables[i - 1])
-        } else {
-            None
-        }
-    };
     let lists = [
         ("Outputs", &ms.outputs),
         ("Derivatives", &ms.derivatives),
         ("InitialUnknowns", &ms.initial_unknowns),
     ];
     for (list, unknowns) in lists {
-        let mut prev = 0;
-        for u in unknowns {
-            let loc = format!(
-                "modelDescription.xml:{} (<{list}> <Unknown index=\"{}\">)",
-                u.line, u.index
-            );
-            if var(u.index).is_none() {
-                f.push(Finding::new(
-                    "model-structure",
-                    &loc,
-                    format!("index {} is not a variable (1..{n})", u.index),
-                ));
-            }
-            if u.index <= prev {
-                f.push(Finding::new(
-                    "model-structure",
-                    &loc,
-                    format!(
-                        "<{list}> must be ordered by index without repeats ({} after {prev})",
-                        u.index
-                    ),
-                ));
-            }
-            prev = u.index;
-            if let Some(deps) = &u.dependencies {
-                for &d in deps {
-                    if var(d).is_none() {
-                        f.push(Finding::new(
-                            "model-structure",
-                            &loc,
-                            format!("dependency {d} is not a variable (1..{n})"),
-                        ));
-                    }
-                }
-                if let Some(kinds) = &u.dependencies_kind {
-                    if kinds.len() != deps.len() {
-                        f.push(Finding::new(
-                            "model-structure",
-                            &loc,
-                            "dependenciesKind and dependencies differ in length",
-                        ));
-                    }
-                }
-            } else if u.dependencies_kind.is_some() {
-                f.push(Finding::new(
-                    "model-structure",
-                    &loc,
-                    "dependenciesKind without dependencies",
-                ));
-            }
+        check_unknowns(md, list, unknowns, f);
+    }
+    check_outputs_listed(md, f);
+    for u in &ms.derivatives {
+        if let Some(v) = variable(md, u.index) {
+            check_listed_derivative(md, v, u, f);
         }
     }
-    // Outputs: exactly the variables with causality output.
+    check_initial_unknowns(md, f);
+}
+
+/// The variable of the 1-based `index` into `<ModelVariables>`, if there is one.
+fn variable(md: &ModelDescription, index: usize) -> Option<&ScalarVariable> {
+    md.model_variables.get(index.wrapping_sub(1))
+}
+
+/// The `<Unknown>` elements of the list `<list>`: indices of variables, ordered without
+/// repeats; dependencies of variables, with as many kinds as dependencies.
+fn check_unknowns(
+    md: &ModelDescription,
+    list: &str,
+    unknowns: &[host::md::Unknown],
+    f: &mut Vec<Finding>,
+) {
+    let n = md.model_variables.len();
+    let var = |i: usize| variable(md, i);
+    let mut prev = 0;
+    for u in unknowns {
+        let loc = format!(
+            "modelDescription.xml:{} (<{list}> <Unknown index=\"{}\">)",
+            u.line, u.index
+        );
+        if var(u.index).is_none() {
+            f.push(Finding::new(
+                "model-structure",
+                &loc,
+                format!("index {} is not a variable (1..{n})", u.index),
+            ));
+        }
+        if u.index <= prev {
+            f.push(Finding::new(
+                "model-structure",
+                &loc,
+                format!(
+                    "<{list}> must be ordered by index without repeats ({} after {prev})",
+                    u.index
+                ),
+            ));
+        }
+        prev = u.index;
+        if let Some(deps) = &u.dependencies {
+            for &d in deps {
+                if var(d).is_none() {
+                    f.push(Finding::new(
+                        "model-structure",
+                        &loc,
+                        format!("dependency {d} is not a variable (1..{n})"),
+                    ));
+                }
+            }
+            if let Some(kinds) = &u.dependencies_kind {
+                if kinds.len() != deps.len() {
+                    f.push(Finding::new(
+                        "model-structure",
+                        &loc,
+                        "dependenciesKind and dependencies differ in length",
+                    ));
+                }
+            }
+        } else if u.dependencies_kind.is_some() {
+            f.push(Finding::new(
+                "model-structure",
+                &loc,
+                "dependenciesKind without dependencies",
+            ));
+        }
+    }
+}
+
+/// `<Outputs>` lists exactly the variables with causality output.
+fn check_outputs_listed(md: &ModelDescription, f: &mut Vec<Finding>) {
+    let ms = &md.model_structure;
     let listed: BTreeSet<usize> = ms.outputs.iter().map(|u| u.index).collect();
     for (i, v) in md.model_variables.iter().enumerate() {
         if v.causality == Causality::Output && !listed.contains(&(i + 1)) {
@@ -512,7 +545,7 @@ fn check_model_structure(md: &ModelDescription, f: &mut Vec<Finding>) {
         }
     }
     for u in &ms.outputs {
-        if let Some(v) = var(u.index) {
+        if let Some(v) = variable(md, u.index) {
             if v.causality != Causality::Output {
                 f.push(Finding::new(
                     "outputs-listed",
@@ -529,13 +562,12 @@ fn check_model_structure(md: &ModelDescription, f: &mut Vec<Finding>) {
             }
         }
     }
-    for u in &ms.derivatives {
-        if let Some(v) = var(u.index) {
-            check_listed_derivative(md, v, u, f);
-        }
-    }
-    // InitialUnknowns (FMI 2.0.4 section 2.2.8): outputs with initial approx/calculated,
-    // calculated parameters, and derivatives/states with initial approx/calculated; no others.
+}
+
+/// `<InitialUnknowns>` (FMI 2.0.4 section 2.2.8): outputs with initial approx/calculated,
+/// calculated parameters, and derivatives/states with initial approx/calculated; no others.
+fn check_initial_unknowns(md: &ModelDescription, f: &mut Vec<Finding>) {
+    let ms = &md.model_structure;
     let derivs: BTreeSet<usize> = ms.derivatives.iter().map(|u| u.index).collect();
     let states: BTreeSet<usize> = md
         .model_variables
@@ -571,7 +603,7 @@ fn check_model_structure(md: &ModelDescription, f: &mut Vec<Finding>) {
         ));
     }
     for u in &ms.initial_unknowns {
-        if var(u.index).is_some() && !required.contains(&u.index) {
+        if variable(md, u.index).is_some() && !required.contains(&u.index) {
             let v = &md.model_variables[u.index - 1];
             f.push(Finding::new(
                 "initial-unknowns",

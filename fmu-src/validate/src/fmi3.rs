@@ -3,7 +3,9 @@
 //! exporting the functions of the interfaces the description declares).
 
 use super::binary::{library_extension, missing_exports, platform_dirs};
-use super::rules::{apply, defined_again, is_c_identifier, name_problems, start_problem, Rule};
+use super::rules::{
+    apply, defined_again, identifier_problem, is_c_identifier, name_problems, start_problem, Rule,
+};
 use super::Finding;
 use fmi2_types::schema::{combination_allowed, initial_allowed, Causality};
 use host::fmi3::md::{Causality3, Interface3, ModelDescription3, Unknown3, Variable3};
@@ -94,15 +96,9 @@ pub fn check_model_description3(md: &ModelDescription3) -> Vec<Finding> {
         f.push(finding("interfaces", root, m));
     }
     for (name, i) in &declared {
-        if !is_c_identifier(&i.model_identifier) {
-            f.push(finding(
-                "model-identifier",
-                format!("modelDescription.xml:{} (<{name}>)", i.line),
-                format!(
-                    "modelIdentifier \"{}\" is not a valid C identifier",
-                    i.model_identifier
-                ),
-            ));
+        if let Some(m) = identifier_problem(&i.model_identifier) {
+            let loc = format!("modelDescription.xml:{} (<{name}>)", i.line);
+            f.push(finding("model-identifier", loc, m));
         }
     }
     let rules: [Rule<ModelDescription3>; 5] = [

@@ -14,6 +14,11 @@ pub(crate) fn is_c_identifier(s: &str) -> bool {
         && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
 }
 
+/// What is wrong with a `modelIdentifier`, if it is not a C identifier.
+pub(crate) fn identifier_problem(id: &str) -> Option<String> {
+    (!is_c_identifier(id)).then(|| format!("modelIdentifier \"{id}\" is not a valid C identifier"))
+}
+
 /// Records `name` as defined on `line` in `seen`; when it was defined before, what the finding
 /// says (`unit 'm' is already defined on line 3`, naming the latest earlier definition).
 pub(crate) fn defined_again<'a>(
