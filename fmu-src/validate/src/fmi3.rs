@@ -708,45 +708,58 @@ pub fn check_platform_binaries3(
                 findings.push(finding("binary", &entry, m));
                 continue;
             };
-            let info = match host::binary::inspect(&bytes) {
-                Ok(info) => info,
-                Err(e) => {
-                    findings.push(finding("binary-format", &entry, e));
-                    continue;
-                }
-            };
-            if info.format != format {
-                let m = format!("is {}, but {tuple} needs {format}", info.format);
-                findings.push(finding("binary-format", &entry, m));
+            let (found, info) = check_library3(&bytes, &entry, (&tuple, format, arch));
+            findings.extend(found);
+            if let Some(info) = info {
+                binaries.push(super::PlatformBinary { entry, info });
             }
-            // A macOS universal binary may hold other slices beside the tuple's.
-            if !info.slices.iter().any(|s| s.architecture == arch) {
-                let held: Vec<&str> = info
-                    .slices
-                    .iter()
-                    .map(|s| s.architecture.as_str())
-                    .collect();
-                let m = format!("holds {held:?}, {tuple} needs an {arch} slice");
-                findings.push(finding("binary-format", &entry, m));
-            }
-            let need = required_functions();
-            for slice in &info.slices {
-                let missing = missing_exports(&need, slice);
-                if !missing.is_empty() {
-                    let m = format!(
-                        "the {} slice does not export {} of the functions of fmi3Functions.h, \
-                         which an FMU implements whatever interfaces it declares: {}",
-                        slice.architecture,
-                        missing.len(),
-                        missing.join(", ")
-                    );
-                    findings.push(finding("symbols", &entry, m));
-                }
-            }
-            binaries.push(super::PlatformBinary { entry, info });
         }
     }
     (findings, binaries)
+}
+
+/// The findings on the library `entry` of the platform tuple `tuple` (which needs `format` with
+/// an `arch` slice), read from `bytes`, and what it is (None when it is not a readable binary):
+/// its format and architectures, and the functions of `fmi3Functions.h` each slice exports.
+fn check_library3(
+    bytes: &[u8],
+    entry: &str,
+    (tuple, format, arch): (&str, &str, &str),
+) -> (Vec<Finding>, Option<host::binary::BinaryInfo>) {
+    let info = match host::binary::inspect(bytes) {
+        Ok(info) => info,
+        Err(e) => return (vec![finding("binary-format", entry, e)], None),
+    };
+    let mut findings = Vec::new();
+    if info.format != format {
+        let m = format!("is {}, but {tuple} needs {format}", info.format);
+        findings.push(finding("binary-format", entry, m));
+    }
+    // A macOS universal binary may hold other slices beside the tuple's.
+    if !info.slices.iter().any(|s| s.architecture == arch) {
+        let held: Vec<&str> = info
+            .slices
+            .iter()
+            .map(|s| s.architecture.as_str())
+            .collect();
+        let m = format!("holds {held:?}, {tuple} needs an {arch} slice");
+        findings.push(finding("binary-format", entry, m));
+    }
+    let need = required_functions();
+    for slice in &info.slices {
+        let missing = missing_exports(&need, slice);
+        if !missing.is_empty() {
+            let m = format!(
+                "the {} slice does not export {} of the functions of fmi3Functions.h, which an \
+                 FMU implements whatever interfaces it declares: {}",
+                slice.architecture,
+                missing.len(),
+                missing.join(", ")
+            );
+            findings.push(finding("symbols", entry, m));
+        }
+    }
+    (findings, Some(info))
 }
 
 #[cfg(test)]
