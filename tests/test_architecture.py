@@ -25,7 +25,8 @@ MAY_USE = {
     "test-oscillator-fmi3": {"fmi3-export", "test-oscillator"},
     "host": {"fmi2-types", "ode"},
     "gap": {"fmi2-types", "host"},
-    "cli": {"fmi2-types", "host", "gap"},
+    "validate": {"fmi2-types", "host"},
+    "cli": {"fmi2-types", "host", "gap", "validate"},
     "bench": {"host"},
 }
 MODEL_MAY_USE = {"fmi2-export", "ode"}

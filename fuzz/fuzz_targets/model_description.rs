@@ -1,5 +1,5 @@
 //! The host's `modelDescription.xml` parsers and the validator's description checks
-//! (`host::ModelDescription::parse`, `host::validate::check_model_description`; FMI 3.0:
+//! (`host::ModelDescription::parse`, `validate::check_model_description`; FMI 3.0:
 //! `host::fmi3::ModelDescription3::parse`, array shapes, the FMI 2.0-shaped view): any text
 //! gives a description or an error, never a panic, a hang or an allocation beyond the bounds.
 #![no_main]
@@ -11,7 +11,7 @@ fuzz_target!(|data: &[u8]| {
         return;
     };
     if let Ok(md) = host::ModelDescription::parse(text, "fuzz.xml") {
-        let findings = host::validate::check_model_description(&md);
+        let findings = validate::check_model_description(&md);
         for f in &findings {
             let _ = format!("{f:?}");
         }

@@ -4,10 +4,10 @@
 //! (`@@FINDINGS@@ [...]`).
 
 use crate::common::CliResult;
-use host::validate::{check_symbols, probe, probe_me, Finding};
 use host::{Extracted, Fmu, Interface, OpenOptions};
 use std::io::Write;
 use std::path::PathBuf;
+use validate::{check_symbols, probe, probe_me, Finding};
 
 /// Marker of the progress lines on stderr.
 pub const STEP_MARK: &str = "@@STEP@@ ";
@@ -64,12 +64,12 @@ fn probe_fmi3(a: &Args) -> Vec<Finding> {
             Err(e) => {
                 let m = format!("{interface}: {e}");
                 let mut f = Finding::new("binary", a.fmu.display().to_string(), m);
-                f.clause = host::validate::fmi3::classify3("binary").to_string();
+                f.clause = validate::fmi3::classify3("binary").to_string();
                 vec![f]
             }
             Ok(fmu) => match interface {
-                Interface::CoSimulation => host::validate::probe3(&fmu, step),
-                Interface::ModelExchange => host::validate::probe3_me(&fmu, step),
+                Interface::CoSimulation => validate::probe3(&fmu, step),
+                Interface::ModelExchange => validate::probe3_me(&fmu, step),
             },
         },
     )

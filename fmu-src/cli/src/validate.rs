@@ -4,15 +4,15 @@
 use crate::common::{CliError, CliResult};
 use crate::probe::{FINDINGS_MARK, STEP_MARK};
 use host::fmi3::ModelDescription3;
-use host::validate::{
-    check_effect_convention, check_files, check_model_description, check_model_description3,
-    check_platform_binaries, check_platform_binaries3, Finding, PlatformBinary,
-};
 use host::{Extracted, FmiVersion, HostError, Unpacked};
 use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
+use validate::{
+    check_effect_convention, check_files, check_model_description, check_model_description3,
+    check_platform_binaries, check_platform_binaries3, Finding, PlatformBinary,
+};
 
 /// Arguments of `validate`.
 #[derive(clap::Args)]
@@ -166,7 +166,7 @@ fn validate_fmi3(path: &Path, timeout: Duration, effects: bool) -> Result<Checke
     drop(unpacked);
     match refused {
         None if runnable => findings.extend(run_probe(path, timeout, true)?),
-        Some(reason) if runnable => findings.push(host::validate::fmi3::probe_not_run(&reason)),
+        Some(reason) if runnable => findings.push(validate::fmi3::probe_not_run(&reason)),
         _ => {}
     }
     Ok((findings, binaries))
@@ -179,7 +179,7 @@ fn description_error(path: &Path, e: HostError) -> Finding {
         _ => "archive",
     };
     let mut f = Finding::new(check, path.display().to_string(), e.to_string());
-    f.clause = host::validate::fmi3::classify3(check).to_string();
+    f.clause = validate::fmi3::classify3(check).to_string();
     f
 }
 
@@ -197,12 +197,12 @@ fn run_probe(path: &Path, timeout: Duration, fmi3: bool) -> Result<Vec<Finding>,
             }
             ProbeOutcome::Crashed { step, mut finding } => {
                 if fmi3 {
-                    finding.clause = host::validate::probe3::clause3(&finding.check).to_string();
+                    finding.clause = validate::probe3::clause3(&finding.check).to_string();
                 }
                 findings.push(finding);
-                let is_case = (host::validate::PROBE_CASES.contains(&step.as_str())
-                    || host::validate::ME_PROBE_CASES.contains(&step.as_str())
-                    || host::validate::PROBE3_CASES.contains(&step.as_str()))
+                let is_case = (validate::PROBE_CASES.contains(&step.as_str())
+                    || validate::ME_PROBE_CASES.contains(&step.as_str())
+                    || validate::PROBE3_CASES.contains(&step.as_str()))
                     && !step.ends_with("normal-run");
                 if !is_case || crashed.contains(&step) {
                     return Ok(findings);

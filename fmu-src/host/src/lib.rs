@@ -6,7 +6,6 @@
 //!   [`HostError::Fmi`] carrying the status and the messages the FMU logged.
 //! - [`simulate`] / [`Simulator`] run a whole simulation from a [`SimulationRequest`].
 //! - [`csv`] reads measured/input CSV files with located errors and writes results.
-//! - [`validate`] checks a model description and probes a binary's state machine.
 //! - [`watch`] marks each FMI call on a page a supervising process reads (crash and hang
 //!   reports); [`python`] provides the Python runtime PythonFMU binaries expect.
 #![warn(missing_docs)]
@@ -17,18 +16,19 @@ mod error;
 pub mod ffi;
 pub mod fmi3;
 mod fmu;
+mod fmu_state3;
 mod instance;
 pub mod kind;
 pub mod md;
-mod me;
+pub mod me;
 pub mod python;
 mod simulate;
-pub mod validate;
 pub mod watch;
 mod xml;
 
 pub use error::{shown, HostError, LogRecord, Result, Status};
 pub use fmu::{file_uri, Extracted, Fmu, OpenOptions, Unpacked, LIB_SUFFIX, PLATFORM};
+pub use fmu_state3::FmuStateHandle3;
 pub use instance::{FmuStateHandle, Instance, InstanceOptions};
 pub use kind::{fmi_version_of, FmiVersion, Interface};
 pub use md::ModelDescription;

@@ -2,10 +2,12 @@
 //! FMI function (FMI 2.0.4 sections 2.1, 2.3 and 4.2).
 
 use super::Finding;
-use crate::ffi::{FMI2_CS_FUNCTIONS, FMI2_ME_FUNCTIONS};
-use crate::fmu::{Extracted, PLATFORM};
-use crate::kind::Interface;
-use crate::md::ModelDescription;
+use host::binary::Slice;
+use host::ffi::{FMI2_CS_FUNCTIONS, FMI2_ME_FUNCTIONS};
+use host::md::ModelDescription;
+use host::Interface;
+use host::{Extracted, PLATFORM};
+use std::path::Path;
 
 /// File-level checks: the binary for this platform exists under `binaries/linux64/`.
 pub fn check_files(fmu: &Extracted) -> Vec<Finding> {
@@ -38,7 +40,7 @@ pub fn check_files(fmu: &Extracted) -> Vec<Finding> {
 }
 
 /// Every binary under `binaries/<platform>/<modelIdentifier>.<so|dll|dylib>`, read without
-/// loading it ([`crate::binary`]), with the findings it raises: a format or architecture that is
+/// loading it ([`host::binary`]), with the findings it raises: a format or architecture that is
 /// not the platform's (FMI 2.0.4 section 2.4), or a function of an interface the description
 /// declares missing from a slice (sections 2.1, 3.2 and 4.2).
 pub fn check_platform_binaries(fmu: &Extracted) -> (Vec<Finding>, Vec<PlatformBinary>) {
@@ -48,23 +50,11 @@ pub fn check_platform_binaries(fmu: &Extracted) -> (Vec<Finding>, Vec<PlatformBi
         .filter_map(|i| fmu.model_identifier_for(i).ok())
         .collect();
     ids.dedup();
-    let Ok(dirs) = std::fs::read_dir(fmu.dir.join("binaries")) else {
-        return (findings, binaries);
-    };
-    let mut platforms: Vec<String> = dirs
-        .filter_map(|e| e.ok())
-        .map(|e| e.file_name().to_string_lossy().into_owned())
-        .collect();
-    platforms.sort();
-    for platform in platforms {
-        let Some((format, archs)) = crate::binary::expected_format(&platform) else {
+    for platform in platform_dirs(&fmu.dir, false) {
+        let Some((format, archs)) = host::binary::expected_format(&platform) else {
             continue;
         };
-        let ext = match format {
-            "PE" => "dll",
-            "Mach-O" => "dylib",
-            _ => "so",
-        };
+        let ext = library_extension(format);
         for id in &ids {
             let entry = format!("binaries/{platform}/{id}.{ext}");
             let Ok(bytes) = std::fs::read(fmu.dir.join(&entry)) else {
@@ -81,6 +71,38 @@ pub fn check_platform_binaries(fmu: &Extracted) -> (Vec<Finding>, Vec<PlatformBi
         }
     }
     (findings, binaries)
+}
+
+/// The folders under `binaries/` of the FMU extracted at `dir`, sorted by name (only
+/// directories when `dirs_only`); none when there is no `binaries/`.
+pub(crate) fn platform_dirs(dir: &Path, dirs_only: bool) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir.join("binaries"))
+        .map(|rd| {
+            rd.filter_map(|e| e.ok())
+                .filter(|e| !dirs_only || e.path().is_dir())
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .collect()
+        })
+        .unwrap_or_default();
+    names.sort();
+    names
+}
+
+/// The file extension of a shared library in `format` (`ELF`, `PE` or `Mach-O`).
+pub(crate) fn library_extension(format: &str) -> &'static str {
+    match format {
+        "PE" => "dll",
+        "Mach-O" => "dylib",
+        _ => "so",
+    }
+}
+
+/// The functions of `need` that `slice` does not export, in the order of `need`.
+pub(crate) fn missing_exports<'n>(need: &[&'n str], slice: &Slice) -> Vec<&'n str> {
+    need.iter()
+        .copied()
+        .filter(|f| slice.exports.binary_search(&f.to_string()).is_err())
+        .collect()
 }
 
 /// Functions of FMI 2.0 Co-Simulation that Model Exchange does not have (FMI 2.0.4 section
@@ -125,9 +147,8 @@ fn check_binary(
     format: &str,
     archs: &[&str],
     need: &[&str],
-) -> Result<(Vec<Finding>, crate::binary::BinaryInfo), Finding> {
-    let info =
-        crate::binary::inspect(bytes).map_err(|e| Finding::new("binary-format", entry, e))?;
+) -> Result<(Vec<Finding>, host::binary::BinaryInfo), Finding> {
+    let info = host::binary::inspect(bytes).map_err(|e| Finding::new("binary-format", entry, e))?;
     let mut findings = Vec::new();
     if info.format != format {
         let m = format!("is {}, but {platform} needs {format}", info.format);
@@ -138,11 +159,7 @@ fn check_binary(
             let m = format!("holds a {} slice, not one of {archs:?}", slice.architecture);
             findings.push(Finding::new("binary-format", entry, m));
         }
-        let missing: Vec<&str> = need
-            .iter()
-            .copied()
-            .filter(|f| slice.exports.binary_search(&f.to_string()).is_err())
-            .collect();
+        let missing = missing_exports(need, slice);
         if !missing.is_empty() {
             let m = format!(
                 "the {} slice does not export {} FMI function(s): {}",
@@ -163,7 +180,7 @@ pub struct PlatformBinary {
     pub entry: String,
     /// Format, architectures, exports, glibc needs.
     #[serde(flatten)]
-    pub info: crate::binary::BinaryInfo,
+    pub info: host::binary::BinaryInfo,
 }
 
 /// Loads the binary and reports every FMI 2.0 CS function it does not export.
@@ -180,9 +197,9 @@ pub fn check_symbols(fmu: &Extracted) -> Vec<Finding> {
         bin.file_name().unwrap_or_default().to_string_lossy()
     );
     // SAFETY: the validator's purpose is to load the FMU (in a child process).
-    match unsafe { crate::ffi::load_library(&bin) } {
+    match unsafe { host::ffi::load_library(&bin) } {
         Err(e) => vec![Finding::new("binary", loc, e.to_string())],
-        Ok(lib) => crate::ffi::missing_symbols(&lib)
+        Ok(lib) => host::ffi::missing_symbols(&lib)
             .into_iter()
             .map(|s| Finding::new("symbols", &loc, format!("does not export {s}")))
             .collect(),

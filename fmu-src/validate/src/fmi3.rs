@@ -2,11 +2,15 @@
 //! binaries (section 2.5: `binaries/<platformTuple>/<modelIdentifier>.<so|dll|dylib>`, each
 //! exporting the functions of the interfaces the description declares).
 
+use super::binary::{library_extension, missing_exports, platform_dirs};
+use super::rules::{
+    apply, defined_again, identifier_problem, is_c_identifier, name_problems, start_problem, Rule,
+};
 use super::Finding;
-use crate::fmi3::md::{Causality3, Interface3, ModelDescription3, Unknown3, Variable3};
-use crate::fmi3::value::Type3;
-use crate::md::{Initial, Variability};
 use fmi2_types::schema::{combination_allowed, initial_allowed, Causality};
+use host::fmi3::md::{Causality3, Interface3, ModelDescription3, Unknown3, Variable3};
+use host::fmi3::value::Type3;
+use host::md::{Initial, Variability};
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::path::Path;
 
@@ -59,12 +63,6 @@ fn var_loc(v: &Variable3) -> String {
     format!("modelDescription.xml:{} (variable '{}')", v.line, v.name)
 }
 
-fn is_c_identifier(s: &str) -> bool {
-    let mut chars = s.chars();
-    matches!(chars.next(), Some(c) if c.is_ascii_alphabetic() || c == '_')
-        && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
-}
-
 /// The interfaces an FMU declares, by element name.
 fn interfaces(md: &ModelDescription3) -> Vec<(&'static str, &Interface3)> {
     [
@@ -98,22 +96,19 @@ pub fn check_model_description3(md: &ModelDescription3) -> Vec<Finding> {
         f.push(finding("interfaces", root, m));
     }
     for (name, i) in &declared {
-        if !is_c_identifier(&i.model_identifier) {
-            f.push(finding(
-                "model-identifier",
-                format!("modelDescription.xml:{} (<{name}>)", i.line),
-                format!(
-                    "modelIdentifier \"{}\" is not a valid C identifier",
-                    i.model_identifier
-                ),
-            ));
+        if let Some(m) = identifier_problem(&i.model_identifier) {
+            let loc = format!("modelDescription.xml:{} (<{name}>)", i.line);
+            f.push(finding("model-identifier", loc, m));
         }
     }
-    check_units_and_types(md, &mut f);
-    check_display_units(md, &mut f);
-    check_variables(md, &mut f);
-    check_clocks(md, &mut f);
-    check_model_structure(md, &mut f);
+    let rules: [Rule<ModelDescription3>; 5] = [
+        check_units_and_types,
+        check_display_units,
+        check_variables,
+        check_clocks,
+        check_model_structure,
+    ];
+    apply(md, &rules, &mut f);
     f
 }
 
@@ -122,22 +117,16 @@ pub fn check_model_description3(md: &ModelDescription3) -> Vec<Finding> {
 fn check_units_and_types(md: &ModelDescription3, f: &mut Vec<Finding>) {
     let mut units = HashMap::new();
     for u in &md.units {
-        if let Some(first) = units.insert(u.name.as_str(), u.line) {
-            f.push(finding(
-                "unique-units",
-                format!("modelDescription.xml:{} (unit '{}')", u.line, u.name),
-                format!("unit '{}' is already defined on line {first}", u.name),
-            ));
+        if let Some(m) = defined_again(&mut units, ("unit", "defined"), &u.name, u.line) {
+            let loc = format!("modelDescription.xml:{} (unit '{}')", u.line, u.name);
+            f.push(finding("unique-units", loc, m));
         }
     }
-    let mut types = HashMap::new();
+    let (mut types, mut type_lines) = (HashMap::new(), HashMap::new());
     for t in &md.type_definitions {
         let loc = format!("modelDescription.xml:{} (type '{}')", t.line, t.name);
-        if let Some(first) = types.insert(t.name.as_str(), t) {
-            let m = format!(
-                "type '{}' is already defined on line {}",
-                t.name, first.line
-            );
+        types.insert(t.name.as_str(), t);
+        if let Some(m) = defined_again(&mut type_lines, ("type", "defined"), &t.name, t.line) {
             f.push(finding("unique-types", &loc, m));
         }
         if let Some(u) = t.unit.as_deref().filter(|u| !units.contains_key(u)) {
@@ -193,7 +182,7 @@ fn check_display_units(md: &ModelDescription3, f: &mut Vec<Finding>) {
             }
         }
     }
-    let types: HashMap<&str, &crate::fmi3::md::TypeDefinition3> = md
+    let types: HashMap<&str, &host::fmi3::md::TypeDefinition3> = md
         .type_definitions
         .iter()
         .map(|t| (t.name.as_str(), t))
@@ -325,12 +314,8 @@ fn check_variables(md: &ModelDescription3, f: &mut Vec<Finding>) {
     let mut vrs: BTreeMap<u32, Vec<&Variable3>> = BTreeMap::new();
     for v in &md.variables {
         let loc = var_loc(v);
-        if v.name.trim().is_empty() {
-            f.push(finding("variable-name", &loc, "empty variable name"));
-        }
-        if let Some(first) = names.insert(v.name.as_str(), v.line) {
-            let m = format!("name '{}' is already used on line {first}", v.name);
-            f.push(finding("unique-names", &loc, m));
+        for (check, m) in name_problems(&mut names, &v.name, v.line) {
+            f.push(finding(check, &loc, m));
         }
         vrs.entry(v.value_reference).or_default().push(v);
         check_combination(v, &loc, f);
@@ -405,25 +390,21 @@ fn check_combination(v: &Variable3, loc: &str, f: &mut Vec<Finding>) {
 /// the independent variable and `initial` calculated (FMI 3.0.2 section 2.4.7.5).
 fn check_start(v: &Variable3, loc: &str, f: &mut Vec<Finding>) {
     let initial = v.effective_initial();
-    let required = v.causality == Causality3::Input
-        || v.variability == Variability::Constant
-        || matches!(initial, Some(Initial::Exact | Initial::Approx));
-    let forbidden = v.causality == Causality3::Independent || initial == Some(Initial::Calculated);
+    let (input, independent) = (
+        v.causality == Causality3::Input,
+        v.causality == Causality3::Independent,
+    );
+    let has_start = v.start.is_some();
+    let Some(problem) = start_problem((input, independent), v.variability, initial, has_start)
+    else {
+        return;
+    };
     let initial_name = initial.map_or("none".to_string(), |i| format!("{i:?}").to_lowercase());
-    if required && v.start.is_none() {
-        let m = format!(
-            "start is required (causality {}, initial {initial_name})",
-            v.causality
-        );
-        f.push(finding("start", loc, m));
-    }
-    if forbidden && v.start.is_some() {
-        let m = format!(
-            "start is not allowed (causality {}, initial {initial_name})",
-            v.causality
-        );
-        f.push(finding("start", loc, m));
-    }
+    let m = format!(
+        "{problem} (causality {}, initial {initial_name})",
+        v.causality
+    );
+    f.push(finding("start", loc, m));
 }
 
 /// A `<Dimension>` has exactly one of start and valueReference; a valueReference names a UInt64
@@ -431,7 +412,7 @@ fn check_start(v: &Variable3, loc: &str, f: &mut Vec<Finding>) {
 fn check_dimension(
     md: &ModelDescription3,
     v: &Variable3,
-    d: &crate::fmi3::md::Dimension,
+    d: &host::fmi3::md::Dimension,
     f: &mut Vec<Finding>,
 ) {
     let loc = format!(
@@ -676,7 +657,7 @@ pub const FMI3_CAPABILITY_FUNCTIONS: [&str; 13] = [
 /// only needed for interface types or optional capabilities that the FMU does not support"
 /// (FMI 3.0.2 section 2.5).
 fn required_functions() -> Vec<&'static str> {
-    let mut need: Vec<&'static str> = crate::fmi3::ffi::FMI3_COMMON_FUNCTIONS.to_vec();
+    let mut need: Vec<&'static str> = host::fmi3::ffi::FMI3_COMMON_FUNCTIONS.to_vec();
     need.extend_from_slice(&FMI3_ME_FUNCTIONS);
     need.extend_from_slice(&FMI3_CS_FUNCTIONS);
     need.extend_from_slice(&FMI3_SE_FUNCTIONS);
@@ -702,15 +683,7 @@ pub fn check_platform_binaries3(
         .collect();
     ids.sort_unstable();
     ids.dedup();
-    let mut tuples: Vec<String> = std::fs::read_dir(dir.join("binaries"))
-        .map(|rd| {
-            rd.filter_map(|e| e.ok())
-                .filter(|e| e.path().is_dir())
-                .map(|e| e.file_name().to_string_lossy().into_owned())
-                .collect()
-        })
-        .unwrap_or_default();
-    tuples.sort();
+    let tuples = platform_dirs(dir, true);
     if tuples.is_empty() && !dir.join("sources").is_dir() {
         let m = "no binaries/<platformTuple>/ directory and no sources/: nothing to run";
         findings.push(finding("binary", "binaries/", m));
@@ -727,11 +700,7 @@ pub fn check_platform_binaries3(
         let Some((format, arch)) = expected_format3(&tuple) else {
             continue;
         };
-        let ext = match format {
-            "PE" => "dll",
-            "Mach-O" => "dylib",
-            _ => "so",
-        };
+        let ext = library_extension(format);
         for id in &ids {
             let entry = format!("binaries/{tuple}/{id}.{ext}");
             let Ok(bytes) = std::fs::read(dir.join(&entry)) else {
@@ -739,49 +708,58 @@ pub fn check_platform_binaries3(
                 findings.push(finding("binary", &entry, m));
                 continue;
             };
-            let info = match crate::binary::inspect(&bytes) {
-                Ok(info) => info,
-                Err(e) => {
-                    findings.push(finding("binary-format", &entry, e));
-                    continue;
-                }
-            };
-            if info.format != format {
-                let m = format!("is {}, but {tuple} needs {format}", info.format);
-                findings.push(finding("binary-format", &entry, m));
+            let (found, info) = check_library3(&bytes, &entry, (&tuple, format, arch));
+            findings.extend(found);
+            if let Some(info) = info {
+                binaries.push(super::PlatformBinary { entry, info });
             }
-            // A macOS universal binary may hold other slices beside the tuple's.
-            if !info.slices.iter().any(|s| s.architecture == arch) {
-                let held: Vec<&str> = info
-                    .slices
-                    .iter()
-                    .map(|s| s.architecture.as_str())
-                    .collect();
-                let m = format!("holds {held:?}, {tuple} needs an {arch} slice");
-                findings.push(finding("binary-format", &entry, m));
-            }
-            let need = required_functions();
-            for slice in &info.slices {
-                let missing: Vec<&str> = need
-                    .iter()
-                    .copied()
-                    .filter(|f| slice.exports.binary_search(&f.to_string()).is_err())
-                    .collect();
-                if !missing.is_empty() {
-                    let m = format!(
-                        "the {} slice does not export {} of the functions of fmi3Functions.h, \
-                         which an FMU implements whatever interfaces it declares: {}",
-                        slice.architecture,
-                        missing.len(),
-                        missing.join(", ")
-                    );
-                    findings.push(finding("symbols", &entry, m));
-                }
-            }
-            binaries.push(super::PlatformBinary { entry, info });
         }
     }
     (findings, binaries)
+}
+
+/// The findings on the library `entry` of the platform tuple `tuple` (which needs `format` with
+/// an `arch` slice), read from `bytes`, and what it is (None when it is not a readable binary):
+/// its format and architectures, and the functions of `fmi3Functions.h` each slice exports.
+fn check_library3(
+    bytes: &[u8],
+    entry: &str,
+    (tuple, format, arch): (&str, &str, &str),
+) -> (Vec<Finding>, Option<host::binary::BinaryInfo>) {
+    let info = match host::binary::inspect(bytes) {
+        Ok(info) => info,
+        Err(e) => return (vec![finding("binary-format", entry, e)], None),
+    };
+    let mut findings = Vec::new();
+    if info.format != format {
+        let m = format!("is {}, but {tuple} needs {format}", info.format);
+        findings.push(finding("binary-format", entry, m));
+    }
+    // A macOS universal binary may hold other slices beside the tuple's.
+    if !info.slices.iter().any(|s| s.architecture == arch) {
+        let held: Vec<&str> = info
+            .slices
+            .iter()
+            .map(|s| s.architecture.as_str())
+            .collect();
+        let m = format!("holds {held:?}, {tuple} needs an {arch} slice");
+        findings.push(finding("binary-format", entry, m));
+    }
+    let need = required_functions();
+    for slice in &info.slices {
+        let missing = missing_exports(&need, slice);
+        if !missing.is_empty() {
+            let m = format!(
+                "the {} slice does not export {} of the functions of fmi3Functions.h, which an \
+                 FMU implements whatever interfaces it declares: {}",
+                slice.architecture,
+                missing.len(),
+                missing.join(", ")
+            );
+            findings.push(finding("symbols", entry, m));
+        }
+    }
+    (findings, Some(info))
 }
 
 #[cfg(test)]

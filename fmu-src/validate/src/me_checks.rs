@@ -6,16 +6,14 @@
 //! The check of a restored FMU state ([`check_state_restore`]) serves the Co-Simulation probe of
 //! FMI 3.0 too.
 //!
-//! Each check returns `Ok(None)` when the FMU does what the standard says, `Ok(Some(message))`
-//! with what it did instead, and `Err` when a call the standard allows failed.
+//! Each check returns a [`Verdict`]: `Ok(None)` when the FMU does what the standard says,
+//! `Ok(Some(message))` with what it did instead, and `Err` when a call the standard allows failed.
 
+use super::cases::MakeFinding;
+use super::error::{ProbeError, Verdict};
+use super::instance::{FmuStates, StateCallNames};
 use super::Finding;
-use crate::error::HostError;
-use crate::me::ModelExchange;
-
-/// What a check found: `Ok(None)` conforming, `Ok(Some(message))` a finding, `Err` a failing
-/// call the standard allows.
-pub type Verdict = Result<Option<String>, String>;
+use host::me::ModelExchange;
 
 /// Where the probe's normal Model Exchange sequence left an instance (in Continuous-Time Mode).
 #[derive(Clone, Copy, Debug)]
@@ -33,8 +31,8 @@ pub fn normal_case(
     name: &str,
     step: &mut dyn FnMut(&str) -> bool,
     f: &mut Vec<Finding>,
-    finding: fn(&str, String, String) -> Finding,
-    run: impl FnOnce() -> Result<(), String>,
+    finding: MakeFinding,
+    run: impl FnOnce() -> Result<(), ProbeError>,
 ) -> bool {
     if !step(name) {
         return false;
@@ -59,7 +57,7 @@ pub fn check_case(
     (name, check): (&str, &str),
     step: &mut dyn FnMut(&str) -> bool,
     f: &mut Vec<Finding>,
-    finding: fn(&str, String, String) -> Finding,
+    finding: MakeFinding,
     run: impl FnOnce() -> Verdict,
 ) {
     if !step(name) {
@@ -69,17 +67,13 @@ pub fn check_case(
     match run() {
         Ok(None) => {}
         Ok(Some(m)) => f.push(finding(check, loc, m)),
-        Err(e) => f.push(finding("probe-normal-run", loc, e)),
+        Err(e) => f.push(finding("probe-normal-run", loc, e.to_string())),
     }
 }
 
 /// The cube root of the machine epsilon, 2^(-52/3): the relative step of a central difference
 /// that balances its truncation error against rounding.
 const CBRT_EPSILON: f64 = 6.055454452393344e-6;
-
-fn s(e: HostError) -> String {
-    e.to_string()
-}
 
 /// Relative tolerance between a directional derivative and a finite difference. Generous: a
 /// wrong entry is typically off by its own size, while a correct one differs from a difference
@@ -99,8 +93,8 @@ pub fn check_directional<M: ModelExchange>(me: &mut M) -> Verdict {
     }
     let n = me.states();
     let (mut x, mut nominal) = (vec![0.0; n], vec![0.0; n]);
-    me.get_states(&mut x).map_err(s)?;
-    me.get_nominals(&mut nominal).map_err(s)?;
+    me.get_states(&mut x)?;
+    me.get_nominals(&mut nominal)?;
     let Some(f0) = derivatives_at(me, &x) else {
         return Ok(None);
     };
@@ -120,8 +114,8 @@ pub fn check_directional<M: ModelExchange>(me: &mut M) -> Verdict {
         let Some(fm) = derivatives_at(me, &xp) else {
             return Ok(None);
         };
-        me.set_states(&x).map_err(s)?;
-        me.state_derivative_column(j, &mut column).map_err(s)?;
+        me.set_states(&x)?;
+        me.state_derivative_column(j, &mut column)?;
         for i in 0..n {
             let forward = (fp[i] - f0[i]) / delta;
             let backward = (f0[i] - fm[i]) / delta;
@@ -143,7 +137,7 @@ pub fn check_directional<M: ModelExchange>(me: &mut M) -> Verdict {
             }
         }
     }
-    me.set_states(&x).map_err(s)?;
+    me.set_states(&x)?;
     Ok(None)
 }
 
@@ -158,22 +152,26 @@ fn derivatives_at<M: ModelExchange>(me: &mut M, x: &[f64]) -> Option<Vec<f64>> {
 
 /// One explicit Euler step of length `h` from time `t` (x(t + h) = x(t) + h dx/dt(t)), with
 /// `completedIntegratorStep` when the FMU needs it. Returns whether it asked for an event.
-pub fn euler_step<M: ModelExchange>(me: &mut M, t: f64, h: f64) -> Result<bool, String> {
+pub fn euler_step<M: ModelExchange>(me: &mut M, t: f64, h: f64) -> Result<bool, ProbeError> {
     let n = me.states();
     let (mut x, mut dx) = (vec![0.0; n], vec![0.0; n]);
-    me.set_time(t).map_err(s)?;
-    me.get_states(&mut x).map_err(s)?;
-    me.get_derivatives(&mut dx).map_err(s)?;
+    me.set_time(t)?;
+    me.get_states(&mut x)?;
+    me.get_derivatives(&mut dx)?;
     if let Some(i) = dx.iter().position(|d| !d.is_finite()) {
-        return Err(format!("derivative {i} is {} at t = {t}", dx[i]));
+        return Err(ProbeError::DerivativeNotFinite {
+            index: i,
+            value: dx[i],
+            time: t,
+        });
     }
     for (xi, di) in x.iter_mut().zip(&dx) {
         *xi += h * di;
     }
-    me.set_time(t + h).map_err(s)?;
-    me.set_states(&x).map_err(s)?;
+    me.set_time(t + h)?;
+    me.set_states(&x)?;
     if me.needs_completed_integrator_step() {
-        return Ok(me.completed_integrator_step().map_err(s)?.enter_event_mode);
+        return Ok(me.completed_integrator_step()?.enter_event_mode);
     }
     Ok(false)
 }
@@ -185,12 +183,12 @@ pub fn euler_run<M: ModelExchange>(
     t: f64,
     h: f64,
     steps: usize,
-) -> Result<Vec<u64>, String> {
+) -> Result<Vec<u64>, ProbeError> {
     let mut x = vec![0.0; me.states()];
     let mut bits = Vec::new();
     for k in 0..steps {
         euler_step(me, t + k as f64 * h, h)?;
-        me.get_states(&mut x).map_err(s)?;
+        me.get_states(&mut x)?;
         bits.extend(x.iter().map(|v| v.to_bits()));
     }
     Ok(bits)
@@ -211,7 +209,7 @@ pub fn check_event<M: ModelExchange>(me: &mut M, from: Reached, h: f64) -> Verdi
     let (n, m) = (me.states(), me.indicators());
     let (mut z0, mut z1) = (vec![0.0; m], vec![0.0; m]);
     let (mut t, mut next_time) = (from.t, from.next_event);
-    me.get_event_indicators(&mut z0).map_err(s)?;
+    me.get_event_indicators(&mut z0)?;
     for _ in 0..EVENT_SEARCH_STEPS {
         let step = next_time.map_or(h, |te| (te - t).clamp(0.0, h));
         // Explicit Euler is unstable on a stiff FMU with this step: derivatives that the FMU
@@ -228,12 +226,12 @@ pub fn check_event<M: ModelExchange>(me: &mut M, from: Reached, h: f64) -> Verdi
         let time_event = next_time.is_some_and(|te| t >= te);
         if state_event || time_event || step_event {
             let mut before = vec![0.0; n];
-            me.get_states(&mut before).map_err(s)?;
-            me.enter_event_mode().map_err(s)?;
+            me.get_states(&mut before)?;
+            me.enter_event_mode()?;
             let (mut changed, mut terminate) = (false, false);
             next_time = None;
             for _ in 0..1000 {
-                let info = me.new_discrete_states().map_err(s)?;
+                let info = me.new_discrete_states()?;
                 changed |= info.values_changed;
                 terminate |= info.terminate_simulation;
                 next_time = info.next_event_time;
@@ -242,7 +240,7 @@ pub fn check_event<M: ModelExchange>(me: &mut M, from: Reached, h: f64) -> Verdi
                 }
             }
             let mut after = vec![0.0; n];
-            me.get_states(&mut after).map_err(s)?;
+            me.get_states(&mut after)?;
             let moved = before
                 .iter()
                 .zip(&after)
@@ -259,39 +257,12 @@ pub fn check_event<M: ModelExchange>(me: &mut M, from: Reached, h: f64) -> Verdi
             if terminate || state_event {
                 return Ok(None);
             }
-            me.enter_continuous_time_mode().map_err(s)?;
-            me.get_event_indicators(&mut z1).map_err(s)?;
+            me.enter_continuous_time_mode()?;
+            me.get_event_indicators(&mut z1)?;
         }
         std::mem::swap(&mut z0, &mut z1);
     }
     Ok(None)
-}
-
-/// How one FMI version's messages name the FMU state calls.
-pub(crate) struct StateCallNames {
-    /// The call that saves a state (`fmi2GetFMUstate`).
-    pub get: &'static str,
-    /// The call that restores one (`fmi2SetFMUstate`).
-    pub set: &'static str,
-    /// Serialize, deserialize and set, as one phrase.
-    pub copy: &'static str,
-}
-
-/// The FMU state calls of one FMI version's instance, as [`check_state_restore`] uses them;
-/// a failing call is its error message.
-pub(crate) trait FmuStates {
-    /// A saved FMU state.
-    type State;
-    /// The names of the calls in this version's spelling.
-    const NAMES: StateCallNames;
-    /// Saves the instance's state.
-    fn get_state(&mut self) -> Result<Self::State, String>;
-    /// Restores `state`.
-    fn set_state(&mut self, state: &Self::State) -> Result<(), String>;
-    /// Serializes `state` and deserializes the bytes into a new state.
-    fn serialized_copy(&mut self, state: &Self::State) -> Result<Self::State, String>;
-    /// Frees `state` (a failure changes no verdict: the check is made).
-    fn free_state(&mut self, state: Self::State);
 }
 
 /// Saves the FMU state, runs `run`, restores the state and runs it again, then (if `serialize`)
@@ -301,7 +272,7 @@ pub(crate) trait FmuStates {
 pub(crate) fn check_state_restore<I: FmuStates>(
     inst: &mut I,
     (what, serialize): (&str, bool),
-    run: &mut dyn FnMut(&mut I) -> Result<Vec<u64>, String>,
+    run: &mut dyn FnMut(&mut I) -> Result<Vec<u64>, ProbeError>,
 ) -> Verdict {
     let StateCallNames { get, set, copy } = I::NAMES;
     let saved = inst.get_state()?;
@@ -318,7 +289,10 @@ pub(crate) fn check_state_restore<I: FmuStates>(
             return Ok(None);
         }
         let restored = inst.serialized_copy(&saved)?;
-        let again = inst.set_state(&restored).and_then(|()| run(inst));
+        let again = inst
+            .set_state(&restored)
+            .map_err(ProbeError::from)
+            .and_then(|()| run(inst));
         inst.free_state(restored);
         Ok((again? != first)
             .then(|| format!("after {copy} the {what} differ from those after {get}")))

@@ -13,26 +13,37 @@
 //!   (with a logged message) and not crash; a normal run must succeed. Run it in a child process
 //!   (the CLI does) so that a crashing FMU becomes a finding.
 //! - [`probe3`](mod@probe3): the same for FMI 3.0 Co-Simulation and Model Exchange.
-//! - [`me_checks`]: the Model Exchange checks both probes share (directional derivatives
-//!   against finite differences, the event flags at a state event, Euler runs to compare) and
-//!   the check of a restored FMU state.
+//!
+//! The probes are written once where the versions agree: the Model Exchange probe
+//! (`probe_me.rs`) and its checks (`me_checks.rs`: directional derivatives against finite
+//! differences, the event flags at a state event, Euler runs to compare, a restored FMU state)
+//! over the instance calls of either version (`instance.rs`), the wrong-call cases and how an
+//! answer is judged (`cases.rs`). A call that fails in a probe's legal sequence is a
+//! [`ProbeError`].
+#![warn(missing_docs)]
 
 pub mod binary;
+mod cases;
 pub mod description;
+mod error;
 pub mod fmi3;
-pub mod me_checks;
+mod instance;
+mod me_checks;
 pub mod probe;
 pub mod probe3;
+mod probe_me;
+mod rules;
 
 pub use binary::{check_files, check_platform_binaries, check_symbols, PlatformBinary};
 pub use description::{
     check_effect_convention, check_model_description, combination_allowed, initial_allowed,
 };
+pub use error::{ProbeError, Stage};
 pub use fmi3::{check_model_description3, check_platform_binaries3};
 pub use probe::{probe, probe_me, ME_PROBE_CASES, PROBE_CASES};
 pub use probe3::{probe3, probe3_me, PROBE3_CASES};
 
-use crate::md::ScalarVariable;
+use host::md::ScalarVariable;
 use std::fmt;
 
 /// Whether the standard requires what a check found, or only permits better.

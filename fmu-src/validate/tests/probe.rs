@@ -1,0 +1,127 @@
+//! The validator against a real FMU: the state-machine probe and the file checks on the test FMU
+//! of host/tests/fixtures (compiled here), conforming, lax and with a broken FMU state.
+// Host side: runs in the user's process, not inside an FMU; the FMUs' bit-determinism (the
+// workspace clippy.toml) does not bind it.
+#![allow(clippy::disallowed_methods)]
+
+#[path = "../../host/tests/common/mod.rs"]
+mod common;
+
+use host::Fmu;
+use std::path::PathBuf;
+
+/// The test FMU compiled with `defines` as `name`, in a directory that lives as long as the
+/// first of the pair.
+fn built(name: &str, defines: &[&str]) -> (tempfile::TempDir, PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = common::build_fmu(dir.path(), name, defines, &common::fixture_md());
+    (dir, path)
+}
+
+fn dummy() -> (tempfile::TempDir, Fmu) {
+    let (dir, path) = built("Dummy", &[]);
+    let fmu = Fmu::open(&path).unwrap();
+    (dir, fmu)
+}
+
+#[test]
+fn probe_finds_nothing_in_a_conforming_fmu() {
+    let (_d, fmu) = dummy();
+    let mut steps = Vec::new();
+    let f = validate::probe(&fmu, &mut |s| {
+        steps.push(s.to_string());
+        true
+    });
+    assert_eq!(f, vec![]);
+    assert_eq!(
+        steps,
+        vec![
+            "normal-run",
+            "fmu-state",
+            "do-step-before-init",
+            "negative-step",
+            "wrong-communication-point",
+            "unknown-value-reference",
+            "nan-input",
+            "fixed-parameter-after-init",
+            "wrong-type",
+            "do-step-after-terminate"
+        ]
+    );
+    let ex = host::Extracted::open(fmu.path()).unwrap();
+    assert_eq!(validate::check_symbols(&ex), vec![]);
+    assert_eq!(validate::check_files(&ex), vec![]);
+}
+
+#[test]
+fn probe_notes_every_wrong_call_a_lax_fmu_accepts() {
+    let (_dir, path) = built("Lax", &["-DLAX", "-DMISSING_SYMBOL"]);
+    let fmu = Fmu::open(&path).unwrap();
+    assert_eq!(fmu.missing_functions(), vec!["fmi2GetStringStatus"]);
+    let f = validate::probe(&fmu, &mut |_| true);
+    let locs: Vec<&str> = f.iter().map(|x| x.location.as_str()).collect();
+    assert_eq!(
+        locs,
+        vec![
+            "probe do-step-before-init",
+            "probe negative-step",
+            "probe wrong-communication-point",
+            "probe unknown-value-reference",
+            "probe nan-input",
+            "probe fixed-parameter-after-init",
+            "probe wrong-type",
+            "probe do-step-after-terminate"
+        ]
+    );
+    // The standard leaves the answer to a call the importer must not make (or to a NaN) to the
+    // FMU: each is a note, none a finding.
+    assert!(
+        f.iter()
+            .all(|x| x.message.contains("returned fmi2OK;") && !x.is_required()),
+        "{f:#?}"
+    );
+    let ex = host::Extracted::open(&path).unwrap();
+    let s = validate::check_symbols(&ex);
+    assert_eq!(s.len(), 1);
+    assert_eq!(s[0].message, "does not export fmi2GetStringStatus");
+    // skipping a case through the callback
+    let f = validate::probe(&fmu, &mut |s| s != "negative-step");
+    assert_eq!(f.len(), 7);
+}
+
+#[test]
+fn check_files_reports_a_missing_binary() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("modelDescription.xml"),
+        common::fixture_md(),
+    )
+    .unwrap();
+    std::fs::create_dir_all(dir.path().join("binaries/win64")).unwrap();
+    let ex = host::Extracted::open(dir.path()).unwrap();
+    let f = validate::check_files(&ex);
+    assert_eq!(f.len(), 1);
+    assert_eq!(
+        f[0].message,
+        "no binary Dummy.so (platforms present: win64)"
+    );
+    assert!(Fmu::open(dir.path())
+        .err()
+        .unwrap()
+        .to_string()
+        .contains("no binary for this platform"));
+}
+
+#[test]
+fn probe_catches_a_state_that_is_not_fully_restored() {
+    let (_dir, path) = built("BrokenState", &["-DBROKEN_STATE"]);
+    let fmu = Fmu::open(&path).unwrap();
+    let f = validate::probe(&fmu, &mut |_| true);
+    assert_eq!(f.len(), 1, "{f:#?}");
+    assert_eq!(f[0].location, "probe fmu-state");
+    assert!(
+        f[0].message
+            .contains("after fmi2SetFMUstate the outputs differ"),
+        "{f:#?}"
+    );
+}
