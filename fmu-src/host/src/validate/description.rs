@@ -5,7 +5,6 @@ use super::{var_loc, Finding};
 use crate::md::{
     Causality, Initial, ModelDescription, ScalarVariable, StartValue, VarKind, Variability,
 };
-use fmi2_types::effects;
 use std::collections::{BTreeSet, HashMap};
 
 fn is_c_identifier(s: &str) -> bool {
@@ -14,7 +13,7 @@ fn is_c_identifier(s: &str) -> bool {
         && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
 }
 
-pub use fmi2_types::schema::{combination_allowed, initial_allowed};
+pub use fmi_types::schema::{combination_allowed, initial_allowed};
 
 /// Checks of `modelDescription.xml` for a Co-Simulation FMU.
 pub fn check_model_description(md: &ModelDescription) -> Vec<Finding> {
@@ -640,7 +639,7 @@ fn check_listed_derivative(
     }
 }
 
-/// The candidate-effect convention (see [`fmi2_types::effects`]) for FMUs meant for the gap
+/// The candidate-effect convention (see [`effects`]) for FMUs meant for the gap
 /// workflow, one finding per departure, located at its variable.
 pub fn check_effect_convention(md: &ModelDescription) -> Vec<Finding> {
     let vars: Vec<&ScalarVariable> = md

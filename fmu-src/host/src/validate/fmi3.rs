@@ -6,7 +6,7 @@ use super::Finding;
 use crate::fmi3::md::{Causality3, Interface3, ModelDescription3, Unknown3, Variable3};
 use crate::fmi3::value::Type3;
 use crate::md::{Initial, Variability};
-use fmi2_types::schema::{combination_allowed, initial_allowed, Causality};
+use fmi_types::schema::{combination_allowed, initial_allowed, Causality};
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::path::Path;
 
