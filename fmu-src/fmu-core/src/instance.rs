@@ -9,11 +9,23 @@
 //! step leaves the outputs of the last good communication point and moves the instance to
 //! [`MachineState::Error`], from which a reset or an FMU-state restore recovers.
 
-use crate::machine::{Call, Checked, Interface, MachineState, StateNames, LOG_CATEGORIES};
+use crate::machine::{Call, Checked, Interface, MachineState, StateNames};
 use crate::snapshot::Snapshot;
 use crate::{Causality, MeVTable, Model, ModelError, VarType};
 
 pub use fmi_types::Status;
+
+/// The log categories declared in `LogCategories` of both versions' descriptions, in this
+/// order (the descriptions carry these words as they are).
+pub const LOG_CATEGORIES: [(&str, &str); 4] = [
+    (
+        "logStatusError",
+        "Errors: why a call returned fmi2Error (always logged)",
+    ),
+    ("logStatusWarning", "Warnings"),
+    ("logEvents", "Initialization, steps, resets, FMU states"),
+    ("logAll", "Everything, including every call"),
+];
 
 /// A message waiting to be passed to the logger.
 #[derive(Clone, Debug, PartialEq)]

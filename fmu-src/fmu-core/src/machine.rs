@@ -150,14 +150,3 @@ pub struct StateNames {
     /// The words between "not allowed in " and the name.
     pub article: &'static str,
 }
-
-/// The log categories declared in `LogCategories`, in this order.
-pub const LOG_CATEGORIES: [(&str, &str); 4] = [
-    (
-        "logStatusError",
-        "Errors: why a call returned fmi2Error (always logged)",
-    ),
-    ("logStatusWarning", "Warnings"),
-    ("logEvents", "Initialization, steps, resets, FMU states"),
-    ("logAll", "Everything, including every call"),
-];

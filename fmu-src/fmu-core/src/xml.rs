@@ -4,7 +4,7 @@
 //! The GUID is derived from the content (SHA-256 of the description written with a zero GUID),
 //! so the same table always gives the same file and any change gives a new GUID.
 
-use crate::machine::LOG_CATEGORIES;
+use crate::instance::LOG_CATEGORIES;
 use crate::units;
 use crate::{Causality, Initial, Model, VarType, Variable};
 use fmi_types::schema::{combination_allowed, initial_allowed};

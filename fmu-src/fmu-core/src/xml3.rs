@@ -3,7 +3,7 @@
 //! `Int32`, Boolean `Boolean`; `time` is added as the independent variable; the
 //! `instantiationToken` is the FMI 2.0 description's GUID (the same model, the same FMU states).
 
-use crate::machine::LOG_CATEGORIES;
+use crate::instance::LOG_CATEGORIES;
 use crate::units;
 use crate::xml::{fmt_f64, guid, unit_definitions};
 use crate::{Causality, Initial, MeVTable, Model, VarType, Variable};
