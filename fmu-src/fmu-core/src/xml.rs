@@ -149,21 +149,8 @@ fn write_description<M: Model>(guid: &str) -> String {
         unit_definitions(&mut ev, &units);
     }
 
-    ev(Event::Start(BytesStart::new("LogCategories")));
-    for (name, description) in LOG_CATEGORIES {
-        let mut e = BytesStart::new("Category");
-        e.push_attribute(("name", name));
-        e.push_attribute(("description", description));
-        ev(Event::Empty(e));
-    }
-    ev(Event::End(BytesEnd::new("LogCategories")));
-
-    let mut de = BytesStart::new("DefaultExperiment");
-    de.push_attribute(("startTime", "0"));
-    de.push_attribute(("stopTime", fmt_f64(M::DEFAULT_STOP_TIME).as_str()));
-    de.push_attribute(("tolerance", fmt_f64(M::DEFAULT_TOLERANCE).as_str()));
-    de.push_attribute(("stepSize", fmt_f64(M::DEFAULT_STEP_SIZE).as_str()));
-    ev(Event::Empty(de));
+    log_categories(&mut ev);
+    default_experiment::<M>(&mut ev);
 
     ev(Event::Start(BytesStart::new("ModelVariables")));
     for (i, v) in vars.iter().enumerate() {
@@ -286,6 +273,28 @@ fn write_description<M: Model>(guid: &str) -> String {
     let mut s = String::from_utf8(w.into_inner()).expect("the writer writes UTF-8");
     s.push('\n');
     s
+}
+
+/// `<LogCategories>` (the same element in FMI 2.0 and FMI 3.0).
+pub(crate) fn log_categories(ev: &mut dyn FnMut(Event)) {
+    ev(Event::Start(BytesStart::new("LogCategories")));
+    for (name, description) in LOG_CATEGORIES {
+        let mut e = BytesStart::new("Category");
+        e.push_attribute(("name", name));
+        e.push_attribute(("description", description));
+        ev(Event::Empty(e));
+    }
+    ev(Event::End(BytesEnd::new("LogCategories")));
+}
+
+/// `<DefaultExperiment>` (the same element in FMI 2.0 and FMI 3.0).
+pub(crate) fn default_experiment<M: Model>(ev: &mut dyn FnMut(Event)) {
+    let mut de = BytesStart::new("DefaultExperiment");
+    de.push_attribute(("startTime", "0"));
+    de.push_attribute(("stopTime", fmt_f64(M::DEFAULT_STOP_TIME).as_str()));
+    de.push_attribute(("tolerance", fmt_f64(M::DEFAULT_TOLERANCE).as_str()));
+    de.push_attribute(("stepSize", fmt_f64(M::DEFAULT_STEP_SIZE).as_str()));
+    ev(Event::Empty(de));
 }
 
 /// The content-derived GUID: SHA-256 of the description written with a zero GUID, as a UUID.

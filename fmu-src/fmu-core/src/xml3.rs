@@ -3,9 +3,8 @@
 //! `Int32`, Boolean `Boolean`; `time` is added as the independent variable; the
 //! `instantiationToken` is the FMI 2.0 description's GUID (the same model, the same FMU states).
 
-use crate::instance::LOG_CATEGORIES;
 use crate::units;
-use crate::xml::{fmt_f64, guid, unit_definitions};
+use crate::xml::{default_experiment, fmt_f64, guid, log_categories, unit_definitions};
 use crate::{Causality, Initial, MeVTable, Model, VarType, Variable};
 use quick_xml::events::{BytesDecl, BytesEnd, BytesStart, Event};
 use quick_xml::Writer;
@@ -92,26 +91,6 @@ fn co_simulation<M: Model>(ev: &mut Ev) {
         cs.push_attribute((k, v));
     }
     ev(Event::Empty(cs));
-}
-
-fn log_categories(ev: &mut Ev) {
-    ev(Event::Start(BytesStart::new("LogCategories")));
-    for (name, description) in LOG_CATEGORIES {
-        let mut e = BytesStart::new("Category");
-        e.push_attribute(("name", name));
-        e.push_attribute(("description", description));
-        ev(Event::Empty(e));
-    }
-    ev(Event::End(BytesEnd::new("LogCategories")));
-}
-
-fn default_experiment<M: Model>(ev: &mut Ev) {
-    let mut de = BytesStart::new("DefaultExperiment");
-    de.push_attribute(("startTime", "0"));
-    de.push_attribute(("stopTime", fmt_f64(M::DEFAULT_STOP_TIME).as_str()));
-    de.push_attribute(("tolerance", fmt_f64(M::DEFAULT_TOLERANCE).as_str()));
-    de.push_attribute(("stepSize", fmt_f64(M::DEFAULT_STEP_SIZE).as_str()));
-    ev(Event::Empty(de));
 }
 
 /// One variable element: `<Float64 name=... valueReference=... .../>`; `derivative` is the value
