@@ -64,7 +64,7 @@ def test_the_shipped_models_and_the_test_model_are_crates():
 def test_model_follows_the_checklist(crate):
     src = SRC / crate / "src"
     assert "declare_variables!" in (src / "vars.rs").read_text()
-    assert re.search(r"impl\s+(fmi2_export::)?Model\s+for\s+\w+", (src / "model.rs").read_text())
+    assert re.search(r"impl\s+(fmu_core::)?Model\s+for\s+\w+", (src / "model.rs").read_text())
     assert "pub fn html() -> String" in (src / "docs.rs").read_text()
     assert "table_problems::<" in (src / "lib.rs").read_text()
     assert BINARY["features"][crate] == [f"dep:{crate}"]
