@@ -1,9 +1,11 @@
-"""Write the licences of everything compiled into a model crate's binaries into a directory
-(the FMU's documentation/licenses/): every crate its library links (normal dependencies, not
-build-time proc-macros), each as <name>-<version>.txt with its SPDX expression, repository and
-the licence files the crate ships, plus the Rust standard library's licence texts and an index.
+"""Write the licences of everything compiled into an FMU's binaries into a directory (the FMU's
+documentation/licenses/): every crate the library of CRATE built with FEATURES links (normal
+dependencies, not build-time proc-macros), each as <name>-<version>.txt with its SPDX
+expression, repository and the licence files the crate ships, plus the Rust standard library's
+licence texts and an index.
 
-usage: python scripts/licenses.py CRATE OUT_DIR    (run from the repository root)
+usage: python scripts/licenses.py CRATE OUT_DIR [FEATURES]    (run from the repository root)
+e.g.   python scripts/licenses.py fmu-binary OUT hydraulic-joint,fmi3
 Deterministic: the same Cargo.lock gives the same files."""
 import json
 import subprocess
@@ -13,10 +15,12 @@ from pathlib import Path
 LICENSE_NAMES = ("LICENSE", "LICENCE", "COPYING", "COPYRIGHT", "UNLICENSE", "NOTICE")
 
 
-def linked_packages(crate):
+def linked_packages(crate, features):
+    qualified = ",".join(f"{crate}/{f}" for f in features.split(",") if f)
     meta = json.loads(subprocess.run(
         ["cargo", "metadata", "--format-version", "1", "--locked",
-         "--filter-platform", "x86_64-unknown-linux-gnu"],
+         "--filter-platform", "x86_64-unknown-linux-gnu"]
+        + (["--features", qualified] if qualified else []),
         check=True, capture_output=True, text=True).stdout)
     packages = {p["id"]: p for p in meta["packages"]}
     nodes = {n["id"]: n for n in meta["resolve"]["nodes"]}
@@ -43,11 +47,12 @@ def licence_files(package):
                   if f.is_file() and f.name.upper().startswith(LICENSE_NAMES))
 
 
-def main(crate, out):
+def main(crate, out, features=""):
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    packages, members = linked_packages(crate)
-    index = [f"Licences of the software compiled into the binaries of this FMU ({crate}).", ""]
+    packages, members = linked_packages(crate, features)
+    built = f"{crate} with {features}" if features else crate
+    index = [f"Licences of the software compiled into the binaries of this FMU ({built}).", ""]
     repo_licence = Path("LICENSE")
     for p in packages:
         name = f"{p['name']}-{p['version']}.txt"

@@ -1,6 +1,7 @@
 """ARCHITECTURE.md stays true: every crate is on the map, dependencies point the one way the map
-draws, every model crate follows the "Adding a model" checklist, and every path the map names
-exists."""
+draws (one version-neutral core, the FMI 2.0 and FMI 3.0 layers as siblings over it, model crates
+that know no FMI version, one binary crate and no per-model wrapper), every model crate follows
+the "Adding a model" checklist, and every path the map names exists."""
 import re
 import tomllib
 from pathlib import Path
@@ -11,25 +12,28 @@ ROOT = Path(__file__).resolve().parent.parent
 SRC = ROOT / "fmu-src"
 ARCH = (ROOT / "ARCHITECTURE.md").read_text()
 CRATES = sorted(p.parent.name for p in SRC.glob("*/Cargo.toml"))
-MODELS = [c for c in CRATES if (SRC / c / "src" / "bin" / f"describe-{c}.rs").is_file()]
+BINARY = tomllib.loads((SRC / "fmu-binary" / "Cargo.toml").read_text())
+VERSION_LAYERS = {"fmi2": "fmi2-export", "fmi3": "fmi3-export"}
+# The models are what fmu-binary's features pick besides the FMI version.
+MODELS = sorted(f for f in BINARY["features"] if f not in VERSION_LAYERS)
 
 # What each kind of crate may use inside the workspace (the arrows of the map).
 MAY_USE = {
-    "fmi2-types": set(),
+    "fmi-types": set(),
+    "effects": {"fmi-types"},
     "ode": set(),
     "packager": set(),
-    "fmi2-export": {"fmi2-types"},
-    "fmi3-export": {"fmi2-export"},
-    "hydraulic-joint-fmi3": {"fmi3-export", "hydraulic-joint"},
-    "twisted-string-fmi3": {"fmi3-export", "twisted-string"},
-    "test-oscillator-fmi3": {"fmi3-export", "test-oscillator"},
-    "host": {"fmi2-types", "ode"},
-    "gap": {"fmi2-types", "host"},
-    "validate": {"fmi2-types", "host"},
-    "cli": {"fmi2-types", "host", "gap", "validate"},
+    "fmu-core": {"fmi-types", "effects"},
+    "fmi2-export": {"fmu-core", "fmi-types"},
+    "fmi3-export": {"fmu-core", "fmi-types"},
+    "fmu-binary": {"fmu-core", "fmi2-export", "fmi3-export", *MODELS},
+    "host": {"fmi-types", "effects", "ode"},
+    "gap": {"fmi-types", "effects", "host"},
+    "validate": {"fmi-types", "effects", "host"},
+    "cli": {"fmi-types", "host", "gap", "validate"},
     "bench": {"host"},
 }
-MODEL_MAY_USE = {"fmi2-export", "ode"}
+MODEL_MAY_USE = {"fmu-core", "ode"}
 
 
 def workspace_deps(crate):
@@ -61,9 +65,10 @@ def test_the_shipped_models_and_the_test_model_are_crates():
 def test_model_follows_the_checklist(crate):
     src = SRC / crate / "src"
     assert "declare_variables!" in (src / "vars.rs").read_text()
-    assert re.search(r"impl\s+(fmi2_export::)?Model\s+for\s+\w+", (src / "model.rs").read_text())
+    assert re.search(r"impl\s+(fmu_core::)?Model\s+for\s+\w+", (src / "model.rs").read_text())
     assert "pub fn html() -> String" in (src / "docs.rs").read_text()
-    assert "export_model!(" in (src / "lib.rs").read_text()
+    assert "table_problems::<" in (src / "lib.rs").read_text()
+    assert BINARY["features"][crate] == [f"dep:{crate}"]
     build = (ROOT / "scripts" / "build").read_text()
     m = re.search(rf'"{crate}:(\w+):(dist|target/fmus)"', build)
     assert m, f"{crate} is not in MODELS of scripts/build"
@@ -91,3 +96,33 @@ def test_every_path_on_the_map_exists():
         if "<" in path or "*" in path:
             continue
         assert (ROOT / path).exists(), f"ARCHITECTURE.md names {path}, which does not exist"
+
+
+def test_one_core_under_two_sibling_layers():
+    """Both FMI layers stand on the one core and never on each other."""
+    for layer in VERSION_LAYERS.values():
+        assert "fmu-core" in workspace_deps(layer), layer
+    assert "fmi3-export" not in workspace_deps("fmi2-export")
+    assert "fmi2-export" not in workspace_deps("fmi3-export")
+    assert [c for c in CRATES if "core" in c] == ["fmu-core"]
+
+
+@pytest.mark.parametrize("crate", MODELS)
+def test_model_crates_know_no_fmi_version(crate):
+    """A model is a plain library: no FMI layer, no version feature, no C exports, no binaries."""
+    manifest = tomllib.loads((SRC / crate / "Cargo.toml").read_text())
+    assert not set(VERSION_LAYERS.values()) & workspace_deps(crate)
+    assert "features" not in manifest, f"{crate} has features {manifest.get('features')}"
+    assert "cdylib" not in manifest.get("lib", {}).get("crate-type", [])
+    assert not (SRC / crate / "src" / "bin").exists()
+    for f in (SRC / crate / "src").glob("*.rs"):
+        text = f.read_text()
+        assert "export_model!" not in text and "export_fmi3!" not in text, f
+
+
+def test_no_per_model_wrapper_crates():
+    """Only fmu-binary links a model into an FMU binary, for either version."""
+    assert not [c for c in CRATES if c.endswith(("-fmi2", "-fmi3"))]
+    for c in CRATES:
+        if c != "fmu-binary":
+            assert not set(MODELS) & workspace_deps(c), c

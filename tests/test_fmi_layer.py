@@ -1,4 +1,4 @@
-"""The generic FMI 2.0 Co-Simulation layer (fmi2-export), proven on the Oscillator test model and
+"""The generic FMI 2.0 Co-Simulation layer (fmi2-export over fmu-core), proven on the Oscillator test model and
 on every FMU in dist/: validation, every exported function with its status and logged message,
 wrong call order, bad arguments, FMU state save/restore/serialize to the last bit, reproducible
 packaging and model descriptions that match the committed ones."""

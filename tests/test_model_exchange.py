@@ -1,4 +1,4 @@
-"""FMI 2.0 Model Exchange of the generic layer (fmi2-export), proven on the Oscillator test model:
+"""FMI 2.0 Model Exchange of the generic layer (fmi2-export over fmu-core), proven on the Oscillator test model:
 FMPy's CVode agrees with the closed form, the Model Exchange state machine (FMI 2.0.4 section
 3.2.3) refuses calls in the wrong state with fmi2Error and a message and changes nothing, array
 sizes are checked, and an FMU state saved in Continuous-Time Mode continues bit for bit."""

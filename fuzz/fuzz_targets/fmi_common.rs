@@ -1,8 +1,7 @@
 //! Shared part of the `fmi_api_*` targets: random FMI 2.0 call sequences with random and hostile
-//! arguments through the generic C entry points of `fmi2_export::ffi` (exactly what each model's
-//! exported `fmi2*` symbol calls). One target per model (HydraulicJoint, TwistedString, the
-//! Oscillator test model), because each model rlib exports the same `fmi2*` symbols and they
-//! cannot be linked into one binary.
+//! arguments through the generic C entry points of `fmi2-export` (`ffi`, `states`: exactly what
+//! each exported `fmi2*` symbol of an FMI 2.0 `fmu-binary` calls). One target per model
+//! (HydraulicJoint, TwistedString, the Oscillator test model).
 //!
 //! Besides "no crash, no panic across the ABI, no sanitizer finding", each call checks what the
 //! standard and the layer promise:
@@ -10,9 +9,15 @@
 //! - fmi2OK/fmi2Warning from a getter gives finite values;
 //! - a serialized FMU state deserializes into a state that serializes to the same bytes.
 
-use fmi2_export::ffi::{self, *};
-use fmi2_export::Model;
+use fmi2_export::ffi::*;
+use fmi2_export::fmu_core::Model;
 use libfuzzer_sys::arbitrary::{self, Arbitrary};
+
+/// The C entry points the targets call, under one name.
+mod ffi {
+    pub use fmi2_export::ffi::*;
+    pub use fmi2_export::states::*;
+}
 use std::cell::RefCell;
 use std::ffi::{c_char, c_int, c_void, CStr};
 
@@ -251,7 +256,7 @@ impl<M: Model> Driver<M> {
 
     unsafe fn instantiate(&mut self, bad: u8, logging: bool) {
         self.free();
-        let guid = std::ffi::CString::new(fmi2_export::xml::guid::<M>()).unwrap();
+        let guid = std::ffi::CString::new(fmi2_export::fmu_core::xml::guid::<M>()).unwrap();
         let name = c"fuzz";
         let (n, ty, g, f) = match bad % 8 {
             0 => (std::ptr::null(), 1, guid.as_ptr(), &*self.cb as *const _),
@@ -262,7 +267,7 @@ impl<M: Model> Driver<M> {
             5 => (name.as_ptr(), 1, guid.as_ptr(), std::ptr::null()),
             _ => (name.as_ptr(), 1, guid.as_ptr(), &*self.cb as *const _),
         };
-        self.c = ffi::instantiate::<M>(n, ty, g, c"file:///tmp".as_ptr(), f, 0, logging as c_int);
+        self.c = ffi::instantiate::<M>(n, ty, g, f, logging as c_int);
         let log = take_log();
         if bad % 8 < 5 {
             assert!(
@@ -434,7 +439,7 @@ impl<M: Model> Driver<M> {
                     self.time = t + h;
                     let mut out = vec![0.0; n_vars];
                     let vrs: Vec<u32> = (0..n_vars as u32)
-                        .filter(|&i| M::variables()[i as usize].vtype == fmi2_export::VarType::Real)
+                        .filter(|&i| M::variables()[i as usize].vtype == fmi2_export::fmu_core::VarType::Real)
                         .collect();
                     let s2 = ffi::get_real::<M>(c, vrs.as_ptr(), vrs.len(), out.as_mut_ptr());
                     assert_eq!(

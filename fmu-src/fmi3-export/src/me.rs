@@ -1,8 +1,6 @@
-//! The FMI 3.0 Model Exchange functions (FMI 3.0.2 chapter 3) over the Model Exchange of the
-//! shared [`fmi2_export::Instance`] (`fmi2_export::me_instance`): this module converts pointers,
-//! checks the FMI 3.0 state first (with the FMI 3.0 state names) and maps each call onto the
-//! instance's, whose own check then passes (every mask here lies inside the instance's, tested in
-//! `ffi`). `catch_unwind` at every entry through [`with_component`].
+//! The FMI 3.0 Model Exchange functions (FMI 3.0.2 chapter 3) and the directional and adjoint
+//! derivatives of both interfaces, over the instance's ([`fmu_core::me_instance`],
+//! [`fmu_core::directional`]): this module converts pointers after the state check.
 //!
 //! States: Instantiated, Initialization Mode, Event Mode (entered by
 //! `fmi3ExitInitializationMode` and `fmi3EnterEventMode`), Continuous-Time Mode (entered by
@@ -10,124 +8,70 @@
 
 #![allow(clippy::missing_safety_doc)]
 
-use crate::c::*;
-use crate::ffi::{allowed, slice, slice_mut, with_component, Component};
-use crate::EVENT_INDICATOR_VALUE_REFERENCE;
-use fmi2_export::instance::{Interface, Status};
-use fmi2_export::me_instance::{EventInfo, Knowns};
-use fmi2_export::Model;
-
-/// Refuse a Model Exchange function on a Co-Simulation instance, then check the state.
-fn check_me<M: Model>(comp: &mut Component<M>, func: &str, mask: u32) -> Result<(), Status> {
-    if comp.instance.interface != Interface::ModelExchange {
-        return Err(comp.instance.error(
-            func,
-            "a Model Exchange function called on a Co-Simulation instance",
-        ));
-    }
-    comp.check(func, mask)
-}
-
-/// The value of event indicator `k` (value reference [`EVENT_INDICATOR_VALUE_REFERENCE`]` + k`)
-/// at the instance's current time, states and inputs; `None` when the model has no such
-/// indicator.
-pub(crate) fn event_indicator<M: Model>(comp: &Component<M>, k: usize) -> Option<f64> {
-    let me = M::model_exchange()?;
-    if k >= me.event_indicators {
-        return None;
-    }
-    let mut z = vec![0.0; me.event_indicators];
-    let i = &comp.instance;
-    (me.indicators)(&i.model, &i.vars, i.time, &mut z);
-    Some(z[k])
-}
-
-/// The position of an event indicator's value reference, when it is one of the model's.
-pub(crate) fn event_indicator_index<M: Model>(vr: Fmi3ValueReference) -> Option<usize> {
-    let n = M::model_exchange().map_or(0, |me| me.event_indicators);
-    let k = vr.checked_sub(EVENT_INDICATOR_VALUE_REFERENCE)? as usize;
-    (k < n).then_some(k)
-}
-
-/// A mode change or a call without arrays: check the state, then call the instance.
-unsafe fn simple<M: Model>(
-    c: Fmi3Instance,
-    func: &'static str,
-    mask: u32,
-    f: impl FnOnce(&mut Component<M>) -> Status,
-) -> Fmi3Status {
-    with_component::<M>(c, func, |comp| match check_me(comp, func, mask) {
-        Ok(()) => f(comp),
-        Err(s) => s,
-    })
-}
-
-/// A call of either interface (directional and adjoint derivatives): check the state, then call
-/// the instance.
-unsafe fn either_interface<M: Model>(
-    c: Fmi3Instance,
-    func: &'static str,
-    mask: u32,
-    f: impl FnOnce(&mut Component<M>) -> Status,
-) -> Fmi3Status {
-    with_component::<M>(c, func, |comp| match comp.check(func, mask) {
-        Ok(()) => f(comp),
-        Err(s) => s,
-    })
-}
+use crate::calls;
+use crate::ffi::{Component, Fmi3Logger};
+use fmi_types::c3::*;
+use fmu_core::glue::{slice, slice_mut, Logger};
+use fmu_core::machine::Call;
+use fmu_core::{Checked, EventInfo, Knowns, Model, Status};
 
 pub unsafe fn enter_event_mode<M: Model>(c: Fmi3Instance) -> Fmi3Status {
-    const F: &str = "fmi3EnterEventMode";
-    simple::<M>(c, F, allowed::ENTER_EVENT_MODE, |comp| {
-        comp.instance.enter_event_mode()
+    Fmi3Logger::checked::<M>(c, calls::ENTER_EVENT_MODE, |comp, call| {
+        comp.instance.enter_event_mode(call)
     })
 }
 
 pub unsafe fn enter_continuous_time_mode<M: Model>(c: Fmi3Instance) -> Fmi3Status {
-    const F: &str = "fmi3EnterContinuousTimeMode";
-    simple::<M>(c, F, allowed::ENTER_CONTINUOUS_TIME_MODE, |comp| {
-        comp.instance.enter_continuous_time_mode()
+    Fmi3Logger::checked::<M>(c, calls::ENTER_CONTINUOUS_TIME_MODE, |comp, call| {
+        comp.instance.enter_continuous_time_mode(call)
     })
 }
 
 pub unsafe fn set_time<M: Model>(c: Fmi3Instance, t: Fmi3Float64) -> Fmi3Status {
-    simple::<M>(c, "fmi3SetTime", allowed::SET_TIME, |comp| {
-        comp.instance.set_time(t)
+    Fmi3Logger::checked::<M>(c, calls::SET_TIME, |comp, call| {
+        comp.instance.set_time(call, t)
     })
+}
+
+/// The outputs of `fmi3UpdateDiscreteStates` besides its status.
+pub struct DiscreteStateOutputs {
+    pub need_update: *mut Fmi3Boolean,
+    pub terminate: *mut Fmi3Boolean,
+    pub nominals_changed: *mut Fmi3Boolean,
+    pub values_changed: *mut Fmi3Boolean,
+    pub next_defined: *mut Fmi3Boolean,
+    pub next: *mut Fmi3Float64,
 }
 
 /// `fmi3UpdateDiscreteStates`: the instance's event update (iterated to a fixed point), its
 /// event info written to the six outputs (`nextEventTime` 0 when not defined). Every output
 /// pointer must be valid.
-#[allow(clippy::too_many_arguments)]
 pub unsafe fn update_discrete_states<M: Model>(
     c: Fmi3Instance,
-    need_update: *mut Fmi3Boolean,
-    terminate: *mut Fmi3Boolean,
-    nominals_changed: *mut Fmi3Boolean,
-    values_changed: *mut Fmi3Boolean,
-    next_defined: *mut Fmi3Boolean,
-    next: *mut Fmi3Float64,
+    out: DiscreteStateOutputs,
 ) -> Fmi3Status {
-    const F: &str = "fmi3UpdateDiscreteStates";
-    simple::<M>(c, F, allowed::UPDATE_DISCRETE_STATES, |comp| {
-        if need_update.is_null()
-            || terminate.is_null()
-            || nominals_changed.is_null()
-            || values_changed.is_null()
-            || next_defined.is_null()
-            || next.is_null()
-        {
-            return comp.instance.error(F, "an output argument is NULL");
-        }
+    Fmi3Logger::checked::<M>(c, calls::UPDATE_DISCRETE_STATES, |comp, call| {
+        let pointers = (
+            out.need_update.as_mut(),
+            out.terminate.as_mut(),
+            out.nominals_changed.as_mut(),
+            out.values_changed.as_mut(),
+            out.next_defined.as_mut(),
+            out.next.as_mut(),
+        );
+        let (Some(need), Some(stop), Some(nominals), Some(values), Some(defined), Some(next)) =
+            pointers
+        else {
+            return comp.instance.error(call.name, "an output argument is NULL");
+        };
         let mut info = EventInfo::default();
-        let s = comp.instance.new_discrete_states(&mut info);
+        let s = comp.instance.new_discrete_states(call, &mut info);
         if s == Status::Ok {
-            *need_update = info.new_discrete_states_needed;
-            *terminate = info.terminate_simulation;
-            *nominals_changed = info.nominals_of_continuous_states_changed;
-            *values_changed = info.values_of_continuous_states_changed;
-            *next_defined = info.next_event_time.is_some();
+            *need = info.new_discrete_states_needed;
+            *stop = info.terminate_simulation;
+            *nominals = info.nominals_of_continuous_states_changed;
+            *values = info.values_of_continuous_states_changed;
+            *defined = info.next_event_time.is_some();
             *next = info.next_event_time.unwrap_or(0.0);
         }
         s
@@ -140,17 +84,15 @@ pub unsafe fn completed_integrator_step<M: Model>(
     enter_event_mode: *mut Fmi3Boolean,
     terminate: *mut Fmi3Boolean,
 ) -> Fmi3Status {
-    const F: &str = "fmi3CompletedIntegratorStep";
-    simple::<M>(c, F, allowed::COMPLETED_INTEGRATOR_STEP, |comp| {
-        if enter_event_mode.is_null() || terminate.is_null() {
+    Fmi3Logger::checked::<M>(c, calls::COMPLETED_INTEGRATOR_STEP, |comp, call| {
+        let (Some(event), Some(stop)) = (enter_event_mode.as_mut(), terminate.as_mut()) else {
             return comp
                 .instance
-                .error(F, "enterEventMode or terminateSimulation is NULL");
-        }
-        let (s, event, stop) = comp.instance.completed_integrator_step();
+                .error(call.name, "enterEventMode or terminateSimulation is NULL");
+        };
+        let (s, enter, end) = comp.instance.completed_integrator_step(call);
         if s == Status::Ok {
-            *enter_event_mode = event;
-            *terminate = stop;
+            (*event, *stop) = (enter, end);
         }
         s
     })
@@ -161,11 +103,10 @@ pub unsafe fn set_continuous_states<M: Model>(
     x: *const Fmi3Float64,
     n: usize,
 ) -> Fmi3Status {
-    const F: &str = "fmi3SetContinuousStates";
-    simple::<M>(c, F, allowed::SET_CONTINUOUS_STATES, |comp| {
+    Fmi3Logger::checked::<M>(c, calls::SET_CONTINUOUS_STATES, |comp, call| {
         match slice(x, n) {
-            Some(x) => comp.instance.set_continuous_states(x),
-            None => comp.instance.error(F, "continuousStates is NULL"),
+            Some(x) => comp.instance.set_continuous_states(call, x),
+            None => comp.instance.error(call.name, "continuousStates is NULL"),
         }
     })
 }
@@ -173,16 +114,13 @@ pub unsafe fn set_continuous_states<M: Model>(
 /// An array getter: check the state and the pointer, then let the instance fill the array.
 unsafe fn get_array<M: Model>(
     c: Fmi3Instance,
-    func: &'static str,
-    what: &str,
-    mask: u32,
-    p: *mut Fmi3Float64,
-    n: usize,
-    f: impl FnOnce(&mut Component<M>, &mut [f64]) -> Status,
+    (call, what): (Call, &str),
+    (p, n): (*mut Fmi3Float64, usize),
+    f: impl FnOnce(&mut Component<M>, Checked, &mut [f64]) -> Status,
 ) -> Fmi3Status {
-    simple::<M>(c, func, mask, |comp| match slice_mut(p, n) {
-        Some(out) => f(comp, out),
-        None => comp.instance.error(func, format!("{what} is NULL")),
+    Fmi3Logger::checked::<M>(c, call, |comp, call| match slice_mut(p, n) {
+        Some(out) => f(comp, call, out),
+        None => comp.instance.error(call.name, format!("{what} is NULL")),
     })
 }
 
@@ -191,16 +129,10 @@ pub unsafe fn get_continuous_state_derivatives<M: Model>(
     dx: *mut Fmi3Float64,
     n: usize,
 ) -> Fmi3Status {
-    const F: &str = "fmi3GetContinuousStateDerivatives";
-    get_array::<M>(
-        c,
-        F,
-        "derivatives",
-        allowed::GET_DERIVATIVES,
-        dx,
-        n,
-        |comp, dx| comp.instance.get_derivatives(dx),
-    )
+    let call = (calls::GET_CONTINUOUS_STATE_DERIVATIVES, "derivatives");
+    get_array::<M>(c, call, (dx, n), |comp, call, dx| {
+        comp.instance.get_derivatives(call, dx)
+    })
 }
 
 pub unsafe fn get_event_indicators<M: Model>(
@@ -208,16 +140,10 @@ pub unsafe fn get_event_indicators<M: Model>(
     z: *mut Fmi3Float64,
     n: usize,
 ) -> Fmi3Status {
-    const F: &str = "fmi3GetEventIndicators";
-    get_array::<M>(
-        c,
-        F,
-        "eventIndicators",
-        allowed::GET_EVENT_INDICATORS,
-        z,
-        n,
-        |comp, z| comp.instance.get_event_indicators(z),
-    )
+    let call = (calls::GET_EVENT_INDICATORS, "eventIndicators");
+    get_array::<M>(c, call, (z, n), |comp, call, z| {
+        comp.instance.get_event_indicators(call, z)
+    })
 }
 
 pub unsafe fn get_continuous_states<M: Model>(
@@ -225,16 +151,10 @@ pub unsafe fn get_continuous_states<M: Model>(
     x: *mut Fmi3Float64,
     n: usize,
 ) -> Fmi3Status {
-    const F: &str = "fmi3GetContinuousStates";
-    get_array::<M>(
-        c,
-        F,
-        "continuousStates",
-        allowed::GET_CONTINUOUS_STATES,
-        x,
-        n,
-        |comp, x| comp.instance.get_continuous_states(x),
-    )
+    let call = (calls::GET_CONTINUOUS_STATES, "continuousStates");
+    get_array::<M>(c, call, (x, n), |comp, call, x| {
+        comp.instance.get_continuous_states(call, x)
+    })
 }
 
 pub unsafe fn get_nominals_of_continuous_states<M: Model>(
@@ -242,16 +162,10 @@ pub unsafe fn get_nominals_of_continuous_states<M: Model>(
     nominals: *mut Fmi3Float64,
     n: usize,
 ) -> Fmi3Status {
-    const F: &str = "fmi3GetNominalsOfContinuousStates";
-    get_array::<M>(
-        c,
-        F,
-        "nominals",
-        allowed::GET_NOMINALS,
-        nominals,
-        n,
-        |comp, v| comp.instance.get_nominals(v),
-    )
+    let call = (calls::GET_NOMINALS_OF_CONTINUOUS_STATES, "nominals");
+    get_array::<M>(c, call, (nominals, n), |comp, call, v| {
+        comp.instance.get_nominals(call, v)
+    })
 }
 
 /// `fmi3GetNumberOfContinuousStates` / `fmi3GetNumberOfEventIndicators` (any state of a Model
@@ -262,10 +176,12 @@ pub unsafe fn get_number_of<M: Model>(
     event_indicators: bool,
     n: *mut usize,
 ) -> Fmi3Status {
-    simple::<M>(c, func, allowed::ANY, |comp| {
-        if n.is_null() {
-            return comp.instance.error(func, "the output argument is NULL");
-        }
+    Fmi3Logger::checked::<M>(c, calls::count(func), |comp, call| {
+        let Some(n) = n.as_mut() else {
+            return comp
+                .instance
+                .error(call.name, "the output argument is NULL");
+        };
         let me = M::model_exchange();
         *n = if event_indicators {
             me.map_or(0, |me| me.event_indicators)
@@ -274,16 +190,6 @@ pub unsafe fn get_number_of<M: Model>(
         };
         Status::Ok
     })
-}
-
-/// The arrays of `fmi3GetDirectionalDerivative` and `fmi3GetAdjointDerivative`: every variable
-/// is a scalar, so `nSeed` equals the number of seeded variables and `nSensitivity` the number
-/// of variables the result is for.
-struct DerivativeArgs<'a> {
-    unknowns: &'a [Fmi3ValueReference],
-    knowns: &'a [Fmi3ValueReference],
-    seed: &'a [f64],
-    sensitivity: &'a mut [f64],
 }
 
 /// The arrays of `fmi3GetDirectionalDerivative` and `fmi3GetAdjointDerivative` as the importer
@@ -295,28 +201,12 @@ pub struct RawDerivativeArgs {
     pub sensitivity: (*mut Fmi3Float64, usize),
 }
 
-/// What `fmi3GetDirectionalDerivative` and `fmi3GetAdjointDerivative` share: the state check,
-/// then the arrays converted and checked ([`derivative_args`]), then `body` on them.
-unsafe fn derivative_call<M: Model>(
-    c: Fmi3Instance,
-    func: &'static str,
-    raw: RawDerivativeArgs,
-    adjoint: bool,
-    body: impl FnOnce(&mut Component<M>, DerivativeArgs<'_>) -> Status,
-) -> Fmi3Status {
-    either_interface::<M>(
-        c,
-        func,
-        allowed::DIRECTIONAL_DERIVATIVE,
-        |comp| match derivative_args(comp, func, raw, adjoint) {
-            Ok(args) => body(comp, args),
-            Err(s) => s,
-        },
-    )
-}
+/// The arrays converted and checked: every variable is a scalar, so `nSeed` equals the number
+/// of seeded variables and `nSensitivity` the number of variables the result is for (the
+/// adjoint seeds the unknowns and gives one sensitivity per known, the directional derivative
+/// the other way round).
+type DerivativeArgs<'a> = (&'a [u32], &'a [u32], &'a [f64], &'a mut [f64]);
 
-/// Convert and check the arrays: the adjoint seeds the unknowns and gives one sensitivity per
-/// known, the directional derivative the other way round.
 unsafe fn derivative_args<'a, M: Model>(
     comp: &mut Component<M>,
     func: &str,
@@ -345,12 +235,7 @@ unsafe fn derivative_args<'a, M: Model>(
         slice(seed, n_seed),
         slice_mut(sensitivity, n_sensitivity),
     ) {
-        (Some(unknowns), Some(knowns), Some(seed), Some(sensitivity)) => Ok(DerivativeArgs {
-            unknowns,
-            knowns,
-            seed,
-            sensitivity,
-        }),
+        (Some(u), Some(k), Some(seed), Some(sensitivity)) => Ok((u, k, seed, sensitivity)),
         _ => Err(comp
             .instance
             .error(func, "unknowns, knowns, seed or sensitivity is NULL")),
@@ -358,112 +243,35 @@ unsafe fn derivative_args<'a, M: Model>(
 }
 
 /// `fmi3GetDirectionalDerivative` (Model Exchange; Co-Simulation in Step Mode at the
-/// communication point): `sensitivity = J seed` for the unknowns
-/// (derivatives, outputs) with respect to the knowns (states, inputs and Float64 parameters,
-/// FMI 3.0.2 section 2.4.8), section 3.2.4; the instance's directional derivative (the model's
-/// analytic Jacobian for derivatives with respect to states, differences of the model's
-/// evaluation for the other knowns).
+/// communication point): `sensitivity = J seed` for the unknowns (derivatives, outputs) with
+/// respect to the knowns (states, inputs and Float64 parameters, FMI 3.0.2 section 2.4.8),
+/// section 3.2.4.
 pub unsafe fn get_directional_derivative<M: Model>(
     c: Fmi3Instance,
     raw: RawDerivativeArgs,
 ) -> Fmi3Status {
-    const F: &str = "fmi3GetDirectionalDerivative";
-    derivative_call::<M>(c, F, raw, false, |comp, args| {
-        comp.instance.directional_derivative(
-            F,
-            Knowns::WithParameters,
-            (args.unknowns, args.knowns, args.seed, args.sensitivity),
-        )
+    Fmi3Logger::checked::<M>(c, calls::GET_DIRECTIONAL_DERIVATIVE, |comp, call| {
+        match derivative_args(comp, call.name, raw, false) {
+            Ok(args) => comp
+                .instance
+                .directional_derivative(call, Knowns::WithParameters, args),
+            Err(s) => s,
+        }
     })
 }
 
-/// `fmi3GetAdjointDerivative` (as the directional one): `sensitivity = seed^T J`, FMI 3.0.2 section
-/// 3.2.4, one column `J e_j` of the same directional derivative per known `j`:
-/// `sensitivity_j = sum_i seed_i J_ij` (the instance evaluates the model's state Jacobian once
-/// for all columns and keeps it while the point does not change). Nothing is written unless
-/// every column succeeds.
+/// `fmi3GetAdjointDerivative` (as the directional one): `sensitivity = seed^T J`, FMI 3.0.2
+/// section 3.2.4.
 pub unsafe fn get_adjoint_derivative<M: Model>(
     c: Fmi3Instance,
     raw: RawDerivativeArgs,
 ) -> Fmi3Status {
-    const F: &str = "fmi3GetAdjointDerivative";
-    derivative_call::<M>(c, F, raw, true, |comp, args| {
-        if let Some(v) = args.seed.iter().find(|v| !v.is_finite()) {
-            return comp
-                .instance
-                .error(F, format!("seed holds {v}, not a finite number"));
-        }
-        let mut column = vec![0.0; args.unknowns.len()];
-        let mut out = vec![0.0; args.knowns.len()];
-        for (o, &known) in out.iter_mut().zip(args.knowns) {
-            let s = comp.instance.directional_derivative(
-                F,
-                Knowns::WithParameters,
-                (args.unknowns, &[known], &[1.0], &mut column),
-            );
-            if s != Status::Ok {
-                return s;
-            }
-            *o = column.iter().zip(args.seed).map(|(j, v)| j * v).sum();
-        }
-        args.sensitivity.copy_from_slice(&out);
-        Status::Ok
-    })
-}
-
-/// `fmi3SetFloat64` in Continuous-Time Mode: continuous inputs as the instance sets them, and
-/// continuous-time states as `fmi3SetContinuousStates` would (FMI 3.0.2 section 3.2.1 allows
-/// both). The states' values are checked (finite) before anything changes; the inputs are set
-/// first (the instance's checks refuse the call as a whole), then the states.
-pub(crate) fn set_float64_in_continuous_time_mode<M: Model>(
-    comp: &mut Component<M>,
-    func: &str,
-    vrs: &[Fmi3ValueReference],
-    vals: &[f64],
-) -> Status {
-    let Some(me) = M::model_exchange() else {
-        return comp
-            .instance
-            .set_values(func, fmi2_export::VarType::Real, vrs, vals);
-    };
-    let table = M::variables();
-    let state_of = |vr: Fmi3ValueReference| {
-        me.state_variables
-            .iter()
-            .position(|&(x, _)| table[x].value_reference == vr)
-    };
-    let mut updates = Vec::new();
-    let (mut input_vrs, mut input_vals) = (Vec::new(), Vec::new());
-    for (&vr, &v) in vrs.iter().zip(vals) {
-        match state_of(vr) {
-            Some(k) if !v.is_finite() => {
-                let name = table[me.state_variables[k].0].name;
-                return comp
-                    .instance
-                    .error(func, format!("state '{name}' = {v} is not finite"));
-            }
-            Some(k) => updates.push((k, v)),
-            None => {
-                input_vrs.push(vr);
-                input_vals.push(v);
-            }
-        }
-    }
-    if updates.is_empty() || !input_vrs.is_empty() {
-        let s = comp
-            .instance
-            .set_values(func, fmi2_export::VarType::Real, &input_vrs, &input_vals);
-        if s != Status::Ok || updates.is_empty() {
-            return s;
-        }
-    }
-    let mut x = vec![0.0; me.states];
-    let s = comp.instance.get_continuous_states(&mut x);
-    if s != Status::Ok {
-        return s;
-    }
-    for (k, v) in updates {
-        x[k] = v;
-    }
-    comp.instance.set_continuous_states(&x)
+    Fmi3Logger::checked::<M>(
+        c,
+        calls::GET_ADJOINT_DERIVATIVE,
+        |comp, call| match derivative_args(comp, call.name, raw, true) {
+            Ok(args) => comp.instance.adjoint_derivative(call, args),
+            Err(s) => s,
+        },
+    )
 }

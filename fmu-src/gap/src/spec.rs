@@ -3,7 +3,7 @@
 //! parameters `<effect>.<name>`; base parameters calibrated by default carry the description tag
 //! `[calibrate]`.
 
-use fmi2_types::{effects, VarKind, Variability};
+use fmi_types::{VarKind, Variability};
 use serde::Serialize;
 
 /// Type of a parameter as declared in the model description.
@@ -76,7 +76,7 @@ pub struct EffectSpec {
 }
 
 /// The candidate-effect convention read from a parameter list (one reading shared with the
-/// exporter and the validator: [`fmi2_types::effects`]).
+/// exporter and the validator: [`effects`]).
 pub fn convention(params: &[ParamSpec]) -> effects::Convention {
     let scanned: Vec<effects::Param> = params
         .iter()

@@ -3,7 +3,7 @@
 use std::fmt;
 use std::path::PathBuf;
 
-pub use fmi2_types::Status;
+pub use fmi_types::Status;
 
 /// One message an FMU logged through the `fmi2CallbackLogger`.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]

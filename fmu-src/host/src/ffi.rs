@@ -7,7 +7,7 @@ use std::ffi::{c_char, c_int, c_void, CStr};
 use std::path::Path;
 use std::sync::Mutex;
 
-pub use fmi2_types::c::{
+pub use fmi_types::c::{
     Boolean as Fmi2Boolean, CallbackFunctions, Component, FmuState, RawStatus, ValueReference,
 };
 
@@ -112,7 +112,7 @@ pub extern "C" fn log_sink(
 }
 
 /// Names of every function an FMI 2.0 Co-Simulation binary must export (FMI 2.0.4, 2.1 and 4.2).
-pub use fmi2_types::c::CO_SIMULATION_FUNCTIONS as FMI2_CS_FUNCTIONS;
+pub use fmi_types::c::CO_SIMULATION_FUNCTIONS as FMI2_CS_FUNCTIONS;
 
 type C = Component;
 type Vr = *const ValueReference;
@@ -223,7 +223,7 @@ pub const FMI2_ME_FUNCTIONS: &[&str] = &[
 /// Stands in for `fmi2DoStep` in a binary without it (Model Exchange only): never called on a
 /// Model Exchange instance; returns fmi2Error should anything call it.
 unsafe extern "C" fn absent_do_step(_: C, _: f64, _: f64, _: Fmi2Boolean) -> RawStatus {
-    fmi2_types::c::ERROR
+    fmi_types::c::ERROR
 }
 
 /// The Model Exchange table, when every function of it is exported.

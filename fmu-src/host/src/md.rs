@@ -8,7 +8,7 @@
 use crate::error::HostError;
 use crate::xml::{parse_real, Ancestors, Attrs, Doc, Visitor};
 
-pub use fmi2_types::{Causality, Initial, VarKind, Variability};
+pub use fmi_types::{Causality, Initial, VarKind, Variability};
 
 /// A start value, typed by the variable's type element.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -86,7 +86,7 @@ impl ScalarVariable {
     /// locals, none for inputs and the independent variable).
     pub fn effective_initial(&self) -> Option<Initial> {
         self.initial
-            .or_else(|| fmi2_types::schema::default_initial(self.causality, self.variability))
+            .or_else(|| fmi_types::schema::default_initial(self.causality, self.variability))
     }
 }
 

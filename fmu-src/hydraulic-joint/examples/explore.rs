@@ -1,7 +1,7 @@
 //! Quick exploration: runs scenarios through the Model trait and prints key numbers.
 // A development tool run on this machine, not FMU code (workspace clippy.toml).
 #![allow(clippy::disallowed_methods)]
-use fmi2_export::Model;
+use fmu_core::Model;
 use hydraulic_joint::vars::{V, VARIABLES};
 use hydraulic_joint::HydraulicJoint;
 

@@ -1,7 +1,7 @@
 //! HydraulicJoint FMU: the NEUROexos agonist/antagonist hydraulic shoulder joint
 //! (paper: "Description, Characterization and Assessment of a Bio-Inspired Shoulder Joint-First
-//! Link Robot for Neuro-Robotic Applications"), exported as an FMI 2.0 FMU for Co-Simulation
-//! and Model Exchange.
+//! Link Robot for Neuro-Robotic Applications"), a model for Co-Simulation and Model Exchange
+//! (built into FMI 2.0 and FMI 3.0 FMUs by `fmu-binary`).
 //!
 //! Modules: [`physics`] (pure equations), [`controller`] (the 40 Hz position controller),
 //! [`plant`] (state vector and right-hand side), [`vars`] (variable table), [`model`] (the
@@ -21,5 +21,9 @@ pub mod vars;
 pub use model::HydraulicJoint;
 pub use vars::{V, VARIABLES};
 
-#[cfg(feature = "fmi2")]
-fmi2_export::export_model!(HydraulicJoint);
+/// The variable table follows the FMI rules and the candidate-effect convention.
+#[test]
+fn the_variable_table_is_consistent() {
+    let problems = fmu_core::table_problems::<HydraulicJoint>();
+    assert!(problems.is_empty(), "{problems:#?}");
+}

@@ -17,7 +17,7 @@ use crate::controller::controller_update;
 use crate::model::{read_params, HydraulicJoint};
 use crate::plant::{spool, Plant, NOMINAL_BASE, NOMINAL_MEMORY, NOMINAL_SPOOL, TH, VRET, VSUP};
 use crate::vars::V;
-use fmi2_export::{ModelError, ModelExchange, Values, ValuesMut};
+use fmu_core::{ModelError, ModelExchange, Values, ValuesMut};
 use ode::SampleClock;
 
 /// Length of the Model Exchange state vector.
@@ -263,15 +263,15 @@ const MEMORY: [usize; 2] = [
     V::SEAL_FRICTION_MEMORY_TIME as usize,
 ];
 /// The valve's opening and its flows: command, spool, orifices.
-const P_FLOW: &[usize] = fmi2_export::parameter_groups!(COMMAND, SPOOL, ORIFICES);
+const P_FLOW: &[usize] = fmu_core::parameter_groups!(COMMAND, SPOOL, ORIFICES);
 const P_PRESSURES: &[usize] =
-    fmi2_export::parameter_groups!(COMMAND, SPOOL, ORIFICES, OIL, CHAMBERS, LEAKAGE);
-const P_OIL_TOTALS: &[usize] = fmi2_export::parameter_groups!(COMMAND, SPOOL, ORIFICES, OIL);
-const P_TENSION: &[usize] = fmi2_export::parameter_groups!(CABLE, CAPSTAN);
-const P_LINK: &[usize] = fmi2_export::parameter_groups!(LINK, CABLE, CAPSTAN);
-const P_PISTON: &[usize] = fmi2_export::parameter_groups!(PISTON, CABLE);
-const P_STORED: &[usize] = fmi2_export::parameter_groups!(CHAMBERS, OIL);
-const P_SPOOL_RATE: &[usize] = fmi2_export::parameter_groups!(SPOOL, COMMAND);
+    fmu_core::parameter_groups!(COMMAND, SPOOL, ORIFICES, OIL, CHAMBERS, LEAKAGE);
+const P_OIL_TOTALS: &[usize] = fmu_core::parameter_groups!(COMMAND, SPOOL, ORIFICES, OIL);
+const P_TENSION: &[usize] = fmu_core::parameter_groups!(CABLE, CAPSTAN);
+const P_LINK: &[usize] = fmu_core::parameter_groups!(LINK, CABLE, CAPSTAN);
+const P_PISTON: &[usize] = fmu_core::parameter_groups!(PISTON, CABLE);
+const P_STORED: &[usize] = fmu_core::parameter_groups!(CHAMBERS, OIL);
+const P_SPOOL_RATE: &[usize] = fmu_core::parameter_groups!(SPOOL, COMMAND);
 const P_FORCE: &[usize] = &[V::PISTON_AREA as usize, V::ANNULUS_AREA as usize];
 const P_SPOOL: &[usize] = &[V::VALVE_DYNAMICS_ENABLED as usize];
 
@@ -512,7 +512,7 @@ mod tests {
     use crate::model::HydraulicJoint;
     use crate::plant::{piston, OM, TH};
     use crate::vars::{V, VARIABLES};
-    use fmi2_export::{Model, ModelExchange};
+    use fmu_core::{Model, ModelExchange};
 
     fn initialized(setup: impl Fn(&mut [f64])) -> (HydraulicJoint, Vec<f64>) {
         let mut vars: Vec<f64> = VARIABLES.iter().map(|v| v.start).collect();

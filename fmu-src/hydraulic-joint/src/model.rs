@@ -4,7 +4,7 @@
 use crate::controller::{controller_update, ControllerParams, U_MAX};
 use crate::plant::*;
 use crate::vars::{V, VARIABLES};
-use fmi2_export::{Model, ModelError, Values, ValuesMut, Variable};
+use fmu_core::{Model, ModelError, Values, ValuesMut, Variable};
 use ode::{Integrator, SampleClock};
 use serde::{Deserialize, Serialize};
 
@@ -237,8 +237,8 @@ impl Model for HydraulicJoint {
         crate::docs::html()
     }
 
-    fn model_exchange() -> Option<fmi2_export::MeVTable<Self>> {
-        Some(fmi2_export::MeVTable::of())
+    fn model_exchange() -> Option<fmu_core::MeVTable<Self>> {
+        Some(fmu_core::MeVTable::of())
     }
 
     fn new() -> Self {
@@ -359,7 +359,7 @@ mod tests {
     use crate::physics::free_piston_slopes;
     use crate::plant::Plant;
     use crate::vars::{V, VARIABLES};
-    use fmi2_export::Model;
+    use fmu_core::Model;
 
     fn defaults() -> Vec<f64> {
         VARIABLES.iter().map(|v| v.start).collect()

@@ -8,7 +8,7 @@
 
 use crate::controller::{ControllerParams, DEAD_BAND_BLEND};
 use crate::physics::*;
-use fmi2_export::ModelError;
+use fmu_core::ModelError;
 use serde::{Deserialize, Serialize};
 
 pub const TH: usize = 0;

@@ -1,7 +1,7 @@
 //! The variable table. Names and value references are a fixed interface: users, tests and
 //! scripts address variables by them; a new variable takes a new value reference.
 
-use fmi2_export::Variable;
+use fmu_core::Variable;
 
 /// Table I orifice coefficient with no FMI unit: the SI unit m3 s^-1 V^-1 Pa^-1/2 has a
 /// half-integer exponent, which FMI `BaseUnit` cannot express; it is stated in the description.
@@ -11,7 +11,7 @@ const fn coefficient(name: &'static str, start: f64, description: &'static str) 
         .unit_not_expressible()
 }
 
-fmi2_export::declare_variables! {
+fmu_core::declare_variables! {
     // ---- mode flags
     INTERNAL_CONTROLLER = 0 => Variable::flag("internal_controller", true,
         "true: the 40 Hz controller (paper sec. IV) tracks theta_ref; false: valve voltages from u_left, u_right"),

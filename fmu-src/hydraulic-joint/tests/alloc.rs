@@ -4,7 +4,7 @@
 // The test's input signal may use the platform libm (workspace clippy.toml binds FMU code).
 #![allow(clippy::disallowed_methods)]
 
-use fmi2_export::Model;
+use fmu_core::Model;
 use hydraulic_joint::vars::{V, VARIABLES};
 use hydraulic_joint::HydraulicJoint;
 use std::alloc::{GlobalAlloc, Layout, System};

@@ -2,7 +2,7 @@
 //! right-hand side `(x, v)' = (v, (F - c v - k x) / m)` (Model Exchange), outputs.
 
 use crate::vars::{V, VARIABLES};
-use fmi2_export::{MeVTable, Model, ModelError, ModelExchange, Values, ValuesMut, Variable};
+use fmu_core::{MeVTable, Model, ModelError, ModelExchange, Values, ValuesMut, Variable};
 use serde::{Deserialize, Serialize};
 
 /// The physical state; parameters copied at initialization.
@@ -205,7 +205,7 @@ impl ModelExchange for Oscillator {
 mod tests {
     use super::Oscillator;
     use crate::vars::{V, VARIABLES};
-    use fmi2_export::Model;
+    use fmu_core::Model;
 
     #[test]
     fn free_oscillation_matches_closed_form() {

@@ -1,7 +1,7 @@
 //! The variable table: every input, output and parameter of the oscillator with its fixed value
 //! reference, unit, range, start and description, declared once.
 
-use fmi2_export::{declare_variables, Variable};
+use fmu_core::{declare_variables, Variable};
 
 declare_variables! {
     MASS = 0 => Variable::parameter("mass", 1.0, "kg", "Mass m").range(1e-3, 1e3),

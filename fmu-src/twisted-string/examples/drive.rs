@@ -1,5 +1,5 @@
 //! Drive the model directly (no FMI): `cargo run --release -p twisted-string --example drive -- [ref] [T] [set=val...]`.
-use fmi2_export::Model;
+use fmu_core::Model;
 use twisted_string::{TwistedString, V, VARIABLES};
 
 fn main() {

@@ -21,5 +21,9 @@ pub mod vars;
 pub use model::TwistedString;
 pub use vars::{V, VARIABLES};
 
-#[cfg(feature = "fmi2")]
-fmi2_export::export_model!(TwistedString);
+/// The variable table follows the FMI rules and the candidate-effect convention.
+#[test]
+fn the_variable_table_is_consistent() {
+    let problems = fmu_core::table_problems::<TwistedString>();
+    assert!(problems.is_empty(), "{problems:#?}");
+}

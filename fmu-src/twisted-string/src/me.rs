@@ -29,7 +29,7 @@
 use crate::model::{read_params, validate, TwistedString};
 use crate::plant::{ix, Aux, Inputs, Params, Plant, DIM, NOMINAL};
 use crate::vars::V;
-use fmi2_export::{ModelError, ModelExchange, ValuesMut};
+use fmu_core::{ModelError, ModelExchange, ValuesMut};
 use ode::SampleClock;
 
 #[cfg(doc)]
@@ -259,13 +259,12 @@ const LOAD: [usize; 5] = [
     V::GUIDE_DAMPING as usize,
     V::STRING_LENGTH as usize,
 ];
-const P_ALPHA: &[usize] = fmi2_export::parameter_groups!(GEAR, HELIX);
-const P_STRINGS: &[usize] = fmi2_export::parameter_groups!(GEAR, HELIX, STRING);
+const P_ALPHA: &[usize] = fmu_core::parameter_groups!(GEAR, HELIX);
+const P_STRINGS: &[usize] = fmu_core::parameter_groups!(GEAR, HELIX, STRING);
 const P_F_STRING: &[usize] =
-    fmi2_export::parameter_groups!(GEAR, HELIX, STRING, [V::STRING_COUNT as usize]);
-const P_MECHANICS: &[usize] =
-    fmi2_export::parameter_groups!(GEAR, HELIX, STRING, BACKLASH, FRICTION);
-const P_MOTOR: &[usize] = fmi2_export::parameter_groups!(
+    fmu_core::parameter_groups!(GEAR, HELIX, STRING, [V::STRING_COUNT as usize]);
+const P_MECHANICS: &[usize] = fmu_core::parameter_groups!(GEAR, HELIX, STRING, BACKLASH, FRICTION);
+const P_MOTOR: &[usize] = fmu_core::parameter_groups!(
     GEAR,
     HELIX,
     STRING,
@@ -273,10 +272,10 @@ const P_MOTOR: &[usize] = fmi2_export::parameter_groups!(
     FRICTION,
     [V::TORQUE_CONSTANT as usize, V::ROTOR_INERTIA as usize]
 );
-const P_LOAD: &[usize] = fmi2_export::parameter_groups!(GEAR, HELIX, STRING, LOAD);
-const P_VOLTAGE: &[usize] = fmi2_export::parameter_groups!(POSITION, CASCADE);
-const P_CURRENT: &[usize] = fmi2_export::parameter_groups!(POSITION, CASCADE, ARMATURE);
-const P_LOSSES: &[usize] = fmi2_export::parameter_groups!(
+const P_LOAD: &[usize] = fmu_core::parameter_groups!(GEAR, HELIX, STRING, LOAD);
+const P_VOLTAGE: &[usize] = fmu_core::parameter_groups!(POSITION, CASCADE);
+const P_CURRENT: &[usize] = fmu_core::parameter_groups!(POSITION, CASCADE, ARMATURE);
+const P_LOSSES: &[usize] = fmu_core::parameter_groups!(
     GEAR,
     HELIX,
     STRING,
@@ -285,7 +284,7 @@ const P_LOSSES: &[usize] = fmi2_export::parameter_groups!(
     ARMATURE,
     [V::GUIDE_DAMPING as usize]
 );
-const P_STORED: &[usize] = fmi2_export::parameter_groups!(
+const P_STORED: &[usize] = fmu_core::parameter_groups!(
     GEAR,
     HELIX,
     STRING,
@@ -465,7 +464,7 @@ mod tests {
     use crate::physics::GRAVITY;
     use crate::plant::{Inputs, Params, DIM, NOMINAL};
     use crate::vars::{V, VARIABLES};
-    use fmi2_export::{Model, ModelExchange};
+    use fmu_core::{Model, ModelExchange};
 
     #[test]
     fn pack_unpack_roundtrip() {

@@ -5,7 +5,7 @@ use crate::controller::{position_loop, PositionLoop};
 use crate::physics::*;
 use crate::plant::{self, ix, Inputs, Params, Plant, DIM, DIM_BASE, NOMINAL, P_MIN_OUTPUT};
 use crate::vars::*;
-use fmi2_export::{Model, ModelError, Values, ValuesMut, Variable};
+use fmu_core::{Model, ModelError, Values, ValuesMut, Variable};
 use ode::SampleClock;
 use serde::{Deserialize, Serialize};
 
@@ -311,8 +311,8 @@ impl Model for TwistedString {
         Ok(())
     }
 
-    fn model_exchange() -> Option<fmi2_export::MeVTable<Self>> {
-        Some(fmi2_export::MeVTable::of())
+    fn model_exchange() -> Option<fmu_core::MeVTable<Self>> {
+        Some(fmu_core::MeVTable::of())
     }
 
     /// The tunable parameters (load mass, controller gains and limits) act from the next step;
@@ -422,7 +422,7 @@ mod tests {
     use crate::physics::GRAVITY;
     use crate::plant::{self, ix, DIM, DIM_BASE};
     use crate::vars::{POSITION_P_SI, RPM8000, SPEED_P_SI, V, VARIABLES};
-    use fmi2_export::{Model, Values};
+    use fmu_core::{Model, Values};
 
     fn start_vars() -> Vec<f64> {
         VARIABLES.iter().map(|v| v.start).collect()

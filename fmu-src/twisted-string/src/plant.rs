@@ -13,7 +13,7 @@
 
 use crate::controller::{pi_integrator_rate, pi_output};
 use crate::physics::*;
-use fmi2_export::ModelError;
+use fmu_core::ModelError;
 use serde::{Deserialize, Serialize};
 
 /// Largest number of states (with `gear_backlash`).

@@ -2,7 +2,7 @@
 //! unit, range, start and description, declared once. Names and value references are a fixed
 //! interface: a new variable takes a new value reference.
 
-use fmi2_export::{Variability, Variable};
+use fmu_core::{Variability, Variable};
 
 /// 8000 rpm in rad/s: maximum permissible input speed of the GP 26 A gearhead (paper sec. 6).
 pub const RPM8000: f64 = 8000.0 * std::f64::consts::PI / 30.0;
@@ -18,7 +18,7 @@ pub const STRING_RADIUS_FIT: f64 = 1.2127e-3;
 /// Speed P gain of Table 5 (963) read as uA/rpm: 963e-6 A/rpm * 60/(2 pi) = 9.196e-3 A.s/rad.
 pub const SPEED_P_SI: f64 = 963e-6 * 30.0 / std::f64::consts::PI;
 
-fmi2_export::declare_variables! {
+fmu_core::declare_variables! {
     // ---- interface: mode, inputs, outputs -----------------------------------------------------
     INTERNAL_CONTROLLER = 0 => Variable::flag("internal_controller", true,
         "true: the cascade controller (Fig. 11, Table 5) tracks theta_motor_ref; false: the motor voltage is the input 'voltage'"),

@@ -3,13 +3,13 @@
 
 use super::rules::{apply, defined_again, identifier_problem, name_problems, start_problem, Rule};
 use super::{var_loc, Finding};
-use fmi2_types::effects;
+
 use host::md::{
     Causality, Initial, ModelDescription, ScalarVariable, StartValue, VarKind, Variability,
 };
 use std::collections::{BTreeSet, HashMap};
 
-pub use fmi2_types::schema::{combination_allowed, initial_allowed};
+pub use fmi_types::schema::{combination_allowed, initial_allowed};
 
 /// Checks of `modelDescription.xml` for a Co-Simulation FMU.
 pub fn check_model_description(md: &ModelDescription) -> Vec<Finding> {
@@ -655,7 +655,7 @@ fn check_listed_derivative(
     }
 }
 
-/// The candidate-effect convention (see [`fmi2_types::effects`]) for FMUs meant for the gap
+/// The candidate-effect convention (see [`effects`]) for FMUs meant for the gap
 /// workflow, one finding per departure, located at its variable.
 pub fn check_effect_convention(md: &ModelDescription) -> Vec<Finding> {
     let vars: Vec<&ScalarVariable> = md

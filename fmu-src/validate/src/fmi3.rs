@@ -7,7 +7,7 @@ use super::rules::{
     apply, defined_again, identifier_problem, is_c_identifier, name_problems, start_problem, Rule,
 };
 use super::Finding;
-use fmi2_types::schema::{combination_allowed, initial_allowed, Causality};
+use fmi_types::schema::{combination_allowed, initial_allowed, Causality};
 use host::fmi3::md::{Causality3, Interface3, ModelDescription3, Unknown3, Variable3};
 use host::fmi3::value::Type3;
 use host::md::{Initial, Variability};

@@ -4,7 +4,7 @@
 //! holding back a motor that the record shows already turning).
 //!
 //! Where the FMU exposes its initial state (Real parameters tagged `[initial]`, see
-//! `fmi2_types::effects`) and the base fit misses the record's start, the base model is
+//! `effects`) and the base fit misses the record's start, the base model is
 //! calibrated again with those parameters, so that it begins where the record does
 //! ([`calibrate_to_start`]; a record from rest is fitted without them). Either way, the base
 //! fit's start is then checked ([`start_disagreement`]). A model may miss the start for a good

@@ -10,7 +10,7 @@ pub(super) fn convention_warnings(params: &[ParamSpec], fit_given: bool) -> Vec<
     spec::convention(params)
         .problems
         .into_iter()
-        .filter(|(_, p)| !(fit_given && *p == fmi2_types::effects::Problem::NoCalibrateTag))
+        .filter(|(_, p)| !(fit_given && *p == effects::Problem::NoCalibrateTag))
         .map(|(i, p)| match i {
             Some(i) => format!("{}: {p}", params[i].name),
             None => format!("model: {p}"),

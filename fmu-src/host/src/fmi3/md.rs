@@ -21,7 +21,7 @@ use super::value::{Type3, Values};
 use crate::error::HostError;
 use crate::xml::{Ancestors, Attrs, Doc, Visitor};
 
-pub use fmi2_types::{Initial, Variability};
+pub use fmi_types::{Initial, Variability};
 
 /// `causality` of an FMI 3.0 variable (FMI 3.0.2 section 2.4.7.4; default `local`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]

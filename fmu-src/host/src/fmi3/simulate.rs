@@ -25,7 +25,7 @@ use crate::simulate::{
     communication_points, first_event_after, hold_index, interpolate, step_through, Recorded,
     ReusedInstance, SimulationResult,
 };
-use fmi2_types::Variability;
+use fmi_types::Variability;
 
 /// Input columns of an FMI 3.0 run: a time axis and text cells (see [`super::value`]).
 #[derive(Clone, Debug, Default, PartialEq)]

@@ -1,3 +1,0 @@
-fn main() {
-    fmi2_export::describe_main::<test_oscillator::Oscillator>()
-}
