@@ -1,10 +1,10 @@
-//! `actuator-fmu`: simulate and validate FMI 2.0 Co-Simulation FMUs (simulate, gap and design:
-//! FMI 3.0 Co-Simulation too).
+//! `actuator-fmu`: simulate (Co-Simulation or Model Exchange), validate, find model gaps of and
+//! design experiments for FMUs of FMI 2.0 and FMI 3.0.
 //!
 //! Exit status: 0 success (validate: no finding), 1 failure (validate: findings; simulate, gap:
 //! the FMU failed after initialization), 2 bad input: usage, unreadable or bad data, an FMU that
 //! cannot be opened, instantiated or initialized (refused parameters, GUID), what a command does
-//! not run (FMI 3.0 in validate; clocks, Scheduled Execution), an output
+//! not run (clocks, Scheduled Execution), an output
 //! path that is an input, an FMU that crashed or did not return within --timeout; 130
 //! interrupted (Ctrl-C, SIGTERM, SIGHUP).
 //! The commands run in a supervised child process (module `supervise`).
@@ -30,7 +30,7 @@ use clap::{Parser, Subcommand};
 #[command(
     name = "actuator-fmu",
     version,
-    about = "Simulate, validate and find model gaps of FMI 2.0 Co-Simulation FMUs (simulate, gap, design: FMI 3.0 too)",
+    about = "Simulate, validate and find model gaps of FMI 2.0 and FMI 3.0 FMUs (Co-Simulation and Model Exchange)",
     after_help = "Exit status: 0 success; 1 validate found problems, or the FMU failed after \
                   initialization (simulate, gap); 2 bad input: usage, unreadable or bad data, \
                   an FMU that cannot be opened, instantiated or initialized, a kind of FMU the command does not run, an --out \
@@ -68,7 +68,8 @@ impl Command {
 enum Command {
     /// Simulate an FMU with inputs from a CSV file and write every output to a CSV file.
     Simulate(simulate::Args),
-    /// Check FMUs against the FMI 2.0 standard (model description and a state-machine probe).
+    /// Check FMUs against the FMI 2.0.4 or FMI 3.0.2 standard (model description, binaries and a
+    /// state-machine probe).
     Validate(validate::Args),
     /// The gap workflow: calibrate, locate the disagreement, name the missing effect, report.
     Gap(gap_cmd::Args),
