@@ -1,5 +1,5 @@
 //! `fmu-package`: zip `modelDescription.xml`, `documentation/` and the shared library into
-//! `<out>.fmu` (FMI 2.0 section 2.4 layout). Entries are written in a fixed order with a fixed
+//! `<out>.fmu` (the layout of FMI 2.0.4 section 2.4 and FMI 3.0.2 section 2.5). Entries are written in a fixed order with a fixed
 //! timestamp and permissions, so building twice gives byte-identical archives.
 
 mod macho;
@@ -12,9 +12,9 @@ use zip::write::SimpleFileOptions;
 use zip::{CompressionMethod, DateTime, ZipWriter};
 
 #[derive(Parser)]
-#[command(about = "Package an FMI 2.0 Co-Simulation FMU reproducibly")]
+#[command(about = "Package an FMI 2.0 or FMI 3.0 FMU reproducibly")]
 struct Args {
-    /// Directory holding modelDescription.xml, documentation/ (from describe-<crate>) and,
+    /// Directory holding modelDescription.xml, documentation/ (from fmu-binary's describe) and,
     /// optionally, the icon model.png.
     #[arg(long)]
     model_dir: PathBuf,
