@@ -463,10 +463,7 @@ mod tests {
     use super::{jacobian, pack, rates, sx, unpack, STATES, STATE_VARIABLES};
     use crate::model::TwistedString;
     use crate::physics::GRAVITY;
-    use crate::plant::{
-        GearBacklash, Inputs, MotorFriction, Params, RadiusGrowth, StringCompliance,
-        TwistHysteresis, DIM, NOMINAL,
-    };
+    use crate::plant::{with_every_effect, Inputs, Params, DIM, NOMINAL};
     use crate::vars::{V, VARIABLES};
     use fmi2_export::{Model, ModelExchange};
 
@@ -500,22 +497,7 @@ mod tests {
         let mut par = Params::read(&VARIABLES.iter().map(|v| v.start).collect::<Vec<_>>());
         for all in [false, true] {
             if all {
-                par.string_compliance = Some(StringCompliance {
-                    a1: 8.1153e-6,
-                    a2: 8.4427e-9,
-                    a3: 1.6914e-5,
-                });
-                par.twist_hysteresis = Some(TwistHysteresis {
-                    friction_coefficient: 0.1,
-                });
-                par.motor_friction = Some(MotorFriction {
-                    coulomb: 1e-3,
-                    viscous: 1e-6,
-                });
-                par.gear_backlash = Some(GearBacklash {
-                    angle: 1f64.to_radians(),
-                });
-                par.radius_growth = Some(RadiusGrowth { per_turn: 0.005 });
+                par = with_every_effect(&par, 1f64.to_radians());
             }
             let inp = Inputs {
                 theta_ref: 0.0,

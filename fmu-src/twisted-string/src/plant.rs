@@ -542,13 +542,9 @@ impl Plant<'_> {
         let (u, d_u, d_dzi, d_dzw) = if q.internal_controller {
             let e_w = self.inp.omega_ref - om;
             let d_ew = scale(-1.0, &e_om);
-            let iref_u = q.controller_speed_p * (e_w + zw / q.controller_speed_ti);
-            let d_iref_u = lin(
-                q.controller_speed_p,
-                &d_ew,
-                q.controller_speed_p / q.controller_speed_ti,
-                &e_zw,
-            );
+            let (kp_w, ti_w) = (q.controller_speed_p, q.controller_speed_ti);
+            let iref_u = kp_w * (e_w + zw / ti_w);
+            let d_iref_u = lin(kp_w, &d_ew, kp_w / ti_w, &e_zw);
             let d_iref = if iref_u.abs() < q.current_limit {
                 d_iref_u
             } else {
@@ -557,13 +553,9 @@ impl Plant<'_> {
             let iref = iref_u.clamp(-q.current_limit, q.current_limit);
             let ei = iref - i;
             let d_ei = lin(1.0, &d_iref, -1.0, &e_i);
-            let u_u = q.controller_current_p * (ei + zi / q.controller_current_ti);
-            let d_uu = lin(
-                q.controller_current_p,
-                &d_ei,
-                q.controller_current_p / q.controller_current_ti,
-                &e_zi,
-            );
+            let (kp_i, ti_i) = (q.controller_current_p, q.controller_current_ti);
+            let u_u = kp_i * (ei + zi / ti_i);
+            let d_uu = lin(kp_i, &d_ei, kp_i / ti_i, &e_zi);
             let d_u = if u_u.abs() < q.supply_voltage {
                 d_uu
             } else {
@@ -719,12 +711,33 @@ pub fn rest_position(q: &Params, f_load: f64) -> Result<f64, ModelError> {
     Ok(p0)
 }
 
+/// `q` with every effect on at its table default, the gear backlash at `backlash` [rad].
+#[cfg(test)]
+pub(crate) fn with_every_effect(q: &Params, backlash: f64) -> Params {
+    use crate::vars::VARIABLES;
+    let mut vars: Vec<f64> = VARIABLES.iter().map(|v| v.start).collect();
+    for (i, v) in VARIABLES.iter().enumerate() {
+        if v.name.ends_with(".enabled") {
+            vars[i] = 1.0;
+        }
+    }
+    let on = Params::read(&vars);
+    Params {
+        string_compliance: on.string_compliance,
+        twist_hysteresis: on.twist_hysteresis,
+        motor_friction: on.motor_friction,
+        gear_backlash: Some(GearBacklash { angle: backlash }),
+        radius_growth: on.radius_growth,
+        ..q.clone()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::{
-        ix, rest_position, stored_energy, GearBacklash, Inputs, MotorFriction, Params, Plant,
-        RadiusGrowth, StringCompliance, TwistHysteresis, DIM, DIM_BASE, EFFICIENCY_POWER_WIDTH,
-        GEAR_OUTPUT_INERTIA, MESH, NOMINAL,
+        ix, rest_position, stored_energy, with_every_effect, GearBacklash, Inputs, MotorFriction,
+        Params, Plant, RadiusGrowth, StringCompliance, TwistHysteresis, DIM, DIM_BASE,
+        EFFICIENCY_POWER_WIDTH, GEAR_OUTPUT_INERTIA, MESH, NOMINAL,
     };
     use crate::physics::{bundle_radius, free_length, helix_position, twist_arc, GRAVITY};
 
@@ -844,24 +857,7 @@ mod tests {
                         })
                     }
                     5 => q.radius_growth = Some(RadiusGrowth { per_turn: 0.005 }),
-                    6 => {
-                        q.string_compliance = Some(StringCompliance {
-                            a1: 8.1153e-06,
-                            a2: 8.4427e-09,
-                            a3: 1.6914e-5,
-                        });
-                        q.twist_hysteresis = Some(TwistHysteresis {
-                            friction_coefficient: 0.1,
-                        });
-                        q.motor_friction = Some(MotorFriction {
-                            coulomb: 1e-3,
-                            viscous: 1e-6,
-                        });
-                        q.gear_backlash = Some(GearBacklash {
-                            angle: 2f64.to_radians(),
-                        });
-                        q.radius_growth = Some(RadiusGrowth { per_turn: 0.005 });
-                    }
+                    6 => q = with_every_effect(&q, 2f64.to_radians()),
                     _ => {}
                 }
                 cases.push(q);
