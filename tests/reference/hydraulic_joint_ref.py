@@ -27,64 +27,12 @@ import sys
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from model_description import parameter_defaults
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 
-# Parameter defaults (documentation table "Parameters").
-DEFAULTS = {
-    "internal_controller": True,
-    "cables_attached": True,
-    "valve_use_mean": False,
-    "load_mass": 2.0,
-    "load_radius": 0.30,
-    "link_inertia": 0.056,
-    "link_damping": 3.0,
-    "pulley_radius": 0.03,
-    "piston_area": math.pi / 4 * 0.016**2,
-    "annulus_area": math.pi / 4 * (0.016**2 - 0.010**2),
-    "stroke": 0.1,
-    "dead_volume_cap": 2e-6,
-    "dead_volume_rod": 2e-6,
-    "piston_mass": 0.3,
-    "piston_damping": 500.0,
-    "bulk_modulus": 1.0e9,
-    "supply_pressure": 1.0e7,
-    "return_pressure": 0.0,
-    "c1": 0.3667e-8,
-    "c2": 0.3404e-8,
-    "c3": 0.3282e-8,
-    "c4": 0.3276e-8,
-    "valve_flow_scale": 1.0,
-    "valve_deadband_low": -1.8,
-    "valve_deadband_high": 1.5,
-    "spring_stiffness": 5.0e4,
-    "spring_pretension": 150.0,
-    "controller_rate": 40.0,
-    "controller_gain": 0.2,
-    "controller_slope_extend": 0.0509,
-    "controller_slope_retract": 0.0366,
-    "controller_deadband_low": -1.8,
-    "controller_deadband_high": 1.5,
-    "controller_cocontraction": 1.0,
-    "seal_friction.enabled": False,
-    "seal_friction.coulomb": 40.0,
-    "seal_friction.breakaway_excess": 30.0,
-    "seal_friction.stribeck_velocity": 0.01,
-    "seal_friction.viscous": 300.0,
-    "seal_friction.memory_time": 5e-3,
-    "valve_overlap.enabled": False,
-    "valve_overlap.width": 0.4,
-    "internal_leakage.enabled": False,
-    "internal_leakage.coefficient": 5e-13,
-    "cable_friction.enabled": False,
-    "cable_friction.mu": 0.1,
-    "bowden_wrap_angle": 3.0,
-    "entrained_air.enabled": False,
-    "entrained_air.fraction": 0.02,
-    "entrained_air.polytropic_index": 1.2,
-    "valve_dynamics.enabled": False,
-    "valve_dynamics.natural_frequency": 1300.0,
-    "valve_dynamics.damping_ratio": 0.7,
-}
+# Parameter defaults: the start values of the FMU's interface (modelDescription/HydraulicJoint.xml).
+DEFAULTS = parameter_defaults("HydraulicJoint")
 
 # Numerical constants of the documentation ("Regularisations").
 DP_LAMINAR = 1e4  # Pa

@@ -28,53 +28,13 @@ import time
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from model_description import parameter_defaults
+
 G = 9.81
 RPM8000 = 8000.0 * 2.0 * math.pi / 60.0
 
-# Defaults as listed in the model documentation (sections 2-7).
-DEFAULTS = {
-    "internal_controller": True,
-    "load_mass": 23.0 / G,
-    "string_length": 0.0897,
-    "string_radius": 1.2127e-3,  # doc. section 2: eq. 9-10 fitted to the sec. 6 contractions
-    "string_count": 4.0,
-    "string_stiffness": 1e6,
-    "string_damping": 2000.0,
-    "spring_stiffness": 100.0,
-    "spring_preload": 5.0,
-    "guide_damping": 20.0,
-    "motor_resistance": 2.32,
-    "motor_inductance": 0.238e-3,
-    "torque_constant": 0.0234,
-    "back_emf_constant": 0.0234,
-    "rotor_inertia": 1.09e-6,    # RE 25 118752 rotor 10.3 g cm^2 + gearhead input 0.6 g cm^2
-    "gear_ratio": 19.2,
-    "gear_efficiency": 0.81,
-    "encoder_cpt": 1000.0,
-    "supply_voltage": 24.0,
-    "current_limit": 3.0,
-    "speed_limit": RPM8000,
-    "controller_current_P": 0.165,           # 165 mV/A
-    "controller_current_Ti": 69e-6,
-    "controller_speed_P": 963e-6 * 60.0 / (2.0 * math.pi),  # 963 uA/rpm
-    "controller_speed_Ti": 0.042,
-    "controller_position_P": 0.0035 * RPM8000 * math.degrees(1.0) / 19.2,
-    "controller_position_band": math.radians(2.0),
-    "controller_position_period": 1e-3,
-    "string_compliance.enabled": False,
-    "string_compliance.a1": 8.1153e-6,
-    "string_compliance.a2": 8.4427e-9,
-    "string_compliance.a3": 1.6914e-5,
-    "twist_hysteresis.enabled": False,
-    "twist_hysteresis.friction_coefficient": 0.1,
-    "motor_friction.enabled": False,
-    "motor_friction.coulomb": 1e-3,
-    "motor_friction.viscous": 1e-6,
-    "gear_backlash.enabled": False,
-    "gear_backlash.angle": math.radians(1.0),
-    "radius_growth.enabled": False,
-    "radius_growth.per_turn": 0.005,
-}
+# Parameter defaults: the start values of the FMU's interface (modelDescription/TwistedString.xml).
+DEFAULTS = parameter_defaults("TwistedString")
 
 INPUT_STARTS = {"theta_motor_ref": 0.0, "voltage": 0.0, "F_load": 0.0}
 

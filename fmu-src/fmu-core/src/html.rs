@@ -148,3 +148,137 @@ pub fn documentation_fmi3<M: Model>() -> String {
         None => format!("{fmi3}{html}"),
     }
 }
+
+/// Why a documentation fragment's placeholder of a start value cannot be filled
+/// ([`with_start_values`]).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum PlaceholderError {
+    #[error("placeholder '{{{{{placeholder}}}}}': no variable '{name}' in the table")]
+    UnknownVariable { placeholder: String, name: String },
+    #[error("placeholder '{{{{{placeholder}}}}}': '{unit}' is no display unit of '{name}'")]
+    UnknownDisplayUnit {
+        placeholder: String,
+        name: String,
+        unit: String,
+    },
+    #[error(
+        "placeholder '{{{{{placeholder}}}}}': format '{format}' is not '', 'e', '.N' or '.Ne'"
+    )]
+    UnknownFormat { placeholder: String, format: String },
+    #[error("placeholder '{{{{{placeholder}}}}}': scale '{scale}' is not a number")]
+    BadScale { placeholder: String, scale: String },
+    #[error("a placeholder opened at byte {at} is not closed")]
+    Unclosed { at: usize },
+}
+
+/// A documentation fragment with the start values of its variables written in from the table,
+/// so that a table of defaults and their reasons never repeats a number by hand: every
+/// `{{name}}` becomes the start value of the variable `name` (a Boolean as `true`/`false`, a
+/// number as Rust's `{}` writes it), `{{name in unit}}` the value in one of its display units
+/// (`{{supply_pressure in bar}}`), `{{name*1e6}}` the value times a scale, and a trailing
+/// `:e`, `:.N` or `:.Ne` the format (`{{bulk_modulus:.1e}}` writes `1.0e9`).
+pub fn with_start_values(
+    fragment: &str,
+    table: &[crate::Variable],
+) -> Result<String, PlaceholderError> {
+    let mut out = String::with_capacity(fragment.len());
+    let mut rest = fragment;
+    while let Some(open) = rest.find("{{") {
+        out.push_str(&rest[..open]);
+        let after = &rest[open + 2..];
+        let at = fragment.len() - rest.len() + open;
+        let close = after.find("}}").ok_or(PlaceholderError::Unclosed { at })?;
+        out.push_str(&start_value(&after[..close], table)?);
+        rest = &after[close + 2..];
+    }
+    out.push_str(rest);
+    Ok(out)
+}
+
+/// One placeholder `name[ in unit][*scale][:format]` filled.
+fn start_value(placeholder: &str, table: &[crate::Variable]) -> Result<String, PlaceholderError> {
+    let (value, format) = placeholder.split_once(':').unwrap_or((placeholder, ""));
+    let (value, scale) = value.split_once('*').unwrap_or((value, "1"));
+    let (name, unit) = match value.split_once(" in ") {
+        Some((name, unit)) => (name, Some(unit)),
+        None => (value, None),
+    };
+    let owned = |s: &str| s.to_string();
+    let Some(v) = table.iter().find(|v| v.name == name) else {
+        return Err(PlaceholderError::UnknownVariable {
+            placeholder: owned(placeholder),
+            name: owned(name),
+        });
+    };
+    if v.vtype == VarType::Boolean {
+        return Ok((v.start != 0.0).to_string());
+    }
+    let mut x = v.start;
+    if let Some(unit) = unit {
+        let display = v
+            .unit
+            .and_then(crate::units::lookup)
+            .and_then(|u| u.display.iter().find(|d| d.name == unit));
+        let Some(d) = display else {
+            return Err(PlaceholderError::UnknownDisplayUnit {
+                placeholder: owned(placeholder),
+                name: owned(name),
+                unit: owned(unit),
+            });
+        };
+        x = d.factor * x + d.offset;
+    }
+    if scale != "1" {
+        let factor: f64 = scale.parse().map_err(|_| PlaceholderError::BadScale {
+            placeholder: owned(placeholder),
+            scale: owned(scale),
+        })?;
+        x *= factor;
+    }
+    formatted(x, format).ok_or_else(|| PlaceholderError::UnknownFormat {
+        placeholder: owned(placeholder),
+        format: owned(format),
+    })
+}
+
+/// `x` in `format`: `` (Rust's `{}`), `e`, `.N` or `.Ne`.
+fn formatted(x: f64, format: &str) -> Option<String> {
+    match format {
+        "" => return Some(format!("{x}")),
+        "e" => return Some(format!("{x:e}")),
+        _ => {}
+    }
+    let digits = format.strip_prefix('.')?;
+    match digits.strip_suffix('e') {
+        Some(n) => Some(format!("{x:.*e}", n.parse().ok()?)),
+        None => Some(format!("{x:.*}", digits.parse().ok()?)),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{with_start_values, PlaceholderError};
+    use crate::Variable;
+
+    #[test]
+    fn placeholders_take_the_start_values() {
+        let table = [
+            Variable::parameter("p", 1.0e7, "Pa", "pressure").display("bar"),
+            Variable::parameter("area", 2.010_619_298_297_467_7e-4, "m2", "area"),
+            Variable::parameter("j", 1.09e-6, "kg.m2", "inertia"),
+            Variable::flag("on", false, "switch"),
+        ];
+        let filled = with_start_values(
+            "{{p in bar:.0}} bar, {{area:.3e}}, {{p:.1e}}, {{j*1e6:.2}}, {{on}}, {{p:e}} {x}",
+            &table,
+        );
+        assert_eq!(
+            filled.unwrap(),
+            "100 bar, 2.011e-4, 1.0e7, 1.09, false, 1e7 {x}"
+        );
+        let unknown = with_start_values("{{q}}", &table).unwrap_err();
+        assert!(matches!(unknown, PlaceholderError::UnknownVariable { .. }));
+        let unclosed = with_start_values("a {{p", &table).unwrap_err();
+        assert_eq!(unclosed, PlaceholderError::Unclosed { at: 2 });
+    }
+}

@@ -310,3 +310,121 @@ macro_rules! parameter_groups {
         &JOINED
     }};
 }
+
+/// A disagreement between a model's declared parameter dependencies
+/// ([`ModelExchange::parameter_dependencies`]) and its equations, found by
+/// [`parameter_dependency_problems`].
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum DependencyProblem {
+    /// The output or derivative `unknown` moved when `parameter` alone moved, and does not name
+    /// it.
+    Undeclared {
+        unknown: &'static str,
+        parameter: &'static str,
+    },
+    /// `unknown` names the effect parameter `parameter` without the effect's switch
+    /// `<effect>.enabled` (the parameter acts only through the switch).
+    SwitchMissing {
+        unknown: &'static str,
+        parameter: &'static str,
+    },
+    /// The model refused the moved value of `parameter` ([`ModelExchange::set_parameters`]).
+    Refused { parameter: &'static str },
+}
+
+/// The declared parameter dependencies of a model checked against its equations, so that the
+/// groups they are written from need no counting by hand: from `model`, initialized from `vars`
+/// at a state where the parameters act (effects on, moving), each Real and Integer parameter in
+/// turn is moved on a copy ([`ModelExchange::set_parameters`]; a Real by a relative 1e-6 inside
+/// its range, an Integer by one), and every state derivative and output
+/// ([`ModelExchange::me_outputs`] at `t`) whose bits change must name it. Also every effect
+/// parameter named must come with its effect's switch. Booleans are not moved: a switch changes
+/// which states exist, which `set_parameters` (directional derivatives) never meets. A
+/// dependency the state does not exercise goes unseen; a declared one that does not act is
+/// allowed (declarations may be conservative).
+pub fn parameter_dependency_problems<M: ModelExchange + Clone>(
+    model: &M,
+    vars: &[f64],
+    t: f64,
+) -> Vec<DependencyProblem> {
+    use crate::Causality;
+    let table = M::variables();
+    let declared = M::parameter_dependencies().unwrap_or(&[]);
+    let named = |u: usize| {
+        declared
+            .iter()
+            .find(|(k, _)| *k == u)
+            .map_or(&[][..], |(_, p)| *p)
+    };
+    let mut unknowns: Vec<usize> = M::state_variables().iter().map(|&(_, d)| d).collect();
+    unknowns.extend((0..table.len()).filter(|&i| table[i].causality == Causality::Output));
+    let evaluate = |m: &M, vars: &[f64]| {
+        let mut v = vars.to_vec();
+        m.me_outputs(&mut v, t);
+        unknowns.iter().map(|&u| v[u].to_bits()).collect::<Vec<_>>()
+    };
+    let base = evaluate(model, vars);
+    let mut problems = switch_problems(table, declared);
+    let movable = |v: &crate::Variable| {
+        v.causality == Causality::Parameter && v.vtype != crate::VarType::Boolean
+    };
+    for p in (0..table.len()).filter(|&p| movable(&table[p])) {
+        let parameter = table[p].name;
+        let mut moved = vars.to_vec();
+        moved[p] = moved_value(&table[p], vars[p]);
+        let mut copy = model.clone();
+        if copy.set_parameters(&moved).is_err() {
+            problems.push(DependencyProblem::Refused { parameter });
+            continue;
+        }
+        let now = evaluate(&copy, &moved);
+        for (k, &u) in unknowns.iter().enumerate() {
+            if now[k] != base[k] && !named(u).contains(&p) {
+                let unknown = table[u].name;
+                problems.push(DependencyProblem::Undeclared { unknown, parameter });
+            }
+        }
+    }
+    problems
+}
+
+/// Every effect parameter named in `declared` without its effect's switch.
+fn switch_problems(
+    table: &[crate::Variable],
+    declared: &[(usize, &[usize])],
+) -> Vec<DependencyProblem> {
+    let mut problems = Vec::new();
+    for &(u, parameters) in declared {
+        for &p in parameters {
+            let Some(effect) = table[p].effect() else {
+                continue;
+            };
+            let switch = format!("{effect}.enabled");
+            if !parameters.iter().any(|&q| table[q].name == switch) {
+                problems.push(DependencyProblem::SwitchMissing {
+                    unknown: table[u].name,
+                    parameter: table[p].name,
+                });
+            }
+        }
+    }
+    problems
+}
+
+/// `x` moved a little inside the variable's range: an Integer by one, a Real by a relative 1e-6
+/// (by 1e-6 of its range, or 1e-6, from 0).
+fn moved_value(v: &crate::Variable, x: f64) -> f64 {
+    let step = match v.vtype {
+        crate::VarType::Integer => 1.0,
+        _ if x != 0.0 => 1e-6 * x.abs(),
+        _ => match (v.min, v.max) {
+            (Some(lo), Some(hi)) if hi > lo => 1e-6 * (hi - lo),
+            _ => 1e-6,
+        },
+    };
+    if v.max.is_some_and(|hi| x + step > hi) {
+        x - step
+    } else {
+        x + step
+    }
+}

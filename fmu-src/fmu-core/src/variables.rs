@@ -230,10 +230,11 @@ impl Variable {
 
 /// Declare a model's variables once, each with its value reference. Generates `pub enum V`
 /// whose discriminants are the positions in the table (the storage index into the value
-/// vector), and `pub static VARIABLES: &[Variable]` in the same order, each carrying its
-/// declared value reference. The value references are the interface (C API, model
-/// description): a new variable takes a new number anywhere in the table, an existing one keeps
-/// its number. A duplicate value reference fails to compile.
+/// vector), `pub static VARIABLES: &[Variable]` in the same order, each carrying its declared
+/// value reference, and `pub struct Params` with a field per parameter named after its variable
+/// and `Params::read` (see the `table-macros` crate). The value references are the interface
+/// (C API, model description): a new variable takes a new number anywhere in the table, an
+/// existing one keeps its number. A duplicate value reference fails to compile.
 ///
 /// ```ignore
 /// fmu_core::declare_variables! {
@@ -242,26 +243,15 @@ impl Variable {
 /// ```
 #[macro_export]
 macro_rules! declare_variables {
-    ($($id:ident = $vr:literal => $spec:expr),* $(,)?) => {
-        /// The model's variables: each discriminant is the position in [`VARIABLES`] (storage
-        /// index); the value reference is [`VARIABLES`]`[i].value_reference`.
-        #[allow(non_camel_case_types, clippy::upper_case_acronyms, dead_code)]
-        #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-        #[repr(usize)]
-        pub enum V { $($id),* }
-        /// The model's variable table, in declaration order.
-        pub static VARIABLES: &[$crate::Variable] = &[$($spec.with_value_reference($vr)),*];
-        const _: () = assert!(
-            $crate::variables::references_unique(&[$($vr),*]),
-            "declare_variables!: two variables share a value reference"
-        );
-        impl $crate::variables::VarId for V {
-            fn index(self) -> usize {
-                self as usize
-            }
-        }
+    ($($table:tt)*) => {
+        $crate::variables::__table_macros::declare_variables! { $crate; $($table)* }
     };
 }
+
+/// The proc-macro behind [`declare_variables!`], named through this crate so that the
+/// generated code names this crate as `$crate`.
+#[doc(hidden)]
+pub use table_macros as __table_macros;
 
 /// True when no value reference occurs twice (evaluated at compile time by
 /// [`declare_variables!`]), so a table with a duplicate does not build:

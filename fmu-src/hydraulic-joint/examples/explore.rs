@@ -232,7 +232,7 @@ fn main() {
         "rhs" => {
             use hydraulic_joint::plant::Plant;
             let v = vars0();
-            let p = hydraulic_joint::model::read_params(&v);
+            let p = hydraulic_joint::plant::Params::read(&v);
             let d = p.derive().unwrap();
             let mut y = p.rest_state(&d, [0.0; 2]);
             let plant = Plant {

@@ -1,8 +1,9 @@
 //! The HTML documentation of the model (equations, sources, derivations, parameter tables).
 
-/// HTML fragment for `documentation/index.html`.
+/// HTML fragment for `documentation/index.html`, the defaults written in from the table.
 pub fn html() -> String {
-    DOC.to_string()
+    fmu_core::html::with_start_values(DOC, crate::vars::VARIABLES)
+        .expect("every placeholder of the documentation names a variable of the table")
 }
 
 const DOC: &str = r#"
@@ -247,26 +248,26 @@ matched zero-lapped valve, <code>P2 = (Ps + Pr)/2</code>, and <code>P1 = (T0 + P
 <h2>Parameters the paper omits: values and why</h2>
 <table>
 <tr><th>parameter</th><th>value</th><th>why</th></tr>
-<tr><td>piston_area, annulus_area</td><td>2.011e-4, 1.225e-4 m2</td><td>Parker CHL, 16 mm bore, 10 mm rod (smallest bore: 2 kN at 100 bar is ample for a 1 N m, 30 mm pulley joint; alpha = 0.61 gives the paper's faster extension)</td></tr>
-<tr><td>stroke</td><td>0.1 m</td><td>a catalogue stroke; +-45 deg on R = 30 mm needs +-24 mm from mid-stroke</td></tr>
-<tr><td>dead_volume_cap, dead_volume_rod</td><td>2e-6 m3</td><td>ports, fittings and about 0.3 m of 3 mm bore hose between valve and cylinder</td></tr>
-<tr><td>piston_mass</td><td>0.3 kg</td><td>piston, 10 mm steel rod, rod eye and spring end</td></tr>
-<tr><td>piston_damping</td><td>500 N s/m</td><td>viscous seal and oil drag; damps the oil-column mode (about 650 Hz) to a ratio of about 0.2</td></tr>
-<tr><td>bulk_modulus</td><td>1.0e9 Pa</td><td>mineral oil 1.4-1.6e9 Pa lowered by hoses and some air; calibrated by default</td></tr>
-<tr><td>supply_pressure, return_pressure</td><td>100 bar, 0 bar gauge</td><td>cylinders' maximum pressure (sec. III), tank return</td></tr>
-<tr><td>pulley_radius</td><td>0.03 m</td><td>a pulley fitting a shoulder-sized joint</td></tr>
-<tr><td>link_inertia</td><td>0.056 kg m2</td><td>upper arm of a 75 kg adult, 2.1 kg, 0.30 m, radius of gyration about the shoulder 0.163 m (Winter, Biomechanics and Motor Control of Human Movement, 2009)</td></tr>
-<tr><td>load_mass, load_radius</td><td>2.0 kg at 0.30 m</td><td>forearm and hand (1.65 kg for 75 kg) with their own inertia lumped at the elbow (sec. V: "a mass has been calculated and fixed on the link")</td></tr>
-<tr><td>link_damping</td><td>3 N m s/rad</td><td>see the tuning section</td></tr>
-<tr><td>spring_stiffness, spring_pretension</td><td>5e4 N/m, 150 N</td><td>a 50 N/mm safety spring; 150 N co-contraction keeps the cables taut up to about 9 N m of torque imbalance</td></tr>
-<tr><td>bowden_wrap_angle</td><td>3 rad (172 deg)</td><td>total bend of each Bowden cable from cylinder to joint: about a half turn of routing around a shoulder; only used by <code>cable_friction</code>, which identifies <code>cable_friction.mu</code> at this angle (the law sees <code>mu phi</code> only); range 0.5-6.3 rad, measured on the hardware, not calibrated</td></tr>
-<tr><td>controller_gain</td><td>0.2</td><td>see the tuning section</td></tr>
-<tr><td>controller_cocontraction</td><td>1</td><td>choice: the common mode converges like the joint error (see the co-contraction loop)</td></tr>
-<tr><td>c1..c4, valve_use_mean, valve_flow_scale</td><td>Table I, false, 1</td><td>from the paper (SI reading derived above); the mean is the paper's merged coefficient; the scale is the calibration handle</td></tr>
-<tr><td>valve_deadband_low/high, controller_deadband_low/high</td><td>-1.8 V, 1.5 V</td><td>Fig. 6 (paper text); not calibrated by default</td></tr>
-<tr><td>controller_rate</td><td>40 Hz</td><td>paper sec. V</td></tr>
-<tr><td>rtol, atol</td><td>1e-6, 1e-6</td><td>agree with the Radau reference within 1e-3 of each output's range</td></tr>
-<tr><td>controller_slope_extend / _retract</td><td>0.0509 / 0.0366 m/(s V)</td><td>the closed-form Fig. 6 slopes above, i.e. the curve the controller would have measured on the bench</td></tr>
+<tr><td>piston_area, annulus_area</td><td>{{piston_area:.3e}}, {{annulus_area:.3e}} m2</td><td>Parker CHL, 16 mm bore, 10 mm rod (smallest bore: 2 kN at 100 bar is ample for a 1 N m, 30 mm pulley joint; alpha = 0.61 gives the paper's faster extension)</td></tr>
+<tr><td>stroke</td><td>{{stroke}} m</td><td>a catalogue stroke; +-45 deg on R = 30 mm needs +-24 mm from mid-stroke</td></tr>
+<tr><td>dead_volume_cap, dead_volume_rod</td><td>{{dead_volume_cap:e}} m3</td><td>ports, fittings and about 0.3 m of 3 mm bore hose between valve and cylinder</td></tr>
+<tr><td>piston_mass</td><td>{{piston_mass}} kg</td><td>piston, 10 mm steel rod, rod eye and spring end</td></tr>
+<tr><td>piston_damping</td><td>{{piston_damping}} N s/m</td><td>viscous seal and oil drag; damps the oil-column mode (about 650 Hz) to a ratio of about 0.2</td></tr>
+<tr><td>bulk_modulus</td><td>{{bulk_modulus:.1e}} Pa</td><td>mineral oil 1.4-1.6e9 Pa lowered by hoses and some air; calibrated by default</td></tr>
+<tr><td>supply_pressure, return_pressure</td><td>{{supply_pressure in bar:.0}} bar, {{return_pressure in bar:.0}} bar gauge</td><td>cylinders' maximum pressure (sec. III), tank return</td></tr>
+<tr><td>pulley_radius</td><td>{{pulley_radius}} m</td><td>a pulley fitting a shoulder-sized joint</td></tr>
+<tr><td>link_inertia</td><td>{{link_inertia}} kg m2</td><td>upper arm of a 75 kg adult, 2.1 kg, 0.30 m, radius of gyration about the shoulder 0.163 m (Winter, Biomechanics and Motor Control of Human Movement, 2009)</td></tr>
+<tr><td>load_mass, load_radius</td><td>{{load_mass:.1}} kg at {{load_radius:.2}} m</td><td>forearm and hand (1.65 kg for 75 kg) with their own inertia lumped at the elbow (sec. V: "a mass has been calculated and fixed on the link")</td></tr>
+<tr><td>link_damping</td><td>{{link_damping}} N m s/rad</td><td>see the tuning section</td></tr>
+<tr><td>spring_stiffness, spring_pretension</td><td>{{spring_stiffness:e}} N/m, {{spring_pretension}} N</td><td>a 50 N/mm safety spring; 150 N co-contraction keeps the cables taut up to about 9 N m of torque imbalance</td></tr>
+<tr><td>bowden_wrap_angle</td><td>{{bowden_wrap_angle}} rad ({{bowden_wrap_angle in deg:.0}} deg)</td><td>total bend of each Bowden cable from cylinder to joint: about a half turn of routing around a shoulder; only used by <code>cable_friction</code>, which identifies <code>cable_friction.mu</code> at this angle (the law sees <code>mu phi</code> only); range 0.5-6.3 rad, measured on the hardware, not calibrated</td></tr>
+<tr><td>controller_gain</td><td>{{controller_gain}}</td><td>see the tuning section</td></tr>
+<tr><td>controller_cocontraction</td><td>{{controller_cocontraction}}</td><td>choice: the common mode converges like the joint error (see the co-contraction loop)</td></tr>
+<tr><td>c1..c4, valve_use_mean, valve_flow_scale</td><td>Table I, {{valve_use_mean}}, {{valve_flow_scale}}</td><td>from the paper (SI reading derived above); the mean is the paper's merged coefficient; the scale is the calibration handle</td></tr>
+<tr><td>valve_deadband_low/high, controller_deadband_low/high</td><td>{{valve_deadband_low}} V, {{valve_deadband_high}} V</td><td>Fig. 6 (paper text); not calibrated by default</td></tr>
+<tr><td>controller_rate</td><td>{{controller_rate in Hz}} Hz</td><td>paper sec. V</td></tr>
+<tr><td>rtol, atol</td><td>{{rtol:e}}, {{atol:e}}</td><td>agree with the Radau reference within 1e-3 of each output's range</td></tr>
+<tr><td>controller_slope_extend / _retract</td><td>{{controller_slope_extend}} / {{controller_slope_retract}} m/(s V)</td><td>the closed-form Fig. 6 slopes above, i.e. the curve the controller would have measured on the bench</td></tr>
 </table>
 
 <h2>Regularisations (numerical constants)</h2>

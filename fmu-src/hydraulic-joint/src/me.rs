@@ -14,8 +14,10 @@
 //! act at once, so `u_valve_*` and `Q_*` depend on them directly.
 
 use crate::controller::controller_update;
-use crate::model::{read_params, HydraulicJoint};
-use crate::plant::{spool, Plant, NOMINAL_BASE, NOMINAL_MEMORY, NOMINAL_SPOOL, TH, VRET, VSUP};
+use crate::model::HydraulicJoint;
+use crate::plant::{
+    spool, Params, Plant, NOMINAL_BASE, NOMINAL_MEMORY, NOMINAL_SPOOL, TH, VRET, VSUP,
+};
 use crate::vars::V;
 use fmu_core::{ModelError, ModelExchange, Values, ValuesMut};
 use ode::SampleClock;
@@ -56,7 +58,7 @@ const STATE_VARIABLES: [(usize, usize); STATES] = [
 
 /// Outputs that follow an input at once in Model Exchange (open loop: the valve command is the
 /// input; with the spool lag on only `u_valve_*` does, but the list is static).
-const FEEDTHROUGH: [(usize, &[usize]); 4] = [
+const FEEDTHROUGH: &[(usize, &[usize])] = &[
     (V::U_VALVE_LEFT as usize, &[V::U_LEFT as usize]),
     (V::Q_LEFT as usize, &[V::U_LEFT as usize]),
     (V::U_VALVE_RIGHT as usize, &[V::U_RIGHT as usize]),
@@ -109,15 +111,15 @@ const fn piston_deps(i: usize) -> [[usize; 7]; 4] {
 }
 const PISTON_L: [[usize; 7]; 4] = piston_deps(0);
 const PISTON_R: [[usize; 7]; 4] = piston_deps(1);
-const DEP_THETA: [usize; 1] = [V::OMEGA as usize];
-const DEP_OMEGA: [usize; 5] = [
+const DEP_THETA: &[usize] = &[V::OMEGA as usize];
+const DEP_OMEGA: &[usize] = &[
     V::THETA as usize,
     V::OMEGA as usize,
     V::X_LEFT as usize,
     V::X_RIGHT as usize,
     V::TAU_EXT as usize,
 ];
-const DEP_OIL: [usize; 8] = [
+const DEP_OIL: &[usize] = &[
     V::P1_LEFT as usize,
     V::P2_LEFT as usize,
     V::P1_RIGHT as usize,
@@ -127,24 +129,24 @@ const DEP_OIL: [usize; 8] = [
     V::U_LEFT as usize,
     V::U_RIGHT as usize,
 ];
-const DEP_SPOOL_L: [usize; 1] = [V::SPOOL_RATE_LEFT as usize];
-const DEP_SPOOL_RATE_L: [usize; 3] = [
+const DEP_SPOOL_L: &[usize] = &[V::SPOOL_RATE_LEFT as usize];
+const DEP_SPOOL_RATE_L: &[usize] = &[
     V::SPOOL_LEFT as usize,
     V::SPOOL_RATE_LEFT as usize,
     V::U_LEFT as usize,
 ];
-const DEP_SPOOL_R: [usize; 1] = [V::SPOOL_RATE_RIGHT as usize];
-const DEP_SPOOL_RATE_R: [usize; 3] = [
+const DEP_SPOOL_R: &[usize] = &[V::SPOOL_RATE_RIGHT as usize];
+const DEP_SPOOL_RATE_R: &[usize] = &[
     V::SPOOL_RIGHT as usize,
     V::SPOOL_RATE_RIGHT as usize,
     V::U_RIGHT as usize,
 ];
-const DEP_MEMORY_L: [usize; 2] = [V::V_LEFT as usize, V::V_MEMORY_LEFT as usize];
-const DEP_MEMORY_R: [usize; 2] = [V::V_RIGHT as usize, V::V_MEMORY_RIGHT as usize];
+const DEP_MEMORY_L: &[usize] = &[V::V_LEFT as usize, V::V_MEMORY_LEFT as usize];
+const DEP_MEMORY_R: &[usize] = &[V::V_RIGHT as usize, V::V_MEMORY_RIGHT as usize];
 /// Per state, the states and inputs its derivative depends on (repeats are written once).
 const DERIVATIVE_DEPENDENCIES: [&[usize]; STATES] = [
-    &DEP_THETA,
-    &DEP_OMEGA,
+    DEP_THETA,
+    DEP_OMEGA,
     &PISTON_L[0],
     &PISTON_L[1],
     &PISTON_L[2],
@@ -153,14 +155,14 @@ const DERIVATIVE_DEPENDENCIES: [&[usize]; STATES] = [
     &PISTON_R[1],
     &PISTON_R[2],
     &PISTON_R[3],
-    &DEP_OIL,
-    &DEP_OIL,
-    &DEP_SPOOL_L,
-    &DEP_SPOOL_RATE_L,
-    &DEP_SPOOL_R,
-    &DEP_SPOOL_RATE_R,
-    &DEP_MEMORY_L,
-    &DEP_MEMORY_R,
+    DEP_OIL,
+    DEP_OIL,
+    DEP_SPOOL_L,
+    DEP_SPOOL_RATE_L,
+    DEP_SPOOL_R,
+    DEP_SPOOL_RATE_R,
+    DEP_MEMORY_L,
+    DEP_MEMORY_R,
 ];
 
 /// Parameter groups (table positions) by the part of the model they enter, for the FMI 3.0
@@ -169,7 +171,7 @@ const DERIVATIVE_DEPENDENCIES: [&[usize]; STATES] = [
 /// loop the input, with `internal_controller` the controller's output, computed at its ticks
 /// from its parameters, the pulley radius and the mean piston offset from mid-stroke (stroke),
 /// and held.
-const COMMAND: [usize; 10] = [
+const COMMAND: &[usize] = &[
     V::INTERNAL_CONTROLLER as usize,
     V::CONTROLLER_RATE as usize,
     V::CONTROLLER_GAIN as usize,
@@ -182,13 +184,13 @@ const COMMAND: [usize; 10] = [
     V::STROKE as usize,
 ];
 /// The spool's second-order lag between command and opening (`valve_dynamics`).
-const SPOOL: [usize; 3] = [
+const SPOOL: &[usize] = &[
     V::VALVE_DYNAMICS_ENABLED as usize,
     V::VALVE_DYNAMICS_NATURAL_FREQUENCY as usize,
     V::VALVE_DYNAMICS_DAMPING_RATIO as usize,
 ];
 /// The orifices, eq. (13)-(16): dead band (and overlap), coefficients, supply and return.
-const ORIFICES: [usize; 12] = [
+const ORIFICES: &[usize] = &[
     V::VALVE_USE_MEAN as usize,
     V::SUPPLY_PRESSURE as usize,
     V::RETURN_PRESSURE as usize,
@@ -203,14 +205,14 @@ const ORIFICES: [usize; 12] = [
     V::VALVE_OVERLAP_WIDTH as usize,
 ];
 /// The oil's compressibility and density ratio (`entrained_air`).
-const OIL: [usize; 4] = [
+const OIL: &[usize] = &[
     V::BULK_MODULUS as usize,
     V::ENTRAINED_AIR_ENABLED as usize,
     V::ENTRAINED_AIR_FRACTION as usize,
     V::ENTRAINED_AIR_POLYTROPIC_INDEX as usize,
 ];
 /// The chamber volumes, eq. (7)-(12).
-const CHAMBERS: [usize; 5] = [
+const CHAMBERS: &[usize] = &[
     V::STROKE as usize,
     V::PISTON_AREA as usize,
     V::ANNULUS_AREA as usize,
@@ -218,12 +220,12 @@ const CHAMBERS: [usize; 5] = [
     V::DEAD_VOLUME_ROD as usize,
 ];
 /// The cross-port leakage between the chambers.
-const LEAKAGE: [usize; 2] = [
+const LEAKAGE: &[usize] = &[
     V::INTERNAL_LEAKAGE_ENABLED as usize,
     V::INTERNAL_LEAKAGE_COEFFICIENT as usize,
 ];
 /// The series spring's tension: stiffness, pretension, rest position (mid-stroke), pulley.
-const CABLE: [usize; 5] = [
+const CABLE: &[usize] = &[
     V::CABLES_ATTACHED as usize,
     V::SPRING_STIFFNESS as usize,
     V::SPRING_PRETENSION as usize,
@@ -231,13 +233,13 @@ const CABLE: [usize; 5] = [
     V::PULLEY_RADIUS as usize,
 ];
 /// The Bowden cable's capstan friction (between spring and joint).
-const CAPSTAN: [usize; 3] = [
+const CAPSTAN: &[usize] = &[
     V::CABLE_FRICTION_ENABLED as usize,
     V::CABLE_FRICTION_MU as usize,
     V::BOWDEN_WRAP_ANGLE as usize,
 ];
 /// The piston, eq. (6): areas, mass, damping, end stops, seal friction.
-const PISTON: [usize; 10] = [
+const PISTON: &[usize] = &[
     V::PISTON_AREA as usize,
     V::ANNULUS_AREA as usize,
     V::PISTON_MASS as usize,
@@ -250,7 +252,7 @@ const PISTON: [usize; 10] = [
     V::SEAL_FRICTION_VISCOUS as usize,
 ];
 /// The link, eq. (1): inertia with the payload, damping, pulley.
-const LINK: [usize; 5] = [
+const LINK: &[usize] = &[
     V::LOAD_MASS as usize,
     V::LOAD_RADIUS as usize,
     V::LINK_INERTIA as usize,
@@ -258,7 +260,7 @@ const LINK: [usize; 5] = [
     V::PULLEY_RADIUS as usize,
 ];
 /// The seal friction's memory of the piston speed.
-const MEMORY: [usize; 2] = [
+const MEMORY: &[usize] = &[
     V::SEAL_FRICTION_ENABLED as usize,
     V::SEAL_FRICTION_MEMORY_TIME as usize,
 ];
@@ -277,13 +279,13 @@ const P_SPOOL: &[usize] = &[V::VALVE_DYNAMICS_ENABLED as usize];
 
 /// Per output and derivative, the parameters its value depends on under any setting of the
 /// others (the states, the oil totals and `der(theta)`, `der(x_*)` depend on none).
-const PARAMETER_DEPENDENCIES: [(usize, &[usize]); 27] = [
+const PARAMETER_DEPENDENCIES: &[(usize, &[usize])] = &[
     (V::F_LEFT as usize, P_FORCE),
     (V::F_RIGHT as usize, P_FORCE),
     (V::T_LEFT as usize, P_TENSION),
     (V::T_RIGHT as usize, P_TENSION),
-    (V::U_VALVE_LEFT as usize, &COMMAND),
-    (V::U_VALVE_RIGHT as usize, &COMMAND),
+    (V::U_VALVE_LEFT as usize, COMMAND),
+    (V::U_VALVE_RIGHT as usize, COMMAND),
     (V::Q_LEFT as usize, P_FLOW),
     (V::Q_RIGHT as usize, P_FLOW),
     (V::V_STORED as usize, P_STORED),
@@ -300,8 +302,8 @@ const PARAMETER_DEPENDENCIES: [(usize, &[usize]); 27] = [
     (V::DER_SPOOL_RIGHT as usize, P_SPOOL),
     (V::DER_SPOOL_RATE_LEFT as usize, P_SPOOL_RATE),
     (V::DER_SPOOL_RATE_RIGHT as usize, P_SPOOL_RATE),
-    (V::DER_V_MEMORY_LEFT as usize, &MEMORY),
-    (V::DER_V_MEMORY_RIGHT as usize, &MEMORY),
+    (V::DER_V_MEMORY_LEFT as usize, MEMORY),
+    (V::DER_V_MEMORY_RIGHT as usize, MEMORY),
     (V::DER_THETA as usize, &[]),
     (V::DER_X_LEFT as usize, &[]),
     (V::DER_X_RIGHT as usize, &[]),
@@ -341,12 +343,12 @@ impl HydraulicJoint {
         if !p.internal_controller {
             return Ok(None);
         }
-        SampleClock::new(self.t0, 1.0 / p.ctrl.rate)
+        SampleClock::new(self.t0, 1.0 / p.controller_rate)
             .map(Some)
             .ok_or_else(|| {
                 ModelError::parameter(
                     "controller_rate",
-                    format!("{} Hz gives no sample period", p.ctrl.rate),
+                    format!("{} Hz gives no sample period", p.controller_rate),
                 )
             })
     }
@@ -360,7 +362,7 @@ impl ModelExchange for HydraulicJoint {
     }
 
     fn output_feedthrough() -> &'static [(usize, &'static [usize])] {
-        &FEEDTHROUGH
+        FEEDTHROUGH
     }
 
     fn derivative_dependencies() -> Option<&'static [&'static [usize]]> {
@@ -368,13 +370,13 @@ impl ModelExchange for HydraulicJoint {
     }
 
     fn parameter_dependencies() -> Option<&'static [(usize, &'static [usize])]> {
-        Some(&PARAMETER_DEPENDENCIES)
+        Some(PARAMETER_DEPENDENCIES)
     }
 
     /// Every parameter read and derived again (as at initialization); the states and the held
     /// valve commands are kept.
     fn set_parameters(&mut self, vars: &[f64]) -> Result<(), ModelError> {
-        let p = read_params(vars);
+        let p = Params::read(vars);
         let d = p.derive()?;
         self.params = Some((p, d));
         Ok(())
@@ -493,7 +495,7 @@ impl ModelExchange for HydraulicJoint {
         let Some((p, _)) = &self.params else {
             return Ok(false);
         };
-        let ctrl = p.ctrl;
+        let ctrl = p.controller();
         let theta_ref = Values(vars).real(V::THETA_REF);
         let (l, r) = controller_update(theta_ref, self.y[TH], self.mean_piston_offset(), &ctrl);
         self.next_sample = clock.after_due(self.next_sample, t);
@@ -576,5 +578,29 @@ mod tests {
         m.me_outputs(&mut vars, 0.0);
         assert_eq!(vars[V::U_VALVE_LEFT as usize], 10.0);
         assert!(vars[V::Q_LEFT as usize] > 0.0);
+    }
+
+    /// The declared parameter dependencies name every parameter that moves an output or a
+    /// derivative: every effect on, mid-motion, closed loop and open loop (valves open).
+    #[test]
+    fn declared_parameter_dependencies_cover_the_equations() {
+        for internal in [1.0, 0.0] {
+            let (mut m, mut vars) = initialized(|v| {
+                for (i, var) in VARIABLES.iter().enumerate() {
+                    if var.name.ends_with(".enabled") {
+                        v[i] = 1.0;
+                    }
+                }
+                v[V::INTERNAL_CONTROLLER as usize] = internal;
+                v[V::THETA_REF as usize] = 0.3;
+                v[V::U_LEFT as usize] = 4.0;
+                v[V::U_RIGHT as usize] = -3.0;
+            });
+            for k in 0..60 {
+                m.do_step(&mut vars, k as f64 * 1e-3, 1e-3).unwrap();
+            }
+            let problems = fmu_core::me::parameter_dependency_problems(&m, &vars, 0.06);
+            assert!(problems.is_empty(), "{problems:#?}");
+        }
     }
 }

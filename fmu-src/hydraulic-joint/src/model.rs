@@ -1,7 +1,7 @@
 //! The FMI model: parameters from the variable table, consistent initialization at rest,
 //! stepping with the 40 Hz controller samples hit exactly, outputs.
 
-use crate::controller::{controller_update, ControllerParams, U_MAX};
+use crate::controller::{controller_update, U_MAX};
 use crate::plant::*;
 use crate::vars::{V, VARIABLES};
 use fmu_core::{Model, ModelError, Values, ValuesMut, Variable};
@@ -25,73 +25,6 @@ pub struct HydraulicJoint {
     /// their relative tolerance applies to the increment, not to the growing total).
     pub(crate) oil: [f64; 2],
     pub(crate) t0: f64,
-}
-
-/// Read every parameter from the variable values.
-pub fn read_params(vars: &[f64]) -> Params {
-    let v = Values(vars);
-    let g = |x: V| v.real(x);
-    Params {
-        internal_controller: v.flag(V::INTERNAL_CONTROLLER),
-        cables_attached: v.flag(V::CABLES_ATTACHED),
-        valve_use_mean: v.flag(V::VALVE_USE_MEAN),
-        load_mass: g(V::LOAD_MASS),
-        load_radius: g(V::LOAD_RADIUS),
-        link_inertia: g(V::LINK_INERTIA),
-        link_damping: g(V::LINK_DAMPING),
-        pulley_radius: g(V::PULLEY_RADIUS),
-        piston_area: g(V::PISTON_AREA),
-        annulus_area: g(V::ANNULUS_AREA),
-        stroke: g(V::STROKE),
-        dead_volume_cap: g(V::DEAD_VOLUME_CAP),
-        dead_volume_rod: g(V::DEAD_VOLUME_ROD),
-        piston_mass: g(V::PISTON_MASS),
-        piston_damping: g(V::PISTON_DAMPING),
-        bulk_modulus: g(V::BULK_MODULUS),
-        supply_pressure: g(V::SUPPLY_PRESSURE),
-        return_pressure: g(V::RETURN_PRESSURE),
-        c: [g(V::C1), g(V::C2), g(V::C3), g(V::C4)],
-        valve_flow_scale: g(V::VALVE_FLOW_SCALE),
-        valve_deadband_low: g(V::VALVE_DEADBAND_LOW),
-        valve_deadband_high: g(V::VALVE_DEADBAND_HIGH),
-        spring_stiffness: g(V::SPRING_STIFFNESS),
-        spring_pretension: g(V::SPRING_PRETENSION),
-        ctrl: ControllerParams {
-            rate: g(V::CONTROLLER_RATE),
-            gain: g(V::CONTROLLER_GAIN),
-            radius: g(V::PULLEY_RADIUS),
-            slope_extend: g(V::CONTROLLER_SLOPE_EXTEND),
-            slope_retract: g(V::CONTROLLER_SLOPE_RETRACT),
-            deadband_low: g(V::CONTROLLER_DEADBAND_LOW),
-            deadband_high: g(V::CONTROLLER_DEADBAND_HIGH),
-            cocontraction: g(V::CONTROLLER_COCONTRACTION),
-        },
-        rtol: g(V::RTOL),
-        atol: g(V::ATOL),
-        seal_friction: v.effect(V::SEAL_FRICTION_ENABLED, |_| SealFriction {
-            coulomb: g(V::SEAL_FRICTION_COULOMB),
-            breakaway_excess: g(V::SEAL_FRICTION_BREAKAWAY_EXCESS),
-            stribeck_velocity: g(V::SEAL_FRICTION_STRIBECK_VELOCITY),
-            viscous: g(V::SEAL_FRICTION_VISCOUS),
-            memory_time: g(V::SEAL_FRICTION_MEMORY_TIME),
-        }),
-        valve_overlap: v.effect(V::VALVE_OVERLAP_ENABLED, |_| g(V::VALVE_OVERLAP_WIDTH)),
-        internal_leakage: v.effect(V::INTERNAL_LEAKAGE_ENABLED, |_| {
-            g(V::INTERNAL_LEAKAGE_COEFFICIENT)
-        }),
-        cable_friction: v.effect(V::CABLE_FRICTION_ENABLED, |_| CableFriction {
-            mu: g(V::CABLE_FRICTION_MU),
-            wrap_angle: g(V::BOWDEN_WRAP_ANGLE),
-        }),
-        entrained_air: v.effect(V::ENTRAINED_AIR_ENABLED, |_| EntrainedAir {
-            fraction: g(V::ENTRAINED_AIR_FRACTION),
-            polytropic_index: g(V::ENTRAINED_AIR_POLYTROPIC_INDEX),
-        }),
-        valve_dynamics: v.effect(V::VALVE_DYNAMICS_ENABLED, |_| ValveDynamics {
-            natural_frequency: g(V::VALVE_DYNAMICS_NATURAL_FREQUENCY),
-            damping_ratio: g(V::VALVE_DYNAMICS_DAMPING_RATIO),
-        }),
-    }
 }
 
 impl HydraulicJoint {
@@ -255,10 +188,11 @@ impl Model for HydraulicJoint {
     }
 
     fn initialize(&mut self, vars: &mut [f64], start_time: f64) -> Result<(), ModelError> {
-        let p = read_params(vars);
+        let p = Params::read(vars);
         let d = p.derive()?;
         let u = if p.internal_controller {
-            let (l, r) = controller_update(Values(vars).real(V::THETA_REF), 0.0, 0.0, &p.ctrl);
+            let (l, r) =
+                controller_update(Values(vars).real(V::THETA_REF), 0.0, 0.0, &p.controller());
             [l, r]
         } else {
             Self::open_loop_commands(vars)
@@ -278,7 +212,7 @@ impl Model for HydraulicJoint {
     /// The tunable parameters (load mass, controller gains) act from the next step; the state
     /// and the held valve commands are kept, the step-size history restarts.
     fn tune(&mut self, vars: &[f64]) -> Result<(), ModelError> {
-        let p = read_params(vars);
+        let p = Params::read(vars);
         let d = p.derive()?;
         self.params = Some((p, d));
         if let Some(integ) = &mut self.integrator {
@@ -292,7 +226,7 @@ impl Model for HydraulicJoint {
             return Err(ModelError::NotInitialized);
         };
         let internal = p.internal_controller;
-        let ctrl = p.ctrl;
+        let ctrl = p.controller();
         let inputs = Values(vars);
         let tau = inputs.real(V::TAU_EXT);
         let theta_ref = inputs.real(V::THETA_REF);
@@ -355,9 +289,9 @@ impl Model for HydraulicJoint {
 
 #[cfg(test)]
 mod tests {
-    use super::{read_params, HydraulicJoint};
+    use super::HydraulicJoint;
     use crate::physics::free_piston_slopes;
-    use crate::plant::Plant;
+    use crate::plant::{Params, Plant};
     use crate::vars::{V, VARIABLES};
     use fmu_core::Model;
 
@@ -367,16 +301,21 @@ mod tests {
 
     #[test]
     fn controller_slopes_are_the_closed_form_fig6_slopes() {
-        let p = read_params(&defaults());
-        let (ke, kr) =
-            free_piston_slopes(p.piston_area, p.annulus_area, p.supply_pressure, 0.0, &p.c);
-        assert!((p.ctrl.slope_extend / ke - 1.0).abs() < 2e-3, "{ke}");
-        assert!((p.ctrl.slope_retract / kr - 1.0).abs() < 2e-3, "{kr}");
+        let p = Params::read(&defaults());
+        let (ke, kr) = free_piston_slopes(
+            p.piston_area,
+            p.annulus_area,
+            p.supply_pressure,
+            0.0,
+            &p.orifice_coefficients(),
+        );
+        assert!((p.controller_slope_extend / ke - 1.0).abs() < 2e-3, "{ke}");
+        assert!((p.controller_slope_retract / kr - 1.0).abs() < 2e-3, "{kr}");
     }
 
     #[test]
     fn rest_is_an_exact_equilibrium() {
-        let p = read_params(&defaults());
+        let p = Params::read(&defaults());
         let d = p.derive().unwrap();
         let y = p.rest_state(&d, [0.0; 2]);
         let plant = Plant {

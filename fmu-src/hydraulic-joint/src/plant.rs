@@ -41,70 +41,10 @@ pub const CAPSTAN_V_EPS: f64 = 1e-3;
 /// Atmospheric pressure [Pa] (gauge -> absolute for the entrained air).
 pub const P_ATM: f64 = 101_325.0;
 
-/// Every parameter of the model, read from the variable table at initialization.
-#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
-pub struct Params {
-    pub internal_controller: bool,
-    pub cables_attached: bool,
-    pub valve_use_mean: bool,
-    pub load_mass: f64,
-    pub load_radius: f64,
-    pub link_inertia: f64,
-    pub link_damping: f64,
-    pub pulley_radius: f64,
-    pub piston_area: f64,
-    pub annulus_area: f64,
-    pub stroke: f64,
-    pub dead_volume_cap: f64,
-    pub dead_volume_rod: f64,
-    pub piston_mass: f64,
-    pub piston_damping: f64,
-    pub bulk_modulus: f64,
-    pub supply_pressure: f64,
-    pub return_pressure: f64,
-    pub c: [f64; 4],
-    pub valve_flow_scale: f64,
-    pub valve_deadband_low: f64,
-    pub valve_deadband_high: f64,
-    pub spring_stiffness: f64,
-    pub spring_pretension: f64,
-    pub ctrl: ControllerParams,
-    pub rtol: f64,
-    pub atol: f64,
-    pub seal_friction: Option<SealFriction>,
-    pub valve_overlap: Option<f64>,
-    pub internal_leakage: Option<f64>,
-    pub cable_friction: Option<CableFriction>,
-    pub entrained_air: Option<EntrainedAir>,
-    pub valve_dynamics: Option<ValveDynamics>,
-}
-
-#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
-pub struct SealFriction {
-    pub coulomb: f64,
-    pub breakaway_excess: f64,
-    pub stribeck_velocity: f64,
-    pub viscous: f64,
-    pub memory_time: f64,
-}
-
-#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
-pub struct CableFriction {
-    pub mu: f64,
-    pub wrap_angle: f64,
-}
-
-#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
-pub struct EntrainedAir {
-    pub fraction: f64,
-    pub polytropic_index: f64,
-}
-
-#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
-pub struct ValveDynamics {
-    pub natural_frequency: f64,
-    pub damping_ratio: f64,
-}
+/// Every parameter of the model (generated from the variable table, [`crate::vars`]).
+pub use crate::vars::{
+    CableFriction, EntrainedAir, InternalLeakage, Params, SealFriction, ValveDynamics, ValveOverlap,
+};
 
 /// Quantities derived once at initialization.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
@@ -152,10 +92,11 @@ impl Params {
                 ),
             ));
         }
+        let c = self.orifice_coefficients();
         let c_eff = if self.valve_use_mean {
-            [0.25 * self.c.iter().sum::<f64>() * self.valve_flow_scale; 4]
+            [0.25 * c.iter().sum::<f64>() * self.valve_flow_scale; 4]
         } else {
-            self.c.map(|c| c * self.valve_flow_scale)
+            c.map(|c| c * self.valve_flow_scale)
         };
         let t0 = self.spring_pretension;
         let k = self.spring_stiffness;
@@ -165,7 +106,9 @@ impl Params {
             (2.0 * SLACK_BLEND * t0 / k).sqrt()
         };
         let (db_low, db_high) = match self.valve_overlap {
-            Some(w) => (self.valve_deadband_low - w, self.valve_deadband_high + w),
+            Some(ValveOverlap { width: w }) => {
+                (self.valve_deadband_low - w, self.valve_deadband_high + w)
+            }
             None => (self.valve_deadband_low, self.valve_deadband_high),
         };
         let spool_states = if self.valve_dynamics.is_some() { 4 } else { 0 };
@@ -225,9 +168,23 @@ impl Params {
         }
     }
 
-    /// Controller parameters.
+    /// The Table I orifice coefficients `[c1, c2, c3, c4]`, eq. (13)-(16).
+    pub fn orifice_coefficients(&self) -> [f64; 4] {
+        [self.c1, self.c2, self.c3, self.c4]
+    }
+
+    /// What the controller knows: its own parameters and the pulley radius.
     pub fn controller(&self) -> ControllerParams {
-        self.ctrl
+        ControllerParams {
+            rate: self.controller_rate,
+            gain: self.controller_gain,
+            radius: self.pulley_radius,
+            slope_extend: self.controller_slope_extend,
+            slope_retract: self.controller_slope_retract,
+            deadband_low: self.controller_deadband_low,
+            deadband_high: self.controller_deadband_high,
+            cocontraction: self.controller_cocontraction,
+        }
     }
 
     /// Initial state at rest (theta = 0, pistons mid-stroke, spools at the given commands).
@@ -332,7 +289,7 @@ impl Plant<'_> {
             (o2.r, o1.r)
         };
         let (mut q1, mut q2) = (q1v, q2v);
-        if let Some(c_ip) = p.internal_leakage {
+        if let Some(InternalLeakage { coefficient: c_ip }) = p.internal_leakage {
             // mass-conserving: leaves chamber 1 as Q_leak, enters chamber 2 as Q_leak r1/r2
             let ql = leakage_flow(c_ip, p1, p2);
             q1 -= ql;
@@ -357,7 +314,7 @@ impl Plant<'_> {
             let tj = match p.cable_friction {
                 Some(cf) => capstan_joint_tension(
                     ts,
-                    cf.mu * cf.wrap_angle,
+                    cf.mu * p.bowden_wrap_angle,
                     -sgn * p.pulley_radius * omega,
                     CAPSTAN_V_EPS,
                 ),
@@ -555,7 +512,7 @@ impl Plant<'_> {
         q1p2 = 0.0;
         q2p1 = 0.0;
         let (mut q1, mut q2) = (q1, q2);
-        if let Some(c_ip) = p.internal_leakage {
+        if let Some(InternalLeakage { coefficient: c_ip }) = p.internal_leakage {
             let ql = leakage_flow(c_ip, p1, p2);
             let ratio = o1.r / o2.r;
             q1 -= ql;
@@ -601,7 +558,7 @@ impl Plant<'_> {
             ts_e = p.spring_stiffness * smooth_pos_slope(e, SLACK_BLEND);
             let (gain, t_om) = match p.cable_friction {
                 Some(cf) => {
-                    let mp = cf.mu * cf.wrap_angle;
+                    let mp = cf.mu * p.bowden_wrap_angle;
                     let vs = -sgn * rr * omega;
                     let g = |v: f64| capstan_joint_tension(1.0, mp, v, CAPSTAN_V_EPS);
                     (
@@ -712,7 +669,10 @@ impl ode::OdeSystem for Plant<'_> {
 
 #[cfg(test)]
 mod tests {
-    use super::{CableFriction, EntrainedAir, Plant, SealFriction, ValveDynamics};
+    use super::{
+        CableFriction, EntrainedAir, InternalLeakage, Params, Plant, SealFriction, ValveDynamics,
+        ValveOverlap,
+    };
     use crate::vars::VARIABLES;
     use ode::OdeSystem;
 
@@ -722,7 +682,7 @@ mod tests {
     fn analytic_jacobian_matches_differences() {
         for effects in [false, true] {
             let vars: Vec<f64> = VARIABLES.iter().map(|v| v.start).collect();
-            let mut p = crate::model::read_params(&vars);
+            let mut p = Params::read(&vars);
             if effects {
                 p.seal_friction = Some(SealFriction {
                     coulomb: 40.0,
@@ -731,11 +691,8 @@ mod tests {
                     viscous: 300.0,
                     memory_time: 5e-3,
                 });
-                p.internal_leakage = Some(5e-13);
-                p.cable_friction = Some(CableFriction {
-                    mu: 0.1,
-                    wrap_angle: 3.0,
-                });
+                p.internal_leakage = Some(InternalLeakage { coefficient: 5e-13 });
+                p.cable_friction = Some(CableFriction { mu: 0.1 });
                 p.entrained_air = Some(EntrainedAir {
                     fraction: 0.02,
                     polytropic_index: 1.2,
@@ -744,7 +701,7 @@ mod tests {
                     natural_frequency: 1300.0,
                     damping_ratio: 0.7,
                 });
-                p.valve_overlap = Some(0.3);
+                p.valve_overlap = Some(ValveOverlap { width: 0.3 });
             }
             let d = p.derive().unwrap();
             for (u, yy) in [

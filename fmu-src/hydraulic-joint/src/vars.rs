@@ -3,14 +3,6 @@
 
 use fmu_core::Variable;
 
-/// Table I orifice coefficient with no FMI unit: the SI unit m3 s^-1 V^-1 Pa^-1/2 has a
-/// half-integer exponent, which FMI `BaseUnit` cannot express; it is stated in the description.
-const fn coefficient(name: &'static str, start: f64, description: &'static str) -> Variable {
-    Variable::parameter(name, start, "1", description)
-        .range(5e-10, 5e-8)
-        .unit_not_expressible()
-}
-
 fmu_core::declare_variables! {
     // ---- mode flags
     INTERNAL_CONTROLLER = 0 => Variable::flag("internal_controller", true,
@@ -68,11 +60,13 @@ fmu_core::declare_variables! {
     BULK_MODULUS = 37 => Variable::parameter("bulk_modulus", 1.0e9, "Pa", "[calibrate] Effective bulk modulus beta (oil, hoses), eq. (7)-(10)").range(2e8, 2e9),
     SUPPLY_PRESSURE = 38 => Variable::parameter("supply_pressure", 1.0e7, "Pa", "Supply pressure Ps (100 bar)").range(1e6, 2.1e7).display("bar"),
     RETURN_PRESSURE = 39 => Variable::parameter("return_pressure", 0.0, "Pa", "Return (reservoir) pressure Pr, gauge").range(0.0, 1e6).display("bar"),
-    // ---- valve (Parker D1FP, Table I)
-    C1 = 40 => coefficient("c1", 0.3667e-8, "Table I orifice coefficient c1, P->A [m3 s^-1 V^-1 Pa^-1/2], eq. (13)"),
-    C2 = 41 => coefficient("c2", 0.3404e-8, "Table I orifice coefficient c2, P->B [m3 s^-1 V^-1 Pa^-1/2], eq. (14)"),
-    C3 = 42 => coefficient("c3", 0.3282e-8, "Table I orifice coefficient c3, B->T [m3 s^-1 V^-1 Pa^-1/2], eq. (15)"),
-    C4 = 43 => coefficient("c4", 0.3276e-8, "Table I orifice coefficient c4, A->T [m3 s^-1 V^-1 Pa^-1/2], eq. (16)"),
+    // ---- valve (Parker D1FP, Table I). The orifice coefficients have no FMI unit: the SI unit
+    // m3 s^-1 V^-1 Pa^-1/2 has a half-integer exponent, which FMI `BaseUnit` cannot express; it
+    // is stated in the description.
+    C1 = 40 => Variable::parameter("c1", 0.3667e-8, "1", "Table I orifice coefficient c1, P->A [m3 s^-1 V^-1 Pa^-1/2], eq. (13)").range(5e-10, 5e-8).unit_not_expressible(),
+    C2 = 41 => Variable::parameter("c2", 0.3404e-8, "1", "Table I orifice coefficient c2, P->B [m3 s^-1 V^-1 Pa^-1/2], eq. (14)").range(5e-10, 5e-8).unit_not_expressible(),
+    C3 = 42 => Variable::parameter("c3", 0.3282e-8, "1", "Table I orifice coefficient c3, B->T [m3 s^-1 V^-1 Pa^-1/2], eq. (15)").range(5e-10, 5e-8).unit_not_expressible(),
+    C4 = 43 => Variable::parameter("c4", 0.3276e-8, "1", "Table I orifice coefficient c4, A->T [m3 s^-1 V^-1 Pa^-1/2], eq. (16)").range(5e-10, 5e-8).unit_not_expressible(),
     VALVE_FLOW_SCALE = 44 => Variable::parameter("valve_flow_scale", 1.0, "1",
         "[calibrate] Common scale on the four orifice coefficients").range(0.2, 5.0),
     VALVE_DEADBAND_LOW = 45 => Variable::parameter("valve_deadband_low", -1.8, "V", "Lower edge of the valve command dead band (Fig. 6)").range(-5.0, 0.0),

@@ -1,7 +1,7 @@
 //! The FMI model: parameters copied at initialization, RK4 sub-steps (Co-Simulation), the
 //! right-hand side `(x, v)' = (v, (F - c v - k x) / m)` (Model Exchange), outputs.
 
-use crate::vars::{V, VARIABLES};
+use crate::vars::{Params, V, VARIABLES};
 use fmu_core::{MeVTable, Model, ModelError, ModelExchange, Values, ValuesMut, Variable};
 use serde::{Deserialize, Serialize};
 
@@ -10,17 +10,12 @@ use serde::{Deserialize, Serialize};
 pub struct Oscillator {
     x: f64,
     v: f64,
-    m: f64,
-    k: f64,
-    c: f64,
-    h_max: f64,
-    fail_at: f64,
-    locked: bool,
+    p: Params,
 }
 
 impl Oscillator {
     fn accel(&self, x: f64, v: f64, f: f64) -> f64 {
-        (f - self.c * v - self.k * x) / self.m
+        (f - self.p.damping * v - self.p.stiffness * x) / self.p.mass
     }
 
     fn outputs(&self, vars: &mut [f64]) {
@@ -29,7 +24,7 @@ impl Oscillator {
         out.set(V::V, self.v);
         out.set(
             V::ENERGY,
-            0.5 * self.m * self.v * self.v + 0.5 * self.k * self.x * self.x,
+            0.5 * self.p.mass * self.v * self.v + 0.5 * self.p.stiffness * self.x * self.x,
         );
     }
 }
@@ -52,18 +47,9 @@ impl Model for Oscillator {
     }
 
     fn initialize(&mut self, vars: &mut [f64], _start_time: f64) -> Result<(), ModelError> {
-        let p = Values(vars);
-        *self = Oscillator {
-            x: p.real(V::X0),
-            v: 0.0,
-            m: p.real(V::MASS),
-            k: p.real(V::STIFFNESS),
-            c: p.real(V::DAMPING),
-            h_max: p.real(V::MAX_SUBSTEP),
-            fail_at: p.real(V::FAIL_AT),
-            locked: p.flag(V::LOCKED),
-        };
-        if self.k == 0.0 && self.c == 0.0 && !self.locked {
+        let p = Params::read(vars);
+        *self = Oscillator { x: p.x0, v: 0.0, p };
+        if self.p.stiffness == 0.0 && self.p.damping == 0.0 && !self.p.locked {
             return Err(ModelError::parameters(
                 &["stiffness", "damping"],
                 "both 0: the motion is undamped and unbounded under a constant force",
@@ -78,16 +64,16 @@ impl Model for Oscillator {
     }
 
     fn do_step(&mut self, vars: &mut [f64], t: f64, h: f64) -> Result<(), ModelError> {
-        if t + h >= self.fail_at {
+        if t + h >= self.p.fail_at {
             return Err(ModelError::Step {
                 t,
                 h,
-                reason: format!("deliberate failure: fail_at = {} reached", self.fail_at),
+                reason: format!("deliberate failure: fail_at = {} reached", self.p.fail_at),
             });
         }
-        if !self.locked {
+        if !self.p.locked {
             let f = Values(vars).real(V::FORCE);
-            let n = (h / self.h_max).ceil().max(1.0) as usize;
+            let n = (h / self.p.max_substep).ceil().max(1.0) as usize;
             let dt = h / n as f64;
             for _ in 0..n {
                 let (x, v) = (self.x, self.v);
@@ -126,19 +112,19 @@ impl ModelExchange for Oscillator {
     /// `der(v) = (F - c v - k x) / m`, `energy = m v^2 / 2 + k x^2 / 2`, both 0-rate when
     /// locked; `fail_at` makes the evaluation fail (no value depends on it).
     fn parameter_dependencies() -> Option<&'static [(usize, &'static [usize])]> {
-        const DER_V: [usize; 4] = [
+        const DER_V: &[usize] = &[
             V::MASS as usize,
             V::STIFFNESS as usize,
             V::DAMPING as usize,
             V::LOCKED as usize,
         ];
-        const ENERGY: [usize; 2] = [V::MASS as usize, V::STIFFNESS as usize];
-        const DEPS: [(usize, &[usize]); 3] = [
+        const ENERGY: &[usize] = &[V::MASS as usize, V::STIFFNESS as usize];
+        const DEPS: &[(usize, &[usize])] = &[
             (V::DER_X as usize, &[V::LOCKED as usize]),
-            (V::DER_V as usize, &DER_V),
-            (V::ENERGY as usize, &ENERGY),
+            (V::DER_V as usize, DER_V),
+            (V::ENERGY as usize, ENERGY),
         ];
-        Some(&DEPS)
+        Some(DEPS)
     }
 
     /// The parameters as `initialize` reads them; position and velocity kept.
@@ -162,14 +148,14 @@ impl ModelExchange for Oscillator {
     }
 
     fn derivatives(&self, vars: &[f64], t: f64, dx: &mut [f64]) -> Result<(), ModelError> {
-        if t >= self.fail_at {
+        if t >= self.p.fail_at {
             return Err(ModelError::Step {
                 t,
                 h: 0.0,
-                reason: format!("deliberate failure: fail_at = {} reached", self.fail_at),
+                reason: format!("deliberate failure: fail_at = {} reached", self.p.fail_at),
             });
         }
-        if self.locked {
+        if self.p.locked {
             dx.fill(0.0);
         } else {
             let f = Values(vars).real(V::FORCE);
@@ -182,10 +168,15 @@ impl ModelExchange for Oscillator {
 
     /// `d(x, v)'/d(x, v) = [[0, 1], [-k/m, -c/m]]` (0 when locked).
     fn state_jacobian(&self, _vars: &[f64], _t: f64, jac: &mut [f64]) -> Result<(), ModelError> {
-        if self.locked {
+        if self.p.locked {
             jac.fill(0.0);
         } else {
-            jac.copy_from_slice(&[0.0, 1.0, -self.k / self.m, -self.c / self.m]);
+            jac.copy_from_slice(&[
+                0.0,
+                1.0,
+                -self.p.stiffness / self.p.mass,
+                -self.p.damping / self.p.mass,
+            ]);
         }
         Ok(())
     }
@@ -227,5 +218,20 @@ mod tests {
             "{} vs {exact}",
             vars[V::X as usize]
         );
+    }
+
+    /// The declared parameter dependencies name every parameter that moves an output or a
+    /// derivative, mid-oscillation.
+    #[test]
+    fn declared_parameter_dependencies_cover_the_equations() {
+        let mut m = Oscillator::new();
+        let mut vars: Vec<f64> = VARIABLES.iter().map(|v| v.start).collect();
+        vars[V::FORCE as usize] = 2.0;
+        m.initialize(&mut vars, 0.0).unwrap();
+        for i in 0..100 {
+            m.do_step(&mut vars, i as f64 * 1e-3, 1e-3).unwrap();
+        }
+        let problems = fmu_core::me::parameter_dependency_problems(&m, &vars, 0.1);
+        assert!(problems.is_empty(), "{problems:#?}");
     }
 }

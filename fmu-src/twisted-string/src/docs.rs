@@ -1,8 +1,10 @@
 //! HTML documentation of the TwistedString FMU (equations, sources, derivations, choices).
 
-/// The documentation fragment written to `documentation/index.html`.
+/// The documentation fragment written to `documentation/index.html`, the defaults written in
+/// from the table.
 pub fn html() -> String {
-    DOC.to_string()
+    fmu_core::html::with_start_values(DOC, crate::vars::VARIABLES)
+        .expect("every placeholder of the documentation names a variable of the table")
 }
 
 const DOC: &str = r#"
@@ -125,7 +127,7 @@ Gearhead: &tau;<sub>in</sub> = f &tau;<sub>out</sub>/N,
 (P = &tau;<sub>out</sub>&omega;<sub>t</sub> &gt; 0) and &eta; when the load drives, blended smoothly:
 f = (1/&eta;+&eta;)/2 + (1/&eta;&minus;&eta;)/2 tanh(P/0.1 W). The blend width 0.1 W (about 60 rpm of motor speed at the highest loads) is a choice: a sharper switch acts near standstill as a huge damper that, against the slow speed-PI integrator, made the held motor creep for seconds out of the 2&deg; band.</p>
 <table border="1"><tr><th>parameter</th><th>value</th><th>source / rationale</th></tr>
-<tr><td>motor_resistance</td><td>2.32 &Omega;</td><td rowspan="5">maxon RE 25, &empty;25 mm, graphite brushes,
+<tr><td>motor_resistance</td><td>{{motor_resistance}} &Omega;</td><td rowspan="5">maxon RE 25, &empty;25 mm, graphite brushes,
 20 W, 24 V winding (order no. 118752); the paper names only "Maxon DC motor (20 W)" [15]. Checked against the
 public motor-model file <code>digital/asserv/models/motor.m</code> of the GitHub repository
 <code>oliv5/apbteam</code> (commit 4839708f, entry "Maxon RE25G 20W 24V 118752", catalogue values):
@@ -136,16 +138,16 @@ difference, within catalogue rounding), rotor inertia 10.3 g&middot;cm&sup2; (<b
 used a recalled 10.8 g&middot;cm&sup2; before). rotor_inertia = 10.3 g&middot;cm&sup2; rotor + an estimated
 0.6 g&middot;cm&sup2; for the gearhead input stage (not checked). Derived: no-load speed 24 V &middot; 408 rpm/V
 &asymp; 9800 rpm, stall torque k<sub>t</sub>&middot;24 V/R &asymp; 0.24 N&middot;m.</td></tr>
-<tr><td>motor_inductance</td><td>0.238 mH</td></tr>
-<tr><td>torque_constant</td><td>23.4 mN&middot;m/A</td></tr>
-<tr><td>back_emf_constant</td><td>0.0234 V&middot;s/rad (408 rpm/V)</td></tr>
-<tr><td>rotor_inertia</td><td>1.09&middot;10<sup>-6</sup> kg&middot;m&sup2;</td></tr>
-<tr><td>gear_ratio</td><td>19.2</td><td>paper sec. 3, maxon GP 26 A [16]</td></tr>
-<tr><td>gear_efficiency</td><td>0.81</td><td>2-stage planetary gearhead, maxon catalogue class value as recalled;
+<tr><td>motor_inductance</td><td>{{motor_inductance in mH:.3}} mH</td></tr>
+<tr><td>torque_constant</td><td>{{torque_constant in mN.m/A:.1}} mN&middot;m/A</td></tr>
+<tr><td>back_emf_constant</td><td>{{back_emf_constant}} V&middot;s/rad (408 rpm/V)</td></tr>
+<tr><td>rotor_inertia</td><td>{{rotor_inertia*1e6:.2}}&middot;10<sup>-6</sup> kg&middot;m&sup2;</td></tr>
+<tr><td>gear_ratio</td><td>{{gear_ratio}}</td><td>paper sec. 3, maxon GP 26 A [16]</td></tr>
+<tr><td>gear_efficiency</td><td>{{gear_efficiency}}</td><td>2-stage planetary gearhead, maxon catalogue class value as recalled;
 <b>not verified</b>: no GP 26 A data sheet was reachable with the public sources searched</td></tr>
-<tr><td>encoder_cpt</td><td>1000 (read 4x)</td><td>paper sec. 6, encoder MR 1000 CPT [17]</td></tr>
-<tr><td>speed_limit</td><td>8000 rpm</td><td>paper sec. 6: maximum permissible gearhead input speed</td></tr>
-<tr><td>supply_voltage / current_limit</td><td>24 V / 3 A</td><td>ESCON module [19] supply for a 24 V winding; current limit a choice (about 2x the nominal current of the winding)</td></tr>
+<tr><td>encoder_cpt</td><td>{{encoder_cpt}} (read 4x)</td><td>paper sec. 6, encoder MR 1000 CPT [17]</td></tr>
+<tr><td>speed_limit</td><td>{{speed_limit in rpm:.0}} rpm</td><td>paper sec. 6: maximum permissible gearhead input speed</td></tr>
+<tr><td>supply_voltage / current_limit</td><td>{{supply_voltage}} V / {{current_limit}} A</td><td>ESCON module [19] supply for a 24 V winding; current limit a choice (about 2x the nominal current of the winding)</td></tr>
 </table>
 
 <h2>6. Cascade controller (Fig. 11, Table 5)</h2>

@@ -26,7 +26,7 @@
 //!   `string_compliance` is on (constant 1 otherwise);
 //! * encoder quantisation, position band and speed-limit clamp: evaluated at the time events only.
 
-use crate::model::{read_params, validate, TwistedString};
+use crate::model::{validate, TwistedString};
 use crate::plant::{ix, Aux, Inputs, Params, Plant, DIM, NOMINAL};
 use crate::vars::V;
 use fmu_core::{ModelError, ModelExchange, ValuesMut};
@@ -94,27 +94,27 @@ const WT: usize = V::OMEGA_TWIST as usize;
 const VOLTAGE: usize = V::VOLTAGE as usize;
 const F_LOAD: usize = V::F_LOAD as usize;
 /// The armature voltage: the current PI (i, omega, z_i, z_w) or the input.
-const DEP_VOLTAGE: [usize; 5] = [I, OM, ZI, ZW, VOLTAGE];
+const DEP_VOLTAGE: &[usize] = &[I, OM, ZI, ZW, VOLTAGE];
 /// What the strings and the gear depend on: twist (theta, delta), its rate (omega or omega_t),
 /// the load position and speed (stretch and its rate).
-const DEP_MECHANICS: [usize; 6] = [TH, OM, P, VL, DL, WT];
+const DEP_MECHANICS: &[usize] = &[TH, OM, P, VL, DL, WT];
 
 /// Per state, in the order of `x`: the states and inputs (table positions) its derivative
 /// depends on under any parameter setting, read off [`Plant::eval`]. The set point enters at
 /// the position loop's samples only, so no derivative depends on it.
 static DERIVATIVE_DEPENDENCIES: [&[usize]; STATES] = [
-    &DEP_VOLTAGE,
+    DEP_VOLTAGE,
     &[OM],
     &[I, TH, OM, P, VL, DL, WT],
     &[VL],
     &[TH, OM, P, VL, DL, WT, F_LOAD],
     &[I, OM, ZI, ZW],
     &[OM, ZW],
-    &DEP_VOLTAGE,
+    DEP_VOLTAGE,
     &[I, TH, OM, P, VL, DL, WT],
-    &DEP_MECHANICS,
+    DEP_MECHANICS,
     &[OM, WT],
-    &DEP_MECHANICS,
+    DEP_MECHANICS,
     &[VL, F_LOAD],
 ];
 
@@ -193,15 +193,15 @@ pub fn jacobian(par: &Params, inp: Inputs, x: &[f64]) -> [[f64; STATES]; STATES]
 /// `<ModelStructure>` (FMI 3.0.2 section 2.4.8: parameters are knowns of the outputs and
 /// derivatives; `Plant::eval`). The twist angle at the gearhead output: the gear ratio, with
 /// `gear_backlash` less the position in the gap.
-const GEAR: [usize; 2] = [V::GEAR_RATIO as usize, V::GEAR_BACKLASH_ENABLED as usize];
+const GEAR: &[usize] = &[V::GEAR_RATIO as usize, V::GEAR_BACKLASH_ENABLED as usize];
 /// The helix (eq. 9): string radius and its growth with the twist.
-const HELIX: [usize; 3] = [
+const HELIX: &[usize] = &[
     V::STRING_RADIUS as usize,
     V::RADIUS_GROWTH_ENABLED as usize,
     V::RADIUS_GROWTH_PER_TURN as usize,
 ];
 /// The strings' tension: length, stiffness, damping, the compliance law (eq. 10).
-const STRING: [usize; 7] = [
+const STRING: &[usize] = &[
     V::STRING_LENGTH as usize,
     V::STRING_STIFFNESS as usize,
     V::STRING_DAMPING as usize,
@@ -211,13 +211,13 @@ const STRING: [usize; 7] = [
     V::STRING_COMPLIANCE_A3 as usize,
 ];
 /// The gearhead output with `gear_backlash`: the gap and the flanks.
-const BACKLASH: [usize; 3] = [
+const BACKLASH: &[usize] = &[
     V::GEAR_BACKLASH_ENABLED as usize,
     V::GEAR_BACKLASH_ANGLE as usize,
     V::GEAR_RATIO as usize,
 ];
 /// Friction on the motor side: gear efficiency, motor friction; inter-strand friction.
-const FRICTION: [usize; 6] = [
+const FRICTION: &[usize] = &[
     V::GEAR_EFFICIENCY as usize,
     V::MOTOR_FRICTION_ENABLED as usize,
     V::MOTOR_FRICTION_COULOMB as usize,
@@ -226,7 +226,7 @@ const FRICTION: [usize; 6] = [
     V::TWIST_HYSTERESIS_FRICTION_COEFFICIENT as usize,
 ];
 /// The armature circuit.
-const ARMATURE: [usize; 4] = [
+const ARMATURE: &[usize] = &[
     V::MOTOR_RESISTANCE as usize,
     V::MOTOR_INDUCTANCE as usize,
     V::BACK_EMF_CONSTANT as usize,
@@ -234,7 +234,7 @@ const ARMATURE: [usize; 4] = [
 ];
 /// The sampled position loop: encoder, P law with its band, speed limit, period (its speed set
 /// point is computed at the ticks and held).
-const POSITION: [usize; 6] = [
+const POSITION: &[usize] = &[
     V::INTERNAL_CONTROLLER as usize,
     V::CONTROLLER_POSITION_P as usize,
     V::CONTROLLER_POSITION_BAND as usize,
@@ -243,7 +243,7 @@ const POSITION: [usize; 6] = [
     V::ENCODER_CPT as usize,
 ];
 /// The continuous current and speed PI loops and their limits (or open loop the input).
-const CASCADE: [usize; 6] = [
+const CASCADE: &[usize] = &[
     V::CONTROLLER_CURRENT_P as usize,
     V::CONTROLLER_CURRENT_TI as usize,
     V::CONTROLLER_SPEED_P as usize,
@@ -252,7 +252,7 @@ const CASCADE: [usize; 6] = [
     V::SUPPLY_VOLTAGE as usize,
 ];
 /// The load: mass, return spring (its free length is the string length), guide.
-const LOAD: [usize; 5] = [
+const LOAD: &[usize] = &[
     V::LOAD_MASS as usize,
     V::SPRING_STIFFNESS as usize,
     V::SPRING_PRELOAD as usize,
@@ -300,8 +300,8 @@ const P_MEASURED: &[usize] = &[
 
 /// Per output and derivative, the parameters its value depends on under any setting of the
 /// others (the states, `der(theta_motor)`, `der(p)` and `der(W_external)` depend on none).
-static PARAMETER_DEPENDENCIES: [(usize, &[usize]); 24] = [
-    (V::THETA_TWIST as usize, &GEAR),
+static PARAMETER_DEPENDENCIES: &[(usize, &[usize])] = &[
+    (V::THETA_TWIST as usize, GEAR),
     (V::TAU_MOTOR as usize, &[V::TORQUE_CONSTANT as usize]),
     (V::F_STRING as usize, P_F_STRING),
     (V::F_TANGENTIAL as usize, P_STRINGS),
@@ -310,7 +310,7 @@ static PARAMETER_DEPENDENCIES: [(usize, &[usize]); 24] = [
     (V::STIFFNESS as usize, P_STRINGS),
     (V::F_AXIAL as usize, P_STRINGS),
     (V::VOLTAGE_MOTOR as usize, P_VOLTAGE),
-    (V::OMEGA_REF as usize, &POSITION),
+    (V::OMEGA_REF as usize, POSITION),
     (V::THETA_MOTOR_MEASURED as usize, P_MEASURED),
     (V::E_STORED as usize, P_STORED),
     (V::DER_CURRENT as usize, P_CURRENT),
@@ -321,7 +321,7 @@ static PARAMETER_DEPENDENCIES: [(usize, &[usize]); 24] = [
     (V::DER_E_ELECTRICAL as usize, P_VOLTAGE),
     (V::DER_E_DISSIPATED as usize, P_LOSSES),
     (V::DER_E_STRING_KINEMATIC as usize, P_STRINGS),
-    (V::DER_BACKLASH_POSITION as usize, &BACKLASH),
+    (V::DER_BACKLASH_POSITION as usize, BACKLASH),
     (V::DER_OMEGA_TWIST as usize, P_MECHANICS),
     (V::DER_THETA_MOTOR as usize, &[]),
     (V::DER_P as usize, &[]),
@@ -344,11 +344,11 @@ pub(crate) fn write_state_variables(out: &mut ValuesMut, y: &[f64; DIM], aux: &A
 /// Event indicator: the twist angle while `string_compliance` is on (its free length has a kink
 /// at zero twist), else the constant 1 (no state event).
 pub fn twist_indicator(par: &Params, y: &[f64; DIM]) -> f64 {
-    if par.compliance.is_none() {
+    if par.string_compliance.is_none() {
         return 1.0;
     }
     // the twist angle exactly as Plant::eval forms it
-    match par.backlash {
+    match par.gear_backlash {
         None => y[ix::THETA] / par.gear_ratio,
         Some(_) => y[ix::THETA] / par.gear_ratio - y[ix::DELTA],
     }
@@ -358,7 +358,7 @@ impl TwistedString {
     /// The sample clock of the position loop, when the internal controller runs.
     fn clock(&self) -> Option<SampleClock> {
         if self.par.internal_controller {
-            SampleClock::new(self.t0, self.par.position_period)
+            SampleClock::new(self.t0, self.par.controller_position_period)
         } else {
             None
         }
@@ -378,13 +378,13 @@ impl ModelExchange for TwistedString {
     }
 
     fn parameter_dependencies() -> Option<&'static [(usize, &'static [usize])]> {
-        Some(&PARAMETER_DEPENDENCIES)
+        Some(PARAMETER_DEPENDENCIES)
     }
 
     /// Every parameter read and checked again (as at initialization); the states, the
     /// controller's held set point and the encoder reading are kept.
     fn set_parameters(&mut self, vars: &[f64]) -> Result<(), ModelError> {
-        let par = read_params(vars);
+        let par = Params::read(vars);
         validate(&par)?;
         self.par = par;
         Ok(())
@@ -462,7 +462,7 @@ mod tests {
     use super::{jacobian, pack, rates, sx, unpack, STATES, STATE_VARIABLES};
     use crate::model::TwistedString;
     use crate::physics::GRAVITY;
-    use crate::plant::{Inputs, Params, DIM, NOMINAL};
+    use crate::plant::{with_every_effect, Inputs, Params, DIM, NOMINAL};
     use crate::vars::{V, VARIABLES};
     use fmu_core::{Model, ModelExchange};
 
@@ -493,15 +493,10 @@ mod tests {
 
     #[test]
     fn jacobian_matches_central_differences() {
-        let mut par =
-            crate::model::read_params(&VARIABLES.iter().map(|v| v.start).collect::<Vec<_>>());
+        let mut par = Params::read(&VARIABLES.iter().map(|v| v.start).collect::<Vec<_>>());
         for all in [false, true] {
             if all {
-                par.compliance = Some((8.1153e-6, 8.4427e-9, 1.6914e-5));
-                par.hysteresis = Some(0.1);
-                par.motor_friction = Some((1e-3, 1e-6));
-                par.backlash = Some(1f64.to_radians());
-                par.radius_growth = Some(0.005);
+                par = with_every_effect(&par, 1f64.to_radians());
             }
             let inp = Inputs {
                 theta_ref: 0.0,
@@ -571,6 +566,30 @@ mod tests {
         }
         fn autonomous(&self) -> bool {
             true
+        }
+    }
+
+    /// The declared parameter dependencies name every parameter that moves an output or a
+    /// derivative: every effect on, mid-motion under load, closed loop and open loop.
+    #[test]
+    fn declared_parameter_dependencies_cover_the_equations() {
+        for internal in [1.0, 0.0] {
+            let mut vars: Vec<f64> = VARIABLES.iter().map(|v| v.start).collect();
+            for (i, var) in VARIABLES.iter().enumerate() {
+                if var.name.ends_with(".enabled") {
+                    vars[i] = 1.0;
+                }
+            }
+            vars[V::INTERNAL_CONTROLLER as usize] = internal;
+            vars[V::VOLTAGE as usize] = 6.0;
+            let mut m = TwistedString::new();
+            m.initialize(&mut vars, 0.0).unwrap();
+            for k in 0..100 {
+                inputs_at(k as f64 * 1e-3, &mut vars);
+                m.do_step(&mut vars, k as f64 * 1e-3, 1e-3).unwrap();
+            }
+            let problems = fmu_core::me::parameter_dependency_problems(&m, &vars, 0.1);
+            assert!(problems.is_empty(), "{problems:#?}");
         }
     }
 

@@ -49,59 +49,6 @@ fn quadrature_offsets(y: &mut [f64; DIM]) -> [f64; 3] {
     off
 }
 
-/// Read every parameter from the variable table into SI [`Params`].
-pub fn read_params(vars: &[f64]) -> Params {
-    let v = Values(vars);
-    let g = |x: V| v.real(x);
-    Params {
-        internal_controller: v.flag(V::INTERNAL_CONTROLLER),
-        load_mass: g(V::LOAD_MASS),
-        string_length: g(V::STRING_LENGTH),
-        string_radius: g(V::STRING_RADIUS),
-        string_count: g(V::STRING_COUNT),
-        string_stiffness: g(V::STRING_STIFFNESS),
-        string_damping: g(V::STRING_DAMPING),
-        spring_stiffness: g(V::SPRING_STIFFNESS),
-        spring_preload: g(V::SPRING_PRELOAD),
-        guide_damping: g(V::GUIDE_DAMPING),
-        motor_resistance: g(V::MOTOR_RESISTANCE),
-        motor_inductance: g(V::MOTOR_INDUCTANCE),
-        torque_constant: g(V::TORQUE_CONSTANT),
-        back_emf_constant: g(V::BACK_EMF_CONSTANT),
-        rotor_inertia: g(V::ROTOR_INERTIA),
-        gear_ratio: g(V::GEAR_RATIO),
-        gear_efficiency: g(V::GEAR_EFFICIENCY),
-        encoder_cpt: g(V::ENCODER_CPT),
-        supply_voltage: g(V::SUPPLY_VOLTAGE),
-        current_limit: g(V::CURRENT_LIMIT),
-        speed_limit: g(V::SPEED_LIMIT),
-        current_p: g(V::CONTROLLER_CURRENT_P),
-        current_ti: g(V::CONTROLLER_CURRENT_TI),
-        speed_p: g(V::CONTROLLER_SPEED_P),
-        speed_ti: g(V::CONTROLLER_SPEED_TI),
-        position_p: g(V::CONTROLLER_POSITION_P),
-        position_band: g(V::CONTROLLER_POSITION_BAND),
-        position_period: g(V::CONTROLLER_POSITION_PERIOD),
-        rtol: g(V::RTOL),
-        atol: g(V::ATOL),
-        compliance: v.effect(V::STRING_COMPLIANCE_ENABLED, |_| {
-            (
-                g(V::STRING_COMPLIANCE_A1),
-                g(V::STRING_COMPLIANCE_A2),
-                g(V::STRING_COMPLIANCE_A3),
-            )
-        }),
-        hysteresis: v.effect(V::TWIST_HYSTERESIS_ENABLED, |_| {
-            g(V::TWIST_HYSTERESIS_FRICTION_COEFFICIENT)
-        }),
-        motor_friction: v.effect(V::MOTOR_FRICTION_ENABLED, |_| {
-            (g(V::MOTOR_FRICTION_COULOMB), g(V::MOTOR_FRICTION_VISCOUS))
-        }),
-        backlash: v.effect(V::GEAR_BACKLASH_ENABLED, |_| g(V::GEAR_BACKLASH_ANGLE)),
-        radius_growth: v.effect(V::RADIUS_GROWTH_ENABLED, |_| g(V::RADIUS_GROWTH_PER_TURN)),
-    }
-}
-
 /// Ill-posed combinations the min/max ranges cannot catch. Err names the parameter.
 pub fn validate(q: &Params) -> Result<(), ModelError> {
     for (name, v) in [
@@ -111,9 +58,9 @@ pub fn validate(q: &Params) -> Result<(), ModelError> {
         ("rotor_inertia", q.rotor_inertia),
         ("motor_inductance", q.motor_inductance),
         ("gear_ratio", q.gear_ratio),
-        ("controller_current_Ti", q.current_ti),
-        ("controller_speed_Ti", q.speed_ti),
-        ("controller_position_period", q.position_period),
+        ("controller_current_Ti", q.controller_current_ti),
+        ("controller_speed_Ti", q.controller_speed_ti),
+        ("controller_position_period", q.controller_position_period),
         ("rtol", q.rtol),
         ("atol", q.atol),
     ] {
@@ -170,8 +117,8 @@ impl TwistedString {
         let w = position_loop(
             theta_ref,
             self.theta_meas,
-            self.par.position_p,
-            self.par.position_band,
+            self.par.controller_position_p,
+            self.par.controller_position_band,
             self.par.speed_limit,
         );
         let changed = w != self.pos.omega_ref;
@@ -204,8 +151,10 @@ impl TwistedString {
             V::TRANSMISSION_RATIO,
             transmission_ratio(p, aux.l, aux.a, aux.da, aux.dlfree, P_MIN_OUTPUT),
         );
-        let k = match q.compliance {
-            Some((_, _, a3)) => axial_stiffness_load_form(aux.stretch, p, aux.l, a3, plant::P_EPS),
+        let k = match q.string_compliance {
+            Some(StringCompliance { a3, .. }) => {
+                axial_stiffness_load_form(aux.stretch, p, aux.l, a3, plant::P_EPS)
+            }
             None => axial_stiffness(aux.tension, p, aux.a, aux.l, c),
         };
         set(V::STIFFNESS, k);
@@ -268,7 +217,7 @@ impl Model for TwistedString {
     }
 
     fn initialize(&mut self, vars: &mut [f64], start_time: f64) -> Result<(), ModelError> {
-        let par = read_params(vars);
+        let par = Params::read(vars);
         validate(&par)?;
         let (_, _, f_load) = Self::inputs(vars);
         let p0 = plant::rest_position(&par, f_load)?;
@@ -318,7 +267,7 @@ impl Model for TwistedString {
     /// The tunable parameters (load mass, controller gains and limits) act from the next step;
     /// the state and the controller's integrators are kept, the step-size history restarts.
     fn tune(&mut self, vars: &[f64]) -> Result<(), ModelError> {
-        let par = read_params(vars);
+        let par = Params::read(vars);
         validate(&par)?;
         self.par = par;
         self.integ.reset_step_size();
@@ -348,7 +297,7 @@ impl Model for TwistedString {
             self.last_inputs = Some(rhs_inputs);
         }
         let t_end = t + h;
-        let ts = self.par.position_period;
+        let ts = self.par.controller_position_period;
         let samples = h / ts;
         if self.par.internal_controller && (samples.is_nan() || samples > MAX_SAMPLES_PER_STEP) {
             return Err(ModelError::Step {

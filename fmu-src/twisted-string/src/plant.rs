@@ -74,63 +74,23 @@ pub mod ix {
 /// Number of states the solver integrates for these parameters: 12 with `gear_backlash`
 /// (its two states follow the energy integrals), 10 otherwise.
 pub fn state_dim(q: &Params) -> usize {
-    if q.backlash.is_some() {
+    if q.gear_backlash.is_some() {
         DIM
     } else {
         DIM_BASE
     }
 }
 
-/// Every parameter in SI units (read from the variable table at initialization).
-#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
-pub struct Params {
-    pub internal_controller: bool,
-    pub load_mass: f64,
-    pub string_length: f64,
-    pub string_radius: f64,
-    pub string_count: f64,
-    pub string_stiffness: f64,
-    pub string_damping: f64,
-    pub spring_stiffness: f64,
-    pub spring_preload: f64,
-    pub guide_damping: f64,
-    pub motor_resistance: f64,
-    pub motor_inductance: f64,
-    pub torque_constant: f64,
-    pub back_emf_constant: f64,
-    pub rotor_inertia: f64,
-    pub gear_ratio: f64,
-    pub gear_efficiency: f64,
-    pub encoder_cpt: f64,
-    pub supply_voltage: f64,
-    pub current_limit: f64,
-    pub speed_limit: f64,
-    pub current_p: f64,
-    pub current_ti: f64,
-    pub speed_p: f64,
-    pub speed_ti: f64,
-    pub position_p: f64,
-    pub position_band: f64,
-    pub position_period: f64,
-    pub rtol: f64,
-    pub atol: f64,
-    /// `string_compliance`: (a1 [m/rad], a2 [m/rad2], a3 [m/N]) of eq. 10 (motor angle).
-    pub compliance: Option<(f64, f64, f64)>,
-    /// `twist_hysteresis`: inter-strand friction coefficient.
-    pub hysteresis: Option<f64>,
-    /// `motor_friction`: (Coulomb [N.m], viscous [N.m.s/rad]).
-    pub motor_friction: Option<(f64, f64)>,
-    /// `gear_backlash`: total backlash at the output [rad] (adds the states delta, omega_t).
-    pub backlash: Option<f64>,
-    /// `radius_growth`: relative radius growth per turn of twist.
-    pub radius_growth: Option<f64>,
-}
+/// Every parameter in SI units (generated from the variable table, [`crate::vars`]).
+pub use crate::vars::{
+    GearBacklash, MotorFriction, Params, RadiusGrowth, StringCompliance, TwistHysteresis,
+};
 
 impl Params {
     /// Axial compliance of the bundle [m/N]: a3 (Table 3) or 1/string_stiffness.
     pub fn compliance_c(&self) -> f64 {
-        match self.compliance {
-            Some((_, _, a3)) => a3,
+        match self.string_compliance {
+            Some(StringCompliance { a3, .. }) => a3,
             None => 1.0 / self.string_stiffness,
         }
     }
@@ -206,16 +166,20 @@ impl Plant<'_> {
         // gearhead output = twist angle: rigid theta_m / N, or with backlash the output's own
         // angle theta_m / N - delta and speed omega_t (states)
         let dtheta_t = 1.0 / n;
-        let (theta_t, omega_t) = match q.backlash {
+        let (theta_t, omega_t) = match q.gear_backlash {
             None => (th_m / n, dtheta_t * om),
             Some(_) => (th_m / n - y[ix::DELTA], y[ix::OMEGA_T]),
         };
         // helix geometry (eq. 9), optional radius growth
-        let (a, da) = twist_arc(theta_t, q.string_radius, q.radius_growth.unwrap_or(0.0));
+        let (a, da) = twist_arc(
+            theta_t,
+            q.string_radius,
+            q.radius_growth.map_or(0.0, |g| g.per_turn),
+        );
         let l = strand_length(p, a);
         // unloaded strand length (eq. 10 twist terms, motor-referred angle N theta_t)
-        let (lfree, dlfree) = match q.compliance {
-            Some((a1, a2, _)) => {
+        let (lfree, dlfree) = match q.string_compliance {
+            Some(StringCompliance { a1, a2, .. }) => {
                 let (lf, d) = free_length(n * theta_t, q.string_length, a1, a2);
                 (lf, d * n)
             }
@@ -225,14 +189,16 @@ impl Plant<'_> {
         let s = l - lfree;
         let s_dot = (p * v + a * da * omega_t) / l - dlfree * omega_t;
         let (x, _) = string_tension(s, s_dot, c, q.string_damping, TENSION_WIDTH);
-        let (tension, f_axial) = match q.compliance {
+        let (tension, f_axial) = match q.string_compliance {
             Some(_) => load_form_forces(x, p, l, P_EPS),
             None => (x, axial_force(x, p, l)),
         };
         let f_tangential = tangential_force(tension, a, l);
         let tau_l = twist_torque(tension, a, da, l);
-        let tau_h = match q.hysteresis {
-            Some(mu) => strand_friction(tension, da, omega_t, mu, HYSTERESIS_SPEED_WIDTH).0,
+        let tau_h = match q.twist_hysteresis {
+            Some(TwistHysteresis {
+                friction_coefficient: mu,
+            }) => strand_friction(tension, da, omega_t, mu, HYSTERESIS_SPEED_WIDTH).0,
             None => 0.0,
         };
         let tau_out = tau_l + tau_h;
@@ -251,15 +217,30 @@ impl Plant<'_> {
         );
         let tau_in = f_eta * dtheta_t * tau_gear;
         let tau_fric = match q.motor_friction {
-            Some((tc, b)) => motor_friction(om, tc, b, FRICTION_SPEED_WIDTH).0,
+            Some(MotorFriction {
+                coulomb: tc,
+                viscous: b,
+            }) => motor_friction(om, tc, b, FRICTION_SPEED_WIDTH).0,
             None => 0.0,
         };
         // cascade controller (continuous current and speed PI) or open-loop voltage
         let (u, i_ref, dzi, dzw) = if q.internal_controller {
             let e_w = self.inp.omega_ref - om;
-            let (i_ref, i_ref_u) = pi_output(q.speed_p, q.speed_ti, e_w, zw, q.current_limit);
+            let (i_ref, i_ref_u) = pi_output(
+                q.controller_speed_p,
+                q.controller_speed_ti,
+                e_w,
+                zw,
+                q.current_limit,
+            );
             let e_i = i_ref - i;
-            let (u, u_u) = pi_output(q.current_p, q.current_ti, e_i, zi, q.supply_voltage);
+            let (u, u_u) = pi_output(
+                q.controller_current_p,
+                q.controller_current_ti,
+                e_i,
+                zi,
+                q.supply_voltage,
+            );
             (
                 u,
                 i_ref,
@@ -299,7 +280,7 @@ impl Plant<'_> {
             }
             None => (0.0, 0.0),
         };
-        let p_kin = match q.compliance {
+        let p_kin = match q.string_compliance {
             Some(_) => x * ((l / q_p) * (s_dot + dlfree * omega_t) - s_dot),
             None => 0.0,
         };
@@ -331,7 +312,7 @@ impl Plant<'_> {
 /// With `gear_backlash`: the torque of the gear flanks on the output and the rate of the output's
 /// position in the gap, `d delta/dt = omega_m / N - omega_t` (documentation, section 7.1).
 fn flanks(q: &Params, y: &[f64], omega_m: f64) -> Option<(FlankTorque, f64)> {
-    q.backlash.map(|b| {
+    q.gear_backlash.map(|GearBacklash { angle: b }| {
         let rate = (1.0 / q.gear_ratio) * omega_m - y[ix::OMEGA_T];
         (flank_torque(y[ix::DELTA], rate, b, &MESH), rate)
     })
@@ -351,7 +332,7 @@ impl ode::OdeSystem for Plant<'_> {
     /// The energy integrals 7..9 feed nothing back; they are trailing only without
     /// `gear_backlash` (whose states follow them), so only then are they declared.
     fn quadratures(&self) -> usize {
-        if self.par.backlash.is_some() {
+        if self.par.gear_backlash.is_some() {
             0
         } else {
             DIM_BASE - DIM_DYN
@@ -431,7 +412,7 @@ impl Plant<'_> {
         let zero = [0.0; DIM];
         // gearhead output (twist) angle and speed with their gradients, g = 1/N
         let g = 1.0 / n;
-        let (theta_t, d_th_t, omega_t, d_omega_t) = match q.backlash {
+        let (theta_t, d_th_t, omega_t, d_omega_t) = match q.gear_backlash {
             None => (th_m / n, scale(g, &e_th), g * om, scale(g, &e_om)),
             Some(_) => (
                 th_m / n - y[ix::DELTA],
@@ -441,23 +422,25 @@ impl Plant<'_> {
             ),
         };
         // arc a = theta_t r(theta_t), a' and a''
-        let k = q.radius_growth.unwrap_or(0.0) / (2.0 * std::f64::consts::PI);
+        let k = q.radius_growth.map_or(0.0, |g| g.per_turn) / (2.0 * std::f64::consts::PI);
         let r0 = q.string_radius;
-        let (a, da) = twist_arc(theta_t, r0, q.radius_growth.unwrap_or(0.0));
+        let (a, da) = twist_arc(theta_t, r0, q.radius_growth.map_or(0.0, |g| g.per_turn));
         let dda = 2.0 * r0 * k * sign_fwd(theta_t);
         let d_a = scale(da, &d_th_t);
         let d_da = scale(dda, &d_th_t);
         let l = strand_length(p, a);
         let d_l = lin(p / l, &e_p, a / l, &d_a);
-        let (lf_p, lf_pp) = match q.compliance {
-            Some((a1, a2, _)) => {
+        let (lf_p, lf_pp) = match q.string_compliance {
+            Some(StringCompliance { a1, a2, .. }) => {
                 let (_, d) = free_length(n * theta_t, q.string_length, a1, a2);
                 (d * n, 2.0 * a2 * n * n)
             }
             None => (0.0, 0.0),
         };
-        let lfree = match q.compliance {
-            Some((a1, a2, _)) => free_length(n * theta_t, q.string_length, a1, a2).0,
+        let lfree = match q.string_compliance {
+            Some(StringCompliance { a1, a2, .. }) => {
+                free_length(n * theta_t, q.string_length, a1, a2).0
+            }
             None => q.string_length,
         };
         let d_lf = scale(lf_p, &d_th_t);
@@ -478,7 +461,7 @@ impl Plant<'_> {
         }
         let (xt, dxt) = string_tension(s, s_dot, c, q.string_damping, TENSION_WIDTH);
         let d_x = lin(dxt / c, &d_s, dxt * q.string_damping, &d_sdot);
-        let (tension, _f_axial, d_t, d_fl) = match q.compliance {
+        let (tension, _f_axial, d_t, d_fl) = match q.string_compliance {
             Some(_) => {
                 let qp = (p * p + P_EPS * P_EPS).sqrt();
                 let d_q = scale(p / qp, &e_p);
@@ -511,7 +494,10 @@ impl Plant<'_> {
         let mut tau_out = tau_l;
         let mut tau_h = 0.0;
         let mut d_tau_h = zero;
-        if let Some(mu) = q.hysteresis {
+        if let Some(TwistHysteresis {
+            friction_coefficient: mu,
+        }) = q.twist_hysteresis
+        {
             let th = ode::math::tanh(omega_t / HYSTERESIS_SPEED_WIDTH);
             tau_h = mu * tension * da * th;
             tau_out += tau_h;
@@ -543,7 +529,10 @@ impl Plant<'_> {
             d_tau_in[kk] = df_dp * d_power[kk] * g * tau_g + f_eta * g * d_tau_g[kk];
         }
         let (fric, d_fric) = match q.motor_friction {
-            Some((tc, b)) => {
+            Some(MotorFriction {
+                coulomb: tc,
+                viscous: b,
+            }) => {
                 let (f, df) = motor_friction(om, tc, b, FRICTION_SPEED_WIDTH);
                 (f, scale(df, &e_om))
             }
@@ -553,8 +542,9 @@ impl Plant<'_> {
         let (u, d_u, d_dzi, d_dzw) = if q.internal_controller {
             let e_w = self.inp.omega_ref - om;
             let d_ew = scale(-1.0, &e_om);
-            let iref_u = q.speed_p * (e_w + zw / q.speed_ti);
-            let d_iref_u = lin(q.speed_p, &d_ew, q.speed_p / q.speed_ti, &e_zw);
+            let (kp_w, ti_w) = (q.controller_speed_p, q.controller_speed_ti);
+            let iref_u = kp_w * (e_w + zw / ti_w);
+            let d_iref_u = lin(kp_w, &d_ew, kp_w / ti_w, &e_zw);
             let d_iref = if iref_u.abs() < q.current_limit {
                 d_iref_u
             } else {
@@ -563,8 +553,9 @@ impl Plant<'_> {
             let iref = iref_u.clamp(-q.current_limit, q.current_limit);
             let ei = iref - i;
             let d_ei = lin(1.0, &d_iref, -1.0, &e_i);
-            let u_u = q.current_p * (ei + zi / q.current_ti);
-            let d_uu = lin(q.current_p, &d_ei, q.current_p / q.current_ti, &e_zi);
+            let (kp_i, ti_i) = (q.controller_current_p, q.controller_current_ti);
+            let u_u = kp_i * (ei + zi / ti_i);
+            let d_uu = lin(kp_i, &d_ei, kp_i / ti_i, &e_zi);
             let d_u = if u_u.abs() < q.supply_voltage {
                 d_uu
             } else {
@@ -629,7 +620,7 @@ impl Plant<'_> {
                     (d_tau_g[kk] - d_el[kk]) * rate + (f.tau - f.elastic) * d_rate[kk];
             }
         }
-        if q.compliance.is_some() {
+        if q.string_compliance.is_some() {
             let qp = (p * p + P_EPS * P_EPS).sqrt();
             let lfd = lf_p * omega_t;
             let bracket = (l / qp) * (s_dot + lfd) - s_dot;
@@ -651,8 +642,8 @@ impl Plant<'_> {
 /// 1/string_stiffness), and with `gear_backlash` the output's `J_out omega_t^2/2` and the flanks'
 /// [`flank_energy`]. Along any solution `d/dt E_stored = u i + F_load v - P_loss - P_kin`.
 pub fn stored_energy(q: &Params, y: &[f64]) -> f64 {
-    let gear = match q.backlash {
-        Some(b) => {
+    let gear = match q.gear_backlash {
+        Some(GearBacklash { angle: b }) => {
             quadratic_energy(GEAR_OUTPUT_INERTIA, y[ix::OMEGA_T])
                 + flank_energy(y[ix::DELTA], b, &MESH)
         }
@@ -692,7 +683,7 @@ pub fn rest_position(q: &Params, f_load: f64) -> Result<f64, ModelError> {
     let b = q.load_mass * GRAVITY + f_load + q.spring_preload;
     let ksc = q.spring_stiffness * c;
     let phi = |p: f64| -> (f64, f64) {
-        if q.compliance.is_some() {
+        if q.string_compliance.is_some() {
             let r = (p * p + P_EPS * P_EPS).sqrt();
             (p / r, P_EPS * P_EPS / (r * r * r))
         } else {
@@ -720,10 +711,32 @@ pub fn rest_position(q: &Params, f_load: f64) -> Result<f64, ModelError> {
     Ok(p0)
 }
 
+/// `q` with every effect on at its table default, the gear backlash at `backlash` [rad].
+#[cfg(test)]
+pub(crate) fn with_every_effect(q: &Params, backlash: f64) -> Params {
+    use crate::vars::VARIABLES;
+    let mut vars: Vec<f64> = VARIABLES.iter().map(|v| v.start).collect();
+    for (i, v) in VARIABLES.iter().enumerate() {
+        if v.name.ends_with(".enabled") {
+            vars[i] = 1.0;
+        }
+    }
+    let on = Params::read(&vars);
+    Params {
+        string_compliance: on.string_compliance,
+        twist_hysteresis: on.twist_hysteresis,
+        motor_friction: on.motor_friction,
+        gear_backlash: Some(GearBacklash { angle: backlash }),
+        radius_growth: on.radius_growth,
+        ..q.clone()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::{
-        ix, rest_position, stored_energy, Inputs, Params, Plant, DIM, DIM_BASE,
+        ix, rest_position, stored_energy, with_every_effect, GearBacklash, Inputs, MotorFriction,
+        Params, Plant, RadiusGrowth, StringCompliance, TwistHysteresis, DIM, DIM_BASE,
         EFFICIENCY_POWER_WIDTH, GEAR_OUTPUT_INERTIA, MESH, NOMINAL,
     };
     use crate::physics::{bundle_radius, free_length, helix_position, twist_arc, GRAVITY};
@@ -751,13 +764,13 @@ mod tests {
             supply_voltage: 24.0,
             current_limit: 3.0,
             speed_limit: 837.758,
-            current_p: 0.165,
-            current_ti: 69e-6,
-            speed_p: 9.196e-3,
-            speed_ti: 0.042,
-            position_p: 8.75,
-            position_band: 2f64.to_radians(),
-            position_period: 1e-3,
+            controller_current_p: 0.165,
+            controller_current_ti: 69e-6,
+            controller_speed_p: 9.196e-3,
+            controller_speed_ti: 0.042,
+            controller_position_p: 8.75,
+            controller_position_band: 2f64.to_radians(),
+            controller_position_period: 1e-3,
             rtol: 1e-6,
             atol: 1e-6,
             ..Default::default()
@@ -772,9 +785,16 @@ mod tests {
 
     #[test]
     fn rest_is_equilibrium() {
-        for compl in [None, Some((8.1153e-06, 8.4427e-09, 1.6914e-5))] {
+        for compl in [
+            None,
+            Some(StringCompliance {
+                a1: 8.1153e-06,
+                a2: 8.4427e-09,
+                a3: 1.6914e-5,
+            }),
+        ] {
             let mut q = defaults();
-            q.compliance = compl;
+            q.string_compliance = compl;
             let p0 = rest_position(&q, 0.0).unwrap();
             let plant = Plant {
                 par: &q,
@@ -813,18 +833,31 @@ mod tests {
                 let mut q = base.clone();
                 q.internal_controller = internal;
                 match effect {
-                    1 => q.compliance = Some((8.1153e-06, 8.4427e-09, 1.6914e-5)),
-                    2 => q.hysteresis = Some(0.1),
-                    3 => q.motor_friction = Some((1e-3, 1e-6)),
-                    4 => q.backlash = Some(1f64.to_radians()),
-                    5 => q.radius_growth = Some(0.005),
-                    6 => {
-                        q.compliance = Some((8.1153e-06, 8.4427e-09, 1.6914e-5));
-                        q.hysteresis = Some(0.1);
-                        q.motor_friction = Some((1e-3, 1e-6));
-                        q.backlash = Some(2f64.to_radians());
-                        q.radius_growth = Some(0.005);
+                    1 => {
+                        q.string_compliance = Some(StringCompliance {
+                            a1: 8.1153e-06,
+                            a2: 8.4427e-09,
+                            a3: 1.6914e-5,
+                        })
                     }
+                    2 => {
+                        q.twist_hysteresis = Some(TwistHysteresis {
+                            friction_coefficient: 0.1,
+                        })
+                    }
+                    3 => {
+                        q.motor_friction = Some(MotorFriction {
+                            coulomb: 1e-3,
+                            viscous: 1e-6,
+                        })
+                    }
+                    4 => {
+                        q.gear_backlash = Some(GearBacklash {
+                            angle: 1f64.to_radians(),
+                        })
+                    }
+                    5 => q.radius_growth = Some(RadiusGrowth { per_turn: 0.005 }),
+                    6 => q = with_every_effect(&q, 2f64.to_radians()),
                     _ => {}
                 }
                 cases.push(q);
@@ -850,7 +883,7 @@ mod tests {
     fn taut(q: &Params, y0: &[f64; DIM_BASE], out: Output) -> [f64; DIM] {
         let mut y = [0.0; DIM];
         y[..DIM_BASE].copy_from_slice(y0);
-        if let Some(b) = q.backlash {
+        if let Some(GearBacklash { angle: b }) = q.gear_backlash {
             let w = y[ix::OMEGA] / q.gear_ratio;
             (y[ix::DELTA], y[ix::OMEGA_T]) = match out {
                 Output::Pressed => (0.5 * b + 1e-4, 0.9 * w),
@@ -858,9 +891,15 @@ mod tests {
             };
         }
         let th_t = y[1] / q.gear_ratio - y[ix::DELTA];
-        let (a, _) = twist_arc(th_t, q.string_radius, q.radius_growth.unwrap_or(0.0));
-        let lf = match q.compliance {
-            Some((a1, a2, _)) => free_length(q.gear_ratio * th_t, q.string_length, a1, a2).0,
+        let (a, _) = twist_arc(
+            th_t,
+            q.string_radius,
+            q.radius_growth.map_or(0.0, |g| g.per_turn),
+        );
+        let lf = match q.string_compliance {
+            Some(StringCompliance { a1, a2, .. }) => {
+                free_length(q.gear_ratio * th_t, q.string_length, a1, a2).0
+            }
             None => q.string_length,
         };
         y[3] = helix_position(lf + 100.0 * q.compliance_c(), a);
@@ -913,7 +952,7 @@ mod tests {
                         (de - rhs).abs() < 1e-6 * scale,
                         "dE/dt {de} vs {rhs} (scale {scale}, {q:?}, y {y:?})"
                     );
-                    if q.compliance.is_none() {
+                    if q.string_compliance.is_none() {
                         assert_eq!(aux.p_kin, 0.0);
                     }
                 }
@@ -924,7 +963,10 @@ mod tests {
     #[test]
     fn losses_are_dissipative_without_compliance() {
         // every loss term >= 0 up to the smoothed gearhead switch, bounded by its blend width
-        for q in effect_cases().iter().filter(|q| q.compliance.is_none()) {
+        for q in effect_cases()
+            .iter()
+            .filter(|q| q.string_compliance.is_none())
+        {
             let plant = test_plant(q, -3.0, 0.0, -100.0);
             for om in [-500.0, -1.0, 0.0, 0.5, 300.0] {
                 let y0 = [0.3, 700.0, om, 0.0, 0.001, 0.0, 0.0, 0.0, 0.0, 0.0];
