@@ -8,12 +8,13 @@
 //!
 //! Modules: [`physics`] (pure equations with their sources), [`plant`] (state vector and
 //! right-hand side), [`controller`] (the sampled cascade law), [`vars`] (variable table),
-//! [`model`] (the FMI model), [`docs`] (the HTML documentation with derivations).
+//! [`model`] (the FMI model), [`me`] (its Model Exchange formulation), [`docs`] (the HTML documentation with derivations).
 // Unit tests use the platform libm as an independent reference (workspace clippy.toml).
 #![cfg_attr(test, allow(clippy::disallowed_methods))]
 
 pub mod controller;
 pub mod docs;
+pub mod me;
 pub mod model;
 pub mod physics;
 pub mod plant;

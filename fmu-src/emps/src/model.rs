@@ -107,7 +107,7 @@ impl Emps {
     }
 
     /// The force acting now: the controller's, or in open loop the input force_measured.
-    fn force(&self, vars: &[f64]) -> f64 {
+    pub(crate) fn force(&self, vars: &[f64]) -> f64 {
         if self.par.internal_controller {
             self.ctrl.applied.unwrap_or(0.0)
         } else {
@@ -116,7 +116,7 @@ impl Emps {
     }
 
     /// Take the sample due now (the encoder reads the position state).
-    fn take_sample(&mut self, vars: &[f64], clock: SampleClock) -> bool {
+    pub(crate) fn take_sample(&mut self, vars: &[f64], clock: SampleClock) -> bool {
         let before = self.ctrl.applied;
         let t_k = clock.time(self.ctrl.next_sample);
         self.ctrl
@@ -124,7 +124,7 @@ impl Emps {
         before != self.ctrl.applied
     }
 
-    fn write_outputs(&self, vars: &mut [f64]) {
+    pub(crate) fn write_outputs(&self, vars: &mut [f64]) {
         let force = self.force(vars);
         let q_load = if self.par.two_mass() {
             self.y[ix::Q_LOAD]
@@ -138,6 +138,7 @@ impl Emps {
         out.set(V::VOLTAGE, self.ctrl.voltage);
         out.set(V::V_MOTOR, self.y[ix::V]);
         out.set(V::Q_LOAD, q_load);
+        self.write_state_variables(vars);
     }
 
     /// Integrate `[t0, t1]` under the force acting now, positions relative to their value at `t0`.
@@ -186,7 +187,11 @@ impl Emps {
                 ),
             });
         }
-        SampleClock::new(self.t0, ts).ok_or(ModelError::parameter(
+        self.sample_clock()
+    }
+
+    pub(crate) fn sample_clock(&self) -> Result<SampleClock, ModelError> {
+        SampleClock::new(self.t0, self.par.period).ok_or(ModelError::parameter(
             "controller_period",
             "must be finite and > 0",
         ))
@@ -239,6 +244,10 @@ impl Model for Emps {
         self.write_outputs(vars);
         self.ctrl = kept;
         Ok(())
+    }
+
+    fn model_exchange() -> Option<fmi2_export::MeVTable<Self>> {
+        Some(fmi2_export::MeVTable::of())
     }
 
     fn do_step(&mut self, vars: &mut [f64], t: f64, h: f64) -> Result<(), ModelError> {

@@ -96,6 +96,15 @@ fmi2_export::declare_variables! {
         "Delay between the controller's sample and the force acting (computation, D/A, drive current loop)"),
     CONTROLLER_DELAY_TIME = 39 => Variable::parameter("controller_delay.time", 0.5e-3, "s",
         "Delay d of the force after its sample (at most 2 controller periods)").range(0.0, 2e-3).display("ms"),
+    // ---- Model Exchange: the load's states and the derivative of every state -----------------
+    LOAD_POSITION = 40 => Variable::local("load_position", "m",
+        "State q_l of the load (flexibility or backlash on; else it keeps q0 and q_load is qm)").display("mm"),
+    LOAD_VELOCITY = 41 => Variable::local("load_velocity", "m/s",
+        "State v_l of the load (flexibility or backlash on; else it keeps v0)"),
+    DER_QM = 42 => Variable::local("der(qm)", "m/s", "Derivative of qm"),
+    DER_V_MOTOR = 43 => Variable::local("der(v_motor)", "m/s2", "Derivative of v_motor"),
+    DER_LOAD_POSITION = 44 => Variable::local("der(load_position)", "m/s", "Derivative of load_position"),
+    DER_LOAD_VELOCITY = 45 => Variable::local("der(load_velocity)", "m/s2", "Derivative of load_velocity"),
 }
 
 /// An output whose value changes only at the controller's samples (`variability="discrete"`).
