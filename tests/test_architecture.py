@@ -23,6 +23,7 @@ MAY_USE = {
     "hydraulic-joint-fmi3": {"fmi3-export", "hydraulic-joint"},
     "twisted-string-fmi3": {"fmi3-export", "twisted-string"},
     "test-oscillator-fmi3": {"fmi3-export", "test-oscillator"},
+    "emps-fmi3": {"fmi3-export", "emps"},
     "host": {"fmi2-types", "ode"},
     "gap": {"fmi2-types", "host"},
     "cli": {"fmi2-types", "host", "gap"},
