@@ -114,4 +114,19 @@ impl ModelExchange for Emps {
         }
         Ok(changed)
     }
+
+    const PROVIDES_JACOBIAN: bool = true;
+
+    /// The plant's analytic Jacobian ([`Plant::jacobian`]).
+    fn state_jacobian(&self, vars: &[f64], _t: f64, jac: &mut [f64]) -> Result<(), ModelError> {
+        let plant = Plant {
+            par: &self.par,
+            force: self.force(vars),
+            q_offset: 0.0,
+        };
+        let mut j = [0.0; 16];
+        plant.jacobian(&self.y, &mut j);
+        jac.copy_from_slice(&j);
+        Ok(())
+    }
 }

@@ -35,6 +35,26 @@ pub fn friction_force(
     factor * (f.viscous * v + f.coulomb * smooth_sign(v, v_s))
 }
 
+/// `d/dv` of [`friction_force`] (without the position factor):
+/// `Fv + Fc (1 - tanh^2(v / v_s)) / v_s` with the coefficients of the direction of `v`.
+#[inline]
+pub fn friction_slope(v: f64, positive: Friction, negative: Friction, v_s: f64) -> f64 {
+    let f = if v >= 0.0 { positive } else { negative };
+    let th = smooth_sign(v, v_s);
+    f.viscous + f.coulomb * (1.0 - th * th) / v_s
+}
+
+/// Partial derivatives `(dF/d delta, dF/d rate)` of [`coupling_force`]: `(k, c)` in contact,
+/// `(0, 0)` across the play.
+#[inline]
+pub fn coupling_slopes(delta: f64, k: f64, c: f64, play: f64) -> (f64, f64) {
+    if play > 0.0 && dead_zone(delta, play) == 0.0 {
+        (0.0, 0.0)
+    } else {
+        (k, c)
+    }
+}
+
 /// Factor of the friction at position `q`: `1 + c (q - q_mid) / q_half` (friction varying
 /// linearly along the screw; 1 without the effect).
 #[inline]

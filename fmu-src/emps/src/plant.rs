@@ -5,7 +5,10 @@
 //! `M - m_l` carries the drive force and the friction, the load `m_l` is pulled through the
 //! screw-nut coupling: `(M - m_l) v' = F - friction - offset - F_c`, `m_l v_load' = F_c`.
 
-use crate::physics::{coupling_force, friction_force, mode_damping, position_factor, Friction};
+use crate::physics::{
+    coupling_force, coupling_slopes, friction_force, friction_slope, mode_damping, position_factor,
+    Friction,
+};
 use serde::{Deserialize, Serialize};
 
 /// State indices.
@@ -118,6 +121,43 @@ impl Plant<'_> {
     }
 }
 
+impl Plant<'_> {
+    /// `(d net / dq, d net / dv)` of the motor side's net force.
+    fn net_slopes(&self, q: f64, v: f64) -> (f64, f64) {
+        let p = self.par;
+        let factor = position_factor(q, p.position_change, p.travel_mid, p.travel_half);
+        let dfactor = p.position_change.map_or(0.0, |c| c / p.travel_half);
+        let raw = friction_force(v, p.positive, p.negative, p.smoothing, 1.0);
+        let slope = friction_slope(v, p.positive, p.negative, p.smoothing);
+        (-dfactor * raw, -factor * slope)
+    }
+
+    /// The Jacobian `jac[i * 4 + j] = d(dy_i)/d(y_j)` of [`Plant::derivatives`] over the four
+    /// states (rows and columns of unused states 0).
+    pub fn jacobian(&self, y: &[f64], jac: &mut [f64; 16]) {
+        let p = self.par;
+        jac.fill(0.0);
+        let (dq, dv) = self.net_slopes(y[ix::Q] + self.q_offset, y[ix::V]);
+        jac[ix::Q * 4 + ix::V] = 1.0;
+        if !p.two_mass() {
+            jac[ix::V * 4 + ix::Q] = dq / p.mass;
+            jac[ix::V * 4 + ix::V] = dv / p.mass;
+            return;
+        }
+        let (k, c) = p.coupling();
+        let (ks, cs) = coupling_slopes(y[ix::Q] - y[ix::Q_LOAD], k, c, p.backlash.unwrap_or(0.0));
+        let (mm, ml) = (p.mass - p.load_mass, p.load_mass);
+        jac[ix::V * 4..ix::V * 4 + 4].copy_from_slice(&[
+            (dq - ks) / mm,
+            (dv - cs) / mm,
+            ks / mm,
+            cs / mm,
+        ]);
+        jac[ix::Q_LOAD * 4 + ix::V_LOAD] = 1.0;
+        jac[ix::V_LOAD * 4..].copy_from_slice(&[ks / ml, cs / ml, -ks / ml, -cs / ml]);
+    }
+}
+
 impl ode::OdeSystem for Plant<'_> {
     fn dim(&self) -> usize {
         self.par.dim()
@@ -162,6 +202,60 @@ mod tests {
         plant.derivatives(&[0.0, 0.1], &mut dy);
         // 100 kg a = 50 - 200 * 0.1 - 20 = 10
         assert!((dy[ix::V] - 0.1).abs() < 1e-9);
+    }
+
+    /// The analytic Jacobian against central differences, every effect on, in and out of the
+    /// play and on both sides of a reversal.
+    #[test]
+    fn jacobian_matches_central_differences() {
+        let mut p = rigid();
+        p.load_mass = 10.0;
+        p.negative = Friction {
+            viscous: 240.0,
+            coulomb: 21.0,
+        };
+        p.position_change = Some(0.2);
+        p.travel_mid = 0.1;
+        for (flex, play) in [
+            (None, None),
+            (Some((2e7, 0.05)), None),
+            (None, Some(2e-5)),
+            (Some((2e6, 0.1)), Some(2e-5)),
+        ] {
+            p.flexibility = flex;
+            p.backlash = play;
+            let plant = Plant {
+                par: &p,
+                force: 30.0,
+                q_offset: 0.05,
+            };
+            for y in [
+                [0.01, 0.02, 0.0099, 0.021],
+                [0.01, -3e-4, 0.01 + 1.5e-5, 0.0],
+                [0.0, 1e-5, -2e-6, 0.0],
+            ] {
+                let n = p.dim();
+                let mut jac = [0.0; 16];
+                plant.jacobian(&y, &mut jac);
+                for j in 0..n {
+                    let h = 1e-8 * y[j].abs().max(1e-2);
+                    let (mut a, mut b) = (y, y);
+                    a[j] += h;
+                    b[j] -= h;
+                    let (mut fa, mut fb) = ([0.0; 4], [0.0; 4]);
+                    plant.derivatives(&a[..n], &mut fa[..n]);
+                    plant.derivatives(&b[..n], &mut fb[..n]);
+                    for i in 0..n {
+                        let fd = (fa[i] - fb[i]) / (2.0 * h);
+                        let an = jac[i * 4 + j];
+                        assert!(
+                            (fd - an).abs() <= 1e-5 * an.abs().max(1.0),
+                            "({i},{j}) {an} vs {fd} at {y:?}"
+                        );
+                    }
+                }
+            }
+        }
     }
 
     #[test]
