@@ -66,10 +66,12 @@ class RecordError(Exception):
 
 def load(path: Path) -> dict:
     """The variables of one .mat record as float 1-D arrays (constants as floats)."""
+    if not Path(path).is_file():
+        raise RecordError(f"{path}: not found (get EMPS.zip from nonlinearbenchmark.org)")
     try:
         mat = scipy.io.loadmat(path)
-    except FileNotFoundError as e:
-        raise RecordError(f"{path}: not found (get EMPS.zip from nonlinearbenchmark.org)") from e
+    except (OSError, ValueError) as e:
+        raise RecordError(f"{path}: not a readable .mat file ({e})") from e
     rec = {}
     for key in ("t", "qg", "qm", "vir", "gtau", "kp", "kv", "pulses_N"):
         if key in mat:

@@ -138,6 +138,19 @@ def test_csv_conversion(tmp_path):
     assert not est["force_pulse"].any()
 
 
+def test_csv_conversion_refuses_what_is_not_the_benchmark(tmp_path):
+    """A missing record names where to get it; a record off the 1 kHz grid is refused."""
+    with pytest.raises(emps_csv.RecordError, match="EMPS.zip"):
+        emps_csv.load(tmp_path / "DATA_EMPS.mat")
+    import scipy.io
+    bad = tmp_path / "bad.mat"
+    t = np.arange(10) * 2e-3
+    scipy.io.savemat(bad, {"t": t, "qg": t, "qm": t, "vir": t, "gtau": 35.0, "kp": 1.0, "kv": 1.0})
+    with pytest.raises(emps_csv.RecordError, match="1 kHz"):
+        emps_csv.load(bad)
+    assert emps_csv.main(["--data-dir", str(tmp_path / "none"), "--out-dir", str(tmp_path)]) == 1
+
+
 # ---- the FMU against the reference ------------------------------------------------------------
 
 @needs_data
