@@ -168,6 +168,20 @@ impl ode::OdeSystem for Plant<'_> {
     fn autonomous(&self) -> bool {
         true
     }
+    /// The analytic Jacobian ([`Plant::jacobian`]) over the states in use.
+    fn jacobian(&self, _t: f64, y: &[f64], jac: &mut nalgebra::DMatrix<f64>) -> bool {
+        let n = self.par.dim();
+        let mut full = [0.0; 16];
+        let mut y4 = [0.0; 4];
+        y4[..n].copy_from_slice(&y[..n]);
+        self.jacobian(&y4, &mut full);
+        for i in 0..n {
+            for j in 0..n {
+                jac[(i, j)] = full[i * 4 + j];
+            }
+        }
+        true
+    }
 }
 
 #[cfg(test)]
