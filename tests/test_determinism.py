@@ -21,14 +21,15 @@ import pytest
 
 from conftest import fmu3_path, fmu_path
 
-MODELS = ["HydraulicJoint", "TwistedString"]
+MODELS = ["HydraulicJoint", "TwistedString", "EMPS"]
 # C99 <math.h> transcendental functions (and their float/long double forms): none may be imported.
 MATH = {f + s for f in """exp exp2 expm1 log log2 log10 log1p pow sin cos tan sincos asin acos
 atan atan2 sinh cosh tanh asinh acosh atanh hypot cbrt fma erf erfc tgamma lgamma""".split()
         for s in ("", "f", "l")}
 NO_FMA = "glibc.cpu.hwcaps=-AVX2,-FMA,-FMA4,-AVX512F"
 # A sinusoid on the set point (the input that drives each model through its range).
-DRIVE = {"HydraulicJoint": ("theta_ref", 0.6), "TwistedString": ("theta_motor_ref", 900.0)}
+DRIVE = {"HydraulicJoint": ("theta_ref", 0.6), "TwistedString": ("theta_motor_ref", 900.0),
+         "EMPS": ("qg", 0.1)}
 
 
 def imported_symbols(binary: Path) -> set:

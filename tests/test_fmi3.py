@@ -33,7 +33,7 @@ from fmpy.validation import validate_fmu
 
 from conftest import REPO, fmu3_path, fmu_path
 
-MODELS = ["HydraulicJoint", "TwistedString"]
+MODELS = ["HydraulicJoint", "TwistedString", "EMPS"]
 PLATFORMS = {"x86_64-linux": "so", "aarch64-linux": "so", "x86_64-windows": "dll",
              "x86_64-darwin": "dylib", "aarch64-darwin": "dylib"}
 ERROR = 3
@@ -43,6 +43,7 @@ FMI3_ALL = sorted(set(re.findall(r"^#define (fmi3\w+)\s+fmi3FullName", HEADER.re
 RUNS = {
     "HydraulicJoint": ("theta_ref", lambda t: 0.5 * np.sin(2 * np.pi * t)),
     "TwistedString": ("theta_motor_ref", lambda t: 600.0 * t),
+    "EMPS": ("qg", lambda t: 0.05 * np.sin(2 * np.pi * t)),
 }
 
 

@@ -16,7 +16,7 @@ from fmpy.validation import validate_fmu
 from conftest import DIST, REPO, fmu_path
 from fmi_harness import DISCARD, ERROR, OK, WARNING, Harness
 
-PRODUCTS = ["HydraulicJoint", "TwistedString"]
+PRODUCTS = ["HydraulicJoint", "TwistedString", "EMPS"]
 ALL = PRODUCTS + ["Oscillator"]
 
 EXPORTED = """fmi2GetTypesPlatform fmi2GetVersion fmi2SetDebugLogging fmi2Instantiate fmi2FreeInstance
@@ -309,6 +309,8 @@ def test_state_save_restore_and_serialization_are_bit_identical(name):
         inputs = {"theta_motor_ref": lambda t: 300.0 * min(t, 0.5)}
     elif name == "Oscillator":
         inputs = {"force": lambda t: math.sin(10 * t)}
+    elif name == "EMPS":
+        inputs = {"qg": lambda t: 0.05 * min(t, 0.5)}
     first, second, third = _run_with_state_roundtrip(name, inputs=inputs)
     assert first.shape[0] > 0
     assert np.array_equal(first.view(np.uint64), second.view(np.uint64))

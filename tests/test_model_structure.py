@@ -11,7 +11,7 @@ from fmpy import read_model_description
 from conftest import fmu_path
 from fmi_harness import OK, Harness
 
-MODELS = ["HydraulicJoint", "TwistedString"]
+MODELS = ["HydraulicJoint", "TwistedString", "EMPS"]
 
 
 @pytest.mark.parametrize("model", MODELS)

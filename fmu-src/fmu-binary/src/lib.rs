@@ -1,16 +1,19 @@
 //! The FMU binary of one model in one FMI version, chosen by cargo features: one model
-//! (`hydraulic-joint`, `twisted-string`, `test-oscillator`) and one version (`fmi2`: the 44
+//! (`hydraulic-joint`, `twisted-string`, `emps`, `test-oscillator`) and one version (`fmi2`: the 44
 //! `fmi2*` functions of `fmi2-export`; `fmi3`: the 75 `fmi3*` functions of `fmi3-export`), e.g.
 //! `cargo build --release -p fmu-binary --features hydraulic-joint,fmi3`. The model crates know
 //! no FMI version; this crate is where a model meets one. Without features it exports nothing
 //! (so that workspace-wide builds and tests pass), and `describe` says what is missing.
 
-#[cfg(any(
-    all(feature = "hydraulic-joint", feature = "twisted-string"),
-    all(feature = "hydraulic-joint", feature = "test-oscillator"),
-    all(feature = "twisted-string", feature = "test-oscillator"),
-))]
-compile_error!("fmu-binary: enable exactly one model feature (one binary exports one model)");
+/// How many model features this build enables: one binary exports one model.
+const MODELS_CHOSEN: usize = cfg!(feature = "hydraulic-joint") as usize
+    + cfg!(feature = "twisted-string") as usize
+    + cfg!(feature = "test-oscillator") as usize
+    + cfg!(feature = "emps") as usize;
+const _: () = assert!(
+    MODELS_CHOSEN <= 1,
+    "fmu-binary: enable exactly one model feature (one binary exports one model)"
+);
 
 #[cfg(all(feature = "fmi2", feature = "fmi3"))]
 compile_error!("fmu-binary: enable exactly one of the features fmi2 and fmi3");
@@ -24,6 +27,9 @@ pub type Exported = twisted_string::TwistedString;
 /// The model this binary exports.
 #[cfg(feature = "test-oscillator")]
 pub type Exported = test_oscillator::Oscillator;
+/// The model this binary exports.
+#[cfg(feature = "emps")]
+pub type Exported = emps::Emps;
 
 /// The FMI version this binary exports.
 #[cfg(feature = "fmi2")]
@@ -40,7 +46,8 @@ pub const VERSION: Option<fmu_core::Version> = None;
     any(
         feature = "hydraulic-joint",
         feature = "twisted-string",
-        feature = "test-oscillator"
+        feature = "test-oscillator",
+        feature = "emps"
     )
 ))]
 fmi2_export::export_model!(Exported);
@@ -50,7 +57,8 @@ fmi2_export::export_model!(Exported);
     any(
         feature = "hydraulic-joint",
         feature = "twisted-string",
-        feature = "test-oscillator"
+        feature = "test-oscillator",
+        feature = "emps"
     )
 ))]
 fmi3_export::export_fmi3!(Exported);
@@ -61,7 +69,8 @@ pub fn describe() {
     #[cfg(any(
         feature = "hydraulic-joint",
         feature = "twisted-string",
-        feature = "test-oscillator"
+        feature = "test-oscillator",
+        feature = "emps"
     ))]
     if let Some(version) = VERSION {
         return fmu_core::describe_main::<Exported>(version);
