@@ -1,16 +1,16 @@
 //! The [`GridModel`] of an FMI 2.0 or FMI 3.0 Co-Simulation FMU through the `host` crate: the
 //! measured inputs drive it (linearly interpolated at the communication points), the
 //! communication step is the data's sample interval, and the outputs are compared at the data's
-//! times. Both versions are read through the FMI 2.0-shaped description (for FMI 3.0, its
-//! scalar variables: `host::fmi3::fmi2_view`), so the conventions (Boolean `<effect>.enabled`,
-//! Real `<effect>.<name>`, `[calibrate]`) are read the same way.
+//! times. Both versions are read through the one view of their description ([`ModelView`], its
+//! scalar variables), so the conventions (Boolean `<effect>.enabled`, Real `<effect>.<name>`,
+//! `[calibrate]`) are read the same way.
 
 use crate::sim::{GridModel, SimError};
 use crate::spec::{ParamKind, ParamSpec};
 use crate::workflow::{Data, GapError};
 use host::csv::{format_number, sample_interval};
 use host::fmi3::{Fmu3, Inputs3, Request3, Simulator3};
-use host::md::{Causality, ModelDescription, VarKind, Variability};
+use host::view::{Causality, ModelView, VarKind, Variability};
 use host::{Fmu, InputSeries, SimulationRequest, SimulationResult, Value};
 use std::sync::Mutex;
 
@@ -57,17 +57,17 @@ pub struct FmuSimulator<'a> {
 impl<'a> FmuSimulator<'a> {
     /// Settable variables are the parameters (fixed or tunable) and the inputs (whose start
     /// value applies when the data have no column for them).
-    pub fn new(fmu: &'a Fmu, data: &Data) -> Result<Self, GapError> {
+    /// `view` is the view of `fmu`'s description.
+    pub fn new(fmu: &'a Fmu, view: &ModelView, data: &Data) -> Result<Self, GapError> {
         let backend = Backend::Fmi2 {
             fmu,
             pool: Mutex::new(Vec::new()),
         };
-        Self::with_backend(backend, fmu.model_description(), data)
+        Self::with_backend(backend, view, data)
     }
 
-    /// [`FmuSimulator::new`] for an FMI 3.0 FMU; `view` is `host::fmi3::fmi2_view` of its
-    /// description (its scalar variables, which the workflow sets and compares).
-    pub fn new3(fmu: &'a Fmu3, view: &ModelDescription, data: &Data) -> Result<Self, GapError> {
+    /// [`FmuSimulator::new`] for an FMI 3.0 FMU.
+    pub fn new3(fmu: &'a Fmu3, view: &ModelView, data: &Data) -> Result<Self, GapError> {
         let inputs = Inputs3 {
             time: data.time.clone(),
             columns: data
@@ -84,24 +84,20 @@ impl<'a> FmuSimulator<'a> {
         Self::with_backend(backend, view, data)
     }
 
-    fn with_backend(
-        backend: Backend<'a>,
-        md: &ModelDescription,
-        data: &Data,
-    ) -> Result<Self, GapError> {
+    fn with_backend(backend: Backend<'a>, md: &ModelView, data: &Data) -> Result<Self, GapError> {
         let mut params = Vec::new();
-        for v in &md.model_variables {
+        for v in md.scalars() {
             let settable = (v.causality == Causality::Parameter
                 && matches!(v.variability, Variability::Fixed | Variability::Tunable))
                 || v.causality == Causality::Input;
             if !settable {
                 continue;
             }
-            let kind = match v.kind {
-                VarKind::Real => ParamKind::Real,
-                VarKind::Integer | VarKind::Enumeration => ParamKind::Integer,
-                VarKind::Boolean => ParamKind::Boolean,
-                VarKind::String => continue,
+            let kind = match v.scalar_kind() {
+                Some(VarKind::Real) => ParamKind::Real,
+                Some(VarKind::Integer | VarKind::Enumeration) => ParamKind::Integer,
+                Some(VarKind::Boolean) => ParamKind::Boolean,
+                Some(VarKind::String) | None => continue,
             };
             // Inputs are never fitted or treated as effects: give them a description without
             // the calibration tag and a name that is what the FMU calls them.
@@ -113,10 +109,10 @@ impl<'a> FmuSimulator<'a> {
             params.push(ParamSpec {
                 name: v.name.clone(),
                 kind,
-                start: v.start.as_ref().and_then(|s| s.as_f64()).unwrap_or(0.0),
+                start: v.start_number().unwrap_or(0.0),
                 min: v.min,
                 max: v.max,
-                unit: md.effective_unit(v).unwrap_or("").to_string(),
+                unit: v.unit.clone().unwrap_or_default(),
                 description,
             });
         }
@@ -127,8 +123,8 @@ impl<'a> FmuSimulator<'a> {
             params,
             // The workflow compares numbers: String outputs are not simulated for it.
             outputs: md
-                .with_causality(Causality::Output)
-                .filter(|v| v.kind != VarKind::String)
+                .scalars_with(Causality::Output)
+                .filter(|v| v.scalar_kind() != Some(VarKind::String))
                 .map(|v| v.name.clone())
                 .collect(),
             time: data.time.clone(),

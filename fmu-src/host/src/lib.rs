@@ -5,6 +5,8 @@
 //! - [`Fmu::instantiate`] gives an RAII [`Instance`] with typed calls; a failed call is a
 //!   [`HostError::Fmi`] carrying the status and the messages the FMU logged.
 //! - [`simulate`] / [`Simulator`] run a whole simulation from a [`SimulationRequest`].
+//! - [`view`] is one view of a model description of either version, for code that names,
+//!   ranges and sets variables.
 //! - [`csv`] reads measured/input CSV files with located errors and writes results.
 //! - [`validate`] checks a model description and probes a binary's state machine.
 //! - [`watch`] marks each FMI call on a page a supervising process reads (crash and hang
@@ -22,8 +24,10 @@ pub mod kind;
 pub mod md;
 mod me;
 pub mod python;
+mod run;
 mod simulate;
 pub mod validate;
+pub mod view;
 pub mod watch;
 mod xml;
 
@@ -32,7 +36,9 @@ pub use fmu::{file_uri, Extracted, Fmu, OpenOptions, Unpacked, LIB_SUFFIX, PLATF
 pub use instance::{FmuStateHandle, Instance, InstanceOptions};
 pub use kind::{fmi_version_of, FmiVersion, Interface};
 pub use md::ModelDescription;
+pub use run::CoSimulationStep;
 pub use simulate::{
     communication_points, hold_index, interpolate, simulate, InputSeries, SimulationRequest,
     SimulationResult, Simulator, TextColumns, Value,
 };
+pub use view::ModelView;
