@@ -6,7 +6,7 @@ use crate::common::CliError;
 use gap::fmu::FmuSimulator;
 use gap::{Data, GapError};
 use host::fmi3::Fmu3;
-use host::{FmiVersion, Fmu, ModelView, OpenOptions};
+use host::{FmiVersion, Fmu, FmuRef, ModelView, OpenOptions};
 use std::path::Path;
 
 /// An opened FMU of either version with the view of its description.
@@ -53,9 +53,10 @@ impl AnyFmu {
 
     /// The gap workflow's simulator of this FMU on `data`.
     pub fn simulator(&self, data: &Data) -> Result<FmuSimulator<'_>, GapError> {
-        match &self.opened {
-            Opened::Fmi2(f) => FmuSimulator::new(f, &self.view, data),
-            Opened::Fmi3(f) => FmuSimulator::new3(f, &self.view, data),
-        }
+        let fmu = match &self.opened {
+            Opened::Fmi2(f) => FmuRef::Fmi2(f),
+            Opened::Fmi3(f) => FmuRef::Fmi3(f),
+        };
+        FmuSimulator::new(fmu, &self.view, data)
     }
 }

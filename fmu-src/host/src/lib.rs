@@ -13,6 +13,7 @@
 //!   reports); [`python`] provides the Python runtime PythonFMU binaries expect.
 #![warn(missing_docs)]
 
+mod any;
 pub mod binary;
 pub mod csv;
 mod error;
@@ -31,6 +32,7 @@ pub mod view;
 pub mod watch;
 mod xml;
 
+pub use any::{AnySimulator, FmuRef};
 pub use error::{shown, HostError, LogRecord, Result, Status};
 pub use fmu::{file_uri, Extracted, Fmu, OpenOptions, Unpacked, LIB_SUFFIX, PLATFORM};
 pub use instance::{FmuStateHandle, Instance, InstanceOptions};
