@@ -1,6 +1,6 @@
 //! The host's `modelDescription.xml` parsers and the validator's description checks
 //! (`host::ModelDescription::parse`, `validate::check_model_description`; FMI 3.0:
-//! `host::fmi3::ModelDescription3::parse`, array shapes, the FMI 2.0-shaped view): any text
+//! `host::fmi3::ModelDescription3::parse`, array shapes; the one view of both, `host::ModelView`): any text
 //! gives a description or an error, never a panic, a hang or an allocation beyond the bounds.
 #![no_main]
 
@@ -17,6 +17,7 @@ fuzz_target!(|data: &[u8]| {
         }
         let _ = md.output_names();
         let _ = md.input_names();
+        let _ = host::ModelView::from(&md).effect_problems();
         for v in &md.model_variables {
             let _ = md.effective_unit(v);
             let _ = v.effective_initial();
@@ -27,7 +28,7 @@ fuzz_target!(|data: &[u8]| {
             let _ = md.shape(v);
             let _ = v.effective_initial();
         }
-        let _ = host::fmi3::fmi2_view(&md);
+        let _ = host::ModelView::from(&md).effect_problems();
         let _ = host::fmi3::unsupported(&md);
     }
 });

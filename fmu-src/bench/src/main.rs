@@ -42,23 +42,47 @@ struct Args {
     tolerance: Option<f64>,
 }
 
+/// What ends a benchmark, with its message.
+#[derive(Debug, thiserror::Error)]
+enum BenchError {
+    /// Opening, setting up or running the FMU failed.
+    #[error(transparent)]
+    Host(#[from] host::HostError),
+    /// The input CSV could not be read.
+    #[error(transparent)]
+    Csv(#[from] csv::CsvError),
+    /// The output CSV could not be written.
+    #[error(transparent)]
+    Write(#[from] std::io::Error),
+    /// A `--set` argument without `=`.
+    #[error("--set {0}: expected NAME=VALUE")]
+    SetSyntax(String),
+    /// A `--set` naming no variable of the FMU.
+    #[error("--set {name}={value}: no variable '{name}'")]
+    UnknownVariable {
+        /// The name given.
+        name: String,
+        /// The value given.
+        value: String,
+    },
+}
+
 /// The timed repetitions of one FMU: `run()` simulates once.
 fn repeat(
     args: &Args,
     mut run: impl FnMut() -> host::Result<SimulationResult>,
-) -> Result<serde_json::Value, String> {
+) -> Result<serde_json::Value, BenchError> {
     let mut times = Vec::with_capacity(args.repeat);
     let mut result = None;
     for _ in 0..args.repeat.max(1) {
         let t0 = Instant::now();
-        let r = run().map_err(|e| e.to_string())?;
+        let r = run()?;
         times.push(t0.elapsed().as_secs_f64());
         result = Some(r);
     }
     let result = result.expect("at least one run");
     if let Some(out) = &args.out {
-        csv::write_csv(out, &result.time, &result.names, &result.columns)
-            .map_err(|e| e.to_string())?;
+        csv::write_csv(out, &result.time, &result.names, &result.columns)?;
     }
     times.sort_by(f64::total_cmp);
     Ok(serde_json::json!({
@@ -74,46 +98,45 @@ fn interface(args: &Args) -> Option<host::Interface> {
 }
 
 /// `--set NAME=VALUE` as (name, value text).
-fn sets(args: &Args) -> Result<Vec<(&str, &str)>, String> {
+fn sets(args: &Args) -> Result<Vec<(&str, &str)>, BenchError> {
     args.set
         .iter()
         .map(|s| {
             s.split_once('=')
-                .ok_or_else(|| format!("--set {s}: expected NAME=VALUE"))
+                .ok_or_else(|| BenchError::SetSyntax(s.clone()))
         })
         .collect()
 }
 
-fn run(args: &Args) -> Result<serde_json::Value, String> {
-    match host::fmi_version_of(&args.fmu).map_err(|e| e.to_string())? {
+fn run(args: &Args) -> Result<serde_json::Value, BenchError> {
+    match host::fmi_version_of(&args.fmu)? {
         FmiVersion::Fmi2 => run2(args),
         FmiVersion::Fmi3 => run3(args),
     }
 }
 
-fn run2(args: &Args) -> Result<serde_json::Value, String> {
+fn run2(args: &Args) -> Result<serde_json::Value, BenchError> {
     let opts = host::OpenOptions {
         interface: interface(args),
         ..Default::default()
     };
-    let fmu = Fmu::open_with(&args.fmu, &opts).map_err(|e| e.to_string())?;
-    let md = fmu.model_description();
+    let fmu = Fmu::open_with(&args.fmu, &opts)?;
+    let md = host::ModelView::from(fmu.model_description());
     let mut req = SimulationRequest::new(0.0, args.stop, args.step);
     req.tolerance = args.tolerance;
     for (name, value) in sets(args)? {
         let var = md
-            .model_variables
-            .iter()
-            .find(|v| v.name == name)
-            .ok_or_else(|| format!("--set {name}={value}: no variable '{name}'"))?;
-        req.start_values.push((
-            name.to_string(),
-            Value::parse_for(var, value).map_err(|e| e.to_string())?,
-        ));
+            .variable(name)
+            .ok_or_else(|| BenchError::UnknownVariable {
+                name: name.to_string(),
+                value: value.to_string(),
+            })?;
+        req.start_values
+            .push((name.to_string(), Value::parse_for(var, value)?));
     }
     if let Some(path) = &args.inputs {
-        let table = csv::read_csv(path).map_err(|e| e.to_string())?;
-        let names = table.input_columns(md);
+        let table = csv::read_csv(path)?;
+        let names = table.input_columns(&md);
         req.inputs = InputSeries {
             time: table.time.clone(),
             columns: names
@@ -123,14 +146,14 @@ fn run2(args: &Args) -> Result<serde_json::Value, String> {
             ..Default::default()
         };
     }
-    let mut sim = Simulator::new(&fmu).map_err(|e| e.to_string())?;
+    let mut sim = Simulator::new(&fmu)?;
     repeat(args, || sim.run(&req))
 }
 
 /// An FMI 3.0 FMU: the same request through the FMI 3.0 calls (values as text, which the host
 /// parses as each variable's type; numbers written shortest round-trip, so exactly).
-fn run3(args: &Args) -> Result<serde_json::Value, String> {
-    let fmu = Fmu3::open_with(&args.fmu, interface(args)).map_err(|e| e.to_string())?;
+fn run3(args: &Args) -> Result<serde_json::Value, BenchError> {
+    let fmu = Fmu3::open_with(&args.fmu, interface(args))?;
     let mut req = Request3::new(0.0, args.stop, args.step);
     req.tolerance = args.tolerance;
     req.start_values = sets(args)?
@@ -138,8 +161,8 @@ fn run3(args: &Args) -> Result<serde_json::Value, String> {
         .map(|(n, v)| (n.to_string(), v.to_string()))
         .collect();
     if let Some(path) = &args.inputs {
-        let table = csv::read_csv(path).map_err(|e| e.to_string())?;
-        let view = host::fmi3::fmi2_view(fmu.model_description());
+        let table = csv::read_csv(path)?;
+        let view = host::ModelView::from(fmu.model_description());
         req.inputs = Inputs3 {
             time: table.time.clone(),
             columns: table
@@ -152,7 +175,7 @@ fn run3(args: &Args) -> Result<serde_json::Value, String> {
                 .collect(),
         };
     }
-    let mut sim = Simulator3::new(&fmu).map_err(|e| e.to_string())?;
+    let mut sim = Simulator3::new(&fmu)?;
     repeat(args, || sim.run(&req))
 }
 

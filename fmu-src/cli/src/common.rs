@@ -10,7 +10,7 @@ macro_rules! out {
     }};
 }
 
-use host::md::{Causality, ModelDescription};
+use host::view::{Causality, ModelView};
 use host::{Interface, Value};
 
 /// `--interface`: which FMI interface of the FMU runs.
@@ -133,13 +133,10 @@ pub fn set_target<'s, 'm, V>(
 
 /// Parses `--set NAME=VALUE` arguments against the model description (`true`/`false` for
 /// Booleans, numbers otherwise). Errors name the offending argument.
-pub fn parse_sets(
-    md: &ModelDescription,
-    sets: &[String],
-) -> Result<Vec<(String, Value)>, CliError> {
+pub fn parse_sets(md: &ModelView, sets: &[String]) -> Result<Vec<(String, Value)>, CliError> {
     sets.iter()
         .map(|s| {
-            let (name, value, var) = set_target(s, |name| md.variable(name))?;
+            let (name, value, var) = set_target(s, |name| md.scalar(name))?;
             if !matches!(var.causality, Causality::Parameter | Causality::Input) {
                 return Err(CliError::input(format!(
                     "--set '{s}': '{name}' is {} {}: only parameters and inputs can be set",
@@ -161,7 +158,7 @@ pub fn parse_sets(
 /// `--set` arguments as numbers (Booleans 0/1) for the gap workflow and experiment design, which
 /// fix numeric settings only.
 pub fn numeric_sets(
-    md: &ModelDescription,
+    md: &ModelView,
     sets: &[String],
     command: &str,
 ) -> Result<Vec<(String, f64)>, CliError> {

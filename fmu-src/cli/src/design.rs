@@ -7,7 +7,7 @@ use crate::gap_cmd::load_data;
 use crate::open::AnyFmu;
 use gap::design::{self, Design, DesignConfig, InputSpec, Noise};
 use gap::GapError;
-use host::md::{Causality, ModelDescription, VarKind};
+use host::view::{Causality, ModelView, VarKind};
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -73,7 +73,7 @@ pub struct Args {
 const MAX_SAMPLES: f64 = 1e6;
 
 /// The inputs of the FMU with their design ranges (declared, or from `--range`).
-fn inputs(md: &ModelDescription, ranges: &[String]) -> Result<Vec<InputSpec>, CliError> {
+fn inputs(md: &ModelView, ranges: &[String]) -> Result<Vec<InputSpec>, CliError> {
     let mut given = Vec::new();
     for r in ranges {
         let bad = || CliError::input(format!("--range '{r}': expected INPUT=LO:HI with LO < HI"));
@@ -87,10 +87,8 @@ fn inputs(md: &ModelDescription, ranges: &[String]) -> Result<Vec<InputSpec>, Cl
             return Err(bad());
         }
         let name = name.trim();
-        let v = md
-            .variable(name)
-            .filter(|v| v.causality == Causality::Input);
-        if v.is_none_or(|v| v.kind != VarKind::Real) {
+        let v = md.scalar(name).filter(|v| v.causality == Causality::Input);
+        if v.is_none_or(|v| v.scalar_kind() != Some(VarKind::Real)) {
             return Err(CliError::input(format!(
                 "--range '{r}': the FMU has no Real input '{name}'"
             )));
@@ -98,8 +96,8 @@ fn inputs(md: &ModelDescription, ranges: &[String]) -> Result<Vec<InputSpec>, Cl
         given.push((name.to_string(), lo, hi));
     }
     Ok(md
-        .with_causality(Causality::Input)
-        .filter(|v| v.kind == VarKind::Real)
+        .scalars_with(Causality::Input)
+        .filter(|v| v.scalar_kind() == Some(VarKind::Real))
         .map(|v| {
             let range = given
                 .iter()
@@ -109,16 +107,16 @@ fn inputs(md: &ModelDescription, ranges: &[String]) -> Result<Vec<InputSpec>, Cl
                 .or(v.min.zip(v.max).filter(|(lo, hi)| lo < hi));
             InputSpec {
                 name: v.name.clone(),
-                start: v.start.as_ref().and_then(|s| s.as_f64()).unwrap_or(0.0),
+                start: v.start_number().unwrap_or(0.0),
                 range,
-                unit: md.effective_unit(v).unwrap_or("").to_string(),
+                unit: v.unit.clone().unwrap_or_default(),
             }
         })
         .collect())
 }
 
 /// The time grid, measured outputs, noise and given inputs: from the data, or from the flags.
-fn experiment(a: &Args, md: &ModelDescription) -> Result<DesignConfig, CliError> {
+fn experiment(a: &Args, md: &ModelView) -> Result<DesignConfig, CliError> {
     let mut cfg = DesignConfig {
         effects: (!a.effects.is_empty()).then(|| a.effects.clone()),
         fit: a.fit.clone(),
@@ -164,8 +162,8 @@ fn experiment(a: &Args, md: &ModelDescription) -> Result<DesignConfig, CliError>
     cfg.outputs = match &a.outputs {
         Some(o) => o.clone(),
         None => md
-            .with_causality(Causality::Output)
-            .filter(|v| v.kind != VarKind::String)
+            .scalars_with(Causality::Output)
+            .filter(|v| v.scalar_kind() != Some(VarKind::String))
             .map(|v| v.name.clone())
             .collect(),
     };
@@ -239,7 +237,7 @@ pub fn run(a: Args) -> CliResult {
         interface: crate::common::InterfaceArg::host(a.interface),
     };
     let fmu = AnyFmu::open(&a.fmu, &opts)?;
-    let md = fmu.model_description();
+    let md = fmu.view();
     let cfg = experiment(&a, md)?;
     let d = design::design(|data| fmu.simulator(data), &cfg).map_err(|e| match e {
         GapError::Usage(m) => CliError::input(m),

@@ -95,7 +95,7 @@ fn refuse_writing_over_inputs(a: &Args) -> Result<(), CliError> {
 
 /// The measured data of `path` checked against the FMU: inputs and outputs it has, at least
 /// one output to compare and 20 rows.
-pub fn load_data(md: &host::md::ModelDescription, path: &Path) -> Result<Data, CliError> {
+pub fn load_data(md: &host::ModelView, path: &Path) -> Result<Data, CliError> {
     let table = read_csv(path).map_err(CliError::input)?;
     table.check_against(md).map_err(CliError::input)?;
     let col = |n: &String| (n.clone(), table.column(n).unwrap_or_default().to_vec());
@@ -141,7 +141,7 @@ pub fn run(a: Args) -> CliResult {
         interface: crate::common::InterfaceArg::host(a.interface),
     };
     let fmu = AnyFmu::open(&a.fmu, &opts)?;
-    let md = fmu.model_description();
+    let md = fmu.view();
     let fixed = numeric_sets(md, &a.set, "gap")?;
     let data = load_data(md, &a.data)?;
     // The held-out end decides whether an effect generalises; without it nothing can be named.

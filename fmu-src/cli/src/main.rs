@@ -20,7 +20,6 @@ mod gap_cmd;
 mod open;
 mod probe;
 mod simulate;
-mod simulate3;
 mod supervise;
 mod validate;
 

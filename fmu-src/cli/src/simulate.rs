@@ -1,10 +1,16 @@
 //! `actuator-fmu simulate FMU --data in.csv [--stop T] [--step H] [--set NAME=VALUE ...]
-//! [--interface cs|me] --out out.csv`
+//! [--interface cs|me] --out out.csv`, for FMI 2.0 and FMI 3.0 FMUs: the same arguments, grid
+//! and output file; FMI 3.0 runs take every FMI 3.0 type in the CSV (arrays one column each,
+//! elements row-major separated by spaces, or one column per element `u[1]`; Binary as hex).
 
-use crate::common::{parse_sets, refuse_overwriting, run_error, CliError, CliResult};
-use host::csv::{read_csv_for, sample_interval, write_csv_text};
-use host::md::{DefaultExperiment, ModelDescription};
-use host::{simulate, Fmu, InputSeries, SimulationRequest};
+use crate::common::{parse_sets, refuse_overwriting, run_error, set_target, CliError, CliResult};
+use host::csv::{format_number, read_csv_for, read_csv_with_text, sample_interval, write_csv_text};
+use host::fmi3::{simulate3, Causality3, Fmu3, Inputs3, ModelDescription3, Request3};
+use host::md::DefaultExperiment;
+use host::view::ModelView;
+use host::{
+    simulate, FmiVersion, Fmu, InputSeries, Interface, SimulationRequest, SimulationResult,
+};
 use std::path::{Path, PathBuf};
 
 /// Arguments of `simulate`.
@@ -160,7 +166,7 @@ fn check_tolerance(tolerance: Option<f64>) -> Result<(), CliError> {
 
 /// The `--data` CSV at `path` as the inputs of an FMI 2.0 run: every column must be an input
 /// or an output of the FMU; the inputs' columns are kept, numbers and text apart.
-fn read_inputs(path: &Path, md: &ModelDescription) -> Result<InputSeries, CliError> {
+fn read_inputs(path: &Path, md: &ModelView) -> Result<InputSeries, CliError> {
     let table = read_csv_for(path, md).map_err(CliError::input)?;
     table.check_against(md).map_err(CliError::input)?;
     let mut series = InputSeries {
@@ -179,25 +185,46 @@ fn read_inputs(path: &Path, md: &ModelDescription) -> Result<InputSeries, CliErr
 
 /// Runs `simulate`.
 pub fn run(a: Args) -> CliResult {
-    if host::fmi_version_of(&a.fmu).map_err(CliError::input)? == host::FmiVersion::Fmi3 {
-        return crate::simulate3::run(a);
-    }
+    let version = host::fmi_version_of(&a.fmu).map_err(CliError::input)?;
     let mut inputs = vec![a.fmu.as_path()];
     inputs.extend(a.data.as_deref());
     refuse_overwriting(&a.out, &inputs)?;
+    let (res, ended_how) = match version {
+        FmiVersion::Fmi2 => run2(&a)?,
+        FmiVersion::Fmi3 => run3(&a)?,
+    };
+    write_csv_text(&a.out, &res.time, &res.names, &res.columns, &res.text)
+        .map_err(|e| CliError::input(format!("{}: cannot write: {e}", a.out.display())))?;
+    if let Some(t) = res.ended_by_fmu {
+        eprintln!(
+            "{}: the FMU ended the simulation at t = {t} ({ended_how}); {} rows up to that time \
+             written to {}",
+            a.fmu.display(),
+            res.time.len(),
+            a.out.display()
+        );
+    }
+    Ok(0)
+}
+
+/// A run's result with what says, when the FMU ended it early, how the FMU ended it.
+type Ran = (SimulationResult, &'static str);
+
+/// An FMI 2.0 run.
+fn run2(a: &Args) -> Result<Ran, CliError> {
     let opts = host::OpenOptions {
         python: a.python.clone(),
         interface: crate::common::InterfaceArg::host(a.interface),
     };
     let fmu = Fmu::open_with(&a.fmu, &opts).map_err(CliError::input)?;
-    let md = fmu.model_description();
-    let start_values = parse_sets(md, &a.set)?;
+    let md = ModelView::from(fmu.model_description());
+    let start_values = parse_sets(&md, &a.set)?;
     let experiment = md.default_experiment.clone().unwrap_or_default();
     let inputs = match &a.data {
-        Some(path) => read_inputs(path, md)?,
+        Some(path) => read_inputs(path, &md)?,
         None => InputSeries::default(),
     };
-    let grid = time_grid(&a, &inputs.time, &experiment)?;
+    let grid = time_grid(a, &inputs.time, &experiment)?;
     let req = SimulationRequest {
         start_values,
         inputs,
@@ -206,20 +233,76 @@ pub fn run(a: Args) -> CliResult {
         ..SimulationRequest::new(grid.start, grid.stop, grid.step)
     };
     let res = simulate(&fmu, &req).map_err(|e| run_error(&a.fmu.display().to_string(), e))?;
-    write_csv_text(&a.out, &res.time, &res.names, &res.columns, &res.text)
-        .map_err(|e| CliError::input(format!("{}: cannot write: {e}", a.out.display())))?;
-    if let Some(t) = res.ended_by_fmu {
-        let how = match fmu.interface() {
-            host::Interface::CoSimulation => "fmi2DoStep returned fmi2Discard with fmi2Terminated",
-            host::Interface::ModelExchange => "it set terminateSimulation",
-        };
-        eprintln!(
-            "{}: the FMU ended the simulation at t = {t} ({how}); {} rows up to that time \
-             written to {}",
-            a.fmu.display(),
-            res.time.len(),
-            a.out.display()
-        );
-    }
-    Ok(0)
+    let how = match fmu.interface() {
+        Interface::CoSimulation => "fmi2DoStep returned fmi2Discard with fmi2Terminated",
+        Interface::ModelExchange => "it set terminateSimulation",
+    };
+    Ok((res, how))
+}
+
+/// An FMI 3.0 run.
+fn run3(a: &Args) -> Result<Ran, CliError> {
+    let interface = crate::common::InterfaceArg::host(a.interface);
+    let fmu = Fmu3::open_with(&a.fmu, interface).map_err(CliError::input)?;
+    let md = fmu.model_description();
+    let start_values = parse_sets3(md, &a.set)?;
+    let experiment = md.default_experiment.clone().unwrap_or_default();
+    let inputs = match &a.data {
+        Some(path) => read_inputs3(path, md)?,
+        None => Inputs3::default(),
+    };
+    let grid = time_grid(a, &inputs.time, &experiment)?;
+    let req = Request3 {
+        start_values,
+        tolerance: a.tolerance,
+        inputs,
+        record_events: true,
+        ..Request3::new(grid.start, grid.stop, grid.step)
+    };
+    let res = simulate3(&fmu, &req).map_err(|e| run_error(&a.fmu.display().to_string(), e))?;
+    let how = match fmu.interface() {
+        Interface::CoSimulation => "fmi3DoStep returned terminateSimulation",
+        Interface::ModelExchange => "the Model Exchange FMU returned terminateSimulation",
+    };
+    Ok((res, how))
+}
+
+/// `--set NAME=VALUE` as (name, text): the host parses the text as the variable's type (an
+/// array's elements separated by spaces) and checks causality and range.
+fn parse_sets3(md: &ModelDescription3, sets: &[String]) -> Result<Vec<(String, String)>, CliError> {
+    sets.iter()
+        .map(|s| {
+            let (name, value, var) = set_target(s, |name| md.variable(name))?;
+            if !matches!(
+                var.causality,
+                Causality3::Parameter | Causality3::StructuralParameter | Causality3::Input
+            ) {
+                return Err(CliError::input(format!(
+                    "--set '{s}': '{name}' is {}: only parameters, structural parameters and \
+                     inputs can be set",
+                    var.causality
+                )));
+            }
+            Ok((name.to_string(), value.to_string()))
+        })
+        .collect()
+}
+
+/// The `--data` CSV of an FMI 3.0 run as text columns: a variable's own column is read as text
+/// (an array's elements separated by spaces, Binary as hex), any other (an element `u[2]`) as a
+/// number.
+fn read_inputs3(path: &Path, md: &ModelDescription3) -> Result<Inputs3, CliError> {
+    let text: Vec<String> = md.variables.iter().map(|v| v.name.clone()).collect();
+    let table = read_csv_with_text(path, &text).map_err(CliError::input)?;
+    let mut columns: Vec<(String, Vec<String>)> = table
+        .names
+        .iter()
+        .zip(&table.columns)
+        .map(|(n, c)| (n.clone(), c.iter().map(|&x| format_number(x)).collect()))
+        .collect();
+    columns.extend(table.text.iter().cloned());
+    Ok(Inputs3 {
+        time: table.time,
+        columns,
+    })
 }

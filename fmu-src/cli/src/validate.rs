@@ -4,7 +4,7 @@
 use crate::common::{CliError, CliResult};
 use crate::probe::{FINDINGS_MARK, STEP_MARK};
 use host::fmi3::ModelDescription3;
-use host::{Extracted, FmiVersion, HostError, Unpacked};
+use host::{Extracted, FmiVersion, HostError, ModelView, Unpacked};
 use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -108,7 +108,9 @@ fn validate_one(path: &Path, timeout: Duration, effects: bool) -> Result<Checked
     };
     let mut findings = check_model_description(&ex.model_description);
     if effects {
-        findings.extend(check_effect_convention(&ex.model_description));
+        findings.extend(check_effect_convention(&ModelView::from(
+            &ex.model_description,
+        )));
     }
     findings.extend(check_files(&ex));
     let (binary_findings, binaries) = check_platform_binaries(&ex);
@@ -140,8 +142,7 @@ fn validate_fmi3(path: &Path, timeout: Duration, effects: bool) -> Result<Checke
     };
     let mut findings = check_model_description3(&md);
     if effects {
-        // gap and design read an FMI 3.0 FMU's scalar variables in the FMI 2.0 shape
-        findings.extend(check_effect_convention(&host::fmi3::fmi2_view(&md)));
+        findings.extend(check_effect_convention(&ModelView::from(&md)));
     }
     let (binary_findings, binaries) = check_platform_binaries3(&unpacked.dir, &md);
     findings.extend(binary_findings);

@@ -47,13 +47,13 @@ fn main() {
     let runs: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(6);
     let fmu = Fmu::open(Path::new(&args[0])).expect("open FMU");
     let table = host::csv::read_csv(Path::new(&args[1])).expect("read CSV");
-    let md = fmu.model_description();
+    let md = host::ModelView::from(fmu.model_description());
     let step = table.sample_interval().expect("two rows");
     let mut req = SimulationRequest::new(table.time[0], *table.time.last().unwrap(), step);
     req.inputs = InputSeries {
         time: table.time.clone(),
         columns: table
-            .input_columns(md)
+            .input_columns(&md)
             .into_iter()
             .map(|n| {
                 let c = table.column(&n).unwrap().to_vec();

@@ -39,9 +39,29 @@ pub fn expected_format(platform: &str) -> Option<(&'static str, &'static [&'stat
     }
 }
 
+/// Why a file could not be read as a shared library (goblin's cause kept as its text).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum BinaryError {
+    /// goblin could not parse the file.
+    #[error("not a readable binary: {0}")]
+    Unreadable(String),
+    /// A slice of a macOS universal binary could not be read.
+    #[error("universal binary: {0}")]
+    UniversalSlice(String),
+    /// A macOS universal binary holding a static archive.
+    #[error("universal binary holds an archive")]
+    UniversalArchive,
+    /// The exports of a Mach-O file could not be read.
+    #[error("Mach-O exports: {0}")]
+    MachOExports(String),
+    /// Another object format.
+    #[error("not an ELF, PE or Mach-O shared library")]
+    NotSharedLibrary,
+}
+
 /// Reads a shared library's format, architectures, exports and (ELF) glibc needs.
-pub fn inspect(bytes: &[u8]) -> Result<BinaryInfo, String> {
-    match Object::parse(bytes).map_err(|e| format!("not a readable binary: {e}"))? {
+pub fn inspect(bytes: &[u8]) -> Result<BinaryInfo, BinaryError> {
+    match Object::parse(bytes).map_err(|e| BinaryError::Unreadable(e.to_string()))? {
         Object::Elf(elf) => Ok(elf_info(&elf)),
         Object::PE(pe) => Ok(BinaryInfo {
             format: "PE",
@@ -59,11 +79,9 @@ pub fn inspect(bytes: &[u8]) -> Result<BinaryInfo, String> {
         Object::Mach(Mach::Fat(fat)) => {
             let mut slices = Vec::new();
             for arch in fat.into_iter() {
-                match arch.map_err(|e| format!("universal binary: {e}"))? {
+                match arch.map_err(|e| BinaryError::UniversalSlice(e.to_string()))? {
                     SingleArch::MachO(m) => slices.push(macho_slice(&m)?),
-                    SingleArch::Archive(_) => {
-                        return Err("universal binary holds an archive".into())
-                    }
+                    SingleArch::Archive(_) => return Err(BinaryError::UniversalArchive),
                 }
             }
             Ok(BinaryInfo {
@@ -72,7 +90,7 @@ pub fn inspect(bytes: &[u8]) -> Result<BinaryInfo, String> {
                 max_glibc: None,
             })
         }
-        _ => Err("not an ELF, PE or Mach-O shared library".into()),
+        _ => Err(BinaryError::NotSharedLibrary),
     }
 }
 
@@ -133,14 +151,16 @@ fn pe_arch(machine: u16) -> String {
     }
 }
 
-fn macho_slice(m: &goblin::mach::MachO) -> Result<Slice, String> {
+fn macho_slice(m: &goblin::mach::MachO) -> Result<Slice, BinaryError> {
     use goblin::mach::cputype::{CPU_TYPE_ARM64, CPU_TYPE_X86_64};
     let architecture = match m.header.cputype {
         CPU_TYPE_X86_64 => "x86_64".to_string(),
         CPU_TYPE_ARM64 => "aarch64".to_string(),
         c => format!("cputype {c:#x}"),
     };
-    let exports = m.exports().map_err(|e| format!("Mach-O exports: {e}"))?;
+    let exports = m
+        .exports()
+        .map_err(|e| BinaryError::MachOExports(e.to_string()))?;
     let names = exports
         .into_iter()
         .map(|e| e.name.strip_prefix('_').unwrap_or(&e.name).to_string());

@@ -9,7 +9,7 @@
 //! straight into columns of f64; the format accepted is the plain RFC 4180 subset FMPy and
 //! spreadsheets write, so quoting is all the `csv` crate would add.
 
-use crate::md::{Causality, ModelDescription};
+use crate::view::{Causality, ModelView, VarKind};
 use std::fmt;
 use std::io::Write;
 use std::path::Path;
@@ -81,14 +81,14 @@ impl Table {
 
     /// Checks every column against the FMU: each must be an input or an output of it.
     /// Returns the error for the first unknown column (line 1, its column number).
-    pub fn check_against(&self, md: &ModelDescription) -> Result<(), CsvError> {
+    pub fn check_against(&self, md: &ModelView) -> Result<(), CsvError> {
         for (j, name) in self.all_names().enumerate() {
             let ok = md
-                .variable(name)
+                .scalar(name)
                 .map(|v| matches!(v.causality, Causality::Input | Causality::Output))
                 .unwrap_or(false);
             if !ok {
-                let what = if md.variable(name).is_some() {
+                let what = if md.scalar(name).is_some() {
                     "is neither an input nor an output of the FMU"
                 } else {
                     "is not a variable of the FMU"
@@ -111,10 +111,10 @@ impl Table {
     }
 
     /// Names of the columns that are inputs of the FMU.
-    pub fn input_columns(&self, md: &ModelDescription) -> Vec<String> {
+    pub fn input_columns(&self, md: &ModelView) -> Vec<String> {
         self.all_names()
             .filter(|n| {
-                md.variable(n)
+                md.scalar(n)
                     .map(|v| v.causality == Causality::Input)
                     .unwrap_or(false)
             })
@@ -123,10 +123,10 @@ impl Table {
     }
 
     /// Names of the columns that are outputs of the FMU.
-    pub fn output_columns(&self, md: &ModelDescription) -> Vec<String> {
+    pub fn output_columns(&self, md: &ModelView) -> Vec<String> {
         self.all_names()
             .filter(|n| {
-                md.variable(n)
+                md.scalar(n)
                     .map(|v| v.causality == Causality::Output)
                     .unwrap_or(false)
             })
@@ -175,11 +175,10 @@ pub fn read_csv(path: &Path) -> Result<Table, CsvError> {
 }
 
 /// [`read_csv`] for an FMU: the columns of its String variables are read as text.
-pub fn read_csv_for(path: &Path, md: &ModelDescription) -> Result<Table, CsvError> {
+pub fn read_csv_for(path: &Path, md: &ModelView) -> Result<Table, CsvError> {
     let text: Vec<String> = md
-        .model_variables
-        .iter()
-        .filter(|v| v.kind == crate::md::VarKind::String)
+        .scalars()
+        .filter(|v| v.scalar_kind() == Some(VarKind::String))
         .map(|v| v.name.clone())
         .collect();
     read_csv_with_text(path, &text)
@@ -795,6 +794,7 @@ mod tests {
     #[test]
     fn unknown_columns_against_a_model_description() {
         let md = crate::md::ModelDescription::parse(crate::md::tests::SAMPLE, "md.xml").unwrap();
+        let md = crate::view::ModelView::from(&md);
         let t = parse_csv("time,u,x\n0,1,2\n", "d.csv").unwrap();
         t.check_against(&md).unwrap();
         assert_eq!(t.input_columns(&md), vec!["u"]);

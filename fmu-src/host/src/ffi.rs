@@ -1,6 +1,6 @@
 //! Raw FMI 2.0 C types (fmi2FunctionTypes.h) and the function table resolved from a binary.
 
-use crate::error::{LogRecord, Status};
+use crate::error::{HostError, LogRecord, Result, Status};
 use libloading::Library;
 use std::collections::VecDeque;
 use std::ffi::{c_char, c_int, c_void, CStr};
@@ -50,11 +50,53 @@ pub struct LogSink {
     pub echo: bool,
 }
 
-fn cstr_lossy(p: *const c_char) -> String {
+impl LogSink {
+    /// Keeps `record`, the newest [`MAX_LOG_RECORDS`] of them; with `echo`, prints it to stderr
+    /// with `status`, its status as the FMU's version names it.
+    pub(crate) fn keep(&self, record: LogRecord, status: &str) {
+        if self.echo {
+            eprintln!(
+                "{} {status}: {}",
+                crate::error::shown(&record.instance, 40),
+                crate::error::shown(&record.message, 1000)
+            );
+        }
+        if let Ok(mut r) = self.records.lock() {
+            if r.len() >= MAX_LOG_RECORDS {
+                r.pop_front();
+            }
+            r.push_back(record);
+        }
+    }
+
+    /// Takes (and clears) every message kept.
+    pub(crate) fn take(&self) -> Vec<LogRecord> {
+        std::mem::take(&mut *self.records.lock().unwrap_or_else(|e| e.into_inner())).into()
+    }
+
+    /// The status `raw` that `function` returned: OK and Warning pass (warnings stay in the
+    /// log), anything else becomes [`HostError::Fmi`] carrying the messages logged meanwhile.
+    pub(crate) fn check(&self, function: &'static str, raw: c_int) -> Result<Status> {
+        let status = Status::from_raw(raw);
+        if status.is_success() {
+            Ok(status)
+        } else {
+            Err(HostError::Fmi {
+                function,
+                status,
+                messages: self.take(),
+            })
+        }
+    }
+}
+
+/// A C string the FMU passed, as text (invalid UTF-8 replaced); empty for NULL.
+pub(crate) fn cstr_lossy(p: *const c_char) -> String {
     if p.is_null() {
         String::new()
     } else {
-        // SAFETY: the FMU passes NUL-terminated strings (FMI 2.0 section 2.1.5); p is non-null.
+        // SAFETY: the FMU passes NUL-terminated strings (FMI 2.0.4 section 2.1.5, FMI 3.0.2
+        // section 2.2.3); p is non-null.
         unsafe { CStr::from_ptr(p) }.to_string_lossy().into_owned()
     }
 }
@@ -62,7 +104,8 @@ fn cstr_lossy(p: *const c_char) -> String {
 /// Longest message kept (bytes): an FMU may log without bound.
 const MAX_MESSAGE_BYTES: usize = 4096;
 
-fn bounded(mut s: String) -> String {
+/// `s` cut to [`MAX_MESSAGE_BYTES`] (at a character boundary, marked `...`).
+pub(crate) fn bounded(mut s: String) -> String {
     if s.len() > MAX_MESSAGE_BYTES {
         let mut end = MAX_MESSAGE_BYTES;
         while !s.is_char_boundary(end) {
@@ -94,20 +137,8 @@ pub extern "C" fn log_sink(
             category: cstr_lossy(category),
             message: bounded(cstr_lossy(message)),
         };
-        if sink.echo {
-            eprintln!(
-                "{} {}: {}",
-                crate::error::shown(&record.instance, 40),
-                record.status,
-                crate::error::shown(&record.message, 1000)
-            );
-        }
-        if let Ok(mut r) = sink.records.lock() {
-            if r.len() >= MAX_LOG_RECORDS {
-                r.pop_front();
-            }
-            r.push_back(record);
-        }
+        let status = record.status.to_string();
+        sink.keep(record, &status);
     });
 }
 

@@ -118,8 +118,7 @@ impl Fmu {
             )
         };
         if component.is_null() {
-            let messages =
-                std::mem::take(&mut *log.records.lock().unwrap_or_else(|e| e.into_inner())).into();
+            let messages = log.take();
             return Err(HostError::Instantiate { messages });
         }
         Ok(Instance {
@@ -134,6 +133,23 @@ impl Fmu {
     }
 }
 
+/// A method of an instance type that calls the FMI function in field `$method` of its binary's
+/// function table with the instance (field `$handle`) alone: marked as `$call` for the
+/// supervisor (`$watch`: [`watch::enter`] or [`watch::enter3`]), its status checked as
+/// `$function`. FMI 2.0 and FMI 3.0 share these calls' shape.
+macro_rules! instance_call {
+    ($(#[$doc:meta])* $method:ident, $handle:ident, $watch:path, $call:expr, $function:literal) => {
+        $(#[$doc])*
+        pub fn $method(&mut self) -> Result<Status> {
+            let _watch = $watch($call, None);
+            // SAFETY: the instance is live (it is freed only when dropped).
+            let raw = unsafe { (self.fmu.functions.$method)(self.$handle) };
+            self.check($function, raw)
+        }
+    };
+}
+pub(crate) use instance_call;
+
 impl<'a> Instance<'a> {
     /// The FMU this instance belongs to.
     pub fn fmu(&self) -> &'a Fmu {
@@ -142,22 +158,13 @@ impl<'a> Instance<'a> {
 
     /// Takes (and clears) every message logged so far.
     pub fn take_log(&mut self) -> Vec<LogRecord> {
-        std::mem::take(&mut *self.log.records.lock().unwrap_or_else(|e| e.into_inner())).into()
+        self.log.take()
     }
 
     /// Converts a raw status: OK/Warning pass (warnings stay in the log), anything else becomes
     /// [`HostError::Fmi`] carrying the messages logged during the call.
     pub(crate) fn check(&mut self, function: &'static str, raw: RawStatus) -> Result<Status> {
-        let status = Status::from_raw(raw);
-        if status.is_success() {
-            Ok(status)
-        } else {
-            Err(HostError::Fmi {
-                function,
-                status,
-                messages: self.take_log(),
-            })
-        }
+        self.log.check(function, raw)
     }
 
     /// Calls an FMI function and returns its raw status without interpreting it (for probes).
@@ -190,37 +197,41 @@ impl<'a> Instance<'a> {
         self.check("fmi2SetupExperiment", raw)
     }
 
-    /// fmi2EnterInitializationMode
-    pub fn enter_initialization_mode(&mut self) -> Result<Status> {
-        let _watch = watch::enter(Call::EnterInitializationMode, None);
-        // SAFETY: component is a live instance of this binary.
-        let raw = unsafe { (self.fmu.functions.enter_initialization_mode)(self.component) };
-        self.check("fmi2EnterInitializationMode", raw)
-    }
+    instance_call!(
+        /// fmi2EnterInitializationMode
+        enter_initialization_mode,
+        component,
+        watch::enter,
+        Call::EnterInitializationMode,
+        "fmi2EnterInitializationMode"
+    );
 
-    /// fmi2ExitInitializationMode
-    pub fn exit_initialization_mode(&mut self) -> Result<Status> {
-        let _watch = watch::enter(Call::ExitInitializationMode, None);
-        // SAFETY: component is a live instance of this binary.
-        let raw = unsafe { (self.fmu.functions.exit_initialization_mode)(self.component) };
-        self.check("fmi2ExitInitializationMode", raw)
-    }
+    instance_call!(
+        /// fmi2ExitInitializationMode
+        exit_initialization_mode,
+        component,
+        watch::enter,
+        Call::ExitInitializationMode,
+        "fmi2ExitInitializationMode"
+    );
 
-    /// fmi2Terminate
-    pub fn terminate(&mut self) -> Result<Status> {
-        let _watch = watch::enter(Call::Terminate, None);
-        // SAFETY: component is a live instance of this binary.
-        let raw = unsafe { (self.fmu.functions.terminate)(self.component) };
-        self.check("fmi2Terminate", raw)
-    }
+    instance_call!(
+        /// fmi2Terminate
+        terminate,
+        component,
+        watch::enter,
+        Call::Terminate,
+        "fmi2Terminate"
+    );
 
-    /// fmi2Reset: back to the state after fmi2Instantiate (start values restored).
-    pub fn reset(&mut self) -> Result<Status> {
-        let _watch = watch::enter(Call::Reset, None);
-        // SAFETY: component is a live instance of this binary.
-        let raw = unsafe { (self.fmu.functions.reset)(self.component) };
-        self.check("fmi2Reset", raw)
-    }
+    instance_call!(
+        /// fmi2Reset: back to the state after fmi2Instantiate (start values restored).
+        reset,
+        component,
+        watch::enter,
+        Call::Reset,
+        "fmi2Reset"
+    );
 
     /// fmi2DoStep(currentCommunicationPoint, communicationStepSize, noSetFMUStatePriorToCurrentPoint)
     pub fn do_step(&mut self, t: f64, h: f64, no_set_prior: bool) -> Result<Status> {

@@ -7,7 +7,7 @@ use std::io::Read;
 use std::path::Path;
 
 /// The FMI major version of an FMU.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub enum FmiVersion {
     /// FMI 2.0 (`fmiVersion="2.0"`).
     Fmi2,

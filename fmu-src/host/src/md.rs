@@ -3,7 +3,7 @@
 //! The parser is strict about syntax (malformed XML, attributes that do not parse as their
 //! schema type) and returns the first such error with its line. Semantic rules (allowed
 //! causality/variability combinations, units declared, model structure complete) are not
-//! enforced here: [`crate::validate`] reports them all as findings.
+//! enforced here: the `validate` crate reports them all as findings.
 
 use crate::error::HostError;
 use crate::xml::{parse_real, Ancestors, Attrs, Doc, Visitor};

@@ -34,7 +34,42 @@ pub fn needs_python(bin: &Path) -> bool {
 }
 
 /// The runtime loaded for such FMUs (once per process).
-static RUNTIME: OnceLock<std::result::Result<PathBuf, String>> = OnceLock::new();
+static RUNTIME: OnceLock<std::result::Result<PathBuf, RuntimeError>> = OnceLock::new();
+
+/// Why no Python runtime could be loaded.
+#[derive(Clone, Debug, thiserror::Error)]
+enum RuntimeError {
+    /// The interpreter could not be started.
+    #[error("cannot run {}: {cause}", .python.display())]
+    NotRun {
+        /// The interpreter.
+        python: PathBuf,
+        /// The system's reason.
+        cause: String,
+    },
+    /// The interpreter's query failed.
+    #[error("{} -c failed ({status})", .python.display())]
+    QueryFailed {
+        /// The interpreter.
+        python: PathBuf,
+        /// Its exit status.
+        status: std::process::ExitStatus,
+    },
+    /// The interpreter has no shared libpython.
+    #[error("{} has no shared libpython", .python.display())]
+    NoSharedLibrary {
+        /// The interpreter.
+        python: PathBuf,
+    },
+    /// libpython could not be loaded.
+    #[error("cannot load {}: {cause}", .library.display())]
+    NotLoaded {
+        /// The library.
+        library: PathBuf,
+        /// The loader's reason.
+        cause: String,
+    },
+}
 
 /// Loads a Python runtime for the FMU `fmu` (named in messages): `python` is the interpreter
 /// the user named, else `python3` on PATH. Returns the libpython loaded.
@@ -52,7 +87,7 @@ pub fn ensure_runtime(fmu: &Path, python: Option<&Path>) -> Result<PathBuf> {
         })
 }
 
-fn load_runtime(python: Option<&Path>) -> std::result::Result<PathBuf, String> {
+fn load_runtime(python: Option<&Path>) -> std::result::Result<PathBuf, RuntimeError> {
     let exe = python.map_or_else(|| PathBuf::from("python3"), Path::to_path_buf);
     const QUERY: &str = "import sys, sysconfig\n\
         print(sysconfig.get_config_var('LIBDIR') or '')\n\
@@ -61,9 +96,15 @@ fn load_runtime(python: Option<&Path>) -> std::result::Result<PathBuf, String> {
     let out = Command::new(&exe)
         .args(["-c", QUERY])
         .output()
-        .map_err(|e| format!("cannot run {}: {e}", exe.display()))?;
+        .map_err(|e| RuntimeError::NotRun {
+            python: exe.clone(),
+            cause: e.to_string(),
+        })?;
     if !out.status.success() {
-        return Err(format!("{} -c failed ({})", exe.display(), out.status));
+        return Err(RuntimeError::QueryFailed {
+            python: exe,
+            status: out.status,
+        });
     }
     let text = String::from_utf8_lossy(&out.stdout);
     let mut lines = text.lines();
@@ -73,7 +114,7 @@ fn load_runtime(python: Option<&Path>) -> std::result::Result<PathBuf, String> {
         lines.next().unwrap_or(""),
     );
     if soname.is_empty() || soname.ends_with(".a") {
-        return Err(format!("{} has no shared libpython", exe.display()));
+        return Err(RuntimeError::NoSharedLibrary { python: exe });
     }
     let lib = Path::new(libdir).join(soname);
     // SAFETY: loading the Python runtime the FMU was made for; RTLD_GLOBAL makes its symbols
@@ -84,7 +125,10 @@ fn load_runtime(python: Option<&Path>) -> std::result::Result<PathBuf, String> {
             libloading::os::unix::RTLD_NOW | libloading::os::unix::RTLD_GLOBAL,
         )
     }
-    .map_err(|e| format!("cannot load {}: {e}", lib.display()))?;
+    .map_err(|e| RuntimeError::NotLoaded {
+        library: lib.clone(),
+        cause: e.to_string(),
+    })?;
     // The runtime stays loaded for the life of the process (FMU binaries refer to it).
     std::mem::forget(handle);
     // The embedded interpreter computes its paths from the installation of libpython, not

@@ -5,6 +5,7 @@ use crate::fmu::Fmu;
 use crate::instance::Instance;
 use crate::kind::Interface;
 use crate::md::{Causality, ModelDescription, ScalarVariable, VarKind, Variability};
+use crate::run::{me_settings, step_through, CoSimulationStep, Inputs, Outputs};
 
 /// Columns of text: (variable name, one value per row).
 pub type TextColumns = Vec<(String, Vec<String>)>;
@@ -21,11 +22,14 @@ pub enum Value {
 }
 
 impl Value {
-    /// Parses `text` for the variable `v`: `true`/`false` (or 1/0) for Booleans, a finite
-    /// number within the variable's min/max otherwise.
-    pub fn parse_for(v: &ScalarVariable, text: &str) -> Result<Value> {
+    /// Parses `text` for the scalar variable `v`: `true`/`false` (or 1/0) for Booleans, a
+    /// finite number within the variable's min/max otherwise.
+    pub fn parse_for(v: &crate::view::Variable, text: &str) -> Result<Value> {
         let t = text.trim();
-        match v.kind {
+        let kind = v.scalar_kind().ok_or_else(|| {
+            HostError::Request(format!("'{}' is not a scalar model variable", v.name))
+        })?;
+        match kind {
             VarKind::Boolean => match t {
                 "true" | "1" => Ok(Value::Boolean(true)),
                 "false" | "0" => Ok(Value::Boolean(false)),
@@ -349,13 +353,13 @@ pub fn simulate(fmu: &Fmu, req: &SimulationRequest) -> Result<SimulationResult> 
     run_on(&mut inst, req)
 }
 
+/// One run on `inst`, Co-Simulation or Model Exchange as it was instantiated: everything
+/// resolved before the FMU is touched, then start values and inputs, initialization, and
+/// [`step_through`] or [`crate::me::fmi2::integrate`].
 fn run_on(inst: &mut Instance<'_>, req: &SimulationRequest) -> Result<SimulationResult> {
-    if inst.fmu().interface() == Interface::ModelExchange {
-        return crate::me::fmi2::run_on(inst, req);
-    }
     let md = inst.fmu().model_description();
+    let model_exchange = inst.fmu().interface() == Interface::ModelExchange;
     let times = communication_points(req.start_time, req.stop_time, req.step)?;
-    // Resolve everything before touching the FMU.
     let starts = StartValues::resolve(md, &req.start_values)?;
     let mut inputs = InputPlan::new(md, &req.inputs)?;
     let out_names: Vec<String> = if req.outputs.is_empty() {
@@ -363,83 +367,59 @@ fn run_on(inst: &mut Instance<'_>, req: &SimulationRequest) -> Result<Simulation
     } else {
         req.outputs.clone()
     };
-    let values = times.len().saturating_mul(out_names.len().max(1));
-    if values > MAX_RECORDED_VALUES {
-        return Err(HostError::Request(format!(
-            "{} communication points x {} outputs would record {values} values (limit \
-             {MAX_RECORDED_VALUES}, {} MB): use a larger step or fewer outputs",
-            times.len(),
-            out_names.len(),
-            (MAX_RECORDED_VALUES * 8) >> 20
-        )));
+    if !model_exchange {
+        check_recorded_values(times.len(), out_names.len())?;
     }
     let mut rec = Recorder::new(md, out_names, times.len())?;
+    let settings = model_exchange
+        .then(|| {
+            me_settings(
+                (req.start_time, req.stop_time, req.step),
+                req.tolerance,
+                md.default_experiment.as_ref().and_then(|d| d.tolerance),
+                req.record_events,
+            )
+        })
+        .transpose()?;
 
     starts.apply(inst)?;
     inputs.apply(inst, req.start_time)?;
     inst.setup_experiment(req.tolerance, req.start_time, Some(req.stop_time))?;
     inst.enter_initialization_mode()?;
     inst.exit_initialization_mode()?;
-
-    let (time, ended_by_fmu) = step_through(
-        inst,
-        &times,
-        |inst, t| inputs.apply(inst, t),
-        co_simulation_step,
-        |inst| rec.record(inst),
-    )?;
+    let (time, ended_by_fmu) = match settings {
+        Some(settings) => crate::me::fmi2::integrate(inst, &settings, &mut inputs, &mut rec)?,
+        None => step_through(inst, &times, &mut inputs, &mut rec)?,
+    };
     let _ = inst.terminate();
     Ok(SimulationResult::of_rows(time, rec.finish(), ended_by_fmu))
 }
 
-/// One fmi2DoStep from `t` by `h`: the FMU's fmi2LastSuccessfulTime when it ended the
-/// simulation, None when the step completed. FMI 2.0.4 section 4.2.3: after fmi2Discard,
-/// fmi2Terminated true means the FMU ended the simulation; its results are valid up to
-/// fmi2LastSuccessfulTime.
-fn co_simulation_step(inst: &mut Instance<'_>, t: f64, h: f64) -> Result<Option<f64>> {
-    match inst.do_step(t, h, true) {
-        Ok(_) => Ok(None),
-        Err(e) if e.status() == Some(Status::Discard) && inst.terminated().unwrap_or(false) => {
-            inst.last_successful_time().map(Some)
-        }
-        Err(e) => Err(e),
+/// Refuses a Co-Simulation run that would record more than [`MAX_RECORDED_VALUES`].
+fn check_recorded_values(points: usize, outputs: usize) -> Result<()> {
+    let values = points.saturating_mul(outputs.max(1));
+    if values > MAX_RECORDED_VALUES {
+        return Err(HostError::Request(format!(
+            "{points} communication points x {outputs} outputs would record {values} values \
+             (limit {MAX_RECORDED_VALUES}, {} MB): use a larger step or fewer outputs",
+            (MAX_RECORDED_VALUES * 8) >> 20
+        )));
     }
+    Ok(())
 }
 
-/// Steps a Co-Simulation instance through the communication points `times`, recording at each:
-/// `apply_inputs` sets the inputs at a point (those at the start are set before
-/// initialization), `step` does one step from `t` by `h` and gives the FMU's last successful
-/// time when the FMU ended the simulation, `record` reads the outputs. An FMU that ends the
-/// simulation keeps the rows up to its last successful time. Returns the recorded times and,
-/// when the FMU ended the simulation, the last of them. FMI 2.0 and FMI 3.0 differ only in how
-/// a step says the FMU ended the simulation.
-pub(crate) fn step_through<I>(
-    inst: &mut I,
-    times: &[f64],
-    mut apply_inputs: impl FnMut(&mut I, f64) -> Result<()>,
-    mut step: impl FnMut(&mut I, f64, f64) -> Result<Option<f64>>,
-    mut record: impl FnMut(&mut I) -> Result<()>,
-) -> Result<(Vec<f64>, Option<f64>)> {
-    let mut time = Vec::with_capacity(times.len());
-    record(inst)?;
-    time.push(times[0]);
-    for k in 0..times.len().saturating_sub(1) {
-        let (t, t1) = (times[k], times[k + 1]);
-        if k > 0 {
-            apply_inputs(inst, t)?;
-        }
-        if let Some(last) = step(inst, t, t1 - t)? {
-            if last > t && last.is_finite() {
-                record(inst)?;
-                time.push(last.min(t1));
+/// fmi2DoStep from `t` by `h`. FMI 2.0.4 section 4.2.3: after fmi2Discard, fmi2Terminated true
+/// means the FMU ended the simulation; its results are valid up to fmi2LastSuccessfulTime.
+impl CoSimulationStep for Instance<'_> {
+    fn co_simulation_step(&mut self, t: f64, h: f64) -> Result<Option<f64>> {
+        match self.do_step(t, h, true) {
+            Ok(_) => Ok(None),
+            Err(e) if e.status() == Some(Status::Discard) && self.terminated().unwrap_or(false) => {
+                self.last_successful_time().map(Some)
             }
-            let ended_at = *time.last().unwrap_or(&t);
-            return Ok((time, Some(ended_at)));
+            Err(e) => Err(e),
         }
-        record(inst)?;
-        time.push(t1);
     }
-    Ok((time, None))
 }
 
 /// Most values one run records (8 bytes each): a step far too small for the interval, or an FMU
@@ -565,13 +545,6 @@ fn input_events(plan: &InputPlan<'_>, series: &InputSeries) -> Vec<f64> {
     events
 }
 
-impl InputPlan<'_> {
-    /// The first input event after `t` (not within 1e-9 relative of it); infinite: none.
-    pub(crate) fn next_event(&self, t: f64) -> f64 {
-        first_event_after(&self.input_events, t)
-    }
-}
-
 /// The first of the ascending event times `events` after `t`, not within 1e-9 relative of it
 /// (an event at `t` itself has been handled); infinite: none. FMI 2.0 and FMI 3.0 input plans
 /// find their events in their own way and look up the next one with this.
@@ -640,15 +613,17 @@ impl<'r> InputPlan<'r> {
         plan.real_buf = vec![0.0; plan.reals.len()];
         Ok(plan)
     }
+}
 
-    /// Sets every input to its value at `t`.
-    pub(crate) fn apply(&mut self, inst: &mut Instance<'_>, t: f64) -> Result<()> {
-        self.apply_some(inst, t, true, true)
+impl Inputs<Instance<'_>> for InputPlan<'_> {
+    /// The first input event after `t` (not within 1e-9 relative of it); infinite: none.
+    fn next_event(&self, t: f64) -> f64 {
+        first_event_after(&self.input_events, t)
     }
 
     /// Sets the continuous Real inputs (`continuous`) and the discrete ones (`discrete`) to
     /// their values at `t`: Model Exchange sets the discrete inputs in Event Mode only.
-    pub(crate) fn apply_some(
+    fn apply_some(
         &mut self,
         inst: &mut Instance<'_>,
         t: f64,
@@ -753,12 +728,37 @@ impl Recorder {
         })
     }
 
+    /// (numeric names, their columns, String columns), each in the order asked for.
+    pub(crate) fn finish(self) -> Recorded {
+        let is_text: Vec<bool> = (0..self.names.len())
+            .map(|j| self.by_type.string.iter().any(|&(k, _)| k == j))
+            .collect();
+        let (mut names, mut columns, mut text) = (Vec::new(), Vec::new(), Vec::new());
+        for (((name, col), txt), is_text) in self
+            .names
+            .into_iter()
+            .zip(self.columns)
+            .zip(self.text)
+            .zip(is_text)
+        {
+            if is_text {
+                text.push((name, txt));
+            } else {
+                names.push(name);
+                columns.push(col);
+            }
+        }
+        (names, columns, text)
+    }
+}
+
+impl Outputs<Instance<'_>> for Recorder {
     /// Number of recorded variables.
-    pub(crate) fn width(&self) -> usize {
+    fn width(&self) -> usize {
         self.names.len()
     }
 
-    pub(crate) fn record(&mut self, inst: &mut Instance<'_>) -> Result<()> {
+    fn record(&mut self, inst: &mut Instance<'_>) -> Result<()> {
         let t = &self.by_type;
         if !self.vrs[0].is_empty() {
             inst.get_real(&self.vrs[0], &mut self.rbuf)?;
@@ -785,29 +785,6 @@ impl Recorder {
             }
         }
         Ok(())
-    }
-
-    /// (numeric names, their columns, String columns), each in the order asked for.
-    pub(crate) fn finish(self) -> Recorded {
-        let is_text: Vec<bool> = (0..self.names.len())
-            .map(|j| self.by_type.string.iter().any(|&(k, _)| k == j))
-            .collect();
-        let (mut names, mut columns, mut text) = (Vec::new(), Vec::new(), Vec::new());
-        for (((name, col), txt), is_text) in self
-            .names
-            .into_iter()
-            .zip(self.columns)
-            .zip(self.text)
-            .zip(is_text)
-        {
-            if is_text {
-                text.push((name, txt));
-            } else {
-                names.push(name);
-                columns.push(col);
-            }
-        }
-        (names, columns, text)
     }
 }
 

@@ -148,7 +148,8 @@ fn check_binary(
     archs: &[&str],
     need: &[&str],
 ) -> Result<(Vec<Finding>, host::binary::BinaryInfo), Finding> {
-    let info = host::binary::inspect(bytes).map_err(|e| Finding::new("binary-format", entry, e))?;
+    let info = host::binary::inspect(bytes)
+        .map_err(|e| Finding::new("binary-format", entry, e.to_string()))?;
     let mut findings = Vec::new();
     if info.format != format {
         let m = format!("is {}, but {platform} needs {format}", info.format);

@@ -657,34 +657,12 @@ fn check_listed_derivative(
 
 /// The candidate-effect convention (see [`effects`]) for FMUs meant for the gap
 /// workflow, one finding per departure, located at its variable.
-pub fn check_effect_convention(md: &ModelDescription) -> Vec<Finding> {
-    let vars: Vec<&ScalarVariable> = md
-        .model_variables
-        .iter()
-        .filter(|v| v.causality == Causality::Parameter)
-        .collect();
-    let params: Vec<effects::Param> = vars
-        .iter()
-        .map(|v| {
-            let (min, max) = effective_range(md, v);
-            effects::Param {
-                name: &v.name,
-                kind: v.kind,
-                variability: v.variability,
-                start: v.start.as_ref().and_then(StartValue::as_f64),
-                min,
-                max,
-                has_unit: md.effective_unit(v).is_some(),
-                description: v.description.as_deref().unwrap_or(""),
-            }
-        })
-        .collect();
-    effects::scan(&params)
-        .problems
+pub fn check_effect_convention(view: &host::ModelView) -> Vec<Finding> {
+    view.effect_problems()
         .into_iter()
-        .map(|(i, problem)| {
-            let loc = match i {
-                Some(i) => var_loc(vars[i]),
+        .map(|(variable, problem)| {
+            let loc = match variable {
+                Some(v) => format!("modelDescription.xml:{} (variable '{}')", v.line, v.name),
                 None => "modelDescription.xml:<ModelVariables>".to_string(),
             };
             Finding::new("effect-convention", &loc, problem.to_string())

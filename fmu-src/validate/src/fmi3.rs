@@ -728,7 +728,7 @@ fn check_library3(
 ) -> (Vec<Finding>, Option<host::binary::BinaryInfo>) {
     let info = match host::binary::inspect(bytes) {
         Ok(info) => info,
-        Err(e) => return (vec![finding("binary-format", entry, e)], None),
+        Err(e) => return (vec![finding("binary-format", entry, e.to_string())], None),
     };
     let mut findings = Vec::new();
     if info.format != format {

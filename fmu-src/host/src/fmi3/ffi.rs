@@ -11,9 +11,9 @@
 //! behaviour.
 
 use crate::error::{LogRecord, Status};
-use crate::ffi::{LogSink, MAX_LOG_RECORDS};
+use crate::ffi::{bounded, cstr_lossy, LogSink};
 use libloading::Library;
-use std::ffi::{c_char, c_int, c_void, CStr};
+use std::ffi::{c_char, c_int, c_void};
 
 /// `fmi3Instance`
 pub type Instance3 = *mut c_void;
@@ -268,18 +268,6 @@ pub struct Env3 {
     pub name: String,
 }
 
-fn cstr_lossy(p: *const c_char) -> String {
-    if p.is_null() {
-        String::new()
-    } else {
-        // SAFETY: the FMU passes NUL-terminated strings (FMI 3.0.2 section 2.2.3); p is non-null.
-        unsafe { CStr::from_ptr(p) }.to_string_lossy().into_owned()
-    }
-}
-
-/// Longest message kept (bytes): an FMU may log without bound.
-const MAX_MESSAGE_BYTES: usize = 4096;
-
 /// `fmi3LogMessageCallback`: stores the record in the instance's sink. Never unwinds across the
 /// C boundary.
 ///
@@ -298,34 +286,13 @@ pub unsafe extern "C" fn log_message(
         }
         // SAFETY: env is the `Env3` boxed by the instance, alive while the instance lives.
         let env = unsafe { &*(env as *const Env3) };
-        let mut text = cstr_lossy(message);
-        if text.len() > MAX_MESSAGE_BYTES {
-            let mut end = MAX_MESSAGE_BYTES;
-            while !text.is_char_boundary(end) {
-                end -= 1;
-            }
-            text.truncate(end);
-            text.push_str("...");
-        }
         let record = LogRecord {
             instance: env.name.clone(),
             status: Status::from_raw(status),
             category: cstr_lossy(category),
-            message: text,
+            message: bounded(cstr_lossy(message)),
         };
-        if env.sink.echo {
-            eprintln!(
-                "{} {}: {}",
-                crate::error::shown(&record.instance, 40),
-                record.status.to_string().replacen("fmi2", "fmi3", 1),
-                crate::error::shown(&record.message, 1000)
-            );
-        }
-        if let Ok(mut r) = env.sink.records.lock() {
-            if r.len() >= MAX_LOG_RECORDS {
-                r.pop_front();
-            }
-            r.push_back(record);
-        }
+        let status = record.status.to_string().replacen("fmi2", "fmi3", 1);
+        env.sink.keep(record, &status);
     });
 }

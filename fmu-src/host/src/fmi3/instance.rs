@@ -7,6 +7,7 @@ use super::value::{Type3, Values};
 use crate::error::{HostError, LogRecord, Result, Status};
 use crate::ffi::LogSink;
 use crate::fmu::{binary_under, check_c_identifier, Unpacked};
+use crate::instance::instance_call;
 use crate::kind::Interface;
 use crate::watch::{self, Call};
 use libloading::Library;
@@ -242,9 +243,7 @@ impl Fmu3 {
         function: &'static str,
     ) -> Result<Instance3<'_>> {
         if instance.is_null() {
-            let messages =
-                std::mem::take(&mut *env.sink.records.lock().unwrap_or_else(|e| e.into_inner()))
-                    .into();
+            let messages = env.sink.take();
             return Err(HostError::InstantiateNull { function, messages });
         }
         Ok(Instance3 {
@@ -327,28 +326,12 @@ impl<'a> Instance3<'a> {
 
     /// Takes (and clears) every message logged so far.
     pub fn take_log(&mut self) -> Vec<LogRecord> {
-        std::mem::take(
-            &mut *self
-                .env
-                .sink
-                .records
-                .lock()
-                .unwrap_or_else(|e| e.into_inner()),
-        )
-        .into()
+        self.env.sink.take()
     }
 
+    /// Converts a raw status as [`crate::Instance`] does.
     pub(crate) fn check(&mut self, function: &'static str, raw: RawStatus3) -> Result<Status> {
-        let status = Status::from_raw(raw);
-        if status.is_success() {
-            Ok(status)
-        } else {
-            Err(HostError::Fmi {
-                function,
-                status,
-                messages: self.take_log(),
-            })
-        }
+        self.env.sink.check(function, raw)
     }
 
     /// fmi3EnterInitializationMode(tolerance, startTime, stopTime)
@@ -373,13 +356,14 @@ impl<'a> Instance3<'a> {
         self.check("fmi3EnterInitializationMode", raw)
     }
 
-    /// fmi3ExitInitializationMode (to Step Mode, event mode not being used)
-    pub fn exit_initialization_mode(&mut self) -> Result<Status> {
-        let _watch = watch::enter3(Call::ExitInitializationMode, None);
-        // SAFETY: instance is live.
-        let raw = unsafe { (self.fmu.functions.exit_initialization_mode)(self.instance) };
-        self.check("fmi3ExitInitializationMode", raw)
-    }
+    instance_call!(
+        /// fmi3ExitInitializationMode (to Step Mode, event mode not being used)
+        exit_initialization_mode,
+        instance,
+        watch::enter3,
+        Call::ExitInitializationMode,
+        "fmi3ExitInitializationMode"
+    );
 
     /// fmi3EnterConfigurationMode (structural parameters may then be set)
     pub fn enter_configuration_mode(&mut self) -> Result<Status> {
@@ -407,21 +391,23 @@ impl<'a> Instance3<'a> {
         self.check("fmi3ExitConfigurationMode", raw)
     }
 
-    /// fmi3Terminate
-    pub fn terminate(&mut self) -> Result<Status> {
-        let _watch = watch::enter3(Call::Terminate, None);
-        // SAFETY: instance is live.
-        let raw = unsafe { (self.fmu.functions.terminate)(self.instance) };
-        self.check("fmi3Terminate", raw)
-    }
+    instance_call!(
+        /// fmi3Terminate
+        terminate,
+        instance,
+        watch::enter3,
+        Call::Terminate,
+        "fmi3Terminate"
+    );
 
-    /// fmi3Reset: back to the state after instantiation.
-    pub fn reset(&mut self) -> Result<Status> {
-        let _watch = watch::enter3(Call::Reset, None);
-        // SAFETY: instance is live.
-        let raw = unsafe { (self.fmu.functions.reset)(self.instance) };
-        self.check("fmi3Reset", raw)
-    }
+    instance_call!(
+        /// fmi3Reset: back to the state after instantiation.
+        reset,
+        instance,
+        watch::enter3,
+        Call::Reset,
+        "fmi3Reset"
+    );
 
     /// fmi3DoStep(currentCommunicationPoint, communicationStepSize,
     /// noSetFMUStatePriorToCurrentPoint). `fmi3Discard` with `terminateSimulation` true comes

@@ -23,54 +23,8 @@ use crate::xml::{Ancestors, Attrs, Doc, Visitor};
 
 pub use fmi_types::{Initial, Variability};
 
-/// `causality` of an FMI 3.0 variable (FMI 3.0.2 section 2.4.7.4; default `local`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
-#[serde(rename_all = "camelCase")]
-#[allow(missing_docs)]
-pub enum Causality3 {
-    StructuralParameter,
-    Parameter,
-    CalculatedParameter,
-    Input,
-    Output,
-    Local,
-    Independent,
-}
-
-impl Causality3 {
-    /// Parses the attribute's spelling.
-    pub fn parse(s: &str) -> Option<Causality3> {
-        Some(match s {
-            "structuralParameter" => Causality3::StructuralParameter,
-            "parameter" => Causality3::Parameter,
-            "calculatedParameter" => Causality3::CalculatedParameter,
-            "input" => Causality3::Input,
-            "output" => Causality3::Output,
-            "local" => Causality3::Local,
-            "independent" => Causality3::Independent,
-            _ => return None,
-        })
-    }
-
-    /// The attribute's spelling.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Causality3::StructuralParameter => "structuralParameter",
-            Causality3::Parameter => "parameter",
-            Causality3::CalculatedParameter => "calculatedParameter",
-            Causality3::Input => "input",
-            Causality3::Output => "output",
-            Causality3::Local => "local",
-            Causality3::Independent => "independent",
-        }
-    }
-}
-
-impl std::fmt::Display for Causality3 {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.as_str())
-    }
-}
+/// `causality` of an FMI 3.0 variable: the causality of the version-neutral view.
+pub use crate::view::Causality as Causality3;
 
 /// `<Dimension>` of an array variable: a fixed size or a structural parameter's value.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -269,18 +223,8 @@ pub struct ModelStructure3 {
     pub event_indicators: Vec<Unknown3>,
 }
 
-/// `<DefaultExperiment>`.
-#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
-pub struct DefaultExperiment3 {
-    /// `startTime`
-    pub start_time: Option<f64>,
-    /// `stopTime`
-    pub stop_time: Option<f64>,
-    /// `tolerance`
-    pub tolerance: Option<f64>,
-    /// `stepSize`
-    pub step_size: Option<f64>,
-}
+/// `<DefaultExperiment>`: FMI 3.0.2 gives it the four attributes of FMI 2.0.4.
+pub type DefaultExperiment3 = crate::md::DefaultExperiment;
 
 /// The parsed FMI 3.0 `modelDescription.xml`.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
@@ -313,6 +257,38 @@ pub struct ModelDescription3 {
     pub variables: Vec<Variable3>,
     /// `<ModelStructure>`
     pub model_structure: ModelStructure3,
+}
+
+/// An array whose shape cannot be known, or is too large.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum ShapeError {
+    /// A `<Dimension valueReference>` naming no integer variable with a start value.
+    #[error(
+        "'{variable}': <Dimension valueReference=\"{value_reference}\"> (line {line}) refers to \
+         no integer variable with a start value"
+    )]
+    NoSize {
+        /// The array variable.
+        variable: String,
+        /// The value reference its dimension names.
+        value_reference: u32,
+        /// Line of the `<Dimension>`.
+        line: usize,
+    },
+    /// A `<Dimension>` with neither attribute.
+    #[error("'{variable}': <Dimension> (line {line}) has neither start nor valueReference")]
+    NoDimension {
+        /// The array variable.
+        variable: String,
+        /// Line of the `<Dimension>`.
+        line: usize,
+    },
+    /// More elements than [`MAX_ARRAY_ELEMENTS`].
+    #[error("'{variable}' would have more than {MAX_ARRAY_ELEMENTS} elements")]
+    TooLarge {
+        /// The array variable.
+        variable: String,
+    },
 }
 
 /// Most elements one array variable may have, counted from its fixed dimensions or its
@@ -354,7 +330,7 @@ impl ModelDescription3 {
     /// The shape of `v` from the start values of its dimensions (structural parameters at their
     /// start values); empty for a scalar. Err names a dimension that refers to no integer
     /// variable with a start, or a size beyond [`MAX_ARRAY_ELEMENTS`].
-    pub fn shape(&self, v: &Variable3) -> Result<Vec<usize>, String> {
+    pub fn shape(&self, v: &Variable3) -> Result<Vec<usize>, ShapeError> {
         self.shape_with(v, &|vr| self.start_size(vr))
     }
 
@@ -364,32 +340,29 @@ impl ModelDescription3 {
         &self,
         v: &Variable3,
         size_of: &dyn Fn(u32) -> Option<u64>,
-    ) -> Result<Vec<usize>, String> {
+    ) -> Result<Vec<usize>, ShapeError> {
         let mut total: u64 = 1;
         let mut shape = Vec::with_capacity(v.dimensions.len());
         for d in &v.dimensions {
             let n = match (d.start, d.value_reference) {
                 (Some(n), _) => n,
-                (None, Some(vr)) => size_of(vr).ok_or_else(|| {
-                    format!(
-                        "'{}': <Dimension valueReference=\"{vr}\"> (line {}) refers to no \
-                         integer variable with a start value",
-                        v.name, d.line
-                    )
+                (None, Some(vr)) => size_of(vr).ok_or_else(|| ShapeError::NoSize {
+                    variable: v.name.clone(),
+                    value_reference: vr,
+                    line: d.line,
                 })?,
                 (None, None) => {
-                    return Err(format!(
-                        "'{}': <Dimension> (line {}) has neither start nor valueReference",
-                        v.name, d.line
-                    ))
+                    return Err(ShapeError::NoDimension {
+                        variable: v.name.clone(),
+                        line: d.line,
+                    })
                 }
             };
             total = total.saturating_mul(n);
             if total > MAX_ARRAY_ELEMENTS {
-                return Err(format!(
-                    "'{}' would have more than {MAX_ARRAY_ELEMENTS} elements",
-                    v.name
-                ));
+                return Err(ShapeError::TooLarge {
+                    variable: v.name.clone(),
+                });
             }
             shape.push(n as usize);
         }
@@ -869,9 +842,15 @@ mod tests {
             <Float64 name="dangling" valueReference="3" causality="output"><Dimension valueReference="99"/></Float64>
             </ModelVariables></fmiModelDescription>"#;
         let md = ModelDescription3::parse(xml, "md.xml").unwrap();
-        let e = md.shape(md.variable("big").unwrap()).unwrap_err();
+        let e = md
+            .shape(md.variable("big").unwrap())
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("more than"), "{e}");
-        let e = md.shape(md.variable("dangling").unwrap()).unwrap_err();
+        let e = md
+            .shape(md.variable("dangling").unwrap())
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("valueReference=\"99\""), "{e}");
     }
 }

@@ -7,17 +7,14 @@
 //!   Co-Simulation instance with typed get/set of every type, arrays included.
 //! - [`simulate3`] / [`Simulator3`]: a whole Co-Simulation run from start values and input
 //!   columns.
-//! - [`fmi2_view`]: the scalar variables in the FMI 2.0 shape, for code that only names them.
 
 pub mod ffi;
 pub(crate) mod instance;
 pub mod md;
 pub(crate) mod simulate;
 pub mod value;
-mod view;
 
 pub use instance::{unsupported, Fmu3, Instance3, StepOutcome, PLATFORM_TUPLE};
 pub use md::{Causality3, ModelDescription3, Variable3};
 pub use simulate::{element_index, simulate3, Inputs3, Request3, Simulator3};
-pub use value::{Type3, Values};
-pub use view::fmi2_view;
+pub use value::{Type3, ValueError, Values};

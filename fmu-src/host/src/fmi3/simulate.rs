@@ -18,12 +18,13 @@
 
 use super::instance::{Fmu3, Instance3};
 use super::md::{Causality3, ModelDescription3, Variable3};
-use super::value::{Type3, Values};
+use super::value::{Type3, ValueError, Values};
 use crate::error::{HostError, Result};
 use crate::kind::Interface;
+use crate::run::{step_through, CoSimulationStep, Inputs, Outputs};
 use crate::simulate::{
-    communication_points, first_event_after, hold_index, interpolate, step_through, Recorded,
-    ReusedInstance, SimulationResult,
+    communication_points, first_event_after, hold_index, interpolate, Recorded, ReusedInstance,
+    SimulationResult,
 };
 use fmi_types::Variability;
 
@@ -141,24 +142,19 @@ fn run_on(inst: &mut Instance3<'_>, req: &Request3) -> Result<SimulationResult> 
     inst.exit_initialization_mode()?;
     let (time, ended_by_fmu) = match inst.fmu().interface() {
         Interface::ModelExchange => crate::me::fmi3::run(inst, req, &mut inputs, &mut rec)?,
-        Interface::CoSimulation => step_through(
-            inst,
-            &times,
-            |inst, t| inputs.apply(inst, t),
-            co_simulation_step,
-            |inst| rec.record(inst),
-        )?,
+        Interface::CoSimulation => step_through(inst, &times, &mut inputs, &mut rec)?,
     };
     let _ = inst.terminate();
     Ok(SimulationResult::of_rows(time, rec.finish(), ended_by_fmu))
 }
 
-/// One fmi3DoStep from `t` by `h`: the FMU's lastSuccessfulTime when it ended the simulation,
-/// None when the step completed. FMI 3.0.2 section 4.2.1 (fmi3DoStep): terminateSimulation
-/// asks the importer to end the run; the results are valid up to lastSuccessfulTime.
-fn co_simulation_step(inst: &mut Instance3<'_>, t: f64, h: f64) -> Result<Option<f64>> {
-    let out = inst.do_step(t, h, true)?;
-    Ok(out.terminate.then_some(out.last_successful_time))
+/// fmi3DoStep from `t` by `h`. FMI 3.0.2 section 4.2.1 (fmi3DoStep): terminateSimulation asks
+/// the importer to end the run; the results are valid up to lastSuccessfulTime.
+impl CoSimulationStep for Instance3<'_> {
+    fn co_simulation_step(&mut self, t: f64, h: f64) -> Result<Option<f64>> {
+        let out = self.do_step(t, h, true)?;
+        Ok(out.terminate.then_some(out.last_successful_time))
+    }
 }
 
 fn lookup<'m>(md: &'m ModelDescription3, name: &str) -> Result<&'m Variable3> {
@@ -172,7 +168,9 @@ fn element_count(
     v: &Variable3,
     sizes: &dyn Fn(u32) -> Option<u64>,
 ) -> Result<(Vec<usize>, usize)> {
-    let shape = md.shape_with(v, sizes).map_err(HostError::Request)?;
+    let shape = md
+        .shape_with(v, sizes)
+        .map_err(|e| HostError::Request(e.to_string()))?;
     let n = shape.iter().product();
     Ok((shape, n))
 }
@@ -267,17 +265,17 @@ impl StartValues3 {
 const MAX_MAGNITUDE: f64 = 1e100;
 
 /// Refuses NaN, infinities and Float values beyond [`MAX_MAGNITUDE`].
-fn check_magnitude(x: &Values) -> Result<(), String> {
+fn check_magnitude(x: &Values) -> Result<(), ValueError> {
     if !matches!(x, Values::Float32(_) | Values::Float64(_)) {
         return Ok(());
     }
     for i in 0..x.len() {
         let n = x.number(i).unwrap_or(0.0);
         if !n.is_finite() || n.abs() > MAX_MAGNITUDE {
-            return Err(format!(
-                "{} is not a finite number within +-{MAX_MAGNITUDE:e}",
-                x.text(i)
-            ));
+            return Err(ValueError::NotFinite {
+                text: x.text(i),
+                limit: MAX_MAGNITUDE,
+            });
         }
     }
     Ok(())
@@ -381,15 +379,16 @@ impl<'r> InputPlan3<'r> {
             hold_cursor: 0,
         })
     }
+}
 
-    /// Sets every input to its value at `t`.
-    fn apply(&mut self, inst: &mut Instance3<'_>, t: f64) -> Result<()> {
-        self.apply_some(inst, t, true, true)
+impl Inputs<Instance3<'_>> for InputPlan3<'_> {
+    /// The first input event after `t` (not within 1e-9 relative of it; infinite: none): a
+    /// repeated row time, or a row at which a held input changes (FMPy's `Input.findEvents`).
+    fn next_event(&self, t: f64) -> f64 {
+        first_event_after(&self.events, t)
     }
 
-    /// Sets the continuous (interpolated) inputs (`continuous`) and the held ones (`discrete`)
-    /// to their values at `t`: Model Exchange sets the discrete inputs in Event Mode only.
-    pub(crate) fn apply_some(
+    fn apply_some(
         &mut self,
         inst: &mut Instance3<'_>,
         t: f64,
@@ -430,12 +429,6 @@ impl<'r> InputPlan3<'r> {
 }
 
 impl InputPlan3<'_> {
-    /// The first input event after `t` (not within 1e-9 relative of it; infinite: none): a
-    /// repeated row time, or a row at which a held input changes (FMPy's `Input.findEvents`).
-    pub(crate) fn next_event(&self, t: f64) -> f64 {
-        first_event_after(&self.events, t)
-    }
-
     /// The row times at which an input event happens, in time order: a repeated row time, or a
     /// row at which a held input changes.
     fn events(time: &[f64], inputs: &[(u32, Samples)]) -> Vec<f64> {
@@ -649,29 +642,6 @@ impl Recorder3 {
         Ok(rec)
     }
 
-    /// Values recorded per row.
-    pub(crate) fn width(&self) -> usize {
-        self.width
-    }
-
-    pub(crate) fn record(&mut self, inst: &mut Instance3<'_>) -> Result<()> {
-        for g in &self.groups {
-            let total = g.counts.iter().sum();
-            let values = inst.get(g.ty, &g.vrs, total)?;
-            let mut at = 0;
-            for (&n, col) in g.counts.iter().zip(&g.cols) {
-                match *col {
-                    Column::Number(j) => {
-                        self.numbers[j].push(values.number(at).unwrap_or(f64::NAN))
-                    }
-                    Column::Text(j) => self.text[j].push(values.joined(at..at + n)),
-                }
-                at += n;
-            }
-        }
-        Ok(())
-    }
-
     /// (numeric names, their columns, text columns), each in the order asked for.
     fn finish(self) -> Recorded {
         let mut numbers: Vec<Option<Vec<f64>>> = self.numbers.into_iter().map(Some).collect();
@@ -687,6 +657,31 @@ impl Recorder3 {
             }
         }
         (names, columns, texts)
+    }
+}
+
+impl Outputs<Instance3<'_>> for Recorder3 {
+    /// Values recorded per row.
+    fn width(&self) -> usize {
+        self.width
+    }
+
+    fn record(&mut self, inst: &mut Instance3<'_>) -> Result<()> {
+        for g in &self.groups {
+            let total = g.counts.iter().sum();
+            let values = inst.get(g.ty, &g.vrs, total)?;
+            let mut at = 0;
+            for (&n, col) in g.counts.iter().zip(&g.cols) {
+                match *col {
+                    Column::Number(j) => {
+                        self.numbers[j].push(values.number(at).unwrap_or(f64::NAN))
+                    }
+                    Column::Text(j) => self.text[j].push(values.joined(at..at + n)),
+                }
+                at += n;
+            }
+        }
+        Ok(())
     }
 }
 

@@ -258,7 +258,7 @@ impl Values {
 
     /// Parses whitespace-separated tokens (a numeric or Boolean start attribute, an array cell)
     /// as values of `ty`. String and Binary take one token: the whole text.
-    pub fn parse(ty: Type3, text: &str) -> Result<Values, String> {
+    pub fn parse(ty: Type3, text: &str) -> Result<Values, ValueError> {
         let tokens: Vec<&str> = text.split_whitespace().collect();
         match ty {
             Type3::String => return Ok(Values::String(vec![text.to_string()])),
@@ -274,8 +274,56 @@ impl Values {
     }
 }
 
-fn parse_token(ty: Type3, tok: &str) -> Result<Values, String> {
-    let bad = |what: &str| format!("'{}' is not {what}", crate::error::shown(tok, 40));
+/// A value that does not parse as its type, in the words of the message it gives.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum ValueError {
+    /// A token that is not of the expected kind (`expected`: "an integer", "a number", ...).
+    #[error("'{}' is not {expected}", crate::error::shown(.token, 40))]
+    NotA {
+        /// The token as written.
+        token: String,
+        /// What it should have been.
+        expected: &'static str,
+    },
+    /// An integer outside its type's range.
+    #[error("{value} is outside the range of {ty} [{lo}, {hi}]")]
+    OutOfRange {
+        /// The integer.
+        value: i128,
+        /// Its type.
+        ty: Type3,
+        /// Least value of the type.
+        lo: i128,
+        /// Greatest value of the type.
+        hi: i128,
+    },
+    /// Hexadecimal text with an odd number of digits.
+    #[error("'{}' is not hexadecimal bytes (odd number of digits)", crate::error::shown(.text, 40))]
+    OddHexDigits {
+        /// The text.
+        text: String,
+    },
+    /// Text with a character that is no hexadecimal digit.
+    #[error("'{}' is not hexadecimal bytes", crate::error::shown(.text, 40))]
+    NotHex {
+        /// The text.
+        text: String,
+    },
+    /// A Float value that is not finite or beyond the largest magnitude a run takes.
+    #[error("{text} is not a finite number within +-{limit:e}")]
+    NotFinite {
+        /// The value as text.
+        text: String,
+        /// The largest magnitude.
+        limit: f64,
+    },
+}
+
+fn parse_token(ty: Type3, tok: &str) -> Result<Values, ValueError> {
+    let bad = |expected: &'static str| ValueError::NotA {
+        token: tok.to_string(),
+        expected,
+    };
     if let Some((lo, hi)) = ty.int_range() {
         let x: i128 = tok
             .parse::<i128>()
@@ -287,7 +335,12 @@ fn parse_token(ty: Type3, tok: &str) -> Result<Values, String> {
             })
             .ok_or_else(|| bad("an integer"))?;
         if x < lo || x > hi {
-            return Err(format!("{x} is outside the range of {ty} [{lo}, {hi}]"));
+            return Err(ValueError::OutOfRange {
+                value: x,
+                ty,
+                lo,
+                hi,
+            });
         }
         return Ok(match ty {
             Type3::Int8 => Values::Int8(vec![x as i8]),
@@ -329,24 +382,20 @@ pub fn hex(bytes: &[u8]) -> String {
 }
 
 /// Hexadecimal digits (either case, even count, an optional `0x`) as bytes.
-pub fn unhex(text: &str) -> Result<Vec<u8>, String> {
+pub fn unhex(text: &str) -> Result<Vec<u8>, ValueError> {
     let t = text.strip_prefix("0x").unwrap_or(text);
     if t.len() % 2 != 0 {
-        return Err(format!(
-            "'{}' is not hexadecimal bytes (odd number of digits)",
-            crate::error::shown(text, 40)
-        ));
+        return Err(ValueError::OddHexDigits {
+            text: text.to_string(),
+        });
     }
     (0..t.len())
         .step_by(2)
         .map(|i| {
             t.get(i..i + 2)
                 .and_then(|d| u8::from_str_radix(d, 16).ok())
-                .ok_or_else(|| {
-                    format!(
-                        "'{}' is not hexadecimal bytes",
-                        crate::error::shown(text, 40)
-                    )
+                .ok_or_else(|| ValueError::NotHex {
+                    text: text.to_string(),
                 })
         })
         .collect()
@@ -354,7 +403,7 @@ pub fn unhex(text: &str) -> Result<Vec<u8>, String> {
 
 #[cfg(test)]
 mod tests {
-    use super::{Type3, Values};
+    use super::{Type3, ValueError, Values};
 
     #[test]
     fn tokens_parse_to_their_type_and_refuse_values_out_of_range() {
@@ -370,9 +419,10 @@ mod tests {
             Values::parse(Type3::Int8, "-128 127 3.0").unwrap(),
             Values::Int8(vec![-128, 127, 3])
         );
-        assert!(Values::parse(Type3::Int8, "128")
-            .unwrap_err()
-            .contains("outside"));
+        assert!(matches!(
+            Values::parse(Type3::Int8, "128"),
+            Err(ValueError::OutOfRange { value: 128, .. })
+        ));
         assert!(Values::parse(Type3::UInt16, "-1").is_err());
         assert!(Values::parse(Type3::Int32, "1.5").is_err());
         assert_eq!(

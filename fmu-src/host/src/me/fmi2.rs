@@ -1,15 +1,13 @@
 //! The FMI 2.0 binding of the Model Exchange loop: the `fmi2*` Model Exchange calls on an
-//! [`Instance`] made with `fmi2ModelExchange`, and a whole run from a [`SimulationRequest`].
+//! [`Instance`] made with `fmi2ModelExchange`.
 
 use crate::error::{HostError, Result, Status};
 use crate::ffi::{EventInfo as RawEventInfo, Fmi2Boolean, MeFunctions};
 use crate::instance::{missing, Instance};
 use crate::md::ModelDescription;
-use crate::me::{self, Ending, Environment, EventInfo, ModelExchange, Settings, StepOutcome};
-use crate::simulate::{
-    communication_points, InputPlan, Recorder, SimulationRequest, SimulationResult, StartValues,
-    MAX_RECORDED_VALUES,
-};
+use crate::me::{EventInfo, ModelExchange, Settings, StepOutcome};
+use crate::run::{self, ModelExchangeOf};
+use crate::simulate::{InputPlan, Recorder};
 use crate::watch::{self, Call};
 
 /// An FMI 2.0 Model Exchange instance with its state and derivative value references.
@@ -277,92 +275,23 @@ impl ModelExchange for Fmi2Me<'_, '_> {
     }
 }
 
-/// Inputs and recording of an FMI 2.0 run.
-struct Fmi2Environment<'r> {
-    inputs: InputPlan<'r>,
-    recorder: Recorder,
-    time: Vec<f64>,
-}
+impl<'a> ModelExchangeOf for Fmi2Me<'_, 'a> {
+    type Instance = Instance<'a>;
 
-impl Environment<Fmi2Me<'_, '_>> for Fmi2Environment<'_> {
-    fn apply_continuous_inputs(&mut self, fmu: &mut Fmi2Me<'_, '_>, t: f64) -> Result<()> {
-        self.inputs.apply_some(fmu.inst, t, true, false)
-    }
-
-    fn apply_discrete_inputs(&mut self, fmu: &mut Fmi2Me<'_, '_>, t: f64) -> Result<()> {
-        self.inputs.apply_some(fmu.inst, t, false, true)
-    }
-
-    fn next_input_event(&self, t: f64) -> f64 {
-        self.inputs.next_event(t)
-    }
-
-    fn record(&mut self, fmu: &mut Fmi2Me<'_, '_>, t: f64) -> Result<()> {
-        if self.time.len() >= MAX_RECORDED_VALUES / self.recorder.width().max(1) {
-            return Err(HostError::Request(format!(
-                "Model Exchange: more than {} rows recorded (events at a rate the output \
-                 cannot hold)",
-                self.time.len()
-            )));
-        }
-        self.recorder.record(fmu.inst)?;
-        self.time.push(t);
-        Ok(())
+    fn instance(&mut self) -> &mut Instance<'a> {
+        self.inst
     }
 }
 
-/// Simulates `req` on `inst` (instantiated as Model Exchange): initialization, then
-/// [`me::run`].
-pub fn run_on(inst: &mut Instance<'_>, req: &SimulationRequest) -> Result<SimulationResult> {
-    let md = inst.fmu().model_description();
-    let points = communication_points(req.start_time, req.stop_time, req.step)?;
-    let starts = StartValues::resolve(md, &req.start_values)?;
-    let mut inputs = InputPlan::new(md, &req.inputs)?;
-    let out_names: Vec<String> = if req.outputs.is_empty() {
-        md.output_names()
-    } else {
-        req.outputs.clone()
-    };
-    let recorder = Recorder::new(md, out_names, points.len())?;
-    let rtol = req
-        .tolerance
-        .or(md.default_experiment.as_ref().and_then(|d| d.tolerance))
-        .unwrap_or(1e-5);
-    if !(rtol > 0.0 && rtol.is_finite()) {
-        return Err(HostError::Request(format!(
-            "Model Exchange: the tolerance must be > 0, got {rtol}"
-        )));
-    }
-    starts.apply(inst)?;
-    inputs.apply(inst, req.start_time)?;
-    inst.setup_experiment(req.tolerance, req.start_time, Some(req.stop_time))?;
-    inst.enter_initialization_mode()?;
-    inst.exit_initialization_mode()?;
-    let mut env = Fmi2Environment {
-        inputs,
-        recorder,
-        time: Vec::with_capacity(points.len()),
-    };
-    let settings = Settings {
-        start: req.start_time,
-        stop: req.stop_time,
-        interval: req.step,
-        rtol,
-        record_events: req.record_events,
-    };
-    let ending = {
-        let mut fmu = Fmi2Me::new(inst)?;
-        fmu.time = req.start_time;
-        me::run(&mut fmu, &mut env, &settings)?
-    };
-    let _ = inst.terminate();
-    let ended_by_fmu = match ending {
-        Ending::Stop => None,
-        Ending::Terminated(t) => Some(t),
-    };
-    Ok(SimulationResult::of_rows(
-        env.time,
-        env.recorder.finish(),
-        ended_by_fmu,
-    ))
+/// Integrates `inst` (instantiated as Model Exchange, initialized) from `settings.start` with
+/// [`run::integrate`]: the recorded times and, when the FMU ended the run, its time.
+pub(crate) fn integrate(
+    inst: &mut Instance<'_>,
+    settings: &Settings,
+    inputs: &mut InputPlan<'_>,
+    recorder: &mut Recorder,
+) -> Result<(Vec<f64>, Option<f64>)> {
+    let mut fmu = Fmi2Me::new(inst)?;
+    fmu.time = settings.start;
+    run::integrate(&mut fmu, settings, inputs, recorder)
 }

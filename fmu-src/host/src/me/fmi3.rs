@@ -6,8 +6,8 @@ use crate::error::{HostError, Result, Status};
 use crate::fmi3::ffi::{sym, Bool3, RawStatus3};
 use crate::fmi3::instance::Instance3;
 use crate::fmi3::simulate::{InputPlan3, Recorder3, Request3};
-use crate::me::{self, Ending, Environment, EventInfo, ModelExchange, Settings, StepOutcome};
-use crate::simulate::MAX_RECORDED_VALUES;
+use crate::me::{EventInfo, ModelExchange, StepOutcome};
+use crate::run::{self, ModelExchangeOf};
 use crate::watch::{self, Call};
 use libloading::Library;
 use std::ffi::c_void;
@@ -344,42 +344,16 @@ impl ModelExchange for Fmi3Me<'_, '_> {
     }
 }
 
-/// Inputs and recording of an FMI 3.0 run.
-struct Fmi3Environment<'p, 'r> {
-    inputs: &'p mut InputPlan3<'r>,
-    recorder: &'p mut Recorder3,
-    time: Vec<f64>,
-}
+impl<'a> ModelExchangeOf for Fmi3Me<'_, 'a> {
+    type Instance = Instance3<'a>;
 
-impl Environment<Fmi3Me<'_, '_>> for Fmi3Environment<'_, '_> {
-    fn apply_continuous_inputs(&mut self, fmu: &mut Fmi3Me<'_, '_>, t: f64) -> Result<()> {
-        self.inputs.apply_some(fmu.inst, t, true, false)
-    }
-
-    fn apply_discrete_inputs(&mut self, fmu: &mut Fmi3Me<'_, '_>, t: f64) -> Result<()> {
-        self.inputs.apply_some(fmu.inst, t, false, true)
-    }
-
-    fn next_input_event(&self, t: f64) -> f64 {
-        self.inputs.next_event(t)
-    }
-
-    fn record(&mut self, fmu: &mut Fmi3Me<'_, '_>, t: f64) -> Result<()> {
-        if self.time.len() >= MAX_RECORDED_VALUES / self.recorder.width().max(1) {
-            return Err(HostError::Request(format!(
-                "Model Exchange: more than {} rows recorded (events at a rate the output \
-                 cannot hold)",
-                self.time.len()
-            )));
-        }
-        self.recorder.record(fmu.inst)?;
-        self.time.push(t);
-        Ok(())
+    fn instance(&mut self) -> &mut Instance3<'a> {
+        self.inst
     }
 }
 
-/// Runs [`me::run`] on `inst` (initialized, in Event Mode): the recorded times and, when the
-/// FMU ended the run, its time.
+/// Runs [`run::integrate`] on `inst` (initialized, in Event Mode): the recorded times and, when
+/// the FMU ended the run, its time.
 pub(crate) fn run(
     inst: &mut Instance3<'_>,
     req: &Request3,
@@ -387,35 +361,13 @@ pub(crate) fn run(
     recorder: &mut Recorder3,
 ) -> Result<(Vec<f64>, Option<f64>)> {
     let md = inst.fmu.model_description();
-    let rtol = req
-        .tolerance
-        .or(md.default_experiment.as_ref().and_then(|d| d.tolerance))
-        .unwrap_or(1e-5);
-    if !(rtol > 0.0 && rtol.is_finite()) {
-        return Err(HostError::Request(format!(
-            "Model Exchange: the tolerance must be > 0, got {rtol}"
-        )));
-    }
-    let settings = Settings {
-        start: req.start_time,
-        stop: req.stop_time,
-        interval: req.step,
-        rtol,
-        record_events: req.record_events,
-    };
-    let mut env = Fmi3Environment {
-        inputs,
-        recorder,
-        time: Vec::new(),
-    };
+    let settings = run::me_settings(
+        (req.start_time, req.stop_time, req.step),
+        req.tolerance,
+        md.default_experiment.as_ref().and_then(|d| d.tolerance),
+        req.record_events,
+    )?;
     let mut fmu = Fmi3Me::new(inst)?;
     fmu.time = req.start_time;
-    let ending = me::run(&mut fmu, &mut env, &settings)?;
-    Ok((
-        env.time,
-        match ending {
-            Ending::Stop => None,
-            Ending::Terminated(t) => Some(t),
-        },
-    ))
+    run::integrate(&mut fmu, &settings, inputs, recorder)
 }

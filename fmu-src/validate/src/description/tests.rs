@@ -275,7 +275,7 @@ fn effect_convention() {
         "md.xml",
     )
     .unwrap();
-    assert_eq!(check_effect_convention(&md), vec![]);
+    assert_eq!(check_effect_convention(&host::ModelView::from(&md)), vec![]);
     let bad = |from: &str, to: &str| {
         let xml =
             include_str!("../../../host/tests/fixtures/modelDescription.xml").replace(from, to);
@@ -283,7 +283,9 @@ fn effect_convention() {
             xml,
             include_str!("../../../host/tests/fixtures/modelDescription.xml")
         );
-        check_effect_convention(&ModelDescription::parse(&xml, "md.xml").unwrap())
+        check_effect_convention(&host::ModelView::from(
+            &ModelDescription::parse(&xml, "md.xml").unwrap(),
+        ))
     };
     let f = bad(
         r#"<Real start="0.5" min="0.01" max="5" unit="N.s/m"/>"#,

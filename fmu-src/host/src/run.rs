@@ -1,0 +1,169 @@
+//! One simulation run of either FMI version, written once against the interfaces its binding
+//! implements (as rust-fmi's `fmi-sim` is generic over its version traits):
+//!
+//! - [`CoSimulationStep`]: the instance's communication step ([`crate::Instance`] with fmi2DoStep,
+//!   [`crate::fmi3::Instance3`] with fmi3DoStep);
+//! - [`Inputs`]: the run's input plan, setting the inputs at a time on the instance;
+//! - [`Outputs`]: the run's recorder, reading the outputs of the instance into columns;
+//! - [`ModelExchangeOf`]: a Model Exchange binding ([`ModelExchange`]) with the instance it drives.
+//!
+//! [`step_through`] is the Co-Simulation loop and [`integrate`] the Model Exchange one.
+
+use crate::error::{HostError, Result};
+use crate::me::{self, Ending, Environment, ModelExchange, Settings};
+use crate::simulate::MAX_RECORDED_VALUES;
+
+/// The Co-Simulation step of an instance.
+pub trait CoSimulationStep {
+    /// One step from `t` by `h`: the FMU's last successful time when it ended the simulation,
+    /// None when the step completed.
+    fn co_simulation_step(&mut self, t: f64, h: f64) -> Result<Option<f64>>;
+}
+
+/// The inputs of a run, set on an instance `I`.
+pub(crate) trait Inputs<I> {
+    /// Sets the continuous (interpolated) inputs (`continuous`) and the held ones (`discrete`)
+    /// to their values at `t`: Model Exchange sets the discrete inputs in Event Mode only.
+    fn apply_some(&mut self, inst: &mut I, t: f64, continuous: bool, discrete: bool) -> Result<()>;
+
+    /// The first input event after `t` (infinite: none).
+    fn next_event(&self, t: f64) -> f64;
+
+    /// Sets every input to its value at `t`.
+    fn apply(&mut self, inst: &mut I, t: f64) -> Result<()> {
+        self.apply_some(inst, t, true, true)
+    }
+}
+
+/// The recorder of a run, reading an instance `I`.
+pub(crate) trait Outputs<I> {
+    /// Values recorded per row.
+    fn width(&self) -> usize;
+    /// Appends the outputs' current values as a row.
+    fn record(&mut self, inst: &mut I) -> Result<()>;
+}
+
+/// A Model Exchange binding with the instance it drives (for the inputs and the recorder).
+pub(crate) trait ModelExchangeOf: ModelExchange {
+    /// The instance type of the version.
+    type Instance;
+    /// The instance.
+    fn instance(&mut self) -> &mut Self::Instance;
+}
+
+/// Steps a Co-Simulation instance through the communication points `times`, recording at each:
+/// the inputs are set at every point before its step (those at the start are set before
+/// initialization). An FMU that ends the simulation keeps the rows up to its last successful
+/// time. Returns the recorded times and, when the FMU ended the simulation, the last of them.
+pub(crate) fn step_through<I: CoSimulationStep>(
+    inst: &mut I,
+    times: &[f64],
+    inputs: &mut impl Inputs<I>,
+    outputs: &mut impl Outputs<I>,
+) -> Result<(Vec<f64>, Option<f64>)> {
+    let mut time = Vec::with_capacity(times.len());
+    outputs.record(inst)?;
+    time.push(times[0]);
+    for k in 0..times.len().saturating_sub(1) {
+        let (t, t1) = (times[k], times[k + 1]);
+        if k > 0 {
+            inputs.apply(inst, t)?;
+        }
+        if let Some(last) = inst.co_simulation_step(t, t1 - t)? {
+            if last > t && last.is_finite() {
+                outputs.record(inst)?;
+                time.push(last.min(t1));
+            }
+            let ended_at = *time.last().unwrap_or(&t);
+            return Ok((time, Some(ended_at)));
+        }
+        outputs.record(inst)?;
+        time.push(t1);
+    }
+    Ok((time, None))
+}
+
+/// The Model Exchange settings of a run: its grid, and as relative tolerance `tolerance`, else
+/// the DefaultExperiment's `default_tolerance`, else FMPy's 1e-5.
+pub(crate) fn me_settings(
+    (start, stop, interval): (f64, f64, f64),
+    tolerance: Option<f64>,
+    default_tolerance: Option<f64>,
+    record_events: bool,
+) -> Result<Settings> {
+    let rtol = tolerance.or(default_tolerance).unwrap_or(1e-5);
+    if !(rtol > 0.0 && rtol.is_finite()) {
+        return Err(HostError::Request(format!(
+            "Model Exchange: the tolerance must be > 0, got {rtol}"
+        )));
+    }
+    Ok(Settings {
+        start,
+        stop,
+        interval,
+        rtol,
+        record_events,
+    })
+}
+
+/// Integrates `fmu` (initialized, in Event Mode) with [`me::run`], setting `inputs` and
+/// recording `outputs`: the recorded times and, when the FMU ended the run, its time.
+pub(crate) fn integrate<M: ModelExchangeOf>(
+    fmu: &mut M,
+    settings: &Settings,
+    inputs: &mut impl Inputs<M::Instance>,
+    outputs: &mut impl Outputs<M::Instance>,
+) -> Result<(Vec<f64>, Option<f64>)> {
+    let mut env = Recording {
+        inputs,
+        outputs,
+        time: Vec::new(),
+    };
+    let ending = me::run(fmu, &mut env, settings)?;
+    Ok((
+        env.time,
+        match ending {
+            Ending::Stop => None,
+            Ending::Terminated(t) => Some(t),
+        },
+    ))
+}
+
+/// The inputs and the recorder of a Model Exchange run, with the times recorded.
+struct Recording<'p, P, R> {
+    inputs: &'p mut P,
+    outputs: &'p mut R,
+    time: Vec<f64>,
+}
+
+impl<M, P, R> Environment<M> for Recording<'_, P, R>
+where
+    M: ModelExchangeOf,
+    P: Inputs<M::Instance>,
+    R: Outputs<M::Instance>,
+{
+    fn apply_continuous_inputs(&mut self, fmu: &mut M, t: f64) -> Result<()> {
+        self.inputs.apply_some(fmu.instance(), t, true, false)
+    }
+
+    fn apply_discrete_inputs(&mut self, fmu: &mut M, t: f64) -> Result<()> {
+        self.inputs.apply_some(fmu.instance(), t, false, true)
+    }
+
+    fn next_input_event(&self, t: f64) -> f64 {
+        self.inputs.next_event(t)
+    }
+
+    fn record(&mut self, fmu: &mut M, t: f64) -> Result<()> {
+        if self.time.len() >= MAX_RECORDED_VALUES / self.outputs.width().max(1) {
+            return Err(HostError::Request(format!(
+                "Model Exchange: more than {} rows recorded (events at a rate the output \
+                 cannot hold)",
+                self.time.len()
+            )));
+        }
+        self.outputs.record(fmu.instance())?;
+        self.time.push(t);
+        Ok(())
+    }
+}
