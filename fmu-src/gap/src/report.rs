@@ -642,8 +642,10 @@ where discrete controller decisions make small parameter changes flip samples)."
 
 #[cfg(test)]
 mod tests {
-    use super::{left_open_text, visibility_scale};
-    use crate::workflow::{LeftOpen, Reach, ScreenedHint, Unrevealable};
+    use super::{candidate_verdict_text, left_open_text, visibility_scale};
+    use crate::workflow::{
+        CandidateVerdict, LeftOpen, Reach, ScreenedHint, Shortfall, Unrevealable,
+    };
 
     #[test]
     fn visibility_reads_as_a_multiple_of_the_threshold() {
@@ -651,6 +653,39 @@ mod tests {
         assert_eq!(visibility_scale(3.36e6, 18.7), "1.8e5× what naming needs");
         assert_eq!(visibility_scale(0.0, 18.7), "< 0.01× what naming needs");
         assert_eq!(visibility_scale(f64::NAN, 18.7), "unknown");
+    }
+
+    #[test]
+    fn a_candidate_verdict_reads_as_its_reasons() {
+        let v = CandidateVerdict::NotNamed {
+            shortfalls: vec![
+                Shortfall::DeltaBicBelow {
+                    delta_bic: 4.31,
+                    min_delta_bic: 10.0,
+                },
+                Shortfall::MagnitudeIncludesZero,
+                Shortfall::StartNotReproduced,
+            ],
+            unrevealable: Some(Reach {
+                visibility: 9.0,
+                needed: 18.0,
+            }),
+        };
+        assert_eq!(
+            candidate_verdict_text(&v),
+            "not named: ΔBIC = 4.3 < 10; magnitude interval includes 0; does not explain why the \
+             record begins away from the model's initial state; these data cannot reveal it \
+             (anywhere in its range, after the base parameters readjust, at most 0.50× what \
+             naming needs)"
+        );
+        let named = CandidateVerdict::Named {
+            delta_bic: 31.44,
+            min_delta_bic: 10.0,
+        };
+        assert_eq!(
+            candidate_verdict_text(&named),
+            "named: ΔBIC = 31.4 ≥ 10, magnitude interval excludes 0, held-out error lower"
+        );
     }
 
     #[test]

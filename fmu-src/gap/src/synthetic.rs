@@ -6,7 +6,7 @@
 
 use crate::sim::{GridModel, SimError};
 use crate::spec::ParamSpec;
-use crate::workflow::{self, Config, Data};
+use crate::workflow::{self, CandidateVerdict, Config, Data, Verdict};
 
 pub struct Msd {
     pub params: Vec<ParamSpec>,
@@ -259,6 +259,20 @@ fn hidden_friction_is_named() {
             vec!["friction".to_string()],
             "seed {seed}: {:?}",
             r.verdict
+        );
+        let named: Vec<&str> = r
+            .candidates
+            .iter()
+            .flatten()
+            .filter(|c| matches!(c.verdict, CandidateVerdict::Named { .. }))
+            .map(|c| c.effect.as_str())
+            .collect();
+        assert_eq!(named, ["friction"], "seed {seed}: {:?}", r.verdict);
+        assert_eq!(
+            r.verdict,
+            Verdict::Named {
+                effects: vec!["friction".to_string()]
+            }
         );
         let fc = &r.parameters["friction.coulomb"];
         assert!(
