@@ -91,11 +91,12 @@ pub const START_MISS_REDUCTION: f64 = 3.0;
 
 /// Points of the start scan along each effect's range (fractions, in fitting coordinates).
 pub const SCAN_FRACTIONS: [f64; 5] = [0.0, 0.25, 0.5, 0.75, 1.0];
-/// Candidates refitted whatever their screening score (the best ones by score).
+/// The best-scored candidates are promising whatever their share of the best score.
 pub const ALWAYS_REFIT: usize = 2;
-/// Candidates refitted after round 1 unless their linearised ΔBIC reaches the threshold.
+/// Candidates refitted per round after the first (more only where the linearised ΔBIC reaches
+/// the threshold).
 pub const LATER_ROUND_REFITS: usize = 2;
-/// A candidate beyond those is refitted only if it scores this fraction of the best score.
+/// A candidate beyond those is promising only if it scores this fraction of the best score.
 pub const REFIT_SCORE_FRACTION: f64 = 1.0 / 3.0;
 /// An output missing by more than this many noise levels is far from the data: the
 /// linearised ranking is then close to chance, so every candidate is refitted if none is named.

@@ -2,8 +2,10 @@
 //!
 //! Notation: `K` measured outputs, `N` samples, weighted residual `r = (y_model − y_meas) / σ_k`
 //! stacked output by output (row `k N + i`). `σ_k` is the noise level of output `k` estimated from
-//! the data (`stats::noise_sigma`), the marginal level of correlated noise (`noise`). Fits use the first `(1 − holdout)` of the trace; the last part
-//! is held out to check that a named effect generalises.
+//! the data (`stats::noise_sigma`), the marginal level of correlated noise (`noise`). Fits use the
+//! first `(1 − holdout)` of the trace; the last part is held out to check that a named effect
+//! generalises. Every threshold is in [`crate::policy`]; the verdicts are typed (`verdict`) and
+//! put into words by [`crate::report`].
 //!
 //! Model comparison uses the profile likelihood with one unknown noise variance per output and an
 //! effective sample size per output that accounts for residual autocorrelation:
