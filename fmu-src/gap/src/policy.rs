@@ -91,6 +91,9 @@ pub const START_MISS_REDUCTION: f64 = 3.0;
 
 /// Points of the start scan along each effect's range (fractions, in fitting coordinates).
 pub const SCAN_FRACTIONS: [f64; 5] = [0.0, 0.25, 0.5, 0.75, 1.0];
+/// Step of an effect parameter's sensitivity in the screening, in fitting coordinates (5 % of
+/// a log parameter): the screening linearises each effect over this secant.
+pub const SENSITIVITY_STEP: f64 = 0.05;
 /// The best-scored candidates are promising whatever their share of the best score.
 pub const ALWAYS_REFIT: usize = 2;
 /// Candidates refitted per round after the first (more only where the linearised ΔBIC reaches

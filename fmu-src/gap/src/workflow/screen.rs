@@ -8,7 +8,7 @@
 use super::evidence::{delta_bic, delta_bic_naive, row_weights};
 use super::{regress, Ctx, FitOut, ModelState, VisibilityPoint};
 use crate::lm::{self, Bounded};
-use crate::policy::SCAN_FRACTIONS;
+use crate::policy::{SCAN_FRACTIONS, SENSITIVITY_STEP};
 use crate::sim::GridModel;
 use nalgebra::{DMatrix, DVector};
 use rayon::iter::{IndexedParallelIterator, IntoParallelRefIterator, ParallelIterator};
@@ -247,7 +247,7 @@ pub(super) fn screen<S: GridModel + ?Sized>(
         })
         .collect();
     // Jobs: (candidate, None = switch on at start, Some(p) = perturb parameter p).
-    let h = 0.05;
+    let h = SENSITIVITY_STEP;
     let start_of = |e: usize| -> &[(usize, f64)] {
         cand.iter()
             .position(|&c| c == e)
