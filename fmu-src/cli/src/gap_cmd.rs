@@ -167,6 +167,7 @@ pub fn run(a: Args) -> CliResult {
     let sim = fmu.simulator(&data).map_err(CliError::input)?;
     let res = gap::run(&sim, &data, &cfg).map_err(|e| match e {
         GapError::Usage(m) => CliError::input(m),
+        GapError::Input(e) => CliError::input(e),
         GapError::Simulation(m) => CliError::failure(format!("simulation failed: {m}")),
     })?;
     std::fs::create_dir_all(&a.out)
@@ -175,7 +176,7 @@ pub fn run(a: Args) -> CliResult {
     let (fmu_s, data_s) = (a.fmu.display().to_string(), a.data.display().to_string());
     gap::report::write(&res, &a.out, &fmu_s, &data_s, &plots)
         .map_err(|e| CliError::failure(format!("{}: {e}", a.out.display())))?;
-    out!("{}: {}", a.data.display(), res.verdict);
+    out!("{}: {}", a.data.display(), gap::report::verdict_text(&res));
     for w in res.warnings.iter().chain(&res.convention_warnings) {
         out!("warning: {w}");
     }

@@ -1,6 +1,10 @@
 //! `report.json` (for scripts and CI) and `report.md` (for the engineer) of one gap run.
 
-use crate::workflow::{Candidate, GapResult};
+use crate::policy::NOISE_RMS_RATIO;
+use crate::workflow::{
+    Candidate, CandidateVerdict, ClosestShortfall, Disagreement, GapResult, LeftOpen, Shortfall,
+    Verdict,
+};
 use serde_json::{json, Value};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -95,6 +99,217 @@ pub fn in_short(res: &GapResult) -> String {
     s
 }
 
+/// The verdict line: the rounds' conclusion and, while the final model still disagrees with
+/// the data, that a disagreement remains that no candidate explains (never that nothing is
+/// missing or that the residuals are noise).
+pub fn verdict_text(res: &GapResult) -> String {
+    let rounds = rounds_text(&res.verdict);
+    let Some(d) = &res.disagreement else {
+        return rounds;
+    };
+    let remains = disagreement_words(d);
+    match &res.verdict {
+        Verdict::ConsistentWithNoise { .. } => remains,
+        v if v.named().is_empty() => {
+            let rest = rounds.strip_prefix(NOTHING_FOUND).unwrap_or(&rounds);
+            format!("{remains}{rest}")
+        }
+        _ => format!("{rounds}; {remains}"),
+    }
+}
+
+/// The opening words of a verdict that names nothing.
+const NOTHING_FOUND: &str = "no missing effect found";
+
+/// The rounds' conclusion in words.
+fn rounds_text(v: &Verdict) -> String {
+    match v {
+        Verdict::Named { effects } if effects.is_empty() => NOTHING_FOUND.to_string(),
+        Verdict::Named { effects } => format!("named {}", effects.join(", ")),
+        Verdict::ConsistentWithNoise {
+            closest,
+            best_delta_bic,
+            open,
+        } => format!(
+            "{NOTHING_FOUND}: the calibrated base model's residuals are consistent with noise (every output within {NOISE_RMS_RATIO}× its noise level and white; the best candidate, {}, has a linearised ΔBIC of {best_delta_bic:.1} < {}){}",
+            closest.as_deref().unwrap_or("none"),
+            open.min_delta_bic,
+            left_open_text(open)
+        ),
+        Verdict::NothingFurther {
+            named,
+            closest,
+            why,
+            open,
+        } => {
+            let why = match why {
+                ClosestShortfall::Refitted { shortfalls } => shortfalls_text(shortfalls),
+                ClosestShortfall::NotRefitted {
+                    delta_bic,
+                    min_delta_bic,
+                } => format!("linearised ΔBIC = {delta_bic:.1} < {min_delta_bic}: not refitted"),
+            };
+            let head = if named.is_empty() {
+                format!("{NOTHING_FOUND}; the closest candidate, {closest}, is left unexplained ({why})")
+            } else {
+                format!(
+                    "named {}; no further effect found; the closest remaining candidate, {closest}, is left unexplained ({why})",
+                    named.join(", ")
+                )
+            };
+            format!("{head}{}", left_open_text(open))
+        }
+    }
+}
+
+/// The sentences on the candidates a round leaves open (empty if none): those only screened
+/// although the data could show them, and those the data cannot reveal.
+fn left_open_text(open: &LeftOpen) -> String {
+    let mut s = String::new();
+    if !open.only_screened.is_empty() {
+        let names: Vec<String> = open
+            .only_screened
+            .iter()
+            .map(|c| format!("{} (linearised ΔBIC {:.1})", c.effect, c.delta_bic))
+            .collect();
+        s.push_str(&format!(
+            ". Only screened, not refitted: {}. The data could show each of them from its weakest \
+             detectable setting on (see the table), and the linearised test puts each below the \
+             naming threshold of ΔBIC {}: none is present at that strength, though a \
+             weaker one, or one the linearisation misjudges (a dead zone), is not ruled out",
+            names.join(", "),
+            open.min_delta_bic
+        ));
+    }
+    if !open.unrevealable.is_empty() {
+        let hidden: Vec<String> = open
+            .unrevealable
+            .iter()
+            .map(|c| {
+                format!(
+                    "{} (at its strongest setting {})",
+                    c.effect,
+                    visibility_scale(c.reach.visibility, c.reach.needed)
+                )
+            })
+            .collect();
+        s.push_str(&format!(
+            ". These data cannot reveal {}: even at the strongest setting in range, the base parameters absorb all but a change below the naming threshold, so their absence is not shown",
+            hidden.join(", ")
+        ));
+    }
+    s
+}
+
+/// The disagreement that remains, in one line: the outputs and their ratios.
+fn disagreement_words(d: &Disagreement) -> String {
+    format!(
+        "a disagreement remains that no candidate explains ({})",
+        d.outputs
+            .iter()
+            .map(|o| format!("{} {:.1}× noise", o.output, o.rmse_over_noise))
+            .collect::<Vec<_>>()
+            .join(", ")
+    )
+}
+
+/// Why a candidate was or was not named, in words.
+pub fn candidate_verdict_text(v: &CandidateVerdict) -> String {
+    match v {
+        CandidateVerdict::Unchecked => String::new(),
+        CandidateVerdict::ScreenedOnly => "screened only (linearised ΔBIC)".into(),
+        CandidateVerdict::ScreenedAgainstFinal { named } => format!(
+            "screened against the final model (with {}), whose residuals are at the noise level",
+            named.join(", ")
+        ),
+        CandidateVerdict::RefitFailed { cause } => format!("refit failed: {cause}"),
+        CandidateVerdict::Named {
+            delta_bic,
+            min_delta_bic,
+        } => format!(
+            "named: ΔBIC = {delta_bic:.1} ≥ {min_delta_bic}, magnitude interval excludes 0, held-out error lower"
+        ),
+        CandidateVerdict::NotNamed {
+            shortfalls,
+            unrevealable,
+        } => {
+            let mut s = format!("not named: {}", shortfalls_text(shortfalls));
+            if let Some(r) = unrevealable {
+                s.push_str(&format!(
+                    "; these data cannot reveal it (anywhere in its range, after the base parameters readjust, at most {})",
+                    visibility_scale(r.visibility, r.needed)
+                ));
+            }
+            s
+        }
+        CandidateVerdict::NotConsidered => {
+            "not considered: a higher-ranked candidate was named".into()
+        }
+    }
+}
+
+/// Reasons not to name a candidate, in words, separated by semicolons.
+fn shortfalls_text(shortfalls: &[Shortfall]) -> String {
+    shortfalls
+        .iter()
+        .map(|s| match s {
+            Shortfall::RefitFailed => "refit failed".to_string(),
+            Shortfall::DeltaBicBelow {
+                delta_bic,
+                min_delta_bic,
+            } => format!("ΔBIC = {delta_bic:.1} < {min_delta_bic}"),
+            Shortfall::MagnitudeIncludesZero => "magnitude interval includes 0".into(),
+            Shortfall::HoldoutNotLower => "does not lower the held-out error".into(),
+            Shortfall::StartNotReproduced => {
+                "does not explain why the record begins away from the model's initial state".into()
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("; ")
+}
+
+/// A candidate's visibility on a scale an engineer reads at a glance: the most the effect could
+/// explain anywhere in its range as a multiple of what naming it needs ("0.4×": it cannot be
+/// revealed by these data; "2.3e+05×": it would stand out at its strongest setting).
+pub fn visibility_scale(visibility: f64, needed: f64) -> String {
+    if !(visibility.is_finite() && needed > 0.0) {
+        return "unknown".into();
+    }
+    let r = visibility / needed;
+    if r < 0.01 {
+        "< 0.01× what naming needs".into()
+    } else if r < 100.0 {
+        format!("{r:.2}× what naming needs")
+    } else {
+        format!("{r:.1e}× what naming needs")
+    }
+}
+
+/// The candidates per round as JSON, each with its verdict in words (`verdict`) beside the
+/// typed one (`decision`).
+fn candidates_json(res: &GapResult) -> Value {
+    let rounds = res
+        .candidates
+        .iter()
+        .map(|round| {
+            round
+                .iter()
+                .map(|c| {
+                    let mut v = serde_json::to_value(c).unwrap_or(Value::Null);
+                    if let Value::Object(m) = &mut v {
+                        m.insert(
+                            "verdict".into(),
+                            Value::String(candidate_verdict_text(&c.verdict)),
+                        );
+                    }
+                    v
+                })
+                .collect()
+        })
+        .collect();
+    Value::Array(rounds)
+}
+
 /// What `keep` makes of the candidates of the last round it keeps, in their order.
 fn last_round(res: &GapResult, keep: impl Fn(&Candidate) -> Option<String>) -> Vec<String> {
     res.candidates
@@ -164,13 +379,14 @@ pub fn to_json(res: &GapResult, fmu: &str, data: &str) -> Value {
         "fmu": fmu,
         "data": data,
         "in_short": in_short(res),
-        "verdict": res.verdict,
+        "verdict": verdict_text(res),
+        "decision": res.verdict,
         "warnings": res.warnings,
         "convention_warnings": res.convention_warnings,
         "named": res.named,
         "unexplained": res.unexplained,
         "disagreement": res.disagreement,
-        "candidates": res.candidates,
+        "candidates": candidates_json(res),
         "design_commands": design_commands(res, fmu, data),
         "redone_rounds": res.redone_rounds.iter().map(|(r, g)| json!({"round": r, "base_delta_bic": g})).collect::<Vec<_>>(),
         "calibration": res.calibration,
@@ -201,7 +417,7 @@ pub fn to_markdown(res: &GapResult, fmu: &str, data: &str, plots: &[String]) -> 
     let mut s = String::new();
     let _ = writeln!(s, "# Gap report\n\nFMU `{fmu}`, data `{data}` ({} samples; fits on the first {}, the last {:.0} % held out).\n", res.samples, res.train_samples, 100.0 * res.holdout_fraction);
     let _ = writeln!(s, "**In short:** {}\n", in_short(res));
-    let _ = writeln!(s, "**Verdict:** {}\n", res.verdict);
+    let _ = writeln!(s, "**Verdict:** {}\n", verdict_text(res));
     for w in res.warnings.iter().chain(&res.convention_warnings) {
         let _ = writeln!(s, "**Warning:** {w}\n");
     }
@@ -258,7 +474,7 @@ pub fn to_markdown(res: &GapResult, fmu: &str, data: &str, plots: &[String]) -> 
             let vis = match c.visibility {
                 Some(v) => format!(
                     "{}; {}",
-                    crate::workflow::visibility_scale(v, c.visibility_needed),
+                    visibility_scale(v, c.visibility_needed),
                     c.detectable_from
                         .as_ref()
                         .map(|m| m
@@ -281,9 +497,12 @@ pub fn to_markdown(res: &GapResult, fmu: &str, data: &str, plots: &[String]) -> 
                 hold,
                 vis,
                 if c.profiled {
-                    format!("{} (refit restarted from its profile)", c.verdict)
+                    format!(
+                        "{} (refit restarted from its profile)",
+                        candidate_verdict_text(&c.verdict)
+                    )
                 } else {
-                    c.verdict.clone()
+                    candidate_verdict_text(&c.verdict)
                 }
             );
         }
@@ -420,3 +639,88 @@ candidate whose visibility stays below that everywhere in its range cannot be re
 these data: not naming it is no evidence that it is absent, and the verdict says so. The \
 weakest setting that reaches it is a detection limit (coarse: the scan's points; optimistic \
 where discrete controller decisions make small parameter changes flip samples).";
+
+#[cfg(test)]
+mod tests {
+    use super::{candidate_verdict_text, left_open_text, visibility_scale};
+    use crate::workflow::{
+        CandidateVerdict, LeftOpen, Reach, ScreenedHint, Shortfall, Unrevealable,
+    };
+
+    #[test]
+    fn visibility_reads_as_a_multiple_of_the_threshold() {
+        assert_eq!(visibility_scale(9.0, 18.0), "0.50× what naming needs");
+        assert_eq!(visibility_scale(3.36e6, 18.7), "1.8e5× what naming needs");
+        assert_eq!(visibility_scale(0.0, 18.7), "< 0.01× what naming needs");
+        assert_eq!(visibility_scale(f64::NAN, 18.7), "unknown");
+    }
+
+    #[test]
+    fn a_candidate_verdict_reads_as_its_reasons() {
+        let v = CandidateVerdict::NotNamed {
+            shortfalls: vec![
+                Shortfall::DeltaBicBelow {
+                    delta_bic: 4.31,
+                    min_delta_bic: 10.0,
+                },
+                Shortfall::MagnitudeIncludesZero,
+                Shortfall::StartNotReproduced,
+            ],
+            unrevealable: Some(Reach {
+                visibility: 9.0,
+                needed: 18.0,
+            }),
+        };
+        assert_eq!(
+            candidate_verdict_text(&v),
+            "not named: ΔBIC = 4.3 < 10; magnitude interval includes 0; does not explain why the \
+             record begins away from the model's initial state; these data cannot reveal it \
+             (anywhere in its range, after the base parameters readjust, at most 0.50× what \
+             naming needs)"
+        );
+        let named = CandidateVerdict::Named {
+            delta_bic: 31.44,
+            min_delta_bic: 10.0,
+        };
+        assert_eq!(
+            candidate_verdict_text(&named),
+            "named: ΔBIC = 31.4 ≥ 10, magnitude interval excludes 0, held-out error lower"
+        );
+    }
+
+    #[test]
+    fn what_a_round_leaves_open_is_said_with_the_reason() {
+        let open = LeftOpen {
+            min_delta_bic: 10.0,
+            only_screened: vec![ScreenedHint {
+                effect: "backlash".into(),
+                delta_bic: 3.2,
+            }],
+            unrevealable: vec![Unrevealable {
+                effect: "leak".into(),
+                reach: Reach {
+                    visibility: 2.0,
+                    needed: 18.0,
+                },
+            }],
+        };
+        let s = left_open_text(&open);
+        assert!(
+            s.contains("Only screened, not refitted: backlash (linearised ΔBIC 3.2)"),
+            "{s}"
+        );
+        assert!(s.contains("below the naming threshold of ΔBIC 10"), "{s}");
+        assert!(
+            s.contains(
+                "These data cannot reveal leak (at its strongest setting 0.11× what naming needs)"
+            ),
+            "{s}"
+        );
+        let none = LeftOpen {
+            only_screened: Vec::new(),
+            unrevealable: Vec::new(),
+            ..open
+        };
+        assert_eq!(left_open_text(&none), "");
+    }
+}

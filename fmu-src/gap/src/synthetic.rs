@@ -6,7 +6,7 @@
 
 use crate::sim::{GridModel, SimError};
 use crate::spec::ParamSpec;
-use crate::workflow::{self, Config, Data};
+use crate::workflow::{self, CandidateVerdict, Config, Data, Verdict};
 
 pub struct Msd {
     pub params: Vec<ParamSpec>,
@@ -257,8 +257,22 @@ fn hidden_friction_is_named() {
         assert_eq!(
             r.named,
             vec!["friction".to_string()],
-            "seed {seed}: {}",
+            "seed {seed}: {:?}",
             r.verdict
+        );
+        let named: Vec<&str> = r
+            .candidates
+            .iter()
+            .flatten()
+            .filter(|c| matches!(c.verdict, CandidateVerdict::Named { .. }))
+            .map(|c| c.effect.as_str())
+            .collect();
+        assert_eq!(named, ["friction"], "seed {seed}: {:?}", r.verdict);
+        assert_eq!(
+            r.verdict,
+            Verdict::Named {
+                effects: vec!["friction".to_string()]
+            }
         );
         let fc = &r.parameters["friction.coulomb"];
         assert!(
@@ -277,25 +291,25 @@ fn hidden_friction_is_named() {
 #[test]
 fn hidden_stiffening_and_lag_are_named() {
     let r = run(3, &[(STIFF_ON, 1.0), (STIFF_K3, 800.0)], 0.0);
-    assert_eq!(r.named, vec!["stiffening".to_string()], "{}", r.verdict);
+    assert_eq!(r.named, vec!["stiffening".to_string()], "{:?}", r.verdict);
     let r = run(4, &[(LAG_ON, 1.0), (LAG_TAU, 0.05)], 0.0);
-    assert_eq!(r.named, vec!["lag".to_string()], "{}", r.verdict);
+    assert_eq!(r.named, vec!["lag".to_string()], "{:?}", r.verdict);
 }
 
 #[test]
 fn clean_data_names_nothing_white_or_correlated_noise() {
     for seed in [5, 6] {
         let r = run(seed, &[], 0.0);
-        assert!(r.named.is_empty(), "white, seed {seed}: {}", r.verdict);
+        assert!(r.named.is_empty(), "white, seed {seed}: {:?}", r.verdict);
         let r = run(seed, &[], 0.9);
-        assert!(r.named.is_empty(), "AR(1), seed {seed}: {}", r.verdict);
+        assert!(r.named.is_empty(), "AR(1), seed {seed}: {:?}", r.verdict);
     }
 }
 
 #[test]
 fn wrong_mass_is_calibrated_not_named() {
     let r = run(7, &[(M, 1.3)], 0.0);
-    assert!(r.named.is_empty(), "{}", r.verdict);
+    assert!(r.named.is_empty(), "{:?}", r.verdict);
     let m = &r.parameters["mass"];
     assert!(
         m.ci_low < 1.3 && 1.3 < m.ci_high && (m.value - 1.3).abs() < 0.02,
@@ -322,7 +336,7 @@ fn two_hidden_effects_are_both_named() {
     assert_eq!(
         named,
         vec!["friction".to_string(), "stiffening".to_string()],
-        "{}",
+        "{:?}",
         r.verdict
     );
 }
@@ -379,7 +393,7 @@ fn an_oscillation_over_many_periods_is_calibrated_over_growing_horizons() {
         let e = &r.parameters[name];
         assert!(e.ci_low < truth && truth < e.ci_high, "{name}: {e:?}");
     }
-    assert!(r.named.is_empty(), "{}", r.verdict);
+    assert!(r.named.is_empty(), "{:?}", r.verdict);
 }
 
 /// Strong Coulomb friction hidden from the start: the base model misses even the first quarter
@@ -395,7 +409,7 @@ fn a_model_that_misses_the_start_gets_no_growing_horizon_fit() {
     };
     assert!(chi2_first > 2.0 * (2 * n_first) as f64, "{cal:?}");
     assert_eq!(cal.chosen, workflow::CalibrationFit::Direct);
-    assert_eq!(r.named, vec!["friction".to_string()], "{}", r.verdict);
+    assert_eq!(r.named, vec!["friction".to_string()], "{:?}", r.verdict);
     let text = cal.text(&r.traces.time, r.train_samples, 2);
     assert!(text.contains("was not continued"), "{text}");
 }

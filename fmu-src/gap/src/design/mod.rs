@@ -36,9 +36,10 @@
 pub mod signals;
 
 use crate::lm::{Bounded, Coord};
+use crate::policy::{ENOUGH, MAX_CORNER_PARAMS, MIN_SAMPLES, MIN_TRAIN_SAMPLES, SHRINK_STEPS};
 use crate::sim::{Counted, GridModel, SimError};
 use crate::spec::{self, ParamSpec};
-use crate::workflow::{noise, regress, Data, GapError};
+use crate::workflow::{noise, regress, Data, GapError, InputError};
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -243,41 +244,38 @@ fn data_with(cfg: &DesignConfig, inputs: &[(String, Vec<f64>)]) -> Data {
 }
 
 fn check(cfg: &DesignConfig) -> Result<(), GapError> {
-    if cfg.time.len() < 20 {
-        return Err(GapError::Usage(format!(
-            "the experiment has {} samples: a design needs at least 20",
-            cfg.time.len()
-        )));
+    if cfg.time.len() < MIN_SAMPLES {
+        return Err(InputError::ShortExperiment {
+            got: cfg.time.len(),
+            need: MIN_SAMPLES,
+        }
+        .into());
     }
     if cfg.outputs.is_empty() {
-        return Err(GapError::Usage("no measured output to design for".into()));
+        return Err(InputError::NothingToDesignFor.into());
     }
     if let Noise::Measured(y) = &cfg.noise {
         if y.len() != cfg.outputs.len() || y.iter().any(|v| v.len() != cfg.time.len()) {
-            return Err(GapError::Usage(
-                "the measured outputs must match the outputs and the time grid".into(),
-            ));
+            return Err(InputError::MeasuredNoiseShape.into());
         }
         if cfg.given.is_none() {
-            return Err(GapError::Usage(
-                "a noise model from measured outputs needs the inputs that made them".into(),
-            ));
+            return Err(InputError::MeasuredNoiseWithoutInputs.into());
         }
     }
     if let Noise::Sigma(s) = &cfg.noise {
         if s.len() != cfg.outputs.len() || s.iter().any(|x| !(x.is_finite() && *x > 0.0)) {
-            return Err(GapError::Usage(
-                "the noise level of every measured output must be positive and finite".into(),
-            ));
+            return Err(InputError::NoiseLevel.into());
         }
     }
     for i in &cfg.inputs {
         if let Some((lo, hi)) = i.range {
             if !(lo.is_finite() && hi.is_finite() && lo < hi) {
-                return Err(GapError::Usage(format!(
-                    "input '{}': range [{lo}, {hi}] is not a finite interval",
-                    i.name
-                )));
+                return Err(InputError::InputRange {
+                    input: i.name.clone(),
+                    lo,
+                    hi,
+                }
+                .into());
             }
         }
     }
@@ -288,7 +286,7 @@ fn find(params: &[ParamSpec], name: &str) -> Result<usize, GapError> {
     params
         .iter()
         .position(|p| p.name == name)
-        .ok_or_else(|| GapError::Usage(format!("the model has no parameter named '{name}'")))
+        .ok_or_else(|| InputError::NoParameter(name.to_string()).into())
 }
 
 /// Resolve names into indices: the fixed settings, the calibrated parameters with their
@@ -352,25 +350,22 @@ fn plan(params: &[ParamSpec], outputs: &[String], cfg: &DesignConfig) -> Result<
         Some(names) => names
             .iter()
             .map(|n| {
-                all.iter().find(|e| &e.name == n).ok_or_else(|| {
-                    let known: Vec<&str> = all.iter().map(|e| e.name.as_str()).collect();
-                    GapError::Usage(format!(
-                        "the model has no candidate effect '{n}' (candidates: {})",
-                        known.join(", ")
-                    ))
-                })
+                all.iter()
+                    .find(|e| &e.name == n)
+                    .ok_or_else(|| InputError::NoCandidateNamed {
+                        effect: n.clone(),
+                        candidates: all.iter().map(|e| e.name.clone()).collect(),
+                    })
             })
             .collect::<Result<_, _>>()?,
     };
     if chosen.is_empty() {
-        return Err(GapError::Usage(
-            "the model has no candidate effect (no Boolean parameter '<effect>.enabled')".into(),
-        ));
+        return Err(InputError::NoCandidate.into());
     }
     let n = cfg.time.len();
     let n_train = ((n as f64) * (1.0 - cfg.holdout))
         .round()
-        .clamp(10.0, n as f64) as usize;
+        .clamp(MIN_TRAIN_SAMPLES, n as f64) as usize;
     let k = cfg.outputs.len();
     let effects: Vec<(String, Vec<(usize, f64)>)> = chosen
         .iter()
@@ -395,7 +390,7 @@ fn plan(params: &[ParamSpec], outputs: &[String], cfg: &DesignConfig) -> Result<
             outputs
                 .iter()
                 .position(|m| m == o)
-                .ok_or_else(|| GapError::Usage(format!("the model has no output named '{o}'")))
+                .ok_or_else(|| InputError::NoOutput(o.clone()))
         })
         .collect::<Result<_, _>>()?;
     Ok(Plan {
@@ -410,9 +405,6 @@ fn plan(params: &[ParamSpec], outputs: &[String], cfg: &DesignConfig) -> Result<
 
 /// Parameter settings of one simulation: (parameter index, value).
 type Setting = Vec<(usize, f64)>;
-
-/// Effects with at most this many parameters are evaluated at the weakest corner of their box.
-const MAX_CORNER_PARAMS: usize = 5;
 
 /// Each effect's weakest setting: the corner of its parameters' box (each at its min or its
 /// max) the data at hand show least. The weak end of a parameter is not always its min: a
@@ -654,13 +646,7 @@ where
         }
     }
     if active.is_empty() {
-        return Err(GapError::Usage(format!(
-            "no input can be designed: {}",
-            held.iter()
-                .map(|(n, why)| format!("{n}: {why}"))
-                .collect::<Vec<_>>()
-                .join("; ")
-        )));
+        return Err(InputError::NoDesignableInput { held }.into());
     }
     Ok((held, active))
 }
@@ -672,15 +658,6 @@ struct Found {
     visibility: Vec<Option<f64>>,
     experiments: usize,
 }
-
-/// Margin over the naming threshold an experiment aims for. The prediction is linear and the
-/// refit is not (a backlash is a dead zone), so a design aims well above 1×: at 20× a
-/// TwistedString backlash of 0.67° hidden beside a motor friction went unnamed on the proposed
-/// experiment, at 100× it was named. Beyond the margin a larger prediction buys nothing, and an
-/// experiment reaching it drives the rig further from where its base parameters were
-/// calibrated (a TwistedString design twisting to 2000 rad against a lifting load, where the
-/// base calibration of the follow-up stayed 20–86× the noise level off its data).
-pub const ENOUGH: f64 = 100.0;
 
 /// `min over effects of visibility / needed`, capped at [`ENOUGH`] (a failed simulation scores
 /// nothing). With the cap, the first experiment of the search order that reaches the margin
@@ -793,9 +770,6 @@ where
         experiments,
     })
 }
-
-/// Halvings of the bisection in [`shrink`].
-const SHRINK_STEPS: usize = 7;
 
 /// Each input's excursion from its start value in the data at hand; without data (or for an
 /// input the data do not carry), its whole range, so that every signal counts as within it.

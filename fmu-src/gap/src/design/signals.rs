@@ -7,6 +7,7 @@
 //! should explain. [`gentlest_first`] orders them for the search. Deterministic: the same grid
 //! and range give the same signals.
 
+use crate::policy::{PERIODS, REST};
 use std::f64::consts::PI;
 
 /// One candidate signal of one input.
@@ -101,12 +102,6 @@ const WAVES: [(&str, Wave); 4] = [
     ("triangle", triangle),
     ("raised cosine", raised_cosine),
 ];
-
-/// The periods tried, as fractions of the experiment's duration.
-const PERIODS: [f64; 2] = [0.125, 1.0 / 3.0];
-
-/// Share of the duration the input rests at its start value before the experiment begins.
-const REST: f64 = 0.05;
 
 /// `a + (b − a) g(phase)` after a rest at `start` and a minimum-jerk move onto the waveform.
 fn shaped(t: &[f64], start: f64, a: f64, b: f64, period: f64, g: Wave) -> Vec<f64> {

@@ -1,17 +1,12 @@
 //! Calibration of the base model: directly and over growing horizons ([`calibrate_base`]).
 
 use super::{ensure_jacobian, fit_state, Ctx, FitOut, Limits, ModelState};
+use crate::policy::{
+    CALIBRATION_HORIZONS, CALIBRATION_ITERATIONS, CALIBRATION_REL_TOL, HORIZON_ANCHOR_MAX_CHI2,
+    MIN_HORIZON_SAMPLES,
+};
 use crate::sim::{GridModel, SimError};
 use serde::Serialize;
-
-/// Horizons of the growing-horizon calibration before the whole training part, as fractions of
-/// it ([`calibrate_base`]).
-pub(super) const CALIBRATION_HORIZONS: [f64; 2] = [0.25, 0.5];
-
-/// The growing-horizon calibration goes on only if its first horizon is fitted to within this
-/// chi-square per sample and output (an RMS residual of √2 × the noise level): its premise is a
-/// model that reproduces the start of the trace ([`calibrate_base`]).
-pub(super) const HORIZON_ANCHOR_MAX_CHI2: f64 = 2.0;
 
 /// Which base calibration was kept ([`calibrate_base`]); in JSON `"direct"` or
 /// `"growing horizons"`.
@@ -90,24 +85,20 @@ impl Calibration {
 /// local descent cannot cross to the right one. Over a short horizon the trajectories have not
 /// yet drifted apart, the cost is nearly quadratic and its minimum close to the truth; each
 /// longer horizon then starts inside the right basin (continuation in the horizon, the idea of
-/// multiple-shooting estimators: Bock 1983; Voss, Timmer & Kurths 2004). Measured: a
-/// HydraulicJoint draw whose 40 Hz loop oscillates (10 s at 1 kHz, gap-eval seed 800004) ends
-/// at χ² 4.2e6 directly and 1.1e5 over growing horizons, after which the hidden valve dynamics
-/// are named and every output is at its noise level.
+/// multiple-shooting estimators: Bock 1983; Voss, Timmer & Kurths 2004).
 ///
 /// The continuation rests on its first horizon: when the model misses even the start of the
 /// trace by more than √2 × the noise (a strong effect missing from the start), that short fit
-/// has nothing to anchor on and wanders (HydraulicJoint cable friction 0.22, gap-eval seed
-/// 1300030: load_mass 0.25 kg against a true 2.2, a sum 6 % below the direct fit's, after which
-/// the screening missed the effect); the direct fit, which stays nearer the values as given, is
-/// kept. Horizons shorter than 20 samples are skipped; the anchor is the first one fitted.
+/// has nothing to anchor on and wanders; the direct fit, which stays nearer the values as given,
+/// is kept. Horizons shorter than [`MIN_HORIZON_SAMPLES`] are skipped; the anchor is the first
+/// one fitted.
 /// `Config::calibration_horizons` false leaves only the direct fit (for before/after runs).
 pub(super) fn calibrate_base<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     st0: &ModelState,
 ) -> Result<(FitOut, Calibration), SimError> {
     // The Jacobian at the optimum is made only for the fit kept.
-    let limits = Limits::new(20, 1e-4).without_final_jacobian();
+    let limits = Limits::new(CALIBRATION_ITERATIONS, CALIBRATION_REL_TOL).without_final_jacobian();
     let fit_base = |from: &ModelState, n: usize| fit_state(ctx, from, None, &[], n, limits);
     // The two calibrations are independent: run side by side (each is mostly one simulation at
     // a time, so together they keep two cores busy).
@@ -153,7 +144,7 @@ fn grow_horizons<S: GridModel + ?Sized>(
     let mut st = st0.clone();
     for frac in CALIBRATION_HORIZONS {
         let n_h = (ctx.n_train as f64 * frac) as usize;
-        if n_h < 20 {
+        if n_h < MIN_HORIZON_SAMPLES {
             continue;
         }
         let Ok(f) = fit_base(&st, n_h) else {

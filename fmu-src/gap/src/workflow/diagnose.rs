@@ -2,13 +2,12 @@
 
 use super::noise;
 use super::{Ctx, Data, Diagnosis, OutputDiagnosis};
+use crate::policy::{
+    DIAGNOSIS_WINDOWS, LJUNG_BOX_LAGS, MAX_XCORR_LAG, NOISE_RMS_RATIO, REGION_BINS, WHITE_P,
+};
 use crate::sim::GridModel;
 use crate::stats;
 use rayon::iter::{IntoParallelRefIterator, ParallelIterator};
-
-/// An output whose residual RMS is within this multiple of its noise level is at the noise
-/// level (with white residuals: consistent with noise).
-pub(super) const NOISE_RMS_RATIO: f64 = 1.2;
 
 pub(super) fn errors(meas: &[f64], model: &[f64]) -> (f64, f64) {
     let e: Vec<f64> = model.iter().zip(meas).map(|(a, b)| a - b).collect();
@@ -44,7 +43,7 @@ pub(super) fn diagnose<S: GridModel + ?Sized>(
             .map(|i| (all_out[oi][i] + b - ctx.meas[k][i]) / ctx.sigma[k])
             .collect();
         let ratio = stats::rms(&r);
-        let nw = 10.min(n / 20).max(1);
+        let nw = DIAGNOSIS_WINDOWS.min(n / 20).max(1);
         let win: Vec<f64> = (0..nw)
             .map(|w| stats::rms(&r[w * n / nw..(w + 1) * n / nw]))
             .collect();
@@ -57,9 +56,9 @@ pub(super) fn diagnose<S: GridModel + ?Sized>(
         // Whiteness of the innovations under the output's noise model (the residual itself
         // for white noise): correlated noise alone is no misfit.
         let innov = noise::innovations(&r, ctx.rho[k]);
-        let (_, lb_p) = stats::ljung_box(&innov, 20);
+        let (_, lb_p) = stats::ljung_box(&innov, LJUNG_BOX_LAGS);
         let rho1 = stats::autocorr(&innov, 1);
-        let max_lag = (n / 20).clamp(1, 200);
+        let max_lag = (n / 20).clamp(1, MAX_XCORR_LAG);
         let input_xcorr = data
             .inputs
             .iter()
@@ -76,13 +75,13 @@ pub(super) fn diagnose<S: GridModel + ?Sized>(
         let region = vars
             .par_iter()
             .map(|(name, v)| {
-                let (bins, eta2) = stats::region_bins(&r, v, 8);
+                let (bins, eta2) = stats::region_bins(&r, v, REGION_BINS);
                 (name.clone(), bins, eta2)
             })
             .collect::<Vec<_>>()
             .into_iter()
             .max_by(|a, b| a.2.partial_cmp(&b.2).unwrap_or(std::cmp::Ordering::Equal));
-        let white = lb_p > 0.01;
+        let white = lb_p > WHITE_P;
         let ok = ratio <= NOISE_RMS_RATIO && white;
         consistent &= ok;
         let mut text = format!(

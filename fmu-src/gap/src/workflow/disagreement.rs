@@ -16,21 +16,15 @@
 //! - dead zone: `sign(ẏ)` where the output moves, `e ≈ −d sign(ẏ)` (a reading that trails the
 //!   motion by `d`: backlash or a dead zone of width `2d` in the sensor's drive).
 
-use super::diagnose::NOISE_RMS_RATIO;
 use super::noise;
 use super::{OutputErrors, OutputTrace};
+use crate::policy::{
+    DISAGREEMENT_RATIO, DISAGREEMENT_WINDOWS, LJUNG_BOX_LAGS, MIN_EXPLAINED, MOVING_SHARE,
+    NOISE_RMS_RATIO, SHAPE_OVER_OFFSET, WHITE_P,
+};
 use crate::stats;
 use serde::Serialize;
 use std::collections::BTreeMap;
-
-/// An output whose final RMSE exceeds this multiple of its noise level disagrees with the data.
-pub const DISAGREEMENT_RATIO: f64 = 1.5;
-
-/// Number of equal time windows over which the disagreement is located.
-const WINDOWS: usize = 10;
-
-/// Share of the residual's mean square a shape must explain to be suggested.
-const MIN_EXPLAINED: f64 = 0.5;
 
 /// One simple mechanism fitted to an output's residual.
 #[derive(Clone, Debug, Serialize)]
@@ -113,13 +107,13 @@ fn white(tr: &OutputTrace, e: &OutputErrors) -> bool {
         .zip(&tr.final_fit)
         .map(|(m, y)| (y - m) / e.noise_sigma)
         .collect();
-    stats::ljung_box(&noise::innovations(&r, e.noise_ar1), 20).1 > 0.01
+    stats::ljung_box(&noise::innovations(&r, e.noise_ar1), LJUNG_BOX_LAGS).1 > WHITE_P
 }
 
 /// The windows whose RMS residual exceeds [`DISAGREEMENT_RATIO`] σ (adjacent ones joined).
 fn windows(time: &[f64], e: &[f64], sigma: f64) -> Vec<(f64, f64, f64)> {
     let n = e.len();
-    let nw = WINDOWS.min(n / 10).max(1);
+    let nw = DISAGREEMENT_WINDOWS.min(n / 10).max(1);
     let mut out: Vec<(f64, f64, f64, usize)> = Vec::new();
     for w in 0..nw {
         let (a, b) = (w * n / nw, (w + 1) * n / nw);
@@ -170,7 +164,7 @@ fn shapes(time: &[f64], y: &[f64], e: &[f64]) -> Vec<Shape> {
             (y[b] - y[a]) / (time[b] - time[a]).max(1e-300)
         })
         .collect();
-    let moving = 0.05 * dy.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let moving = MOVING_SHARE * dy.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     let direction: Vec<f64> = dy
         .iter()
         .map(|&v| if v.abs() > moving { v.signum() } else { 0.0 })
@@ -218,7 +212,7 @@ fn shapes(time: &[f64], y: &[f64], e: &[f64]) -> Vec<Shape> {
 fn shape_words(o: &OutputDisagreement) -> Option<String> {
     let offset = o.shapes.iter().find(|s| s.kind == "offset")?;
     let best = o.shapes.first()?;
-    let s = if best.kind != "offset" && best.explained - offset.explained < 0.1 {
+    let s = if best.kind != "offset" && best.explained - offset.explained < SHAPE_OVER_OFFSET {
         offset
     } else {
         best
@@ -268,18 +262,6 @@ fn describe(outputs: &[OutputDisagreement]) -> String {
     text += " A sensor's lag, gain or zero error, a fixed parameter set wrong (--set), or an \
              effect that is not among the candidates can leave this; the residual plots show it.";
     text
-}
-
-/// A one-line summary for a verdict: the outputs and their ratios.
-pub(super) fn verdict_words(d: &Disagreement) -> String {
-    format!(
-        "a disagreement remains that no candidate explains ({})",
-        d.outputs
-            .iter()
-            .map(|o| format!("{} {:.1}× noise", o.output, o.rmse_over_noise))
-            .collect::<Vec<_>>()
-            .join(", ")
-    )
 }
 
 #[cfg(test)]

@@ -4,10 +4,9 @@
 //! squares minimised over the other parameters with this one held) lies within `t²` of the
 //! minimum (Venzon & Moolgavkar 1988; Bates & Watts 1988, 6.1). The linearised interval and its
 //! check along the first-order path ([`lm::interval_ends`]) stand for that only where the valley
-//! is nearly quadratic. Where it is flat and bent (TwistedString's spring stiffness against the
-//! guide damping and the load, on a sum of squares made rough by the encoder counts), a
-//! linearised ±20 N/m held a spring stiffness whose profile rose by 3.5 three hundred N/m away,
-//! so the interval missed the truth by sixteen of its half-widths.
+//! is nearly quadratic. Where it is flat and bent (a stiffness traded against a damping and a
+//! load, on a sum of squares made rough by encoder counts), a linearised interval can miss the
+//! truth by many of its half-widths.
 //!
 //! Check: the sum with only this parameter moved to the end (the others at their fitted values)
 //! bounds the profile there from above. Where even that stays below `t²`, the end is provably
@@ -19,42 +18,28 @@
 
 use super::{fit_state_holding, Ctx, FitOut, FitProblem, Limits, ModelState};
 use crate::lm;
+use crate::policy::{
+    BENT, HELD_FIT_GROWTH, HELD_FIT_ITERATIONS, HELD_FIT_REL_TOL, LOWER_BY, MAX_HELD_FITS,
+};
 use crate::sim::GridModel;
 use nalgebra::DMatrix;
 use rayon::iter::{IndexedParallelIterator, IntoParallelRefIterator, ParallelIterator};
 use std::sync::Mutex;
-
-/// Held fits of the profile search per end; each moves the end out by [`GROWTH`].
-const MAX_HELD_FITS: usize = 4;
-
-/// Factor by which each step of the profile search moves the end out.
-const GROWTH: f64 = 4.0;
-
-/// LM iterations of each held fit of the profile search.
-const HELD_FIT_ITERATIONS: usize = 5;
-
-/// Factor by which [`lm::interval_ends`] must have moved an end out for it to count as bent
-/// (a few per cent is the interpolation's own play on a quadratic sum).
-const BENT: f64 = 1.05;
 
 /// The ends `ends` (multipliers of each parameter's standard error in its fitting coordinate,
 /// from `cov`), each moved out where the profile shows it too close; `w` weighs the residual
 /// rows as in `cov`. Every end is at least its given value.
 ///
 /// First every end is probed along its parameter's axis. Where the valley is flat (some end's
-/// probe, short of the parameter's bound, stays below `t²`), it also bends in ways the linearisation does not see (a
-/// TwistedString load mass whose profile followed the spring stiffness and guide damping across
-/// their ranges), and every end is then checked by a fit of the others with its parameter held
-/// there. So is every end when a parameter sits on one of its bounds ([`at_a_bound`]): a
-/// TwistedString guide damping fitted at 685 N·s/m with the return spring at 0 N/m, whose
-/// first-order path rose by 27 at its linearised end, 37 N·s/m, where the profile rose by 5 and
-/// stayed there down to the true 17. An end the first-order path already moved out
-/// ([`lm::interval_ends`] found the sum rising less than quadratically along it: a bending
-/// valley) is checked by a held fit too, whatever its axis probe shows: a TwistedString return
-/// spring fitted at 4612 N/m, whose axis probe rose by 11906 and whose path end sat at
-/// 1305 N/m, had a profile 0.4 above the minimum at its true 99 N/m (the string compliance and
-/// radius readjusting along the valley). So is an end whose first-order path leaves another
-/// parameter's bounds ([`clamped`]).
+/// probe, short of the parameter's bound, stays below `t²`), it also bends in ways the
+/// linearisation does not see (one parameter's profile following two others across their
+/// ranges), and every end is then checked by a fit of the others with its parameter held there.
+/// So is every end when a parameter sits on one of its bounds ([`at_a_bound`]): there the
+/// first-order path can rise far more than the profile. An end the first-order path already
+/// moved out ([`lm::interval_ends`] found the sum rising less than quadratically along it: a
+/// bending valley) is checked by a held fit too, whatever its axis probe shows: the other
+/// parameters readjusting along the valley can keep the profile low far beyond it. So is an end
+/// whose first-order path leaves another parameter's bounds ([`clamped`]).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn profile_ends<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
@@ -113,7 +98,7 @@ pub(super) fn profile_ends<S: GridModel + ?Sized>(
             val: from.to_vec(),
         };
         let held = [(fin.state.idx[j], fin.bounds[j].to_p(at(j, sign, sd, k)))];
-        let limits = Limits::new(HELD_FIT_ITERATIONS, 1e-4).without_final_jacobian();
+        let limits = Limits::new(HELD_FIT_ITERATIONS, HELD_FIT_REL_TOL).without_final_jacobian();
         let f = fit_state_holding(ctx, &st, None, &[], &held, n_fin, limits).ok()?;
         let rise = lm::weighted_sse(&f.fit.residuals, w) - c0;
         // Every parameter's value at this point, the held one included.
@@ -200,10 +185,6 @@ pub(super) struct ProfileEnds {
     pub lower: Option<(f64, Vec<f64>)>,
 }
 
-/// How far below the fit's sum a held fit's point must lie to show the fit is not the minimum:
-/// one chi-square unit.
-pub(super) const LOWER_BY: f64 = 1.0;
-
 /// The ends `ends` (multipliers of each parameter's standard error from `cov`, about `z`) moved
 /// out to hold every witness: a point whose sum rises less than `t²` above the minimum. Such a
 /// point bounds from above the profile of each parameter at its own coordinate, so each of its
@@ -236,9 +217,7 @@ fn spanning(
 /// Whether the axis probes (multiplier, multiplier at the bound, rise) show a flat valley: a
 /// probe at its full distance that rises less than `t²`. A probe stopped at the parameter's
 /// bound, closer than `k` standard errors, rises less than `t²` in a quadratic valley too, and
-/// is no evidence (a HydraulicJoint polytropic index fitted just below its bound, on a sum
-/// widened by roughness to ±200 standard errors, set off held fits at every end: 550
-/// simulations).
+/// is no evidence.
 fn shows_flat_valley(probes: impl IntoIterator<Item = (f64, f64, Option<f64>)>, t: f64) -> bool {
     probes
         .into_iter()
@@ -274,7 +253,7 @@ fn clamped(b: &[lm::Bounded], z: &[f64], cov: &DMatrix<f64>, j: usize, s: f64) -
 }
 
 /// The profile search of one end: from `last` (multiplier, rise below `t²`), the end moves out
-/// by [`GROWTH`] per step up to `k_bound`, each step's rise from `held(k, from)` (a fit of the
+/// by [`HELD_FIT_GROWTH`] per step up to `k_bound`, each step's rise from `held(k, from)` (a fit of the
 /// others started at `from`, returning its rise and values), until the rise reaches `t²`; the end
 /// is then interpolated linearly in k² between the last two steps (exact for a quadratic
 /// profile). Returns the multiplier, at least `k`; a failed fit keeps the last one reached.
@@ -290,7 +269,7 @@ fn move_out(
         if last.0 >= k_bound {
             return k_bound.max(k);
         }
-        let k2 = (GROWTH * last.0).min(k_bound);
+        let k2 = (HELD_FIT_GROWTH * last.0).min(k_bound);
         let Some((rise2, v)) = held(k2, &others) else {
             return last.0;
         };

@@ -3,6 +3,9 @@
 
 use super::{Candidate, Estimate, OutputErrors};
 use crate::lm::Bounded;
+use crate::policy::{
+    DISAGREEMENT_RATIO, EIG_REL_TOL, FAR_FROM_DATA, NULL_COMPONENT_TOL, OFFSET_SHARE,
+};
 use crate::spec::ParamSpec;
 use crate::{lm, stats};
 use nalgebra::{DMatrix, DVector};
@@ -83,16 +86,6 @@ pub(super) fn row_weights(per_output: &[f64], n: usize, rows: usize) -> Vec<f64>
         .map(|i| per_output[(i / n.max(1)).min(per_output.len() - 1)])
         .collect()
 }
-
-/// Relative eigenvalue below which a direction of the unit-diagonal normal matrix counts as
-/// undetermined: `λ_i < EIG_REL_TOL · λ_max`, i.e. a singular value of the column-normalised
-/// Jacobian below ~1e-4 of the largest (a correlation within 1e-8 of ±1; such a direction's
-/// variance would be inflated by > 1e4 anyway).
-pub(super) const EIG_REL_TOL: f64 = 1e-8;
-
-/// A parameter whose unit vector has a squared component above this in the undetermined
-/// eigenspace is not estimable (its interval is unbounded).
-pub(super) const NULL_COMPONENT_TOL: f64 = 1e-4;
 
 /// Covariance of the columns of `x` with the per-output row scaling, robust to parameters that
 /// are not separately identifiable.
@@ -263,9 +256,6 @@ pub(super) fn bound_warnings(
         .collect()
 }
 
-/// An output is "far from the data" after the final fit above this multiple of its noise level.
-pub(super) const FAR_FROM_DATA: f64 = 3.0;
-
 /// Warning when the final model still misses some output by more than [`FAR_FROM_DATA`] times its
 /// noise level (None otherwise): whatever was named then explains part of the gap at most.
 pub(super) fn far_from_data_warning(outputs: &BTreeMap<String, OutputErrors>) -> Option<String> {
@@ -297,8 +287,8 @@ pub(super) fn offset_warnings(outputs: &BTreeMap<String, OutputErrors>) -> Vec<S
         .iter()
         .filter(|(_, o)| {
             o.noise_sigma > 0.0
-                && o.rmse_after > 1.5 * o.noise_sigma
-                && o.mean_after * o.mean_after >= 0.5 * o.rmse_after * o.rmse_after
+                && o.rmse_after > DISAGREEMENT_RATIO * o.noise_sigma
+                && o.mean_after * o.mean_after >= OFFSET_SHARE * o.rmse_after * o.rmse_after
         })
         .map(|(n, o)| {
             format!(

@@ -2,21 +2,16 @@
 //! them, and the errors before and after per output.
 
 use super::diagnose::errors;
+use super::fit::FINAL_LIMITS;
 use super::offsets::offset_estimates;
-use super::screen::FINAL_LIMITS;
 use super::{
     ensure_jacobian, fit_state, fit_state_holding, Ctx, Data, Estimate, FitOut, GapError, Limits,
     ModelState, OutputErrors, OutputTrace,
 };
 use crate::lm;
+use crate::policy::{WANDERED_LINEAR, WANDERED_LOG};
 use crate::sim::GridModel;
 use std::collections::BTreeMap;
-
-/// How far (in its fitting coordinate) a base parameter may end from where the calibration
-/// started it before the final fit is also tried from that start: a factor of 3 for a
-/// parameter fitted in logarithm, twice its start's magnitude for a linear one.
-const WANDERED_LOG: f64 = 1.0986;
-const WANDERED_LINEAR: f64 = 2.0;
 
 /// The final fit. The held-out end has done its work (choosing which effects to name); the
 /// chosen model's parameters are then estimated from all the data, as after any model
@@ -26,15 +21,13 @@ const WANDERED_LINEAR: f64 = 2.0;
 /// training-part one, `cur` with its whole-trace residual `cur_full_r`). Returns the fit and the
 /// samples it used.
 ///
-/// A flat valley lets base parameters wander while effects are added (TwistedString's spring
-/// stiffness at 24 times its start, standing in for string compliance, in a fit 1500 units of
-/// chi-square above the truth's). When a base parameter ended far from where the calibration
-/// started it (`st0`), the final fit also starts from there (the effects' parameters as fitted),
-/// and, as that start can still slide back along the valley while the effects' parameters stay
-/// where the wandering left them (the return spring at 1124 N/m against a true 108, 108
-/// chi-square above the truth's sum, from either start), once more with the wandered
-/// parameters held at their starts while the others are fitted, then released. The three run in
-/// parallel and the lowest sum is kept.
+/// A flat valley lets base parameters wander while effects are added (a spring stiffening to
+/// stand in for a compliance). When a base parameter ended far from where the calibration
+/// started it (`st0`, beyond [`WANDERED_LOG`] or [`WANDERED_LINEAR`]), the final fit also starts
+/// from there (the effects' parameters as fitted), and, as that start can still slide back along
+/// the valley while the effects' parameters stay where the wandering left them, once more with
+/// the wandered parameters held at their starts while the others are fitted, then released. The
+/// three run in parallel and the lowest sum is kept.
 pub(super) fn final_fit<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     cur: FitOut,

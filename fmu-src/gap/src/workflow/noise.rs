@@ -17,31 +17,24 @@
 //! sizes of ΔBIC and the intervals.
 
 use super::{OutputErrors, OutputTrace};
+use crate::policy::{
+    AR1_AGREEMENT, AR1_CLIP, AR1_SIGNIFICANCE, LOW_INFORMATION_RHO, MAX_RHO, MIN_AR1_SAMPLES,
+    MIN_NOISE_SHARE_OF_RANGE, MIN_RHO, NOISE_LIKE_RMS,
+};
 use crate::stats;
 use std::collections::BTreeMap;
-
-/// Smallest ρ taken as correlated noise: below it the correction to the level is under 13 %
-/// and the start test's variance inflation under 1.4 at 3 samples, and a smooth misfit of
-/// several noise levels can move the estimate that far on its own.
-pub(super) const MIN_RHO: f64 = 0.3;
-
-/// Largest ρ used: nearer 1 the noise is a drift the record cannot tell from a model error.
-pub(super) const MAX_RHO: f64 = 0.99;
-
-/// ρ above which the report says that the record's statistics rest on few effective samples.
-pub(super) const LOW_INFORMATION_RHO: f64 = 0.95;
 
 /// AR(1) coefficient of the noise in residual `r` (one output, in time order) from the lag-1
 /// autocorrelation `c` of its first differences: `ρ = 1 + 2c`. Differences beyond 5 robust
 /// standard deviations are clipped (a switch or a jump of the misfit), and ρ is 0 unless it
 /// exceeds [`MIN_RHO`] and four standard errors of `c` for white noise (`1/√N`, Bartlett).
 pub(super) fn ar1_coefficient(r: &[f64]) -> f64 {
-    if r.len() < 20 {
+    if r.len() < MIN_AR1_SAMPLES {
         return 0.0;
     }
     let d: Vec<f64> = r.windows(2).map(|w| w[1] - w[0]).collect();
     let med = stats::median(&d);
-    let lim = 5.0 * stats::robust_scale(&d);
+    let lim = AR1_CLIP * stats::robust_scale(&d);
     if lim.is_nan() || lim <= 0.0 {
         return 0.0;
     }
@@ -49,7 +42,7 @@ pub(super) fn ar1_coefficient(r: &[f64]) -> f64 {
     let c = stats::autocorr(&clipped, 1);
     let rho = (1.0 + 2.0 * c).clamp(0.0, MAX_RHO);
     let se = 2.0 / (clipped.len() as f64).sqrt();
-    if rho >= MIN_RHO && rho > 4.0 * se {
+    if rho >= MIN_RHO && rho > AR1_SIGNIFICANCE * se {
         rho
     } else {
         0.0
@@ -94,9 +87,9 @@ fn fit_with(r: &[f64], rho_d: f64) -> NoiseFit {
     // The differences' estimate varies by about 2/√N; the residual's own coefficient agrees
     // with it within three of those when the residual is noise, and exceeds it when a smooth
     // misfit dominates.
-    let agree = (rho_a - rho_d).abs() <= 6.0 / (r.len() as f64).sqrt();
-    let noise_like =
-        rms <= 1.5 * marginal_factor(rho_d) || (agree && rms <= 1.5 * marginal_factor(rho_a));
+    let agree = (rho_a - rho_d).abs() <= AR1_AGREEMENT / (r.len() as f64).sqrt();
+    let noise_like = rms <= NOISE_LIKE_RMS * marginal_factor(rho_d)
+        || (agree && rms <= NOISE_LIKE_RMS * marginal_factor(rho_a));
     if !noise_like {
         return white;
     }
@@ -111,8 +104,7 @@ fn fit_with(r: &[f64], rho_d: f64) -> NoiseFit {
 /// residual's second and first differences instead of their autocorrelation: for AR(1) noise
 /// `var(Δ²e) / var(Δe) = 3 − ρ` (`var(Δe) = 2σ²(1 − ρ)`, `var(Δ²e) = 2σ²(1 − ρ)(3 − ρ)`), and
 /// a median-based scale ignores the few large differences a model's misfit makes where an
-/// output switches (TwistedString's current at the motor's starts and stops: AR(1) noise of
-/// 0.97 read as 0.65 by the clipped autocorrelation, and as white). Used only to clear a
+/// output switches (a motor current at its starts and stops). Used only to clear a
 /// record refused as begun away from the model's state: it can only find noise, never an
 /// effect.
 pub(super) fn spike_robust_fit(r: &[f64]) -> NoiseFit {
@@ -122,7 +114,7 @@ pub(super) fn spike_robust_fit(r: &[f64]) -> NoiseFit {
 /// `3 − (s₂/s₁)²` from the robust scales of the first and second differences of `r`, clamped to
 /// [0, [`MAX_RHO`]]; 0 below [`MIN_RHO`] or for a residual too short or too flat to tell.
 fn scale_ratio_coefficient(r: &[f64]) -> f64 {
-    if r.len() < 20 {
+    if r.len() < MIN_AR1_SAMPLES {
         return 0.0;
     }
     let d1: Vec<f64> = r.windows(2).map(|w| w[1] - w[0]).collect();
@@ -142,7 +134,9 @@ fn scale_ratio_coefficient(r: &[f64]) -> f64 {
 /// The second-difference noise level of a measured output ([`stats::noise_sigma`]), kept above
 /// 1e-4 of its range so that a noiseless output does not get an infinite weight.
 pub(crate) fn difference_level(y: &[f64]) -> f64 {
-    stats::noise_sigma(y).max(1e-4 * stats::range(y)).max(1e-12)
+    stats::noise_sigma(y)
+        .max(MIN_NOISE_SHARE_OF_RANGE * stats::range(y))
+        .max(1e-12)
 }
 
 /// The noise model of every output again, from the final model's residual, for the report:

@@ -2,10 +2,14 @@
 //! stuck short of the naming threshold.
 
 use super::evidence::{covariance, delta_bic, estimates, holdout_sse, row_scale};
-use super::screen::{CandidateStart, REFIT_ITERATIONS};
+use super::screen::CandidateStart;
+use super::verdict::CandidateVerdict;
 use super::{
     ensure_jacobian, find_param, fit_state, fit_state_holding, Candidate, Ctx, Estimate, FitOut,
     Limits, ModelState, VisibilityPoint, Z95,
+};
+use crate::policy::{
+    NOISE_RMS_RATIO, PROFILE_ITERATIONS, PROFILE_REL_TOL, REFIT_ITERATIONS, REFIT_REL_TOL,
 };
 use crate::sim::{GridModel, SimError};
 use crate::{lm, stats};
@@ -37,8 +41,9 @@ pub(super) fn refit<S: GridModel + ?Sized>(
     let start = start.effect.as_slice();
     let limits = refit_limits(ctx, cur, e).without_final_jacobian();
     let first = fit_state(ctx, &from, Some(e), start, n, limits);
-    let at_noise =
-        |f: &FitOut| (0..k).all(|j| stats::rms(&f.fit.residuals[j * n..(j + 1) * n]) <= 1.2);
+    let at_noise = |f: &FitOut| {
+        (0..k).all(|j| stats::rms(&f.fit.residuals[j * n..(j + 1) * n]) <= NOISE_RMS_RATIO)
+    };
     let retry_from = match (&first, alt_start) {
         (Ok(f), Some(st)) if !at_noise(f) => Some(st),
         (Err(_), Some(st)) => Some(st),
@@ -82,7 +87,7 @@ fn refit_limits<S: GridModel + ?Sized>(ctx: &Ctx<'_, S>, cur: &FitOut, e: usize)
         .map(|j| lm::sse(&r[j * n..(j + 1) * n]) / n as f64)
         .fold(1.0, f64::min);
     let drop = ctx.visibility_needed(e) * 0.5 * level;
-    Limits::new(REFIT_ITERATIONS, 5e-4).futile_above(cur.fit.sse - drop)
+    Limits::new(REFIT_ITERATIONS, REFIT_REL_TOL).futile_above(cur.fit.sse - drop)
 }
 
 /// The candidate record of effect `e` fitted as `f` (with the current fit `cur`): its ΔBIC,
@@ -162,7 +167,7 @@ pub(super) fn assess<S: GridModel + ?Sized>(
             holdout_sse_without: hwo,
             holdout_sse_with: hw,
             named: false,
-            verdict: String::new(),
+            verdict: CandidateVerdict::Unchecked,
             visibility: None,
             visibility_needed: 0.0,
             detectable_from: None,
@@ -174,9 +179,6 @@ pub(super) fn assess<S: GridModel + ?Sized>(
         r_full,
     ))
 }
-
-/// LM iterations of each profile fit in [`profile_restart`].
-pub(super) const PROFILE_ITERATIONS: usize = 4;
 
 /// A refit that falls short of the naming evidence although the scan says the data could show
 /// the effect may have stopped in a valley's far end: the base fit bent the base parameters to
@@ -231,7 +233,7 @@ pub(super) fn profile_restart<S: GridModel + ?Sized>(
                 &[],
                 pt,
                 n,
-                Limits::new(PROFILE_ITERATIONS, 1e-3).without_final_jacobian(),
+                Limits::new(PROFILE_ITERATIONS, PROFILE_REL_TOL).without_final_jacobian(),
             )
             .ok()
             .map(|p| (pt.clone(), p))

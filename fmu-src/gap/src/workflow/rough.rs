@@ -33,23 +33,17 @@
 //! again from there; on a rough sum only when the point lies below on the smooth part as well
 //! ([`clearly_lower`]).
 
-use super::ends::{profile_ends, ProfileEnds, LOWER_BY};
+use super::ends::{profile_ends, ProfileEnds};
 use super::evidence::{covariance, row_weights};
 use super::{Ctx, FitOut, FitProblem, Z95};
 use crate::lm::{self, LmOptions};
+use crate::policy::{
+    LOWER_BY, LOWER_SPREADS, MAX_SMOOTHING_STEP, MILD_ROUGHNESS, NEGLIGIBLE_ROUGHNESS,
+    RECENTRE_CONVERGED, RECENTRE_STEPS, RECENTRE_TRIALS, ROUGHNESS_PATTERNS, ROUGH_SMOOTHING_PAIRS,
+    SECANT_TARGET, SMOOTHING_PAIRS, SMOOTHING_SPREAD,
+};
 use crate::sim::GridModel;
 use nalgebra::{DMatrix, DVector};
-
-/// Sign patterns probed for the roughness at each scale (two simulations each).
-const PATTERNS: usize = 4;
-
-/// Roughness below which the fit's own Jacobian and the usual `1.96 σ` stand: `√(2F)` below
-/// 5 % of 1.96, a widening no reader would notice.
-const NEGLIGIBLE: f64 = 0.5 * (0.05 * Z95) * (0.05 * Z95);
-
-/// A secant's change must reach this multiple of the roughness, so that a jump is at most about
-/// a fifth of the column's norm.
-const SECANT_TARGET: f64 = 25.0;
 
 /// The final fit's Jacobian and half-width multipliers for its intervals.
 pub(super) struct IntervalBasis {
@@ -88,7 +82,7 @@ fn tiny_step_roughness<S: GridModel + ?Sized>(
         r0,
         w,
         &vec![h; m],
-        PATTERNS,
+        ROUGHNESS_PATTERNS,
     )
 }
 
@@ -131,7 +125,7 @@ pub(super) fn interval_basis<S: GridModel + ?Sized>(
         f0: tiny_step_roughness(&problem, fin, &w),
         secant: None,
     });
-    let (jac, z, roughness) = if f0 <= NEGLIGIBLE {
+    let (jac, z, roughness) = if f0 <= NEGLIGIBLE_ROUGHNESS {
         (fin.fit.jac.clone(), Z95, None)
     } else {
         let at = (fin.fit.z.as_slice(), fin.fit.residuals.as_slice());
@@ -166,10 +160,6 @@ pub(super) fn interval_basis<S: GridModel + ?Sized>(
         lower,
     }
 }
-
-/// Spreads of the difference of two smoothed sums by which a point must lie below the fit on a
-/// rough sum to show that the fit stopped in a valley that is not the lowest.
-const LOWER_SPREADS: f64 = 2.0;
 
 /// `point` (its raw rise above the fit `fin`'s sum, negative, and every parameter's value),
 /// where a held fit of the profile search ended, if it lies below the fit on the smooth part of
@@ -212,52 +202,14 @@ fn clearly_lower<S: GridModel + ?Sized>(
     (drop > margin).then_some(values)
 }
 
-/// Steps tried, in order, towards the smooth part's minimum, as (Marquardt damping, fraction
-/// of the step): the Gauss–Newton step, shorter ones (in a bent valley the full step leaves
-/// it), then one shortened along poorly determined directions (a flat valley's, where the
-/// undamped step overshoots to a bound).
-const RECENTRE_TRIALS: [(f64, f64); 4] = [(0.0, 1.0), (0.0, 0.5), (0.0, 0.25), (1e-2, 1.0)];
-
-/// Most Gauss–Newton steps [`recentre`] takes on the smooth part.
-const RECENTRE_STEPS: usize = 6;
-
-/// Chi-square decrease, predicted by the smooth part's model, below which [`recentre`] stops:
-/// the remaining step is then within about 0.2 standard errors (√0.05) along any direction.
-const RECENTRE_CONVERGED: f64 = 0.05;
-
-/// Mirrored pairs of points whose mean residuals are the smooth part's
-/// ([`lm::smoothed_residuals`]) on a sum whose jumps' spread `√(2F)` stays within the
-/// statistical `1.96 σ` (`F` up to [`MILD`]): 16 points leave a quarter of one point's jumps.
-const SMOOTHING_PAIRS: usize = 8;
-
-/// Roughness up to which [`SMOOTHING_PAIRS`] are averaged.
-const MILD: f64 = 0.5 * Z95 * Z95;
-
-/// Mirrored pairs averaged on a sum rougher than [`MILD`]. The jumps left in the mean of `n`
-/// points, of chi-square `F / n`, move the smooth part's Gauss–Newton minimum by up to
-/// `√(F / n)` standard errors; two runs whose jumps fall differently then agree to within a
-/// fifth of the widened half-width `(1.96 + √(2F)) σ` when each stays within a tenth of it,
-/// which 64 points do at every `F` (`√(F / 64) = 0.125 √F` against `0.1 √(2F) = 0.141 √F`
-/// where the jumps dominate, 0.5 against 0.76 at `F` = 16) and 16 do only up to [`MILD`].
-/// Beyond it the fit's point used to stand where it stopped (with 16 points a trace with `F` =
-/// 21 had stepped down a flat valley), and on TwistedString s200500 (`F` = 16) the estimates
-/// moved by up to 0.71 half-widths for a change of the record by 1e-8 of its range and 0.57 for
-/// the FMU's tolerance at 0.9e-6; moved to the minimum of the mean of 64 points, by at most
-/// 0.13 and 0.19.
-const ROUGH_SMOOTHING_PAIRS: usize = 32;
-
 /// Mirrored pairs averaged for the smooth part of a sum of roughness `f`.
 fn smoothing_pairs(f: f64) -> usize {
-    if f > MILD {
+    if f > MILD_ROUGHNESS {
         ROUGH_SMOOTHING_PAIRS
     } else {
         SMOOTHING_PAIRS
     }
 }
-
-/// Spread of those points, in standard errors of each parameter: wide enough that each point
-/// flips its own decisions, narrow enough that the curvature over it is negligible.
-const SMOOTHING_SPREAD: f64 = 0.25;
 
 /// The smooth part of a rough sum near one point: its residuals there and their sum.
 struct Smooth {
@@ -328,7 +280,7 @@ pub(super) fn recentre<S: GridModel + ?Sized>(
     let len = fin.fit.residuals.len();
     let w = row_weights(scale, n_fin, len);
     let f0 = tiny_step_roughness(&problem, &fin, &w);
-    if f0 <= NEGLIGIBLE {
+    if f0 <= NEGLIGIBLE_ROUGHNESS {
         ctx.stage(format!(
             "final fit: roughness {f0:.3} over a tiny step; left where it stopped"
         ));
@@ -390,10 +342,6 @@ pub(super) fn recentre<S: GridModel + ?Sized>(
 /// less than [`RECENTRE_CONVERGED`] to gain or after [`RECENTRE_STEPS`]; the secants are taken
 /// again at each new point; each smooth part is the mean over `smoothing` (spreads and mirrored
 /// pairs, [`Smooth::at`]). Returns the last point, its Jacobian and the steps taken.
-/// Accepting steps that raise the smooth part's sum by up to its own spread and taking the mean
-/// of the points visited (against the two-point cycles a flat valley makes) measured worse on
-/// the records of `scripts/gap-robustness` (TwistedString, 20 records: 101/104 and 94/104
-/// estimates within 0.2 half-widths against 102/104 and 97/104).
 fn descend<S: GridModel + ?Sized>(
     problem: &FitProblem<'_, '_, S>,
     bounds: &[lm::Bounded],
@@ -424,13 +372,13 @@ fn descend<S: GridModel + ?Sized>(
 
 /// The spread of [`lm::smoothed_residuals`]'s points per coordinate: [`SMOOTHING_SPREAD`]
 /// standard errors from the secant Jacobian `jac`, at least the finite-difference step (where
-/// decisions already flip) and at most 0.1 (10 % of a parameter on a log coordinate).
+/// decisions already flip) and at most [`MAX_SMOOTHING_STEP`].
 fn smoothing_steps(jac: &DMatrix<f64>, scale: &[f64], n_fin: usize) -> Vec<f64> {
     let h0 = LmOptions::default().fd_step;
     let m = jac.ncols();
     match covariance(jac, scale, n_fin) {
         Some(c) => (0..m)
-            .map(|j| (SMOOTHING_SPREAD * c[(j, j)].max(0.0).sqrt()).clamp(h0, 0.1))
+            .map(|j| (SMOOTHING_SPREAD * c[(j, j)].max(0.0).sqrt()).clamp(h0, MAX_SMOOTHING_STEP))
             .collect(),
         None => vec![10.0 * h0; m],
     }
@@ -454,7 +402,15 @@ fn rough_jacobian<S: GridModel + ?Sized>(
     let sd: Vec<f64> = covariance(&jac, scale, n_fin)
         .map(|c| (0..m).map(|j| c[(j, j)].max(0.0).sqrt()).collect())
         .unwrap_or_else(|| vec![f64::INFINITY; m]);
-    let f1 = lm::roughness(problem, &fin.bounds, &fin.fit.z, r0, w, &sd, PATTERNS);
+    let f1 = lm::roughness(
+        problem,
+        &fin.bounds,
+        &fin.fit.z,
+        r0,
+        w,
+        &sd,
+        ROUGHNESS_PATTERNS,
+    );
     let f = f0.max(f1);
     (jac, Z95 + (2.0 * f).sqrt(), Some(f))
 }
@@ -469,7 +425,7 @@ pub(super) fn roughness_note(f: f64) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::{smoothing_pairs, MILD};
+    use super::{smoothing_pairs, MILD_ROUGHNESS};
     use crate::workflow::Z95;
 
     #[test]
@@ -488,7 +444,7 @@ mod tests {
             f *= 1.1;
         }
         // The 16 points of a mild sum would not do beyond it.
-        let f = 4.0 * MILD;
+        let f = 4.0 * MILD_ROUGHNESS;
         assert!((f / 16.0).sqrt() > 0.1 * (Z95 + (2.0 * f).sqrt()));
     }
 }

@@ -6,16 +6,20 @@
 
 use super::diagnose::diagnose;
 use super::evidence::{best_refit_delta_bic, delta_bic, holdout_sse};
+use super::fit::POLISH_LIMITS;
 use super::refit::{assess, profile_restart, refit};
-use super::screen::{
-    scan_starts, screen, CandidateStart, FAR_FROM_NOISE, LM_ABS_TOL, POLISH_LIMITS,
-    REFIT_SCORE_FRACTION,
+use super::screen::{scan_starts, screen, CandidateStart};
+use super::start::{reproduces_start, StartMiss};
+use super::verdict::{
+    left_open, shortfalls, CandidateVerdict, ClosestShortfall, Shortfall, Verdict,
 };
-use super::start::{reproduces_start, StartMiss, START_REASON};
-use super::verdict::{hidden_from_data, only_screened, reasons};
 use super::{
-    ensure_jacobian, fit_state, visibility_scale, Candidate, Config, Ctx, Data, Diagnosis, FitOut,
-    GapError, Limits, ModelState, VisibilityPoint,
+    ensure_jacobian, fit_state, Candidate, Config, Ctx, Data, Diagnosis, FitOut, GapError, Limits,
+    ModelState, VisibilityPoint,
+};
+use crate::policy::{
+    ALWAYS_REFIT, BASE_RECHECK_ITERATIONS, BASE_RECHECK_REL_TOL, FAR_FROM_NOISE,
+    LATER_ROUND_REFITS, LM_ABS_TOL, REFIT_SCORE_FRACTION,
 };
 use crate::sim::{GridModel, SimError};
 use rayon::iter::{IndexedParallelIterator, IntoParallelRefIterator, ParallelIterator};
@@ -34,8 +38,9 @@ pub(super) struct Rounds {
     pub(super) diagnosis: Vec<Diagnosis>,
     /// Rounds done again from a better base: (round, ΔBIC of that base over the previous).
     pub(super) redone: Vec<(usize, f64)>,
-    /// Why the rounds stopped (empty when they ran out or the residuals became noise).
-    pub(super) verdict: String,
+    /// Why the rounds stopped, when a round named nothing (None: they ran out or the residuals
+    /// became noise).
+    pub(super) verdict: Option<Verdict>,
     pub(super) unexplained: Option<String>,
 }
 
@@ -58,7 +63,7 @@ enum Outcome {
     /// threshold against it: the round is done again from the better base.
     Redo(f64),
     /// Nothing was named: the verdict says why.
-    Verdict(String),
+    Verdict(Verdict),
 }
 
 /// The screened candidates of a round.
@@ -98,7 +103,7 @@ pub(super) fn run_rounds<S: GridModel + ?Sized>(
         candidates: Vec::new(),
         diagnosis: vec![diagnosis],
         redone: Vec::new(),
-        verdict: String::new(),
+        verdict: None,
         unexplained: None,
     };
     let mut round = 1;
@@ -112,7 +117,7 @@ pub(super) fn run_rounds<S: GridModel + ?Sized>(
             Outcome::Named { stop: false } => round += 1,
             Outcome::Redo(gain) => st.redone.push((round, gain)),
             Outcome::Verdict(v) => {
-                st.verdict = v;
+                st.verdict = Some(v);
                 break;
             }
         }
@@ -156,14 +161,12 @@ fn one_round<S: GridModel + ?Sized>(
             .corrected
             .iter()
             .max_by(|a, b| a.1.partial_cmp(b.1).unwrap_or(std::cmp::Ordering::Equal))
-            .map(|c| ctx.effects[*c.0].name.as_str())
-            .unwrap_or("none");
-        let mut verdict = format!(
-            "no missing effect found: the calibrated base model's residuals are consistent with noise (every output within 1.2× its noise level and white; the best candidate, {closest}, has a linearised ΔBIC of {best_score:.1} < {})",
-            cfg.min_delta_bic
-        );
-        verdict.push_str(&only_screened(&ranked, cfg.min_delta_bic));
-        verdict.push_str(&hidden_from_data(&ranked));
+            .map(|c| ctx.effects[*c.0].name.clone());
+        let verdict = Verdict::ConsistentWithNoise {
+            closest,
+            best_delta_bic: best_score,
+            open: left_open(&ranked, cfg.min_delta_bic),
+        };
         st.candidates.push(ranked);
         return Ok(Outcome::Verdict(verdict));
     }
@@ -292,10 +295,9 @@ fn closing_screen<S: GridModel + ?Sized>(
         .map(|&(e, score)| {
             let mut c = Candidate::screened_only(&ctx.effects[e].name, sc.corrected[&e], score)
                 .hinted(inp.cfg.min_delta_bic);
-            c.verdict = format!(
-                "screened against the final model (with {}), whose residuals are at the noise level",
-                st.named.join(", ")
-            );
+            c.verdict = CandidateVerdict::ScreenedAgainstFinal {
+                named: st.named.clone(),
+            };
             with_visibility(ctx, &sc, c)
         })
         .collect();
@@ -428,13 +430,17 @@ fn with_visibility<S: GridModel + ?Sized>(
 /// of the best (round 1; later rounds, two at most); beyond that, candidates whose linearised
 /// evidence reaches the naming threshold.
 fn refit_choice(cfg: &Config, sc: &Screened, round: usize, at_noise: bool) -> Vec<(usize, f64)> {
-    let quota = if round == 1 { cfg.max_refit } else { 2 };
+    let quota = if round == 1 {
+        cfg.max_refit
+    } else {
+        LATER_ROUND_REFITS
+    };
     let best = sc.order.first().map_or(0.0, |c| c.1);
     sc.order
         .iter()
         .enumerate()
         .filter(|(i, (e, score))| {
-            let close = *i < 2 || *score >= REFIT_SCORE_FRACTION * best;
+            let close = *i < ALWAYS_REFIT || *score >= REFIT_SCORE_FRACTION * best;
             *i < cfg.max_refit.max(1)
                 && ((!at_noise && *i < quota && close) || sc.corrected[e] >= cfg.min_delta_bic)
         })
@@ -478,7 +484,7 @@ fn refit_all<S: GridModel + ?Sized>(
             }
             Err(m) => ranked.push(Candidate {
                 refit: true,
-                verdict: format!("refit failed: {m}"),
+                verdict: CandidateVerdict::RefitFailed { cause: m },
                 ..Candidate::screened_only(&ctx.effects[e].name, f64::NEG_INFINITY, score)
             }),
         }
@@ -486,14 +492,11 @@ fn refit_all<S: GridModel + ?Sized>(
     // Profile restarts (see `profile_restart`): when no refit reaches the naming threshold,
     // every refitted candidate that falls short of it although the data could show it; when one
     // does, the best one. A refit stops where a step gains less than its stopping tolerance,
-    // which along a bent valley can be anywhere: on one TwistedString record (radius growth,
-    // scripts/gap-eval seed 700537) a change of the data by 1e-8 of their range made the refit
-    // stop after one step instead of thirteen, 37 units of chi-square above the profile's
-    // point and at a growth 1.5 half-widths away, so whether the profile ran, and the named
-    // estimate, turned on the last bits. Either way, only candidates that predict the held-out
-    // end no worse than the current model, within one standard deviation of a chi-square over
-    // the held-out samples, √(2 N_h) (or nothing is held out); one that predicts clearly worse
-    // is not worth the simulations.
+    // which along a bent valley can be anywhere, so whether the profile ran, and the named
+    // estimate, must not turn on the last bits of the data. Either way, only candidates that
+    // predict the held-out end no worse than the current model, within one standard deviation
+    // of a chi-square over the held-out samples, √(2 N_h) (or nothing is held out); one that
+    // predicts clearly worse is not worth the simulations.
     let best = best_refit_delta_bic(&ranked);
     let reached = best >= inp.cfg.min_delta_bic;
     {
@@ -568,7 +571,8 @@ fn recheck_base<S: GridModel + ?Sized>(
     let nb = st.cur.state.idx.len();
     let from = st.cur.state.with_values(f.state.val[..nb].to_vec());
     ctx.stage(format!("round {round}: base re-check"));
-    let limits = Limits::new(12, 1e-4).without_final_jacobian();
+    let limits =
+        Limits::new(BASE_RECHECK_ITERATIONS, BASE_RECHECK_REL_TOL).without_final_jacobian();
     let Ok(mut b2) = fit_state(ctx, &from, None, &[], ctx.n_train, limits) else {
         return Ok(None);
     };
@@ -616,35 +620,32 @@ fn choose<S: GridModel + ?Sized>(
         if !c.refit {
             continue;
         }
-        let mut why = reasons(c, cfg.min_delta_bic, ctx.n_train >= ctx.n);
+        let mut why = shortfalls(c, cfg.min_delta_bic, ctx.n_train >= ctx.n);
         if let (Some(miss), Some((_, _, r))) = (start_miss, fits.iter().find(|x| x.0 == c.effect)) {
             if !reproduces_start(ctx, miss, r, true) {
-                why.push(START_REASON.to_string());
+                why.push(Shortfall::StartNotReproduced);
             }
         }
         if why.is_empty() {
             c.named = true;
-            c.verdict = format!(
-                "named: ΔBIC = {:.1} ≥ {}, magnitude interval excludes 0, held-out error lower",
-                c.delta_bic, cfg.min_delta_bic
-            );
+            c.verdict = CandidateVerdict::Named {
+                delta_bic: c.delta_bic,
+                min_delta_bic: cfg.min_delta_bic,
+            };
             chosen = Some(i);
             break;
         }
-        c.verdict = format!("not named: {}", why.join("; "));
         c.inconclusive = c.delta_bic > 0.0 && c.delta_bic < cfg.min_delta_bic;
-        if !c.detectable() {
-            c.verdict.push_str(&format!(
-                "; these data cannot reveal it (anywhere in its range, after the base parameters readjust, at most {})",
-                visibility_scale(c.visibility.unwrap_or(0.0), c.visibility_needed)
-            ));
-        }
+        c.verdict = CandidateVerdict::NotNamed {
+            shortfalls: why,
+            unrevealable: (!c.detectable()).then(|| c.reach()),
+        };
     }
     for c in ranked
         .iter_mut()
-        .filter(|c| c.refit && c.verdict.is_empty())
+        .filter(|c| c.refit && matches!(c.verdict, CandidateVerdict::Unchecked))
     {
-        c.verdict = "not considered: a higher-ranked candidate was named".into();
+        c.verdict = CandidateVerdict::NotConsidered;
     }
     chosen
 }
@@ -684,25 +685,22 @@ fn adopt<S: GridModel + ?Sized>(
 }
 
 /// The verdict of a round that named nothing (`no_holdout`: nothing is held out).
-fn none_named(cfg: &Config, ranked: &[Candidate], named: &[String], no_holdout: bool) -> String {
-    let closest = &ranked[0].effect;
-    let why = if ranked[0].refit {
-        reasons(&ranked[0], cfg.min_delta_bic, no_holdout).join("; ")
+fn none_named(cfg: &Config, ranked: &[Candidate], named: &[String], no_holdout: bool) -> Verdict {
+    let closest = &ranked[0];
+    let why = if closest.refit {
+        ClosestShortfall::Refitted {
+            shortfalls: shortfalls(closest, cfg.min_delta_bic, no_holdout),
+        }
     } else {
-        format!(
-            "linearised ΔBIC = {:.1} < {}: not refitted",
-            ranked[0].delta_bic, cfg.min_delta_bic
-        )
+        ClosestShortfall::NotRefitted {
+            delta_bic: closest.delta_bic,
+            min_delta_bic: cfg.min_delta_bic,
+        }
     };
-    let mut verdict = if named.is_empty() {
-        format!("no missing effect found; the closest candidate, {closest}, is left unexplained ({why})")
-    } else {
-        format!(
-            "named {}; no further effect found; the closest remaining candidate, {closest}, is left unexplained ({why})",
-            named.join(", ")
-        )
-    };
-    verdict.push_str(&only_screened(ranked, cfg.min_delta_bic));
-    verdict.push_str(&hidden_from_data(ranked));
-    verdict
+    Verdict::NothingFurther {
+        named: named.to_vec(),
+        closest: closest.effect.clone(),
+        why,
+        open: left_open(ranked, cfg.min_delta_bic),
+    }
 }

@@ -6,62 +6,12 @@
 //! parameters there; the statistic is the linearised ΔBIC of the augmented regression.
 
 use super::evidence::{delta_bic, delta_bic_naive, row_weights};
-use super::{regress, Ctx, FitOut, Limits, ModelState, VisibilityPoint};
+use super::{regress, Ctx, FitOut, ModelState, VisibilityPoint};
 use crate::lm::{self, Bounded};
+use crate::policy::{SCAN_FRACTIONS, SENSITIVITY_STEP};
 use crate::sim::GridModel;
 use nalgebra::{DMatrix, DVector};
 use rayon::iter::{IndexedParallelIterator, IntoParallelRefIterator, ParallelIterator};
-
-/// Absolute stopping floor of every fit, in units of the weighted sum of squares (chi-square):
-/// a fit still gaining more than this per step continues even when the gain is a small fraction
-/// of the sum (a 1000-sample, 4-output trace has a sum near 4000, where the relative test alone
-/// stopped refits 80 units short of the truth's minimum).
-pub(super) const LM_ABS_TOL: f64 = 1.0;
-
-/// Iteration limit of a candidate's refit (the named one is polished before another round, or
-/// refitted on the whole trace at the end).
-pub(super) const REFIT_ITERATIONS: usize = 15;
-
-/// A screened candidate beyond the best two is refitted only if its screening score reaches this
-/// fraction of the best one's. The linearised score misranks friction and backlash (a true
-/// effect has ranked fifth with 0.69 of the best score), but one scoring a third of the best
-/// has not been the missing effect in the evaluations (`scripts/gap-eval`), and each refit costs
-/// tens of simulations.
-pub(super) const REFIT_SCORE_FRACTION: f64 = 1.0 / 3.0;
-
-/// An output whose residual RMS exceeds this multiple of its noise level is far from the data:
-/// the linearised screening, which extrapolates from the current model, then ranks the
-/// candidates by little more than chance (a missing effect that makes the base model miss by
-/// hundreds of noise levels has ranked fourth of five), so when the chosen refits name
-/// nothing, every other candidate up to `Config::max_refit` is refitted too.
-pub(super) const FAR_FROM_NOISE: f64 = 10.0;
-
-/// Limits of the final fit of the chosen model on the whole trace, whose values and intervals
-/// are reported. It stops once an iteration gains less than a chi-square unit and 1e-5 of the
-/// sum and the Gauss–Newton step still predicted from there is below [`CONVERGED_DECREASE`]:
-/// along a flat valley (TwistedString's spring, guide damping and load) steps each gaining
-/// less than a unit left the estimates up to a whole half-width short of the minimum, so that
-/// a change of the record a billion times below its noise moved them by that much.
-pub(super) const FINAL_LIMITS: Limits = Limits::new(20, 1e-5).converged_below(CONVERGED_DECREASE);
-
-/// Largest predicted decrease of the sum of squares (chi-square units) at which a reported fit
-/// counts as converged: the remaining step is then at most √0.02 = 0.14 standard errors, 0.07
-/// of a 95 % interval's half-width, in every parameter.
-pub(super) const CONVERGED_DECREASE: f64 = 0.02;
-
-/// Limits of the polish of a named candidate's refit on the training part (the refits stop
-/// early to save simulations). It stops once an iteration gains less than the final fit's
-/// thresholds, within up to 60 iterations: the next round's candidates are compared against this
-/// fit, and a base left short of its optimum makes the next round's base re-check find a better
-/// one and the whole round be done again. Along a flat valley (TwistedString's spring, load and
-/// string compliance) 20 iterations still gained hundreds of chi-square units each; the round
-/// done again then cost more than a thousand simulations.
-pub(super) const POLISH_LIMITS: Limits = Limits::new(60, 1e-5);
-
-/// Points of the start scan along each effect's range: fractions of the way from every
-/// parameter's min to its max, in the parameter's fitting coordinate (log for ranges over a
-/// decade), all parameters of the effect moving together.
-pub(super) const SCAN_FRACTIONS: [f64; 5] = [0.0, 0.25, 0.5, 0.75, 1.0];
 
 /// Start of one candidate's screening and refit: its parameters' values and the base
 /// parameters' values (same order as the current fit's).
@@ -114,10 +64,9 @@ pub(super) fn visibility(
 /// At the chosen point the base parameters start from the current fit or from its linearised
 /// readjustment, whichever simulates to the lower sum (one more simulation); every point is also
 /// simulated with the base parameters as given (`given`), and the refit starts there when one
-/// of those simulates lower still. An effect's declared
-/// start value can be far too strong or too weak for the data at hand (a friction coefficient of
-/// 0.1 where the data show 0.03 raised the sum of squares three-hundredfold in the TwistedString
-/// evaluation), and a refit started there ended in a local minimum worse than the base model.
+/// of those simulates lower still. An effect's declared start value can be far too strong or
+/// too weak for the data at hand, and a refit started there can end in a local minimum worse
+/// than the base model.
 pub(super) fn scan_starts<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     cur: &FitOut,
@@ -298,7 +247,7 @@ pub(super) fn screen<S: GridModel + ?Sized>(
         })
         .collect();
     // Jobs: (candidate, None = switch on at start, Some(p) = perturb parameter p).
-    let h = 0.05;
+    let h = SENSITIVITY_STEP;
     let start_of = |e: usize| -> &[(usize, f64)] {
         cand.iter()
             .position(|&c| c == e)

@@ -2,7 +2,8 @@
 //! compared, known settings, candidate effects, parameters to calibrate and their starts).
 
 use super::verdict::convention_warnings;
-use super::{find_param, Config, Data, GapError};
+use super::{find_param, Config, Data, GapError, InputError};
+use crate::policy::MIN_SAMPLES;
 use crate::sim::GridModel;
 use crate::spec::{self, EffectSpec, ParamKind, ParamSpec};
 
@@ -40,40 +41,39 @@ pub(super) fn setup<S: GridModel + ?Sized>(
     let params = sim.params().to_vec();
     let names = sim.output_names().to_vec();
     let n = data.time.len();
-    if n < 20 {
-        return Err(GapError::Usage(format!(
-            "need at least 20 samples, got {n}"
-        )));
+    if n < MIN_SAMPLES {
+        return Err(InputError::TooFewSamples {
+            got: n,
+            need: MIN_SAMPLES,
+        }
+        .into());
     }
     if data.outputs.is_empty() {
-        return Err(GapError::Usage(
-            "the data hold no output column to compare with".into(),
-        ));
+        return Err(InputError::NoOutputColumn.into());
     }
     let mut out_idx = Vec::new();
     for (name, v) in &data.outputs {
         let k = names
             .iter()
             .position(|s| s == name)
-            .ok_or_else(|| GapError::Usage(format!("the model has no output named '{name}'")))?;
+            .ok_or_else(|| InputError::NoOutput(name.clone()))?;
         if v.len() != n {
-            return Err(GapError::Usage(format!(
-                "column '{name}' has {} values for {n} times",
-                v.len()
-            )));
+            return Err(InputError::ColumnLength {
+                column: name.clone(),
+                values: v.len(),
+                times: n,
+            }
+            .into());
         }
         out_idx.push(k);
     }
     for name in &cfg.offsets {
         if !data.outputs.iter().any(|(s, _)| s == name) {
-            return Err(GapError::Usage(format!(
-                "--offset {name}: not a measured output (the data's outputs: {})",
-                data.outputs
-                    .iter()
-                    .map(|(s, _)| s.as_str())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            )));
+            return Err(InputError::OffsetNotMeasured {
+                output: name.clone(),
+                measured: data.outputs.iter().map(|(s, _)| s.clone()).collect(),
+            }
+            .into());
         }
     }
     let offset: Vec<bool> = data
@@ -94,9 +94,7 @@ pub(super) fn setup<S: GridModel + ?Sized>(
                 let e = all_effects
                     .iter()
                     .find(|e| &e.name == name)
-                    .ok_or_else(|| {
-                        GapError::Usage(format!("the model has no effect named '{name}'"))
-                    })?;
+                    .ok_or_else(|| InputError::NoEffect(name.clone()))?;
                 v.push(e.clone());
             }
             v
@@ -119,9 +117,7 @@ pub(super) fn setup<S: GridModel + ?Sized>(
             for name in list {
                 let i = find_param(&params, name)?;
                 if params[i].kind != ParamKind::Real {
-                    return Err(GapError::Usage(format!(
-                        "'{name}' is not a Real parameter and cannot be fitted"
-                    )));
+                    return Err(InputError::NotReal(name.clone()).into());
                 }
                 v.push(i);
             }
@@ -132,16 +128,10 @@ pub(super) fn setup<S: GridModel + ?Sized>(
     let fit_idx: Vec<usize> = fit_idx.into_iter().filter(|&i| !fixed_has(i)).collect();
     let convention_warnings = convention_warnings(&params, cfg.fit.is_some());
     if fit_idx.is_empty() && effects.is_empty() {
-        let why = if convention_warnings.is_empty() {
-            String::new()
-        } else {
-            format!(" ({})", convention_warnings.join("; "))
-        };
-        return Err(GapError::Usage(format!(
-            "nothing to do: no parameter to calibrate (none tagged [calibrate] at the start of \
-             its description, no --fit) and no candidate effect (no Boolean parameter \
-             '<effect>.enabled' with ranged Real parameters '<effect>.<name>'){why}"
-        )));
+        return Err(InputError::NothingToDo {
+            departures: convention_warnings,
+        }
+        .into());
     }
     // The initial state the FMU exposes, estimated when the record needs it (`start`), unless
     // set or already fitted.

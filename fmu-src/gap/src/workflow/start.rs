@@ -27,44 +27,23 @@
 //! disagreement that runs through the whole record as a function of the measured output (a sensor
 //! gain error, a fixed length set wrong) misses the start by what it misses the same values by
 //! elsewhere, and is reported as a disagreement that remains, never as a record begun elsewhere;
-//! and the miss must exceed [`REST_SHARE`] of the misfit over the rest of the trace as well, which
-//! the line only approximates. (TwistedString with 'p' read 6 % low, from rest: start 300 noise
-//! levels, trace mean 120, z at most 2.0; with the string length set 15 % short: start 111, trace
-//! mean 57, z 2.4. A record begun in motion is missed at the start where it is met with the same
-//! measured values later at the rest's misfit: geared motor begun 1 s into the motion, z 26–28 with
-//! this prediction.) Whether to estimate the initial state an FMU exposes is decided on the start
-//! mean alone ([`StartMiss::z_raw`]): an angle the record begins at stays as a constant offset over
-//! the whole trace. Measured |z| without the third miss (geared motor without initial-state
-//! parameters, 3 s at 200 Hz, 1 % noise, five records each): from rest 0.6–1.7, begun 1 s into the
-//! motion 25–86. HydraulicJoint and TwistedString records from rest (90, 4 s at 250 Hz, every
-//! condition): without a hidden effect at most 2.8; 14 with a hidden leak, string compliance, motor
-//! friction or twist hysteresis (which shift the state at rest) reach 13–108, and in each the named
-//! hidden effect then explains the start; the other hidden effects at most 9.6.
+//! and the miss must exceed [`START_REST_SHARE`] of the misfit over the rest of the trace as
+//! well, which the line only approximates. A record begun in motion is missed at the start where
+//! it is met with the same measured values later at the rest's misfit. Whether to estimate the
+//! initial state an FMU exposes is decided on the start mean alone ([`StartMiss::z_raw`]): an
+//! angle the record begins at stays as a constant offset over the whole trace. (The standard
+//! scores measured on records from rest and begun in motion are in `examples/README.md`.)
 //!
 //! Dropping a settling window instead would not do: an angle (any integrated state) keeps the
 //! difference it began with for ever, and the fit bends to it over the whole trace.
 
 use super::calibrate::calibrate_base;
 use super::noise;
-use super::{Calibration, Ctx, FitOut, GapError, ModelState};
+use super::{Calibration, Ctx, FitOut, GapError, InputError, ModelState, StartMissed};
+use crate::policy::{START_MAX_Z, START_MISS_REDUCTION, START_REST_SHARE, START_SAMPLES};
 use crate::sim::GridModel;
 use crate::spec::ParamSpec;
 use crate::stats;
-
-/// Samples at the start of the record that are compared ([`start_miss`]).
-pub(super) const START_SAMPLES: usize = 3;
-
-/// Standard score beyond which the record does not begin in the model's state ([`start_miss`]).
-pub(super) const START_MAX_Z: f64 = 10.0;
-
-/// Share of the model's misfit over the rest of the trace (RMS) that a start miss must exceed
-/// as well ([`concentrated_at_start`]): the line in the measured output through the misfit
-/// elsewhere ([`affine_prediction`]) is a first-order account of a static mismatch, and what its
-/// curvature leaves grows with the mismatch. (TwistedString with the string length set 15 %
-/// short, 'p' missed by 3,800 noise levels over the whole trace: the start by 8 beyond the
-/// line, 0.2 % of it; a geared motor record begun 1 s into the motion with a hidden current
-/// limit: 16 beyond the line, 60 % of the rest's 26.)
-const REST_SHARE: f64 = 0.1;
 
 /// Most names listed in the message (it stays one bounded line).
 const MAX_NAMES: usize = 5;
@@ -319,7 +298,7 @@ pub(super) fn start_disagreement<S: GridModel + ?Sized>(
 /// The output whose start miss is concentrated at the start, the most ([`StartMiss::z`]) if
 /// several are: beyond [`START_MAX_Z`] under the noise after the trace's offset and what the
 /// misfit elsewhere predicts at the start ([`affine_prediction`]) are taken off, and beyond
-/// [`REST_SHARE`] of the misfit over the rest of the trace. A record begun elsewhere is missed
+/// [`START_REST_SHARE`] of the misfit over the rest of the trace. A record begun elsewhere is missed
 /// at its first samples by the difference of states; a disagreement that runs through the
 /// whole trace as a function of the measured output (a sensor gain error, a fixed parameter set
 /// wrong) is missed at the start by what it is missed by elsewhere at the same measured values,
@@ -328,7 +307,7 @@ pub(super) fn start_disagreement<S: GridModel + ?Sized>(
 fn concentrated_at_start(misses: Vec<StartMiss>) -> Option<StartMiss> {
     misses
         .into_iter()
-        .filter(|m| m.z.abs() > START_MAX_Z && m.excess > REST_SHARE * m.rest_rms)
+        .filter(|m| m.z.abs() > START_MAX_Z && m.excess > START_REST_SHARE * m.rest_rms)
         .max_by(|a, b| a.z.abs().total_cmp(&b.z.abs()))
 }
 
@@ -368,9 +347,7 @@ pub(super) fn reproduces_start<S: GridModel + ?Sized>(
 /// from that residual. The base fit's residual holds the missing effect's misfit, under which
 /// the noise's correlation cannot be seen ([`noise::noise_fit`] takes such an output's noise
 /// as white, at its second-difference level); where the final model leaves noise, the noise is
-/// seen, and a start miss counted against the fast part of correlated noise may be none
-/// (HydraulicJoint, hidden seal friction, AR(1) noise of coefficient 0.9: 'p1_left' missed at
-/// the start by 11 second-difference levels, 4.8 marginal ones). As
+/// seen, and a start miss counted against the fast part of correlated noise may be none. As
 /// [`noise::refine_after_final_fit`] does for the report; the outputs whose correlation was
 /// estimated from the base fit keep their model. Where [`noise::noise_fit`] still sees white
 /// noise, [`noise::spike_robust_fit`] is asked too: a misfit that switches with the output
@@ -389,9 +366,7 @@ pub(super) fn still_misses_start<S: GridModel + ?Sized>(
     let mut level = vec![1.0; k];
     // The noise is fitted where the model was fitted: over the held-out end a training fit
     // also carries its extrapolation error, which raises the RMS the noise test compares with
-    // the marginal level (TwistedString, AR(1) 0.97 noise: 'current' at 5.2 second-difference
-    // levels over the whole trace, 4.6 over the training part; alone this did not clear that
-    // record, the spike-robust coefficient did).
+    // the marginal level.
     let fitted = ctx.n_train.clamp(1, n);
     for j in 0..k {
         let Some(block) = r.get_mut(j * n..(j + 1) * n).filter(|_| rho[j] == 0.0) else {
@@ -430,14 +405,10 @@ pub(super) fn still_misses_start<S: GridModel + ?Sized>(
 fn begins_alike(misses: &[StartMiss], base_z: f64, relative: bool) -> bool {
     misses.iter().all(|m| {
         let z = if relative { m.z_rel } else { m.z };
-        z.abs() <= START_MAX_Z.max(base_z.abs() / 3.0)
+        z.abs() <= START_MAX_Z.max(base_z.abs() / START_MISS_REDUCTION)
             || (!relative && m.start_mean.abs() < m.rest_rms)
     })
 }
-
-/// Why a candidate that does not reproduce the start is not named.
-pub(super) const START_REASON: &str =
-    "does not explain why the record begins away from the model's initial state";
 
 /// What stops a run whose record does not begin where the model begins and no candidate
 /// explains it (`miss`: the base fit's start miss; `initial`: the initial-state parameters that
@@ -453,13 +424,13 @@ pub(super) fn start_error<S: GridModel + ?Sized>(
     let output = &ctx.sim.inner.output_names()[ctx.out_idx[miss.output]];
     let m = START_SAMPLES.min(ctx.n / 4);
     let t_end = time.get(m.saturating_sub(1)).copied().unwrap_or(0.0);
-    let what = format!(
-        "the record does not begin where the model begins: over its first {m} samples (to \
-         t = {t_end} s) the calibrated base model misses '{output}' by {:.1}× its noise level \
-         on average, against {:.1}× over the whole trace, so this is no constant offset",
-        miss.start_mean.abs(),
-        miss.trace_mean.abs(),
-    );
+    let what = StartMissed {
+        output: output.clone(),
+        samples: m,
+        until_s: t_end,
+        start_ratio: miss.start_mean.abs(),
+        trace_ratio: miss.trace_mean.abs(),
+    };
     let mut advice = what_to_do(&ctx.params, initial);
     if miss.rest_rms > START_MAX_Z {
         // The rest of the record is missed far beyond the noise too: the start may be where a
@@ -475,10 +446,7 @@ pub(super) fn start_error<S: GridModel + ?Sized>(
     if rounds == 0 {
         return Ok(format!("{what}; the calibration bends to it. {advice}"));
     }
-    Err(GapError::Usage(format!(
-        "{what}, and no candidate effect explains it. {advice} No effect is named from such a \
-         record: it would only imitate the start."
-    )))
+    Err(InputError::StartNotExplained { miss: what, advice }.into())
 }
 
 /// The advice of [`start_error`]: with no initial-state parameter estimated, how to give the

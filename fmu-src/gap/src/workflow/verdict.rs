@@ -1,7 +1,11 @@
-//! Verdict texts: convention warnings, candidates the data cannot reveal, reasons not to name.
+//! Verdicts as typed values: why a candidate was or was not named ([`CandidateVerdict`]), what
+//! a run concluded ([`Verdict`]), and what its last round leaves open ([`LeftOpen`]); `report`
+//! puts them into words. Also the departures from the candidate-effect convention.
 
 use super::Candidate;
+use crate::sim::SimError;
 use crate::spec::{self, ParamSpec};
+use serde::{Serialize, Serializer};
 
 /// One line per departure from the candidate-effect convention, naming the variable
 /// ("model" for the FMU as a whole). The missing `[calibrate]` tag is not reported when the
@@ -18,74 +22,166 @@ pub(super) fn convention_warnings(params: &[ParamSpec], fit_given: bool) -> Vec<
         .collect()
 }
 
-/// A candidate's visibility on a scale an engineer reads at a glance: the most the effect could
-/// explain anywhere in its range as a multiple of what naming it needs ("0.4×": it cannot be
-/// revealed by these data; "2.3e+05×": it would stand out at its strongest setting).
-pub fn visibility_scale(visibility: f64, needed: f64) -> String {
-    if !(visibility.is_finite() && needed > 0.0) {
-        return "unknown".into();
-    }
-    let r = visibility / needed;
-    if r < 0.01 {
-        "< 0.01× what naming needs".into()
-    } else if r < 100.0 {
-        format!("{r:.2}× what naming needs")
-    } else {
-        format!("{r:.1e}× what naming needs")
+/// How visible an effect is: the most it could explain anywhere in its range (chi-square drop,
+/// linearised; see `Candidate::visibility`) and the drop naming it needs.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Reach {
+    pub visibility: f64,
+    pub needed: f64,
+}
+
+/// One reason a refitted candidate is not named.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Shortfall {
+    /// The refit failed from every start.
+    RefitFailed,
+    /// Its ΔBIC stays below the naming threshold.
+    DeltaBicBelow { delta_bic: f64, min_delta_bic: f64 },
+    /// The 95 % interval of its contribution's scale includes 0.
+    MagnitudeIncludesZero,
+    /// It does not lower the error on the held-out part.
+    HoldoutNotLower,
+    /// The record begins away from the model's initial state and its fit does not explain why.
+    StartNotReproduced,
+}
+
+/// Why a candidate of one round was or was not named.
+#[derive(Clone, Debug, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum CandidateVerdict {
+    /// Refitted, not yet checked against the naming criteria.
+    Unchecked,
+    /// Screened by the linearised test, not refitted.
+    ScreenedOnly,
+    /// Screened against the final model (with these named effects), whose residuals are at the
+    /// noise level.
+    ScreenedAgainstFinal { named: Vec<String> },
+    /// Its refit failed from every start.
+    RefitFailed {
+        #[serde(serialize_with = "as_text")]
+        cause: SimError,
+    },
+    /// Named: ΔBIC at least the threshold, magnitude interval excluding 0, held-out error lower.
+    Named { delta_bic: f64, min_delta_bic: f64 },
+    /// Not named, for these reasons; `unrevealable` when these data cannot reveal it anywhere in
+    /// its range.
+    NotNamed {
+        shortfalls: Vec<Shortfall>,
+        unrevealable: Option<Reach>,
+    },
+    /// Not checked: a higher-ranked candidate was named.
+    NotConsidered,
+}
+
+/// A simulation error as its message.
+fn as_text<S: Serializer>(e: &SimError, s: S) -> Result<S::Ok, S::Error> {
+    s.collect_str(e)
+}
+
+/// A candidate the data could show that was only screened, with its linearised ΔBIC.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ScreenedHint {
+    pub effect: String,
+    pub delta_bic: f64,
+}
+
+/// A candidate these data cannot reveal, with its reach at its strongest setting.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Unrevealable {
+    pub effect: String,
+    pub reach: Reach,
+}
+
+/// What the candidates of a round that named nothing leave open: those only screened although
+/// the data could show them, and those the data cannot reveal.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct LeftOpen {
+    pub min_delta_bic: f64,
+    pub only_screened: Vec<ScreenedHint>,
+    pub unrevealable: Vec<Unrevealable>,
+}
+
+/// Why the closest candidate of a round that named nothing fell short.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum ClosestShortfall {
+    /// Refitted, and short for these reasons.
+    Refitted { shortfalls: Vec<Shortfall> },
+    /// Not refitted: its linearised ΔBIC stays below the threshold.
+    NotRefitted { delta_bic: f64, min_delta_bic: f64 },
+}
+
+/// What a run concluded from its rounds (the disagreement the final model leaves, if any, is
+/// `GapResult::disagreement`).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Verdict {
+    /// The rounds named these effects (none: no missing effect found) and ran their course.
+    Named { effects: Vec<String> },
+    /// The calibrated base model's residuals are consistent with noise: every output at its
+    /// noise level and white, and no candidate's linearised ΔBIC reaches the threshold.
+    ConsistentWithNoise {
+        /// The candidate with the largest linearised ΔBIC (None: no candidate).
+        closest: Option<String>,
+        best_delta_bic: f64,
+        open: LeftOpen,
+    },
+    /// A round named nothing (after the effects `named`): its closest candidate and why.
+    NothingFurther {
+        named: Vec<String>,
+        closest: String,
+        why: ClosestShortfall,
+        open: LeftOpen,
+    },
+}
+
+impl Verdict {
+    /// The effects the run named.
+    pub fn named(&self) -> &[String] {
+        match self {
+            Verdict::Named { effects } => effects,
+            Verdict::ConsistentWithNoise { .. } => &[],
+            Verdict::NothingFurther { named, .. } => named,
+        }
     }
 }
 
-/// Verdict sentence for the candidates these data could show but that were only screened, not
-/// refitted (empty if none): why they were not refitted and what "not named" then means.
-pub(super) fn only_screened(round: &[Candidate], min_delta_bic: f64) -> String {
-    let names: Vec<String> = round
+/// What the candidates of `round` leave open ([`LeftOpen`]).
+pub(super) fn left_open(round: &[Candidate], min_delta_bic: f64) -> LeftOpen {
+    let only_screened = round
         .iter()
         .filter(|c| !c.refit && c.visibility.is_some() && c.detectable())
-        .map(|c| format!("{} (linearised ΔBIC {:.1})", c.effect, c.delta_bic))
-        .collect();
-    if names.is_empty() {
-        return String::new();
-    }
-    format!(
-        ". Only screened, not refitted: {}. The data could show each of them from its weakest \
-         detectable setting on (see the table), and the linearised test puts each below the \
-         naming threshold of ΔBIC {min_delta_bic}: none is present at that strength, though a \
-         weaker one, or one the linearisation misjudges (a dead zone), is not ruled out",
-        names.join(", ")
-    )
-}
-
-/// Verdict sentence listing the candidates these data cannot reveal (empty if none): for them
-/// "not named" is no evidence of absence, and the user needs other excitation or sensors.
-pub(super) fn hidden_from_data(round: &[Candidate]) -> String {
-    let hidden: Vec<String> = round
-        .iter()
-        .filter(|c| !c.detectable())
-        .map(|c| {
-            format!(
-                "{} (at its strongest setting {})",
-                c.effect,
-                visibility_scale(c.visibility.unwrap_or(0.0), c.visibility_needed)
-            )
+        .map(|c| ScreenedHint {
+            effect: c.effect.clone(),
+            delta_bic: c.delta_bic,
         })
         .collect();
-    if hidden.is_empty() {
-        String::new()
-    } else {
-        format!(
-            ". These data cannot reveal {}: even at the strongest setting in range, the base parameters absorb all but a change below the naming threshold, so their absence is not shown",
-            hidden.join(", ")
-        )
+    let unrevealable = round
+        .iter()
+        .filter(|c| !c.detectable())
+        .map(|c| Unrevealable {
+            effect: c.effect.clone(),
+            reach: c.reach(),
+        })
+        .collect();
+    LeftOpen {
+        min_delta_bic,
+        only_screened,
+        unrevealable,
     }
 }
 
 /// Why a refitted candidate may not be named (empty: it may).
-pub(super) fn reasons(c: &Candidate, min_delta_bic: f64, no_holdout: bool) -> Vec<String> {
+pub(super) fn shortfalls(c: &Candidate, min_delta_bic: f64, no_holdout: bool) -> Vec<Shortfall> {
     let mut why = Vec::new();
     if c.delta_bic == f64::NEG_INFINITY {
-        why.push("refit failed".to_string());
+        why.push(Shortfall::RefitFailed);
     } else if c.delta_bic < min_delta_bic {
-        why.push(format!("ΔBIC = {:.1} < {}", c.delta_bic, min_delta_bic));
+        why.push(Shortfall::DeltaBicBelow {
+            delta_bic: c.delta_bic,
+            min_delta_bic,
+        });
     }
     if !c
         .magnitude
@@ -93,21 +189,21 @@ pub(super) fn reasons(c: &Candidate, min_delta_bic: f64, no_holdout: bool) -> Ve
         .map(|m| m.ci_low > 0.0)
         .unwrap_or(false)
     {
-        why.push("magnitude interval includes 0".to_string());
+        why.push(Shortfall::MagnitudeIncludesZero);
     }
     let hold_ok = match (c.holdout_sse_with, c.holdout_sse_without) {
         (Some(w), Some(wo)) => w < wo,
         _ => no_holdout,
     };
     if !hold_ok {
-        why.push("does not lower the held-out error".to_string());
+        why.push(Shortfall::HoldoutNotLower);
     }
     why
 }
 
 #[cfg(test)]
 mod text_tests {
-    use super::{hidden_from_data, only_screened, visibility_scale};
+    use super::{left_open, Reach, ScreenedHint, Unrevealable};
     use crate::workflow::reliably_visible;
     use crate::workflow::BTreeMap;
     use crate::workflow::Candidate;
@@ -141,14 +237,6 @@ mod text_tests {
         // Just at the threshold an effect is named only about half the time.
         assert!((share(needed) - 0.5).abs() < 0.05, "{}", share(needed));
         assert!(!reliably_visible(needed, needed));
-    }
-
-    #[test]
-    fn visibility_reads_as_a_multiple_of_the_threshold() {
-        assert_eq!(visibility_scale(9.0, 18.0), "0.50× what naming needs");
-        assert_eq!(visibility_scale(3.36e6, 18.7), "1.8e5× what naming needs");
-        assert_eq!(visibility_scale(0.0, 18.7), "< 0.01× what naming needs");
-        assert_eq!(visibility_scale(f64::NAN, 18.7), "unknown");
     }
 
     #[test]
@@ -216,24 +304,31 @@ mod text_tests {
         let mut hidden = Candidate::screened_only("leak", 1.0, 1.0);
         hidden.visibility = Some(2.0);
         hidden.visibility_needed = 18.0;
-        let s = only_screened(&[seen.clone(), hidden.clone()], 10.0);
-        assert!(
-            s.contains("Only screened, not refitted: backlash (linearised ΔBIC 3.2)"),
-            "{s}"
+        let open = left_open(&[seen, hidden], 10.0);
+        assert_eq!(
+            open.only_screened,
+            vec![ScreenedHint {
+                effect: "backlash".into(),
+                delta_bic: 3.2
+            }]
         );
-        assert!(s.contains("below the naming threshold of ΔBIC 10"), "{s}");
-        assert!(!s.contains("leak"), "{s}");
-        // an undetectable one goes to the other sentence, on the readable scale
-        let h = hidden_from_data(&[seen, hidden]);
-        assert!(
-            h.contains("leak (at its strongest setting 0.11× what naming needs)"),
-            "{h}"
+        assert_eq!(open.min_delta_bic, 10.0);
+        // an undetectable one is listed as such, with its reach
+        assert_eq!(
+            open.unrevealable,
+            vec![Unrevealable {
+                effect: "leak".into(),
+                reach: Reach {
+                    visibility: 2.0,
+                    needed: 18.0
+                }
+            }]
         );
         // a refitted candidate is not "only screened"
         let mut refitted = Candidate::screened_only("friction", 30.0, 30.0);
         refitted.refit = true;
         refitted.visibility = Some(500.0);
-        assert_eq!(only_screened(&[refitted], 10.0), "");
+        assert!(left_open(&[refitted], 10.0).only_screened.is_empty());
     }
 }
 
