@@ -240,7 +240,6 @@ pub fn run(a: Args) -> CliResult {
     let md = fmu.view();
     let cfg = experiment(&a, md)?;
     let d = design::design(|data| fmu.simulator(data), &cfg).map_err(|e| match e {
-        GapError::Usage(m) => CliError::input(m),
         GapError::Input(e) => CliError::input(e),
         GapError::Simulation(m) => CliError::failure(format!("simulation failed: {m}")),
     })?;

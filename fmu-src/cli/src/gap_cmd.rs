@@ -166,7 +166,6 @@ pub fn run(a: Args) -> CliResult {
     };
     let sim = fmu.simulator(&data).map_err(CliError::input)?;
     let res = gap::run(&sim, &data, &cfg).map_err(|e| match e {
-        GapError::Usage(m) => CliError::input(m),
         GapError::Input(e) => CliError::input(e),
         GapError::Simulation(m) => CliError::failure(format!("simulation failed: {m}")),
     })?;

@@ -7,7 +7,7 @@
 
 use crate::sim::{GridModel, SimError};
 use crate::spec::{ParamKind, ParamSpec};
-use crate::workflow::{Data, GapError};
+use crate::workflow::{Data, GapError, InputError};
 use host::csv::sample_interval;
 use host::view::{Causality, ModelView, VarKind, Variability};
 use host::{AnySimulator, FmuRef, InputSeries, SimulationRequest, SimulationResult, Value};
@@ -30,8 +30,7 @@ impl<'a> FmuSimulator<'a> {
     /// value applies when the data have no column for them); `view` is the view of `fmu`'s
     /// description.
     pub fn new(fmu: FmuRef<'a>, view: &ModelView, data: &Data) -> Result<Self, GapError> {
-        let step = sample_interval(&data.time)
-            .ok_or_else(|| GapError::Usage("the data need at least two rows".into()))?;
+        let step = sample_interval(&data.time).ok_or(InputError::NoSampleInterval)?;
         Ok(FmuSimulator {
             fmu,
             pool: Mutex::new(Vec::new()),

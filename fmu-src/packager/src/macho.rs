@@ -14,8 +14,19 @@ const MH_MAGIC_64: u32 = 0xfeed_facf;
 /// Slices start at multiples of 2^ALIGN_LOG2 bytes.
 const ALIGN_LOG2: u32 = 14;
 
+/// Why slices cannot be joined into one universal file.
+#[derive(Debug, thiserror::Error)]
+pub enum UniversalError {
+    /// Slice `index` (from 1) does not start with `MH_MAGIC_64`.
+    #[error("slice {index} is not a 64-bit Mach-O file")]
+    NotMachO64 { index: usize },
+    /// Two slices name the same CPU type, which a universal file holds once.
+    #[error("two slices for CPU type {cpu:#x}")]
+    SameCpu { cpu: u32 },
+}
+
 /// The universal file of `slices` (each a complete 64-bit Mach-O), in the order given.
-pub fn universal(slices: &[Vec<u8>]) -> Result<Vec<u8>, String> {
+pub fn universal(slices: &[Vec<u8>]) -> Result<Vec<u8>, UniversalError> {
     let align = 1usize << ALIGN_LOG2;
     let mut archs = Vec::new();
     let mut offset = align;
@@ -25,11 +36,11 @@ pub fn universal(slices: &[Vec<u8>]) -> Result<Vec<u8>, String> {
                 .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
         };
         if word(0) != Some(MH_MAGIC_64) {
-            return Err(format!("slice {} is not a 64-bit Mach-O file", i + 1));
+            return Err(UniversalError::NotMachO64 { index: i + 1 });
         }
         let (cpu, sub) = (word(4).unwrap_or(0), word(8).unwrap_or(0));
         if archs.iter().any(|&(c, _, _, _)| c == cpu) {
-            return Err(format!("two slices for CPU type {cpu:#x}"));
+            return Err(UniversalError::SameCpu { cpu });
         }
         archs.push((cpu, sub, offset, s.len()));
         offset = (offset + s.len()).div_ceil(align) * align;

@@ -50,75 +50,172 @@ fn files_below(dir: &Path) -> std::io::Result<Vec<PathBuf>> {
     Ok(out)
 }
 
-fn package(args: &Args) -> Result<(), String> {
-    let read = |p: &Path| fs::read(p).map_err(|e| format!("cannot read {}: {e}", p.display()));
-    let description = read(&args.model_dir.join("modelDescription.xml"))?;
+/// Why an FMU cannot be packaged; each names the file or argument and the cause.
+#[derive(Debug, thiserror::Error)]
+enum PackageError {
+    #[error("cannot read {}: {source}", path.display())]
+    Read {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{}: modelIdentifier is not \"{identifier}\"", path.display())]
+    Identifier { path: PathBuf, identifier: String },
+    #[error("{}: {source}", dir.display())]
+    List {
+        dir: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("--binary {spec}: expected PLATFORM=PATH")]
+    BinarySpec { spec: String },
+    #[error("--binary {spec}: unknown platform '{platform}'")]
+    Platform { spec: String, platform: String },
+    #[error("--binary {spec}: {source}")]
+    Universal {
+        spec: String,
+        source: macho::UniversalError,
+    },
+    #[error("cannot create {}: {source}", path.display())]
+    Create {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("writing {}: {source}", path.display())]
+    Zip {
+        path: PathBuf,
+        source: zip::result::ZipError,
+    },
+    #[error("writing {}: {source}", path.display())]
+    Write {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("cannot write {}: {source}", path.display())]
+    Rename {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+}
+
+/// The bytes of `path`.
+fn read(path: &Path) -> Result<Vec<u8>, PackageError> {
+    fs::read(path).map_err(|source| PackageError::Read {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// The archive's entries: name, bytes and Unix mode, in the order they are written.
+type Entries = Vec<(String, Vec<u8>, u32)>;
+
+/// `modelDescription.xml` (checked to name `identifier`), the icon and the documentation.
+fn model_entries(args: &Args) -> Result<Entries, PackageError> {
+    let md_path = args.model_dir.join("modelDescription.xml");
+    let description = read(&md_path)?;
     let needle = format!("modelIdentifier=\"{}\"", args.identifier);
     if !String::from_utf8_lossy(&description).contains(&needle) {
-        return Err(format!(
-            "{}: modelIdentifier is not \"{}\"",
-            args.model_dir.join("modelDescription.xml").display(),
-            args.identifier
-        ));
+        return Err(PackageError::Identifier {
+            path: md_path,
+            identifier: args.identifier.clone(),
+        });
     }
-    let mut entries: Vec<(String, Vec<u8>, u32)> =
-        vec![("modelDescription.xml".into(), description, 0o644)];
+    let mut entries = vec![("modelDescription.xml".into(), description, 0o644)];
     let icon = args.model_dir.join("model.png");
     if icon.is_file() {
         entries.push(("model.png".into(), read(&icon)?, 0o644));
     }
     let doc_dir = args.model_dir.join("documentation");
     if doc_dir.is_dir() {
-        for rel in files_below(&doc_dir).map_err(|e| format!("{}: {e}", doc_dir.display()))? {
+        let files = files_below(&doc_dir).map_err(|source| PackageError::List {
+            dir: doc_dir.clone(),
+            source,
+        })?;
+        for rel in files {
             let name = format!("documentation/{}", rel.to_string_lossy().replace('\\', "/"));
             entries.push((name, read(&doc_dir.join(&rel))?, 0o644));
         }
     }
-    for spec in &args.binary {
-        let (platform, paths) = spec
-            .split_once('=')
-            .ok_or_else(|| format!("--binary {spec}: expected PLATFORM=PATH"))?;
-        let ext = match platform {
-            // FMI 2.0 platform names, then the FMI 3.0 platform tuples (FMI 3.0.2 section 2.5.1.1:
-            // one folder per architecture, no universal binary).
-            "linux64" | "x86_64-linux" | "aarch64-linux" => "so",
-            "win64" | "x86_64-windows" => "dll",
-            "darwin64" | "x86_64-darwin" | "aarch64-darwin" => "dylib",
-            other => return Err(format!("--binary {spec}: unknown platform '{other}'")),
-        };
-        let slices = paths
-            .split('+')
-            .map(|p| read(Path::new(p)))
-            .collect::<Result<Vec<_>, _>>()?;
-        let data = match slices.len() {
-            1 => slices.into_iter().next().unwrap_or_default(),
-            _ => macho::universal(&slices).map_err(|e| format!("--binary {spec}: {e}"))?,
-        };
-        let name = format!("binaries/{platform}/{}.{ext}", args.identifier);
-        entries.push((name, data, 0o755));
-    }
+    Ok(entries)
+}
 
-    if let Some(parent) = args.out.parent() {
-        fs::create_dir_all(parent)
-            .map_err(|e| format!("cannot create {}: {e}", parent.display()))?;
+/// One `--binary PLATFORM=PATH[+PATH]` as its archive entry.
+fn binary_entry(spec: &str, identifier: &str) -> Result<(String, Vec<u8>, u32), PackageError> {
+    let (platform, paths) = spec
+        .split_once('=')
+        .ok_or_else(|| PackageError::BinarySpec { spec: spec.into() })?;
+    let ext = match platform {
+        // FMI 2.0 platform names, then the FMI 3.0 platform tuples (FMI 3.0.2 section 2.5.1.1:
+        // one folder per architecture, no universal binary).
+        "linux64" | "x86_64-linux" | "aarch64-linux" => "so",
+        "win64" | "x86_64-windows" => "dll",
+        "darwin64" | "x86_64-darwin" | "aarch64-darwin" => "dylib",
+        other => {
+            return Err(PackageError::Platform {
+                spec: spec.into(),
+                platform: other.into(),
+            })
+        }
+    };
+    let slices = paths
+        .split('+')
+        .map(|p| read(Path::new(p)))
+        .collect::<Result<Vec<_>, _>>()?;
+    let data = match slices.len() {
+        1 => slices.into_iter().next().unwrap_or_default(),
+        _ => macho::universal(&slices).map_err(|source| PackageError::Universal {
+            spec: spec.into(),
+            source,
+        })?,
+    };
+    Ok((
+        format!("binaries/{platform}/{identifier}.{ext}"),
+        data,
+        0o755,
+    ))
+}
+
+/// Writes `entries` to `out` through a temporary file renamed at the end, so a failed run
+/// leaves no partial archive under the final name.
+fn write_archive(out: &Path, entries: Entries) -> Result<(), PackageError> {
+    if let Some(parent) = out.parent() {
+        fs::create_dir_all(parent).map_err(|source| PackageError::Create {
+            path: parent.to_path_buf(),
+            source,
+        })?;
     }
-    let tmp = args.out.with_extension("fmu.partial");
-    let file =
-        fs::File::create(&tmp).map_err(|e| format!("cannot create {}: {e}", tmp.display()))?;
+    let tmp = out.with_extension("fmu.partial");
+    let file = fs::File::create(&tmp).map_err(|source| PackageError::Create {
+        path: tmp.clone(),
+        source,
+    })?;
     let mut zip = ZipWriter::new(file);
     let options = SimpleFileOptions::default()
         .compression_method(CompressionMethod::Deflated)
         .last_modified_time(DateTime::default());
-    let zerr = |e: zip::result::ZipError| format!("writing {}: {e}", tmp.display());
+    let zerr = |source| PackageError::Zip {
+        path: tmp.clone(),
+        source,
+    };
     for (name, data, mode) in entries {
         zip.start_file(name, options.unix_permissions(mode))
             .map_err(zerr)?;
-        zip.write_all(&data)
-            .map_err(|e| format!("writing {}: {e}", tmp.display()))?;
+        zip.write_all(&data).map_err(|source| PackageError::Write {
+            path: tmp.clone(),
+            source,
+        })?;
     }
     zip.finish().map_err(zerr)?;
-    fs::rename(&tmp, &args.out).map_err(|e| format!("cannot write {}: {e}", args.out.display()))?;
-    Ok(())
+    fs::rename(&tmp, out).map_err(|source| PackageError::Rename {
+        path: out.to_path_buf(),
+        source,
+    })
+}
+
+fn package(args: &Args) -> Result<(), PackageError> {
+    let mut entries = model_entries(args)?;
+    for spec in &args.binary {
+        entries.push(binary_entry(spec, &args.identifier)?);
+    }
+    write_archive(&args.out, entries)
 }
 
 fn main() {

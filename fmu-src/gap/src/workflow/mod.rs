@@ -129,9 +129,6 @@ impl Default for Config {
 /// Errors of the workflow.
 #[derive(Debug, thiserror::Error)]
 pub enum GapError {
-    /// A request the data or the FMU cannot serve, in words for the user.
-    #[error("{0}")]
-    Usage(String),
     /// The request, the data and the model do not fit together.
     #[error(transparent)]
     Input(#[from] InputError),
@@ -143,6 +140,8 @@ pub enum GapError {
 /// variable it concerns.
 #[derive(Debug, thiserror::Error)]
 pub enum InputError {
+    #[error("the data need at least two rows")]
+    NoSampleInterval,
     #[error("need at least {need} samples, got {got}")]
     TooFewSamples { got: usize, need: usize },
     #[error("the data hold no output column to compare with")]
