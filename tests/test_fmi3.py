@@ -257,6 +257,7 @@ DRIVER = REPO / "tests" / "drivers" / "platform"
 WINE_RUNS = {
     "HydraulicJoint": ("theta_ref", 0.5, ["theta", "x_left", "p1_left", "T_left"]),
     "TwistedString": ("theta_motor_ref", 600.0, ["p", "theta_motor", "current"]),
+    "EMPS": ("qg", 0.05, ["qm", "force", "velocity"]),
 }
 
 
