@@ -565,11 +565,21 @@ fn check_outputs_listed(md: &ModelDescription, f: &mut Vec<Finding>) {
 }
 
 /// `<InitialUnknowns>` (FMI 2.0.4 section 2.2.8): outputs with initial approx/calculated,
-/// calculated parameters, and derivatives/states with initial approx/calculated; no others.
+/// calculated parameters, and "all continuous-time states and all state derivatives (defined
+/// with element `<Derivatives>`)" with initial approx/calculated must be listed. A variable that
+/// a `derivative` attribute names while its derivative is not in `<Derivatives>` is no state in
+/// that sense (a Co-Simulation FMU may leave `<Derivatives>` out): it is not demanded, and
+/// listing it is tolerated.
 fn check_initial_unknowns(md: &ModelDescription, f: &mut Vec<Finding>) {
     let ms = &md.model_structure;
     let derivs: BTreeSet<usize> = ms.derivatives.iter().map(|u| u.index).collect();
-    let states: BTreeSet<usize> = md
+    let states: BTreeSet<usize> = ms
+        .derivatives
+        .iter()
+        .filter_map(|u| variable(md, u.index))
+        .filter_map(|v| v.derivative)
+        .collect();
+    let named_states: BTreeSet<usize> = md
         .model_variables
         .iter()
         .filter_map(|v| v.derivative)
@@ -603,7 +613,9 @@ fn check_initial_unknowns(md: &ModelDescription, f: &mut Vec<Finding>) {
         ));
     }
     for u in &ms.initial_unknowns {
-        if variable(md, u.index).is_some() && !required.contains(&u.index) {
+        let tolerated =
+            named_states.contains(&u.index) && variable(md, u.index).is_some_and(&approx_or_calc);
+        if variable(md, u.index).is_some() && !required.contains(&u.index) && !tolerated {
             let v = &md.model_variables[u.index - 1];
             f.push(Finding::new(
                 "initial-unknowns",

@@ -327,3 +327,52 @@ fn initial_unknowns_required_and_allowed() {
     );
     assert!(f.message.contains("'u' may not be listed"), "{f}");
 }
+
+/// FMI 2.0.4 section 2.2.8 demands the states defined through `<Derivatives>` in
+/// `<InitialUnknowns>`: a variable that only a `derivative` attribute names (its derivative not in
+/// `<Derivatives>`, as Co-Simulation exporters write) is not demanded, and may be listed.
+#[test]
+fn a_state_not_defined_through_derivatives_is_not_demanded() {
+    let vars = r#"<ScalarVariable name="y" valueReference="0" causality="output"><Real/></ScalarVariable>
+<ScalarVariable name="x" valueReference="1" causality="local" variability="continuous" initial="calculated"><Real/></ScalarVariable>
+<ScalarVariable name="der(x)" valueReference="2" causality="local" variability="continuous" initial="calculated"><Real derivative="2"/></ScalarVariable>"#;
+    let iu = |list: &str| {
+        format!(
+            r#"<Outputs><Unknown index="1"/></Outputs><InitialUnknowns>{list}</InitialUnknowns>"#
+        )
+    };
+    let unlisted = md_with_vars(vars, &iu(r#"<Unknown index="1"/>"#));
+    assert!(
+        !checks(&unlisted).contains(&"initial-unknowns".to_string()),
+        "{:#?}",
+        check_model_description(&unlisted)
+    );
+    let listed = md_with_vars(vars, &iu(r#"<Unknown index="1"/><Unknown index="2"/>"#));
+    assert!(
+        !checks(&listed).contains(&"initial-unknowns".to_string()),
+        "{:#?}",
+        check_model_description(&listed)
+    );
+    // Defined through <Derivatives>, the state and its derivative are demanded.
+    let defined = md_with_vars(
+        vars,
+        r#"<Outputs><Unknown index="1"/></Outputs><Derivatives><Unknown index="3"/></Derivatives><InitialUnknowns><Unknown index="1"/></InitialUnknowns>"#,
+    );
+    let demanded: Vec<String> = check_model_description(&defined)
+        .into_iter()
+        .filter(|f| f.check == "initial-unknowns")
+        .map(|f| f.message)
+        .collect();
+    assert!(
+        demanded
+            .iter()
+            .any(|m| m.contains("'x' (index 2) must be listed")),
+        "{demanded:?}"
+    );
+    assert!(
+        demanded
+            .iter()
+            .any(|m| m.contains("'der(x)' (index 3) must be listed")),
+        "{demanded:?}"
+    );
+}
