@@ -194,6 +194,18 @@ def test_a_broken_binary_rule_is_found(toy, case, tmp_path):
     assert all(f["clause"].startswith("FMI 3.0.2 §") for f in found), found
 
 
+def test_an_exact_continuous_input_is_no_finding(toy, tmp_path):
+    """FMI 3.0.2 section 2.4.7.5 gives an input initial="exact" (its default and only value),
+    where FMI 2.0.4 gives an input no initial attribute: no finding in FMI 3.0."""
+    exact = replace('name="u" valueReference="9" causality="input"',
+                    'name="u" valueReference="9" causality="input" initial="exact"')
+    assert [f for f in findings(toy, tmp_path, "StateSpace", md=exact) if f["check"] == "initial"] == []
+    calculated = replace('name="u" valueReference="9" causality="input"',
+                         'name="u" valueReference="9" causality="input" initial="calculated"')
+    checks = [f["check"] for f in findings(toy, tmp_path, "StateSpace", md=calculated)]
+    assert "initial" in checks, checks
+
+
 def test_sources_without_binaries_are_no_finding(toy, tmp_path):
     assert findings(toy, tmp_path, member=lambda n, d: None if n.startswith("binaries/") else d) == []
 

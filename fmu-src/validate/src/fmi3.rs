@@ -360,6 +360,16 @@ fn check_variables(md: &ModelDescription3, f: &mut Vec<Finding>) {
     }
 }
 
+/// The `initial` values FMI 3.0.2 allows (section 2.4.7.5, the table "Definition of initial"):
+/// FMI 2.0.4's, except that an input (discrete or continuous) takes `exact`, its default and only
+/// value, where FMI 2.0.4 gives an input no `initial` attribute.
+fn initial_allowed3(c: Causality, v: Variability) -> &'static [Option<Initial>] {
+    match c {
+        Causality::Input => &[None, Some(Initial::Exact)],
+        _ => initial_allowed(c, v),
+    }
+}
+
 /// Causality against variability, and `initial` for an allowed combination (FMI 3.0.2 section
 /// 2.4.7.4, the two tables); only Float variables may be continuous.
 fn check_combination(v: &Variable3, loc: &str, f: &mut Vec<Finding>) {
@@ -371,7 +381,7 @@ fn check_combination(v: &Variable3, loc: &str, f: &mut Vec<Finding>) {
             variability_name(v.variability)
         );
         f.push(finding("causality-variability", loc, m));
-    } else if !initial_allowed(c, v.variability).contains(&v.initial) {
+    } else if !initial_allowed3(c, v.variability).contains(&v.initial) {
         let m = format!(
             "initial=\"{}\" is not allowed for causality {} and variability {}",
             format!("{:?}", v.initial.unwrap_or(Initial::Exact)).to_lowercase(),
