@@ -464,8 +464,11 @@ fn variable(md: &ModelDescription, index: usize) -> Option<&ScalarVariable> {
     md.model_variables.get(index.wrapping_sub(1))
 }
 
-/// The `<Unknown>` elements of the list `<list>`: indices of variables, ordered without
-/// repeats; dependencies of variables, with as many kinds as dependencies.
+/// The `<Unknown>` elements of the list `<list>`: indices of variables, none twice; ordered by
+/// index in `<InitialUnknowns>` only (FMI 2.0.4 section 2.2.8: "The `Unknowns` in this list must
+/// be ordered according to their `ScalarVariable` index"; for `<Outputs>` and `<Derivatives>`
+/// "the ordering of the variables in this list is defined by the exporting tool");
+/// dependencies of variables, with as many kinds as dependencies.
 fn check_unknowns(
     md: &ModelDescription,
     list: &str,
@@ -474,7 +477,9 @@ fn check_unknowns(
 ) {
     let n = md.model_variables.len();
     let var = |i: usize| variable(md, i);
+    let ordered = list == "InitialUnknowns";
     let mut prev = 0;
+    let mut seen = BTreeSet::new();
     for u in unknowns {
         let loc = format!(
             "modelDescription.xml:{} (<{list}> <Unknown index=\"{}\">)",
@@ -487,7 +492,7 @@ fn check_unknowns(
                 format!("index {} is not a variable (1..{n})", u.index),
             ));
         }
-        if u.index <= prev {
+        if ordered && u.index <= prev {
             f.push(Finding::new(
                 "model-structure",
                 &loc,
@@ -495,6 +500,12 @@ fn check_unknowns(
                     "<{list}> must be ordered by index without repeats ({} after {prev})",
                     u.index
                 ),
+            ));
+        } else if !ordered && !seen.insert(u.index) {
+            f.push(Finding::new(
+                "model-structure",
+                &loc,
+                format!("<{list}> lists index {} twice", u.index),
             ));
         }
         prev = u.index;

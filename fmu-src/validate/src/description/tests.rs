@@ -259,7 +259,8 @@ fn outputs_must_match_model_structure() {
         r#"<Outputs><Unknown index="1"/><Unknown index="1"/></Outputs><InitialUnknowns><Unknown index="1"/></InitialUnknowns>"#,
     ));
     assert!(
-        all.iter().any(|f| f.message.contains("ordered")),
+        all.iter()
+            .any(|f| f.message.contains("lists index 1 twice")),
         "{all:#?}"
     );
     let md = md_with_vars(GOOD_VARS, GOOD_STRUCT);
@@ -375,4 +376,36 @@ fn a_state_not_defined_through_derivatives_is_not_demanded() {
             .any(|m| m.contains("'der(x)' (index 3) must be listed")),
         "{demanded:?}"
     );
+}
+
+/// FMI 2.0.4 section 2.2.8: the exporting tool orders `<Outputs>` and `<Derivatives>` (the order
+/// defines the output and state vectors); only `<InitialUnknowns>` is ordered by index. A repeat
+/// stays a finding everywhere.
+#[test]
+fn only_initial_unknowns_are_ordered_by_index() {
+    let vars = r#"<ScalarVariable name="y1" valueReference="0" causality="output"><Real/></ScalarVariable>
+<ScalarVariable name="y2" valueReference="1" causality="output"><Real/></ScalarVariable>"#;
+    let reversed = md_with_vars(
+        vars,
+        r#"<Outputs><Unknown index="2"/><Unknown index="1"/></Outputs><InitialUnknowns><Unknown index="1"/><Unknown index="2"/></InitialUnknowns>"#,
+    );
+    assert!(
+        !checks(&reversed).contains(&"model-structure".to_string()),
+        "{:#?}",
+        check_model_description(&reversed)
+    );
+    let repeated = md_with_vars(
+        vars,
+        r#"<Outputs><Unknown index="1"/><Unknown index="2"/><Unknown index="1"/></Outputs><InitialUnknowns><Unknown index="1"/><Unknown index="2"/></InitialUnknowns>"#,
+    );
+    assert!(check_model_description(&repeated)
+        .iter()
+        .any(|f| f.message.contains("<Outputs> lists index 1 twice")));
+    let unordered = md_with_vars(
+        vars,
+        r#"<Outputs><Unknown index="1"/><Unknown index="2"/></Outputs><InitialUnknowns><Unknown index="2"/><Unknown index="1"/></InitialUnknowns>"#,
+    );
+    assert!(check_model_description(&unordered).iter().any(|f| f
+        .message
+        .contains("<InitialUnknowns> must be ordered by index")));
 }
