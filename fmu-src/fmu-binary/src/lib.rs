@@ -43,37 +43,16 @@ pub const VERSION: Option<fmu_core::Version> = Some(fmu_core::Version::Fmi3);
 #[cfg(not(any(feature = "fmi2", feature = "fmi3")))]
 pub const VERSION: Option<fmu_core::Version> = None;
 
-#[cfg(all(
-    feature = "fmi2",
-    any(
-        feature = "hydraulic-joint",
-        feature = "twisted-string",
-        feature = "test-oscillator",
-        feature = "emps"
-    )
-))]
+#[cfg(all(feature = "fmi2", feature = "model"))]
 fmi2_export::export_model!(Exported);
 
-#[cfg(all(
-    feature = "fmi3",
-    any(
-        feature = "hydraulic-joint",
-        feature = "twisted-string",
-        feature = "test-oscillator",
-        feature = "emps"
-    )
-))]
+#[cfg(all(feature = "fmi3", feature = "model"))]
 fmi3_export::export_fmi3!(Exported);
 
 /// Write the description and documentation of the chosen model in the chosen version
 /// ([`fmu_core::describe_main`]); exits with status 2 when a feature is missing.
 pub fn describe() {
-    #[cfg(any(
-        feature = "hydraulic-joint",
-        feature = "twisted-string",
-        feature = "test-oscillator",
-        feature = "emps"
-    ))]
+    #[cfg(feature = "model")]
     if let Some(version) = VERSION {
         return fmu_core::describe_main::<Exported>(version);
     }

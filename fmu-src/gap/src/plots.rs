@@ -3,9 +3,26 @@
 
 use crate::workflow::GapResult;
 use plotters::prelude::*;
+use plotters::style::register_font;
 use std::path::Path;
+use std::sync::OnceLock;
 
 type DynErr = Box<dyn std::error::Error>;
+
+/// The font of every plot's text, DejaVu Sans compiled into the binary: a plot looks the same on
+/// every machine, and the CLI needs no system font library (fontconfig, FreeType), so it runs on
+/// a bare system and ships in a portable wheel.
+fn embedded_font() -> Result<(), DynErr> {
+    static REGISTERED: OnceLock<bool> = OnceLock::new();
+    let ok = REGISTERED.get_or_init(|| {
+        register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular()).is_ok()
+    });
+    if *ok {
+        Ok(())
+    } else {
+        Err("the embedded DejaVu Sans font could not be read".into())
+    }
+}
 
 fn stride(n: usize) -> usize {
     (n / 2000).max(1)
@@ -195,6 +212,10 @@ fn file_safe(s: &str) -> String {
 pub fn write(res: &GapResult, dir: &Path) -> Vec<String> {
     let mut names = Vec::new();
     if res.traces.time.len() < 2 {
+        return names;
+    }
+    if let Err(e) = embedded_font() {
+        eprintln!("warning: no plots written: {e}");
         return names;
     }
     let mut go = |name: String, f: &dyn Fn(&Path) -> Result<bool, DynErr>| match f(&dir.join(&name))
