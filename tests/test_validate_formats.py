@@ -154,7 +154,7 @@ def test_junit_is_valid_and_has_a_suite_per_fmu_a_case_per_rule(fmus, outputs):
     schema = etree.XMLSchema(etree.fromstring(JUNIT_XSD))
     doc = etree.fromstring(outputs["junit"].encode())
     assert schema.validate(doc), schema.error_log
-    suites = {s.name: s for s in JUnitXml.fromstring(outputs["junit"])}
+    suites = {s.name: s for s in JUnitXml.fromstring(outputs["junit"].encode())}
     assert set(suites) == set(rel.values())
     for label, path in rel.items():
         cases = list(suites[path])
