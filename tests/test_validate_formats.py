@@ -206,6 +206,7 @@ def test_sarif_is_valid_2_1_0_with_rules_levels_and_locations(fmus, outputs):
     assert "mu" in err["locations"][0]["logicalLocations"][0]["fullyQualifiedName"]
     [related] = err["relatedLocations"]
     assert related["physicalLocation"]["region"]["startLine"] == line
+    assert f"line {line} of modelDescription.xml" in related["message"]["text"]
     inner = run["artifacts"][related["physicalLocation"]["artifactLocation"]["index"]]
     assert inner["location"]["uri"] == "modelDescription.xml"
     assert run["artifacts"][inner["parentIndex"]]["location"]["uri"] == rel["broken"]

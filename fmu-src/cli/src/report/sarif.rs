@@ -108,6 +108,8 @@ struct Location {
     #[serde(skip_serializing_if = "Option::is_none")]
     id: Option<usize>,
     physical_location: PhysicalLocation,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    message: Option<Text>,
     #[serde(skip_serializing_if = "Vec::is_empty")]
     logical_locations: Vec<LogicalLocation>,
 }
@@ -202,6 +204,9 @@ fn result(run: &mut Run, fmu: &ArtifactLocation, f: &Finding) -> SarifResult {
             artifact_location: artifact(run, "modelDescription.xml", Some(fmu.index)),
             region: Some(Region { start_line: line }),
         },
+        message: Some(Text {
+            text: format!("line {line} of modelDescription.xml in {}", fmu.uri),
+        }),
         logical_locations: Vec::new(),
     });
     SarifResult {
@@ -217,6 +222,7 @@ fn result(run: &mut Run, fmu: &ArtifactLocation, f: &Finding) -> SarifResult {
                 artifact_location: fmu.clone(),
                 region: None,
             },
+            message: None,
             logical_locations: vec![logical],
         }],
         related_locations: related.into_iter().collect(),
