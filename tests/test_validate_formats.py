@@ -380,3 +380,22 @@ def test_the_pre_commit_hook_fails_a_commit_with_a_broken_fmu(fmus, tmp_path):
     r = run_hook(repo, env)
     assert r.returncode == 1, r.stdout + r.stderr
     assert "broken.fmu: 1 finding(s)" in r.stdout and "[start]" in r.stdout
+
+
+def test_junit_skips_the_probe_rules_when_there_is_no_binary_to_run(fmus, tmp_path):
+    from junitparser import Failure, JUnitXml, Skipped
+    d, rel, _ = fmus
+    fmu = tmp_path / "no-binary.fmu"
+    with zipfile.ZipFile(d / rel["notes"]) as zin, zipfile.ZipFile(fmu, "w") as zout:
+        for info in zin.infolist():
+            if not info.filename.endswith(".so"):
+                zout.writestr(info, zin.read(info.filename))
+    r = validate(tmp_path, "--format", "junit", fmu.name)
+    assert r.returncode == 1, r.stdout + r.stderr  # FMI 2.0.4 §2.3: a binary is required
+    assert etree.XMLSchema(etree.fromstring(JUNIT_XSD)).validate(etree.fromstring(r.stdout.encode()))
+    [suite] = JUnitXml.fromstring(r.stdout.encode())
+    outcome = {c.name.split(":")[0]: {type(x) for x in c.result} for c in suite}
+    assert outcome["binary"] == {Failure}
+    probe = [c for c in outcome if c.startswith("probe-")]
+    assert probe and all(outcome[c] == {Skipped} for c in probe)
+    assert all(outcome[c] == set() for c in outcome if c != "binary" and c not in probe)
