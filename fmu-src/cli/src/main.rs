@@ -19,6 +19,7 @@ mod design;
 mod gap_cmd;
 mod open;
 mod probe;
+mod report;
 mod simulate;
 mod supervise;
 mod validate;

@@ -1,8 +1,10 @@
-//! `actuator-fmu validate FMU... [--json]`: model-description checks in this process, the
-//! binary checks and state-machine probe in a child process (`__probe`).
+//! `actuator-fmu validate FMU... [--format text|json|junit|sarif|github]`: model-description
+//! checks in this process, the binary checks and state-machine probe in a child process
+//! (`__probe`); the reports are written by `report`.
 
 use crate::common::{CliError, CliResult};
 use crate::probe::{FINDINGS_MARK, STEP_MARK};
+use crate::report::{render, Fmi, Format, Report, Stage, FORMAT_VERSION};
 use host::fmi3::ModelDescription3;
 use host::{Extracted, FmiVersion, HostError, ModelView, Unpacked};
 use std::io::Read;
@@ -20,9 +22,17 @@ pub struct Args {
     /// FMUs to check.
     #[arg(required = true)]
     pub fmus: Vec<PathBuf>,
-    /// Print the findings as JSON on stdout.
-    #[arg(long)]
+    /// Output format: text, json (docs/validate-output.md), junit (JUnit XML), sarif (SARIF
+    /// 2.1.0) or github (GitHub Actions annotations). The exit status is the same for all.
+    #[arg(long, value_enum, default_value_t = Format::Text)]
+    pub format: Format,
+    /// The same as `--format json`.
+    #[arg(long, conflicts_with = "format")]
     pub json: bool,
+    /// Also write the reports in FORMAT to FILE (repeatable), from the same run: e.g.
+    /// `--format github --output sarif=validate.sarif` in CI.
+    #[arg(long, value_name = "FORMAT=FILE", value_parser = parse_output)]
+    pub output: Vec<(Format, PathBuf)>,
     /// Also check the candidate-effect convention of the gap workflow (`<effect>.enabled`
     /// switches, effect parameters with unit and min/max, a `[calibrate]` default set).
     #[arg(long)]
@@ -32,60 +42,89 @@ pub struct Args {
     pub timeout: u64,
 }
 
-#[derive(serde::Serialize)]
-struct Report {
-    fmu: String,
-    /// What the standard requires and the FMU violates (exit 1).
-    findings: Vec<Finding>,
-    /// What the standard permits but a robust FMU would do otherwise (exit 0).
-    notes: Vec<Finding>,
-    /// Every platform binary: format, architectures, exported functions, glibc needs.
-    binaries: Vec<PlatformBinary>,
-}
-
 /// Runs `validate`: exit 0 without findings (notes allowed), 1 with any, 2 when an FMU file
-/// cannot be read.
+/// cannot be read (then nothing is printed on stdout).
 pub fn run(a: Args) -> CliResult {
     let mut reports = Vec::new();
     for path in &a.fmus {
         if !path.exists() {
             return Err(CliError::input(format!("{}: no such file", path.display())));
         }
-        let (all, binaries) = validate_one(path, Duration::from_secs(a.timeout), a.effects)?;
-        let (findings, notes) = all.into_iter().partition(Finding::is_required);
+        let fmi_version = match host::fmi_version_of(path) {
+            Ok(FmiVersion::Fmi2) => Some(Fmi::V2),
+            Ok(FmiVersion::Fmi3) => Some(Fmi::V3),
+            Err(_) => None,
+        };
+        let checked = validate_one(path, Duration::from_secs(a.timeout), a.effects)?;
+        let (findings, notes) = checked.findings.into_iter().partition(Finding::is_required);
         reports.push(Report {
+            format_version: FORMAT_VERSION,
             fmu: path.display().to_string(),
+            fmi_version,
+            checked: checked.stages,
             findings,
             notes,
-            binaries,
+            binaries: checked.binaries,
         });
     }
     let total: usize = reports.iter().map(|r| r.findings.len()).sum();
-    if a.json {
-        out!(
-            "{}",
-            serde_json::to_string_pretty(&reports).unwrap_or_default()
-        );
-    } else {
-        for r in &reports {
-            for f in r.findings.iter().chain(&r.notes) {
-                out!("{}: {f}", r.fmu);
-            }
-            let notes = match r.notes.len() {
-                0 => String::new(),
-                n => format!(", {n} note(s)"),
-            };
-            if r.findings.is_empty() {
-                out!("{}: OK (no findings{notes})", r.fmu);
-            } else {
-                out!("{}: {} finding(s){notes}", r.fmu, r.findings.len());
-            }
-        }
+    let format = if a.json { Format::Json } else { a.format };
+    for (format, file) in &a.output {
+        std::fs::write(file, render(&reports, *format))
+            .map_err(|e| CliError::input(format!("--output {}: {e}", file.display())))?;
     }
+    out!("{}", render(&reports, format).trim_end_matches('\n'));
     Ok(if total == 0 { 0 } else { 1 })
 }
 
-type Checked = (Vec<Finding>, Vec<PlatformBinary>);
+/// What is wrong with an `--output` argument.
+#[derive(Debug, thiserror::Error)]
+pub enum OutputArgError {
+    /// No `=` between format and file.
+    #[error("'{0}': expected FORMAT=FILE")]
+    Form(String),
+    /// The format is not one of `--format`'s.
+    #[error("'{arg}': unknown format '{format}' (text, json, junit, sarif, github)")]
+    Format {
+        /// The argument.
+        arg: String,
+        /// Its format part.
+        format: String,
+    },
+}
+
+/// `--output FORMAT=FILE`.
+fn parse_output(arg: &str) -> Result<(Format, PathBuf), OutputArgError> {
+    use clap::ValueEnum as _;
+    let (format, file) = arg
+        .split_once('=')
+        .filter(|(_, file)| !file.is_empty())
+        .ok_or_else(|| OutputArgError::Form(arg.to_string()))?;
+    let format = Format::from_str(format, true).map_err(|_| OutputArgError::Format {
+        arg: arg.to_string(),
+        format: format.to_string(),
+    })?;
+    Ok((format, PathBuf::from(file)))
+}
+
+/// What `validate` checked in one FMU: its findings and notes, its binaries, the stages run.
+#[derive(Default)]
+struct Checked {
+    findings: Vec<Finding>,
+    binaries: Vec<PlatformBinary>,
+    stages: Vec<Stage>,
+}
+
+impl Checked {
+    /// An FMU that could not be opened or read: `finding` is all there is.
+    fn unreadable(finding: Finding) -> Self {
+        Checked {
+            findings: vec![finding],
+            stages: vec![Stage::Archive],
+            ..Checked::default()
+        }
+    }
+}
 
 fn validate_one(path: &Path, timeout: Duration, effects: bool) -> Result<Checked, CliError> {
     if matches!(host::fmi_version_of(path), Ok(FmiVersion::Fmi3)) {
@@ -103,11 +142,13 @@ fn validate_one(path: &Path, timeout: Duration, effects: bool) -> Result<Checked
                 _ => "archive",
             };
             let finding = Finding::new(check, path.display().to_string(), e.to_string());
-            return Ok((vec![finding], Vec::new()));
+            return Ok(Checked::unreadable(finding));
         }
     };
+    let mut stages = vec![Stage::Archive, Stage::Description, Stage::Binaries];
     let mut findings = check_model_description(&ex.model_description);
     if effects {
+        stages.push(Stage::Effects);
         findings.extend(check_effect_convention(&ModelView::from(
             &ex.model_description,
         )));
@@ -122,8 +163,13 @@ fn validate_one(path: &Path, timeout: Duration, effects: bool) -> Result<Checked
     drop(ex);
     if binary_present {
         findings.extend(run_probe(path, timeout, false)?);
+        stages.push(Stage::Probe);
     }
-    Ok((findings, binaries))
+    Ok(Checked {
+        findings,
+        binaries,
+        stages,
+    })
 }
 
 /// The checks of an FMI 3.0 FMU: its model description (and with `effects` the candidate-effect
@@ -134,14 +180,16 @@ fn validate_fmi3(path: &Path, timeout: Duration, effects: bool) -> Result<Checke
         Err(HostError::Io { path, source }) => {
             return Err(CliError::input(format!("{}: {source}", path.display())))
         }
-        Err(e) => return Ok((vec![description_error(path, e)], Vec::new())),
+        Err(e) => return Ok(Checked::unreadable(description_error(path, e))),
     };
     let md = match ModelDescription3::parse(&unpacked.xml, &unpacked.description_file()) {
         Ok(md) => md,
-        Err(e) => return Ok((vec![description_error(path, e)], Vec::new())),
+        Err(e) => return Ok(Checked::unreadable(description_error(path, e))),
     };
+    let mut stages = vec![Stage::Archive, Stage::Description, Stage::Binaries];
     let mut findings = check_model_description3(&md);
     if effects {
+        stages.push(Stage::Effects);
         findings.extend(check_effect_convention(&ModelView::from(&md)));
     }
     let (binary_findings, binaries) = check_platform_binaries3(&unpacked.dir, &md);
@@ -166,11 +214,18 @@ fn validate_fmi3(path: &Path, timeout: Duration, effects: bool) -> Result<Checke
     let refused = host::fmi3::unsupported(&md);
     drop(unpacked);
     match refused {
-        None if runnable => findings.extend(run_probe(path, timeout, true)?),
+        None if runnable => {
+            findings.extend(run_probe(path, timeout, true)?);
+            stages.push(Stage::Probe);
+        }
         Some(reason) if runnable => findings.push(validate::fmi3::probe_not_run(&reason)),
         _ => {}
     }
-    Ok((findings, binaries))
+    Ok(Checked {
+        findings,
+        binaries,
+        stages,
+    })
 }
 
 /// An FMU that cannot be opened or whose description cannot be read, as one finding.
