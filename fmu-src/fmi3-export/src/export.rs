@@ -157,16 +157,16 @@ macro_rules! export_fmi3 {
             #[no_mangle]
             pub unsafe extern "C" fn fmi3GetBinary(
                 c: Fmi3Instance, vr: *const Fmi3ValueReference, nvr: usize,
-                _sizes: *mut usize, _v: *mut Fmi3Binary, _nv: usize,
+                _sizes: *mut usize, _v: *mut Fmi3Binary, nv: usize,
             ) -> Fmi3Status {
-                no_variables_of_type::<M>(c, $crate::calls::getter("fmi3GetBinary"), "Binary", vr, nvr)
+                no_variables_of_type::<M>(c, $crate::calls::getter("fmi3GetBinary"), "Binary", (vr, nvr), nv)
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi3SetBinary(
                 c: Fmi3Instance, vr: *const Fmi3ValueReference, nvr: usize,
-                _sizes: *const usize, _v: *const Fmi3Binary, _nv: usize,
+                _sizes: *const usize, _v: *const Fmi3Binary, nv: usize,
             ) -> Fmi3Status {
-                no_variables_of_type::<M>(c, $crate::calls::setter("fmi3SetBinary"), "Binary", vr, nvr)
+                no_variables_of_type::<M>(c, $crate::calls::setter("fmi3SetBinary"), "Binary", (vr, nvr), nv)
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi3GetClock(
@@ -444,10 +444,10 @@ macro_rules! __fmi3_no_type {
             vr: *const Fmi3ValueReference,
             nvr: usize,
             _v: $values,
-            _nv: usize,
+            nv: usize,
         ) -> Fmi3Status {
             let call = $crate::calls::$call(stringify!($name));
-            no_variables_of_type::<M>(c, call, $ty, vr, nvr)
+            no_variables_of_type::<M>(c, call, $ty, (vr, nvr), nv)
         }
     };
 }

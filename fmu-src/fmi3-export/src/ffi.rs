@@ -394,21 +394,22 @@ pub unsafe fn set_boolean<M: Model>(
 }
 
 /// Getters and setters of a type this FMU has no variable of (Float32, Int8, ..., String,
-/// Binary): an empty list succeeds; any reference is refused, naming the variable's type when
-/// the reference exists.
+/// Binary): an empty list with `nValues = 0` succeeds (`nValues` equals `nValueReferences` when
+/// every reference is a scalar, FMI 3.0.2 section 2.2.6.2); any reference is refused, naming the
+/// variable's type when the reference exists.
 pub unsafe fn no_variables_of_type<M: Model>(
     c: Fmi3Instance,
     call: Call,
     type_name: &str,
-    vr: *const Fmi3ValueReference,
-    nvr: usize,
+    (vr, nvr): (*const Fmi3ValueReference, usize),
+    nvalues: usize,
 ) -> Fmi3Status {
     Fmi3Logger::checked::<M>(c, call, |comp, call| {
         let Some(vrs) = slice(vr, nvr) else {
             return comp.instance.error(call.name, "valueReferences is NULL");
         };
         let Some(&v) = vrs.first() else {
-            return Status::Ok;
+            return check_counts(comp, call.name, nvr, nvalues);
         };
         let table = M::variables();
         let message = if v == TIME_VALUE_REFERENCE {
@@ -463,4 +464,34 @@ pub unsafe fn do_step<M: Model>(
         *last = comp.instance.time;
         s
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{free_instance, instantiate_co_simulation, no_variables_of_type};
+    use crate::calls;
+    use fmi_types::c3::{FMI3_ERROR, FMI3_OK};
+    use std::ffi::CString;
+    use test_oscillator::Oscillator;
+
+    /// `fmi3SetFloat32(instance, vrs, 0, NULL, 2)` (a fuzz input): two values for no reference
+    /// is an invalid call and gets fmi3Error; no values for no reference succeeds.
+    #[test]
+    fn a_type_without_variables_refuses_values_without_references() {
+        let token = CString::new(fmu_core::xml::guid::<Oscillator>()).unwrap();
+        let names = (c"fuzz".as_ptr(), token.as_ptr());
+        let env = (std::ptr::null_mut(), None);
+        // SAFETY: valid strings; the instance is freed at the end.
+        unsafe {
+            let c = instantiate_co_simulation::<Oscillator>(names, false, 0, false, env);
+            assert!(!c.is_null());
+            let call = calls::setter("fmi3SetFloat32");
+            let no_vrs = (std::ptr::null(), 0);
+            let s = no_variables_of_type::<Oscillator>(c, call, "Float32", no_vrs, 2);
+            assert_eq!(s, FMI3_ERROR);
+            let s = no_variables_of_type::<Oscillator>(c, call, "Float32", no_vrs, 0);
+            assert_eq!(s, FMI3_OK);
+            free_instance::<Oscillator>(c);
+        }
+    }
 }
