@@ -10,8 +10,9 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 use validate::{
-    check_description_xml, check_effect_convention, check_files, check_model_description, check_model_description3,
-    check_platform_binaries, check_platform_binaries3, Finding, PlatformBinary,
+    check_description_xml, check_effect_convention, check_files, check_model_description,
+    check_model_description3, check_platform_binaries, check_platform_binaries3, Finding,
+    PlatformBinary,
 };
 
 /// Arguments of `validate`.

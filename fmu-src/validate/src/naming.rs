@@ -32,7 +32,12 @@ pub struct NameError {
 
 impl fmt::Display for NameError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "at character {}, expected {}", self.at + 1, self.expected)
+        write!(
+            f,
+            "at character {}, expected {}",
+            self.at + 1,
+            self.expected
+        )
     }
 }
 
@@ -129,7 +134,10 @@ impl Parser {
         match self.peek() {
             Some('\'') => self.q_name(),
             Some(c) if is_nondigit(c) => {
-                while self.peek().is_some_and(|c| is_nondigit(c) || c.is_ascii_digit()) {
+                while self
+                    .peek()
+                    .is_some_and(|c| is_nondigit(c) || c.is_ascii_digit())
+                {
                     self.at += 1;
                 }
                 Ok(())
@@ -154,7 +162,11 @@ impl Parser {
                         Some('\'' | '"' | '?' | '\\' | 'a' | 'b' | 'f' | 'n' | 'r' | 't' | 'v') => {
                             self.at += 1
                         }
-                        _ => return Err(self.error("an escape \\' \\\" \\? \\\\ \\a \\b \\f \\n \\r \\t or \\v")),
+                        _ => {
+                            return Err(self.error(
+                                "an escape \\' \\\" \\? \\\\ \\a \\b \\f \\n \\r \\t or \\v",
+                            ))
+                        }
                     }
                 }
                 Some(c) if is_q_char(c) => self.at += 1,
@@ -257,7 +269,11 @@ mod tests {
             ("der(x", 5, "\",\" or \")\""),
             ("der (x)", 3, "\".\", \"[\""),
             ("x y", 1, "\".\", \"[\""),
-            ("''", 1, "a character of a quoted name (it may not be empty)"),
+            (
+                "''",
+                1,
+                "a character of a quoted name (it may not be empty)",
+            ),
             ("'a'b", 3, "\".\", \"[\""),
             (r"'a\x'", 3, "an escape"),
         ];

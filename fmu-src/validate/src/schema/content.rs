@@ -166,9 +166,12 @@ impl Automaton {
     /// The declaration of a child named `name` anywhere in this content model, for checking a
     /// child that is out of place.
     pub(crate) fn declared(&self, name: &str) -> Option<&'static Elem> {
-        self.edges.iter().flatten().find_map(|(label, _)| match label {
-            Label::Elem(e) if e.name == name => Some(*e),
-            _ => None,
-        })
+        self.edges
+            .iter()
+            .flatten()
+            .find_map(|(label, _)| match label {
+                Label::Elem(e) if e.name == name => Some(*e),
+                _ => None,
+            })
     }
 }

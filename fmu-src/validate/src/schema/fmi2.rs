@@ -71,7 +71,10 @@ static ROOT: Elem = elem(
         opt_attr("license", S),
         opt_attr("generationTool", N),
         opt_attr("generationDateAndTime", Ty::DateTime),
-        opt_attr("variableNamingConvention", Ty::Enum(&["flat", "structured"])),
+        opt_attr(
+            "variableNamingConvention",
+            Ty::Enum(&["flat", "structured"]),
+        ),
         opt_attr("numberOfEventIndicators", UINT),
     ]],
     Content::Elements(seq(&[
@@ -105,7 +108,10 @@ const INTERFACE: &[Attr] = &[
 static MODEL_EXCHANGE: Elem = elem(
     "ModelExchange",
     MD,
-    &[INTERFACE, &[opt_attr("completedIntegratorStepNotNeeded", B)]],
+    &[
+        INTERFACE,
+        &[opt_attr("completedIntegratorStepNotNeeded", B)],
+    ],
     Content::Elements(opt(one(&SOURCE_FILES))),
 );
 

@@ -8,8 +8,8 @@
 //! here.
 
 use super::model::{
-    any, choice, many, one, opt, opt_attr, req_attr, seq, unbounded, Attr, Content, Elem,
-    Particle, Schema, Ty, BYTE, INT, LONG, SHORT, UBYTE, UINT, ULONG, USHORT,
+    any, choice, many, one, opt, opt_attr, req_attr, seq, unbounded, Attr, Content, Elem, Particle,
+    Schema, Ty, BYTE, INT, LONG, SHORT, UBYTE, UINT, ULONG, USHORT,
 };
 
 const MD: &str = "fmi3ModelDescription.xsd";
@@ -97,7 +97,10 @@ static ROOT: Elem = elem(
         opt_attr("license", S),
         opt_attr("generationTool", N),
         opt_attr("generationDateAndTime", Ty::DateTime),
-        opt_attr("variableNamingConvention", Ty::Enum(&["flat", "structured"])),
+        opt_attr(
+            "variableNamingConvention",
+            Ty::Enum(&["flat", "structured"]),
+        ),
     ]],
     Content::Elements(seq(&[
         opt(one(&MODEL_EXCHANGE)),
@@ -434,19 +437,22 @@ const VARIABLE: &[Attr] = &[
     opt_attr("clocks", Ty::List(&UINT)),
 ];
 /// The attributes of a variable that can be an array (fmi3ArrayableVariable).
-const ARRAYABLE: &[Attr] = &[opt_attr("intermediateUpdate", B), opt_attr("previous", UINT)];
+const ARRAYABLE: &[Attr] = &[
+    opt_attr("intermediateUpdate", B),
+    opt_attr("previous", UINT),
+];
 const DECLARED_TYPE: &[Attr] = &[opt_attr("declaredType", N)];
-const INITIAL: &[Attr] = &[opt_attr("initial", Ty::Enum(&["exact", "approx", "calculated"]))];
+const INITIAL: &[Attr] = &[opt_attr(
+    "initial",
+    Ty::Enum(&["exact", "approx", "calculated"]),
+)];
 
 /// The children of an array-capable variable: annotations, dimensions, aliases.
 static ARRAY_CHILDREN: [Particle; 3] = [opt(one(&ANNOTATIONS)), many(&DIMENSION), many(&ALIAS)];
 
 /// The children of a Float32 or Float64 variable: its aliases may have a display unit.
-static FLOAT_CHILDREN: [Particle; 3] = [
-    opt(one(&ANNOTATIONS)),
-    many(&DIMENSION),
-    many(&FLOAT_ALIAS),
-];
+static FLOAT_CHILDREN: [Particle; 3] =
+    [opt(one(&ANNOTATIONS)), many(&DIMENSION), many(&FLOAT_ALIAS)];
 
 const fn variable(name: &'static str, attrs: &'static [&'static [Attr]]) -> Elem {
     elem(name, VAR, attrs, Content::Elements(seq(&ARRAY_CHILDREN)))
@@ -513,7 +519,13 @@ static UINT64_VAR: Elem = integer_variable!("UInt64", UINT64, ULONG);
 
 static BOOLEAN_VAR: Elem = variable(
     "Boolean",
-    &[VARIABLE, ARRAYABLE, DECLARED_TYPE, INITIAL, &[opt_attr("start", Ty::List(&B))]],
+    &[
+        VARIABLE,
+        ARRAYABLE,
+        DECLARED_TYPE,
+        INITIAL,
+        &[opt_attr("start", Ty::List(&B))],
+    ],
 );
 
 /// A String or Binary variable: its start values are `<Start>` elements before the aliases.

@@ -51,7 +51,7 @@ pub fn check_description_xml(xml: &str) -> Vec<Finding> {
         let rest = walked.problems.len() - MAX_FINDINGS;
         let last = &walked.problems[MAX_FINDINGS];
         let mut f = schema_finding(schema, last);
-        f.message = format!("{rest} further departures from the schema, the first: {}", f.message);
+        f.message = format!("{rest} further departures from the schema are not listed");
         findings.push(f);
     }
     let convention = walked.convention.as_deref().unwrap_or("flat");
@@ -59,7 +59,10 @@ pub fn check_description_xml(xml: &str) -> Vec<Finding> {
         if let Some(m) = name_problem(convention, name) {
             let mut f = Finding::new(
                 "naming-convention",
-                format!("modelDescription.xml:{line} (variable '{}')", types::shown(name)),
+                format!(
+                    "modelDescription.xml:{line} (variable '{}')",
+                    types::shown(name)
+                ),
                 m,
             );
             f.clause = naming_clause(schema).to_string();

@@ -17,7 +17,11 @@ pub(crate) enum Ty {
     /// `xs:float`.
     Float,
     /// An integer type between `min` and `max` (`xs:byte` … `xs:unsignedLong`).
-    Int { min: i128, max: i128, name: &'static str },
+    Int {
+        min: i128,
+        max: i128,
+        name: &'static str,
+    },
     /// `xs:nonNegativeInteger`: digits of any length.
     NonNegativeInteger,
     /// `xs:boolean`: `true`, `false`, `1`, `0`.
@@ -113,12 +117,18 @@ pub(crate) struct Elem {
 impl Elem {
     /// The declaration of attribute `name`, if the element has one.
     pub(crate) fn attr(&self, name: &str) -> Option<&'static Attr> {
-        self.attrs.iter().flat_map(|g| g.iter()).find(|a| a.name == name)
+        self.attrs
+            .iter()
+            .flat_map(|g| g.iter())
+            .find(|a| a.name == name)
     }
 
     /// The attributes the element requires.
     pub(crate) fn required(&self) -> impl Iterator<Item = &'static Attr> {
-        self.attrs.iter().flat_map(|g| g.iter()).filter(|a| a.required)
+        self.attrs
+            .iter()
+            .flat_map(|g| g.iter())
+            .filter(|a| a.required)
     }
 
     /// The particle of its children, if it has element content.

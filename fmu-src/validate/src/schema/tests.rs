@@ -19,8 +19,7 @@ fn fmi2(extra: &str, vars: &str) -> String {
     )
 }
 
-const FMI2_VAR: &str =
-    r#"    <ScalarVariable name="x" valueReference="0" causality="output"><Real/></ScalarVariable>"#;
+const FMI2_VAR: &str = r#"    <ScalarVariable name="x" valueReference="0" causality="output"><Real/></ScalarVariable>"#;
 
 /// An FMI 3.0 description with `extra` after `<CoSimulation>` and `tail` after
 /// `<ModelStructure>`.
@@ -74,8 +73,14 @@ fn an_element_out_of_the_schema_order_is_found() {
     );
     let f = single(&xml);
     assert_eq!(f.location, "modelDescription.xml:7 (<DefaultExperiment>)");
-    assert!(f.message.starts_with("element <DefaultExperiment> is out of the schema's order"));
-    assert!(f.message.ends_with("expected here: <ModelStructure>"), "{}", f.message);
+    assert!(f
+        .message
+        .starts_with("element <DefaultExperiment> is out of the schema's order"));
+    assert!(
+        f.message.ends_with("expected here: <ModelStructure>"),
+        "{}",
+        f.message
+    );
     assert!(f.clause.ends_with("fmi3ModelDescription.xsd"));
 }
 
@@ -83,7 +88,9 @@ fn an_element_out_of_the_schema_order_is_found() {
 fn an_element_allowed_once_given_twice_is_found() {
     let de = r#"<DefaultExperiment stopTime="1"/>"#;
     let f = single(&fmi2(&format!("{de}{de}"), FMI2_VAR));
-    assert!(f.message.contains("<DefaultExperiment> is out of the schema's order or occurs too often"));
+    assert!(f
+        .message
+        .contains("<DefaultExperiment> is out of the schema's order or occurs too often"));
     assert!(f.message.contains("<VendorAnnotations>"), "{}", f.message);
 }
 
@@ -97,27 +104,49 @@ fn fmi2_allows_model_exchange_and_co_simulation_in_either_order() {
 #[test]
 fn values_not_of_their_type_or_enumeration_are_found() {
     let cases = [
-        (r#"causality="inputs""#, "attribute causality=\"inputs\" is not one of parameter"),
-        (r#"valueReference="-1""#, "attribute valueReference=\"-1\" is outside the range"),
-        (r#"variability="Continuous""#, "is not one of constant, fixed"),
+        (
+            r#"causality="inputs""#,
+            "attribute causality=\"inputs\" is not one of parameter",
+        ),
+        (
+            r#"valueReference="-1""#,
+            "attribute valueReference=\"-1\" is outside the range",
+        ),
+        (
+            r#"variability="Continuous""#,
+            "is not one of constant, fixed",
+        ),
     ];
     for (attr, fragment) in cases {
         let var = format!(
             r#"    <ScalarVariable name="x" {attr} valueReference="0"><Real/></ScalarVariable>"#
         )
-        .replacen(r#" valueReference="0""#, "", attr.starts_with("valueReference") as usize);
+        .replacen(
+            r#" valueReference="0""#,
+            "",
+            attr.starts_with("valueReference") as usize,
+        );
         let f = single(&fmi2("", &var));
         assert!(f.message.contains(fragment), "{attr}: {}", f.message);
         assert!(f.clause.ends_with("fmi2ScalarVariable.xsd"), "{}", f.clause);
     }
-    let f = single(&fmi2("", &FMI2_VAR.replace("<Real/>", r#"<Real start="abc"/>"#)));
-    assert_eq!(f.message, "<Real> attribute start=\"abc\" is not an xs:double");
+    let f = single(&fmi2(
+        "",
+        &FMI2_VAR.replace("<Real/>", r#"<Real start="abc"/>"#),
+    ));
+    assert_eq!(
+        f.message,
+        "<Real> attribute start=\"abc\" is not an xs:double"
+    );
 }
 
 #[test]
 fn a_missing_required_attribute_is_found() {
     let f = single(&fmi2("", &FMI2_VAR.replace(r#" valueReference="0""#, "")));
-    assert_eq!(f.message, "element <ScalarVariable> lacks the required attribute 'valueReference'");
+    assert_eq!(
+        f.message,
+        "element <ScalarVariable> lacks the required attribute 'valueReference'"
+    );
     let f = single(&fmi3("", FMI3_VAR, "").replace(r#" instantiationToken="{1}""#, ""));
     assert!(f.message.ends_with("'instantiationToken'"));
 }
@@ -126,15 +155,23 @@ fn a_missing_required_attribute_is_found() {
 fn a_missing_child_and_text_in_element_content_are_found() {
     // ModelVariables holds at least one variable (sequence, minOccurs 1)
     let f = single(&fmi2("", ""));
-    assert_eq!(f.message, "element <ModelVariables> lacks a child element: expected <ScalarVariable>");
+    assert_eq!(
+        f.message,
+        "element <ModelVariables> lacks a child element: expected <ScalarVariable>"
+    );
     let f = single(&fmi2("", &FMI2_VAR.replace("<Real/>", "<Real/>text")));
-    assert_eq!(f.message, "element <ScalarVariable> may not contain text (\"text\")");
+    assert_eq!(
+        f.message,
+        "element <ScalarVariable> may not contain text (\"text\")"
+    );
 }
 
 #[test]
 fn a_child_an_element_never_has_is_named() {
     let f = single(&fmi2("", &FMI2_VAR.replace("<Real/>", "<Float64/>")));
-    assert!(f.message.starts_with("element <ScalarVariable> has no child element <Float64>"));
+    assert!(f
+        .message
+        .starts_with("element <ScalarVariable> has no child element <Float64>"));
     assert!(f.message.contains("<Real> or <Integer>"), "{}", f.message);
 }
 
@@ -145,7 +182,12 @@ fn tool_annotations_take_one_element_of_any_content() {
     assert_eq!(schema_findings(&fmi2(free, FMI2_VAR)), vec![]);
     let two = r#"<VendorAnnotations><Tool name="t"><a/><b/></Tool></VendorAnnotations>"#;
     let f = single(&fmi2(two, FMI2_VAR));
-    assert!(f.message.contains("no further child element is allowed in <Tool>"), "{}", f.message);
+    assert!(
+        f.message
+            .contains("no further child element is allowed in <Tool>"),
+        "{}",
+        f.message
+    );
 }
 
 #[test]
@@ -157,7 +199,9 @@ fn xml_namespace_declarations_and_xsi_attributes_are_allowed() {
     );
     assert_eq!(schema_findings(&xml), vec![]);
     let f = single(&xml.replace("xsi:noNamespace", "other:noNamespace"));
-    assert!(f.message.contains("has no attribute 'other:noNamespaceSchemaLocation'"));
+    assert!(f
+        .message
+        .contains("has no attribute 'other:noNamespaceSchemaLocation'"));
 }
 
 #[test]
@@ -179,13 +223,21 @@ fn fmi3_interface_elements_allow_further_attributes_but_type_their_own() {
 fn fmi3_variables_take_their_children_in_order() {
     let ok = r#"<String name="s" valueReference="2"><Dimension start="2"/><Start value="a"/><Start value="b"/><Alias name="t"/></String>"#;
     assert_eq!(schema_findings(&fmi3("", ok, "")), vec![]);
-    let swapped = r#"<String name="s" valueReference="2"><Start value="a"/><Dimension start="2"/></String>"#;
-    assert!(single(&fmi3("", swapped, "")).message.contains("<Dimension> is out of the schema's order"));
+    let swapped =
+        r#"<String name="s" valueReference="2"><Start value="a"/><Dimension start="2"/></String>"#;
+    assert!(single(&fmi3("", swapped, ""))
+        .message
+        .contains("<Dimension> is out of the schema's order"));
     // an enumeration names its type (fmi3MandatorilyTypedArrayableVariable)
     let untyped = r#"<Enumeration name="e" valueReference="3"/>"#;
-    assert!(single(&fmi3("", untyped, "")).message.ends_with("'declaredType'"));
-    let clock = r#"<Clock name="c" valueReference="4" causality="input" intervalVariability="sometimes"/>"#;
-    assert!(single(&fmi3("", clock, "")).message.contains("is not one of constant, fixed, tunable"));
+    assert!(single(&fmi3("", untyped, ""))
+        .message
+        .ends_with("'declaredType'"));
+    let clock =
+        r#"<Clock name="c" valueReference="4" causality="input" intervalVariability="sometimes"/>"#;
+    assert!(single(&fmi3("", clock, ""))
+        .message
+        .contains("is not one of constant, fixed, tunable"));
 }
 
 #[test]
@@ -193,13 +245,23 @@ fn fmi3_start_values_are_lists_of_their_type() {
     let ok = r#"<UInt8 name="u" valueReference="2" start="0 255"><Dimension start="2"/></UInt8>"#;
     assert_eq!(schema_findings(&fmi3("", ok, "")), vec![]);
     let f = single(&fmi3("", &ok.replace("255", "256"), ""));
-    assert!(f.message.contains("has the item \"256\", which is outside the range of xs:unsignedByte"));
+    assert!(f
+        .message
+        .contains("has the item \"256\", which is outside the range of xs:unsignedByte"));
 }
 
 #[test]
 fn the_fmi3_version_pattern_and_the_fmi2_fixed_version_are_checked() {
-    for (v, valid) in [("3.0", true), ("3.0.2", true), ("3.1-beta.3", true), ("3.01", false), ("3.", false), ("3.0-", false)] {
-        let xml = fmi3("", FMI3_VAR, "").replace("fmiVersion=\"3.0\"", &format!("fmiVersion=\"{v}\""));
+    for (v, valid) in [
+        ("3.0", true),
+        ("3.0.2", true),
+        ("3.1-beta.3", true),
+        ("3.01", false),
+        ("3.", false),
+        ("3.0-", false),
+    ] {
+        let xml =
+            fmi3("", FMI3_VAR, "").replace("fmiVersion=\"3.0\"", &format!("fmiVersion=\"{v}\""));
         assert_eq!(schema_findings(&xml).is_empty(), valid, "{v}");
     }
     let f = single(&fmi2("", FMI2_VAR).replace("fmiVersion=\"2.0\"", "fmiVersion=\"2.0.4\""));
@@ -208,8 +270,10 @@ fn the_fmi3_version_pattern_and_the_fmi2_fixed_version_are_checked() {
 
 #[test]
 fn a_structured_name_outside_the_grammar_is_a_naming_finding() {
-    let xml = fmi2("", &FMI2_VAR.replace("name=\"x\"", "name=\"a..b[1\""))
-        .replace("guid=\"{1}\"", "guid=\"{1}\" variableNamingConvention=\"structured\"");
+    let xml = fmi2("", &FMI2_VAR.replace("name=\"x\"", "name=\"a..b[1\"")).replace(
+        "guid=\"{1}\"",
+        "guid=\"{1}\" variableNamingConvention=\"structured\"",
+    );
     let f = check_description_xml(&xml);
     assert_eq!(f.len(), 1, "{f:#?}");
     assert_eq!(f[0].check, "naming-convention");
@@ -217,10 +281,15 @@ fn a_structured_name_outside_the_grammar_is_a_naming_finding() {
     assert!(f[0].clause.starts_with("FMI 2.0.4 §2.2.9"));
     // FMI 3.0: aliases are names too
     let alias = r#"<Float64 name="y" valueReference="1"><Alias name="1y"/></Float64>"#;
-    let xml = fmi3("", alias, "").replace("modelName=", "variableNamingConvention=\"structured\" modelName=");
+    let xml = fmi3("", alias, "").replace(
+        "modelName=",
+        "variableNamingConvention=\"structured\" modelName=",
+    );
     let f = check_description_xml(&xml);
     assert_eq!(f.len(), 1, "{f:#?}");
-    assert!(f[0].message.starts_with("\"1y\" is not a name of the structured naming convention"));
+    assert!(f[0]
+        .message
+        .starts_with("\"1y\" is not a name of the structured naming convention"));
 }
 
 #[test]
@@ -236,10 +305,20 @@ fn lexical_spaces_follow_xml_schema_datatypes() {
     assert!(valid(&int, "2147483647") && valid(&int, "-2147483648") && valid(&int, "+007"));
     assert!(!valid(&int, "2147483648") && !valid(&int, "1.0") && !valid(&int, ""));
     assert!(valid(&super::model::UINT, "-0") && !valid(&super::model::UINT, "-1"));
-    for v in ["2016-02-29T00:00:00Z", "2016-05-12T10:20:30.123+01:00", "2016-05-12T24:00:00"] {
+    for v in [
+        "2016-02-29T00:00:00Z",
+        "2016-05-12T10:20:30.123+01:00",
+        "2016-05-12T24:00:00",
+    ] {
         assert!(valid(&Ty::DateTime, v), "{v}");
     }
-    for v in ["2015-02-29T00:00:00", "2016-05-12 10:20:30", "2016-05-12T10:20", "0000-01-01T00:00:00", "2016-05-12T10:20:30+15:00"] {
+    for v in [
+        "2015-02-29T00:00:00",
+        "2016-05-12 10:20:30",
+        "2016-05-12T10:20",
+        "0000-01-01T00:00:00",
+        "2016-05-12T10:20:30+15:00",
+    ] {
         assert!(!valid(&Ty::DateTime, v), "{v}");
     }
     assert!(valid(&Ty::HexBinary, "0aFF") && !valid(&Ty::HexBinary, "0a1"));
@@ -273,7 +352,12 @@ fn the_tables_declare_each_attribute_once_and_every_element_the_brief_lists() {
         let elems = reachable(schema.root);
         assert_eq!(elems.len(), count);
         for e in &elems {
-            let names: Vec<&str> = e.attrs.iter().flat_map(|g| g.iter()).map(|a| a.name).collect();
+            let names: Vec<&str> = e
+                .attrs
+                .iter()
+                .flat_map(|g| g.iter())
+                .map(|a| a.name)
+                .collect();
             for (i, n) in names.iter().enumerate() {
                 assert!(!names[..i].contains(n), "<{}> declares '{n}' twice", e.name);
             }
@@ -284,4 +368,21 @@ fn the_tables_declare_each_attribute_once_and_every_element_the_brief_lists() {
             assert!(!matches!(e.content, Content::AnyType) || e.any_attribute);
         }
     }
+}
+
+#[test]
+fn a_description_broken_throughout_gets_a_bounded_number_of_findings() {
+    let vars: String = (0..150)
+        .map(|i| format!("<ScalarVariable name=\"x{i}\" valueReference=\"{i}\" odd=\"1\"><Real/></ScalarVariable>\n"))
+        .collect();
+    let f = schema_findings(&fmi2("", &vars));
+    assert_eq!(f.len(), super::MAX_FINDINGS + 1);
+    assert_eq!(
+        f[0].message,
+        "element <ScalarVariable> has no attribute 'odd'"
+    );
+    assert_eq!(
+        f[super::MAX_FINDINGS].message,
+        "50 further departures from the schema are not listed"
+    );
 }

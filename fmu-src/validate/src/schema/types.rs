@@ -121,7 +121,8 @@ fn is_double(v: &str) -> bool {
     };
     let (whole, fraction) = mantissa.split_once('.').unwrap_or((mantissa, ""));
     let digits = |s: &str| s.bytes().all(|b| b.is_ascii_digit());
-    let mantissa_ok = digits(whole) && digits(fraction) && !(whole.is_empty() && fraction.is_empty());
+    let mantissa_ok =
+        digits(whole) && digits(fraction) && !(whole.is_empty() && fraction.is_empty());
     let exponent_ok = exponent.is_none_or(|e| digits(e.strip_prefix(['+', '-']).unwrap_or(e)));
     mantissa_ok && exponent_ok
 }
@@ -188,11 +189,13 @@ fn is_clock(clock: &str) -> bool {
         return false;
     }
     let mut it = hms.split(':').map(two_digits);
-    let (Some(Some(h)), Some(Some(m)), Some(Some(s)), None) = (it.next(), it.next(), it.next(), it.next())
+    let (Some(Some(h)), Some(Some(m)), Some(Some(s)), None) =
+        (it.next(), it.next(), it.next(), it.next())
     else {
         return false;
     };
-    (h < 24 && m < 60 && s < 60) || (h == 24 && m == 0 && s == 0 && fraction.bytes().all(|b| b == b'0'))
+    (h < 24 && m < 60 && s < 60)
+        || (h == 24 && m == 0 && s == 0 && fraction.bytes().all(|b| b == b'0'))
 }
 
 fn is_zone(zone: &str) -> bool {

@@ -98,7 +98,10 @@ pub(crate) fn walk(schema: &'static Schema, xml: &str) -> Walked {
             Event::End(_) => w.close(),
             Event::Text(t) => {
                 let text = t.unescape().map(|c| c.into_owned());
-                w.text(&text.unwrap_or_else(|_| String::from_utf8_lossy(&t).into_owned()), pos)
+                w.text(
+                    &text.unwrap_or_else(|_| String::from_utf8_lossy(&t).into_owned()),
+                    pos,
+                )
             }
             Event::CData(c) => w.text(&String::from_utf8_lossy(&c), pos),
             Event::Eof => break,
@@ -113,7 +116,9 @@ pub(crate) fn walk(schema: &'static Schema, xml: &str) -> Walked {
 
 impl Walker<'_> {
     fn line(&self, pos: usize) -> usize {
-        self.newlines.partition_point(|&p| p < pos.min(self.xml.len())) + 1
+        self.newlines
+            .partition_point(|&p| p < pos.min(self.xml.len()))
+            + 1
     }
 
     fn report(&mut self, line: usize, element: &str, xsd: &'static str, message: String) {
@@ -224,11 +229,9 @@ impl Walker<'_> {
         if matches!(elem.content, Content::AnyType) {
             return self.lax(name);
         }
-        let step = automaton.as_ref().and_then(|a| {
-            (!*broken)
-                .then(|| a.step(states, name))
-                .flatten()
-        });
+        let step = automaton
+            .as_ref()
+            .and_then(|a| (!*broken).then(|| a.step(states, name)).flatten());
         match step {
             Some((next, Matched::Elem(e))) => {
                 *states = next;
@@ -240,8 +243,11 @@ impl Walker<'_> {
             }
             None => {
                 let was_broken = std::mem::replace(broken, true);
-                let out_of_place = automaton.as_ref().and_then(|a| Some(a.declared(name?)?));
-                let expected = automaton.as_ref().map(|a| a.expected(states)).unwrap_or_default();
+                let out_of_place = automaton.as_ref().and_then(|a| a.declared(name?));
+                let expected = automaton
+                    .as_ref()
+                    .map(|a| a.expected(states))
+                    .unwrap_or_default();
                 if !was_broken {
                     let m = misplaced(elem, qname, out_of_place.is_some(), &expected);
                     self.report(line, qname, elem.xsd, m);
@@ -281,7 +287,10 @@ impl Walker<'_> {
         }
         for a in elem.required() {
             if !attrs.iter().any(|(k, _)| k == a.name) {
-                let m = format!("element <{}> lacks the required attribute '{}'", elem.name, a.name);
+                let m = format!(
+                    "element <{}> lacks the required attribute '{}'",
+                    elem.name, a.name
+                );
                 messages.push(m);
             }
         }
@@ -298,12 +307,9 @@ impl Walker<'_> {
             [] if std::ptr::eq(elem, self.schema.root) => {
                 self.out.convention = get("variableNamingConvention");
             }
-            [_, "ModelVariables"] | [_, "ModelVariables", _] => {
-                if path.len() == 2 || elem.name == "Alias" {
-                    if let Some(n) = get("name") {
-                        self.out.names.push((n, line));
-                    }
-                }
+            [_, "ModelVariables"] => self.out.names.extend(get("name").map(|n| (n, line))),
+            [_, "ModelVariables", _] if elem.name == "Alias" => {
+                self.out.names.extend(get("name").map(|n| (n, line)))
             }
             _ => {}
         }
@@ -324,7 +330,10 @@ impl Walker<'_> {
         {
             if !a.accepts(states) {
                 let expected = a.expected(states).join(" or ");
-                let m = format!("element <{}> lacks a child element: expected {expected}", elem.name);
+                let m = format!(
+                    "element <{}> lacks a child element: expected {expected}",
+                    elem.name
+                );
                 self.report(frame.line, elem.name, elem.xsd, m);
             }
         }
@@ -370,7 +379,10 @@ fn misplaced(parent: &Elem, child: &str, known: bool, expected: &[String]) -> St
             parent.name
         )
     } else {
-        format!("element <{}> has no child element <{child}>; {next}", parent.name)
+        format!(
+            "element <{}> has no child element <{child}>; {next}",
+            parent.name
+        )
     }
 }
 
