@@ -201,8 +201,12 @@ def test_a_negative_number_of_event_indicators_is_found(vdp_copy, tmp_path):
                    md=lambda t: t.replace('numberOfEventIndicators="0"',
                                           'numberOfEventIndicators="-1"'))
     found = findings_of(fmu)
-    assert [f["check"] for f in found] == ["model-description-xml"], found
+    # the description cannot be read, and the schema (xs:unsignedInt) says why
+    assert [f["check"] for f in found] == ["model-description-xml", "schema"], found
     assert "numberOfEventIndicators" in found[0]["message"], found
+    assert 'numberOfEventIndicators="-1"' in found[1]["message"], found
+    assert "xs:unsignedInt" in found[1]["message"], found
+    assert found[1]["clause"].endswith("fmi2ModelDescription.xsd"), found
 
 
 def test_a_model_exchange_function_not_exported_is_found_only_when_declared(vdp_copy, tmp_path):

@@ -12,8 +12,9 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 use validate::{
-    check_effect_convention, check_files, check_model_description, check_model_description3,
-    check_platform_binaries, check_platform_binaries3, Finding, PlatformBinary,
+    check_description_xml, check_effect_convention, check_files, check_model_description,
+    check_model_description3, check_platform_binaries, check_platform_binaries3, Finding,
+    PlatformBinary,
 };
 
 /// Arguments of `validate`.
@@ -127,9 +128,22 @@ impl Checked {
 }
 
 fn validate_one(path: &Path, timeout: Duration, effects: bool) -> Result<Checked, CliError> {
-    if matches!(host::fmi_version_of(path), Ok(FmiVersion::Fmi3)) {
-        return validate_fmi3(path, timeout, effects);
+    let (mut findings, binaries) = match host::fmi_version_of(path) {
+        Ok(FmiVersion::Fmi3) => validate_fmi3(path, timeout, effects)?,
+        _ => validate_fmi2(path, timeout, effects)?,
+    };
+    // The schema of the description's FMI version and its naming convention, read from the text
+    // so that they are checked even when the description cannot be parsed into a model.
+    if let Ok(xml) = host::kind::read_description(path) {
+        findings.extend(check_description_xml(&xml));
     }
+    Ok((findings, binaries))
+}
+
+/// The checks of an FMI 2.0 FMU: its model description (and with `effects` the candidate-effect
+/// convention), its files and binaries, and the runtime probe when this platform's binary is
+/// present.
+fn validate_fmi2(path: &Path, timeout: Duration, effects: bool) -> Result<Checked, CliError> {
     let ex = match Extracted::open(path) {
         Ok(ex) => ex,
         Err(HostError::Io { path, source }) => {

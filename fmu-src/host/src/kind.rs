@@ -65,9 +65,10 @@ pub fn fmi_version_of(path: &Path) -> Result<FmiVersion> {
     }
 }
 
-/// The text of `modelDescription.xml` (at most [`MAX_DESCRIPTION_BYTES`], lossy UTF-8: only the
-/// root's attributes are read from it here).
-fn read_description(path: &Path) -> Result<String> {
+/// The text of `modelDescription.xml` of the FMU at `path` (an `.fmu` or an extracted
+/// directory), without extracting anything else: at most [`MAX_DESCRIPTION_BYTES`], lossy UTF-8
+/// (the description parser reports text that is not UTF-8).
+pub fn read_description(path: &Path) -> Result<String> {
     let io = |source| HostError::Io {
         path: path.to_path_buf(),
         source,

@@ -7,6 +7,9 @@
 //!   declared, ModelStructure complete.
 //! - [`fmi3`]: an FMI 3.0 FMU's `modelDescription.xml` (FMI 3.0.2 section 2.4) and its binaries
 //!   per platform tuple with the functions of its declared interfaces (section 2.5).
+//! - [`schema`]: `modelDescription.xml` against the XML schema of its FMI version (attributes,
+//!   their types, required ones, children in order and number), and [`naming`]: variable names
+//!   against the declared naming convention.
 //! - [`binary`]: the binary for this platform is present, every platform binary has the
 //!   platform's format and exports every FMI function.
 //! - [`probe`](mod@probe): calls in wrong states / with bad arguments must return fmi2Error
@@ -29,10 +32,12 @@ mod error;
 pub mod fmi3;
 mod instance;
 mod me_checks;
+pub mod naming;
 pub mod probe;
 pub mod probe3;
 mod probe_me;
 mod rules;
+pub mod schema;
 
 pub use binary::{check_files, check_platform_binaries, check_symbols, PlatformBinary};
 pub use description::{
@@ -42,6 +47,7 @@ pub use error::{ProbeError, Stage};
 pub use fmi3::{check_model_description3, check_platform_binaries3};
 pub use probe::{probe, probe_me, ME_PROBE_CASES, PROBE_CASES};
 pub use probe3::{probe3, probe3_me, PROBE3_CASES};
+pub use schema::check_description_xml;
 
 use host::md::ScalarVariable;
 use std::fmt;
