@@ -18,6 +18,7 @@
 //! rules (combinations of causality and variability, complete `<ModelStructure>`) to `validate`.
 
 use super::value::{Type3, Values};
+use std::borrow::Cow;
 use crate::error::HostError;
 use crate::xml::{Ancestors, Attrs, Doc, Visitor};
 
@@ -81,6 +82,22 @@ pub struct Variable3 {
     pub dimensions: Vec<Dimension>,
     /// `intervalVariability` (Clock)
     pub interval_variability: Option<String>,
+    /// Its `<Alias>` elements: other names of the same value (FMI 3.0.2 section 2.4.7.4).
+    pub aliases: Vec<Alias3>,
+    /// Line of the tag.
+    pub line: usize,
+}
+
+/// `<Alias>` of a variable (FMI 3.0.2 section 2.4.7.4): a name, unique among variables and
+/// aliases, for the same value reference, with its own description and display unit.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Alias3 {
+    /// `name`
+    pub name: String,
+    /// `description`
+    pub description: Option<String>,
+    /// `displayUnit` (Float types)
+    pub display_unit: Option<String>,
     /// Line of the tag.
     pub line: usize,
 }
@@ -317,6 +334,32 @@ impl ModelDescription3 {
         self.variables.iter().find(|v| v.name == name)
     }
 
+    /// The description as a simulation sees it, as FMPy's `read_model_description` makes it:
+    /// every `<Alias>` one more variable after those of the file, a copy of its variable with
+    /// the alias's name (and description and display unit where it gives them), so that an
+    /// alias is recorded, set and named in a CSV like any variable. Borrowed when there is none.
+    pub fn with_aliases(&self) -> Cow<'_, ModelDescription3> {
+        if self.variables.iter().all(|v| v.aliases.is_empty()) {
+            return Cow::Borrowed(self);
+        }
+        let mut md = self.clone();
+        let aliases: Vec<Variable3> = self
+            .variables
+            .iter()
+            .flat_map(|v| v.aliases.iter().map(move |a| (v, a)))
+            .map(|(v, a)| Variable3 {
+                name: a.name.clone(),
+                description: a.description.clone().or_else(|| v.description.clone()),
+                display_unit: a.display_unit.clone().or_else(|| v.display_unit.clone()),
+                aliases: Vec::new(),
+                line: a.line,
+                ..v.clone()
+            })
+            .collect();
+        md.variables.extend(aliases);
+        Cow::Owned(md)
+    }
+
     /// The variable with value reference `vr` (FMI 3.0 value references are unique).
     pub fn by_vr(&self, vr: u32) -> Option<&Variable3> {
         self.variables.iter().find(|v| v.value_reference == vr)
@@ -474,6 +517,17 @@ impl Visitor for Parser3 {
                     }
                 }
             }
+            (_, "Alias") if path.len() >= 2 && path[path.len() - 2] == "ModelVariables" => {
+                let alias = Alias3 {
+                    name: doc.required(&a, "name")?,
+                    description: a.get("description").map(str::to_string),
+                    display_unit: a.get("displayUnit").map(str::to_string),
+                    line: a.line,
+                };
+                if let Some(v) = self.current.as_mut() {
+                    v.aliases.push(alias);
+                }
+            }
             ("ModelStructure", kind) => self.unknown(doc, kind, &a)?,
             _ => {}
         }
@@ -615,6 +669,7 @@ impl Parser3 {
             clocks,
             dimensions: Vec::new(),
             interval_variability: a.get("intervalVariability").map(str::to_string),
+            aliases: Vec::new(),
             line: a.line,
             name,
         });
