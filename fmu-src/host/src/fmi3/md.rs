@@ -18,9 +18,9 @@
 //! rules (combinations of causality and variability, complete `<ModelStructure>`) to `validate`.
 
 use super::value::{Type3, Values};
-use std::borrow::Cow;
 use crate::error::HostError;
 use crate::xml::{Ancestors, Attrs, Doc, Visitor};
+use std::borrow::Cow;
 
 pub use fmi_types::{Initial, Variability};
 
