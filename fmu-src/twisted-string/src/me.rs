@@ -27,7 +27,7 @@
 //! * encoder quantisation, position band and speed-limit clamp: evaluated at the time events only.
 
 use crate::model::{validate, TwistedString};
-use crate::plant::{ix, Aux, Inputs, Params, Plant, DIM, NOMINAL};
+use crate::plant::{ix, Aux, Inputs, Params, Plant, DIM};
 use crate::vars::{V, VARIABLES};
 use fmu_core::{ModelError, ModelExchange, ValuesMut};
 use ode::SampleClock;
@@ -402,7 +402,7 @@ impl ModelExchange for TwistedString {
     /// `E_dissipated` and `W_external`.
     /// The `nominal` each state's variable declares (vars.rs, where each is reasoned), as the
     /// description gives it: the importer's scale, apart from the internal solver's
-    /// [`NOMINAL`], which Co-Simulation keeps.
+    /// [`crate::plant::NOMINAL`], which Co-Simulation keeps.
     fn nominals(&self, n: &mut [f64]) {
         for (n, &(s, _)) in n.iter_mut().zip(&STATE_VARIABLES) {
             *n = VARIABLES[s].nominal.unwrap_or(1.0);
