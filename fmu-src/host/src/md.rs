@@ -717,6 +717,15 @@ fn var_kind(name: &str) -> Option<VarKind> {
     VarKind::parse(name)
 }
 
+/// One base type for aliasing (FMI 2.0.4 section 2.2.7): an Enumeration's values are Integers.
+fn same_base(a: VarKind, b: VarKind) -> bool {
+    let base = |k| match k {
+        VarKind::Enumeration => VarKind::Integer,
+        k => k,
+    };
+    base(a) == base(b)
+}
+
 #[cfg(test)]
 pub(crate) mod tests {
     use super::{Causality, Initial, ModelDescription, StartValue, VarKind, Variability};
@@ -859,13 +868,4 @@ pub(crate) mod tests {
         let e = err_of("<fmiModelDescription><ModelVariables><ScalarVariable valueReference=\"1\"><Real/></ScalarVariable></ModelVariables></fmiModelDescription>");
         assert!(e.contains("lacks the required attribute name"), "{e}");
     }
-}
-
-/// One base type for aliasing (FMI 2.0.4 section 2.2.7): an Enumeration's values are Integers.
-fn same_base(a: VarKind, b: VarKind) -> bool {
-    let base = |k| match k {
-        VarKind::Enumeration => VarKind::Integer,
-        k => k,
-    };
-    base(a) == base(b)
 }

@@ -908,4 +908,38 @@ mod tests {
             .to_string();
         assert!(e.contains("valueReference=\"99\""), "{e}");
     }
+
+    #[test]
+    fn aliases_become_variables_after_those_of_the_file() {
+        let xml = SAMPLE.replace(
+            r#"<Int8 name="i8" valueReference="4" causality="output" min="-3" max="3"/>"#,
+            r#"<Int8 name="i8" valueReference="4" causality="output" min="-3" max="3">
+      <Alias name="i8_alias" description="second name"/><Alias name="i8_b"/>
+    </Int8>"#,
+        );
+        let md = ModelDescription3::parse(&xml, "md.xml").unwrap();
+        let names: Vec<&str> = md.variables.iter().map(|v| v.name.as_str()).collect();
+        assert!(
+            !names.contains(&"i8_alias"),
+            "the file's variables stay as written"
+        );
+        assert_eq!(md.variable("i8").unwrap().aliases.len(), 2);
+        let seen = md.with_aliases();
+        let n = md.variables.len();
+        assert_eq!(seen.variables.len(), n + 2);
+        let alias = &seen.variables[n];
+        assert_eq!(
+            (alias.name.as_str(), alias.value_reference),
+            ("i8_alias", 4)
+        );
+        assert_eq!(alias.causality, Causality3::Output);
+        assert_eq!(alias.description.as_deref(), Some("second name"));
+        assert_eq!(seen.variables[n + 1].name, "i8_b");
+        assert_eq!(seen.by_vr(4).unwrap().name, "i8");
+        let plain = ModelDescription3::parse(SAMPLE, "md.xml").unwrap();
+        assert!(matches!(
+            plain.with_aliases(),
+            std::borrow::Cow::Borrowed(_)
+        ));
+    }
 }
