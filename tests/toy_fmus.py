@@ -25,6 +25,7 @@ MODELS = {  # name -> (C source, {FMI version: flags}, resources)
     "Feedthrough": ("feedthrough.c", {2: []}, {}),
     "StateSpace": ("state_space.c", {3: []}, {}),
     "Clocks": ("clocks.c", {3: []}, {}),
+    "Alias": ("alias.c", {2: [], 3: []}, {}),
 }
 PLATFORM = {2: "linux64", 3: "x86_64-linux"}
 

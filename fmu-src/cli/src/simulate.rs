@@ -39,8 +39,15 @@ pub struct Args {
     /// event, at its time, as FMPy records them).
     #[arg(long)]
     pub out: PathBuf,
-    /// Relative tolerance: passed to fmi2SetupExperiment, and the host's integrator tolerance
-    /// for Model Exchange (default: the DefaultExperiment's, else 1e-5 as FMPy).
+    /// Variables to record, comma-separated, in this order (default: every output, FMI 3.0
+    /// aliases of outputs after them, as FMPy records them); any variable or alias name.
+    #[arg(long, value_name = "NAME,...", value_delimiter = ',')]
+    pub outputs: Vec<String>,
+    /// Relative tolerance (default: the DefaultExperiment's). Co-Simulation: passed to
+    /// fmi2SetupExperiment / fmi3EnterInitializationMode (no --tolerance and no
+    /// DefaultExperiment tolerance: toleranceDefined = false, the FMU's own). Model Exchange:
+    /// the host integrator's relative tolerance (else 1e-5), passed to the FMU only when given;
+    /// as FMPy's simulate_fmu.
     #[arg(long, value_name = "RTOL")]
     pub tolerance: Option<f64>,
     /// FMI interface to run: cs (Co-Simulation) or me (Model Exchange, integrated by the host
@@ -230,6 +237,7 @@ fn run2(a: &Args) -> Result<Ran, CliError> {
         inputs,
         record_events: true,
         tolerance: a.tolerance,
+        outputs: a.outputs.clone(),
         ..SimulationRequest::new(grid.start, grid.stop, grid.step)
     };
     let res = simulate(&fmu, &req).map_err(|e| run_error(&a.fmu.display().to_string(), e))?;
@@ -244,7 +252,8 @@ fn run2(a: &Args) -> Result<Ran, CliError> {
 fn run3(a: &Args) -> Result<Ran, CliError> {
     let interface = crate::common::InterfaceArg::host(a.interface);
     let fmu = Fmu3::open_with(&a.fmu, interface).map_err(CliError::input)?;
-    let md = fmu.model_description();
+    let described = fmu.model_description().with_aliases();
+    let md: &ModelDescription3 = &described;
     let start_values = parse_sets3(md, &a.set)?;
     let experiment = md.default_experiment.clone().unwrap_or_default();
     let inputs = match &a.data {
@@ -256,6 +265,7 @@ fn run3(a: &Args) -> Result<Ran, CliError> {
         start_values,
         tolerance: a.tolerance,
         inputs,
+        outputs: a.outputs.clone(),
         record_events: true,
         ..Request3::new(grid.start, grid.stop, grid.step)
     };

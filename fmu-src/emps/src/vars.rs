@@ -22,15 +22,17 @@ fmu_core::declare_variables! {
         "Force pulse added to the controller output before its saturation (validation record: drive_gain * 1.0139 V * pulses_N)").range(-400.0, 400.0),
     FORCE_MEASURED = 3 => Variable::input("force_measured", 0.0, "N",
         "Applied force drive_gain * vir when internal_controller = false (open loop)").range(-400.0, 400.0),
+    // nominal 1e-3: the axis moves over tenths of a metre; 1 mm bounds the absolute error
     QM = 4 => Variable::output("qm", "m",
-        "Measured position: motor encoder on the load side (benchmark signal qm)").display("mm"),
+        "Measured position: motor encoder on the load side (benchmark signal qm)").display("mm").nominal(1e-3),
     FORCE = 5 => Variable::output("force", "N",
         "Force applied to the axis, drive_gain * controller voltage (or force_measured); at a communication point the force held over the step just ended"),
     VELOCITY = 6 => discrete(Variable::output("velocity", "m/s",
         "The controller's velocity (qfm(k) - qfm(k-1)) / Ts, qfm(k) = (qm(k) + qm(k-1)) / 2, of the last sample before the communication point")),
     VOLTAGE = 7 => discrete(Variable::output("voltage", "V",
         "Controller output u = sat(nu + force_pulse / drive_gain) of the last sample (0 in open loop)")),
-    V_MOTOR = 8 => Variable::output("v_motor", "m/s", "Velocity of the motor side dq/dt (load side units)"),
+    // nominal 1e-2: axis speeds of cm/s to tenths of m/s; 1 cm/s
+    V_MOTOR = 8 => Variable::output("v_motor", "m/s", "Velocity of the motor side dq/dt (load side units)").nominal(1e-2),
     Q_LOAD = 9 => Variable::output("q_load", "m",
         "Position of the load (carriage); equal to qm unless flexibility or backlash is on").display("mm"),
     // ---- base parameters ---------------------------------------------------------------------
@@ -97,10 +99,12 @@ fmu_core::declare_variables! {
     CONTROLLER_DELAY_TIME = 39 => Variable::parameter("controller_delay.time", 0.5e-3, "s",
         "Delay d of the force after its sample (at most 2 controller periods)").range(0.0, 2e-3).display("ms"),
     // ---- Model Exchange: the load's states and the derivative of every state -----------------
+    // nominal 1e-3: as the axis position
     LOAD_POSITION = 40 => Variable::local("load_position", "m",
-        "State q_l of the load (flexibility or backlash on; else it keeps q0 and q_load is qm)").display("mm"),
+        "State q_l of the load (flexibility or backlash on; else it keeps q0 and q_load is qm)").display("mm").nominal(1e-3),
+    // nominal 1e-2: as the axis speed
     LOAD_VELOCITY = 41 => Variable::local("load_velocity", "m/s",
-        "State v_l of the load (flexibility or backlash on; else it keeps v0)"),
+        "State v_l of the load (flexibility or backlash on; else it keeps v0)").nominal(1e-2),
     DER_QM = 42 => Variable::local("der(qm)", "m/s", "Derivative of qm"),
     DER_V_MOTOR = 43 => Variable::local("der(v_motor)", "m/s2", "Derivative of v_motor"),
     DER_LOAD_POSITION = 44 => Variable::local("der(load_position)", "m/s", "Derivative of load_position"),

@@ -196,6 +196,7 @@ pub fn table_problems<M: Model>() -> Vec<String> {
     let mut problems = xml::check_table(vars);
     if let Some(me) = M::model_exchange() {
         problems.extend(me.check(vars));
+        problems.extend(me::nominal_problems(&me, &M::new(), vars));
     }
     for v in vars {
         if v.name == "time" || v.value_reference >= xml3::TIME_VALUE_REFERENCE {

@@ -197,6 +197,28 @@ impl<M: ModelExchange> MeVTable<M> {
     }
 }
 
+/// Problems of the states' declared `nominal`s (empty when consistent): each state variable
+/// declares one, equal to what `me.nominals` returns for it on `model`, so that an importer
+/// reading the description (FMI 2.0.4 section 2.2.7, `nominal`) and one calling
+/// fmi2GetNominalsOfContinuousStates / fmi3GetNominalsOfContinuousStates (FMPy's CVode:
+/// `atol_i = rtol * nominal_i`) scale each state alike.
+pub fn nominal_problems<M>(me: &MeVTable<M>, model: &M, vars: &[crate::Variable]) -> Vec<String> {
+    let mut n = vec![0.0; me.states];
+    (me.nominals)(model, &mut n);
+    let mut problems = Vec::new();
+    for (&(x, _), &nominal) in me.state_variables.iter().zip(&n) {
+        let Some(v) = vars.get(x) else { continue };
+        match v.nominal {
+            Some(d) if d.to_bits() == nominal.to_bits() && d > 0.0 => {}
+            declared => problems.push(format!(
+                "state '{}': declared nominal {declared:?}, the model's nominal is {nominal}",
+                v.name
+            )),
+        }
+    }
+    problems
+}
+
 impl<M> MeVTable<M> {
     /// Problems of the declared state and derivative variables (empty when consistent): the
     /// count, each a continuous Real of the table, each derivative a local.

@@ -21,6 +21,10 @@ pub struct Variable {
     pub start: f64,
     pub min: Option<f64>,
     pub max: Option<f64>,
+    /// `nominal` of a Real: the magnitude an importer scales it by (its solver's absolute
+    /// tolerance for a continuous state is `rtol * nominal`); a Model Exchange state's must equal
+    /// what [`crate::ModelExchange::nominals`] returns for it (checked by `table_problems`).
+    pub nominal: Option<f64>,
     pub unit: Option<&'static str>,
     pub display_unit: Option<&'static str>,
     pub description: &'static str,
@@ -51,6 +55,7 @@ impl Variable {
             start,
             min: None,
             max: None,
+            nominal: None,
             unit,
             display_unit: None,
             description,
@@ -160,6 +165,12 @@ impl Variable {
     pub const fn range(mut self, min: f64, max: f64) -> Self {
         self.min = Some(min);
         self.max = Some(max);
+        self
+    }
+
+    /// The nominal magnitude (`nominal` in both descriptions; positive).
+    pub const fn nominal(mut self, nominal: f64) -> Self {
+        self.nominal = Some(nominal);
         self
     }
 

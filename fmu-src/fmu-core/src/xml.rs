@@ -190,6 +190,9 @@ fn write_description<M: Model>(guid: &str) -> String {
                 t.push_attribute(("max", fmt_f64(m).as_str()));
             }
         }
+        if let (VarType::Real, Some(n)) = (v.vtype, v.nominal) {
+            t.push_attribute(("nominal", fmt_f64(n).as_str()));
+        }
         if v.has_start() {
             let s = match v.vtype {
                 VarType::Boolean => (if v.start != 0.0 { "true" } else { "false" }).to_string(),

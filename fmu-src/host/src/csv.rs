@@ -83,10 +83,11 @@ impl Table {
     /// Returns the error for the first unknown column (line 1, its column number).
     pub fn check_against(&self, md: &ModelView) -> Result<(), CsvError> {
         for (j, name) in self.all_names().enumerate() {
-            let ok = md
-                .scalar(name)
-                .map(|v| matches!(v.causality, Causality::Input | Causality::Output))
-                .unwrap_or(false);
+            let ok = md.input_of(name).is_some()
+                || md
+                    .scalar(name)
+                    .map(|v| v.causality == Causality::Output)
+                    .unwrap_or(false);
             if !ok {
                 let what = if md.scalar(name).is_some() {
                     "is neither an input nor an output of the FMU"
@@ -110,14 +111,10 @@ impl Table {
         Ok(())
     }
 
-    /// Names of the columns that are inputs of the FMU.
+    /// Names of the columns that are inputs of the FMU or aliases of one.
     pub fn input_columns(&self, md: &ModelView) -> Vec<String> {
         self.all_names()
-            .filter(|n| {
-                md.scalar(n)
-                    .map(|v| v.causality == Causality::Input)
-                    .unwrap_or(false)
-            })
+            .filter(|n| md.input_of(n).is_some())
             .cloned()
             .collect()
     }

@@ -292,6 +292,18 @@ impl ModelDescription {
         self.model_variables.iter().find(|v| v.name == name)
     }
 
+    /// The input a column called `name` sets: the variable itself when it is an input, else
+    /// the input it is an alias of (FMI 2.0.4 section 2.2.7: variables of one base type with
+    /// one value reference are aliases; an input's aliases cannot be set themselves).
+    pub fn input_of(&self, name: &str) -> Option<&ScalarVariable> {
+        let v = self.variable(name)?;
+        if v.causality == Causality::Input {
+            return Some(v);
+        }
+        self.with_causality(Causality::Input)
+            .find(|i| i.value_reference == v.value_reference && same_base(i.kind, v.kind))
+    }
+
     /// Variables with causality `c`, in file order.
     pub fn with_causality(&self, c: Causality) -> impl Iterator<Item = &ScalarVariable> {
         self.model_variables
@@ -703,6 +715,15 @@ impl Parser<'_> {
 
 fn var_kind(name: &str) -> Option<VarKind> {
     VarKind::parse(name)
+}
+
+/// One base type for aliasing (FMI 2.0.4 section 2.2.7): an Enumeration's values are Integers.
+fn same_base(a: VarKind, b: VarKind) -> bool {
+    let base = |k| match k {
+        VarKind::Enumeration => VarKind::Integer,
+        k => k,
+    };
+    base(a) == base(b)
 }
 
 #[cfg(test)]

@@ -83,8 +83,30 @@ pub(crate) fn step_through<I: CoSimulationStep>(
     Ok((time, None))
 }
 
+/// The tolerance handed to the FMU (fmi2SetupExperiment, fmi3EnterInitializationMode; None:
+/// `toleranceDefined = false`), as FMPy's `simulate_fmu` hands it: Co-Simulation gets the
+/// requested tolerance, else the DefaultExperiment's `default_tolerance`, else none (the FMU
+/// then integrates with its own). Model Exchange gets the requested tolerance only: FMPy passes
+/// none there, the importer's integrator being the one the tolerance governs ([`me_settings`]);
+/// a tolerance the user asks for is still handed over, since FMI 2.0.4 section 3.2.1 defines
+/// `toleranceDefined = true` as "the model is called with a numerical integration scheme where
+/// the step size is controlled by using tolerance", which the host's integrator then is.
+pub(crate) fn fmu_tolerance(
+    model_exchange: bool,
+    tolerance: Option<f64>,
+    default_tolerance: Option<f64>,
+) -> Option<f64> {
+    if model_exchange {
+        tolerance
+    } else {
+        tolerance.or(default_tolerance)
+    }
+}
+
 /// The Model Exchange settings of a run: its grid, and as relative tolerance `tolerance`, else
-/// the DefaultExperiment's `default_tolerance`, else FMPy's 1e-5.
+/// the DefaultExperiment's `default_tolerance`, else 1e-5: FMPy's `simulateME` integrates with
+/// CVode at exactly these (its `relative_tolerance`, defaulting to the DefaultExperiment's, and
+/// 1e-5 when that is absent), so a run without `--tolerance` meets the error FMPy's does.
 pub(crate) fn me_settings(
     (start, stop, interval): (f64, f64, f64),
     tolerance: Option<f64>,

@@ -5,7 +5,7 @@ use crate::fmu::Fmu;
 use crate::instance::Instance;
 use crate::kind::Interface;
 use crate::md::{Causality, ModelDescription, ScalarVariable, VarKind, Variability};
-use crate::run::{me_settings, step_through, CoSimulationStep, Inputs, Outputs};
+use crate::run::{fmu_tolerance, me_settings, step_through, CoSimulationStep, Inputs, Outputs};
 
 /// Columns of text: (variable name, one value per row).
 pub type TextColumns = Vec<(String, Vec<String>)>;
@@ -95,8 +95,9 @@ pub struct SimulationRequest {
     pub inputs: InputSeries,
     /// Variables to record; empty means every output.
     pub outputs: Vec<String>,
-    /// Tolerance passed to fmi2SetupExperiment (None: not defined); for Model Exchange also
-    /// the integrator's relative tolerance (None: the DefaultExperiment's, else 1e-5 as FMPy).
+    /// Relative tolerance (None: the DefaultExperiment's): Co-Simulation passes it to
+    /// fmi2SetupExperiment (neither: not defined); Model Exchange integrates with it (neither:
+    /// 1e-5) and passes only a given one (see `run::fmu_tolerance`), as FMPy does.
     pub tolerance: Option<f64>,
     /// Model Exchange: also record before and after each event (two rows at its time), as
     /// FMPy's `record_events`. Co-Simulation records the communication points only.
@@ -371,20 +372,22 @@ fn run_on(inst: &mut Instance<'_>, req: &SimulationRequest) -> Result<Simulation
         check_recorded_values(times.len(), out_names.len())?;
     }
     let mut rec = Recorder::new(md, out_names, times.len())?;
+    let default_tolerance = md.default_experiment.as_ref().and_then(|d| d.tolerance);
     let settings = model_exchange
         .then(|| {
             me_settings(
                 (req.start_time, req.stop_time, req.step),
                 req.tolerance,
-                md.default_experiment.as_ref().and_then(|d| d.tolerance),
+                default_tolerance,
                 req.record_events,
             )
         })
         .transpose()?;
+    let tolerance = fmu_tolerance(model_exchange, req.tolerance, default_tolerance);
 
     starts.apply(inst)?;
     inputs.apply(inst, req.start_time)?;
-    inst.setup_experiment(req.tolerance, req.start_time, Some(req.stop_time))?;
+    inst.setup_experiment(tolerance, req.start_time, Some(req.stop_time))?;
     inst.enter_initialization_mode()?;
     inst.exit_initialization_mode()?;
     let (time, ended_by_fmu) = match settings {
@@ -575,12 +578,15 @@ impl<'r> InputPlan<'r> {
         let names = series.columns.iter().map(|(n, c)| (n, c.len()));
         let text_names = series.text.iter().map(|(n, c)| (n, c.len()));
         for (col, (name, len)) in names.chain(text_names).enumerate() {
-            let v = lookup(md, name)?;
-            if v.causality != Causality::Input {
-                return Err(HostError::Request(format!(
-                    "'{name}' is not an input of the FMU"
-                )));
-            }
+            let v = match md.input_of(name) {
+                Some(v) => v,
+                None => {
+                    lookup(md, name)?;
+                    return Err(HostError::Request(format!(
+                        "'{name}' is not an input of the FMU"
+                    )));
+                }
+            };
             if len != series.time.len() {
                 return Err(HostError::Request(format!(
                     "input '{name}' has {len} samples for {} times",

@@ -196,6 +196,18 @@ impl ModelView {
         self.scalars().find(|v| v.name == name)
     }
 
+    /// The scalar input a column called `name` sets: the variable itself when it is an input,
+    /// else the input of its type and value reference it is an alias of (FMI 2.0.4 section
+    /// 2.2.7; FMI 3.0 aliases are `<Alias>` elements, see `ModelDescription3::with_aliases`).
+    pub fn input_of(&self, name: &str) -> Option<&Variable> {
+        let v = self.scalar(name)?;
+        if v.causality == Causality::Input {
+            return Some(v);
+        }
+        self.scalars_with(Causality::Input)
+            .find(|i| i.value_reference == v.value_reference && i.scalar_kind() == v.scalar_kind())
+    }
+
     /// Scalar variables with causality `c`, in file order.
     pub fn scalars_with(&self, c: Causality) -> impl Iterator<Item = &Variable> {
         self.scalars().filter(move |v| v.causality == c)

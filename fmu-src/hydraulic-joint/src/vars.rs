@@ -21,16 +21,26 @@ fmu_core::declare_variables! {
     // at 10 MPa on its 30 mm pulley.
     TAU_EXT = 6 => Variable::input("tau_ext", 0.0, "N.m", "External torque on the link, positive in the direction of theta").range(-20.0, 20.0),
     // ---- outputs
-    THETA = 7 => Variable::output("theta", "rad", "Link angle, eq. (1); grows when the left piston pulls").display("deg"),
-    OMEGA = 8 => Variable::output("omega", "rad/s", "Link angular velocity").display("deg/s"),
-    X_LEFT = 9 => Variable::output("x_left", "m", "Left piston position from the retracted end").display("mm"),
-    X_RIGHT = 10 => Variable::output("x_right", "m", "Right piston position from the retracted end").display("mm"),
-    V_LEFT = 11 => Variable::output("v_left", "m/s", "Left piston velocity, positive extending").display("mm/s"),
-    V_RIGHT = 12 => Variable::output("v_right", "m/s", "Right piston velocity, positive extending").display("mm/s"),
-    P1_LEFT = 13 => Variable::output("p1_left", "Pa", "Left cap-side (piston-side) chamber pressure, gauge").display("bar"),
-    P2_LEFT = 14 => Variable::output("p2_left", "Pa", "Left rod-side chamber pressure, gauge").display("bar"),
-    P1_RIGHT = 15 => Variable::output("p1_right", "Pa", "Right cap-side chamber pressure, gauge").display("bar"),
-    P2_RIGHT = 16 => Variable::output("p2_right", "Pa", "Right rod-side chamber pressure, gauge").display("bar"),
+    // nominal 0.01: the link angle swings by tenths of a rad to a rad; 0.01 rad bounds the absolute error near 0
+    THETA = 7 => Variable::output("theta", "rad", "Link angle, eq. (1); grows when the left piston pulls").display("deg").nominal(0.01),
+    // nominal 0.01: the link speed in rad/s, scaled as theta
+    OMEGA = 8 => Variable::output("omega", "rad/s", "Link angular velocity").display("deg/s").nominal(0.01),
+    // nominal 1e-3: piston positions in m, strokes of cm; 1 mm near the retracted end
+    X_LEFT = 9 => Variable::output("x_left", "m", "Left piston position from the retracted end").display("mm").nominal(1e-3),
+    // nominal 1e-3: piston positions in m, strokes of cm; 1 mm near the retracted end
+    X_RIGHT = 10 => Variable::output("x_right", "m", "Right piston position from the retracted end").display("mm").nominal(1e-3),
+    // nominal 1e-2: piston speeds of cm/s
+    V_LEFT = 11 => Variable::output("v_left", "m/s", "Left piston velocity, positive extending").display("mm/s").nominal(1e-2),
+    // nominal 1e-2: piston speeds of cm/s
+    V_RIGHT = 12 => Variable::output("v_right", "m/s", "Right piston velocity, positive extending").display("mm/s").nominal(1e-2),
+    // nominal 1e5: gauge chamber pressures of bars to the supply pressure; 1 bar
+    P1_LEFT = 13 => Variable::output("p1_left", "Pa", "Left cap-side (piston-side) chamber pressure, gauge").display("bar").nominal(1e5),
+    // nominal 1e5: gauge chamber pressures of bars to the supply pressure; 1 bar
+    P2_LEFT = 14 => Variable::output("p2_left", "Pa", "Left rod-side chamber pressure, gauge").display("bar").nominal(1e5),
+    // nominal 1e5: gauge chamber pressures of bars to the supply pressure; 1 bar
+    P1_RIGHT = 15 => Variable::output("p1_right", "Pa", "Right cap-side chamber pressure, gauge").display("bar").nominal(1e5),
+    // nominal 1e5: gauge chamber pressures of bars to the supply pressure; 1 bar
+    P2_RIGHT = 16 => Variable::output("p2_right", "Pa", "Right rod-side chamber pressure, gauge").display("bar").nominal(1e5),
     F_LEFT = 17 => Variable::output("F_left", "N", "Left piston hydraulic force P1 A1 - P2 A2, eq. (2)"),
     F_RIGHT = 18 => Variable::output("F_right", "N", "Right piston hydraulic force P1 A1 - P2 A2, eq. (3)"),
     T_LEFT = 19 => Variable::output("T_left", "N", "Left cable tension at the joint (load cell)"),
@@ -109,10 +119,12 @@ fmu_core::declare_variables! {
     VALVE_DYNAMICS_NATURAL_FREQUENCY = 73 => Variable::parameter("valve_dynamics.natural_frequency", 1300.0, "rad/s", "Spool natural frequency omega").range(400.0, 2000.0),
     VALVE_DYNAMICS_DAMPING_RATIO = 74 => Variable::parameter("valve_dynamics.damping_ratio", 0.7, "1", "Spool damping ratio zeta").range(0.4, 1.2),
     // ---- oil balance diagnostics (appended so earlier value references stay)
+    // nominal 1e-8: the oil moved in 1 ms at 0.6 L/min
     V_SUPPLIED = 75 => Variable::output("V_supplied", "m3",
-        "Oil drawn from the supply by both valves since initialization, as volume at 0 gauge (mass / rho(0)); diagnostic").display("cm3"),
+        "Oil drawn from the supply by both valves since initialization, as volume at 0 gauge (mass / rho(0)); diagnostic").display("cm3").nominal(1e-8),
+    // nominal 1e-8: the oil moved in 1 ms at 0.6 L/min
     V_RETURNED = 76 => Variable::output("V_returned", "m3",
-        "Oil returned to tank by both valves since initialization, as volume at 0 gauge; diagnostic").display("cm3"),
+        "Oil returned to tank by both valves since initialization, as volume at 0 gauge; diagnostic").display("cm3").nominal(1e-8),
     V_STORED = 77 => Variable::output("V_stored", "m3",
         "Oil in the four chambers as volume at 0 gauge, sum V_i rho(P_i)/rho(0); V_supplied - V_returned = V_stored - V_stored(0) up to solver error").display("cm3"),
     // ---- appended effect parameters
@@ -123,12 +135,18 @@ fmu_core::declare_variables! {
         "Gain K_c of the co-contraction loop: both pistons get the common speed -K_c f m, m = mean piston offset from mid-stroke (holds the cable pretension; 0: eq. (23)-(24) alone)").range(0.0, 5.0).tunable(),
     // ---- Model Exchange: the states without an output of their own, then the derivative of
     // every state (documentation, 'Model Exchange'); appended so earlier references stay
-    SPOOL_LEFT = 80 => Variable::local("spool_left", "V", "Left spool position in volts of command (valve_dynamics state; 0 when the effect is off)"),
-    SPOOL_RATE_LEFT = 81 => Variable::local("spool_rate_left", "V/s", "Left spool velocity (valve_dynamics state; 0 when the effect is off)"),
-    SPOOL_RIGHT = 82 => Variable::local("spool_right", "V", "Right spool position in volts of command (valve_dynamics state; 0 when the effect is off)"),
-    SPOOL_RATE_RIGHT = 83 => Variable::local("spool_rate_right", "V/s", "Right spool velocity (valve_dynamics state; 0 when the effect is off)"),
-    V_MEMORY_LEFT = 84 => Variable::local("v_memory_left", "m/s", "Left piston speed remembered by the seal friction (seal_friction state; 0 when the effect is off)").display("mm/s"),
-    V_MEMORY_RIGHT = 85 => Variable::local("v_memory_right", "m/s", "Right piston speed remembered by the seal friction (seal_friction state; 0 when the effect is off)").display("mm/s"),
+    // nominal 0.01: the spool in volts of command; 0.01 V
+    SPOOL_LEFT = 80 => Variable::local("spool_left", "V", "Left spool position in volts of command (valve_dynamics state; 0 when the effect is off)").nominal(0.01),
+    // nominal 10.0: spool speed in V/s, fast through the valve bandwidth; 10 V/s
+    SPOOL_RATE_LEFT = 81 => Variable::local("spool_rate_left", "V/s", "Left spool velocity (valve_dynamics state; 0 when the effect is off)").nominal(10.0),
+    // nominal 0.01: the spool in volts of command; 0.01 V
+    SPOOL_RIGHT = 82 => Variable::local("spool_right", "V", "Right spool position in volts of command (valve_dynamics state; 0 when the effect is off)").nominal(0.01),
+    // nominal 10.0: spool speed in V/s, fast through the valve bandwidth; 10 V/s
+    SPOOL_RATE_RIGHT = 83 => Variable::local("spool_rate_right", "V/s", "Right spool velocity (valve_dynamics state; 0 when the effect is off)").nominal(10.0),
+    // nominal 1e-2: a remembered piston speed, as the piston speed
+    V_MEMORY_LEFT = 84 => Variable::local("v_memory_left", "m/s", "Left piston speed remembered by the seal friction (seal_friction state; 0 when the effect is off)").display("mm/s").nominal(1e-2),
+    // nominal 1e-2: a remembered piston speed, as the piston speed
+    V_MEMORY_RIGHT = 85 => Variable::local("v_memory_right", "m/s", "Right piston speed remembered by the seal friction (seal_friction state; 0 when the effect is off)").display("mm/s").nominal(1e-2),
     DER_THETA = 86 => Variable::local("der(theta)", "rad/s", "Derivative of theta"),
     DER_OMEGA = 87 => Variable::local("der(omega)", "rad/s2", "Derivative of omega, eq. (1)"),
     DER_X_LEFT = 88 => Variable::local("der(x_left)", "m/s", "Derivative of x_left"),

@@ -12,8 +12,10 @@ declare_variables! {
     FAIL_AT = 5 => Variable::parameter("fail_at", 1e9, "s", "A step reaching this time fails on purpose (test of the error path)").range(0.0, 1e9),
     LOCKED = 6 => Variable::flag("locked", false, "When true the mass is held at x0"),
     FORCE = 7 => Variable::input("force", 0.0, "N", "External force F").range(-1e3, 1e3),
-    X = 8 => Variable::output("x", "m", "Position").display("mm"),
-    V = 9 => Variable::output("v", "m/s", "Velocity"),
+    // nominal 1e-2: the oscillator moves by cm
+    X = 8 => Variable::output("x", "m", "Position").display("mm").nominal(1e-2),
+    // nominal 1e-2: the oscillator moves at cm/s
+    V = 9 => Variable::output("v", "m/s", "Velocity").nominal(1e-2),
     ENERGY = 10 => Variable::output("energy", "J", "Kinetic plus spring energy"),
     DER_X = 11 => Variable::local("der(x)", "m/s", "Derivative of the position (Model Exchange state x)"),
     DER_V = 12 => Variable::local("der(v)", "m/s2", "Derivative of the velocity (Model Exchange state v)"),

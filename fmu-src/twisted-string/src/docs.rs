@@ -420,8 +420,11 @@ and has derivative 0): <code>current</code>, <code>theta_motor</code>, <code>ome
 <code>v_load</code>, <code>current_integral</code> z<sub>i</sub>, <code>speed_integral</code> z<sub>&omega;</sub>,
 <code>E_electrical</code>, <code>E_dissipated</code>, <code>E_string_kinematic</code>,
 <code>backlash_position</code> &delta; and <code>omega_twist</code> &omega;<sub>t</sub> (<code>gear_backlash</code> only),
-<code>W_external</code> = &int; F<sub>load</sub> v dt; each with its local <code>der(&hellip;)</code>. Nominals as in
-section 8 (1 J for the energies). Unlike Co-Simulation (section 8), the motor angle is one absolute state:
+<code>W_external</code> = &int; F<sub>load</sub> v dt; each with its local <code>der(&hellip;)</code>. Nominals
+(<code>nominal</code> in the description, returned by fmi2GetNominalsOfContinuousStates) as in
+section 8 (1 J for the energies) except the current's, 0.1 A: holding a load the current is some
+0.05 A, and at 1 A an importer's absolute tolerance rtol&middot;1 A let FMPy's CVode move
+F_axial by 1.25&times;10<sup>-3</sup> of its range at rtol 10<sup>-6</sup> (0.03&times;10<sup>-3</sup> at 0.1 A). Unlike Co-Simulation (section 8), the motor angle is one absolute state:
 the importer's relative tolerance applies to |&theta;<sub>m</sub>| (at 2000 rad and rtol 10<sup>-6</sup> about
 one encoder count), and the energy integrals hold the totals since the start.</p>
 <p><b>Position loop as time events.</b> The next event time is the next sample t<sub>0</sub> + k T<sub>s</sub>

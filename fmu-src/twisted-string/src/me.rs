@@ -27,8 +27,8 @@
 //! * encoder quantisation, position band and speed-limit clamp: evaluated at the time events only.
 
 use crate::model::{validate, TwistedString};
-use crate::plant::{ix, Aux, Inputs, Params, Plant, DIM, NOMINAL};
-use crate::vars::V;
+use crate::plant::{ix, Aux, Inputs, Params, Plant, DIM};
+use crate::vars::{V, VARIABLES};
 use fmu_core::{ModelError, ModelExchange, ValuesMut};
 use ode::SampleClock;
 
@@ -400,9 +400,13 @@ impl ModelExchange for TwistedString {
 
     /// The plant's nominals (those `do_step` scales its absolute tolerances with); 1 J for
     /// `E_dissipated` and `W_external`.
+    /// The `nominal` each state's variable declares (vars.rs, where each is reasoned), as the
+    /// description gives it: the importer's scale, apart from the internal solver's
+    /// [`crate::plant::NOMINAL`], which Co-Simulation keeps.
     fn nominals(&self, n: &mut [f64]) {
-        n.copy_from_slice(&pack(&NOMINAL, 1.0));
-        n[sx::E_DISS] = 1.0;
+        for (n, &(s, _)) in n.iter_mut().zip(&STATE_VARIABLES) {
+            *n = VARIABLES[s].nominal.unwrap_or(1.0);
+        }
     }
 
     fn derivatives(&self, vars: &[f64], _t: f64, dx: &mut [f64]) -> Result<(), ModelError> {

@@ -32,11 +32,18 @@ fmu_core::declare_variables! {
         "Armature voltage when internal_controller = false").range(-24.0, 24.0),
     F_LOAD = 3 => Variable::input("F_load", 0.0, "N",
         "Extra force pulling the load down (adds to its weight)").range(-40.0, 100.0),
-    P = 4 => Variable::output("p", "m", "Load position = axial length of the twisted strings (eq. 9), grows downward").display("mm"),
-    THETA_MOTOR = 5 => Variable::output("theta_motor", "rad", "Motor shaft angle").display("deg"),
-    OMEGA_MOTOR = 6 => Variable::output("omega_motor", "rad/s", "Motor shaft speed").display("rpm"),
+    // nominal 0.01: p is ~0.09 m, its CVode weight rtol |p| dominates; 1 cm bounds the absolute part where p nears 0
+    P = 4 => Variable::output("p", "m", "Load position = axial length of the twisted strings (eq. 9), grows downward").display("mm").nominal(0.01),
+    // nominal 1.0: the angle runs over 0 to ~2000 rad; 1 rad near 0
+    THETA_MOTOR = 5 => Variable::output("theta_motor", "rad", "Motor shaft angle").display("deg").nominal(1.0),
+    // nominal 10.0: the speed reaches ~840 rad/s (8000 rpm); 10 rad/s near rest
+    OMEGA_MOTOR = 6 => Variable::output("omega_motor", "rad/s", "Motor shaft speed").display("rpm").nominal(10.0),
     THETA_TWIST = 7 => Variable::output("theta_twist", "rad", "Twist angle of the bundle = gearhead output angle").display("deg"),
-    CURRENT = 8 => Variable::output("current", "A", "Armature current"),
+    // nominal 0.1: the armature current holding a load is some 0.05 A (median |i| 0.04 to 0.07 A
+    // in the reference runs), peaks 0.3 to 2.5 A; with 1 A an importer's absolute tolerance
+    // rtol * 1 A let CVode's current, and through it F_axial, stray by 1.25e-3 of its range
+    // (the internal solver's own scale, plant::NOMINAL, is unchanged)
+    CURRENT = 8 => Variable::output("current", "A", "Armature current").nominal(0.1),
     TAU_MOTOR = 9 => Variable::output("tau_motor", "N.m", "Electromagnetic motor torque k_t i"),
     F_STRING = 10 => Variable::output("F_string", "N", "Axial (strand) force of each string F_i = T/n (eq. 12)"),
     F_TANGENTIAL = 11 => Variable::output("F_tangential", "N", "Tangential force of the bundle F_tau = F_L theta r / p (eq. 15)"),
@@ -44,7 +51,8 @@ fmu_core::declare_variables! {
     TRANSMISSION_RATIO = 13 => Variable::output("transmission_ratio", "m/rad", "dp/dtheta_twist at constant tension (eq. 13), negative: twisting shortens"),
     STIFFNESS = 14 => Variable::output("stiffness", "N/m", "Axial stiffness of the bundle at the load dF_L/dp at fixed twist (Fig. 19)"),
     F_AXIAL = 15 => Variable::output("F_axial", "N", "Axial force of the bundle on the load F_L = T cos(alpha)"),
-    V_LOAD = 16 => Variable::output("v_load", "m/s", "Load velocity dp/dt").display("mm/s"),
+    // nominal 0.01: the load moves at cm/s
+    V_LOAD = 16 => Variable::output("v_load", "m/s", "Load velocity dp/dt").display("mm/s").nominal(0.01),
     VOLTAGE_MOTOR = 17 => Variable::output("voltage_motor", "V", "Armature voltage applied (controller output or input)"),
     // The position loop's outputs change only at its samples (time events in Model Exchange).
     OMEGA_REF = 18 => discrete(Variable::output("omega_ref", "rad/s", "Speed set point from the position loop (held between samples)").display("rpm")),
@@ -137,26 +145,34 @@ fmu_core::declare_variables! {
     // ---- energy balance (appended so earlier value references stay) -----------------------
     // E_electrical + W_external = E_dissipated + E_stored - E_stored(start) within the solver
     // tolerance (documentation section "Energy balance").
+    // nominal 1.0: an energy state starts at 0 J and grows over a run; 1 J bounds its absolute error
     E_ELECTRICAL = 62 => Variable::output("E_electrical", "J",
-        "Electrical energy into the armature since the start, integral of voltage_motor * current (ODE state)"),
+        "Electrical energy into the armature since the start, integral of voltage_motor * current (ODE state)").nominal(1.0),
+    // nominal 1.0: an energy state starts at 0 J and grows over a run; 1 J bounds its absolute error
     W_EXTERNAL = 63 => Variable::output("W_external", "J",
-        "Work of the input F_load on the load since the start, sum of F_load * (change of p) over the steps (F_load held over each step)"),
+        "Work of the input F_load on the load since the start, sum of F_load * (change of p) over the steps (F_load held over each step)").nominal(1.0),
+    // nominal 1.0: an energy state starts at 0 J and grows over a run; 1 J bounds its absolute error
     E_DISSIPATED = 64 => Variable::output("E_dissipated", "J",
-        "Energy dissipated since the start (ODE states): copper, gearhead, motor and strand friction, guides, string damping, plus E_string_kinematic"),
+        "Energy dissipated since the start (ODE states): copper, gearhead, motor and strand friction, guides, string damping, plus E_string_kinematic").nominal(1.0),
     E_STORED = 65 => Variable::output("E_stored", "J",
         "Stored energy: L i^2/2 + J omega^2/2 + m v^2/2 + gravity and spring potential (0 at p = L0) + elastic string energy"),
+    // nominal 1.0: an energy state starts at 0 J and grows over a run; 1 J bounds its absolute error
     E_STRING_KINEMATIC = 66 => Variable::output("E_string_kinematic", "J",
-        "Part of E_dissipated: work absorbed (>0) or released (<0) by the non-conservative string_compliance law (eq. 10 twist lengthening, elongation by the load); 0 with string_compliance off"),
+        "Part of E_dissipated: work absorbed (>0) or released (<0) by the non-conservative string_compliance law (eq. 10 twist lengthening, elongation by the load); 0 with string_compliance off").nominal(1.0),
     // ---- Model Exchange: states that are not outputs, and the derivative of every state ------
     // (documentation section "Model Exchange")
+    // nominal 1e-3: the current PI integral of i_ref - i, a current error over the loop time constant (ms): ~1e-3 A.s
     CURRENT_INTEGRAL = 67 => Variable::local("current_integral", "A.s",
-        "State z_i = int (i_ref - i) dt of the current PI, with anti-windup (internal_controller only, else 0)"),
+        "State z_i = int (i_ref - i) dt of the current PI, with anti-windup (internal_controller only, else 0)").nominal(1e-3),
+    // nominal 1.0: the speed PI integral of omega_ref - omega_motor: about 1 rad of lag
     SPEED_INTEGRAL = 68 => Variable::local("speed_integral", "rad",
-        "State z_w = int (omega_ref - omega_motor) dt of the speed PI, with anti-windup (internal_controller only, else 0)"),
+        "State z_w = int (omega_ref - omega_motor) dt of the speed PI, with anti-windup (internal_controller only, else 0)").nominal(1.0),
+    // nominal 1e-2: about the backlash gap (~1e-2 rad)
     BACKLASH_POSITION = 69 => Variable::local("backlash_position", "rad",
-        "State delta = theta_motor / N - theta_twist: position of the gearhead output in the backlash gap (gear_backlash only, else 0)").display("deg"),
+        "State delta = theta_motor / N - theta_twist: position of the gearhead output in the backlash gap (gear_backlash only, else 0)").display("deg").nominal(1e-2),
+    // nominal 1.0: the gearhead output speed is omega_motor / 19.2 with the gap closed; 1 rad/s near rest
     OMEGA_TWIST = 70 => Variable::local("omega_twist", "rad/s",
-        "State omega_t: speed of the gearhead output (gear_backlash only, else 0)").display("rpm"),
+        "State omega_t: speed of the gearhead output (gear_backlash only, else 0)").display("rpm").nominal(1.0),
     DER_CURRENT = 71 => Variable::local("der(current)", "A/s", "Derivative of current"),
     DER_THETA_MOTOR = 72 => Variable::local("der(theta_motor)", "rad/s", "Derivative of theta_motor"),
     DER_OMEGA_MOTOR = 73 => Variable::local("der(omega_motor)", "rad/s2", "Derivative of omega_motor"),

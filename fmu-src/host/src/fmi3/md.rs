@@ -20,6 +20,7 @@
 use super::value::{Type3, Values};
 use crate::error::HostError;
 use crate::xml::{Ancestors, Attrs, Doc, Visitor};
+use std::borrow::Cow;
 
 pub use fmi_types::{Initial, Variability};
 
@@ -81,6 +82,22 @@ pub struct Variable3 {
     pub dimensions: Vec<Dimension>,
     /// `intervalVariability` (Clock)
     pub interval_variability: Option<String>,
+    /// Its `<Alias>` elements: other names of the same value (FMI 3.0.2 section 2.4.7.4).
+    pub aliases: Vec<Alias3>,
+    /// Line of the tag.
+    pub line: usize,
+}
+
+/// `<Alias>` of a variable (FMI 3.0.2 section 2.4.7.4): a name, unique among variables and
+/// aliases, for the same value reference, with its own description and display unit.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Alias3 {
+    /// `name`
+    pub name: String,
+    /// `description`
+    pub description: Option<String>,
+    /// `displayUnit` (Float types)
+    pub display_unit: Option<String>,
     /// Line of the tag.
     pub line: usize,
 }
@@ -317,6 +334,32 @@ impl ModelDescription3 {
         self.variables.iter().find(|v| v.name == name)
     }
 
+    /// The description as a simulation sees it, as FMPy's `read_model_description` makes it:
+    /// every `<Alias>` one more variable after those of the file, a copy of its variable with
+    /// the alias's name (and description and display unit where it gives them), so that an
+    /// alias is recorded, set and named in a CSV like any variable. Borrowed when there is none.
+    pub fn with_aliases(&self) -> Cow<'_, ModelDescription3> {
+        if self.variables.iter().all(|v| v.aliases.is_empty()) {
+            return Cow::Borrowed(self);
+        }
+        let mut md = self.clone();
+        let aliases: Vec<Variable3> = self
+            .variables
+            .iter()
+            .flat_map(|v| v.aliases.iter().map(move |a| (v, a)))
+            .map(|(v, a)| Variable3 {
+                name: a.name.clone(),
+                description: a.description.clone().or_else(|| v.description.clone()),
+                display_unit: a.display_unit.clone().or_else(|| v.display_unit.clone()),
+                aliases: Vec::new(),
+                line: a.line,
+                ..v.clone()
+            })
+            .collect();
+        md.variables.extend(aliases);
+        Cow::Owned(md)
+    }
+
     /// The variable with value reference `vr` (FMI 3.0 value references are unique).
     pub fn by_vr(&self, vr: u32) -> Option<&Variable3> {
         self.variables.iter().find(|v| v.value_reference == vr)
@@ -474,6 +517,17 @@ impl Visitor for Parser3 {
                     }
                 }
             }
+            (_, "Alias") if path.len() >= 2 && path[path.len() - 2] == "ModelVariables" => {
+                let alias = Alias3 {
+                    name: doc.required(&a, "name")?,
+                    description: a.get("description").map(str::to_string),
+                    display_unit: a.get("displayUnit").map(str::to_string),
+                    line: a.line,
+                };
+                if let Some(v) = self.current.as_mut() {
+                    v.aliases.push(alias);
+                }
+            }
             ("ModelStructure", kind) => self.unknown(doc, kind, &a)?,
             _ => {}
         }
@@ -615,6 +669,7 @@ impl Parser3 {
             clocks,
             dimensions: Vec::new(),
             interval_variability: a.get("intervalVariability").map(str::to_string),
+            aliases: Vec::new(),
             line: a.line,
             name,
         });
@@ -852,5 +907,39 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("valueReference=\"99\""), "{e}");
+    }
+
+    #[test]
+    fn aliases_become_variables_after_those_of_the_file() {
+        let xml = SAMPLE.replace(
+            r#"<Int8 name="i8" valueReference="4" causality="output" min="-3" max="3"/>"#,
+            r#"<Int8 name="i8" valueReference="4" causality="output" min="-3" max="3">
+      <Alias name="i8_alias" description="second name"/><Alias name="i8_b"/>
+    </Int8>"#,
+        );
+        let md = ModelDescription3::parse(&xml, "md.xml").unwrap();
+        let names: Vec<&str> = md.variables.iter().map(|v| v.name.as_str()).collect();
+        assert!(
+            !names.contains(&"i8_alias"),
+            "the file's variables stay as written"
+        );
+        assert_eq!(md.variable("i8").unwrap().aliases.len(), 2);
+        let seen = md.with_aliases();
+        let n = md.variables.len();
+        assert_eq!(seen.variables.len(), n + 2);
+        let alias = &seen.variables[n];
+        assert_eq!(
+            (alias.name.as_str(), alias.value_reference),
+            ("i8_alias", 4)
+        );
+        assert_eq!(alias.causality, Causality3::Output);
+        assert_eq!(alias.description.as_deref(), Some("second name"));
+        assert_eq!(seen.variables[n + 1].name, "i8_b");
+        assert_eq!(seen.by_vr(4).unwrap().name, "i8");
+        let plain = ModelDescription3::parse(SAMPLE, "md.xml").unwrap();
+        assert!(matches!(
+            plain.with_aliases(),
+            std::borrow::Cow::Borrowed(_)
+        ));
     }
 }

@@ -21,7 +21,7 @@ use super::md::{Causality3, ModelDescription3, Variable3};
 use super::value::{Type3, ValueError, Values};
 use crate::error::{HostError, Result};
 use crate::kind::Interface;
-use crate::run::{step_through, CoSimulationStep, Inputs, Outputs};
+use crate::run::{fmu_tolerance, step_through, CoSimulationStep, Inputs, Outputs};
 use crate::simulate::{
     communication_points, first_event_after, hold_index, interpolate, Recorded, ReusedInstance,
     SimulationResult,
@@ -47,7 +47,8 @@ pub struct Request3 {
     pub stop_time: f64,
     /// Communication step.
     pub step: f64,
-    /// Relative tolerance passed to fmi3EnterInitializationMode (None: not defined).
+    /// Relative tolerance (None: the DefaultExperiment's), handed to fmi3EnterInitializationMode
+    /// and to the Model Exchange integrator as [`crate::SimulationRequest::tolerance`].
     pub tolerance: Option<f64>,
     /// (name, text) set before initialization: parameters, structural parameters, inputs.
     pub start_values: Vec<(String, String)>,
@@ -114,7 +115,8 @@ impl<'a> Simulator3<'a> {
 }
 
 fn run_on(inst: &mut Instance3<'_>, req: &Request3) -> Result<SimulationResult> {
-    let md = inst.fmu().model_description();
+    let described = inst.fmu().model_description().with_aliases();
+    let md: &ModelDescription3 = &described;
     let times = communication_points(req.start_time, req.stop_time, req.step)?;
     let starts = StartValues3::resolve(md, &req.start_values)?;
     let sizes = |vr: u32| starts.size_of(md, vr);
@@ -138,7 +140,12 @@ fn run_on(inst: &mut Instance3<'_>, req: &Request3) -> Result<SimulationResult> 
 
     starts.apply(inst)?;
     inputs.apply(inst, req.start_time)?;
-    inst.enter_initialization_mode(req.tolerance, req.start_time, Some(req.stop_time))?;
+    let tolerance = fmu_tolerance(
+        inst.fmu().interface() == Interface::ModelExchange,
+        req.tolerance,
+        md.default_experiment.as_ref().and_then(|d| d.tolerance),
+    );
+    inst.enter_initialization_mode(tolerance, req.start_time, Some(req.stop_time))?;
     inst.exit_initialization_mode()?;
     let (time, ended_by_fmu) = match inst.fmu().interface() {
         Interface::ModelExchange => crate::me::fmi3::run(inst, req, &mut inputs, &mut rec)?,
