@@ -63,6 +63,7 @@ const V3: Option<Fmi> = Some(Fmi::V3);
 const RULES: &[Rule] = &[
     rule("archive", A, None, "the FMU is a zip archive with the FMI layout"),
     rule("model-description-xml", A, None, "modelDescription.xml is present and well-formed"),
+    rule("schema", D, None, "modelDescription.xml follows the XML schema of its FMI version"),
     rule("fmi-version", D, None, "fmiVersion names the standard's version"),
     rule("model-name", D, None, "modelName is given"),
     rule("guid", D, V2, "guid is given"),
@@ -82,7 +83,7 @@ const RULES: &[Rule] = &[
     rule("variable-name", D, None, "every variable has a name"),
     rule("unique-names", D, None, "variable names are unique"),
     rule("unique-value-references", D, None, "value references are unique per type"),
-    rule("naming-convention", D, V2, "variableNamingConvention is flat or structured"),
+    rule("naming-convention", D, None, "names follow the declared variableNamingConvention"),
     rule("causality-variability", D, None, "causality and variability form an allowed combination"),
     rule("variability-type", D, None, "only Real (Float) variables are continuous"),
     rule("initial", D, None, "initial is allowed for the causality and variability"),
