@@ -137,6 +137,12 @@ pub fn classify(check: &str) -> (Severity, &'static str) {
             "FMI 2.0.4 §2.1.7: the standard does not say how fmi2SetReal treats NaN",
         ),
         "probe-log" => (N, "FMI 2.0.4 §2.1.5: logging is the FMU's choice"),
+        "unique-value-references" => (
+            F,
+            "FMI 2.0.4 §2.2.7: alias variables (two settable variables, or a settable one and the \
+             independent one, cannot share a valueReference; at most one non-constant alias has \
+             a start)",
+        ),
         "effect-convention" => (F, "actuator-fmu candidate-effect convention (README)"),
         // schema-level variable attributes: causality, variability, initial, start, min/max
         _ => (F, "FMI 2.0.4 §2.2.7: ScalarVariable"),
