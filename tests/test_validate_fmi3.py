@@ -170,12 +170,18 @@ BINARY_CASES = {
     "cs-export": (rename_export("fmi3DoStep", "fmi3DoStap"), "symbols", "fmi3DoStep"),
     # A Model Exchange function (the FMU declares <ModelExchange>) not exported.
     "me-export": (rename_export("fmi3SetTime", "fmi3SetTame"), "symbols", "fmi3SetTime"),
-    # The library missing from its platform directory.
-    "missing": (lambda n, d: None if n == SO else d, "binary", "no VanDerPol.so"),
-    # An FMI 2.0 platform directory instead of the FMI 3.0 platform tuple.
-    "fmi2-platform": (lambda n, d: (n.replace("x86_64-linux", "linux64"), d)
-                      if n.startswith("binaries/x86_64-linux") else d,
-                      "binary", "FMI 2.0 platform name"),
+    # The library in its platform directory under a name other than the modelIdentifier.
+    "misnamed": (lambda n, d: ("binaries/x86_64-linux/vanderpol.so", d) if n == SO else d,
+                 "binary", "no VanDerPol.so"),
+    # Only an FMI 2.0 platform directory (a vendor's name) and no sources: nothing under a
+    # platform tuple, so nothing an importer runs.
+    "fmi2-platform-only": (lambda n, d: None if n.startswith("sources/") else
+                           (n.replace("x86_64-linux", "linux64"), d)
+                           if n.startswith("binaries/x86_64-linux") else d,
+                           "binary", "nothing to run"),
+    # Entries with '\\' as path separator (APPNOTE.TXT 4.4.17).
+    "backslash": (lambda n, d: (n.replace("/", "\\"), d) if n == SO else d,
+                  "zip-path", "binaries\\x86_64-linux\\VanDerPol.so"),
     # A Linux library where the Windows tuple needs a PE file.
     "wrong-format": (lambda n, d: ("binaries/x86_64-windows/VanDerPol.dll", d) if n == SO else d,
                      "binary-format", "x86_64-windows needs PE"),
@@ -208,6 +214,32 @@ def test_an_exact_continuous_input_is_no_finding(toy, tmp_path):
 
 def test_sources_without_binaries_are_no_finding(toy, tmp_path):
     assert findings(toy, tmp_path, member=lambda n, d: None if n.startswith("binaries/") else d) == []
+
+
+def test_a_vendor_folder_beside_the_platform_tuples_is_a_note(toy, tmp_path):
+    """FMI 3.0.2 section 2.5.1.4: "Further names can be introduced by vendors"; a darwin64
+    folder beside x86_64-linux is no finding, only a note that importers do not look in it."""
+    fmu = broken(toy, tmp_path, "VanDerPol")
+    with zipfile.ZipFile(fmu, "a") as z:
+        z.writestr("binaries/darwin64/VanDerPol.dylib", b"vendor")
+    [report] = validate_json(fmu)
+    assert report["findings"] == [], report["findings"]
+    notes = [n for n in report["notes"] if n["check"] == "platform-folder"]
+    assert len(notes) == 1 and "darwin64" in notes[0]["location"], report["notes"]
+    assert notes[0]["clause"].startswith("FMI 3.0.2 §2.5.1.4"), notes
+
+
+def test_no_binary_for_this_host_is_a_note(toy, tmp_path):
+    """The library for another platform tuple only: "at least one implementation" holds (FMI
+    3.0.2 section 2.5), the FMU is not probed here."""
+    def member(name, data):
+        return (name.replace("x86_64-linux", "x86_64-windows").replace(".so", ".dll"), data) \
+            if name.startswith("binaries/x86_64-linux") else data
+    [report] = validate_json(broken(toy, tmp_path, "VanDerPol", member=member))
+    # (the ELF file under the Windows tuple is a binary-format finding of its own)
+    assert [f for f in report["findings"] if f["check"] == "binary"] == [], report["findings"]
+    notes = [n for n in report["notes"] if n["check"] == "binary-not-probed"]
+    assert len(notes) == 1 and "not probed here" in notes[0]["message"], report["notes"]
 
 
 def test_effects_convention_is_checked_on_fmi3_fmus(toy):

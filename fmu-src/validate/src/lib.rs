@@ -28,16 +28,20 @@ pub mod description;
 mod error;
 pub mod fmi3;
 mod instance;
+mod layout;
 mod me_checks;
 pub mod probe;
 pub mod probe3;
 mod probe_me;
 mod rules;
 
-pub use binary::{check_files, check_platform_binaries, check_symbols, PlatformBinary};
+pub use binary::{
+    check_files, check_platform_binaries, check_symbols, load_refused, PlatformBinary,
+};
 pub use description::{
     check_effect_convention, check_model_description, combination_allowed, initial_allowed,
 };
+pub use cases::wrong_call_crash;
 pub use error::{ProbeError, Stage};
 pub use fmi3::{check_model_description3, check_platform_binaries3};
 pub use probe::{probe, probe_me, ME_PROBE_CASES, PROBE_CASES};
@@ -119,6 +123,21 @@ pub fn classify(check: &str) -> (Severity, &'static str) {
             F,
             "FMI 2.0.4 §2.3: FMU distribution: zip layout, binaries/<platform>",
         ),
+        "zip-path" => (
+            F,
+            "FMI 2.0.4 §2.3 and FMI 3.0.2 §2.5: the ZIP format of APPNOTE.TXT, whose section \
+             4.4.17 allows only '/' as path separator",
+        ),
+        "binary-not-probed" => (
+            N,
+            "FMI 2.0.4 §2.3: at least one implementation, sources or a binary for one platform; \
+             this host has none it can load, so the binary is not probed here",
+        ),
+        "platform-folder" => (
+            N,
+            "FMI 3.0.2 §2.5.1.4: binaries/ is named by platform tuples; further names can be \
+             introduced by vendors",
+        ),
         "symbols" => (F, "FMI 2.0.4 §2.1 and §4.2: every fmi2 function exported"),
         "co-simulation" => (
             F,
@@ -135,6 +154,10 @@ pub fn classify(check: &str) -> (Severity, &'static str) {
         "probe-nan" => (
             N,
             "FMI 2.0.4 §2.1.7: the standard does not say how fmi2SetReal treats NaN",
+        ),
+        "probe-reset" => (
+            N,
+            "FMI 2.0.4 §2.1.3: any call may return fmi2Error (\"the FMU encountered an error\")",
         ),
         "probe-log" => (N, "FMI 2.0.4 §2.1.5: logging is the FMU's choice"),
         "unique-value-references" => (
