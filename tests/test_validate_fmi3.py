@@ -7,6 +7,7 @@ The expected findings come from the standard's text (FMI 3.0.2 sections 2.4.1, 2
 2.5), not from the validator's output: each broken copy violates one rule by construction.
 """
 import json
+import re
 import subprocess
 import zipfile
 
@@ -134,6 +135,14 @@ DESCRIPTION_CASES = {
         '<InitialUnknown valueReference="2"/>',
         '<InitialUnknown valueReference="2"/>\n<InitialUnknown valueReference="42"/>'),
         "model-structure", "valueReference 42 is not a variable"),
+    # FMI 3.0.2 section 2.4.8: state derivatives with initial calculated are initial unknowns
+    "initial-unknown-derivative-missing": ("VanDerPol", replace(
+        '<InitialUnknown valueReference="4"/>', ""),
+        "initial-unknowns", "'der(x1)' (valueReference 4) must be listed in <InitialUnknown>"),
+    # an output (and state) with initial approx is one
+    "initial-unknown-output-missing": ("VanDerPol", replace(
+        'initial="exact" start="2"', 'initial="approx" start="2"'),
+        "initial-unknowns", "'x0' (valueReference 1) must be listed in <InitialUnknown>"),
 }
 
 
@@ -212,6 +221,27 @@ def test_an_exact_continuous_input_is_no_finding(toy, tmp_path):
     assert "initial" in checks, checks
 
 
+def test_states_of_a_co_simulation_fmu_without_directional_derivatives_are_not_demanded(
+        toy, tmp_path):
+    """FMI 3.0.2 section 2.4.8: "For Co-Simulation, elements ContinuousStateDerivative are
+    ignored if capability flag providesDirectionalDerivatives has a value of false", so its state
+    derivatives need not be initial unknowns; with the flag they must."""
+    def cs_only(flag):
+        def md(text):
+            text = drop_model_exchange(text)
+            text = text.replace('<InitialUnknown valueReference="2"/>', "")
+            return text.replace('<InitialUnknown valueReference="4"/>', "").replace(
+                'canHandleVariableCommunicationStepSize="true"',
+                f'canHandleVariableCommunicationStepSize="true" '
+                f'providesDirectionalDerivatives="{flag}"')
+        return md
+    found = findings(toy, tmp_path, md=cs_only("false"), suffix="no-dd")
+    assert [f for f in found if f["check"] == "initial-unknowns"] == [], found
+    found = findings(toy, tmp_path, md=cs_only("true"), suffix="dd")
+    names = sorted(f["message"].split("'")[1] for f in found if f["check"] == "initial-unknowns")
+    assert names == ["der(x0)", "der(x1)"], found
+
+
 def test_sources_without_binaries_are_no_finding(toy, tmp_path):
     assert findings(toy, tmp_path, member=lambda n, d: None if n.startswith("binaries/") else d) == []
 
@@ -267,6 +297,10 @@ def test_the_co_simulation_probe_runs_the_fmu(toy, tmp_path):
     assert "fmi3InstantiateCoSimulation" in found[0]["message"], found
     assert "fmi3InstantiateModelExchange" in found[1]["message"], found
     assert all(f["clause"].startswith("FMI 3.0.2 §") for f in found), found
+
+
+def drop_model_exchange(text):
+    return re.sub(r"\s*<ModelExchange\b[^>]*/>", "", text, count=1)
 
 
 def drop_co_simulation(text):

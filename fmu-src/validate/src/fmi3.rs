@@ -30,7 +30,9 @@ pub fn classify3(check: &str) -> &'static str {
             "FMI 3.0.2 §2.4.7: <Dimension> refers to a UInt64 structural parameter or constant"
         }
         "derivative" => "FMI 3.0.2 §2.4.7: derivative refers to a continuous Float state",
-        "model-structure" | "outputs-listed" => "FMI 3.0.2 §2.4.8: ModelStructure",
+        "model-structure" | "outputs-listed" | "initial-unknowns" => {
+            "FMI 3.0.2 §2.4.8: ModelStructure"
+        }
         "unit-declared" | "unique-units" => "FMI 3.0.2 §2.4.3: UnitDefinitions",
         "clocks" => "FMI 3.0.2 §2.4.7.4: Clocks and clocked variables",
         "probe-not-run" => {
@@ -114,12 +116,13 @@ pub fn check_model_description3(md: &ModelDescription3) -> Vec<Finding> {
             f.push(finding("model-identifier", loc, m));
         }
     }
-    let rules: [Rule<ModelDescription3>; 5] = [
+    let rules: [Rule<ModelDescription3>; 6] = [
         check_units_and_types,
         check_display_units,
         check_variables,
         check_clocks,
         check_model_structure,
+        check_initial_unknowns,
     ];
     apply(md, &rules, &mut f);
     f
@@ -568,6 +571,63 @@ fn check_model_structure(md: &ModelDescription3, f: &mut Vec<Finding>) {
                 v.name, v.value_reference
             );
             f.push(finding("outputs-listed", var_loc(v), m));
+        }
+    }
+}
+
+/// Every variable `<InitialUnknown>` must list (FMI 3.0.2 section 2.4.8: "This list consists
+/// of all variables which: are not clocked variables and have causality = output (with initial =
+/// approx or calculated), or have causality = calculatedParameter, or are continuous-time states
+/// or state derivatives (defined with elements ContinuousStateDerivative) with initial = approx
+/// or calculated"). Listing a clocked variable is optional (section 2.2.8: "Declaring a clocked
+/// variable as an InitialUnknown is optional"), so clocked variables and Clocks are not demanded;
+/// a Co-Simulation FMU without `providesDirectionalDerivatives` has its
+/// `<ContinuousStateDerivative>` elements ignored (section 2.4.8), so its states are not either.
+/// An `<Alias>` shares its variable's value reference, which is what is listed.
+fn check_initial_unknowns(md: &ModelDescription3, f: &mut Vec<Finding>) {
+    let ms = &md.model_structure;
+    let states_count = md.model_exchange.is_some()
+        || [&md.co_simulation, &md.scheduled_execution]
+            .into_iter()
+            .flatten()
+            .any(|i| i.flag("providesDirectionalDerivatives"));
+    let derivatives: BTreeSet<u32> = ms
+        .continuous_state_derivatives
+        .iter()
+        .map(|u| u.value_reference)
+        .collect();
+    let states: BTreeSet<u32> = derivatives
+        .iter()
+        .filter_map(|vr| md.by_vr(*vr)?.derivative)
+        .collect();
+    let listed: BTreeSet<u32> = ms.initial_unknowns.iter().map(|u| u.value_reference).collect();
+    let approx_or_calc = |v: &Variable3| {
+        matches!(
+            v.effective_initial(),
+            Some(Initial::Approx | Initial::Calculated)
+        )
+    };
+    let mut seen = BTreeSet::new();
+    for v in &md.variables {
+        let vr = v.value_reference;
+        let clocked = !v.clocks.is_empty() || v.ty == Type3::Clock;
+        let why = if v.causality == Causality3::Output && !clocked && approx_or_calc(v) {
+            "an output with initial approx or calculated"
+        } else if v.causality == Causality3::CalculatedParameter {
+            "a calculated parameter"
+        } else if states_count && states.contains(&vr) && approx_or_calc(v) {
+            "a continuous-time state with initial approx or calculated"
+        } else if states_count && derivatives.contains(&vr) && approx_or_calc(v) {
+            "a state derivative with initial approx or calculated"
+        } else {
+            continue;
+        };
+        if !listed.contains(&vr) && seen.insert(vr) {
+            let m = format!(
+                "'{}' (valueReference {vr}) must be listed in <InitialUnknown>: {why}",
+                v.name
+            );
+            f.push(finding("initial-unknowns", var_loc(v), m));
         }
     }
 }

@@ -118,10 +118,14 @@ impl Survey {
     pub fn backslash_finding(&self) -> Option<Finding> {
         let first = self.backslash.first()?;
         let m = format!(
-            "{} archive entr{} use '\\' as path separator (e.g. '{}'): only '/' is allowed, so \
+            "{} archive {} '\\' as path separator (e.g. '{}'): only '/' is allowed, so \
              importers do not find these files where the FMU's layout puts them",
             self.backslash.len(),
-            if self.backslash.len() == 1 { "y" } else { "ies" },
+            if self.backslash.len() == 1 {
+                "entry uses"
+            } else {
+                "entries use"
+            },
             first
                 .chars()
                 .take(80)
