@@ -200,6 +200,21 @@ def findings_of(fmu):
     return report["findings"]
 
 
+def test_a_model_exchange_fmu_without_states_is_not_asked_for_them(toy, tmp_path):
+    """FMI 2.0.4 section 2.2.8: "The number of Unknown elements in the Derivatives element
+    uniquely defines the number of continuous time state variables". Feedthrough has none; built
+    to refuse state calls with nx = 0 (as some exporters do), it still passes: the probe does not
+    make them."""
+    so = tmp_path / "Feedthrough.so"
+    subprocess.run(["gcc", "-std=c99", "-shared", "-fPIC", "-O2", "-DREFUSE_EMPTY_STATE_CALLS",
+                    "-o", str(so), str(REPO / "tests" / "fixtures" / "toy-fmus" / "feedthrough.c"),
+                    "-lm"], check=True)
+    binary = "binaries/linux64/Feedthrough.so"
+    fmu = rewrite_fmu(toy("Feedthrough"), tmp_path / "Feedthrough.fmu",
+                      lambda n, d: so.read_bytes() if n == binary else d)
+    assert findings_of(fmu) == []
+
+
 def test_a_model_exchange_only_fmu_is_no_finding(vdp_copy, tmp_path):
     assert findings_of(vdp_copy(tmp_path, "me-only", md=drop(CS_ELEMENT))) == []
 

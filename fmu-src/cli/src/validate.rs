@@ -249,15 +249,16 @@ fn run_probe_once(
         .map_err(|e| CliError::input(format!("cannot start the probe process: {e}")))?;
     let mut so = child.stdout.take().expect("piped stdout");
     let mut se = child.stderr.take().expect("piped stderr");
+    // An FMU may print bytes that are not UTF-8 into the same streams: read them lossily.
     let out_t = std::thread::spawn(move || {
-        let mut s = String::new();
-        let _ = so.read_to_string(&mut s);
-        s
+        let mut b = Vec::new();
+        let _ = so.read_to_end(&mut b);
+        String::from_utf8_lossy(&b).into_owned()
     });
     let err_t = std::thread::spawn(move || {
-        let mut s = String::new();
-        let _ = se.read_to_string(&mut s);
-        s
+        let mut b = Vec::new();
+        let _ = se.read_to_end(&mut b);
+        String::from_utf8_lossy(&b).into_owned()
     });
     let started = Instant::now();
     let status = loop {

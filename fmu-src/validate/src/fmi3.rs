@@ -600,7 +600,11 @@ fn check_initial_unknowns(md: &ModelDescription3, f: &mut Vec<Finding>) {
         .iter()
         .filter_map(|vr| md.by_vr(*vr)?.derivative)
         .collect();
-    let listed: BTreeSet<u32> = ms.initial_unknowns.iter().map(|u| u.value_reference).collect();
+    let listed: BTreeSet<u32> = ms
+        .initial_unknowns
+        .iter()
+        .map(|u| u.value_reference)
+        .collect();
     let approx_or_calc = |v: &Variable3| {
         matches!(
             v.effective_initial(),

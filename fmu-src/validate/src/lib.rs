@@ -38,10 +38,10 @@ mod rules;
 pub use binary::{
     check_files, check_platform_binaries, check_symbols, load_refused, PlatformBinary,
 };
+pub use cases::wrong_call_crash;
 pub use description::{
     check_effect_convention, check_model_description, combination_allowed, initial_allowed,
 };
-pub use cases::wrong_call_crash;
 pub use error::{ProbeError, Stage};
 pub use fmi3::{check_model_description3, check_platform_binaries3};
 pub use probe::{probe, probe_me, ME_PROBE_CASES, PROBE_CASES};

@@ -85,7 +85,11 @@ fn no_implementation_at_all_is_a_finding() {
     assert_eq!(found.len(), 1, "{found:#?}");
     assert_eq!(found[0].check, "binary");
     assert!(found[0].is_required());
-    assert!(found[0].message.contains("no other implementation"), "{}", found[0]);
+    assert!(
+        found[0].message.contains("no other implementation"),
+        "{}",
+        found[0]
+    );
     assert!(found[0].message.contains("no sources/"), "{}", found[0]);
     // a library in the host's folder not named after the modelIdentifier stays a finding,
     // even beside another platform's binary
@@ -95,7 +99,11 @@ fn no_implementation_at_all_is_a_finding() {
     ]);
     assert_eq!(found.len(), 1, "{found:#?}");
     assert_eq!(found[0].check, "binary");
-    assert!(found[0].message.contains("no binary Dummy.so"), "{}", found[0]);
+    assert!(
+        found[0].message.contains("no binary Dummy.so"),
+        "{}",
+        found[0]
+    );
 }
 
 #[test]
