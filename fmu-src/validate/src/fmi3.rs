@@ -775,7 +775,7 @@ pub fn check_platform_binaries3(
     ids.sort_unstable();
     ids.dedup();
     let survey = Survey::of(dir);
-    findings.extend(survey.backslash_finding().map(|f| with_clause3(f)));
+    findings.extend(survey.backslash_finding().map(with_clause3));
     let tuple_folder = |name: &str| !FMI2_PLATFORMS.contains(&name);
     for id in &ids {
         if survey.implementation(id, "", tuple_folder).is_none() {
