@@ -116,7 +116,11 @@ impl Survey {
     /// 4.4.17.1, "All slashes MUST be forward slashes '/'"; an importer does not find such a
     /// file where the FMU's layout puts it.
     pub fn backslash_finding(&self) -> Option<Finding> {
-        let first = self.backslash.first()?;
+        // the deepest entry names a file rather than one of its folders
+        let first = self
+            .backslash
+            .iter()
+            .max_by_key(|p| p.matches('\\').count())?;
         let m = format!(
             "{} archive {} '\\' as path separator (e.g. '{}'): only '/' is allowed, so \
              importers do not find these files where the FMU's layout puts them",

@@ -100,9 +100,10 @@ impl Finding {
 ///
 /// Probe calls the importer must not make (section 4.2.4: the state machine restricts the
 /// environment) leave the FMU's answer open, as does a NaN the standard does not mention: an
-/// FMU answering them with fmi2OK is conforming, so those results are notes. A crash is a
-/// finding: section 2.1.3 has every function return a status, fmi2Fatal for "a run-time
-/// exception such as access violation".
+/// FMU answering them with fmi2OK is conforming, so those results are notes, and so is a crash
+/// on such a call (see [`wrong_call_crash`]). A crash in a legal sequence is a finding: section
+/// 2.1.3 has every function return a status, fmi2Fatal for "a run-time exception such as access
+/// violation".
 pub fn classify(check: &str) -> (Severity, &'static str) {
     use Severity::{Finding as F, Note as N};
     match check {
