@@ -7,6 +7,7 @@ The expected findings come from the standard's text (FMI 3.0.2 sections 2.4.1, 2
 2.5), not from the validator's output: each broken copy violates one rule by construction.
 """
 import json
+import re
 import subprocess
 import zipfile
 
@@ -134,6 +135,14 @@ DESCRIPTION_CASES = {
         '<InitialUnknown valueReference="2"/>',
         '<InitialUnknown valueReference="2"/>\n<InitialUnknown valueReference="42"/>'),
         "model-structure", "valueReference 42 is not a variable"),
+    # FMI 3.0.2 section 2.4.8: state derivatives with initial calculated are initial unknowns
+    "initial-unknown-derivative-missing": ("VanDerPol", replace(
+        '<InitialUnknown valueReference="4"/>', ""),
+        "initial-unknowns", "'der(x1)' (valueReference 4) must be listed in <InitialUnknown>"),
+    # an output (and state) with initial approx is one
+    "initial-unknown-output-missing": ("VanDerPol", replace(
+        'initial="exact" start="2"', 'initial="approx" start="2"'),
+        "initial-unknowns", "'x0' (valueReference 1) must be listed in <InitialUnknown>"),
 }
 
 
@@ -170,12 +179,18 @@ BINARY_CASES = {
     "cs-export": (rename_export("fmi3DoStep", "fmi3DoStap"), "symbols", "fmi3DoStep"),
     # A Model Exchange function (the FMU declares <ModelExchange>) not exported.
     "me-export": (rename_export("fmi3SetTime", "fmi3SetTame"), "symbols", "fmi3SetTime"),
-    # The library missing from its platform directory.
-    "missing": (lambda n, d: None if n == SO else d, "binary", "no VanDerPol.so"),
-    # An FMI 2.0 platform directory instead of the FMI 3.0 platform tuple.
-    "fmi2-platform": (lambda n, d: (n.replace("x86_64-linux", "linux64"), d)
-                      if n.startswith("binaries/x86_64-linux") else d,
-                      "binary", "FMI 2.0 platform name"),
+    # The library in its platform directory under a name other than the modelIdentifier.
+    "misnamed": (lambda n, d: ("binaries/x86_64-linux/vanderpol.so", d) if n == SO else d,
+                 "binary", "no VanDerPol.so"),
+    # Only an FMI 2.0 platform directory (a vendor's name) and no sources: nothing under a
+    # platform tuple, so nothing an importer runs.
+    "fmi2-platform-only": (lambda n, d: None if n.startswith("sources/") else
+                           (n.replace("x86_64-linux", "linux64"), d)
+                           if n.startswith("binaries/x86_64-linux") else d,
+                           "binary", "nothing to run"),
+    # Entries with '\\' as path separator (APPNOTE.TXT 4.4.17).
+    "backslash": (lambda n, d: (n.replace("/", "\\"), d) if n == SO else d,
+                  "zip-path", "binaries\\x86_64-linux\\VanDerPol.so"),
     # A Linux library where the Windows tuple needs a PE file.
     "wrong-format": (lambda n, d: ("binaries/x86_64-windows/VanDerPol.dll", d) if n == SO else d,
                      "binary-format", "x86_64-windows needs PE"),
@@ -206,8 +221,55 @@ def test_an_exact_continuous_input_is_no_finding(toy, tmp_path):
     assert "initial" in checks, checks
 
 
+def test_states_of_a_co_simulation_fmu_without_directional_derivatives_are_not_demanded(
+        toy, tmp_path):
+    """FMI 3.0.2 section 2.4.8: "For Co-Simulation, elements ContinuousStateDerivative are
+    ignored if capability flag providesDirectionalDerivatives has a value of false", so its state
+    derivatives need not be initial unknowns; with the flag they must."""
+    def cs_only(flag):
+        def md(text):
+            text = drop_model_exchange(text)
+            text = text.replace('<InitialUnknown valueReference="2"/>', "")
+            return text.replace('<InitialUnknown valueReference="4"/>', "").replace(
+                'canHandleVariableCommunicationStepSize="true"',
+                f'canHandleVariableCommunicationStepSize="true" '
+                f'providesDirectionalDerivatives="{flag}"')
+        return md
+    found = findings(toy, tmp_path, md=cs_only("false"), suffix="no-dd")
+    assert [f for f in found if f["check"] == "initial-unknowns"] == [], found
+    found = findings(toy, tmp_path, md=cs_only("true"), suffix="dd")
+    names = sorted(f["message"].split("'")[1] for f in found if f["check"] == "initial-unknowns")
+    assert names == ["der(x0)", "der(x1)"], found
+
+
 def test_sources_without_binaries_are_no_finding(toy, tmp_path):
     assert findings(toy, tmp_path, member=lambda n, d: None if n.startswith("binaries/") else d) == []
+
+
+def test_a_vendor_folder_beside_the_platform_tuples_is_a_note(toy, tmp_path):
+    """FMI 3.0.2 section 2.5.1.4: "Further names can be introduced by vendors"; a darwin64
+    folder beside x86_64-linux is no finding, only a note that importers do not look in it."""
+    fmu = broken(toy, tmp_path, "VanDerPol")
+    with zipfile.ZipFile(fmu, "a") as z:
+        z.writestr("binaries/darwin64/VanDerPol.dylib", b"vendor")
+    [report] = validate_json(fmu)
+    assert report["findings"] == [], report["findings"]
+    notes = [n for n in report["notes"] if n["check"] == "platform-folder"]
+    assert len(notes) == 1 and "darwin64" in notes[0]["location"], report["notes"]
+    assert notes[0]["clause"].startswith("FMI 3.0.2 §2.5.1.4"), notes
+
+
+def test_no_binary_for_this_host_is_a_note(toy, tmp_path):
+    """The library for another platform tuple only: "at least one implementation" holds (FMI
+    3.0.2 section 2.5), the FMU is not probed here."""
+    def member(name, data):
+        return (name.replace("x86_64-linux", "x86_64-windows").replace(".so", ".dll"), data) \
+            if name.startswith("binaries/x86_64-linux") else data
+    [report] = validate_json(broken(toy, tmp_path, "VanDerPol", member=member))
+    # (the ELF file under the Windows tuple is a binary-format finding of its own)
+    assert [f for f in report["findings"] if f["check"] == "binary"] == [], report["findings"]
+    notes = [n for n in report["notes"] if n["check"] == "binary-not-probed"]
+    assert len(notes) == 1 and "not probed here" in notes[0]["message"], report["notes"]
 
 
 def test_effects_convention_is_checked_on_fmi3_fmus(toy):
@@ -235,6 +297,10 @@ def test_the_co_simulation_probe_runs_the_fmu(toy, tmp_path):
     assert "fmi3InstantiateCoSimulation" in found[0]["message"], found
     assert "fmi3InstantiateModelExchange" in found[1]["message"], found
     assert all(f["clause"].startswith("FMI 3.0.2 §") for f in found), found
+
+
+def drop_model_exchange(text):
+    return re.sub(r"\s*<ModelExchange\b[^>]*/>", "", text, count=1)
 
 
 def drop_co_simulation(text):

@@ -50,22 +50,31 @@ pub fn run(a: Args) -> CliResult {
 /// The FMI 3.0 probes: Co-Simulation when the FMU declares it, Model Exchange when it declares
 /// it, each on the FMU opened with that interface.
 fn probe_fmi3(a: &Args) -> Vec<Finding> {
-    let (cs, me) = match host::Unpacked::open(&a.fmu)
-        .ok()
+    let unpacked = host::Unpacked::open(&a.fmu).ok();
+    // FMI 3.0.2 section 2.5: a dependency on external resources must be documented there
+    let documented = unpacked.as_ref().is_some_and(|u| {
+        ["txt", "html"].iter().any(|ext| {
+            u.dir
+                .join(format!("documentation/externalDependencies.{ext}"))
+                .is_file()
+        })
+    });
+    let (cs, me) = match unpacked
+        .as_ref()
         .and_then(|u| host::fmi3::ModelDescription3::parse(&u.xml, "").ok())
     {
         Some(md) => (md.co_simulation.is_some(), md.model_exchange.is_some()),
         None => (false, false),
     };
+    drop(unpacked);
     probe_declared(
         a,
         (cs, me),
         |interface, step| match host::fmi3::Fmu3::open_with(&a.fmu, Some(interface)) {
             Err(e) => {
                 let m = format!("{interface}: {e}");
-                let mut f = Finding::new("binary", a.fmu.display().to_string(), m);
-                f.clause = validate::fmi3::classify3("binary").to_string();
-                vec![f]
+                let loc = a.fmu.display().to_string();
+                vec![validate::load_refused(&loc, &m, Some(documented))]
             }
             Ok(fmu) => match interface {
                 Interface::CoSimulation => validate::probe3(&fmu, step),
@@ -88,8 +97,11 @@ fn probe_fmi2(a: &Args) -> Vec<Finding> {
             let cs = ex.model_description.co_simulation.is_some();
             let me = ex.model_description.model_exchange.is_some();
             let symbols = check_symbols(&ex);
-            // A binary that does not load is reported once; there is nothing to probe.
-            let loadable = !symbols.iter().any(|f| f.check == "binary");
+            // A binary that does not load is reported once (a finding, or a note when this host
+            // lacks a library it links); there is nothing to probe.
+            let loadable = !symbols
+                .iter()
+                .any(|f| matches!(f.check.as_str(), "binary" | "binary-not-probed"));
             findings.extend(symbols);
             drop(ex);
             if loadable {

@@ -265,11 +265,17 @@ fn run_probe(path: &Path, timeout: Duration, fmi3: bool) -> Result<Vec<Finding>,
                 findings.extend(f);
                 return Ok(findings);
             }
-            ProbeOutcome::Crashed { step, mut finding } => {
+            ProbeOutcome::Crashed {
+                step,
+                mut finding,
+                what,
+            } => {
                 if fmi3 {
                     finding.clause = validate::probe3::clause3(&finding.check).to_string();
                 }
-                findings.push(finding);
+                // A crash or hang on a call the importer must not make is a note; in a legal
+                // sequence it stays a finding.
+                findings.push(validate::wrong_call_crash(&step, &what).unwrap_or(finding));
                 let is_case = (validate::PROBE_CASES.contains(&step.as_str())
                     || validate::ME_PROBE_CASES.contains(&step.as_str())
                     || validate::PROBE3_CASES.contains(&step.as_str()))
@@ -285,7 +291,12 @@ fn run_probe(path: &Path, timeout: Duration, fmi3: bool) -> Result<Vec<Finding>,
 
 enum ProbeOutcome {
     Done(Vec<Finding>),
-    Crashed { step: String, finding: Finding },
+    /// The probe crashed or hung at `step`: the finding, and what happened in a few words.
+    Crashed {
+        step: String,
+        finding: Finding,
+        what: String,
+    },
 }
 
 /// Runs `__probe` once in a child process and turns its output, crash or hang into findings.
@@ -307,15 +318,16 @@ fn run_probe_once(
         .map_err(|e| CliError::input(format!("cannot start the probe process: {e}")))?;
     let mut so = child.stdout.take().expect("piped stdout");
     let mut se = child.stderr.take().expect("piped stderr");
+    // An FMU may print bytes that are not UTF-8 into the same streams: read them lossily.
     let out_t = std::thread::spawn(move || {
-        let mut s = String::new();
-        let _ = so.read_to_string(&mut s);
-        s
+        let mut b = Vec::new();
+        let _ = so.read_to_end(&mut b);
+        String::from_utf8_lossy(&b).into_owned()
     });
     let err_t = std::thread::spawn(move || {
-        let mut s = String::new();
-        let _ = se.read_to_string(&mut s);
-        s
+        let mut b = Vec::new();
+        let _ = se.read_to_end(&mut b);
+        String::from_utf8_lossy(&b).into_owned()
     });
     let started = Instant::now();
     let status = loop {
@@ -344,14 +356,12 @@ fn run_probe_once(
         .to_string();
     let loc = format!("probe {last_step}");
     let Some(status) = status else {
-        let finding = Finding::new(
-            "probe-timeout",
-            loc,
-            format!("the FMU did not return within {} s", timeout.as_secs()),
-        );
+        let what = format!("the FMU did not return within {} s", timeout.as_secs());
+        let finding = Finding::new("probe-timeout", loc, &what);
         return Ok(ProbeOutcome::Crashed {
             step: last_step,
             finding,
+            what,
         });
     };
     if let Some(json) = stdout.lines().find_map(|l| l.strip_prefix(FINDINGS_MARK)) {
@@ -362,16 +372,17 @@ fn run_probe_once(
         }
     }
     use std::os::unix::process::ExitStatusExt;
-    let message = match status.signal() {
+    let what = match status.signal() {
         Some(sig) => format!(
-            "the FMU crashed ({} {sig}) during this probe step",
+            "the FMU crashed ({} {sig})",
             crate::supervise::signal_name(sig)
         ),
-        None => format!("the probe process ended with {status} during this probe step"),
+        None => format!("the probe process ended with {status}"),
     };
-    let finding = Finding::new("probe-crash", loc, message);
+    let finding = Finding::new("probe-crash", loc, format!("{what} during this probe step"));
     Ok(ProbeOutcome::Crashed {
         step: last_step,
         finding,
+        what,
     })
 }

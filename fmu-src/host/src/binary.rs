@@ -163,16 +163,86 @@ fn macho_slice(m: &goblin::mach::MachO) -> Result<Slice, BinaryError> {
         .map_err(|e| BinaryError::MachOExports(e.to_string()))?;
     let names = exports
         .into_iter()
-        .map(|e| e.name.strip_prefix('_').unwrap_or(&e.name).to_string());
+        .map(|e| e.name)
+        .chain(macho_symtab_exports(m))
+        .map(|name| name.strip_prefix('_').unwrap_or(&name).to_string());
     Ok(Slice {
         architecture,
         exports: sorted(names),
     })
 }
 
+/// The external symbols a Mach-O image defines in a section, from its symbol table
+/// (`LC_SYMTAB`): an image linked without export information (no `LC_DYLD_INFO` export trie, the
+/// pre-10.6 linkers' style) has its exports there, and dyld resolves `dlsym` from them.
+fn macho_symtab_exports(m: &goblin::mach::MachO) -> Vec<String> {
+    use goblin::mach::symbols::{N_PEXT, N_SECT};
+    m.symbols()
+        .filter_map(Result::ok)
+        .filter(|(_, nl)| {
+            !nl.is_stab() && nl.is_global() && nl.get_type() == N_SECT && nl.n_type & N_PEXT == 0
+        })
+        .map(|(name, _)| name.to_string())
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::inspect;
+
+    /// A minimal x86_64 Mach-O dylib with a symbol table (`LC_SYMTAB`) and no export trie:
+    /// `symbols` as (name, n_type), each defined in section 1.
+    fn macho_with_symtab(symbols: &[(&str, u8)]) -> Vec<u8> {
+        let mut strtab = vec![b' ', 0];
+        let mut nlists = Vec::new();
+        for (name, n_type) in symbols {
+            let strx = strtab.len() as u32;
+            strtab.extend_from_slice(name.as_bytes());
+            strtab.push(0);
+            nlists.extend_from_slice(&strx.to_le_bytes());
+            nlists.extend_from_slice(&[*n_type, 1, 0, 0]); // n_type, n_sect, n_desc
+            nlists.extend_from_slice(&0x1000u64.to_le_bytes()); // n_value
+        }
+        let (header, symtab_cmd) = (32u32, 24u32);
+        let symoff = header + symtab_cmd;
+        let stroff = symoff + nlists.len() as u32;
+        let mut b = Vec::new();
+        // mach_header_64: magic, cputype x86_64, cpusubtype, filetype MH_DYLIB, ncmds,
+        // sizeofcmds, flags, reserved
+        for w in [0xfeed_facf_u32, 0x0100_0007, 3, 6, 1, symtab_cmd, 0, 0] {
+            b.extend_from_slice(&w.to_le_bytes());
+        }
+        // symtab_command: LC_SYMTAB, cmdsize, symoff, nsyms, stroff, strsize
+        for w in [
+            2,
+            symtab_cmd,
+            symoff,
+            symbols.len() as u32,
+            stroff,
+            strtab.len() as u32,
+        ] {
+            b.extend_from_slice(&w.to_le_bytes());
+        }
+        b.extend_from_slice(&nlists);
+        b.extend_from_slice(&strtab);
+        b
+    }
+
+    #[test]
+    fn a_macho_without_export_trie_exports_its_external_defined_symbols() {
+        // <mach-o/nlist.h>: N_EXT 0x01, N_SECT 0x0e, N_PEXT 0x10 (private extern)
+        let bytes = macho_with_symtab(&[
+            ("_fmi2DoStep", 0x0f),
+            ("_fmi2Reset", 0x0f),
+            ("_helper", 0x0e),
+            ("_hidden", 0x1f),
+            ("_malloc", 0x01),
+        ]);
+        let info = inspect(&bytes).unwrap();
+        assert_eq!(info.format, "Mach-O");
+        assert_eq!(info.slices[0].architecture, "x86_64");
+        assert_eq!(info.slices[0].exports, vec!["fmi2DoStep", "fmi2Reset"]);
+    }
 
     #[test]
     fn this_test_binary_is_read_as_the_platform_it_runs_on() {

@@ -1,40 +1,49 @@
 //! Platform binaries: present, of the platform's format and architecture, exporting every
 //! FMI function (FMI 2.0.4 sections 2.1, 2.3 and 4.2).
 
+use super::layout::Survey;
 use super::Finding;
 use host::binary::Slice;
 use host::ffi::{FMI2_CS_FUNCTIONS, FMI2_ME_FUNCTIONS};
 use host::md::ModelDescription;
 use host::Interface;
-use host::{Extracted, PLATFORM};
+use host::{Extracted, LIB_SUFFIX, PLATFORM};
 use std::path::Path;
 
-/// File-level checks: the binary for this platform exists under `binaries/linux64/`.
+/// File-level checks (FMI 2.0.4 section 2.3): archive entries with `/` as path separator, and
+/// the binary for this platform, `binaries/linux64/<modelIdentifier>.so`. Without it, the FMU
+/// is still conforming when it ships another implementation ("either sources or one of the
+/// binaries for a particular machine"): a note that it is not probed here. A finding when
+/// `binaries/linux64/` holds other files (a library not named after the modelIdentifier) or when
+/// there is no implementation at all (empty platform folders are none).
 pub fn check_files(fmu: &Extracted) -> Vec<Finding> {
-    let mut f = Vec::new();
-    if let Ok(bin) = fmu.binary_path_for(fmu.default_interface()) {
-        if !bin.is_file() {
-            let others: Vec<String> = std::fs::read_dir(fmu.dir.join("binaries"))
-                .map(|rd| {
-                    rd.filter_map(|e| e.ok())
-                        .map(|e| e.file_name().to_string_lossy().into_owned())
-                        .collect()
-                })
-                .unwrap_or_default();
-            f.push(Finding::new(
-                "binary",
-                format!("binaries/{PLATFORM}/"),
-                format!(
-                    "no binary {} (platforms present: {})",
-                    bin.file_name().unwrap_or_default().to_string_lossy(),
-                    if others.is_empty() {
-                        "none".into()
-                    } else {
-                        others.join(", ")
-                    }
-                ),
-            ));
-        }
+    let survey = Survey::of(&fmu.dir);
+    let mut f: Vec<Finding> = survey.backslash_finding().into_iter().collect();
+    let interface = fmu.default_interface();
+    let (Ok(bin), Ok(id)) = (
+        fmu.binary_path_for(interface),
+        fmu.model_identifier_for(interface),
+    ) else {
+        return f;
+    };
+    if bin.is_file() {
+        return f;
+    }
+    let lib = format!("{id}.{LIB_SUFFIX}");
+    let loc = format!("binaries/{PLATFORM}/");
+    let folders = survey.folder_list();
+    if survey.folder(PLATFORM).is_some_and(|h| !h.files.is_empty()) {
+        let m = format!("no binary {lib} (platforms present: {folders})");
+        f.push(Finding::new("binary", loc, m));
+    } else if let Some(other) = survey.implementation(id, PLATFORM, |_| true) {
+        let m = format!("no binary {lib} for this platform: not probed here (the FMU's implementation: {other})");
+        f.push(Finding::new("binary-not-probed", loc, m));
+    } else {
+        let m = format!(
+            "no binary {lib} and no other implementation: no {id} library under binaries/ \
+             (platforms present: {folders}) and no sources/"
+        );
+        f.push(Finding::new("binary", loc, m));
     }
     f
 }
@@ -199,10 +208,50 @@ pub fn check_symbols(fmu: &Extracted) -> Vec<Finding> {
     );
     // SAFETY: the validator's purpose is to load the FMU (in a child process).
     match unsafe { host::ffi::load_library(&bin) } {
-        Err(e) => vec![Finding::new("binary", loc, e.to_string())],
+        Err(e) => vec![load_refused(&loc, &e.to_string(), None)],
         Ok(lib) => host::ffi::missing_symbols(&lib)
             .into_iter()
             .map(|s| Finding::new("symbols", &loc, format!("does not export {s}")))
             .collect(),
     }
+}
+
+/// What the dynamic loader's `message` says this host lacks, if it names a dependency rather
+/// than a defect of the binary: a shared library the binary links
+/// (`libgfortran.so.3: cannot open shared object file`) or a newer C library
+/// (`version 'GLIBC_2.38' not found`).
+fn missing_dependency(message: &str) -> Option<&str> {
+    if let Some((before, _)) = message.split_once(": cannot open shared object file") {
+        // the library's name is the last word before (`... cannot be loaded: libx.so.3`)
+        return before.rsplit(' ').next();
+    }
+    let version = message.split_once("version `")?.1.split_once('\'')?.0;
+    version.starts_with("GLIBC").then_some(version)
+}
+
+/// The result for a binary (`loc`) the dynamic loader refused with `message`. A dependency this
+/// host lacks is no defect of an FMI 2.0 FMU ("Shared libraries should be statically linked
+/// against their dependencies", FMI 2.0.4 section 2.3: a "should"): a note that the binary is not
+/// probed here. FMI 3.0.2 section 2.5 makes `documentation/externalDependencies.{txt|html}` a
+/// must for such a dependency: `external_dependencies` says, for an FMI 3.0 FMU, whether it is
+/// present (a finding when it is not). Any other refusal is a finding.
+pub fn load_refused(loc: &str, message: &str, external_dependencies: Option<bool>) -> Finding {
+    let clause3 = |mut f: Finding| {
+        if external_dependencies.is_some() {
+            f.clause = super::fmi3::classify3(&f.check).to_string();
+        }
+        f
+    };
+    let Some(dependency) = missing_dependency(message) else {
+        return clause3(Finding::new("binary", loc, message));
+    };
+    if external_dependencies == Some(false) {
+        let m = format!(
+            "{message}: it depends on {dependency}, and documentation/externalDependencies.\
+             {{txt|html}}, which must document such a dependency, is absent"
+        );
+        return clause3(Finding::new("binary", loc, m));
+    }
+    let m = format!("{message}: this host lacks {dependency}; not probed here");
+    clause3(Finding::new("binary-not-probed", loc, m))
 }

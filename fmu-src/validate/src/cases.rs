@@ -213,3 +213,61 @@ pub(crate) fn probe_step(step_size: Option<f64>) -> f64 {
 pub(crate) fn unknown_value_reference(vrs: impl Iterator<Item = u32>) -> u32 {
     vrs.max().unwrap_or(0).saturating_add(1000)
 }
+
+/// The probe cases (of both versions and interfaces) whose call the importer must not make: a
+/// call in a state the state machine does not allow (FMI 2.0.4 sections 3.2.3 and 4.2.4, FMI
+/// 3.0.2 section 2.3: "If such functionality is used anyway, undefined behavior results") or
+/// with an argument the caller must not pass (a step size that is not > 0.0, a communication
+/// point other than the current time, a value reference or type the FMU does not have, a fixed
+/// parameter after initialization), and NaN, which the standard does not mention.
+const WRONG_CALL_CASES: [&str; 19] = [
+    "do-step-before-init",
+    "negative-step",
+    "wrong-communication-point",
+    "unknown-value-reference",
+    "nan-input",
+    "nan-parameter",
+    "fixed-parameter-after-init",
+    "wrong-type",
+    "do-step-after-terminate",
+    "me-derivatives-before-init",
+    "me-set-states-in-event-mode",
+    "fmi3-do-step-before-init",
+    "fmi3-negative-step",
+    "fmi3-do-step-after-terminate",
+    "fmi3-wrong-communication-point",
+    "fmi3-unknown-value-reference",
+    "fmi3-fixed-parameter-after-init",
+    "fmi3-me-derivatives-before-init",
+    "fmi3-me-set-states-in-event-mode",
+];
+
+/// The note for a crash or hang (`what`: "the FMU crashed (SIGSEGV 11)") in the probe case
+/// `step` when its call is one the importer must not make (the outcome is undefined, so it is
+/// advice, not a finding); None for a step of a legal sequence, where a crash stays a finding.
+pub fn wrong_call_crash(step: &str, what: &str) -> Option<Finding> {
+    if !WRONG_CALL_CASES.contains(&step) {
+        return None;
+    }
+    let nan = step.starts_with("nan-");
+    let check = if nan { "probe-nan" } else { "probe-wrong-call" };
+    let error = if step.starts_with("fmi3-") {
+        "fmi3Error"
+    } else {
+        "fmi2Error"
+    };
+    let m = format!(
+        "{what} on a call the importer must not make, whose outcome the standard leaves \
+         undefined; returning {error} would warn the importer"
+    );
+    let mut f = Finding::new(check, format!("probe {step}"), m);
+    f.clause = if step.starts_with("fmi3-") {
+        super::probe3::clause3(check)
+    } else if step.starts_with("me-") {
+        "FMI 2.0.4 §3.2.3: the importer must not make this call, so the answer is the FMU's"
+    } else {
+        super::classify(check).1
+    }
+    .to_string();
+    Some(f)
+}

@@ -380,9 +380,13 @@ fn check_type_and_unit(md: &ModelDescription, v: &ScalarVariable, loc: &str, f: 
     }
 }
 
-/// Value references: variables of one base type that share a reference form an alias set; at
-/// most one non-constant member may have a start value, and inputs/parameters may not be
-/// aliased.
+/// Value references: variables of one base type that share a reference form an alias set
+/// (FMI 2.0.4 section 2.2.7, restrictions on alias variables): "Variables `a` and `b` that can
+/// both be set with `fmi2SetXXX`, or variable `a` that can be set with `fmiSetXXX` and variable
+/// `b` that is defined with `causality = "independent"`, cannot be alias variables", and "at most
+/// one variable of the same alias set of variables with `variability != "constant"` can have a
+/// start attribute". An input aliased with a variable that cannot be set (a calculated local, a
+/// calculated parameter) is allowed.
 fn check_aliases(vrs: &HashMap<(u8, u32), Vec<&ScalarVariable>>, f: &mut Vec<Finding>) {
     let mut keys: Vec<_> = vrs.keys().copied().collect();
     keys.sort();
@@ -396,27 +400,37 @@ fn check_aliases(vrs: &HashMap<(u8, u32), Vec<&ScalarVariable>>, f: &mut Vec<Fin
             .iter()
             .filter(|v| v.start.is_some() && v.variability != Variability::Constant)
             .count();
-        let settable = set
-            .iter()
-            .filter(|v| matches!(v.causality, Causality::Input | Causality::Parameter))
-            .count();
-        if with_start > 1 || settable > 0 {
-            f.push(Finding::new(
-                "unique-value-references",
-                var_loc(set[1]),
-                format!(
-                    "valueReference {} is shared by {} ({})",
-                    key.1,
-                    names.join(", "),
-                    if settable > 0 {
-                        "an input or parameter cannot be an alias"
-                    } else {
-                        "more than one alias has a start value"
-                    }
-                ),
-            ));
-        }
+        let settable = set.iter().filter(|v| settable(v)).count();
+        let independent = set.iter().any(|v| v.causality == Causality::Independent);
+        let why = if settable > 1 {
+            "two variables that can be set with fmi2SetXXX cannot be aliases"
+        } else if settable > 0 && independent {
+            "a variable that can be set cannot be an alias of the independent variable"
+        } else if with_start > 1 {
+            "more than one alias has a start value"
+        } else {
+            continue;
+        };
+        let m = format!(
+            "valueReference {} is shared by {} ({why})",
+            key.1,
+            names.join(", ")
+        );
+        f.push(Finding::new("unique-value-references", var_loc(set[1]), m));
     }
+}
+
+/// Whether `fmi2SetXXX` may be called on `v` in some mode (FMI 2.0.4 section 2.2.7, the rules
+/// after the table of `causality`): an input, or a variable with `variability != "constant"` and
+/// `initial` exact or approx (its start value can be set before or during initialization;
+/// a tunable parameter has initial exact).
+fn settable(v: &ScalarVariable) -> bool {
+    v.causality == Causality::Input
+        || (v.variability != Variability::Constant
+            && matches!(
+                v.effective_initial(),
+                Some(Initial::Exact | Initial::Approx)
+            ))
 }
 
 fn effective_range(md: &ModelDescription, v: &ScalarVariable) -> (Option<f64>, Option<f64>) {

@@ -2,7 +2,8 @@
 //! binaries (section 2.5: `binaries/<platformTuple>/<modelIdentifier>.<so|dll|dylib>`, each
 //! exporting the functions of the interfaces the description declares).
 
-use super::binary::{library_extension, missing_exports, platform_dirs};
+use super::binary::{library_extension, missing_exports};
+use super::layout::Survey;
 use super::rules::{
     apply, defined_again, identifier_problem, is_c_identifier, name_problems, start_problem, Rule,
 };
@@ -14,8 +15,8 @@ use host::md::{Initial, Variability};
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::path::Path;
 
-/// Severity and FMI 3.0.2 clause of each FMI 3.0 check (section numbers of the FMI 3.0.2
-/// document). Every FMI 3.0 check is a requirement of the standard.
+/// The FMI 3.0.2 clause of each FMI 3.0 check (section numbers of the FMI 3.0.2 document); its
+/// severity is the one [`super::classify`] gives the check.
 pub fn classify3(check: &str) -> &'static str {
     match check {
         "fmi-version"
@@ -29,7 +30,9 @@ pub fn classify3(check: &str) -> &'static str {
             "FMI 3.0.2 §2.4.7: <Dimension> refers to a UInt64 structural parameter or constant"
         }
         "derivative" => "FMI 3.0.2 §2.4.7: derivative refers to a continuous Float state",
-        "model-structure" | "outputs-listed" => "FMI 3.0.2 §2.4.8: ModelStructure",
+        "model-structure" | "outputs-listed" | "initial-unknowns" => {
+            "FMI 3.0.2 §2.4.8: ModelStructure"
+        }
         "unit-declared" | "unique-units" => "FMI 3.0.2 §2.4.3: UnitDefinitions",
         "clocks" => "FMI 3.0.2 §2.4.7.4: Clocks and clocked variables",
         "probe-not-run" => {
@@ -47,6 +50,18 @@ pub fn classify3(check: &str) -> &'static str {
             "FMI 3.0.2 §2.5: FMU distribution: binaries/<platformTuple>/<modelIdentifier>"
         }
         "symbols" => "FMI 3.0.2 §2.5: every function of fmi3Functions.h implemented",
+        "zip-path" => {
+            "FMI 3.0.2 §2.5: the ZIP format of APPNOTE.TXT, whose section 4.4.17 allows only '/' \
+             as path separator"
+        }
+        "binary-not-probed" => {
+            "FMI 3.0.2 §2.5: at least one implementation, sources or a binary for one platform; \
+             this host has none it can load, so the binary is not probed here"
+        }
+        "platform-folder" => {
+            "FMI 3.0.2 §2.5.1.4: binaries/ is named by platform tuples; further names can be \
+             introduced by vendors"
+        }
         // schema-level variable attributes: names, value references, causality, variability,
         // initial, start
         _ => "FMI 3.0.2 §2.4.7: ModelVariables",
@@ -101,12 +116,13 @@ pub fn check_model_description3(md: &ModelDescription3) -> Vec<Finding> {
             f.push(finding("model-identifier", loc, m));
         }
     }
-    let rules: [Rule<ModelDescription3>; 5] = [
+    let rules: [Rule<ModelDescription3>; 6] = [
         check_units_and_types,
         check_display_units,
         check_variables,
         check_clocks,
         check_model_structure,
+        check_initial_unknowns,
     ];
     apply(md, &rules, &mut f);
     f
@@ -559,6 +575,67 @@ fn check_model_structure(md: &ModelDescription3, f: &mut Vec<Finding>) {
     }
 }
 
+/// Every variable `<InitialUnknown>` must list (FMI 3.0.2 section 2.4.8: "This list consists
+/// of all variables which: are not clocked variables and have causality = output (with initial =
+/// approx or calculated), or have causality = calculatedParameter, or are continuous-time states
+/// or state derivatives (defined with elements ContinuousStateDerivative) with initial = approx
+/// or calculated"). Listing a clocked variable is optional (section 2.2.8: "Declaring a clocked
+/// variable as an InitialUnknown is optional"), so clocked variables and Clocks are not demanded;
+/// a Co-Simulation FMU without `providesDirectionalDerivatives` has its
+/// `<ContinuousStateDerivative>` elements ignored (section 2.4.8), so its states are not either.
+/// An `<Alias>` shares its variable's value reference, which is what is listed.
+fn check_initial_unknowns(md: &ModelDescription3, f: &mut Vec<Finding>) {
+    let ms = &md.model_structure;
+    let states_count = md.model_exchange.is_some()
+        || [&md.co_simulation, &md.scheduled_execution]
+            .into_iter()
+            .flatten()
+            .any(|i| i.flag("providesDirectionalDerivatives"));
+    let derivatives: BTreeSet<u32> = ms
+        .continuous_state_derivatives
+        .iter()
+        .map(|u| u.value_reference)
+        .collect();
+    let states: BTreeSet<u32> = derivatives
+        .iter()
+        .filter_map(|vr| md.by_vr(*vr)?.derivative)
+        .collect();
+    let listed: BTreeSet<u32> = ms
+        .initial_unknowns
+        .iter()
+        .map(|u| u.value_reference)
+        .collect();
+    let approx_or_calc = |v: &Variable3| {
+        matches!(
+            v.effective_initial(),
+            Some(Initial::Approx | Initial::Calculated)
+        )
+    };
+    let mut seen = BTreeSet::new();
+    for v in &md.variables {
+        let vr = v.value_reference;
+        let clocked = !v.clocks.is_empty() || v.ty == Type3::Clock;
+        let why = if v.causality == Causality3::Output && !clocked && approx_or_calc(v) {
+            "an output with initial approx or calculated"
+        } else if v.causality == Causality3::CalculatedParameter {
+            "a calculated parameter"
+        } else if states_count && states.contains(&vr) && approx_or_calc(v) {
+            "a continuous-time state with initial approx or calculated"
+        } else if states_count && derivatives.contains(&vr) && approx_or_calc(v) {
+            "a state derivative with initial approx or calculated"
+        } else {
+            continue;
+        };
+        if !listed.contains(&vr) && seen.insert(vr) {
+            let m = format!(
+                "'{}' (valueReference {vr}) must be listed in <InitialUnknown>: {why}",
+                v.name
+            );
+            f.push(finding("initial-unknowns", var_loc(v), m));
+        }
+    }
+}
+
 /// Why `v` may not be listed in `<element>`, if it may not.
 fn wrong_kind(element: &str, v: &Variable3) -> Option<String> {
     match element {
@@ -678,9 +755,13 @@ fn required_functions() -> Vec<&'static str> {
 }
 
 /// Every binary under `binaries/<platformTuple>/` of the FMU extracted at `dir`, read without
-/// loading it, with the findings it raises: an FMI 2.0 platform name, a missing library, a
-/// format or architecture that is not the tuple's, a function of a declared interface not
-/// exported; an FMU with neither binaries nor sources.
+/// loading it, with the findings it raises: a missing library where its tuple's folder holds
+/// other files, a format or architecture that is not the tuple's, a function of a declared
+/// interface not exported; an FMU with no implementation (FMI 3.0.2 section 2.5: "at least one
+/// implementation, in other words, either sources or one of the binaries for a particular
+/// machine"). A folder with an FMI 2.0 platform name is a vendor's folder (section 2.5.1.4:
+/// "Further names can be introduced by vendors"): a note. No library for this host while
+/// another implementation exists: a note that it is not probed here.
 pub fn check_platform_binaries3(
     dir: &Path,
     md: &ModelDescription3,
@@ -693,39 +774,83 @@ pub fn check_platform_binaries3(
         .collect();
     ids.sort_unstable();
     ids.dedup();
-    let tuples = platform_dirs(dir, true);
-    if tuples.is_empty() && !dir.join("sources").is_dir() {
-        let m = "no binaries/<platformTuple>/ directory and no sources/: nothing to run";
-        findings.push(finding("binary", "binaries/", m));
-    }
-    for tuple in tuples {
-        if FMI2_PLATFORMS.contains(&tuple.as_str()) {
+    let survey = Survey::of(dir);
+    findings.extend(survey.backslash_finding().map(with_clause3));
+    let tuple_folder = |name: &str| !FMI2_PLATFORMS.contains(&name);
+    for id in &ids {
+        if survey.implementation(id, "", tuple_folder).is_none() {
             let m = format!(
-                "'{tuple}' is an FMI 2.0 platform name; FMI 3.0 names platforms by tuple \
-                 (x86_64-linux, x86_64-windows, x86_64-darwin, aarch64-darwin, aarch64-linux)"
+                "no binaries/<platformTuple>/{id} library and no sources/: nothing to run \
+                 (folders under binaries/: {})",
+                survey.folder_list()
             );
-            findings.push(finding("binary", format!("binaries/{tuple}/"), m));
+            findings.push(finding("binary", "binaries/", m));
+        }
+    }
+    for folder in &survey.folders {
+        let tuple = folder.name.as_str();
+        if !tuple_folder(tuple) {
+            let m = format!(
+                "'{tuple}' is an FMI 2.0 platform name, not an FMI 3.0 platform tuple \
+                 (x86_64-linux, x86_64-windows, x86_64-darwin, aarch64-darwin, aarch64-linux): \
+                 a vendor's folder, which importers do not look in"
+            );
+            findings.push(finding("platform-folder", format!("binaries/{tuple}/"), m));
             continue;
         }
-        let Some((format, arch)) = expected_format3(&tuple) else {
+        let Some((format, arch)) = expected_format3(tuple) else {
             continue;
         };
         let ext = library_extension(format);
         for id in &ids {
             let entry = format!("binaries/{tuple}/{id}.{ext}");
             let Ok(bytes) = std::fs::read(dir.join(&entry)) else {
-                let m = format!("no {id}.{ext} in binaries/{tuple}/");
-                findings.push(finding("binary", &entry, m));
+                // An empty folder claims nothing; other files in it are a misnamed library.
+                if !folder.files.is_empty() {
+                    let m = format!("no {id}.{ext} in binaries/{tuple}/");
+                    findings.push(finding("binary", &entry, m));
+                }
                 continue;
             };
-            let (found, info) = check_library3(&bytes, &entry, (&tuple, format, arch));
+            let (found, info) = check_library3(&bytes, &entry, (tuple, format, arch));
             findings.extend(found);
             if let Some(info) = info {
                 binaries.push(super::PlatformBinary { entry, info });
             }
         }
     }
+    findings.extend(not_probed_here(&survey, &ids));
     (findings, binaries)
+}
+
+/// A note for each model identifier without a library for this host's platform tuple while the
+/// FMU ships another implementation: it is not probed here.
+fn not_probed_here(survey: &Survey, ids: &[&str]) -> Vec<Finding> {
+    let host = host::fmi3::PLATFORM_TUPLE;
+    let lib = |id: &str| format!("{id}.{}", host::LIB_SUFFIX);
+    let has = |id: &str| {
+        survey
+            .folder(host)
+            .is_some_and(|f| f.files.iter().any(|n| *n == lib(id)))
+    };
+    let misnamed = survey.folder(host).is_some_and(|f| !f.files.is_empty());
+    ids.iter()
+        .filter(|id| !has(id) && !misnamed)
+        .filter_map(|id| {
+            let other = survey.implementation(id, host, |n| !FMI2_PLATFORMS.contains(&n))?;
+            let m = format!(
+                "no binaries/{host}/{}: not probed here (the FMU's implementation: {other})",
+                lib(id)
+            );
+            Some(finding("binary-not-probed", format!("binaries/{host}/"), m))
+        })
+        .collect()
+}
+
+/// `f` with its FMI 3.0.2 clause.
+fn with_clause3(mut f: Finding) -> Finding {
+    f.clause = classify3(&f.check).to_string();
+    f
 }
 
 /// The findings on the library `entry` of the platform tuple `tuple` (which needs `format` with

@@ -31,6 +31,7 @@ pub mod description;
 mod error;
 pub mod fmi3;
 mod instance;
+mod layout;
 mod me_checks;
 pub mod naming;
 pub mod probe;
@@ -39,7 +40,10 @@ mod probe_me;
 mod rules;
 pub mod schema;
 
-pub use binary::{check_files, check_platform_binaries, check_symbols, PlatformBinary};
+pub use binary::{
+    check_files, check_platform_binaries, check_symbols, load_refused, PlatformBinary,
+};
+pub use cases::wrong_call_crash;
 pub use description::{
     check_effect_convention, check_model_description, combination_allowed, initial_allowed,
 };
@@ -102,9 +106,10 @@ impl Finding {
 ///
 /// Probe calls the importer must not make (section 4.2.4: the state machine restricts the
 /// environment) leave the FMU's answer open, as does a NaN the standard does not mention: an
-/// FMU answering them with fmi2OK is conforming, so those results are notes. A crash is a
-/// finding: section 2.1.3 has every function return a status, fmi2Fatal for "a run-time
-/// exception such as access violation".
+/// FMU answering them with fmi2OK is conforming, so those results are notes, and so is a crash
+/// on such a call (see [`wrong_call_crash`]). A crash in a legal sequence is a finding: section
+/// 2.1.3 has every function return a status, fmi2Fatal for "a run-time exception such as access
+/// violation".
 pub fn classify(check: &str) -> (Severity, &'static str) {
     use Severity::{Finding as F, Note as N};
     match check {
@@ -125,6 +130,21 @@ pub fn classify(check: &str) -> (Severity, &'static str) {
             F,
             "FMI 2.0.4 §2.3: FMU distribution: zip layout, binaries/<platform>",
         ),
+        "zip-path" => (
+            F,
+            "FMI 2.0.4 §2.3 and FMI 3.0.2 §2.5: the ZIP format of APPNOTE.TXT, whose section \
+             4.4.17 allows only '/' as path separator",
+        ),
+        "binary-not-probed" => (
+            N,
+            "FMI 2.0.4 §2.3: at least one implementation, sources or a binary for one platform; \
+             this host has none it can load, so the binary is not probed here",
+        ),
+        "platform-folder" => (
+            N,
+            "FMI 3.0.2 §2.5.1.4: binaries/ is named by platform tuples; further names can be \
+             introduced by vendors",
+        ),
         "symbols" => (F, "FMI 2.0.4 §2.1 and §4.2: every fmi2 function exported"),
         "co-simulation" => (
             F,
@@ -142,7 +162,17 @@ pub fn classify(check: &str) -> (Severity, &'static str) {
             N,
             "FMI 2.0.4 §2.1.7: the standard does not say how fmi2SetReal treats NaN",
         ),
+        "probe-reset" => (
+            N,
+            "FMI 2.0.4 §2.1.3: any call may return fmi2Error (\"the FMU encountered an error\")",
+        ),
         "probe-log" => (N, "FMI 2.0.4 §2.1.5: logging is the FMU's choice"),
+        "unique-value-references" => (
+            F,
+            "FMI 2.0.4 §2.2.7: alias variables (two settable variables, or a settable one and the \
+             independent one, cannot share a valueReference; at most one non-constant alias has \
+             a start)",
+        ),
         "effect-convention" => (F, "actuator-fmu candidate-effect convention (README)"),
         // schema-level variable attributes: causality, variability, initial, start, min/max
         _ => (F, "FMI 2.0.4 §2.2.7: ScalarVariable"),

@@ -156,8 +156,8 @@ pub fn euler_step<M: ModelExchange>(me: &mut M, t: f64, h: f64) -> Result<bool, 
     let n = me.states();
     let (mut x, mut dx) = (vec![0.0; n], vec![0.0; n]);
     me.set_time(t)?;
-    me.get_states(&mut x)?;
-    me.get_derivatives(&mut dx)?;
+    get_states(me, &mut x)?;
+    get_derivatives(me, &mut dx)?;
     if let Some(i) = dx.iter().position(|d| !d.is_finite()) {
         return Err(ProbeError::DerivativeNotFinite {
             index: i,
@@ -169,7 +169,7 @@ pub fn euler_step<M: ModelExchange>(me: &mut M, t: f64, h: f64) -> Result<bool, 
         *xi += h * di;
     }
     me.set_time(t + h)?;
-    me.set_states(&x)?;
+    set_states(me, &x)?;
     if me.needs_completed_integrator_step() {
         return Ok(me.completed_integrator_step()?.enter_event_mode);
     }
@@ -188,7 +188,7 @@ pub fn euler_run<M: ModelExchange>(
     let mut bits = Vec::new();
     for k in 0..steps {
         euler_step(me, t + k as f64 * h, h)?;
-        me.get_states(&mut x)?;
+        get_states(me, &mut x)?;
         bits.extend(x.iter().map(|v| v.to_bits()));
     }
     Ok(bits)
@@ -226,7 +226,7 @@ pub fn check_event<M: ModelExchange>(me: &mut M, from: Reached, h: f64) -> Verdi
         let time_event = next_time.is_some_and(|te| t >= te);
         if state_event || time_event || step_event {
             let mut before = vec![0.0; n];
-            me.get_states(&mut before)?;
+            get_states(me, &mut before)?;
             me.enter_event_mode()?;
             let (mut changed, mut terminate) = (false, false);
             next_time = None;
@@ -240,7 +240,7 @@ pub fn check_event<M: ModelExchange>(me: &mut M, from: Reached, h: f64) -> Verdi
                 }
             }
             let mut after = vec![0.0; n];
-            me.get_states(&mut after)?;
+            get_states(me, &mut after)?;
             let moved = before
                 .iter()
                 .zip(&after)
@@ -299,4 +299,32 @@ pub(crate) fn check_state_restore<I: FmuStates>(
     })();
     inst.free_state(saved);
     result
+}
+
+/// `getContinuousStates` into `x`; with no continuous states (nx = 0) not called: there is
+/// nothing to get ("The number of Unknown elements in the Derivatives element uniquely defines
+/// the number of continuous time state variables", FMI 2.0.4 section 2.2.8; FMI 3.0.2 section
+/// 2.4.8 likewise), and some FMUs answer an empty call with an error.
+fn get_states<M: ModelExchange>(me: &mut M, x: &mut [f64]) -> Result<(), host::HostError> {
+    match x.is_empty() {
+        true => Ok(()),
+        false => me.get_states(x),
+    }
+}
+
+/// `setContinuousStates` of `x`; not called with no continuous states (see [`get_states`]).
+fn set_states<M: ModelExchange>(me: &mut M, x: &[f64]) -> Result<(), host::HostError> {
+    match x.is_empty() {
+        true => Ok(()),
+        false => me.set_states(x),
+    }
+}
+
+/// `getDerivatives` into `dx` (false: the FMU asked for a smaller step); not called with no
+/// continuous states (see [`get_states`]).
+fn get_derivatives<M: ModelExchange>(me: &mut M, dx: &mut [f64]) -> Result<bool, host::HostError> {
+    match dx.is_empty() {
+        true => Ok(true),
+        false => me.get_derivatives(dx),
+    }
 }

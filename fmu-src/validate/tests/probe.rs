@@ -101,9 +101,12 @@ fn check_files_reports_a_missing_binary() {
     let ex = host::Extracted::open(dir.path()).unwrap();
     let f = validate::check_files(&ex);
     assert_eq!(f.len(), 1);
-    assert_eq!(
-        f[0].message,
-        "no binary Dummy.so (platforms present: win64)"
+    assert!(f[0].is_required());
+    assert!(
+        f[0].message
+            .starts_with("no binary Dummy.so and no other implementation"),
+        "{}",
+        f[0]
     );
     assert!(Fmu::open(dir.path())
         .err()
@@ -124,4 +127,53 @@ fn probe_catches_a_state_that_is_not_fully_restored() {
             .contains("after fmi2SetFMUstate the outputs differ"),
         "{f:#?}"
     );
+}
+
+#[test]
+fn a_reset_failing_after_terminate_is_a_note() {
+    // fmi2Reset answering fmi2Error (a vendor runtime the host lacks) is allowed for any call
+    // (FMI 2.0.4 section 2.1.3); the probe says what it did not run.
+    let (_dir, path) = built("ResetFails", &["-DRESET_FAILS"]);
+    let fmu = Fmu::open(&path).unwrap();
+    let f = validate::probe(&fmu, &mut |_| true);
+    assert_eq!(f.len(), 1, "{f:#?}");
+    assert_eq!(f[0].check, "probe-reset");
+    assert!(!f[0].is_required(), "{f:#?}");
+    assert!(f[0].message.contains("fmi2Reset"), "{f:#?}");
+    assert!(
+        f[0].message.contains("the vendor runtime is not installed"),
+        "{f:#?}"
+    );
+    assert!(f[0].message.contains("not probed"), "{f:#?}");
+}
+
+#[test]
+fn a_library_this_host_lacks_is_a_note_not_a_finding() {
+    // The binary links libnotthere.so, built for the link and then deleted: the FMU is not
+    // defective ("should be statically linked", FMI 2.0.4 section 2.3), this host lacks it.
+    let dir = tempfile::tempdir().unwrap();
+    let stub = dir.path().join("notthere.c");
+    std::fs::write(&stub, "int notthere_answer(void) { return 42; }\n").unwrap();
+    let lib = dir.path().join("libnotthere.so");
+    let status = std::process::Command::new("cc")
+        .args(["-shared", "-fPIC", "-o"])
+        .arg(&lib)
+        .arg(&stub)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let link = [
+        "-Wl,--no-as-needed".to_string(),
+        format!("-L{}", dir.path().display()),
+        "-lnotthere".to_string(),
+    ];
+    let link: Vec<&str> = link.iter().map(String::as_str).collect();
+    let path = common::build_fmu(dir.path(), "Linked", &link, &common::fixture_md());
+    std::fs::remove_file(&lib).unwrap();
+    let ex = host::Extracted::open(&path).unwrap();
+    let f = validate::check_symbols(&ex);
+    assert_eq!(f.len(), 1, "{f:#?}");
+    assert_eq!(f[0].check, "binary-not-probed");
+    assert!(!f[0].is_required(), "{f:#?}");
+    assert!(f[0].message.contains("lacks libnotthere.so"), "{f:#?}");
 }

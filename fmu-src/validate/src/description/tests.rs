@@ -125,6 +125,29 @@ fn duplicate_names_and_value_references() {
 }
 
 #[test]
+fn an_input_may_alias_variables_that_cannot_be_set() {
+    // FMI 2.0.4 section 2.2.7 forbids aliases between two variables that can be set with
+    // fmi2SetXXX; a calculated local (initial defaults to calculated) cannot be set.
+    let f = with_extra(
+        "<ScalarVariable name=\"u_shown\" valueReference=\"2\" causality=\"local\"><Real/></ScalarVariable>\n\
+         <ScalarVariable name=\"u_pin\" valueReference=\"2\" causality=\"local\" variability=\"continuous\"><Real/></ScalarVariable>",
+    );
+    assert_eq!(checks(&f), Vec::<String>::new());
+    // a calculated parameter aliased with a parameter (the standard's own example, b := a)
+    let f = md_with_vars(
+        &format!("{GOOD_VARS}\n<ScalarVariable name=\"p2\" valueReference=\"1\" causality=\"calculatedParameter\" variability=\"fixed\"><Real/></ScalarVariable>"),
+        r#"<Outputs><Unknown index="1"/></Outputs><InitialUnknowns><Unknown index="1"/><Unknown index="4"/></InitialUnknowns>"#,
+    );
+    assert_eq!(checks(&f), Vec::<String>::new());
+    // an input and a local whose start can be set (initial exact) are two settable aliases
+    let f = only(
+        &with_extra("<ScalarVariable name=\"x0\" valueReference=\"2\" causality=\"local\" initial=\"exact\"><Real start=\"1\"/></ScalarVariable>"),
+        "unique-value-references",
+    );
+    assert!(f.message.contains("can be set"), "{f}");
+}
+
+#[test]
 fn causality_variability_combinations() {
     for (c, v) in [
         ("parameter", "continuous"),

@@ -1,0 +1,127 @@
+//! The implementation an FMI 2.0 FMU ships (FMI 2.0.4 section 2.3: "at least one
+//! implementation, in other words, either sources or one of the binaries for a particular
+//! machine") and the path separators of its archive, on archives zipped here from a few entries.
+// Host side: runs in the user's process, not inside an FMU; the FMUs' bit-determinism (the
+// workspace clippy.toml) does not bind it.
+#![allow(clippy::disallowed_methods)]
+
+#[path = "../../host/tests/common/mod.rs"]
+mod common;
+
+use std::io::Write;
+use std::path::PathBuf;
+use validate::{check_files, Finding};
+
+/// An FMU zipped from the fixture's description and `entries` (name, bytes; a name ending in
+/// `/` is a folder entry).
+fn zipped(entries: &[(&str, &[u8])]) -> (tempfile::TempDir, PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("M.fmu");
+    let mut z = zip::ZipWriter::new(std::fs::File::create(&path).unwrap());
+    let opts = zip::write::SimpleFileOptions::default();
+    z.start_file("modelDescription.xml", opts).unwrap();
+    z.write_all(common::fixture_md().as_bytes()).unwrap();
+    for (name, bytes) in entries {
+        if let Some(folder) = name.strip_suffix('/') {
+            z.add_directory(folder, opts).unwrap();
+        } else {
+            z.start_file(*name, opts).unwrap();
+            z.write_all(bytes).unwrap();
+        }
+    }
+    z.finish().unwrap();
+    (dir, path)
+}
+
+/// `check_files` of the FMU made of `entries`.
+fn files_of(entries: &[(&str, &[u8])]) -> Vec<Finding> {
+    let (_dir, path) = zipped(entries);
+    check_files(&host::Extracted::open(&path).unwrap())
+}
+
+/// The only result, which must be a note of the check `check`.
+fn only_note(found: Vec<Finding>, check: &str) -> Finding {
+    assert_eq!(found.len(), 1, "{found:#?}");
+    assert_eq!(found[0].check, check, "{found:#?}");
+    assert!(!found[0].is_required(), "{found:#?}");
+    found[0].clone()
+}
+
+#[test]
+fn a_binary_for_another_platform_only_is_a_note_not_a_finding() {
+    let f = only_note(
+        files_of(&[("binaries/win64/Dummy.dll", b"MZ")]),
+        "binary-not-probed",
+    );
+    assert!(f.message.contains("not probed here"), "{f}");
+    assert!(f.message.contains("binaries/win64/Dummy.dll"), "{f}");
+    assert!(f.clause.contains("§2.3"), "{f}");
+}
+
+#[test]
+fn sources_without_binaries_are_a_note_not_a_finding() {
+    let f = only_note(
+        files_of(&[("sources/model.c", b"int x;")]),
+        "binary-not-probed",
+    );
+    assert!(f.message.contains("sources/"), "{f}");
+}
+
+#[test]
+fn an_empty_platform_folder_beside_another_binary_is_no_finding() {
+    let found = files_of(&[
+        ("binaries/linux64/", b""),
+        ("binaries/linux32/", b""),
+        ("binaries/win64/Dummy.dll", b"MZ"),
+    ]);
+    let f = only_note(found, "binary-not-probed");
+    assert!(f.message.contains("binaries/win64/Dummy.dll"), "{f}");
+}
+
+#[test]
+fn no_implementation_at_all_is_a_finding() {
+    // empty folders are no implementation
+    let found = files_of(&[("binaries/linux64/", b""), ("binaries/win64/", b"")]);
+    assert_eq!(found.len(), 1, "{found:#?}");
+    assert_eq!(found[0].check, "binary");
+    assert!(found[0].is_required());
+    assert!(
+        found[0].message.contains("no other implementation"),
+        "{}",
+        found[0]
+    );
+    assert!(found[0].message.contains("no sources/"), "{}", found[0]);
+    // a library in the host's folder not named after the modelIdentifier stays a finding,
+    // even beside another platform's binary
+    let found = files_of(&[
+        ("binaries/linux64/dummy-1.so", b"\x7fELF"),
+        ("binaries/win64/Dummy.dll", b"MZ"),
+    ]);
+    assert_eq!(found.len(), 1, "{found:#?}");
+    assert_eq!(found[0].check, "binary");
+    assert!(
+        found[0].message.contains("no binary Dummy.so"),
+        "{}",
+        found[0]
+    );
+}
+
+#[test]
+fn backslash_path_separators_are_a_finding_of_their_own() {
+    // APPNOTE.TXT 4.4.17.1: "All slashes MUST be forward slashes"; the binary is there, under a
+    // name no importer looks for, so the finding is the separator, not a missing binary.
+    let found = files_of(&[("binaries\\win64\\Dummy.dll", b"MZ")]);
+    let zip_path: Vec<&Finding> = found.iter().filter(|f| f.check == "zip-path").collect();
+    assert_eq!(zip_path.len(), 1, "{found:#?}");
+    assert!(zip_path[0].is_required());
+    assert!(
+        zip_path[0].message.contains("binaries\\win64\\Dummy.dll"),
+        "{}",
+        zip_path[0]
+    );
+    assert!(zip_path[0].clause.contains("4.4.17"), "{}", zip_path[0]);
+    assert!(
+        found.iter().all(|f| f.check != "binary"),
+        "no second finding on the binary: {found:#?}"
+    );
+}
