@@ -128,16 +128,16 @@ impl Checked {
 }
 
 fn validate_one(path: &Path, timeout: Duration, effects: bool) -> Result<Checked, CliError> {
-    let (mut findings, binaries) = match host::fmi_version_of(path) {
+    let mut checked = match host::fmi_version_of(path) {
         Ok(FmiVersion::Fmi3) => validate_fmi3(path, timeout, effects)?,
         _ => validate_fmi2(path, timeout, effects)?,
     };
     // The schema of the description's FMI version and its naming convention, read from the text
     // so that they are checked even when the description cannot be parsed into a model.
     if let Ok(xml) = host::kind::read_description(path) {
-        findings.extend(check_description_xml(&xml));
+        checked.findings.extend(check_description_xml(&xml));
     }
-    Ok((findings, binaries))
+    Ok(checked)
 }
 
 /// The checks of an FMI 2.0 FMU: its model description (and with `effects` the candidate-effect

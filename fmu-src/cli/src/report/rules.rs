@@ -62,6 +62,7 @@ const V3: Option<Fmi> = Some(Fmi::V3);
 #[rustfmt::skip]
 const RULES: &[Rule] = &[
     rule("archive", A, None, "the FMU is a zip archive with the FMI layout"),
+    rule("zip-path", A, None, "archive paths use forward slashes (ZIP APPNOTE 4.4.17)"),
     rule("model-description-xml", A, None, "modelDescription.xml is present and well-formed"),
     rule("schema", D, None, "modelDescription.xml follows the XML schema of its FMI version"),
     rule("fmi-version", D, None, "fmiVersion names the standard's version"),
@@ -99,6 +100,8 @@ const RULES: &[Rule] = &[
     rule("initial-unknowns", D, V2, "<InitialUnknowns> lists exactly the required unknowns"),
     rule("effect-convention", E, None, "the candidate-effect convention of the gap workflow"),
     rule("binary", B, None, "the binaries are in the platform folders the standard names"),
+    rule("binary-not-probed", B, None, "a binary for this platform (a note when another implementation is shipped)"),
+    rule("platform-folder", B, V3, "platform folders are named by the standard's tuples"),
     rule("binary-format", B, None, "each binary has the format of its platform"),
     rule("symbols", B, None, "each binary exports every function of the standard"),
     rule("probe-normal-run", P, None, "a legal calling sequence succeeds"),
@@ -108,6 +111,7 @@ const RULES: &[Rule] = &[
     rule("probe-directional-derivative", P, None, "directional derivatives agree with finite differences"),
     rule("probe-event", P, None, "the event flags tell re-initialized states"),
     rule("probe-wrong-call", P, None, "calls the importer must not make are refused"),
+    rule("probe-reset", P, V2, "fmi2Reset returns the instance to its instantiated state"),
     rule("probe-nan", P, V2, "NaN inputs and parameters are refused"),
     rule("probe-log", P, V2, "a refused call logs a message"),
 ];
