@@ -22,6 +22,7 @@ mod probe;
 mod simulate;
 mod supervise;
 mod validate;
+mod validate_reference;
 
 use clap::{Parser, Subcommand};
 

@@ -30,6 +30,12 @@ pub struct Args {
     /// Seconds the state-machine probe of one FMU may take.
     #[arg(long, default_value_t = 120)]
     pub timeout: u64,
+    /// Also run the FMU's reference experiments (FMI-LS-REF manifest in
+    /// extra/org.fmi-standard.fmi-ls-ref/), or with `--reference=FILE` compare with the
+    /// reference CSV FILE, and report each signal that leaves its tolerance tube (check
+    /// `reference-result`; not an FMI rule).
+    #[command(flatten)]
+    pub reference: crate::validate_reference::ReferenceArgs,
 }
 
 #[derive(serde::Serialize)]
@@ -51,7 +57,8 @@ pub fn run(a: Args) -> CliResult {
         if !path.exists() {
             return Err(CliError::input(format!("{}: no such file", path.display())));
         }
-        let (all, binaries) = validate_one(path, Duration::from_secs(a.timeout), a.effects)?;
+        let (mut all, binaries) = validate_one(path, Duration::from_secs(a.timeout), a.effects)?;
+        all.extend(a.reference.check(path)?);
         let (findings, notes) = all.into_iter().partition(Finding::is_required);
         reports.push(Report {
             fmu: path.display().to_string(),
