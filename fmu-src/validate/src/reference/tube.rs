@@ -158,9 +158,9 @@ mod tests {
     #[test]
     fn a_trace_inside_the_tube_passes() {
         let t = grid();
-        let reference: Vec<f64> = t.iter().map(|x| (6.0 * x).sin()).collect();
-        // range 2: dy = 0.004; the result off by 0.003 everywhere
-        let result: Vec<f64> = reference.iter().map(|y| y + 0.003).collect();
+        // smooth step 3 x^2 - 2 x^3 from 0 to 1: range 1, dy = 0.002
+        let reference: Vec<f64> = t.iter().map(|x| x * x * (3.0 - 2.0 * x)).collect();
+        let result: Vec<f64> = reference.iter().map(|y| y + 0.0015).collect();
         let tube = Tube::new(&t, &reference, Tolerances::default());
         assert_eq!(tube.first_exit(&t, &result), None);
     }
