@@ -166,7 +166,7 @@ def test_alpha_manifest_of_the_default_experiment_passes(toy, tmp_path, version)
     res = simulate_fmu(str(src), start_time=float(de.startTime), stop_time=float(de.stopTime),
                        step_size=float(de.stepSize), output_interval=float(de.stepSize),
                        fmi_type="CoSimulation", output=["x0", "x1"])
-    rows = "\n".join(f"{r['time']!r},{r['x0']!r},{r['x1']!r}" for r in res)
+    rows = "\n".join(",".join(repr(float(r[k])) for k in ("time", "x0", "x1")) for r in res)
     fmu = tmp_path / "VanDerPol.fmu"
     shutil.copy(src, fmu)
     with zipfile.ZipFile(fmu, "a", zipfile.ZIP_DEFLATED) as z:
