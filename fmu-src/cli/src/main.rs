@@ -23,6 +23,7 @@ mod report;
 mod simulate;
 mod supervise;
 mod validate;
+mod validate_reference;
 
 use clap::{Parser, Subcommand};
 

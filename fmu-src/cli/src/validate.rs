@@ -41,6 +41,12 @@ pub struct Args {
     /// Seconds the state-machine probe of one FMU may take.
     #[arg(long, default_value_t = 120)]
     pub timeout: u64,
+    /// Also run the FMU's reference experiments (FMI-LS-REF manifest in
+    /// extra/org.fmi-standard.fmi-ls-ref/), or with `--reference=FILE` compare with the
+    /// reference CSV FILE, and report each signal that leaves its tolerance tube (check
+    /// `reference-result`; not an FMI rule).
+    #[command(flatten)]
+    pub reference: crate::validate_reference::ReferenceArgs,
 }
 
 /// Runs `validate`: exit 0 without findings (notes allowed), 1 with any, 2 when an FMU file
@@ -56,7 +62,8 @@ pub fn run(a: Args) -> CliResult {
             Ok(FmiVersion::Fmi3) => Some(Fmi::V3),
             Err(_) => None,
         };
-        let checked = validate_one(path, Duration::from_secs(a.timeout), a.effects)?;
+        let mut checked = validate_one(path, Duration::from_secs(a.timeout), a.effects)?;
+        checked.findings.extend(a.reference.check(path)?);
         let (findings, notes) = checked.findings.into_iter().partition(Finding::is_required);
         reports.push(Report {
             format_version: FORMAT_VERSION,

@@ -1,4 +1,4 @@
-//! `fmu-package`: zip `modelDescription.xml`, `documentation/` and the shared library into
+//! `fmu-package`: zip `modelDescription.xml`, `documentation/`, `extra/` and the shared library into
 //! `<out>.fmu` (the layout of FMI 2.0.4 section 2.4 and FMI 3.0.2 section 2.5). Entries are written in a fixed order with a fixed
 //! timestamp and permissions, so building twice gives byte-identical archives.
 
@@ -15,7 +15,7 @@ use zip::{CompressionMethod, DateTime, ZipWriter};
 #[command(about = "Package an FMI 2.0 or FMI 3.0 FMU reproducibly")]
 struct Args {
     /// Directory holding modelDescription.xml, documentation/ (from fmu-binary's describe) and,
-    /// optionally, the icon model.png.
+    /// optionally, the icon model.png and extra/ (files of layered standards).
     #[arg(long)]
     model_dir: PathBuf,
     /// A compiled shared library as `PLATFORM=PATH` (FMI 2.0 platform names: linux64, win64,
@@ -123,15 +123,20 @@ fn model_entries(args: &Args) -> Result<Entries, PackageError> {
     if icon.is_file() {
         entries.push(("model.png".into(), read(&icon)?, 0o644));
     }
-    let doc_dir = args.model_dir.join("documentation");
-    if doc_dir.is_dir() {
-        let files = files_below(&doc_dir).map_err(|source| PackageError::List {
-            dir: doc_dir.clone(),
+    // documentation/, then extra/ (layered standards' files, FMI 3.0.2 section 2.5; FMI 2.0
+    // archives carry it too, as the Modelica Reference-FMUs do for FMI-LS-REF)
+    for folder in ["documentation", "extra"] {
+        let dir = args.model_dir.join(folder);
+        if !dir.is_dir() {
+            continue;
+        }
+        let files = files_below(&dir).map_err(|source| PackageError::List {
+            dir: dir.clone(),
             source,
         })?;
         for rel in files {
-            let name = format!("documentation/{}", rel.to_string_lossy().replace('\\', "/"));
-            entries.push((name, read(&doc_dir.join(&rel))?, 0o644));
+            let name = format!("{folder}/{}", rel.to_string_lossy().replace('\\', "/"));
+            entries.push((name, read(&dir.join(&rel))?, 0o644));
         }
     }
     Ok(entries)

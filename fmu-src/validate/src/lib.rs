@@ -16,6 +16,8 @@
 //!   (with a logged message) and not crash; a normal run must succeed. Run it in a child process
 //!   (the CLI does) so that a crashing FMU becomes a finding.
 //! - [`probe3`](mod@probe3): the same for FMI 3.0 Co-Simulation and Model Exchange.
+//! - [`reference`]: `--reference`, the FMU's experiments (FMI-LS-REF) or a user's reference CSV
+//!   run and compared in a tolerance tube; no FMI rule, checked only when asked for.
 //!
 //! The probes are written once where the versions agree: the Model Exchange probe
 //! (`probe_me.rs`) and its checks (`me_checks.rs`: directional derivatives against finite
@@ -37,6 +39,7 @@ pub mod naming;
 pub mod probe;
 pub mod probe3;
 mod probe_me;
+pub mod reference;
 mod rules;
 pub mod schema;
 
