@@ -7,6 +7,7 @@ output. The records are read from ../shared/data/emps/ (relative to the reposito
 committed; without them the tests that need them are skipped.
 """
 import os
+import subprocess
 import sys
 
 import numpy as np
@@ -320,3 +321,44 @@ def test_model_exchange_matches_co_simulation(archive, effect):
     assert np.allclose(me["time"], cs["time"])
     assert np.abs(me["qm"] - cs["qm"]).max() < 2e-7
     assert np.abs(me["force"] - cs["force"]).max() < 0.5
+
+
+@needs_data
+@pytest.mark.parametrize("interface", ["cs", "me"])
+def test_gap_simulates_the_closed_loop_as_simulate_does(tmp_path, interface):
+    """gap's simulation of the model as given (its traces.csv, `force.nominal`) is
+    `actuator-fmu simulate`'s output on the same record and settings, sample for sample: in
+    Co-Simulation the values after the step that ends at each sample (the force held over it,
+    FMI 3.0.2 section 4: no direct feedthrough across a step), in Model Exchange the values
+    after the events at each sample (simulate's last row at that time, the controller's sample
+    taken with that time's reference). 1.5 s of the estimation record, `sample` stamping."""
+    from conftest import cli_path
+    out = tmp_path / "csv"
+    subprocess.run([sys.executable, str(REPO / "scripts" / "emps_csv.py"), "--out-dir", str(out),
+                    "--stamp", "sample"], check=True, capture_output=True)
+    lines = (out / "emps_estimation.csv").read_text().splitlines(keepends=True)
+    body = [ln for ln in lines if not ln.startswith("#")]
+    csv = tmp_path / "short.csv"
+    csv.write_text("".join(body[:1501]))
+    _, q0, v0 = record(ESTIMATION)
+    sets = [f"q0={float(q0)!r}", f"v0={float(v0)!r}", "coulomb_friction.enabled=true",
+            f"coulomb_friction.force={SYM['coulomb']}"]
+    sim_out = tmp_path / "sim.csv"
+    set_args = [a for s in sets for a in ("--set", s)]
+    p = subprocess.run([cli_path(), "simulate", fmu(), "--data", str(csv), "--out", str(sim_out),
+                        "--interface", interface, *set_args], capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    p = subprocess.run([cli_path(), "gap", fmu(), "--data", str(csv), "--out", str(tmp_path / "g"),
+                        "--interface", interface, "--quiet", "--rounds", "0", "--fit", "mass",
+                        *set_args], capture_output=True, text=True, timeout=600)
+    assert p.returncode == 0, p.stderr + p.stdout
+    ours = read_csv(tmp_path / "g" / "traces.csv")
+    theirs = read_csv(sim_out)
+    # the last row at each time (Model Exchange writes one before and one after an event)
+    keep = np.append(theirs["time"][1:] != theirs["time"][:-1], True)
+    theirs = theirs[keep]
+    # simulate's communication points are start + k h, the data's times k / 1000
+    assert np.allclose(ours["time"], theirs["time"], rtol=0, atol=1e-12)
+    for name in ("qm", "force", "velocity"):
+        diff = np.abs(ours[f"{name}nominal"] - theirs[name])
+        assert diff.max() <= 1e-12 * np.abs(theirs[name]).max(), (name, diff.max())

@@ -572,7 +572,7 @@ pub fn to_markdown(res: &GapResult, fmu: &str, data: &str, plots: &[String]) -> 
     s
 }
 
-/// Write `report.json` and `report.md` into `dir`.
+/// Write `report.json`, `report.md` and `traces.csv` into `dir`.
 pub fn write(
     res: &GapResult,
     dir: &Path,
@@ -589,7 +589,35 @@ pub fn write(
             std::io::Write::write_all(&mut f, text.as_bytes())
         })?;
     }
-    Ok(())
+    host::csv::write_atomically(&dir.join("traces.csv"), |f| {
+        let (names, columns) = trace_columns(res);
+        host::csv::write_csv_to(
+            std::io::BufWriter::new(f),
+            &res.traces.time,
+            &names,
+            &columns,
+        )
+    })
+}
+
+/// The columns of `traces.csv`: per measured output `<output>.measured`, `.nominal` (the model
+/// as given), `.base_fit` (the calibrated base model) and `.final` (the final model), each at
+/// the data's times exactly as the workflow compared them.
+fn trace_columns(res: &GapResult) -> (Vec<String>, Vec<Vec<f64>>) {
+    let mut names = Vec::new();
+    let mut columns = Vec::new();
+    for o in &res.traces.outputs {
+        for (kind, c) in [
+            ("measured", &o.measured),
+            ("nominal", &o.nominal),
+            ("base_fit", &o.base_fit),
+            ("final", &o.final_fit),
+        ] {
+            names.push(format!("{}.{kind}", o.name));
+            columns.push(c.clone());
+        }
+    }
+    (names, columns)
 }
 
 /// The Method section of report.md: how the verdict was reached, in the order the workflow runs.
