@@ -362,3 +362,40 @@ def test_gap_simulates_the_closed_loop_as_simulate_does(tmp_path, interface):
     for name in ("qm", "force", "velocity"):
         diff = np.abs(ours[f"{name}nominal"] - theirs[name])
         assert diff.max() <= 1e-12 * np.abs(theirs[name]).max(), (name, diff.max())
+
+
+@pytest.fixture(scope="module")
+def estimation_gap(tmp_path_factory):
+    """`actuator-fmu gap` on the whole estimation record (held stamping), default candidates."""
+    from conftest import cli_path
+    tmp = tmp_path_factory.mktemp("emps_gap")
+    subprocess.run([sys.executable, str(REPO / "scripts" / "emps_csv.py"), "--out-dir", str(tmp)],
+                   check=True, capture_output=True)
+    p = subprocess.run([cli_path(), "gap", fmu(), "--data", str(tmp / "emps_estimation.csv"),
+                        "--out", str(tmp / "g"), "--quiet"], capture_output=True, text=True,
+                       timeout=1200)
+    assert p.returncode == 0, p.stderr + p.stdout
+    import json
+    return json.loads((tmp / "g" / "report.json").read_text())
+
+
+@needs_data
+def test_a_named_effect_is_never_called_invisible(estimation_gap):
+    """On the estimation record gap names friction effects with a ΔBIC in the hundreds, while
+    the scan about a base fit on which an effect is inert called them invisible. A refit
+    reaching the naming threshold shows the effect: every named candidate's visibility reaches
+    what naming needs, with a setting where the data show it, and no verdict lists it among
+    the effects these data cannot reveal."""
+    rep = estimation_gap
+    assert rep["named"], rep["verdict"]
+    named = [c for rnd in rep["candidates"] for c in rnd if c["decision"]["kind"] == "named"]
+    assert {c["effect"] for c in named} == set(rep["named"])
+    for c in named:
+        assert c["visibility"] >= c["visibility_needed"], c
+        assert c["detectable_from"], c
+    for rnd in rep["candidates"]:
+        for c in rnd:
+            reach = c["decision"].get("unrevealable")
+            assert not (reach and c["effect"] in rep["named"]), c
+    open_ = rep["decision"].get("open") or {}
+    assert not {u["effect"] for u in open_.get("unrevealable", [])} & set(rep["named"])
