@@ -442,7 +442,7 @@ fn with_visibility<S: GridModel + ?Sized>(
 /// refitted setting is one the data show. None for a candidate not refitted or short of the
 /// threshold.
 fn refit_evidence(c: &Candidate, needed: f64, min_delta_bic: f64) -> Option<f64> {
-    (c.refit && c.delta_bic >= min_delta_bic).then(|| c.delta_bic + (needed - min_delta_bic))
+    (c.refit && c.delta_bic >= min_delta_bic).then_some(c.delta_bic + (needed - min_delta_bic))
 }
 
 /// Which screened candidates are refitted. Whatever the linearised evidence (a dead zone or
