@@ -7,6 +7,7 @@ output. The records are read from ../shared/data/emps/ (relative to the reposito
 committed; without them the tests that need them are skipped.
 """
 import os
+import subprocess
 import sys
 
 import numpy as np
@@ -320,3 +321,81 @@ def test_model_exchange_matches_co_simulation(archive, effect):
     assert np.allclose(me["time"], cs["time"])
     assert np.abs(me["qm"] - cs["qm"]).max() < 2e-7
     assert np.abs(me["force"] - cs["force"]).max() < 0.5
+
+
+@needs_data
+@pytest.mark.parametrize("interface", ["cs", "me"])
+def test_gap_simulates_the_closed_loop_as_simulate_does(tmp_path, interface):
+    """gap's simulation of the model as given (its traces.csv, `force.nominal`) is
+    `actuator-fmu simulate`'s output on the same record and settings, sample for sample: in
+    Co-Simulation the values after the step that ends at each sample (the force held over it,
+    FMI 3.0.2 section 4: no direct feedthrough across a step), in Model Exchange the values
+    after the events at each sample (simulate's last row at that time, the controller's sample
+    taken with that time's reference). 1.5 s of the estimation record, `sample` stamping."""
+    from conftest import cli_path
+    out = tmp_path / "csv"
+    subprocess.run([sys.executable, str(REPO / "scripts" / "emps_csv.py"), "--out-dir", str(out),
+                    "--stamp", "sample"], check=True, capture_output=True)
+    lines = (out / "emps_estimation.csv").read_text().splitlines(keepends=True)
+    body = [ln for ln in lines if not ln.startswith("#")]
+    csv = tmp_path / "short.csv"
+    csv.write_text("".join(body[:1501]))
+    _, q0, v0 = record(ESTIMATION)
+    sets = [f"q0={float(q0)!r}", f"v0={float(v0)!r}", "coulomb_friction.enabled=true",
+            f"coulomb_friction.force={SYM['coulomb']}"]
+    sim_out = tmp_path / "sim.csv"
+    set_args = [a for s in sets for a in ("--set", s)]
+    p = subprocess.run([cli_path(), "simulate", fmu(), "--data", str(csv), "--out", str(sim_out),
+                        "--interface", interface, *set_args], capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    p = subprocess.run([cli_path(), "gap", fmu(), "--data", str(csv), "--out", str(tmp_path / "g"),
+                        "--interface", interface, "--quiet", "--rounds", "0", "--fit", "mass",
+                        *set_args], capture_output=True, text=True, timeout=600)
+    assert p.returncode == 0, p.stderr + p.stdout
+    ours = read_csv(tmp_path / "g" / "traces.csv")
+    theirs = read_csv(sim_out)
+    # the last row at each time (Model Exchange writes one before and one after an event)
+    keep = np.append(theirs["time"][1:] != theirs["time"][:-1], True)
+    theirs = theirs[keep]
+    # simulate's communication points are start + k h, the data's times k / 1000
+    assert np.allclose(ours["time"], theirs["time"], rtol=0, atol=1e-12)
+    for name in ("qm", "force", "velocity"):
+        diff = np.abs(ours[f"{name}nominal"] - theirs[name])
+        assert diff.max() <= 1e-12 * np.abs(theirs[name]).max(), (name, diff.max())
+
+
+@pytest.fixture(scope="module")
+def estimation_gap(tmp_path_factory):
+    """`actuator-fmu gap` on the whole estimation record (held stamping), default candidates."""
+    from conftest import cli_path
+    tmp = tmp_path_factory.mktemp("emps_gap")
+    subprocess.run([sys.executable, str(REPO / "scripts" / "emps_csv.py"), "--out-dir", str(tmp)],
+                   check=True, capture_output=True)
+    p = subprocess.run([cli_path(), "gap", fmu(), "--data", str(tmp / "emps_estimation.csv"),
+                        "--out", str(tmp / "g"), "--quiet"], capture_output=True, text=True,
+                       timeout=1200)
+    assert p.returncode == 0, p.stderr + p.stdout
+    import json
+    return json.loads((tmp / "g" / "report.json").read_text())
+
+
+@needs_data
+def test_a_named_effect_is_never_called_invisible(estimation_gap):
+    """On the estimation record gap names friction effects with a ΔBIC in the hundreds, while
+    the scan about a base fit on which an effect is inert called them invisible. A refit
+    reaching the naming threshold shows the effect: every named candidate's visibility reaches
+    what naming needs, with a setting where the data show it, and no verdict lists it among
+    the effects these data cannot reveal."""
+    rep = estimation_gap
+    assert rep["named"], rep["verdict"]
+    named = [c for rnd in rep["candidates"] for c in rnd if c["decision"]["kind"] == "named"]
+    assert {c["effect"] for c in named} == set(rep["named"])
+    for c in named:
+        assert c["visibility"] >= c["visibility_needed"], c
+        assert c["detectable_from"], c
+    for rnd in rep["candidates"]:
+        for c in rnd:
+            reach = c["decision"].get("unrevealable")
+            assert not (reach and c["effect"] in rep["named"]), c
+    open_ = rep["decision"].get("open") or {}
+    assert not {u["effect"] for u in open_.get("unrevealable", [])} & set(rep["named"])

@@ -841,3 +841,27 @@ def test_a_sensor_offset_asked_for_is_estimated_with_its_interval(tmp_path):
     assert "theta" in rep["in_short"] and "offset" in rep["in_short"], rep["in_short"]
     p = gap("HydraulicJoint", csv, tmp_path / "bad", "--offset", "theta_ref")
     assert p.returncode == 2 and "--offset theta_ref" in p.stderr, p.stderr
+
+
+def test_the_white_noise_level_and_the_unexplained_misfit_are_two_numbers(tmp_path):
+    """A HydraulicJoint record with white noise of known level and cable friction switched on,
+    gap given only candidates that cannot explain it (seal friction, valve overlap): whatever
+    the noise model makes of the misfit, the report keeps the white level that no model
+    explains (within 20 % of the level the record was made with) apart from the misfit the
+    final model leaves beyond it, which is reported where the final model misses."""
+    model = "HydraulicJoint"
+    fmu_path(model)
+    ds = gapgen.make(model, 1, ("cable_friction",), duration=4.0, rate=250.0)
+    csv = tmp_path / "cable.csv"
+    gapgen.write_csv(ds, csv)
+    rep = run_ok(model, csv, tmp_path / "out", "--effects", "seal_friction,valve_overlap")
+    assert "cable_friction" not in rep["named"]
+    for name, o in rep["outputs"].items():
+        true = ds["noise_sigma"][name]
+        assert o["noise_white"] == pytest.approx(true, rel=0.2), name
+        beyond = np.sqrt(max(0.0, o["rmse_after"] ** 2 - o["noise_white"] ** 2))
+        assert o["unexplained_rms"] == pytest.approx(beyond, rel=1e-9, abs=1e-300), name
+    missed = [n for n, o in rep["outputs"].items() if o["rmse_after"] > 1.5 * ds["noise_sigma"][n]]
+    assert missed, rep["outputs"]
+    for name in missed:
+        assert rep["outputs"][name]["unexplained_rms"] > ds["noise_sigma"][name], name

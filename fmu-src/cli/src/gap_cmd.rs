@@ -16,7 +16,7 @@ pub struct Args {
     /// start value), output columns named as FMU outputs (any subset), SI units.
     #[arg(long)]
     pub data: PathBuf,
-    /// Directory for report.json, report.md and the PNG plots.
+    /// Directory for report.json, report.md, traces.csv and the PNG plots.
     #[arg(long)]
     pub out: PathBuf,
     /// Base parameters to calibrate (default: those whose description starts with [calibrate]).
@@ -69,7 +69,7 @@ pub struct Args {
 }
 
 /// The report directory must not be an input, nor hold an input under a name the report writes
-/// (report.json, report.md, *.png).
+/// (report.json, report.md, traces.csv, *.png).
 fn refuse_writing_over_inputs(a: &Args) -> Result<(), CliError> {
     let inputs = [a.fmu.as_path(), a.data.as_path()];
     crate::common::refuse_overwriting(&a.out, &inputs)?;
@@ -81,7 +81,8 @@ fn refuse_writing_over_inputs(a: &Args) -> Result<(), CliError> {
             continue;
         };
         let name = real.file_name().unwrap_or_default().to_string_lossy();
-        let written = name == "report.json" || name == "report.md" || name.ends_with(".png");
+        let written = ["report.json", "report.md", "traces.csv"].contains(&name.as_ref())
+            || name.ends_with(".png");
         if written && real.parent() == Some(out.as_path()) {
             return Err(CliError::input(format!(
                 "--out {}: the report would overwrite the input {}",

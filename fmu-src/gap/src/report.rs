@@ -545,12 +545,14 @@ pub fn to_markdown(res: &GapResult, fmu: &str, data: &str, plots: &[String]) -> 
             );
         }
     }
-    let _ = writeln!(s, "\n## Errors per output\n\n| output | noise σ | RMSE before | RMSE base fit | RMSE after | max before | max base fit | max after |\n|---|---|---|---|---|---|---|---|");
+    let _ = writeln!(s, "\n## Errors per output\n\n| output | noise σ | white noise | unexplained beyond white | RMSE before | RMSE base fit | RMSE after | max before | max base fit | max after |\n|---|---|---|---|---|---|---|---|---|---|");
     for (k, o) in &res.outputs {
         let _ = writeln!(
             s,
-            "| {k} | {} | {} | {} | {} | {} | {} | {} |",
+            "| {k} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
             g(o.noise_sigma),
+            g(o.noise_white),
+            g(o.unexplained_rms),
             g(o.rmse_before),
             g(o.rmse_base_fit),
             g(o.rmse_after),
@@ -559,7 +561,7 @@ pub fn to_markdown(res: &GapResult, fmu: &str, data: &str, plots: &[String]) -> 
             g(o.max_after)
         );
     }
-    let _ = writeln!(s, "\n\"before\" is the model as given (start values, `--set` applied, effects off); \"base fit\" the calibrated model without effects; \"after\" the final model with the named effects (after the rounds, with the named effects chosen, its parameters are refitted on the whole trace; errors over the whole trace).\n");
+    let _ = writeln!(s, "\n\"noise σ\" is the noise model's level (the marginal one for correlated noise), \"white noise\" the level of the data's second differences that no model explains, \"unexplained beyond white\" √(RMSE after² − white²): where noise σ is far above the white level, the correlated part is noise or a misfit no candidate explains, and these two columns bound it. \"before\" is the model as given (start values, `--set` applied, effects off); \"base fit\" the calibrated model without effects; \"after\" the final model with the named effects (after the rounds, with the named effects chosen, its parameters are refitted on the whole trace; errors over the whole trace).\n");
     let t = &res.timing;
     let _ = writeln!(s, "## Timing\n\ntotal {:.2} s: simulation {:.2} s, fitting {:.2} s; {} simulations on {} threads.\n", t.total_s, t.simulate_s, t.fit_s, t.simulations, t.threads);
     if !plots.is_empty() {
@@ -572,7 +574,7 @@ pub fn to_markdown(res: &GapResult, fmu: &str, data: &str, plots: &[String]) -> 
     s
 }
 
-/// Write `report.json` and `report.md` into `dir`.
+/// Write `report.json`, `report.md` and `traces.csv` into `dir`.
 pub fn write(
     res: &GapResult,
     dir: &Path,
@@ -589,7 +591,35 @@ pub fn write(
             std::io::Write::write_all(&mut f, text.as_bytes())
         })?;
     }
-    Ok(())
+    host::csv::write_atomically(&dir.join("traces.csv"), |f| {
+        let (names, columns) = trace_columns(res);
+        host::csv::write_csv_to(
+            std::io::BufWriter::new(f),
+            &res.traces.time,
+            &names,
+            &columns,
+        )
+    })
+}
+
+/// The columns of `traces.csv`: per measured output `<output>.measured`, `.nominal` (the model
+/// as given), `.base_fit` (the calibrated base model) and `.final` (the final model), each at
+/// the data's times exactly as the workflow compared them.
+fn trace_columns(res: &GapResult) -> (Vec<String>, Vec<Vec<f64>>) {
+    let mut names = Vec::new();
+    let mut columns = Vec::new();
+    for o in &res.traces.outputs {
+        for (kind, c) in [
+            ("measured", &o.measured),
+            ("nominal", &o.nominal),
+            ("base_fit", &o.base_fit),
+            ("final", &o.final_fit),
+        ] {
+            names.push(format!("{}.{kind}", o.name));
+            columns.push(c.clone());
+        }
+    }
+    (names, columns)
 }
 
 /// The Method section of report.md: how the verdict was reached, in the order the workflow runs.

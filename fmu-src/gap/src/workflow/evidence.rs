@@ -420,6 +420,8 @@ fn errors_after(rmse: f64, mean: f64, sigma: f64) -> OutputErrors {
         max_base_fit: 10.0,
         noise_sigma: sigma,
         noise_ar1: 0.0,
+        noise_white: sigma,
+        unexplained_rms: 0.0,
         mean_after: mean,
     }
 }

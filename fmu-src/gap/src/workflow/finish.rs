@@ -194,6 +194,8 @@ pub(super) fn output_errors<S: GridModel + ?Sized>(
                 max_base_fit: mf,
                 noise_sigma: ctx.sigma[k],
                 noise_ar1: ctx.rho[k],
+                noise_white: ctx.sigma[k],
+                unexplained_rms: 0.0,
                 mean_after: final_y[k].iter().zip(y).map(|(m, d)| m - d).sum::<f64>()
                     / y.len().max(1) as f64,
             },

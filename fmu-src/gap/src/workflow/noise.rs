@@ -144,7 +144,9 @@ pub(crate) fn difference_level(y: &[f64]) -> f64 {
 /// hide the noise's correlation or pass for it; the final model's residual shows the noise
 /// itself where the model is right. Only the report's noise levels and coefficients change
 /// (the errors as multiples of the noise, the disagreement); white noise leaves them as they
-/// were.
+/// were. Beside them, each output's white level (what no model explains) and the misfit the
+/// final model leaves beyond it, so that correlated noise and unexplained misfit stay two
+/// numbers.
 pub(super) fn refine_after_final_fit(
     outputs: &mut BTreeMap<String, OutputErrors>,
     traces: &[OutputTrace],
@@ -163,6 +165,10 @@ pub(super) fn refine_after_final_fit(
         let fit = noise_fit(&r);
         o.noise_sigma = level * fit.level;
         o.noise_ar1 = fit.rho;
+        o.noise_white = level;
+        o.unexplained_rms = (o.rmse_after * o.rmse_after - level * level)
+            .max(0.0)
+            .sqrt();
     }
 }
 

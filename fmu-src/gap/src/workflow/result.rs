@@ -200,6 +200,13 @@ pub struct OutputErrors {
     /// Noise level (marginal standard deviation) and the noise's AR(1) coefficient (0: white).
     pub noise_sigma: f64,
     pub noise_ar1: f64,
+    /// The white noise level no model explains: the measured output's second-difference level
+    /// (robust MAD). Where `noise_sigma` is far above it, the correlated part may be noise or
+    /// a model error that these statistics cannot tell apart.
+    pub noise_white: f64,
+    /// What the final model leaves beyond that white noise: `√max(0, RMSE_after² −
+    /// noise_white²)`, the unexplained misfit if the correlated part is not noise.
+    pub unexplained_rms: f64,
     /// Mean of (model − measured) after the final fit: a constant offset, such as a sensor zero
     /// error, shows here.
     pub mean_after: f64,

@@ -152,6 +152,7 @@ fn one_round<S: GridModel + ?Sized>(
                 with_visibility(
                     ctx,
                     &sc,
+                    cfg.min_delta_bic,
                     Candidate::screened_only(&ctx.effects[e].name, sc.corrected[&e], score)
                         .hinted(cfg.min_delta_bic),
                 )
@@ -234,7 +235,7 @@ fn one_round<S: GridModel + ?Sized>(
     }
     let mut ranked: Vec<Candidate> = ranked
         .into_iter()
-        .map(|c| with_visibility(ctx, &sc, c))
+        .map(|c| with_visibility(ctx, &sc, cfg.min_delta_bic, c))
         .collect();
     match choose(ctx, cfg, &mut ranked, &fits, inp.start_miss) {
         Some(i) => {
@@ -298,7 +299,7 @@ fn closing_screen<S: GridModel + ?Sized>(
             c.verdict = CandidateVerdict::ScreenedAgainstFinal {
                 named: st.named.clone(),
             };
-            with_visibility(ctx, &sc, c)
+            with_visibility(ctx, &sc, inp.cfg.min_delta_bic, c)
         })
         .collect();
     st.candidates.push(ranked);
@@ -398,10 +399,13 @@ fn max_visibility(scan: &[VisibilityPoint]) -> Option<f64> {
     scan.iter().filter_map(|x| x.visibility).reduce(f64::max)
 }
 
-/// The candidate with its visibility over the scan (how much the data could show of it).
+/// The candidate with its visibility over the scan (how much the data could show of it), and
+/// for a refit that reached the naming threshold at least what that refit showed
+/// ([`refit_evidence`]).
 fn with_visibility<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     sc: &Screened,
+    min_delta_bic: f64,
     mut c: Candidate,
 ) -> Candidate {
     if let Some(k) = sc
@@ -418,8 +422,27 @@ fn with_visibility<S: GridModel + ?Sized>(
             .find(|x| x.visibility.is_some_and(|v| v >= needed))
             .map(|x| x.parameters.clone());
         c.visibility_scan = scan.clone();
+        let shown = refit_evidence(&c, needed, min_delta_bic);
+        if let Some(shown) = shown {
+            c.visibility = Some(c.visibility.map_or(shown, |v| v.max(shown)));
+            if c.detectable_from.is_none() {
+                let at = c.parameters.iter().map(|(k, e)| (k.clone(), e.value));
+                c.detectable_from = Some(at.collect());
+            }
+        }
     }
     c
+}
+
+/// What a refit that reached the naming threshold showed of its effect, on the scale of
+/// `visibility_needed`: ΔBIC plus the parameters' penalty (`needed − min ΔBIC`), at least
+/// `needed`. The scan linearises about the current fit, where an effect may be inert (a
+/// friction level on its bound, a dead zone of no width) and look invisible; the refit's
+/// evidence is measured where the effect acts, so it bounds the visibility from below, and the
+/// refitted setting is one the data show. None for a candidate not refitted or short of the
+/// threshold.
+fn refit_evidence(c: &Candidate, needed: f64, min_delta_bic: f64) -> Option<f64> {
+    (c.refit && c.delta_bic >= min_delta_bic).then_some(c.delta_bic + (needed - min_delta_bic))
 }
 
 /// Which screened candidates are refitted. Whatever the linearised evidence (a dead zone or
@@ -702,5 +725,26 @@ fn none_named(cfg: &Config, ranked: &[Candidate], named: &[String], no_holdout: 
         closest: closest.effect.clone(),
         why,
         open: left_open(ranked, cfg.min_delta_bic),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::refit_evidence;
+    use crate::workflow::Candidate;
+
+    #[test]
+    fn a_refit_at_the_threshold_shows_at_least_what_naming_needs() {
+        // needed = 10 + 1 ln(1000) = 16.9: ΔBIC 217 shows 223.9; ΔBIC 9.9 shows nothing
+        let needed = 10.0 + libm::log(1000.0);
+        let mut c = Candidate::screened_only("friction", 217.0, 200.0);
+        assert_eq!(refit_evidence(&c, needed, 10.0), None, "not refitted");
+        c.refit = true;
+        let shown = refit_evidence(&c, needed, 10.0).unwrap();
+        assert!((shown - (217.0 + libm::log(1000.0))).abs() < 1e-12);
+        c.delta_bic = 10.0;
+        assert!(refit_evidence(&c, needed, 10.0).unwrap() >= needed);
+        c.delta_bic = 9.9;
+        assert_eq!(refit_evidence(&c, needed, 10.0), None);
     }
 }
