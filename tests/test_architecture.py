@@ -14,8 +14,9 @@ ARCH = (ROOT / "ARCHITECTURE.md").read_text()
 CRATES = sorted(p.parent.name for p in SRC.glob("*/Cargo.toml"))
 BINARY = tomllib.loads((SRC / "fmu-binary" / "Cargo.toml").read_text())
 VERSION_LAYERS = {"fmi2": "fmi2-export", "fmi3": "fmi3-export"}
-# The models are what fmu-binary's features pick besides the FMI version.
-MODELS = sorted(f for f in BINARY["features"] if f not in VERSION_LAYERS)
+# The models are what fmu-binary's features pick besides the FMI version and `model`, the
+# internal feature every model feature sets.
+MODELS = sorted(f for f in BINARY["features"] if f not in VERSION_LAYERS and f != "model")
 
 # What each kind of crate may use inside the workspace (the arrows of the map).
 MAY_USE = {
@@ -69,7 +70,7 @@ def test_model_follows_the_checklist(crate):
     assert re.search(r"impl\s+(fmu_core::)?Model\s+for\s+\w+", (src / "model.rs").read_text())
     assert "pub fn html() -> String" in (src / "docs.rs").read_text()
     assert "table_problems::<" in (src / "lib.rs").read_text()
-    assert BINARY["features"][crate] == [f"dep:{crate}"]
+    assert BINARY["features"][crate] == [f"dep:{crate}", "model"]
     build = (ROOT / "scripts" / "build").read_text()
     m = re.search(rf'"{crate}:(\w+):(dist|target/fmus)"', build)
     assert m, f"{crate} is not in MODELS of scripts/build"
