@@ -5,11 +5,11 @@
 
 use crate::common::{parse_sets, refuse_overwriting, run_error, set_target, CliError, CliResult};
 use host::csv::{format_number, read_csv_for, read_csv_with_text, sample_interval, write_csv_text};
-use host::fmi3::{simulate3, Causality3, Fmu3, Inputs3, ModelDescription3, Request3};
+use host::fmi3::{simulate3_then, Causality3, Fmu3, Inputs3, ModelDescription3, Request3};
 use host::md::DefaultExperiment;
 use host::view::ModelView;
 use host::{
-    simulate, FmiVersion, Fmu, InputSeries, Interface, SimulationRequest, SimulationResult,
+    simulate_then, FmiVersion, Fmu, InputSeries, Interface, SimulationRequest, SimulationResult,
 };
 use std::path::{Path, PathBuf};
 
@@ -35,12 +35,14 @@ pub struct Args {
     /// Value set before initialization, e.g. `load_mass=2.4` or `cables_attached=false`.
     #[arg(long = "set", value_name = "NAME=VALUE")]
     pub set: Vec<String>,
-    /// Output CSV: time and every output (Model Exchange: also a row before and one after each
-    /// event, at its time, as FMPy records them).
+    /// Output CSV: time and every output; an FMU without outputs: its continuous states (at
+    /// most 5), else its first 5 variables (Model Exchange: also a row before and one after
+    /// each event, at its time; all as FMPy's simulate_fmu records them).
     #[arg(long)]
     pub out: PathBuf,
     /// Variables to record, comma-separated, in this order (default: every output, FMI 3.0
-    /// aliases of outputs after them, as FMPy records them); any variable or alias name.
+    /// aliases of outputs after them; without outputs as --out says; as FMPy records them);
+    /// any variable or alias name.
     #[arg(long, value_name = "NAME,...", value_delimiter = ',')]
     pub outputs: Vec<String>,
     /// Relative tolerance (default: the DefaultExperiment's). Co-Simulation: passed to
@@ -196,10 +198,17 @@ pub fn run(a: Args) -> CliResult {
     let mut inputs = vec![a.fmu.as_path()];
     inputs.extend(a.data.as_deref());
     refuse_overwriting(&a.out, &inputs)?;
-    let (res, ended_how) = match version {
-        FmiVersion::Fmi2 => run2(&a)?,
-        FmiVersion::Fmi3 => run3(&a)?,
-    };
+    let save = |res: SimulationResult, ended_how: &str| save(&a, &res, ended_how);
+    match version {
+        FmiVersion::Fmi2 => run2(&a, save),
+        FmiVersion::Fmi3 => run3(&a, save),
+    }
+}
+
+/// Writes a run's result to `--out` while the FMU is still instantiated, and marks it written
+/// for the supervisor: an FMU that crashes while being freed after this loses nothing.
+/// `ended_how` says how the FMU ends a run early, when it did.
+fn save(a: &Args, res: &SimulationResult, ended_how: &str) -> CliResult {
     write_csv_text(&a.out, &res.time, &res.names, &res.columns, &res.text)
         .map_err(|e| CliError::input(format!("{}: cannot write: {e}", a.out.display())))?;
     if let Some(t) = res.ended_by_fmu {
@@ -211,14 +220,13 @@ pub fn run(a: Args) -> CliResult {
             a.out.display()
         );
     }
+    host::watch::mark_results_written()
+        .map_err(|e| CliError::input(format!("cannot tell the supervisor: {e}")))?;
     Ok(0)
 }
 
-/// A run's result with what says, when the FMU ended it early, how the FMU ended it.
-type Ran = (SimulationResult, &'static str);
-
-/// An FMI 2.0 run.
-fn run2(a: &Args) -> Result<Ran, CliError> {
+/// An FMI 2.0 run, its result handed to `save` before the instance is freed.
+fn run2(a: &Args, save: impl FnOnce(SimulationResult, &str) -> CliResult) -> CliResult {
     let opts = host::OpenOptions {
         python: a.python.clone(),
         interface: crate::common::InterfaceArg::host(a.interface),
@@ -240,16 +248,16 @@ fn run2(a: &Args) -> Result<Ran, CliError> {
         outputs: a.outputs.clone(),
         ..SimulationRequest::new(grid.start, grid.stop, grid.step)
     };
-    let res = simulate(&fmu, &req).map_err(|e| run_error(&a.fmu.display().to_string(), e))?;
     let how = match fmu.interface() {
         Interface::CoSimulation => "fmi2DoStep returned fmi2Discard with fmi2Terminated",
         Interface::ModelExchange => "it set terminateSimulation",
     };
-    Ok((res, how))
+    simulate_then(&fmu, &req, |res| save(res, how))
+        .map_err(|e| run_error(&a.fmu.display().to_string(), e))?
 }
 
-/// An FMI 3.0 run.
-fn run3(a: &Args) -> Result<Ran, CliError> {
+/// An FMI 3.0 run, its result handed to `save` before the instance is freed.
+fn run3(a: &Args, save: impl FnOnce(SimulationResult, &str) -> CliResult) -> CliResult {
     let interface = crate::common::InterfaceArg::host(a.interface);
     let fmu = Fmu3::open_with(&a.fmu, interface).map_err(CliError::input)?;
     let described = fmu.model_description().with_aliases();
@@ -269,12 +277,12 @@ fn run3(a: &Args) -> Result<Ran, CliError> {
         record_events: true,
         ..Request3::new(grid.start, grid.stop, grid.step)
     };
-    let res = simulate3(&fmu, &req).map_err(|e| run_error(&a.fmu.display().to_string(), e))?;
     let how = match fmu.interface() {
         Interface::CoSimulation => "fmi3DoStep returned terminateSimulation",
         Interface::ModelExchange => "the Model Exchange FMU returned terminateSimulation",
     };
-    Ok((res, how))
+    simulate3_then(&fmu, &req, |res| save(res, how))
+        .map_err(|e| run_error(&a.fmu.display().to_string(), e))?
 }
 
 /// `--set NAME=VALUE` as (name, text): the host parses the text as the variable's type (an
