@@ -751,6 +751,19 @@ fn same_base(a: VarKind, b: VarKind) -> bool {
     base(a) == base(b)
 }
 
+/// How many states, or variables, FMPy records at most for an FMU without outputs.
+pub const MAX_FALLBACK_RECORDED: usize = 5;
+
+/// FMPy's last resort for an FMU with neither outputs nor states: its first five variables,
+/// without `time` (the name of the time column).
+pub(crate) fn fallback_names<'a>(names: impl Iterator<Item = &'a str>) -> Vec<String> {
+    names
+        .take(MAX_FALLBACK_RECORDED)
+        .filter(|n| *n != "time")
+        .map(str::to_string)
+        .collect()
+}
+
 #[cfg(test)]
 pub(crate) mod tests {
     use super::{Causality, Initial, ModelDescription, StartValue, VarKind, Variability};
@@ -893,17 +906,4 @@ pub(crate) mod tests {
         let e = err_of("<fmiModelDescription><ModelVariables><ScalarVariable valueReference=\"1\"><Real/></ScalarVariable></ModelVariables></fmiModelDescription>");
         assert!(e.contains("lacks the required attribute name"), "{e}");
     }
-}
-
-/// How many states, or variables, FMPy records at most for an FMU without outputs.
-pub const MAX_FALLBACK_RECORDED: usize = 5;
-
-/// FMPy's last resort for an FMU with neither outputs nor states: its first five variables,
-/// without `time` (the name of the time column).
-pub(crate) fn fallback_names<'a>(names: impl Iterator<Item = &'a str>) -> Vec<String> {
-    names
-        .take(MAX_FALLBACK_RECORDED)
-        .filter(|n| *n != "time")
-        .map(str::to_string)
-        .collect()
 }
