@@ -28,8 +28,9 @@ pub struct Args {
     /// start + 1 s).
     #[arg(long)]
     pub stop: Option<f64>,
-    /// Communication step [s] (default: the CSV's sample interval, else the DefaultExperiment,
-    /// else a round step giving 500 to 1000 steps, as FMPy chooses).
+    /// Communication step [s] (default: the CSV's sample interval; else, Co-Simulation, the
+    /// FMU's fixedInternalStepSize (FMI 3.0) or DefaultExperiment stepSize, doubled until at
+    /// most 1000 steps; else a round step giving 500 to 1000 steps; as FMPy chooses).
     #[arg(long)]
     pub step: Option<f64>,
     /// Value set before initialization, e.g. `load_mass=2.4` or `cables_attached=false`.
@@ -105,15 +106,17 @@ pub(crate) struct TimeGrid {
 /// The time grid of a run and the checks of `--step`, `--stop` and `--tolerance`, shared by
 /// FMI 2.0 and FMI 3.0 so that both take the same defaults and refuse the same arguments with
 /// the same messages in the same order. `data_time` is the time column read from `--data`
-/// (unused without `--data`); `experiment` is the FMU's DefaultExperiment.
+/// (unused without `--data`); `experiment` is the FMU's DefaultExperiment; `cs_step` the step
+/// the FMU's description gives a Co-Simulation run (None for Model Exchange, see
+/// [`cs_step`]).
 pub(crate) fn time_grid(
     a: &Args,
     data_time: &[f64],
-    experiment: &DefaultExperiment,
+    (experiment, cs_step): (&DefaultExperiment, Option<f64>),
 ) -> Result<TimeGrid, CliError> {
     let grid = match &a.data {
         Some(path) => grid_of_data(a, path, data_time)?,
-        None => grid_of_experiment(a, experiment),
+        None => grid_of_experiment(a, experiment, cs_step),
     };
     check_grid(&grid)?;
     check_tolerance(a.tolerance)?;
@@ -134,14 +137,39 @@ fn grid_of_data(a: &Args, path: &Path, time: &[f64]) -> Result<TimeGrid, CliErro
     Ok(TimeGrid { start, stop, step })
 }
 
+/// The step FMPy's `simulate_fmu` takes from the description of a Co-Simulation run:
+/// `fixedInternalStepSize` (FMI 3.0), else the DefaultExperiment's `stepSize`. Model Exchange
+/// runs take none (FMPy's ME output interval is [`auto_interval`]).
+pub(crate) fn cs_step(
+    interface: Interface,
+    fixed_internal: Option<f64>,
+    experiment: &DefaultExperiment,
+) -> Option<f64> {
+    match interface {
+        Interface::CoSimulation => fixed_internal.or(experiment.step_size),
+        Interface::ModelExchange => None,
+    }
+}
+
 /// A run without data: the DefaultExperiment's start (else 0), `--stop`, else its stop (else
-/// 1 s after the start), `--step`, else its step size (else [`auto_interval`]).
-fn grid_of_experiment(a: &Args, experiment: &DefaultExperiment) -> TimeGrid {
+/// 1 s after the start), `--step`, else `cs_step` doubled while it gives more than 1000 steps
+/// (FMPy's rule), else [`auto_interval`].
+fn grid_of_experiment(a: &Args, experiment: &DefaultExperiment, cs_step: Option<f64>) -> TimeGrid {
     let start = experiment.start_time.unwrap_or(0.0);
     let stop = a.stop.or(experiment.stop_time).unwrap_or(start + 1.0);
+    let span = stop - start;
+    let fitted = cs_step
+        .filter(|h| *h > 0.0 && span.is_finite())
+        .map(|mut h| {
+            while span / h > 1000.0 {
+                h *= 2.0;
+            }
+            h
+        });
     let step = a
         .step
-        .or(experiment.step_size)
+        .or(fitted)
+        .or(cs_step)
         .unwrap_or_else(|| auto_interval(stop - start));
     TimeGrid { start, stop, step }
 }
@@ -239,7 +267,8 @@ fn run2(a: &Args, save: impl FnOnce(SimulationResult, &str) -> CliResult) -> Cli
         Some(path) => read_inputs(path, &md)?,
         None => InputSeries::default(),
     };
-    let grid = time_grid(a, &inputs.time, &experiment)?;
+    let cs = cs_step(fmu.interface(), None, &experiment);
+    let grid = time_grid(a, &inputs.time, (&experiment, cs))?;
     let req = SimulationRequest {
         start_values,
         inputs,
@@ -268,7 +297,12 @@ fn run3(a: &Args, save: impl FnOnce(SimulationResult, &str) -> CliResult) -> Cli
         Some(path) => read_inputs3(path, md)?,
         None => Inputs3::default(),
     };
-    let grid = time_grid(a, &inputs.time, &experiment)?;
+    let fixed = md
+        .co_simulation
+        .as_ref()
+        .and_then(|c| c.fixed_internal_step_size);
+    let cs = cs_step(fmu.interface(), fixed, &experiment);
+    let grid = time_grid(a, &inputs.time, (&experiment, cs))?;
     let req = Request3 {
         start_values,
         tolerance: a.tolerance,
