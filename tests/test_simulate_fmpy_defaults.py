@@ -108,3 +108,17 @@ def test_the_ball_bounces_when_its_event_iteration_takes_two_calls(toy, tmp_path
     assert ref["time"][-1] == t[-1] == 2.0
     assert abs(ours[-1, header.index("h")] - ref["h"][-1]) < 1e-3
     assert ref["h"].min() > -1e-3 and ours[:, header.index("h")].min() > -1e-6
+
+
+@pytest.mark.parametrize("interface, fmi_type", [("cs", "CoSimulation"),
+                                                 ("me", "ModelExchange")])
+def test_the_default_grid_is_fmpys(interface, fmi_type, toy, tmp_path):
+    """Dahlquist: DefaultExperiment stop 10 s, stepSize 0.1 s. FMPy's simulate_fmu records
+    Co-Simulation every stepSize, Model Exchange at its round auto interval (0.01 s)."""
+    fmu = toy("Dahlquist")
+    r = run("simulate", fmu, "--interface", interface, "--out", tmp_path / "o.csv")
+    assert r.returncode == 0, r.stderr
+    _, ours = read_csv(tmp_path / "o.csv")
+    ref = fmpy.simulate_fmu(str(fmu), fmi_type=fmi_type)
+    assert len(ours) == len(ref) == {"cs": 101, "me": 1001}[interface]
+    np.testing.assert_allclose(ours[:, 0], ref["time"], rtol=0, atol=1e-12)

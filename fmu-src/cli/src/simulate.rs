@@ -29,8 +29,9 @@ pub struct Args {
     #[arg(long)]
     pub stop: Option<f64>,
     /// Communication step [s] (default: the CSV's sample interval; else, Co-Simulation, the
-    /// FMU's fixedInternalStepSize (FMI 3.0) or DefaultExperiment stepSize, doubled until at
-    /// most 1000 steps; else a round step giving 500 to 1000 steps; as FMPy chooses).
+    /// FMU's fixedInternalStepSize (FMI 3.0) or DefaultExperiment stepSize, Model Exchange
+    /// 10^(round(log10(stop - start)) - 3), either doubled until at most 1000 steps; else a
+    /// round step giving 500 to 1000 steps; as FMPy's simulate_fmu chooses).
     #[arg(long)]
     pub step: Option<f64>,
     /// Value set before initialization, e.g. `load_mass=2.4` or `cables_attached=false`.
@@ -139,7 +140,8 @@ fn grid_of_data(a: &Args, path: &Path, time: &[f64]) -> Result<TimeGrid, CliErro
 
 /// The step FMPy's `simulate_fmu` takes from the description of a Co-Simulation run:
 /// `fixedInternalStepSize` (FMI 3.0), else the DefaultExperiment's `stepSize`. Model Exchange
-/// runs take none (FMPy's ME output interval is [`auto_interval`]).
+/// runs: NaN, FMPy's default `step_size` for the run's span, `10^(round(log10(stop - start)) -
+/// 3)`, whatever the description says (`simulate_fmu`'s ME output interval).
 pub(crate) fn cs_step(
     interface: Interface,
     fixed_internal: Option<f64>,
@@ -147,7 +149,7 @@ pub(crate) fn cs_step(
 ) -> Option<f64> {
     match interface {
         Interface::CoSimulation => fixed_internal.or(experiment.step_size),
-        Interface::ModelExchange => None,
+        Interface::ModelExchange => Some(f64::NAN),
     }
 }
 
@@ -158,6 +160,8 @@ fn grid_of_experiment(a: &Args, experiment: &DefaultExperiment, cs_step: Option<
     let start = experiment.start_time.unwrap_or(0.0);
     let stop = a.stop.or(experiment.stop_time).unwrap_or(start + 1.0);
     let span = stop - start;
+    let by_span = (span > 0.0).then(|| 10f64.powf(span.log10().round() - 3.0));
+    let cs_step = cs_step.and_then(|h| if h.is_nan() { by_span } else { Some(h) });
     let fitted = cs_step
         .filter(|h| *h > 0.0 && span.is_finite())
         .map(|mut h| {
