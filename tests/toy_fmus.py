@@ -26,7 +26,12 @@ MODELS = {  # name -> (C source, {FMI version: flags}, resources)
     "StateSpace": ("state_space.c", {3: []}, {}),
     "Clocks": ("clocks.c", {3: []}, {}),
     "Alias": ("alias.c", {2: [], 3: []}, {}),
+    # variants: another build of a model above, with its description (XML_OF) renamed
+    "BouncingBallTwoPass": ("bouncing_ball.c", {2: ["-DTWO_PASS_EVENTS"]}, {}),
+    "CrashInFree": ("dahlquist.c", {2: ["-DABORT_IN_FREE"]}, {}),
 }
+# variant -> the model whose modelDescription.xml it uses (modelIdentifier renamed)
+XML_OF = {"BouncingBallTwoPass": "BouncingBall", "CrashInFree": "Dahlquist"}
 PLATFORM = {2: "linux64", 3: "x86_64-linux"}
 
 
@@ -62,7 +67,10 @@ def build(directory, name, version=2):
         folders += ["resources/"] * bool(resources) + ["sources/"] * (version == 3)
         for folder in folders:
             z.writestr(folder, b"")
-        z.write(SOURCE / f"{name}.fmi{version}.xml", "modelDescription.xml")
+        base = XML_OF.get(name, name)
+        md = (SOURCE / f"{base}.fmi{version}.xml").read_text()
+        md = md.replace(f'modelIdentifier="{base}"', f'modelIdentifier="{name}"')
+        z.writestr("modelDescription.xml", md)
         z.write(lib, f"binaries/{PLATFORM[version]}/{name}.so")
         for entry, file in resources.items():
             z.write(SOURCE / file, entry)

@@ -5,8 +5,9 @@
 //! the FMU failed after initialization), 2 bad input: usage, unreadable or bad data, an FMU that
 //! cannot be opened, instantiated or initialized (refused parameters, GUID), what a command does
 //! not run (clocks, Scheduled Execution), an output
-//! path that is an input, an FMU that crashed or did not return within --timeout; 130
-//! interrupted (Ctrl-C, SIGTERM, SIGHUP).
+//! path that is an input, an FMU that crashed or did not return within --timeout; 3 simulate:
+//! the results were written, then the FMU crashed (freeing its instance); 130 interrupted
+//! (Ctrl-C, SIGTERM, SIGHUP).
 //! The commands run in a supervised child process (module `supervise`).
 //! `main` only parses arguments and dispatches: one module per subcommand.
 // Host side: runs in the user's process, not inside an FMU; the FMUs' bit-determinism (the
@@ -36,6 +37,7 @@ use clap::{Parser, Subcommand};
                   initialization (simulate, gap); 2 bad input: usage, unreadable or bad data, \
                   an FMU that cannot be opened, instantiated or initialized, a kind of FMU the command does not run, an --out \
                   that is an input, an FMU that crashed or did not return within --timeout; \
+                  3 simulate wrote its results, then the FMU crashed (freeing its instance); \
                   130 interrupted (temporary files removed)."
 )]
 struct Cli {

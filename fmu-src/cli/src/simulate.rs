@@ -5,11 +5,11 @@
 
 use crate::common::{parse_sets, refuse_overwriting, run_error, set_target, CliError, CliResult};
 use host::csv::{format_number, read_csv_for, read_csv_with_text, sample_interval, write_csv_text};
-use host::fmi3::{simulate3, Causality3, Fmu3, Inputs3, ModelDescription3, Request3};
+use host::fmi3::{simulate3_then, Causality3, Fmu3, Inputs3, ModelDescription3, Request3};
 use host::md::DefaultExperiment;
 use host::view::ModelView;
 use host::{
-    simulate, FmiVersion, Fmu, InputSeries, Interface, SimulationRequest, SimulationResult,
+    simulate_then, FmiVersion, Fmu, InputSeries, Interface, SimulationRequest, SimulationResult,
 };
 use std::path::{Path, PathBuf};
 
@@ -28,19 +28,23 @@ pub struct Args {
     /// start + 1 s).
     #[arg(long)]
     pub stop: Option<f64>,
-    /// Communication step [s] (default: the CSV's sample interval, else the DefaultExperiment,
-    /// else a round step giving 500 to 1000 steps, as FMPy chooses).
+    /// Communication step [s] (default: the CSV's sample interval; else, Co-Simulation, the
+    /// FMU's fixedInternalStepSize (FMI 3.0) or DefaultExperiment stepSize, Model Exchange
+    /// 10^(round(log10(stop - start)) - 3), either doubled until at most 1000 steps; else a
+    /// round step giving 500 to 1000 steps; as FMPy's simulate_fmu chooses).
     #[arg(long)]
     pub step: Option<f64>,
     /// Value set before initialization, e.g. `load_mass=2.4` or `cables_attached=false`.
     #[arg(long = "set", value_name = "NAME=VALUE")]
     pub set: Vec<String>,
-    /// Output CSV: time and every output (Model Exchange: also a row before and one after each
-    /// event, at its time, as FMPy records them).
+    /// Output CSV: time and every output; an FMU without outputs: its continuous states (at
+    /// most 5), else its first 5 variables (Model Exchange: also a row before and one after
+    /// each event, at its time; all as FMPy's simulate_fmu records them).
     #[arg(long)]
     pub out: PathBuf,
     /// Variables to record, comma-separated, in this order (default: every output, FMI 3.0
-    /// aliases of outputs after them, as FMPy records them); any variable or alias name.
+    /// aliases of outputs after them; without outputs as --out says; as FMPy records them);
+    /// any variable or alias name.
     #[arg(long, value_name = "NAME,...", value_delimiter = ',')]
     pub outputs: Vec<String>,
     /// Relative tolerance (default: the DefaultExperiment's). Co-Simulation: passed to
@@ -103,15 +107,17 @@ pub(crate) struct TimeGrid {
 /// The time grid of a run and the checks of `--step`, `--stop` and `--tolerance`, shared by
 /// FMI 2.0 and FMI 3.0 so that both take the same defaults and refuse the same arguments with
 /// the same messages in the same order. `data_time` is the time column read from `--data`
-/// (unused without `--data`); `experiment` is the FMU's DefaultExperiment.
+/// (unused without `--data`); `experiment` is the FMU's DefaultExperiment; `cs_step` the step
+/// the FMU's description gives a Co-Simulation run (None for Model Exchange, see
+/// [`cs_step`]).
 pub(crate) fn time_grid(
     a: &Args,
     data_time: &[f64],
-    experiment: &DefaultExperiment,
+    (experiment, cs_step): (&DefaultExperiment, Option<f64>),
 ) -> Result<TimeGrid, CliError> {
     let grid = match &a.data {
         Some(path) => grid_of_data(a, path, data_time)?,
-        None => grid_of_experiment(a, experiment),
+        None => grid_of_experiment(a, experiment, cs_step),
     };
     check_grid(&grid)?;
     check_tolerance(a.tolerance)?;
@@ -132,14 +138,42 @@ fn grid_of_data(a: &Args, path: &Path, time: &[f64]) -> Result<TimeGrid, CliErro
     Ok(TimeGrid { start, stop, step })
 }
 
+/// The step FMPy's `simulate_fmu` takes from the description of a Co-Simulation run:
+/// `fixedInternalStepSize` (FMI 3.0), else the DefaultExperiment's `stepSize`. Model Exchange
+/// runs: NaN, FMPy's default `step_size` for the run's span, `10^(round(log10(stop - start)) -
+/// 3)`, whatever the description says (`simulate_fmu`'s ME output interval).
+pub(crate) fn cs_step(
+    interface: Interface,
+    fixed_internal: Option<f64>,
+    experiment: &DefaultExperiment,
+) -> Option<f64> {
+    match interface {
+        Interface::CoSimulation => fixed_internal.or(experiment.step_size),
+        Interface::ModelExchange => Some(f64::NAN),
+    }
+}
+
 /// A run without data: the DefaultExperiment's start (else 0), `--stop`, else its stop (else
-/// 1 s after the start), `--step`, else its step size (else [`auto_interval`]).
-fn grid_of_experiment(a: &Args, experiment: &DefaultExperiment) -> TimeGrid {
+/// 1 s after the start), `--step`, else `cs_step` doubled while it gives more than 1000 steps
+/// (FMPy's rule), else [`auto_interval`].
+fn grid_of_experiment(a: &Args, experiment: &DefaultExperiment, cs_step: Option<f64>) -> TimeGrid {
     let start = experiment.start_time.unwrap_or(0.0);
     let stop = a.stop.or(experiment.stop_time).unwrap_or(start + 1.0);
+    let span = stop - start;
+    let by_span = (span > 0.0).then(|| 10f64.powf(span.log10().round() - 3.0));
+    let cs_step = cs_step.and_then(|h| if h.is_nan() { by_span } else { Some(h) });
+    let fitted = cs_step
+        .filter(|h| *h > 0.0 && span.is_finite())
+        .map(|mut h| {
+            while span / h > 1000.0 {
+                h *= 2.0;
+            }
+            h
+        });
     let step = a
         .step
-        .or(experiment.step_size)
+        .or(fitted)
+        .or(cs_step)
         .unwrap_or_else(|| auto_interval(stop - start));
     TimeGrid { start, stop, step }
 }
@@ -196,10 +230,17 @@ pub fn run(a: Args) -> CliResult {
     let mut inputs = vec![a.fmu.as_path()];
     inputs.extend(a.data.as_deref());
     refuse_overwriting(&a.out, &inputs)?;
-    let (res, ended_how) = match version {
-        FmiVersion::Fmi2 => run2(&a)?,
-        FmiVersion::Fmi3 => run3(&a)?,
-    };
+    let save = |res: SimulationResult, ended_how: &str| save(&a, &res, ended_how);
+    match version {
+        FmiVersion::Fmi2 => run2(&a, save),
+        FmiVersion::Fmi3 => run3(&a, save),
+    }
+}
+
+/// Writes a run's result to `--out` while the FMU is still instantiated, and marks it written
+/// for the supervisor: an FMU that crashes while being freed after this loses nothing.
+/// `ended_how` says how the FMU ends a run early, when it did.
+fn save(a: &Args, res: &SimulationResult, ended_how: &str) -> CliResult {
     write_csv_text(&a.out, &res.time, &res.names, &res.columns, &res.text)
         .map_err(|e| CliError::input(format!("{}: cannot write: {e}", a.out.display())))?;
     if let Some(t) = res.ended_by_fmu {
@@ -211,14 +252,13 @@ pub fn run(a: Args) -> CliResult {
             a.out.display()
         );
     }
+    host::watch::mark_results_written()
+        .map_err(|e| CliError::input(format!("cannot tell the supervisor: {e}")))?;
     Ok(0)
 }
 
-/// A run's result with what says, when the FMU ended it early, how the FMU ended it.
-type Ran = (SimulationResult, &'static str);
-
-/// An FMI 2.0 run.
-fn run2(a: &Args) -> Result<Ran, CliError> {
+/// An FMI 2.0 run, its result handed to `save` before the instance is freed.
+fn run2(a: &Args, save: impl FnOnce(SimulationResult, &str) -> CliResult) -> CliResult {
     let opts = host::OpenOptions {
         python: a.python.clone(),
         interface: crate::common::InterfaceArg::host(a.interface),
@@ -231,7 +271,8 @@ fn run2(a: &Args) -> Result<Ran, CliError> {
         Some(path) => read_inputs(path, &md)?,
         None => InputSeries::default(),
     };
-    let grid = time_grid(a, &inputs.time, &experiment)?;
+    let cs = cs_step(fmu.interface(), None, &experiment);
+    let grid = time_grid(a, &inputs.time, (&experiment, cs))?;
     let req = SimulationRequest {
         start_values,
         inputs,
@@ -240,16 +281,16 @@ fn run2(a: &Args) -> Result<Ran, CliError> {
         outputs: a.outputs.clone(),
         ..SimulationRequest::new(grid.start, grid.stop, grid.step)
     };
-    let res = simulate(&fmu, &req).map_err(|e| run_error(&a.fmu.display().to_string(), e))?;
     let how = match fmu.interface() {
         Interface::CoSimulation => "fmi2DoStep returned fmi2Discard with fmi2Terminated",
         Interface::ModelExchange => "it set terminateSimulation",
     };
-    Ok((res, how))
+    simulate_then(&fmu, &req, |res| save(res, how))
+        .map_err(|e| run_error(&a.fmu.display().to_string(), e))?
 }
 
-/// An FMI 3.0 run.
-fn run3(a: &Args) -> Result<Ran, CliError> {
+/// An FMI 3.0 run, its result handed to `save` before the instance is freed.
+fn run3(a: &Args, save: impl FnOnce(SimulationResult, &str) -> CliResult) -> CliResult {
     let interface = crate::common::InterfaceArg::host(a.interface);
     let fmu = Fmu3::open_with(&a.fmu, interface).map_err(CliError::input)?;
     let described = fmu.model_description().with_aliases();
@@ -260,7 +301,12 @@ fn run3(a: &Args) -> Result<Ran, CliError> {
         Some(path) => read_inputs3(path, md)?,
         None => Inputs3::default(),
     };
-    let grid = time_grid(a, &inputs.time, &experiment)?;
+    let fixed = md
+        .co_simulation
+        .as_ref()
+        .and_then(|c| c.fixed_internal_step_size);
+    let cs = cs_step(fmu.interface(), fixed, &experiment);
+    let grid = time_grid(a, &inputs.time, (&experiment, cs))?;
     let req = Request3 {
         start_values,
         tolerance: a.tolerance,
@@ -269,12 +315,12 @@ fn run3(a: &Args) -> Result<Ran, CliError> {
         record_events: true,
         ..Request3::new(grid.start, grid.stop, grid.step)
     };
-    let res = simulate3(&fmu, &req).map_err(|e| run_error(&a.fmu.display().to_string(), e))?;
     let how = match fmu.interface() {
         Interface::CoSimulation => "fmi3DoStep returned terminateSimulation",
         Interface::ModelExchange => "the Model Exchange FMU returned terminateSimulation",
     };
-    Ok((res, how))
+    simulate3_then(&fmu, &req, |res| save(res, how))
+        .map_err(|e| run_error(&a.fmu.display().to_string(), e))?
 }
 
 /// `--set NAME=VALUE` as (name, text): the host parses the text as the variable's type (an

@@ -13,6 +13,7 @@ use crate::common::{CliError, CliResult};
 use host::watch::{InCall, Monitor};
 use std::collections::HashMap;
 use std::os::unix::process::ExitStatusExt;
+use std::path::Path;
 use std::process::{Child, Command, ExitStatus};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -28,6 +29,11 @@ pub struct Supervision {
 
 /// Exit status after Ctrl-C / SIGTERM / SIGHUP (128 + SIGINT, as shells report it).
 pub const EXIT_INTERRUPTED: i32 = 130;
+
+/// Exit status of a run that completed and wrote its results, after which the FMU crashed (in
+/// fmi2FreeInstance, say). Not 0: a crashing FMU is a defect a CI must see. Not 2 (bad input,
+/// nothing written) nor 1 (the run failed): the output is complete and may be used.
+pub const EXIT_CRASHED_AFTER_RESULTS: i32 = 3;
 
 /// Runs this program's command line again as a supervised child and returns its exit status.
 pub fn run(s: Supervision) -> CliResult {
@@ -54,7 +60,7 @@ pub fn run(s: Supervision) -> CliResult {
         .env("TMPDIR", &tmp)
         .spawn()
         .map_err(|e| CliError::input(format!("cannot start the worker process: {e}")))?;
-    let outcome = watch(&mut child, &monitor, &s, &interrupted);
+    let outcome = watch(&mut child, (&monitor, &watch_path), &s, &interrupted);
     // The temporary output files the child made next to its outputs and did not rename (it was
     // interrupted or crashed while writing); then everything it left in the scratch directory.
     host::watch::remove_outputs(&watch_path);
@@ -65,14 +71,17 @@ pub fn run(s: Supervision) -> CliResult {
 /// Waits for the child, ending it on a hung call or a signal to this process.
 fn watch(
     child: &mut Child,
-    monitor: &Monitor,
+    (monitor, watch_path): (&Monitor, &Path),
     s: &Supervision,
     interrupted: &AtomicBool,
 ) -> CliResult {
     let mut seen: HashMap<usize, (u64, Instant)> = HashMap::new();
     loop {
         match child.try_wait() {
-            Ok(Some(status)) => return finished(status, monitor, s, interrupted),
+            Ok(Some(status)) => {
+                let written = host::watch::results_written(watch_path);
+                return finished(status, (monitor, written), s, interrupted);
+            }
             Ok(None) => {}
             Err(e) => return Err(CliError::input(format!("waiting for the worker: {e}"))),
         }
@@ -127,10 +136,11 @@ fn interruption() -> CliError {
     }
 }
 
-/// The child's exit status, or a message for a child killed by a signal.
+/// The child's exit status, or a message for a child killed by a signal. `written`: the child
+/// had written all its results before.
 fn finished(
     status: ExitStatus,
-    monitor: &Monitor,
+    (monitor, written): (&Monitor, bool),
     s: &Supervision,
     interrupted: &AtomicBool,
 ) -> CliResult {
@@ -143,6 +153,14 @@ fn finished(
         return Err(interruption());
     }
     let name = signal_name(sig);
+    if let (Some(call), true) = (monitor.in_calls().first(), written) {
+        eprintln!(
+            "actuator-fmu: warning: {}: the FMU crashed ({name}) in {call} after the run \
+             completed; its results were written",
+            s.fmu
+        );
+        return Ok(EXIT_CRASHED_AFTER_RESULTS);
+    }
     Err(CliError::input(match monitor.in_calls().first() {
         Some(call) => format!(
             "{}: the FMU crashed ({name}) in {call}; nothing was written",

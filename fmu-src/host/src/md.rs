@@ -318,6 +318,31 @@ impl ModelDescription {
             .collect()
     }
 
+    /// Names recorded when none are asked for, by FMPy's rule (`simulate_fmu`,
+    /// `_get_output_variables`): the outputs in file order; without outputs the continuous
+    /// states (the variables `<Derivatives>` give the derivative of), at most
+    /// [`MAX_FALLBACK_RECORDED`]; without those the first five variables but `time`. (FMPy's
+    /// third rule, variability "local", matches no variable FMI 2.0 allows.)
+    pub fn recorded_by_default(&self) -> Vec<String> {
+        let outputs = self.output_names();
+        if !outputs.is_empty() {
+            return outputs;
+        }
+        let states: Vec<String> = self
+            .model_structure
+            .derivatives
+            .iter()
+            .filter_map(|u| self.model_variables.get(u.index.checked_sub(1)?))
+            .filter_map(|d| self.model_variables.get(d.derivative?.checked_sub(1)?))
+            .map(|x| x.name.clone())
+            .take(MAX_FALLBACK_RECORDED)
+            .collect();
+        if !states.is_empty() {
+            return states;
+        }
+        fallback_names(self.model_variables.iter().map(|v| v.name.as_str()))
+    }
+
     /// Names of the inputs in file order.
     pub fn input_names(&self) -> Vec<String> {
         self.with_causality(Causality::Input)
@@ -724,6 +749,19 @@ fn same_base(a: VarKind, b: VarKind) -> bool {
         k => k,
     };
     base(a) == base(b)
+}
+
+/// How many states, or variables, FMPy records at most for an FMU without outputs.
+pub const MAX_FALLBACK_RECORDED: usize = 5;
+
+/// FMPy's last resort for an FMU with neither outputs nor states: its first five variables,
+/// without `time` (the name of the time column).
+pub(crate) fn fallback_names<'a>(names: impl Iterator<Item = &'a str>) -> Vec<String> {
+    names
+        .take(MAX_FALLBACK_RECORDED)
+        .filter(|n| *n != "time")
+        .map(str::to_string)
+        .collect()
 }
 
 #[cfg(test)]

@@ -350,8 +350,20 @@ fn no_instance() -> HostError {
 
 /// Simulates `req` on a fresh instance of `fmu`.
 pub fn simulate(fmu: &Fmu, req: &SimulationRequest) -> Result<SimulationResult> {
+    simulate_then(fmu, req, |res| res)
+}
+
+/// [`simulate`], handing the result to `keep` before the instance is freed: what `keep` saves
+/// (the output file) survives an FMU that crashes in fmi2FreeInstance.
+pub fn simulate_then<R>(
+    fmu: &Fmu,
+    req: &SimulationRequest,
+    keep: impl FnOnce(SimulationResult) -> R,
+) -> Result<R> {
     let mut inst = fmu.instantiate("host")?;
-    run_on(&mut inst, req)
+    let kept = keep(run_on(&mut inst, req)?);
+    drop(inst);
+    Ok(kept)
 }
 
 /// One run on `inst`, Co-Simulation or Model Exchange as it was instantiated: everything
@@ -364,7 +376,7 @@ fn run_on(inst: &mut Instance<'_>, req: &SimulationRequest) -> Result<Simulation
     let starts = StartValues::resolve(md, &req.start_values)?;
     let mut inputs = InputPlan::new(md, &req.inputs)?;
     let out_names: Vec<String> = if req.outputs.is_empty() {
-        md.output_names()
+        md.recorded_by_default()
     } else {
         req.outputs.clone()
     };

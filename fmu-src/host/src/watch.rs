@@ -200,6 +200,21 @@ pub fn register_output(path: &Path) -> std::io::Result<()> {
         .write_all(&entry)
 }
 
+/// Records that this process has written all its results: whatever happens after (an FMU that
+/// crashes while being freed), the supervisor knows the run's output is complete
+/// ([`results_written`]). Without [`attach`] nothing is recorded.
+pub fn mark_results_written() -> std::io::Result<()> {
+    match OUTPUTS.get() {
+        Some(list) => std::fs::write(list.with_extension("written"), b""),
+        None => Ok(()),
+    }
+}
+
+/// The supervisor's side of [`mark_results_written`] for the child of the watch file `watch`.
+pub fn results_written(watch: &Path) -> bool {
+    outputs_list(watch).with_extension("written").exists()
+}
+
 /// The supervisor's side of [`register_output`]: removes every listed file the child of the
 /// watch file `watch` left behind (a completed output was renamed away and is not touched).
 pub fn remove_outputs(watch: &Path) {

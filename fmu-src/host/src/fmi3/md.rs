@@ -365,6 +365,33 @@ impl ModelDescription3 {
         self.variables.iter().find(|v| v.value_reference == vr)
     }
 
+    /// Names recorded when none are asked for, by FMPy's rule as for FMI 2.0
+    /// ([`crate::md::ModelDescription::recorded_by_default`]): the outputs (aliases included
+    /// after [`Self::with_aliases`]), else at most five continuous states (the variables the
+    /// `<ContinuousStateDerivative>` entries are the derivatives of), else the first five
+    /// variables but `time`.
+    pub fn recorded_by_default(&self) -> Vec<String> {
+        let outputs: Vec<String> = self
+            .with_causality(Causality3::Output)
+            .map(|v| v.name.clone())
+            .collect();
+        if !outputs.is_empty() {
+            return outputs;
+        }
+        let states: Vec<String> = self
+            .model_structure
+            .continuous_state_derivatives
+            .iter()
+            .filter_map(|u| self.by_vr(self.by_vr(u.value_reference)?.derivative?))
+            .map(|x| x.name.clone())
+            .take(crate::md::MAX_FALLBACK_RECORDED)
+            .collect();
+        if !states.is_empty() {
+            return states;
+        }
+        crate::md::fallback_names(self.variables.iter().map(|v| v.name.as_str()))
+    }
+
     /// Variables with causality `c`, in file order.
     pub fn with_causality(&self, c: Causality3) -> impl Iterator<Item = &Variable3> {
         self.variables.iter().filter(move |v| v.causality == c)

@@ -16,5 +16,5 @@ pub mod value;
 
 pub use instance::{unsupported, Fmu3, Instance3, StepOutcome, PLATFORM_TUPLE};
 pub use md::{Causality3, ModelDescription3, Variable3};
-pub use simulate::{element_index, simulate3, Inputs3, Request3, Simulator3};
+pub use simulate::{element_index, simulate3, simulate3_then, Inputs3, Request3, Simulator3};
 pub use value::{Type3, ValueError, Values};

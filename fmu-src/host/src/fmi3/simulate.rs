@@ -82,8 +82,20 @@ const MAX_RECORDED_VALUES: usize = crate::simulate::MAX_RECORDED_VALUES;
 
 /// Simulates `req` on a fresh instance of `fmu`.
 pub fn simulate3(fmu: &Fmu3, req: &Request3) -> Result<SimulationResult> {
+    simulate3_then(fmu, req, |res| res)
+}
+
+/// [`simulate3`], handing the result to `keep` before the instance is freed: what `keep` saves
+/// (the output file) survives an FMU that crashes in fmi3FreeInstance.
+pub fn simulate3_then<R>(
+    fmu: &Fmu3,
+    req: &Request3,
+    keep: impl FnOnce(SimulationResult) -> R,
+) -> Result<R> {
     let mut inst = fmu.instantiate("host")?;
-    run_on(&mut inst, req)
+    let kept = keep(run_on(&mut inst, req)?);
+    drop(inst);
+    Ok(kept)
 }
 
 /// Reusable simulation driver: one instance, reset between runs (fmi3Reset), so repeated
@@ -122,9 +134,7 @@ fn run_on(inst: &mut Instance3<'_>, req: &Request3) -> Result<SimulationResult> 
     let sizes = |vr: u32| starts.size_of(md, vr);
     let mut inputs = InputPlan3::new(md, &req.inputs, &sizes)?;
     let names: Vec<String> = if req.outputs.is_empty() {
-        md.with_causality(Causality3::Output)
-            .map(|v| v.name.clone())
-            .collect()
+        md.recorded_by_default()
     } else {
         req.outputs.clone()
     };

@@ -328,11 +328,22 @@ pub fn run<M: ModelExchange, E: Environment<M>>(
 }
 
 /// `newDiscreteStates` until no further iteration is needed or the FMU asks to terminate.
+/// The states' values and nominals changed when any call of the iteration says so (FMI 2.0.4
+/// section 3.2.4's pseudocode: `valuesOfContinuousStatesChanged = valuesOfContinuousStatesChanged
+/// or eventInfo.valuesOfContinuousStatesChanged`, the same for the nominals): an FMU may
+/// re-initialize a state in the first call and report no change in the last.
 fn event_iteration<M: ModelExchange>(fmu: &mut M) -> Result<EventInfo> {
+    let (mut values_changed, mut nominals_changed) = (false, false);
     for _ in 0..MAX_EVENT_ITERATIONS {
         let info = fmu.new_discrete_states()?;
+        values_changed |= info.values_changed;
+        nominals_changed |= info.nominals_changed;
         if !info.new_discrete_states_needed || info.terminate_simulation {
-            return Ok(info);
+            return Ok(EventInfo {
+                values_changed,
+                nominals_changed,
+                ..info
+            });
         }
     }
     Err(HostError::Request(format!(
