@@ -14,6 +14,48 @@ pub const LS_DIR: &str = "extra/org.fmi-standard.fmi-ls-ref";
 /// The manifest's file name in [`LS_DIR`].
 pub const MANIFEST: &str = "fmi-ls-manifest.xml";
 
+/// Why a manifest cannot be read, with the element, attribute or source at fault.
+#[derive(Debug, thiserror::Error)]
+pub enum ManifestError {
+    /// Not well-formed XML.
+    #[error("at byte {position}: {cause}")]
+    Xml {
+        /// Where the reader stopped.
+        position: u64,
+        /// The XML error.
+        cause: quick_xml::Error,
+    },
+    /// An attribute that cannot be read (a bad quote, an unknown entity).
+    #[error("{0}")]
+    Attribute(String),
+    /// The root element is not `<fmiReferences>`.
+    #[error("root element is <{0}>, not <fmiReferences>")]
+    Root(String),
+    /// No root element at all.
+    #[error("no <fmiReferences> root element")]
+    NoRoot,
+    /// A manifest of another layered standard.
+    #[error("fmi-ls-name is {0:?}, not \"org.fmi-standard.fmi-ls-ref\"")]
+    OtherStandard(Option<String>),
+    /// A data element outside an `<Experiment>`.
+    #[error("<{0}> outside an <Experiment>")]
+    OutsideExperiment(String),
+    /// An element that needs a `source` has none.
+    #[error("<{0}> without source")]
+    NoSource(String),
+    /// A time or tolerance that is not a finite number.
+    #[error("{key}=\"{value}\" is not a finite number")]
+    NotANumber {
+        /// The attribute.
+        key: String,
+        /// Its text.
+        value: String,
+    },
+    /// A `source` that would leave the layered standard's folder.
+    #[error("source \"{0}\" is not a relative path inside {LS_DIR}")]
+    Outside(String),
+}
+
 /// One experiment to run and compare.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Experiment {
@@ -43,22 +85,23 @@ pub fn read(path: &Path) -> Result<Vec<Experiment>, ReferenceError> {
         source,
     })?;
     let dir = path.parent().unwrap_or(Path::new("."));
-    parse(&xml, dir).map_err(|message| ReferenceError::Manifest {
+    parse(&xml, dir).map_err(|cause| ReferenceError::Manifest {
         path: path.to_path_buf(),
-        message,
+        cause,
     })
 }
 
 /// The experiments of the manifest text `xml`, files under `dir`.
-pub fn parse(xml: &str, dir: &Path) -> Result<Vec<Experiment>, String> {
+pub fn parse(xml: &str, dir: &Path) -> Result<Vec<Experiment>, ManifestError> {
     let mut reader = Reader::from_str(xml);
     let mut out: Vec<Experiment> = Vec::new();
     let mut open: Option<Experiment> = None;
     let mut root_seen = false;
     loop {
-        let ev = reader
-            .read_event()
-            .map_err(|e| format!("at byte {}: {e}", reader.buffer_position()))?;
+        let ev = reader.read_event().map_err(|cause| ManifestError::Xml {
+            position: reader.buffer_position(),
+            cause,
+        })?;
         match ev {
             Event::Start(e) | Event::Empty(e) => {
                 let name = local(e.name().as_ref());
@@ -69,9 +112,7 @@ pub fn parse(xml: &str, dir: &Path) -> Result<Vec<Experiment>, String> {
                         root_seen = true;
                         check_root(get.get("fmi-ls-name"))?;
                     }
-                    _ if !root_seen => {
-                        return Err(format!("root element is <{name}>, not <fmiReferences>"))
-                    }
+                    _ if !root_seen => return Err(ManifestError::Root(name)),
                     "Experiment" => {
                         if let Some(done) = open.take() {
                             out.push(done);
@@ -81,7 +122,7 @@ pub fn parse(xml: &str, dir: &Path) -> Result<Vec<Experiment>, String> {
                     "Stimuli" | "References" | "Parameters" => {
                         let ex = open
                             .as_mut()
-                            .ok_or_else(|| format!("<{name}> outside an <Experiment>"))?;
+                            .ok_or_else(|| ManifestError::OutsideExperiment(name.clone()))?;
                         data_file(ex, &name, get, dir)?;
                     }
                     "Related" => {
@@ -101,7 +142,7 @@ pub fn parse(xml: &str, dir: &Path) -> Result<Vec<Experiment>, String> {
     }
     out.extend(open.take());
     if !root_seen {
-        return Err("no <fmiReferences> root element".into());
+        return Err(ManifestError::NoRoot);
     }
     Ok(out)
 }
@@ -118,14 +159,15 @@ impl Attrs {
     }
 }
 
-fn attributes(e: &BytesStart<'_>) -> Result<Attrs, String> {
+fn attributes(e: &BytesStart<'_>) -> Result<Attrs, ManifestError> {
+    let unreadable = |err: &dyn std::fmt::Display| ManifestError::Attribute(err.to_string());
     e.attributes()
         .map(|a| {
-            let a = a.map_err(|err| err.to_string())?;
-            let value = a.unescape_value().map_err(|err| err.to_string())?;
+            let a = a.map_err(|err| unreadable(&err))?;
+            let value = a.unescape_value().map_err(|err| unreadable(&err))?;
             Ok((local(a.key.as_ref()), value.into_owned()))
         })
-        .collect::<Result<_, String>>()
+        .collect::<Result<_, ManifestError>>()
         .map(Attrs)
 }
 
@@ -134,28 +176,29 @@ fn local(name: &[u8]) -> String {
     s.rsplit(':').next().unwrap_or_default().to_string()
 }
 
-fn check_root(ls_name: Option<&str>) -> Result<(), String> {
+fn check_root(ls_name: Option<&str>) -> Result<(), ManifestError> {
     match ls_name {
         Some("org.fmi-standard.fmi-ls-ref") => Ok(()),
-        other => Err(format!(
-            "fmi-ls-name is {other:?}, not \"org.fmi-standard.fmi-ls-ref\""
-        )),
+        other => Err(ManifestError::OtherStandard(other.map(str::to_string))),
     }
 }
 
-fn number(get: &Attrs, key: &str) -> Result<Option<f64>, String> {
+fn number(get: &Attrs, key: &str) -> Result<Option<f64>, ManifestError> {
     get.get(key)
         .map(|s| {
             s.trim()
                 .parse::<f64>()
                 .ok()
                 .filter(|x| x.is_finite())
-                .ok_or_else(|| format!("{key}=\"{s}\" is not a finite number"))
+                .ok_or_else(|| ManifestError::NotANumber {
+                    key: key.to_string(),
+                    value: s.to_string(),
+                })
         })
         .transpose()
 }
 
-fn experiment(get: &Attrs) -> Result<Experiment, String> {
+fn experiment(get: &Attrs) -> Result<Experiment, ManifestError> {
     Ok(Experiment {
         name: get.get("name").unwrap_or("(unnamed)").to_string(),
         start: number(get, "startTime")?,
@@ -167,14 +210,19 @@ fn experiment(get: &Attrs) -> Result<Experiment, String> {
 }
 
 /// `<Stimuli>`, `<References>` or `<Parameters>` of the experiment `ex`.
-fn data_file(ex: &mut Experiment, element: &str, get: &Attrs, dir: &Path) -> Result<(), String> {
+fn data_file(
+    ex: &mut Experiment,
+    element: &str,
+    get: &Attrs,
+    dir: &Path,
+) -> Result<(), ManifestError> {
     if element == "Parameters" {
         ex.unsupported = Some("it sets parameters from a parameter set (SSV)".into());
         return Ok(());
     }
     let source = get
         .get("source")
-        .ok_or_else(|| format!("<{element}> without source"))?;
+        .ok_or_else(|| ManifestError::NoSource(element.to_string()))?;
     if let Some(ty) = get.get("type").filter(|t| *t != "text/csv") {
         ex.unsupported = Some(format!("its <{element}> is of type {ty}, not text/csv"));
     }
@@ -188,7 +236,7 @@ fn data_file(ex: &mut Experiment, element: &str, get: &Attrs, dir: &Path) -> Res
 }
 
 /// A `<Related role="result">` CSV: the output of the DefaultExperiment without inputs.
-fn related_result(get: &Attrs, dir: &Path) -> Result<Option<Experiment>, String> {
+fn related_result(get: &Attrs, dir: &Path) -> Result<Option<Experiment>, ManifestError> {
     let source = get.get("source").unwrap_or_default();
     let csv = get.get("type") == Some("text/csv") || source.to_ascii_lowercase().ends_with(".csv");
     if get.get("role") != Some("result") || !csv {
@@ -203,7 +251,7 @@ fn related_result(get: &Attrs, dir: &Path) -> Result<Option<Experiment>, String>
 
 /// `source`, a URI relative to the manifest, as a path under `dir`: no scheme, no absolute
 /// path, no `..` (a file of the FMU, never one outside it).
-fn resolve(dir: &Path, source: &str) -> Result<PathBuf, String> {
+fn resolve(dir: &Path, source: &str) -> Result<PathBuf, ManifestError> {
     let rel = Path::new(source);
     let inside = !source.contains(':')
         && !rel.is_absolute()
@@ -214,9 +262,7 @@ fn resolve(dir: &Path, source: &str) -> Result<PathBuf, String> {
             )
         });
     if !inside || source.is_empty() {
-        return Err(format!(
-            "source \"{source}\" is not a relative path inside {LS_DIR}"
-        ));
+        return Err(ManifestError::Outside(source.to_string()));
     }
     Ok(dir.join(rel))
 }

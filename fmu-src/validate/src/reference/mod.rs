@@ -42,12 +42,12 @@ pub enum ReferenceError {
         source: std::io::Error,
     },
     /// The manifest is not an FMI-LS-REF manifest the check can read.
-    #[error("{}: {message}", path.display())]
+    #[error("{}: {cause}", path.display())]
     Manifest {
         /// The manifest.
         path: PathBuf,
         /// What is wrong.
-        message: String,
+        cause: manifest::ManifestError,
     },
     /// A CSV given by the user is not readable.
     #[error(transparent)]
