@@ -283,10 +283,8 @@ fn run_probe(path: &Path, timeout: Duration, fmi3: bool) -> Result<Vec<Finding>,
                 // A crash or hang on a call the importer must not make is a note; in a legal
                 // sequence it stays a finding.
                 findings.push(validate::wrong_call_crash(&step, &what).unwrap_or(finding));
-                let is_case = (validate::PROBE_CASES.contains(&step.as_str())
-                    || validate::ME_PROBE_CASES.contains(&step.as_str())
-                    || validate::PROBE3_CASES.contains(&step.as_str()))
-                    && !step.ends_with("normal-run");
+                let is_case =
+                    validate::probe_case(&step).is_some() && !step.ends_with("normal-run");
                 if !is_case || crashed.contains(&step) {
                     return Ok(findings);
                 }

@@ -117,3 +117,12 @@ pub const CO_SIMULATION_FUNCTIONS: &[&str] = &[
     "fmi2GetBooleanStatus",
     "fmi2GetStringStatus",
 ];
+
+/// [`CO_SIMULATION_FUNCTIONS`] split where the functions only Co-Simulation has begin (section
+/// 4.2, from `fmi2SetRealInputDerivatives` on): before it, those Model Exchange has too
+/// (section 2.1).
+pub const COMMON_AND_CO_SIMULATION_ONLY: (&[&str], &[&str]) = CO_SIMULATION_FUNCTIONS.split_at(25);
+const _: () = assert!(matches!(
+    COMMON_AND_CO_SIMULATION_ONLY.1[0].as_bytes(),
+    b"fmi2SetRealInputDerivatives"
+));

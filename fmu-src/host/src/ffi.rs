@@ -143,7 +143,9 @@ pub extern "C" fn log_sink(
 }
 
 /// Names of every function an FMI 2.0 Co-Simulation binary must export (FMI 2.0.4, 2.1 and 4.2).
-pub use fmi_types::c::CO_SIMULATION_FUNCTIONS as FMI2_CS_FUNCTIONS;
+pub use fmi_types::c::{
+    COMMON_AND_CO_SIMULATION_ONLY, CO_SIMULATION_FUNCTIONS as FMI2_CS_FUNCTIONS,
+};
 
 type C = Component;
 type Vr = *const ValueReference;
@@ -280,10 +282,18 @@ unsafe fn resolve_me(lib: &Library) -> Option<MeFunctions> {
 ///
 /// # Safety
 /// `T` must be the correct function pointer type for the symbol.
-unsafe fn sym<T: Copy>(lib: &Library, name: &str) -> Option<T> {
+pub(crate) unsafe fn sym<T: Copy>(lib: &Library, name: &str) -> Option<T> {
     let mut n = name.as_bytes().to_vec();
     n.push(0);
     lib.get::<T>(&n).ok().map(|s| *s)
+}
+
+/// [`sym`] for a function the binary must export; Err names it.
+///
+/// # Safety
+/// As [`sym`].
+pub(crate) unsafe fn required<T: Copy>(lib: &Library, name: &'static str) -> Result<T, LoadError> {
+    sym(lib, name).ok_or(LoadError::MissingFunction(name))
 }
 
 /// Names in [`FMI2_CS_FUNCTIONS`] that `lib` does not export.
@@ -351,29 +361,24 @@ pub unsafe fn resolve_for(lib: &Library, model_exchange: bool) -> Result<Functio
         None if model_exchange => absent_do_step as DoStep,
         None => return Err(LoadError::MissingFunction("fmi2DoStep")),
     };
-    macro_rules! req {
-        ($name:literal) => {
-            sym(lib, $name).ok_or(LoadError::MissingFunction($name))?
-        };
-    }
     Ok(Functions {
         get_types_platform: sym(lib, "fmi2GetTypesPlatform"),
         get_version: sym(lib, "fmi2GetVersion"),
         set_debug_logging: sym(lib, "fmi2SetDebugLogging"),
-        instantiate: req!("fmi2Instantiate"),
-        free_instance: req!("fmi2FreeInstance"),
-        setup_experiment: req!("fmi2SetupExperiment"),
-        enter_initialization_mode: req!("fmi2EnterInitializationMode"),
-        exit_initialization_mode: req!("fmi2ExitInitializationMode"),
-        terminate: req!("fmi2Terminate"),
-        reset: req!("fmi2Reset"),
-        get_real: req!("fmi2GetReal"),
-        get_integer: req!("fmi2GetInteger"),
-        get_boolean: req!("fmi2GetBoolean"),
+        instantiate: required(lib, "fmi2Instantiate")?,
+        free_instance: required(lib, "fmi2FreeInstance")?,
+        setup_experiment: required(lib, "fmi2SetupExperiment")?,
+        enter_initialization_mode: required(lib, "fmi2EnterInitializationMode")?,
+        exit_initialization_mode: required(lib, "fmi2ExitInitializationMode")?,
+        terminate: required(lib, "fmi2Terminate")?,
+        reset: required(lib, "fmi2Reset")?,
+        get_real: required(lib, "fmi2GetReal")?,
+        get_integer: required(lib, "fmi2GetInteger")?,
+        get_boolean: required(lib, "fmi2GetBoolean")?,
         get_string: sym(lib, "fmi2GetString"),
-        set_real: req!("fmi2SetReal"),
-        set_integer: req!("fmi2SetInteger"),
-        set_boolean: req!("fmi2SetBoolean"),
+        set_real: required(lib, "fmi2SetReal")?,
+        set_integer: required(lib, "fmi2SetInteger")?,
+        set_boolean: required(lib, "fmi2SetBoolean")?,
         set_string: sym(lib, "fmi2SetString"),
         get_fmu_state: sym(lib, "fmi2GetFMUstate"),
         set_fmu_state: sym(lib, "fmi2SetFMUstate"),

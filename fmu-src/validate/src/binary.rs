@@ -4,7 +4,7 @@
 use super::layout::Survey;
 use super::Finding;
 use host::binary::Slice;
-use host::ffi::{FMI2_CS_FUNCTIONS, FMI2_ME_FUNCTIONS};
+use host::ffi::{COMMON_AND_CO_SIMULATION_ONLY, FMI2_ME_FUNCTIONS};
 use host::md::ModelDescription;
 use host::Interface;
 use host::{Extracted, LIB_SUFFIX, PLATFORM};
@@ -114,20 +114,6 @@ pub(crate) fn missing_exports<'n>(need: &[&'n str], slice: &Slice) -> Vec<&'n st
         .collect()
 }
 
-/// Functions of FMI 2.0 Co-Simulation that Model Exchange does not have (FMI 2.0.4 section
-/// 4.2).
-const FMI2_CS_ONLY_FUNCTIONS: [&str; 9] = [
-    "fmi2SetRealInputDerivatives",
-    "fmi2GetRealOutputDerivatives",
-    "fmi2DoStep",
-    "fmi2CancelStep",
-    "fmi2GetStatus",
-    "fmi2GetRealStatus",
-    "fmi2GetIntegerStatus",
-    "fmi2GetBooleanStatus",
-    "fmi2GetStringStatus",
-];
-
 /// The functions the binary `id` must export: the common ones (FMI 2.0.4 section 2.1) and those
 /// of each interface declared with that modelIdentifier (sections 3.2 and 4.2).
 fn required_functions(md: &ModelDescription, id: &str) -> Vec<&'static str> {
@@ -136,11 +122,11 @@ fn required_functions(md: &ModelDescription, id: &str) -> Vec<&'static str> {
         .as_ref()
         .is_some_and(|c| c.model_identifier == id);
     let me = md.model_exchange.as_deref() == Some(id);
-    let mut need: Vec<&'static str> = FMI2_CS_FUNCTIONS
-        .iter()
-        .copied()
-        .filter(|f| cs || !FMI2_CS_ONLY_FUNCTIONS.contains(f))
-        .collect();
+    let (common, cs_only) = COMMON_AND_CO_SIMULATION_ONLY;
+    let mut need: Vec<&'static str> = common.to_vec();
+    if cs {
+        need.extend_from_slice(cs_only);
+    }
     if me {
         need.extend_from_slice(FMI2_ME_FUNCTIONS);
     }

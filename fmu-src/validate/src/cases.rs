@@ -214,39 +214,93 @@ pub(crate) fn unknown_value_reference(vrs: impl Iterator<Item = u32>) -> u32 {
     vrs.max().unwrap_or(0).saturating_add(1000)
 }
 
-/// The probe cases (of both versions and interfaces) whose call the importer must not make: a
-/// call in a state the state machine does not allow (FMI 2.0.4 sections 3.2.3 and 4.2.4, FMI
-/// 3.0.2 section 2.3: "If such functionality is used anyway, undefined behavior results") or
-/// with an argument the caller must not pass (a step size that is not > 0.0, a communication
-/// point other than the current time, a value reference or type the FMU does not have, a fixed
-/// parameter after initialization), and NaN, which the standard does not mention.
-const WRONG_CALL_CASES: [&str; 19] = [
-    "do-step-before-init",
-    "negative-step",
-    "wrong-communication-point",
-    "unknown-value-reference",
-    "nan-input",
-    "nan-parameter",
-    "fixed-parameter-after-init",
-    "wrong-type",
-    "do-step-after-terminate",
-    "me-derivatives-before-init",
-    "me-set-states-in-event-mode",
-    "fmi3-do-step-before-init",
-    "fmi3-negative-step",
-    "fmi3-do-step-after-terminate",
-    "fmi3-wrong-communication-point",
-    "fmi3-unknown-value-reference",
-    "fmi3-fixed-parameter-after-init",
-    "fmi3-me-derivatives-before-init",
-    "fmi3-me-set-states-in-event-mode",
+/// Whether a probe case's call is part of a legal calling sequence or one the importer must not
+/// make: a call in a state the state machine does not allow (FMI 2.0.4 sections 3.2.3 and
+/// 4.2.4, FMI 3.0.2 section 2.3: "If such functionality is used anyway, undefined behavior
+/// results") or with an argument the caller must not pass (a step size that is not > 0.0, a
+/// communication point other than the current time, a value reference or type the FMU does not
+/// have, a fixed parameter after initialization), and NaN, which the standard does not mention.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CaseKind {
+    /// A legal calling sequence: a crash in it is a finding.
+    Legal,
+    /// A call the importer must not make: a crash in it is a note.
+    WrongCall,
+}
+
+/// One probe case of [`PROBE_CASES`]: its name and what kind of call it makes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ProbeCase {
+    /// The name the probe announces before running it (`negative-step`).
+    pub name: &'static str,
+    /// Legal sequence or forbidden call.
+    pub kind: CaseKind,
+}
+
+/// A case of a legal calling sequence.
+const fn legal(name: &'static str) -> ProbeCase {
+    ProbeCase {
+        name,
+        kind: CaseKind::Legal,
+    }
+}
+
+/// A case whose call the importer must not make.
+const fn wrong_call(name: &'static str) -> ProbeCase {
+    ProbeCase {
+        name,
+        kind: CaseKind::WrongCall,
+    }
+}
+
+/// Every probe case, in the order the probes run them: FMI 2.0 Co-Simulation ([`super::probe`]),
+/// FMI 2.0 Model Exchange ([`super::probe_me`]), FMI 3.0 Co-Simulation and Model Exchange
+/// ([`super::probe3`], [`super::probe3_me`]). The kind of each decides whether a crash in it is
+/// a finding or a note ([`wrong_call_crash`]).
+pub const PROBE_CASES: &[ProbeCase] = &[
+    legal("normal-run"),
+    legal("fmu-state"),
+    wrong_call("do-step-before-init"),
+    wrong_call("negative-step"),
+    wrong_call("wrong-communication-point"),
+    wrong_call("unknown-value-reference"),
+    wrong_call("nan-input"),
+    wrong_call("nan-parameter"),
+    wrong_call("fixed-parameter-after-init"),
+    wrong_call("wrong-type"),
+    wrong_call("do-step-after-terminate"),
+    legal("me-normal-run"),
+    legal("me-directional-derivatives"),
+    legal("me-state-event"),
+    legal("me-fmu-state"),
+    wrong_call("me-derivatives-before-init"),
+    wrong_call("me-set-states-in-event-mode"),
+    legal("fmi3-normal-run"),
+    legal("fmi3-fmu-state"),
+    wrong_call("fmi3-do-step-before-init"),
+    wrong_call("fmi3-negative-step"),
+    wrong_call("fmi3-do-step-after-terminate"),
+    wrong_call("fmi3-wrong-communication-point"),
+    wrong_call("fmi3-unknown-value-reference"),
+    wrong_call("fmi3-fixed-parameter-after-init"),
+    legal("fmi3-me-normal-run"),
+    legal("fmi3-me-directional-derivatives"),
+    legal("fmi3-me-state-event"),
+    legal("fmi3-me-fmu-state"),
+    wrong_call("fmi3-me-derivatives-before-init"),
+    wrong_call("fmi3-me-set-states-in-event-mode"),
 ];
+
+/// The probe case called `name`, of any version and interface.
+pub fn probe_case(name: &str) -> Option<ProbeCase> {
+    PROBE_CASES.iter().find(|c| c.name == name).copied()
+}
 
 /// The note for a crash or hang (`what`: "the FMU crashed (SIGSEGV 11)") in the probe case
 /// `step` when its call is one the importer must not make (the outcome is undefined, so it is
 /// advice, not a finding); None for a step of a legal sequence, where a crash stays a finding.
 pub fn wrong_call_crash(step: &str, what: &str) -> Option<Finding> {
-    if !WRONG_CALL_CASES.contains(&step) {
+    if probe_case(step)?.kind != CaseKind::WrongCall {
         return None;
     }
     let nan = step.starts_with("nan-");

@@ -1,7 +1,10 @@
 //! Checks of `modelDescription.xml` (FMI 2.0.4 chapter 2.2) and of the candidate-effect
 //! convention of the gap workflow.
 
-use super::rules::{apply, defined_again, identifier_problem, name_problems, start_problem, Rule};
+use super::rules::{
+    apply, approx_or_calculated, defined_again, identifier_problem, name_problems, start_problem,
+    Rule,
+};
 use super::{var_loc, Finding};
 
 use host::md::{
@@ -609,12 +612,7 @@ fn check_initial_unknowns(md: &ModelDescription, f: &mut Vec<Finding>) {
         .iter()
         .filter_map(|v| v.derivative)
         .collect();
-    let approx_or_calc = |v: &ScalarVariable| {
-        matches!(
-            v.effective_initial(),
-            Some(Initial::Approx | Initial::Calculated)
-        )
-    };
+    let approx_or_calc = |v: &ScalarVariable| approx_or_calculated(v.effective_initial());
     let mut required = BTreeSet::new();
     for (i, v) in md.model_variables.iter().enumerate() {
         let idx = i + 1;

@@ -5,7 +5,8 @@
 use super::binary::{library_extension, missing_exports};
 use super::layout::Survey;
 use super::rules::{
-    apply, defined_again, identifier_problem, is_c_identifier, name_problems, start_problem, Rule,
+    apply, approx_or_calculated, defined_again, identifier_problem, is_c_identifier, name_problems,
+    start_problem, Rule,
 };
 use super::Finding;
 use fmi_types::schema::{combination_allowed, initial_allowed, Causality};
@@ -605,12 +606,7 @@ fn check_initial_unknowns(md: &ModelDescription3, f: &mut Vec<Finding>) {
         .iter()
         .map(|u| u.value_reference)
         .collect();
-    let approx_or_calc = |v: &Variable3| {
-        matches!(
-            v.effective_initial(),
-            Some(Initial::Approx | Initial::Calculated)
-        )
-    };
+    let approx_or_calc = |v: &Variable3| approx_or_calculated(v.effective_initial());
     let mut seen = BTreeSet::new();
     for v in &md.variables {
         let vr = v.value_reference;

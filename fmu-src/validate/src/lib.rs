@@ -46,14 +46,14 @@ pub mod schema;
 pub use binary::{
     check_files, check_platform_binaries, check_symbols, load_refused, PlatformBinary,
 };
-pub use cases::wrong_call_crash;
+pub use cases::{probe_case, wrong_call_crash, CaseKind, ProbeCase, PROBE_CASES};
 pub use description::{
     check_effect_convention, check_model_description, combination_allowed, initial_allowed,
 };
 pub use error::{ProbeError, Stage};
 pub use fmi3::{check_model_description3, check_platform_binaries3};
-pub use probe::{probe, probe_me, ME_PROBE_CASES, PROBE_CASES};
-pub use probe3::{probe3, probe3_me, PROBE3_CASES};
+pub use probe::{probe, probe_me};
+pub use probe3::{probe3, probe3_me};
 pub use schema::check_description_xml;
 
 use host::md::ScalarVariable;

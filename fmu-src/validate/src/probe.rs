@@ -12,21 +12,6 @@ use host::md::{Causality, ModelDescription, ScalarVariable, StartValue, VarKind,
 use host::{Fmu, HostError, Instance, Status};
 use std::collections::BTreeSet;
 
-/// Names of the probe cases in the order [`probe`] runs them.
-pub const PROBE_CASES: &[&str] = &[
-    "normal-run",
-    "fmu-state",
-    "do-step-before-init",
-    "negative-step",
-    "wrong-communication-point",
-    "unknown-value-reference",
-    "nan-input",
-    "nan-parameter",
-    "fixed-parameter-after-init",
-    "wrong-type",
-    "do-step-after-terminate",
-];
-
 /// The wrong-call cases of the Co-Simulation probe: clauses of [`super::classify`].
 const CS_RULES: CaseRules = CaseRules {
     dialect: &FMI2,
@@ -34,7 +19,7 @@ const CS_RULES: CaseRules = CaseRules {
     setup: SetupFailure::NormalRun("fmi2Instantiate failed: "),
 };
 
-/// The state-machine probe. `step` is called with the name of each case (see [`PROBE_CASES`])
+/// The state-machine probe. `step` is called with the name of each case (see [`super::PROBE_CASES`])
 /// before it runs and returns whether to run it (the CLI prints the name so that a crash can
 /// be attributed, and skips cases that crashed in an earlier attempt). Each case uses a fresh
 /// instance.
@@ -323,16 +308,6 @@ fn variable_cases<'f>(fmu: &'f Fmu, t0: f64, (step, f): Progress<'_>) {
         });
     }
 }
-
-/// Names of the Model Exchange probe cases in the order [`probe_me`] runs them.
-pub const ME_PROBE_CASES: &[&str] = &[
-    "me-normal-run",
-    "me-directional-derivatives",
-    "me-state-event",
-    "me-fmu-state",
-    "me-derivatives-before-init",
-    "me-set-states-in-event-mode",
-];
 
 /// The Model Exchange probe of FMI 2.0: FMI 2.0.4 clauses, calls by their FMI 2.0 names.
 const ME_PROBE: MeProbe = MeProbe {

@@ -20,24 +20,6 @@ use host::fmi3::{Fmu3, Instance3};
 use host::md::Variability;
 use host::{HostError, Status};
 
-/// Names of the FMI 3.0 probe cases in the order [`probe3`] and [`probe3_me`] run them.
-pub const PROBE3_CASES: &[&str] = &[
-    "fmi3-normal-run",
-    "fmi3-fmu-state",
-    "fmi3-do-step-before-init",
-    "fmi3-negative-step",
-    "fmi3-do-step-after-terminate",
-    "fmi3-wrong-communication-point",
-    "fmi3-unknown-value-reference",
-    "fmi3-fixed-parameter-after-init",
-    "fmi3-me-normal-run",
-    "fmi3-me-directional-derivatives",
-    "fmi3-me-state-event",
-    "fmi3-me-fmu-state",
-    "fmi3-me-derivatives-before-init",
-    "fmi3-me-set-states-in-event-mode",
-];
-
 /// The clause of an FMI 3.0 probe result.
 pub fn clause3(check: &str) -> &'static str {
     match check {

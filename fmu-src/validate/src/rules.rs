@@ -14,6 +14,12 @@ pub(crate) fn is_c_identifier(s: &str) -> bool {
         && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
 }
 
+/// Whether an effective `initial` is approx or calculated: what makes an output or a state an
+/// initial unknown (FMI 2.0.4 section 2.2.8, FMI 3.0.2 section 2.4.8).
+pub(crate) fn approx_or_calculated(initial: Option<Initial>) -> bool {
+    matches!(initial, Some(Initial::Approx | Initial::Calculated))
+}
+
 /// What is wrong with a `modelIdentifier`, if it is not a C identifier.
 pub(crate) fn identifier_problem(id: &str) -> Option<String> {
     (!is_c_identifier(id)).then(|| format!("modelIdentifier \"{id}\" is not a valid C identifier"))

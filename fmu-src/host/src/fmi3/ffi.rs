@@ -11,7 +11,8 @@
 //! behaviour.
 
 use crate::error::{LogRecord, Status};
-use crate::ffi::{bounded, cstr_lossy, LogSink};
+pub(crate) use crate::ffi::sym;
+use crate::ffi::{bounded, cstr_lossy, required, LogSink};
 use libloading::Library;
 use std::ffi::{c_char, c_int, c_void};
 
@@ -189,64 +190,48 @@ pub const FMI3_COMMON_FUNCTIONS: [&str; 44] = [
     "fmi3DeserializeFMUState",
 ];
 
-/// Looks up `name` in `lib` as a function pointer of type `T`.
-///
-/// # Safety
-/// `T` must be the correct function pointer type for the symbol.
-pub(crate) unsafe fn sym<T: Copy>(lib: &Library, name: &str) -> Option<T> {
-    let mut n = name.as_bytes().to_vec();
-    n.push(0);
-    lib.get::<T>(&n).ok().map(|s| *s)
-}
-
 /// Resolves the function table; Err names the first missing required function.
 ///
 /// # Safety
 /// `lib` must be an FMI 3.0 binary whose exports have the standard signatures.
 pub unsafe fn resolve(lib: &Library) -> Result<Functions3, crate::ffi::LoadError> {
-    use crate::ffi::LoadError;
-    macro_rules! req {
-        ($name:literal) => {
-            sym(lib, $name).ok_or(LoadError::MissingFunction($name))?
-        };
-    }
     Ok(Functions3 {
         get_version: sym(lib, "fmi3GetVersion"),
         set_debug_logging: sym(lib, "fmi3SetDebugLogging"),
         instantiate_co_simulation: sym(lib, "fmi3InstantiateCoSimulation"),
-        free_instance: req!("fmi3FreeInstance"),
-        enter_initialization_mode: req!("fmi3EnterInitializationMode"),
-        exit_initialization_mode: req!("fmi3ExitInitializationMode"),
+        free_instance: required(lib, "fmi3FreeInstance")?,
+        enter_initialization_mode: required(lib, "fmi3EnterInitializationMode")?,
+        exit_initialization_mode: required(lib, "fmi3ExitInitializationMode")?,
         enter_configuration_mode: sym(lib, "fmi3EnterConfigurationMode"),
         exit_configuration_mode: sym(lib, "fmi3ExitConfigurationMode"),
-        terminate: req!("fmi3Terminate"),
-        reset: req!("fmi3Reset"),
-        get_float32: req!("fmi3GetFloat32"),
-        get_float64: req!("fmi3GetFloat64"),
-        get_int8: req!("fmi3GetInt8"),
-        get_uint8: req!("fmi3GetUInt8"),
-        get_int16: req!("fmi3GetInt16"),
-        get_uint16: req!("fmi3GetUInt16"),
-        get_int32: req!("fmi3GetInt32"),
-        get_uint32: req!("fmi3GetUInt32"),
-        get_int64: req!("fmi3GetInt64"),
-        get_uint64: req!("fmi3GetUInt64"),
-        get_boolean: req!("fmi3GetBoolean"),
-        get_string: req!("fmi3GetString"),
-        get_binary: req!("fmi3GetBinary"),
-        set_float32: req!("fmi3SetFloat32"),
-        set_float64: req!("fmi3SetFloat64"),
-        set_int8: req!("fmi3SetInt8"),
-        set_uint8: req!("fmi3SetUInt8"),
-        set_int16: req!("fmi3SetInt16"),
-        set_uint16: req!("fmi3SetUInt16"),
-        set_int32: req!("fmi3SetInt32"),
-        set_uint32: req!("fmi3SetUInt32"),
-        set_int64: req!("fmi3SetInt64"),
-        set_uint64: req!("fmi3SetUInt64"),
-        set_boolean: req!("fmi3SetBoolean"),
-        set_string: req!("fmi3SetString"),
-        set_binary: req!("fmi3SetBinary"),
+        terminate: required(lib, "fmi3Terminate")?,
+        reset: required(lib, "fmi3Reset")?,
+        get_float32: required(lib, "fmi3GetFloat32")?,
+        get_float64: required(lib, "fmi3GetFloat64")?,
+        get_int8: required(lib, "fmi3GetInt8")?,
+        get_uint8: required(lib, "fmi3GetUInt8")?,
+        get_int16: required(lib, "fmi3GetInt16")?,
+        get_uint16: required(lib, "fmi3GetUInt16")?,
+        get_int32: required(lib, "fmi3GetInt32")?,
+        get_uint32: required(lib, "fmi3GetUInt32")?,
+        get_int64: required(lib, "fmi3GetInt64")?,
+        get_uint64: required(lib, "fmi3GetUInt64")?,
+        get_boolean: required(lib, "fmi3GetBoolean")?,
+        get_string: required(lib, "fmi3GetString")?,
+        get_binary: required(lib, "fmi3GetBinary")?,
+        set_float32: required(lib, "fmi3SetFloat32")?,
+        set_float64: required(lib, "fmi3SetFloat64")?,
+        set_int8: required(lib, "fmi3SetInt8")?,
+        set_uint8: required(lib, "fmi3SetUInt8")?,
+        set_int16: required(lib, "fmi3SetInt16")?,
+        set_uint16: required(lib, "fmi3SetUInt16")?,
+        set_int32: required(lib, "fmi3SetInt32")?,
+        set_uint32: required(lib, "fmi3SetUInt32")?,
+        set_int64: required(lib, "fmi3SetInt64")?,
+        set_uint64: required(lib, "fmi3SetUInt64")?,
+        set_boolean: required(lib, "fmi3SetBoolean")?,
+        set_string: required(lib, "fmi3SetString")?,
+        set_binary: required(lib, "fmi3SetBinary")?,
         get_fmu_state: sym(lib, "fmi3GetFMUState"),
         set_fmu_state: sym(lib, "fmi3SetFMUState"),
         free_fmu_state: sym(lib, "fmi3FreeFMUState"),
