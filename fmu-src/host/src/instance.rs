@@ -9,6 +9,13 @@ use ffi::Fmi2Boolean;
 use std::ffi::{c_char, c_int, c_void, CString};
 use std::sync::atomic::Ordering;
 
+/// An fmi2Get function of one type (fmi2GetReal, ...).
+type GetFn<T> = unsafe extern "C" fn(Component, *const u32, usize, *mut T) -> RawStatus;
+/// An fmi2Set function of one type.
+type SetFn<T> = unsafe extern "C" fn(Component, *const u32, usize, *const T) -> RawStatus;
+/// An fmi2GetXStatus function of one type.
+type StatusFn<T> = unsafe extern "C" fn(Component, c_int, *mut T) -> RawStatus;
+
 /// `fmi2CoSimulation` for fmi2Instantiate's fmuType.
 const FMI2_COSIMULATION: c_int = 1;
 /// `fmi2ModelExchange` for fmi2Instantiate's fmuType.
@@ -182,18 +189,11 @@ impl<'a> Instance<'a> {
         start_time: f64,
         stop_time: Option<f64>,
     ) -> Result<Status> {
+        let f = self.fmu.functions.setup_experiment;
+        let ((tol_given, tol), (stop_given, stop)) = (given(tolerance), given(stop_time));
         let _watch = watch::enter(Call::SetupExperiment, Some(start_time));
         // SAFETY: component is a live instance of this binary.
-        let raw = unsafe {
-            (self.fmu.functions.setup_experiment)(
-                self.component,
-                tolerance.is_some() as c_int,
-                tolerance.unwrap_or(0.0),
-                start_time,
-                stop_time.is_some() as c_int,
-                stop_time.unwrap_or(0.0),
-            )
-        };
+        let raw = unsafe { f(self.component, tol_given, tol, start_time, stop_given, stop) };
         self.check("fmi2SetupExperiment", raw)
     }
 
@@ -244,73 +244,34 @@ impl<'a> Instance<'a> {
 
     /// fmi2GetReal into `out` (same length as `vrs`).
     pub fn get_real(&mut self, vrs: &[u32], out: &mut [f64]) -> Result<Status> {
-        check_len(vrs.len(), out.len())?;
-        let _watch = watch::enter(Call::Get, None);
-        // SAFETY: both slices have vrs.len() elements.
-        let raw = unsafe {
-            (self.fmu.functions.get_real)(self.component, vrs.as_ptr(), vrs.len(), out.as_mut_ptr())
-        };
-        self.check("fmi2GetReal", raw)
+        let f = self.fmu.functions.get_real;
+        self.get_values(("fmi2GetReal", f), vrs, out)
     }
 
     /// fmi2SetReal
     pub fn set_real(&mut self, vrs: &[u32], values: &[f64]) -> Result<Status> {
-        check_len(vrs.len(), values.len())?;
-        let _watch = watch::enter(Call::Set, None);
-        // SAFETY: both slices have vrs.len() elements.
-        let raw = unsafe {
-            (self.fmu.functions.set_real)(self.component, vrs.as_ptr(), vrs.len(), values.as_ptr())
-        };
-        self.check("fmi2SetReal", raw)
+        let f = self.fmu.functions.set_real;
+        self.set_values(("fmi2SetReal", f), vrs, values)
     }
 
-    /// fmi2GetInteger
+    /// fmi2GetInteger (c_int is i32 on this platform)
     pub fn get_integer(&mut self, vrs: &[u32], out: &mut [i32]) -> Result<Status> {
-        check_len(vrs.len(), out.len())?;
-        let _watch = watch::enter(Call::Get, None);
-        // SAFETY: both slices have vrs.len() elements; c_int is i32 on this platform.
-        let raw = unsafe {
-            (self.fmu.functions.get_integer)(
-                self.component,
-                vrs.as_ptr(),
-                vrs.len(),
-                out.as_mut_ptr(),
-            )
-        };
-        self.check("fmi2GetInteger", raw)
+        let f = self.fmu.functions.get_integer;
+        self.get_values(("fmi2GetInteger", f), vrs, out)
     }
 
     /// fmi2SetInteger
     pub fn set_integer(&mut self, vrs: &[u32], values: &[i32]) -> Result<Status> {
-        check_len(vrs.len(), values.len())?;
-        let _watch = watch::enter(Call::Set, None);
-        // SAFETY: both slices have vrs.len() elements.
-        let raw = unsafe {
-            (self.fmu.functions.set_integer)(
-                self.component,
-                vrs.as_ptr(),
-                vrs.len(),
-                values.as_ptr(),
-            )
-        };
-        self.check("fmi2SetInteger", raw)
+        let f = self.fmu.functions.set_integer;
+        self.set_values(("fmi2SetInteger", f), vrs, values)
     }
 
     /// fmi2GetBoolean
     pub fn get_boolean(&mut self, vrs: &[u32], out: &mut [bool]) -> Result<Status> {
         check_len(vrs.len(), out.len())?;
-        let mut raw_vals = vec![0 as c_int; vrs.len()];
-        let _watch = watch::enter(Call::Get, None);
-        // SAFETY: both buffers have vrs.len() elements.
-        let raw = unsafe {
-            (self.fmu.functions.get_boolean)(
-                self.component,
-                vrs.as_ptr(),
-                vrs.len(),
-                raw_vals.as_mut_ptr(),
-            )
-        };
-        let st = self.check("fmi2GetBoolean", raw)?;
+        let mut raw_vals = vec![0 as Fmi2Boolean; vrs.len()];
+        let f = self.fmu.functions.get_boolean;
+        let st = self.get_values(("fmi2GetBoolean", f), vrs, &mut raw_vals)?;
         for (o, r) in out.iter_mut().zip(raw_vals) {
             *o = r != 0;
         }
@@ -319,28 +280,42 @@ impl<'a> Instance<'a> {
 
     /// fmi2SetBoolean
     pub fn set_boolean(&mut self, vrs: &[u32], values: &[bool]) -> Result<Status> {
+        let raw_vals: Vec<Fmi2Boolean> = values.iter().map(|&b| b as Fmi2Boolean).collect();
+        let f = self.fmu.functions.set_boolean;
+        self.set_values(("fmi2SetBoolean", f), vrs, &raw_vals)
+    }
+
+    /// The getter `name` of one type into `out` (same length as `vrs`).
+    fn get_values<T>(
+        &mut self,
+        (name, f): (&'static str, GetFn<T>),
+        vrs: &[u32],
+        out: &mut [T],
+    ) -> Result<Status> {
+        check_len(vrs.len(), out.len())?;
+        let _watch = watch::enter(Call::Get, None);
+        // SAFETY: both slices have vrs.len() elements.
+        let raw = unsafe { f(self.component, vrs.as_ptr(), vrs.len(), out.as_mut_ptr()) };
+        self.check(name, raw)
+    }
+
+    /// The setter `name` of one type with `values` (same length as `vrs`).
+    fn set_values<T>(
+        &mut self,
+        (name, f): (&'static str, SetFn<T>),
+        vrs: &[u32],
+        values: &[T],
+    ) -> Result<Status> {
         check_len(vrs.len(), values.len())?;
-        let raw_vals: Vec<c_int> = values.iter().map(|&b| b as c_int).collect();
         let _watch = watch::enter(Call::Set, None);
-        // SAFETY: both buffers have vrs.len() elements.
-        let raw = unsafe {
-            (self.fmu.functions.set_boolean)(
-                self.component,
-                vrs.as_ptr(),
-                vrs.len(),
-                raw_vals.as_ptr(),
-            )
-        };
-        self.check("fmi2SetBoolean", raw)
+        // SAFETY: both slices have vrs.len() elements.
+        let raw = unsafe { f(self.component, vrs.as_ptr(), vrs.len(), values.as_ptr()) };
+        self.check(name, raw)
     }
 
     /// fmi2GetString (copies the strings)
     pub fn get_string(&mut self, vrs: &[u32]) -> Result<Vec<String>> {
-        let f = self
-            .fmu
-            .functions
-            .get_string
-            .ok_or_else(|| missing("fmi2GetString"))?;
+        let f = exported(self.fmu.functions.get_string, "fmi2GetString")?;
         let mut ptrs: Vec<*const c_char> = vec![std::ptr::null(); vrs.len()];
         let _watch = watch::enter(Call::Get, None);
         // SAFETY: both buffers have vrs.len() elements.
@@ -364,16 +339,8 @@ impl<'a> Instance<'a> {
     /// fmi2SetString
     pub fn set_string(&mut self, vrs: &[u32], values: &[&str]) -> Result<Status> {
         check_len(vrs.len(), values.len())?;
-        let f = self
-            .fmu
-            .functions
-            .set_string
-            .ok_or_else(|| missing("fmi2SetString"))?;
-        let owned: Vec<CString> = values
-            .iter()
-            .map(|v| CString::new(*v))
-            .collect::<std::result::Result<_, _>>()
-            .map_err(|_| HostError::Request("string value contains a NUL byte".into()))?;
+        let f = exported(self.fmu.functions.set_string, "fmi2SetString")?;
+        let owned = c_strings(values, "string value")?;
         let ptrs: Vec<*const c_char> = owned.iter().map(|c| c.as_ptr()).collect();
         let _watch = watch::enter(Call::Set, None);
         // SAFETY: both buffers have vrs.len() elements; the strings outlive the call.
@@ -383,16 +350,8 @@ impl<'a> Instance<'a> {
 
     /// fmi2SetDebugLogging: `categories` empty means all categories.
     pub fn set_debug_logging(&mut self, on: bool, categories: &[&str]) -> Result<Status> {
-        let f = self
-            .fmu
-            .functions
-            .set_debug_logging
-            .ok_or_else(|| missing("fmi2SetDebugLogging"))?;
-        let owned: Vec<CString> = categories
-            .iter()
-            .map(|v| CString::new(*v))
-            .collect::<std::result::Result<_, _>>()
-            .map_err(|_| HostError::Request("category contains a NUL byte".into()))?;
+        let f = exported(self.fmu.functions.set_debug_logging, "fmi2SetDebugLogging")?;
+        let owned = c_strings(categories, "category")?;
         let ptrs: Vec<*const c_char> = owned.iter().map(|c| c.as_ptr()).collect();
         let cats = if ptrs.is_empty() {
             std::ptr::null()
@@ -407,57 +366,42 @@ impl<'a> Instance<'a> {
 
     /// fmi2GetStatus(fmi2Terminated) for CS: whether the FMU asked to stop.
     pub fn get_status_raw(&mut self, kind: i32) -> Result<Status> {
-        let f = self
-            .fmu
-            .functions
-            .get_status
-            .ok_or_else(|| missing("fmi2GetStatus"))?;
-        let mut value: RawStatus = 0;
-        let _watch = watch::enter(Call::Other, None);
-        // SAFETY: value is a valid out pointer.
-        let raw = unsafe { f(self.component, kind, &mut value) };
-        self.check("fmi2GetStatus", raw)?;
-        Ok(Status::from_raw(value))
+        let f = self.fmu.functions.get_status;
+        self.status_value(("fmi2GetStatus", f), kind)
+            .map(Status::from_raw)
     }
 
     /// fmi2GetBooleanStatus(fmi2Terminated = 3): whether the FMU ended the simulation itself
     /// (after fmi2DoStep returned fmi2Discard).
     pub fn terminated(&mut self) -> Result<bool> {
-        let f = self
-            .fmu
-            .functions
-            .get_boolean_status
-            .ok_or_else(|| missing("fmi2GetBooleanStatus"))?;
-        let mut value: Fmi2Boolean = 0;
-        let _watch = watch::enter(Call::Other, None);
-        // SAFETY: value is a valid out pointer.
-        let raw = unsafe { f(self.component, 3, &mut value) };
-        self.check("fmi2GetBooleanStatus", raw)?;
-        Ok(value != 0)
+        let f = self.fmu.functions.get_boolean_status;
+        Ok(self.status_value(("fmi2GetBooleanStatus", f), 3)? != 0)
     }
 
     /// fmi2GetRealStatus(fmi2LastSuccessfulTime = 2): the time of the last successful step.
     pub fn last_successful_time(&mut self) -> Result<f64> {
-        let f = self
-            .fmu
-            .functions
-            .get_real_status
-            .ok_or_else(|| missing("fmi2GetRealStatus"))?;
-        let mut value = 0.0;
+        let f = self.fmu.functions.get_real_status;
+        self.status_value(("fmi2GetRealStatus", f), 2)
+    }
+
+    /// The status query `name` of one type for `kind` (FMI 2.0.4 section 4.2.3).
+    fn status_value<T: Default>(
+        &mut self,
+        (name, f): (&'static str, Option<StatusFn<T>>),
+        kind: c_int,
+    ) -> Result<T> {
+        let f = exported(f, name)?;
+        let mut value = T::default();
         let _watch = watch::enter(Call::Other, None);
         // SAFETY: value is a valid out pointer.
-        let raw = unsafe { f(self.component, 2, &mut value) };
-        self.check("fmi2GetRealStatus", raw)?;
+        let raw = unsafe { f(self.component, kind, &mut value) };
+        self.check(name, raw)?;
         Ok(value)
     }
 
     /// fmi2GetFMUstate: saves the current state; the handle is valid while this instance lives.
     pub fn get_fmu_state(&mut self) -> Result<FmuStateHandle> {
-        let f = self
-            .fmu
-            .functions
-            .get_fmu_state
-            .ok_or_else(|| missing("fmi2GetFMUstate"))?;
+        let f = exported(self.fmu.functions.get_fmu_state, "fmi2GetFMUstate")?;
         let mut state: FmuState = std::ptr::null_mut();
         let _watch = watch::enter(Call::FmuState, None);
         // SAFETY: state is a valid out pointer (NULL asks the FMU to allocate).
@@ -471,11 +415,7 @@ impl<'a> Instance<'a> {
 
     /// fmi2SetFMUstate: restores a state saved by this instance.
     pub fn set_fmu_state(&mut self, state: &FmuStateHandle) -> Result<Status> {
-        let f = self
-            .fmu
-            .functions
-            .set_fmu_state
-            .ok_or_else(|| missing("fmi2SetFMUstate"))?;
+        let f = exported(self.fmu.functions.set_fmu_state, "fmi2SetFMUstate")?;
         if !self.states.contains(&state.raw) {
             return Err(HostError::Request(
                 "FMU state does not belong to this instance".into(),
@@ -489,16 +429,14 @@ impl<'a> Instance<'a> {
 
     /// fmi2SerializedFMUstateSize + fmi2SerializeFMUstate
     pub fn serialize_fmu_state(&mut self, state: &FmuStateHandle) -> Result<Vec<u8>> {
-        let fs = self
-            .fmu
-            .functions
-            .serialized_fmu_state_size
-            .ok_or_else(|| missing("fmi2SerializedFMUstateSize"))?;
-        let f = self
-            .fmu
-            .functions
-            .serialize_fmu_state
-            .ok_or_else(|| missing("fmi2SerializeFMUstate"))?;
+        let fs = exported(
+            self.fmu.functions.serialized_fmu_state_size,
+            "fmi2SerializedFMUstateSize",
+        )?;
+        let f = exported(
+            self.fmu.functions.serialize_fmu_state,
+            "fmi2SerializeFMUstate",
+        )?;
         if !self.states.contains(&state.raw) {
             return Err(HostError::Request(
                 "FMU state does not belong to this instance".into(),
@@ -525,11 +463,10 @@ impl<'a> Instance<'a> {
 
     /// fmi2DeSerializeFMUstate: a new state handle from bytes.
     pub fn deserialize_fmu_state(&mut self, bytes: &[u8]) -> Result<FmuStateHandle> {
-        let f = self
-            .fmu
-            .functions
-            .deserialize_fmu_state
-            .ok_or_else(|| missing("fmi2DeSerializeFMUstate"))?;
+        let f = exported(
+            self.fmu.functions.deserialize_fmu_state,
+            "fmi2DeSerializeFMUstate",
+        )?;
         let mut state: FmuState = std::ptr::null_mut();
         let _watch = watch::enter(Call::FmuState, None);
         // SAFETY: bytes is a valid buffer of its length; state is a valid out pointer.
@@ -550,11 +487,7 @@ impl<'a> Instance<'a> {
 
     /// fmi2FreeFMUstate for one saved state.
     pub fn free_fmu_state(&mut self, state: FmuStateHandle) -> Result<Status> {
-        let f = self
-            .fmu
-            .functions
-            .free_fmu_state
-            .ok_or_else(|| missing("fmi2FreeFMUstate"))?;
+        let f = exported(self.fmu.functions.free_fmu_state, "fmi2FreeFMUstate")?;
         let Some(pos) = self.states.iter().position(|s| *s == state.raw) else {
             return Err(HostError::Request(
                 "FMU state does not belong to this instance".into(),
@@ -600,6 +533,26 @@ fn check_len(a: usize, b: usize) -> Result<()> {
     }
 }
 
+/// `texts` as C strings; Err when one (a `what`) contains a NUL byte.
+fn c_strings(texts: &[&str], what: &str) -> Result<Vec<CString>> {
+    texts
+        .iter()
+        .map(|v| CString::new(*v))
+        .collect::<std::result::Result<_, _>>()
+        .map_err(|_| HostError::Request(format!("{what} contains a NUL byte")))
+}
+
+/// An optional argument as the C calls take it: (whether it is given, its value or 0).
+pub(crate) fn given<B: From<bool>>(x: Option<f64>) -> (B, f64) {
+    (B::from(x.is_some()), x.unwrap_or(0.0))
+}
+
+/// The error for a function the binary does not export.
 pub(crate) fn missing(name: &str) -> HostError {
     HostError::Request(format!("the FMU binary does not export {name}"))
+}
+
+/// An optional function `f` of the binary, called `name`; Err when it is not exported.
+pub(crate) fn exported<T>(f: Option<T>, name: &str) -> Result<T> {
+    f.ok_or_else(|| missing(name))
 }

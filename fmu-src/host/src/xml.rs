@@ -150,53 +150,34 @@ impl<'a> Doc<'a> {
         key: &str,
         what: &str,
     ) -> Result<Option<T>, HostError> {
-        match a.get(key) {
-            None => Ok(None),
-            Some(s) => s.trim().parse::<T>().map(Some).map_err(|_| {
-                self.err(
-                    a.line,
-                    format!(
-                        "<{}> attribute {key}=\"{}\" is not {what}",
-                        a.element,
-                        crate::error::shown(s, 60)
-                    ),
-                )
-            }),
-        }
+        self.parse_with(a, key, what, |s| s.trim().parse::<T>().ok())
     }
 
     /// An xs:double attribute.
     pub(crate) fn real(&self, a: &Attrs, key: &str) -> Result<Option<f64>, HostError> {
-        match a.get(key) {
-            None => Ok(None),
-            Some(s) => parse_real(s).map(Some).ok_or_else(|| {
-                self.err(
-                    a.line,
-                    format!(
-                        "<{}> attribute {key}=\"{}\" is not a real number",
-                        a.element,
-                        crate::error::shown(s, 60)
-                    ),
-                )
-            }),
-        }
+        self.parse_with(a, key, "a real number", parse_real)
     }
 
     /// An xs:boolean attribute.
     pub(crate) fn boolean(&self, a: &Attrs, key: &str) -> Result<Option<bool>, HostError> {
-        match a.get(key) {
-            None => Ok(None),
-            Some(s) => parse_bool(s).map(Some).ok_or_else(|| {
-                self.err(
-                    a.line,
-                    format!(
-                        "<{}> attribute {key}=\"{}\" is not a boolean",
-                        a.element,
-                        crate::error::shown(s, 60)
-                    ),
-                )
-            }),
-        }
+        self.parse_with(a, key, "a boolean", parse_bool)
+    }
+
+    /// `key` read by `read` (None: not a `what`), None when absent; the error names the element,
+    /// the attribute and its text cut short.
+    fn parse_with<T>(
+        &self,
+        a: &Attrs,
+        key: &str,
+        what: &str,
+        read: impl FnOnce(&str) -> Option<T>,
+    ) -> Result<Option<T>, HostError> {
+        let Some(s) = a.get(key) else { return Ok(None) };
+        read(s).map(Some).ok_or_else(|| {
+            let shown = crate::error::shown(s, 60);
+            let m = format!("<{}> attribute {key}=\"{shown}\" is not {what}", a.element);
+            self.err(a.line, m)
+        })
     }
 
     /// A required attribute's text.

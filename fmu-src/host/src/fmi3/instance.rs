@@ -7,7 +7,7 @@ use super::value::{Type3, Values};
 use crate::error::{HostError, LogRecord, Result, Status};
 use crate::ffi::LogSink;
 use crate::fmu::{binary_under, check_c_identifier, Unpacked};
-use crate::instance::instance_call;
+use crate::instance::{exported, given, instance_call, missing};
 use crate::kind::Interface;
 use crate::watch::{self, Call};
 use libloading::Library;
@@ -341,18 +341,11 @@ impl<'a> Instance3<'a> {
         start_time: f64,
         stop_time: Option<f64>,
     ) -> Result<Status> {
+        let f = self.fmu.functions.enter_initialization_mode;
+        let ((tol_given, tol), (stop_given, stop)) = (given(tolerance), given(stop_time));
         let _watch = watch::enter3(Call::EnterInitializationMode, Some(start_time));
         // SAFETY: instance is live.
-        let raw = unsafe {
-            (self.fmu.functions.enter_initialization_mode)(
-                self.instance,
-                tolerance.is_some() as Bool3,
-                tolerance.unwrap_or(0.0),
-                start_time,
-                stop_time.is_some() as Bool3,
-                stop_time.unwrap_or(0.0),
-            )
-        };
+        let raw = unsafe { f(self.instance, tol_given, tol, start_time, stop_given, stop) };
         self.check("fmi3EnterInitializationMode", raw)
     }
 
@@ -367,11 +360,10 @@ impl<'a> Instance3<'a> {
 
     /// fmi3EnterConfigurationMode (structural parameters may then be set)
     pub fn enter_configuration_mode(&mut self) -> Result<Status> {
-        let f = self
-            .fmu
-            .functions
-            .enter_configuration_mode
-            .ok_or_else(|| missing("fmi3EnterConfigurationMode"))?;
+        let f = exported(
+            self.fmu.functions.enter_configuration_mode,
+            "fmi3EnterConfigurationMode",
+        )?;
         let _watch = watch::enter3(Call::Other, None);
         // SAFETY: instance is live.
         let raw = unsafe { f(self.instance) };
@@ -380,11 +372,10 @@ impl<'a> Instance3<'a> {
 
     /// fmi3ExitConfigurationMode
     pub fn exit_configuration_mode(&mut self) -> Result<Status> {
-        let f = self
-            .fmu
-            .functions
-            .exit_configuration_mode
-            .ok_or_else(|| missing("fmi3ExitConfigurationMode"))?;
+        let f = exported(
+            self.fmu.functions.exit_configuration_mode,
+            "fmi3ExitConfigurationMode",
+        )?;
         let _watch = watch::enter3(Call::Other, None);
         // SAFETY: instance is live.
         let raw = unsafe { f(self.instance) };
@@ -414,11 +405,7 @@ impl<'a> Instance3<'a> {
     /// back as an outcome with `terminate` set (the FMU ended the run; FMI 3.0.2 section
     /// 4.2.1), any other status but OK/Warning as an error.
     pub fn do_step(&mut self, t: f64, h: f64, no_set_prior: bool) -> Result<StepOutcome> {
-        let f = self
-            .fmu
-            .functions
-            .do_step
-            .ok_or_else(|| missing("fmi3DoStep"))?;
+        let f = exported(self.fmu.functions.do_step, "fmi3DoStep")?;
         let (mut event, mut terminate, mut early) = (0 as Bool3, 0 as Bool3, 0 as Bool3);
         let mut last = t;
         let _watch = watch::enter3(Call::DoStep, Some(t));
@@ -592,8 +579,4 @@ fn copy_binary((p, size): (*const u8, usize)) -> Result<Vec<u8>> {
     }
     // SAFETY: the FMU returns `size` readable bytes at p, valid until its next call.
     Ok(unsafe { std::slice::from_raw_parts(p, size) }.to_vec())
-}
-
-fn missing(name: &str) -> HostError {
-    HostError::Request(format!("the FMU binary does not export {name}"))
 }
