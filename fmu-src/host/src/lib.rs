@@ -44,7 +44,7 @@ pub use kind::{fmi_version_of, FmiVersion, Interface};
 pub use md::ModelDescription;
 pub use run::CoSimulationStep;
 pub use simulate::{
-    communication_points, hold_index, interpolate, simulate, simulate_then, InputSeries,
+    communication_points, hold_index, interpolate, simulate, simulate_then, InputSeries, Simulated,
     SimulationRequest, SimulationResult, Simulator, TextColumns, Value,
 };
 pub use view::ModelView;

@@ -1,6 +1,7 @@
 //! High-level simulation: start values by name, input series, fixed communication step.
 
 use crate::error::{HostError, Result, Status};
+use crate::fmi3::{Fmu3, Instance3, Request3};
 use crate::fmu::Fmu;
 use crate::instance::Instance;
 use crate::kind::Interface;
@@ -265,36 +266,80 @@ fn lookup<'m>(md: &'m ModelDescription, name: &str) -> Result<&'m ScalarVariable
         .ok_or_else(|| HostError::UnknownVariable(name.to_string()))
 }
 
-/// Reusable simulation driver: one instance, reset between runs (fmi2Reset), so repeated
-/// simulations (calibration) do not pay for instantiation. If a reset fails, the instance is
-/// freed and a new one made.
-pub struct Simulator<'a> {
-    fmu: &'a Fmu,
-    instance: ReusedInstance<Instance<'a>>,
+/// One FMI version's part of a run: what [`Simulator`] and [`simulate_then`] need of an FMU.
+pub trait Simulated {
+    /// The version's instance.
+    type Instance<'a>
+    where
+        Self: 'a;
+    /// The version's request.
+    type Request;
+    /// A fresh instance named `host`.
+    fn instantiate_host(&self) -> Result<Self::Instance<'_>>;
+    /// The version's reset (fmi2Reset, fmi3Reset), its log then dropped.
+    fn reset(inst: &mut Self::Instance<'_>) -> Result<()>;
+    /// Drops the log of earlier calls.
+    fn forget_log(inst: &mut Self::Instance<'_>);
+    /// One run of `req` on `inst`.
+    fn run_on(inst: &mut Self::Instance<'_>, req: &Self::Request) -> Result<SimulationResult>;
 }
 
-impl<'a> Simulator<'a> {
+/// [`Simulated`] for each version: its FMU, instance and request types and its run. The
+/// versions' instances spell `reset` and `take_log` alike, so only the types differ.
+macro_rules! simulated {
+    ($($fmu:ty => $inst:ident, $req:ty, $run:path;)*) => {$(
+        impl Simulated for $fmu {
+            type Instance<'a> = $inst<'a>;
+            type Request = $req;
+            fn instantiate_host(&self) -> Result<$inst<'_>> {
+                self.instantiate("host")
+            }
+            fn reset(inst: &mut $inst<'_>) -> Result<()> {
+                inst.reset().map(drop)
+            }
+            fn forget_log(inst: &mut $inst<'_>) {
+                let _ = inst.take_log();
+            }
+            fn run_on(inst: &mut $inst<'_>, req: &$req) -> Result<SimulationResult> {
+                $run(inst, req)
+            }
+        }
+    )*};
+}
+
+simulated! {
+    Fmu => Instance, SimulationRequest, run_on;
+    Fmu3 => Instance3, Request3, crate::fmi3::simulate::run_on;
+}
+
+/// Reusable simulation driver: one instance, reset between runs (fmi2Reset, fmi3Reset), so
+/// repeated simulations (calibration) do not pay for instantiation. If a reset fails, the
+/// instance is freed and a new one made.
+pub struct Simulator<'a, F: Simulated = Fmu> {
+    fmu: &'a F,
+    instance: ReusedInstance<F::Instance<'a>>,
+}
+
+impl<'a, F: Simulated> Simulator<'a, F> {
     /// Instantiates the FMU once.
-    pub fn new(fmu: &'a Fmu) -> Result<Self> {
+    pub fn new(fmu: &'a F) -> Result<Self> {
         Ok(Simulator {
             fmu,
-            instance: ReusedInstance::new(fmu.instantiate("host")?),
+            instance: ReusedInstance::new(fmu.instantiate_host()?),
         })
     }
 
     /// The instance (for direct calls between runs); None only after a failed re-instantiation.
-    pub fn instance(&mut self) -> Option<&mut Instance<'a>> {
+    pub fn instance(&mut self) -> Option<&mut F::Instance<'a>> {
         self.instance.get()
     }
 
     /// Runs one simulation. After any run the instance is reset before the next.
-    pub fn run(&mut self, req: &SimulationRequest) -> Result<SimulationResult> {
+    pub fn run(&mut self, req: &F::Request) -> Result<SimulationResult> {
         let fmu = self.fmu;
-        let inst = self
-            .instance
-            .ready(Instance::reset, || fmu.instantiate("host"))?;
-        let _ = inst.take_log();
-        run_on(inst, req)
+        let inst = self.instance.ready(F::reset, || fmu.instantiate_host())?;
+        F::forget_log(inst);
+        F::run_on(inst, req)
     }
 }
 
@@ -349,19 +394,19 @@ fn no_instance() -> HostError {
 }
 
 /// Simulates `req` on a fresh instance of `fmu`.
-pub fn simulate(fmu: &Fmu, req: &SimulationRequest) -> Result<SimulationResult> {
+pub fn simulate<F: Simulated>(fmu: &F, req: &F::Request) -> Result<SimulationResult> {
     simulate_then(fmu, req, |res| res)
 }
 
 /// [`simulate`], handing the result to `keep` before the instance is freed: what `keep` saves
-/// (the output file) survives an FMU that crashes in fmi2FreeInstance.
-pub fn simulate_then<R>(
-    fmu: &Fmu,
-    req: &SimulationRequest,
+/// (the output file) survives an FMU that crashes in fmi2FreeInstance or fmi3FreeInstance.
+pub fn simulate_then<F: Simulated, R>(
+    fmu: &F,
+    req: &F::Request,
     keep: impl FnOnce(SimulationResult) -> R,
 ) -> Result<R> {
-    let mut inst = fmu.instantiate("host")?;
-    let kept = keep(run_on(&mut inst, req)?);
+    let mut inst = fmu.instantiate_host()?;
+    let kept = keep(F::run_on(&mut inst, req)?);
     drop(inst);
     Ok(kept)
 }

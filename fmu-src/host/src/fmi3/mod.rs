@@ -14,7 +14,8 @@ pub mod md;
 pub(crate) mod simulate;
 pub mod value;
 
+pub use crate::simulate::{simulate as simulate3, simulate_then as simulate3_then};
 pub use instance::{unsupported, Fmu3, Instance3, StepOutcome, PLATFORM_TUPLE};
 pub use md::{Causality3, ModelDescription3, Variable3};
-pub use simulate::{element_index, simulate3, simulate3_then, Inputs3, Request3, Simulator3};
+pub use simulate::{element_index, Inputs3, Request3, Simulator3};
 pub use value::{Type3, ValueError, Values};

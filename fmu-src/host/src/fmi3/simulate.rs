@@ -23,8 +23,8 @@ use crate::error::{HostError, Result};
 use crate::kind::Interface;
 use crate::run::{fmu_tolerance, step_through, CoSimulationStep, Inputs, Outputs};
 use crate::simulate::{
-    communication_points, first_event_after, hold_index, interpolate, Recorded, ReusedInstance,
-    SimulationResult,
+    communication_points, first_event_after, hold_index, interpolate, Recorded, SimulationResult,
+    Simulator,
 };
 use fmi_types::Variability;
 
@@ -80,53 +80,11 @@ impl Request3 {
 /// Most values one run records: as for FMI 2.0 runs.
 const MAX_RECORDED_VALUES: usize = crate::simulate::MAX_RECORDED_VALUES;
 
-/// Simulates `req` on a fresh instance of `fmu`.
-pub fn simulate3(fmu: &Fmu3, req: &Request3) -> Result<SimulationResult> {
-    simulate3_then(fmu, req, |res| res)
-}
+/// Reusable FMI 3.0 simulation driver (fmi3Reset between runs).
+pub type Simulator3<'a> = Simulator<'a, Fmu3>;
 
-/// [`simulate3`], handing the result to `keep` before the instance is freed: what `keep` saves
-/// (the output file) survives an FMU that crashes in fmi3FreeInstance.
-pub fn simulate3_then<R>(
-    fmu: &Fmu3,
-    req: &Request3,
-    keep: impl FnOnce(SimulationResult) -> R,
-) -> Result<R> {
-    let mut inst = fmu.instantiate("host")?;
-    let kept = keep(run_on(&mut inst, req)?);
-    drop(inst);
-    Ok(kept)
-}
-
-/// Reusable simulation driver: one instance, reset between runs (fmi3Reset), so repeated
-/// simulations (calibration) do not pay for instantiation. If a reset fails, the instance is
-/// freed and a new one made.
-pub struct Simulator3<'a> {
-    fmu: &'a Fmu3,
-    instance: ReusedInstance<Instance3<'a>>,
-}
-
-impl<'a> Simulator3<'a> {
-    /// Instantiates the FMU once.
-    pub fn new(fmu: &'a Fmu3) -> Result<Self> {
-        Ok(Simulator3 {
-            fmu,
-            instance: ReusedInstance::new(fmu.instantiate("host")?),
-        })
-    }
-
-    /// Runs one simulation; the instance is reset before every run but the first.
-    pub fn run(&mut self, req: &Request3) -> Result<SimulationResult> {
-        let fmu = self.fmu;
-        let inst = self
-            .instance
-            .ready(Instance3::reset, || fmu.instantiate("host"))?;
-        let _ = inst.take_log();
-        run_on(inst, req)
-    }
-}
-
-fn run_on(inst: &mut Instance3<'_>, req: &Request3) -> Result<SimulationResult> {
+/// One run on `inst` (see [`crate::Simulated::run_on`]).
+pub(crate) fn run_on(inst: &mut Instance3<'_>, req: &Request3) -> Result<SimulationResult> {
     let described = inst.fmu().model_description().with_aliases();
     let md: &ModelDescription3 = &described;
     let times = communication_points(req.start_time, req.stop_time, req.step)?;
