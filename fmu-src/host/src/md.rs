@@ -90,7 +90,8 @@ impl ScalarVariable {
     }
 }
 
-/// `<DisplayUnit>` of a unit: value_in_display_unit = factor * value + offset.
+/// `<DisplayUnit>` of a unit (FMI 2.0.4 section 2.2.2, FMI 3.0.2 section 2.4.3):
+/// v_display = factor * v_unit + offset, or factor / v_unit when `inverse`.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct DisplayUnit {
     /// `name`
@@ -99,6 +100,23 @@ pub struct DisplayUnit {
     pub factor: f64,
     /// `offset` (default 0)
     pub offset: f64,
+    /// `inverse` (FMI 3.0 only; default false)
+    pub inverse: bool,
+    /// Line of the tag.
+    pub line: usize,
+}
+
+impl DisplayUnit {
+    /// The `<DisplayUnit>` element `a`; `inverse` is read only when `fmi3`.
+    pub(crate) fn read(doc: &Doc<'_>, a: &Attrs, fmi3: bool) -> Result<Self, HostError> {
+        Ok(DisplayUnit {
+            name: doc.required(a, "name")?,
+            factor: doc.real(a, "factor")?.unwrap_or(1.0),
+            offset: doc.real(a, "offset")?.unwrap_or(0.0),
+            inverse: fmi3 && doc.boolean(a, "inverse")?.unwrap_or(false),
+            line: a.line,
+        })
+    }
 }
 
 /// `<BaseUnit>`: exponents of the SI base units, value_SI = factor * value + offset.
@@ -117,12 +135,24 @@ pub struct BaseUnit {
 pub struct Unit {
     /// `name`
     pub name: String,
-    /// `<BaseUnit>` if given.
+    /// `<BaseUnit>` if given (read in FMI 2.0 descriptions).
     pub base_unit: Option<BaseUnit>,
     /// `<DisplayUnit>`s.
     pub display_units: Vec<DisplayUnit>,
     /// Line of the tag.
     pub line: usize,
+}
+
+impl Unit {
+    /// The `<Unit>` element `a`, before its children.
+    pub(crate) fn read(doc: &Doc<'_>, a: &Attrs) -> Result<Self, HostError> {
+        Ok(Unit {
+            name: doc.required(a, "name")?,
+            base_unit: None,
+            display_units: Vec::new(),
+            line: a.line,
+        })
+    }
 }
 
 /// `<SimpleType>` of `<TypeDefinitions>`.
@@ -193,6 +223,19 @@ pub struct DefaultExperiment {
     pub tolerance: Option<f64>,
     /// `stepSize`
     pub step_size: Option<f64>,
+}
+
+impl DefaultExperiment {
+    /// The `<DefaultExperiment>` element `a` (the same four attributes in FMI 2.0.4 section
+    /// 2.2.5 and FMI 3.0.2 section 2.4.6).
+    pub(crate) fn read(doc: &Doc<'_>, a: &Attrs) -> Result<Self, HostError> {
+        Ok(DefaultExperiment {
+            start_time: doc.real(a, "startTime")?,
+            stop_time: doc.real(a, "stopTime")?,
+            tolerance: doc.real(a, "tolerance")?,
+            step_size: doc.real(a, "stepSize")?,
+        })
+    }
 }
 
 /// `<Unknown>` of `<ModelStructure>`.
@@ -431,13 +474,8 @@ impl Parser<'_> {
                     .unwrap_or(false);
             }
             ("UnitDefinitions", "Unit") => {
-                let name = self.doc.required(&a, "name")?;
-                self.md.unit_definitions.push(Unit {
-                    name,
-                    base_unit: None,
-                    display_units: Vec::new(),
-                    line: a.line,
-                });
+                let unit = Unit::read(self.doc, &a)?;
+                self.md.unit_definitions.push(unit);
             }
             ("Unit", "BaseUnit") => {
                 let mut b = BaseUnit {
@@ -456,11 +494,7 @@ impl Parser<'_> {
                 }
             }
             ("Unit", "DisplayUnit") => {
-                let d = DisplayUnit {
-                    name: self.doc.required(&a, "name")?,
-                    factor: self.doc.real(&a, "factor")?.unwrap_or(1.0),
-                    offset: self.doc.real(&a, "offset")?.unwrap_or(0.0),
-                };
+                let d = DisplayUnit::read(self.doc, &a, false)?;
                 if let Some(u) = self.md.unit_definitions.last_mut() {
                     u.display_units.push(d);
                 }
@@ -501,12 +535,7 @@ impl Parser<'_> {
                 });
             }
             ("fmiModelDescription", "DefaultExperiment") => {
-                self.md.default_experiment = Some(DefaultExperiment {
-                    start_time: self.doc.real(&a, "startTime")?,
-                    stop_time: self.doc.real(&a, "stopTime")?,
-                    tolerance: self.doc.real(&a, "tolerance")?,
-                    step_size: self.doc.real(&a, "stepSize")?,
-                });
+                self.md.default_experiment = Some(DefaultExperiment::read(self.doc, &a)?);
             }
             ("ModelVariables", "ScalarVariable") => self.scalar_variable(&a)?,
             (

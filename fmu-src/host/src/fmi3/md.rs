@@ -185,32 +185,11 @@ pub struct TypeDefinition3 {
     pub line: usize,
 }
 
-/// `<Unit>` of `<UnitDefinitions>` (name, display units and line; FMI 3.0 units as FMI 2.0's).
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
-pub struct Unit3 {
-    /// `name`
-    pub name: String,
-    /// Its `<DisplayUnit>` elements.
-    pub display_units: Vec<DisplayUnit3>,
-    /// Line of the tag.
-    pub line: usize,
-}
+/// `<Unit>` of `<UnitDefinitions>`: FMI 3.0.2 section 2.4.3 gives it the elements of FMI 2.0.4.
+pub type Unit3 = crate::md::Unit;
 
-/// `<DisplayUnit>` of a `<Unit>` (FMI 3.0.2 section 2.4.3): v_display = factor * v_unit +
-/// offset, or factor / v_unit when `inverse`.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
-pub struct DisplayUnit3 {
-    /// `name`
-    pub name: String,
-    /// `factor` (default 1)
-    pub factor: f64,
-    /// `offset` (default 0)
-    pub offset: f64,
-    /// `inverse` (default false)
-    pub inverse: bool,
-    /// Line of the tag.
-    pub line: usize,
-}
+/// `<DisplayUnit>` of a `<Unit>`, with FMI 3.0's `inverse`.
+pub type DisplayUnit3 = crate::md::DisplayUnit;
 
 /// An element of `<ModelStructure>`.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -483,19 +462,9 @@ impl Visitor for Parser3 {
                 };
                 *slot = Some(i);
             }
-            ("UnitDefinitions", "Unit") => self.md.units.push(Unit3 {
-                name: doc.required(&a, "name")?,
-                display_units: Vec::new(),
-                line: a.line,
-            }),
+            ("UnitDefinitions", "Unit") => self.md.units.push(Unit3::read(doc, &a)?),
             ("Unit", "DisplayUnit") => {
-                let d = DisplayUnit3 {
-                    name: doc.required(&a, "name")?,
-                    factor: doc.real(&a, "factor")?.unwrap_or(1.0),
-                    offset: doc.real(&a, "offset")?.unwrap_or(0.0),
-                    inverse: doc.boolean(&a, "inverse")?.unwrap_or(false),
-                    line: a.line,
-                };
+                let d = DisplayUnit3::read(doc, &a, true)?;
                 if let Some(u) = self.md.units.last_mut() {
                     u.display_units.push(d);
                 }
@@ -512,12 +481,7 @@ impl Visitor for Parser3 {
             }
             ("LogCategories", "Category") => self.md.log_categories.push(doc.required(&a, "name")?),
             ("fmiModelDescription", "DefaultExperiment") => {
-                self.md.default_experiment = Some(DefaultExperiment3 {
-                    start_time: doc.real(&a, "startTime")?,
-                    stop_time: doc.real(&a, "stopTime")?,
-                    tolerance: doc.real(&a, "tolerance")?,
-                    step_size: doc.real(&a, "stepSize")?,
-                });
+                self.md.default_experiment = Some(DefaultExperiment3::read(doc, &a)?);
             }
             ("ModelVariables", kind) => self.variable(doc, kind, &a)?,
             (_, "Dimension") if path.len() >= 2 && path[path.len() - 2] == "ModelVariables" => {
