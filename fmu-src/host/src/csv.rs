@@ -620,6 +620,14 @@ mod tests {
         parse_csv(text, "d.csv").unwrap_err()
     }
 
+    /// The error for `text`: at (line, column), its message containing `part`.
+    fn refused(text: &str, at: (usize, usize), part: &str) -> CsvError {
+        let x = e(text);
+        assert_eq!((x.line, x.column), at, "{x}");
+        assert!(x.message.contains(part), "{x}");
+        x
+    }
+
     #[test]
     fn names_with_commas_and_quotes_round_trip() {
         // FMI 2.0 array elements are named like `x[1,2]`; names may hold quotes and spaces.
@@ -707,85 +715,52 @@ mod tests {
 
     #[test]
     fn empty_file() {
-        let x = e("");
-        assert_eq!((x.line, x.column), (1, 0));
-        assert!(x.message.contains("empty file"));
+        let x = refused("", (1, 0), "empty file");
         assert_eq!(
             x.to_string(),
             "d.csv:1: empty file: expected a header line starting with 'time'"
         );
-        let x = e("time,u\n");
-        assert!(x.message.contains("no data rows"), "{x}");
-        assert_eq!(x.line, 2);
+        assert_eq!(e("time,u\n").line, 2);
+        assert!(e("time,u\n").message.contains("no data rows"));
     }
 
     #[test]
-    fn missing_or_misplaced_time() {
-        let x = e("t,u\n0,1\n");
-        assert_eq!((x.line, x.column), (1, 1));
-        assert!(x.message.contains("no 'time' column"));
-        let x = e("u,time\n0,1\n");
-        assert_eq!((x.line, x.column), (1, 2));
-        assert!(x.message.contains("must be the first column"));
-    }
-
-    #[test]
-    fn non_increasing_time() {
-        let x = e("time,u\n0,1\n0.1,1\n0.1,2\n");
-        assert_eq!((x.line, x.column), (4, 1));
-        assert!(x.message.contains("not greater than 0.1 on line 3"), "{x}");
-        let x = e("time,u\n0,1\n-1,1\n");
-        assert_eq!((x.line, x.column), (3, 1));
-    }
-
-    #[test]
-    fn nan_and_inf() {
-        let x = e("time,u\n0,1\n1,NaN\n");
-        assert_eq!((x.line, x.column), (3, 2));
-        assert!(x.message.contains("NaN in column 'u'"), "{x}");
-        let x = e("time,u\n0,inf\n");
-        assert_eq!((x.line, x.column), (2, 2));
-        assert!(x.message.contains("infinite"), "{x}");
-        let x = e("time,u\nnan,1\n");
-        assert_eq!((x.line, x.column), (2, 1));
-    }
-
-    #[test]
-    fn non_numeric_and_empty_cells() {
-        let x = e("time,u,y\n0,1,2\n1,abc,2\n");
-        assert_eq!((x.line, x.column), (3, 2));
-        assert!(
-            x.message.contains("non-numeric cell 'abc' in column 'u'"),
-            "{x}"
-        );
+    fn non_numeric_cells() {
+        let x = refused("time,u,y\n0,1,2\n1,abc,2\n", (3, 2), "");
         assert_eq!(
             x.to_string(),
             "d.csv:3:2: non-numeric cell 'abc' in column 'u'"
         );
-        let x = e("time,u\n0,\n");
-        assert_eq!((x.line, x.column), (2, 2));
-        assert!(x.message.contains("empty cell"));
     }
 
+    /// Each refused file: the line and column of its error, and a part of the message.
     #[test]
-    fn ragged_rows() {
-        let x = e("time,u,y\n0,1,2\n1,2\n");
-        assert_eq!((x.line, x.column), (3, 3));
-        assert!(
-            x.message.contains("row has 2 cells, the header has 3"),
-            "{x}"
-        );
-        let x = e("time,u\n0,1,2\n");
-        assert_eq!((x.line, x.column), (2, 3));
-    }
-
-    #[test]
-    fn duplicate_and_empty_header_names() {
-        let x = e("time,u,u\n0,1,2\n");
-        assert_eq!((x.line, x.column), (1, 3));
-        assert!(x.message.contains("appears twice"));
-        let x = e("time,,y\n0,1,2\n");
-        assert_eq!((x.line, x.column), (1, 2));
+    fn refused_files_name_line_and_column() {
+        let cases = [
+            ("t,u\n0,1\n", (1, 1), "no 'time' column"),
+            ("u,time\n0,1\n", (1, 2), "must be the first column"),
+            (
+                "time,u\n0,1\n0.1,1\n0.1,2\n",
+                (4, 1),
+                "not greater than 0.1 on line 3",
+            ),
+            ("time,u\n0,1\n-1,1\n", (3, 1), ""),
+            ("time,u\n0,1\n1,NaN\n", (3, 2), "NaN in column 'u'"),
+            ("time,u\n0,inf\n", (2, 2), "infinite"),
+            ("time,u\nnan,1\n", (2, 1), ""),
+            ("time,u\n0,\n", (2, 2), "empty cell"),
+            (
+                "time,u,y\n0,1,2\n1,2\n",
+                (3, 3),
+                "row has 2 cells, the header has 3",
+            ),
+            ("time,u\n0,1,2\n", (2, 3), ""),
+            ("time,u,u\n0,1,2\n", (1, 3), "appears twice"),
+            ("time,,y\n0,1,2\n", (1, 2), ""),
+        ];
+        for (text, at, part) in cases {
+            refused(text, at, part);
+        }
     }
 
     #[test]

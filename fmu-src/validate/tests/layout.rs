@@ -39,8 +39,14 @@ fn files_of(entries: &[(&str, &[u8])]) -> Vec<Finding> {
     check_files(&host::Extracted::open(&path).unwrap())
 }
 
-/// The only result, which must be a note of the check `check`.
-fn only_note(found: Vec<Finding>, check: &str) -> Finding {
+/// Asserts that the message of `f` contains `part`.
+fn assert_says(f: &Finding, part: &str) {
+    assert!(f.message.contains(part), "{f}");
+}
+
+/// The only result of the FMU made of `entries`, which must be a note of the check `check`.
+fn only_note(entries: &[(&str, &[u8])], check: &str) -> Finding {
+    let found = files_of(entries);
     assert_eq!(found.len(), 1, "{found:#?}");
     assert_eq!(found[0].check, check, "{found:#?}");
     assert!(!found[0].is_required(), "{found:#?}");
@@ -49,10 +55,7 @@ fn only_note(found: Vec<Finding>, check: &str) -> Finding {
 
 #[test]
 fn a_binary_for_another_platform_only_is_a_note_not_a_finding() {
-    let f = only_note(
-        files_of(&[("binaries/win64/Dummy.dll", b"MZ")]),
-        "binary-not-probed",
-    );
+    let f = only_note(&[("binaries/win64/Dummy.dll", b"MZ")], "binary-not-probed");
     assert!(f.message.contains("not probed here"), "{f}");
     assert!(f.message.contains("binaries/win64/Dummy.dll"), "{f}");
     assert!(f.clause.contains("§2.3"), "{f}");
@@ -60,21 +63,18 @@ fn a_binary_for_another_platform_only_is_a_note_not_a_finding() {
 
 #[test]
 fn sources_without_binaries_are_a_note_not_a_finding() {
-    let f = only_note(
-        files_of(&[("sources/model.c", b"int x;")]),
-        "binary-not-probed",
-    );
+    let f = only_note(&[("sources/model.c", b"int x;")], "binary-not-probed");
     assert!(f.message.contains("sources/"), "{f}");
 }
 
 #[test]
 fn an_empty_platform_folder_beside_another_binary_is_no_finding() {
-    let found = files_of(&[
+    let entries: &[(&str, &[u8])] = &[
         ("binaries/linux64/", b""),
         ("binaries/linux32/", b""),
         ("binaries/win64/Dummy.dll", b"MZ"),
-    ]);
-    let f = only_note(found, "binary-not-probed");
+    ];
+    let f = only_note(entries, "binary-not-probed");
     assert!(f.message.contains("binaries/win64/Dummy.dll"), "{f}");
 }
 
@@ -85,12 +85,8 @@ fn no_implementation_at_all_is_a_finding() {
     assert_eq!(found.len(), 1, "{found:#?}");
     assert_eq!(found[0].check, "binary");
     assert!(found[0].is_required());
-    assert!(
-        found[0].message.contains("no other implementation"),
-        "{}",
-        found[0]
-    );
-    assert!(found[0].message.contains("no sources/"), "{}", found[0]);
+    assert_says(&found[0], "no other implementation");
+    assert_says(&found[0], "no sources/");
     // a library in the host's folder not named after the modelIdentifier stays a finding,
     // even beside another platform's binary
     let found = files_of(&[
@@ -99,11 +95,7 @@ fn no_implementation_at_all_is_a_finding() {
     ]);
     assert_eq!(found.len(), 1, "{found:#?}");
     assert_eq!(found[0].check, "binary");
-    assert!(
-        found[0].message.contains("no binary Dummy.so"),
-        "{}",
-        found[0]
-    );
+    assert_says(&found[0], "no binary Dummy.so");
 }
 
 #[test]
@@ -114,11 +106,7 @@ fn backslash_path_separators_are_a_finding_of_their_own() {
     let zip_path: Vec<&Finding> = found.iter().filter(|f| f.check == "zip-path").collect();
     assert_eq!(zip_path.len(), 1, "{found:#?}");
     assert!(zip_path[0].is_required());
-    assert!(
-        zip_path[0].message.contains("binaries\\win64\\Dummy.dll"),
-        "{}",
-        zip_path[0]
-    );
+    assert_says(zip_path[0], "binaries\\win64\\Dummy.dll");
     assert!(zip_path[0].clause.contains("4.4.17"), "{}", zip_path[0]);
     assert!(
         found.iter().all(|f| f.check != "binary"),

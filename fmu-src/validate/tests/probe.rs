@@ -18,10 +18,38 @@ fn built(name: &str, defines: &[&str]) -> (tempfile::TempDir, PathBuf) {
     (dir, path)
 }
 
+/// The probe's results on the test FMU compiled with `defines` as `name`, every case run.
+fn probed(name: &str, defines: &[&str]) -> Vec<validate::Finding> {
+    let (_dir, path) = built(name, defines);
+    let fmu = Fmu::open(&path).unwrap();
+    validate::probe(&fmu, &mut |_| true)
+}
+
 fn dummy() -> (tempfile::TempDir, Fmu) {
     let (dir, path) = built("Dummy", &[]);
     let fmu = Fmu::open(&path).unwrap();
     (dir, fmu)
+}
+
+/// Whether a crash in a case is a finding or a note depends on the case's kind in the one
+/// registry: every case the probe announces is there, the wrong calls among them as such.
+#[test]
+fn every_case_the_probe_announces_is_registered_with_its_kind() {
+    let (_d, fmu) = dummy();
+    let mut kinds = Vec::new();
+    validate::probe(&fmu, &mut |s| {
+        kinds.push((s.to_string(), validate::probe_case(s).map(|c| c.kind)));
+        true
+    });
+    let legal = ["normal-run", "fmu-state"];
+    for (name, kind) in kinds {
+        let expected = if legal.contains(&name.as_str()) {
+            validate::CaseKind::Legal
+        } else {
+            validate::CaseKind::WrongCall
+        };
+        assert_eq!(kind, Some(expected), "{name}");
+    }
 }
 
 #[test]
@@ -117,9 +145,7 @@ fn check_files_reports_a_missing_binary() {
 
 #[test]
 fn probe_catches_a_state_that_is_not_fully_restored() {
-    let (_dir, path) = built("BrokenState", &["-DBROKEN_STATE"]);
-    let fmu = Fmu::open(&path).unwrap();
-    let f = validate::probe(&fmu, &mut |_| true);
+    let f = probed("BrokenState", &["-DBROKEN_STATE"]);
     assert_eq!(f.len(), 1, "{f:#?}");
     assert_eq!(f[0].location, "probe fmu-state");
     assert!(
@@ -133,9 +159,7 @@ fn probe_catches_a_state_that_is_not_fully_restored() {
 fn a_reset_failing_after_terminate_is_a_note() {
     // fmi2Reset answering fmi2Error (a vendor runtime the host lacks) is allowed for any call
     // (FMI 2.0.4 section 2.1.3); the probe says what it did not run.
-    let (_dir, path) = built("ResetFails", &["-DRESET_FAILS"]);
-    let fmu = Fmu::open(&path).unwrap();
-    let f = validate::probe(&fmu, &mut |_| true);
+    let f = probed("ResetFails", &["-DRESET_FAILS"]);
     assert_eq!(f.len(), 1, "{f:#?}");
     assert_eq!(f[0].check, "probe-reset");
     assert!(!f[0].is_required(), "{f:#?}");

@@ -165,30 +165,25 @@ mod tests {
         assert_eq!(tube.first_exit(&t, &result), None);
     }
 
-    #[test]
-    fn a_step_within_the_time_tolerance_passes() {
+    /// Where a unit step at `late` leaves the tube of a unit step at 0.5 with a time tolerance
+    /// of 0.015 (dx = 15 ms over the 1 s span).
+    fn late_step_exit(late: f64) -> Option<Exit> {
         let t = grid();
-        let reference = step_at(&t, 0.5);
-        let late = step_at(&t, 0.51);
-        let tol = Tolerances {
-            time: 0.015, // dx = 15 ms over the 1 s span
-            ..Tolerances::default()
-        };
-        assert_eq!(Tube::new(&t, &reference, tol).first_exit(&t, &late), None);
-    }
-
-    #[test]
-    fn a_step_shifted_beyond_the_time_tolerance_fails_at_the_step() {
-        let t = grid();
-        let reference = step_at(&t, 0.5);
-        let late = step_at(&t, 0.55);
         let tol = Tolerances {
             time: 0.015,
             ..Tolerances::default()
         };
-        let exit = Tube::new(&t, &reference, tol)
-            .first_exit(&t, &late)
-            .expect("leaves the tube");
+        Tube::new(&t, &step_at(&t, 0.5), tol).first_exit(&t, &step_at(&t, late))
+    }
+
+    #[test]
+    fn a_step_within_the_time_tolerance_passes() {
+        assert_eq!(late_step_exit(0.51), None);
+    }
+
+    #[test]
+    fn a_step_shifted_beyond_the_time_tolerance_fails_at_the_step() {
+        let exit = late_step_exit(0.55).expect("leaves the tube");
         // at 0.50 the reference's window [0.485, 0.515] reaches down to 0: inside; at 0.51 the
         // window [0.495, 0.525] starts halfway up the reference's ramp from 0.49 to 0.50, so the
         // tube's floor is 0.5 - dy while the late result is still 0
