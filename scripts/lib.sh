@@ -5,7 +5,13 @@ cd "$REPO"
 VENV="$REPO/.venv"
 PY="$VENV/bin/python"
 
-log() { printf '\033[1m==> %s\033[0m\n' "$*" >&2; }
+# Each line carries the minutes and seconds since the outermost script started (scripts/test's
+# log then shows where CI's time goes).
+export ACTUATOR_LOG_T0="${ACTUATOR_LOG_T0:-$(date +%s)}"
+log() {
+    local t=$(($(date +%s) - ACTUATOR_LOG_T0))
+    printf '\033[1m==> [%d:%02d] %s\033[0m\n' $((t / 60)) $((t % 60)) "$*" >&2
+}
 
 # Create .venv with the pinned requirements unless it already matches them.
 ensure_venv() {
