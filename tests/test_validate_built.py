@@ -24,7 +24,7 @@ pytestmark = pytest.mark.skipif(sys.platform != "linux", reason="builds an x86_6
 DEFECTS = ["NAN_DERIVATIVES", "ENDLESS_EVENT_ITERATION", "CRASH_DERIVATIVES",
            "HANG_DERIVATIVES", "CRASH_DO_STEP",
            "HANG_DO_STEP", "LENIENT", "SILENT", "WRONG_DIRECTIONAL", "NO_RESTORE",
-           "BAD_SERIALIZE", "NO_VALUES_CHANGED", "NO_SET_TIME"]
+           "BAD_SERIALIZE", "NO_VALUES_CHANGED", "NO_SET_TIME", "RESET_FAILS"]
 
 
 @pytest.fixture(scope="module")
@@ -97,6 +97,16 @@ def test_states_re_initialized_at_a_time_event_must_be_signalled(built):
     assert [(f["check"], f["location"]) for f in r["findings"]] == [
         ("probe-event", "probe fmi3-me-state-event")], r
     assert "at the time or step event at t = 0.1," in r["findings"][0]["message"], r
+
+
+def test_reset_failing_after_terminate_is_a_note(built):
+    # FMI 3.0.2 section 2.2.4: any call may return fmi3Error ("The call failed"); section 2.3.1
+    # describes what fmi3Reset does without requiring it to succeed
+    r = report(built["RESET_FAILS"])
+    assert r["findings"] == [], r
+    [n] = [n for n in r["notes"] if n["check"] == "probe-reset"]
+    assert n["location"] == "probe fmi3-normal-run", n
+    assert "fmi3Reset after fmi3Terminate" in n["message"] and "§2.2.4" in n["clause"], n
 
 
 def test_a_directional_derivative_is_compared_with_finite_differences(built):

@@ -41,6 +41,10 @@ pub(crate) trait Outputs<I> {
     fn width(&self) -> usize;
     /// Appends the outputs' current values as a row.
     fn record(&mut self, inst: &mut I) -> Result<()>;
+    /// Reads what the active input clocks `clocks` clock (Model Exchange, in Event Mode).
+    fn clocks_active(&mut self, _inst: &mut I, _clocks: &[u32]) -> Result<()> {
+        Ok(())
+    }
 }
 
 /// A Model Exchange binding with the instance it drives (for the inputs and the recorder).
@@ -187,5 +191,9 @@ where
         self.outputs.record(fmu.instance())?;
         self.time.push(t);
         Ok(())
+    }
+
+    fn clocks_active(&mut self, fmu: &mut M, clocks: &[u32]) -> Result<()> {
+        self.outputs.clocks_active(fmu.instance(), clocks)
     }
 }

@@ -1,7 +1,8 @@
 //! Where a clause the validator cites can be read: the HTML edition of the standard at the
 //! section's anchor. FMI 3.0.2 sections carry explicit anchors in the standard's sources; FMI
 //! 2.0.4 sections the ones Asciidoctor derives from the section title (`_` + the title in lower
-//! case, words joined by `_`).
+//! case, words joined by `_`), but where the source gives a section an explicit anchor (checked
+//! against the sources of the standard's v2.0.4 tag).
 
 const FMI2: &str = "https://fmi-standard.org/docs/2.0.4/";
 const FMI3: &str = "https://fmi-standard.org/docs/3.0.2/";
@@ -15,7 +16,8 @@ const FMI2_ANCHORS: &[(&str, &str)] = &[
         "_creation_destruction_and_logging_of_fmu_instances",
     ),
     ("2.1.7", "_getting_and_setting_variable_values"),
-    ("2.1.8", "_getting_and_setting_the_complete_fmu_state"),
+    // an explicit anchor in the standard's source ([#GetSetCompleteFMUState])
+    ("2.1.8", "GetSetCompleteFMUState"),
     ("2.2.1", "_definition_of_an_fmu_fmimodeldescription"),
     ("2.2.2", "_definition_of_units_unitdefinitions"),
     ("2.2.3", "_definition_of_types_typedefinitions"),

@@ -38,6 +38,12 @@ fn help_uri_points_at_the_cited_section_or_its_document() {
         v2.as_deref(),
         Some("https://fmi-standard.org/docs/2.0.4/#_definition_of_model_variables_modelvariables")
     );
+    // a section whose source gives an explicit anchor keeps it (2_1_common_api.adoc of the
+    // v2.0.4 tag: `[#GetSetCompleteFMUState]` above "Getting and Setting the Complete FMU State")
+    assert_eq!(
+        help_uri("FMI 2.0.4 §2.1.8: canGetAndSetFMUstate declared").as_deref(),
+        Some("https://fmi-standard.org/docs/2.0.4/#GetSetCompleteFMUState")
+    );
     assert_eq!(
         help_uri("FMI 2.0.4 §5: literature").as_deref(),
         Some("https://fmi-standard.org/docs/2.0.4/")

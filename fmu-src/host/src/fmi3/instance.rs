@@ -61,12 +61,6 @@ impl Fmu3 {
         let unpacked = Unpacked::open(path)?;
         let md = ModelDescription3::parse(&unpacked.xml, &unpacked.description_file())?;
         let fmu = unpacked.path.clone();
-        if let Some(reason) = unsupported(&md) {
-            return Err(HostError::Unsupported {
-                path: fmu,
-                message: reason,
-            });
-        }
         let interface = interface.unwrap_or(
             if md.co_simulation.is_none() && md.model_exchange.is_some() {
                 Interface::ModelExchange
@@ -74,6 +68,18 @@ impl Fmu3 {
                 Interface::CoSimulation
             },
         );
+        let refused = match interface {
+            Interface::CoSimulation => unsupported(&md),
+            Interface::ModelExchange => {
+                no_interface(&md).or_else(|| crate::me::clocks::refusal(&md))
+            }
+        };
+        if let Some(reason) = refused {
+            return Err(HostError::Unsupported {
+                path: fmu,
+                message: reason,
+            });
+        }
         let (element, name) = match interface {
             Interface::CoSimulation => (&md.co_simulation, "CoSimulation"),
             Interface::ModelExchange => (&md.model_exchange, "ModelExchange"),
@@ -257,6 +263,9 @@ impl Fmu3 {
 
 /// Why the host does not run an FMU as Co-Simulation, naming what it lacks; None if it can.
 pub fn unsupported(md: &ModelDescription3) -> Option<String> {
+    if let Some(reason) = no_interface(md) {
+        return Some(reason);
+    }
     let clocks: Vec<&str> = md
         .variables
         .iter()
@@ -264,6 +273,23 @@ pub fn unsupported(md: &ModelDescription3) -> Option<String> {
         .map(|v| v.name.as_str())
         .take(3)
         .collect();
+    if !clocks.is_empty() {
+        let me = if md.model_exchange.is_some() {
+            "; its Model Exchange interface runs periodic input clocks: simulate --interface me"
+        } else {
+            ""
+        };
+        return Some(format!(
+            "FMI 3.0 clocks are not supported (the FMU declares Clock variables such as '{}', \
+             which need event mode; this host runs Co-Simulation without event mode{me})",
+            clocks.join("', '")
+        ));
+    }
+    None
+}
+
+/// Why an FMU offers no interface this host runs (neither Co-Simulation nor Model Exchange).
+fn no_interface(md: &ModelDescription3) -> Option<String> {
     if md.co_simulation.is_none() && md.model_exchange.is_none() {
         let offers: Vec<&str> = [(md.scheduled_execution.is_some(), "Scheduled Execution")]
             .iter()
@@ -278,13 +304,6 @@ pub fn unsupported(md: &ModelDescription3) -> Option<String> {
             } else {
                 offers.join(" or ")
             }
-        ));
-    }
-    if !clocks.is_empty() {
-        return Some(format!(
-            "FMI 3.0 clocks are not supported (the FMU declares Clock variables such as '{}', \
-             which need event mode; this host runs Co-Simulation without event mode)",
-            clocks.join("', '")
         ));
     }
     None

@@ -82,6 +82,10 @@ pub struct Variable3 {
     pub dimensions: Vec<Dimension>,
     /// `intervalVariability` (Clock)
     pub interval_variability: Option<String>,
+    /// `intervalDecimal` (Clock)
+    pub interval_decimal: Option<f64>,
+    /// `shiftDecimal` (Clock)
+    pub shift_decimal: Option<f64>,
     /// Its `<Alias>` elements: other names of the same value (FMI 3.0.2 section 2.4.7.4).
     pub aliases: Vec<Alias3>,
     /// Line of the tag.
@@ -660,6 +664,8 @@ impl Parser3 {
             clocks,
             dimensions: Vec::new(),
             interval_variability: a.get("intervalVariability").map(str::to_string),
+            interval_decimal: doc.real(a, "intervalDecimal")?,
+            shift_decimal: doc.real(a, "shiftDecimal")?,
             aliases: Vec::new(),
             line: a.line,
             name,

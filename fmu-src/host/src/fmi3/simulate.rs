@@ -21,6 +21,7 @@ use super::md::{Causality3, ModelDescription3, Variable3};
 use super::value::{Type3, ValueError, Values};
 use crate::error::{HostError, Result};
 use crate::kind::Interface;
+use crate::me::clocks::ClockSchedule;
 use crate::run::{fmu_tolerance, step_through, CoSimulationStep, Inputs, Outputs};
 use crate::simulate::{
     communication_points, first_event_after, hold_index, interpolate, Recorded, SimulationResult,
@@ -114,9 +115,16 @@ pub(crate) fn run_on(inst: &mut Instance3<'_>, req: &Request3) -> Result<Simulat
         md.default_experiment.as_ref().and_then(|d| d.tolerance),
     );
     inst.enter_initialization_mode(tolerance, req.start_time, Some(req.stop_time))?;
+    let clocks = match inst.fmu().interface() {
+        Interface::ModelExchange => ClockSchedule::initialize(inst, req.start_time)?,
+        Interface::CoSimulation => ClockSchedule::default(),
+    };
+    rec.initial_clocked(inst)?;
     inst.exit_initialization_mode()?;
     let (time, ended_by_fmu) = match inst.fmu().interface() {
-        Interface::ModelExchange => crate::me::fmi3::run(inst, req, &mut inputs, &mut rec)?,
+        Interface::ModelExchange => {
+            crate::me::fmi3::run(inst, req, (&mut inputs, clocks), &mut rec)?
+        }
         Interface::CoSimulation => step_through(inst, &times, &mut inputs, &mut rec)?,
     };
     let _ = inst.terminate();
@@ -539,12 +547,18 @@ enum Column {
     Text(usize),
 }
 
-/// Recorded variables of one type: their value references, element counts and columns.
+/// Recorded variables of one type: their value references, element counts and columns. A
+/// clocked variable is a group of its own: it can be read only while one of its `clocks` is
+/// active (FMI 3.0.2 section 2.2.8.3: "Clocked variables ... can be queried only when their
+/// Clock is active, except during Initialization Mode"), and its rows hold the value `held`
+/// then until the next tick (None before the first: NaN, or empty text).
 struct Group {
     ty: Type3,
     vrs: Vec<u32>,
     counts: Vec<usize>,
     cols: Vec<Column>,
+    clocks: Vec<u32>,
+    held: Option<Values>,
 }
 
 /// Outputs read after each step, one get call per type.
@@ -597,7 +611,12 @@ impl Recorder3 {
             };
             rec.order.push(col);
             rec.width += n;
-            let g = match rec.groups.iter().position(|g| g.ty == v.ty) {
+            let shared = v.clocks.is_empty();
+            let g = match rec
+                .groups
+                .iter()
+                .position(|g| shared && g.ty == v.ty && g.clocks.is_empty())
+            {
                 Some(i) => i,
                 None => {
                     rec.groups.push(Group {
@@ -605,6 +624,8 @@ impl Recorder3 {
                         vrs: Vec::new(),
                         counts: Vec::new(),
                         cols: Vec::new(),
+                        clocks: v.clocks.clone(),
+                        held: None,
                     });
                     rec.groups.len() - 1
                 }
@@ -644,7 +665,11 @@ impl Outputs<Instance3<'_>> for Recorder3 {
     fn record(&mut self, inst: &mut Instance3<'_>) -> Result<()> {
         for g in &self.groups {
             let total = g.counts.iter().sum();
-            let values = inst.get(g.ty, &g.vrs, total)?;
+            let values = match (&g.held, g.clocks.is_empty()) {
+                (_, true) => inst.get(g.ty, &g.vrs, total)?,
+                (Some(held), false) => held.clone(),
+                (None, false) => Values::Float64(vec![f64::NAN; total]),
+            };
             let mut at = 0;
             for (&n, col) in g.counts.iter().zip(&g.cols) {
                 match *col {
@@ -654,6 +679,37 @@ impl Outputs<Instance3<'_>> for Recorder3 {
                     Column::Text(j) => self.text[j].push(values.joined(at..at + n)),
                 }
                 at += n;
+            }
+        }
+        Ok(())
+    }
+
+    /// Reads the variables clocked by one of the active `clocks` and holds their values.
+    fn clocks_active(&mut self, inst: &mut Instance3<'_>, clocks: &[u32]) -> Result<()> {
+        for g in &mut self.groups {
+            if g.clocks.iter().any(|c| clocks.contains(c)) {
+                g.held = Some(inst.get(g.ty, &g.vrs, g.counts.iter().sum())?);
+            }
+        }
+        Ok(())
+    }
+}
+
+impl Recorder3 {
+    /// In Initialization Mode: the clocked variables that are `<InitialUnknown>`s, which the
+    /// FMU must initialize there (FMI 3.0.2 section 2.2.8.3; the others get their value at
+    /// their clock's first tick).
+    fn initial_clocked(&mut self, inst: &mut Instance3<'_>) -> Result<()> {
+        let md = inst.fmu().model_description();
+        let initial: Vec<u32> = md
+            .model_structure
+            .initial_unknowns
+            .iter()
+            .map(|u| u.value_reference)
+            .collect();
+        for g in &mut self.groups {
+            if !g.clocks.is_empty() && g.vrs.iter().all(|vr| initial.contains(vr)) {
+                g.held = Some(inst.get(g.ty, &g.vrs, g.counts.iter().sum())?);
             }
         }
         Ok(())

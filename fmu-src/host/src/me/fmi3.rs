@@ -6,6 +6,7 @@ use crate::error::{HostError, Result, Status};
 use crate::fmi3::ffi::{sym, Bool3, RawStatus3};
 use crate::fmi3::instance::Instance3;
 use crate::fmi3::simulate::{InputPlan3, Recorder3, Request3};
+use crate::me::clocks::{self, ClockFunctions3, ClockSchedule};
 use crate::me::{EventInfo, ModelExchange, StepOutcome};
 use crate::run::{self, ModelExchangeOf};
 use crate::watch::{self, Call};
@@ -53,6 +54,8 @@ pub struct MeFunctions3 {
             usize,
         ) -> RawStatus3,
     >,
+    /// The clock functions (needed by an FMU with periodic input clocks).
+    pub clocks: Option<ClockFunctions3>,
 }
 
 /// The Model Exchange table, when every required function of it is exported.
@@ -74,6 +77,7 @@ pub(crate) unsafe fn resolve(lib: &Library) -> Option<MeFunctions3> {
         get_number_of_event_indicators: sym(lib, "fmi3GetNumberOfEventIndicators")?,
         get_number_of_continuous_states: sym(lib, "fmi3GetNumberOfContinuousStates")?,
         get_directional_derivative: sym(lib, "fmi3GetDirectionalDerivative"),
+        clocks: clocks::resolve(lib),
     })
 }
 
@@ -95,6 +99,8 @@ pub struct Fmi3Me<'i, 'a> {
     known: Vec<u32>,
     seed: Vec<f64>,
     time: f64,
+    /// The periodic input clocks and their next ticks.
+    clocks: ClockSchedule,
 }
 
 impl<'i, 'a> Fmi3Me<'i, 'a> {
@@ -113,6 +119,7 @@ impl<'i, 'a> Fmi3Me<'i, 'a> {
             known: Vec::new(),
             seed: Vec::new(),
             time: 0.0,
+            clocks: ClockSchedule::default(),
             inst,
         };
         me.states = me.count(
@@ -267,12 +274,18 @@ impl ModelExchange for Fmi3Me<'_, '_> {
             )
         };
         self.call("fmi3UpdateDiscreteStates", raw)?;
+        // the next tick of an input clock is a time event too (FMI 3.0.2 section 2.3.5: time
+        // events are announced "through the arguments of fmi3GetShift and fmi3GetInterval")
+        let next_event_time = [(defined != 0).then_some(next), self.clocks.next_tick()]
+            .into_iter()
+            .flatten()
+            .reduce(f64::min);
         Ok(EventInfo {
             new_discrete_states_needed: needed != 0,
             terminate_simulation: terminate != 0,
             nominals_changed: nominals != 0,
             values_changed: values != 0,
-            next_event_time: (defined != 0).then_some(next),
+            next_event_time,
         })
     }
 
@@ -299,6 +312,14 @@ impl ModelExchange for Fmi3Me<'_, '_> {
 
     fn needs_completed_integrator_step(&self) -> bool {
         self.needs_step
+    }
+
+    fn activate_clocks(&mut self, t: f64) -> Result<Vec<u32>> {
+        let due = self.clocks.due(t);
+        if !due.is_empty() {
+            ClockSchedule::activate(self.inst, &due, t)?;
+        }
+        Ok(due)
     }
 
     fn provides_directional_derivative(&self) -> bool {
@@ -352,12 +373,12 @@ impl<'a> ModelExchangeOf for Fmi3Me<'_, 'a> {
     }
 }
 
-/// Runs [`run::integrate`] on `inst` (initialized, in Event Mode): the recorded times and, when
-/// the FMU ended the run, its time.
+/// Runs [`run::integrate`] on `inst` (initialized, in Event Mode) with the input clocks of
+/// `clocks`: the recorded times and, when the FMU ended the run, its time.
 pub(crate) fn run(
     inst: &mut Instance3<'_>,
     req: &Request3,
-    inputs: &mut InputPlan3<'_>,
+    (inputs, clocks): (&mut InputPlan3<'_>, ClockSchedule),
     recorder: &mut Recorder3,
 ) -> Result<(Vec<f64>, Option<f64>)> {
     let md = inst.fmu.model_description();
@@ -369,5 +390,6 @@ pub(crate) fn run(
     )?;
     let mut fmu = Fmi3Me::new(inst)?;
     fmu.time = req.start_time;
+    fmu.clocks = clocks;
     run::integrate(&mut fmu, &settings, inputs, recorder)
 }

@@ -18,6 +18,8 @@
 //!   full error control and needs no change to the integrator's steps.
 //! - **Step events**: `completedIntegratorStep` after every accepted step (unless the FMU
 //!   declares it not needed); `enterEventMode` ends the segment there.
+//! - **Input clocks** (FMI 3.0): the ticks of periodic input clocks are time events; at one the
+//!   clocks due are set active in Event Mode before the event iteration ([`clocks`]).
 //! - **Event iteration**: `newDiscreteStates` until no new discrete states are needed; a
 //!   terminate request ends the run (its rows up to then are kept).
 //! - **Jacobian**: from `fmi2GetDirectionalDerivative` when the FMU provides directional
@@ -27,6 +29,7 @@
 //! - **Recording**: at the start, every output point, and (with `record_events`) before and after
 //!   every event at the same time, as FMPy's `simulate_fmu(record_events=True)` does.
 
+pub mod clocks;
 pub mod fmi2;
 pub mod fmi3;
 
@@ -111,6 +114,11 @@ pub trait ModelExchange {
     fn state_derivative_column(&mut self, j: usize, out: &mut [f64]) -> Result<()> {
         self.state_derivative_seed(&[j], out)
     }
+    /// In Event Mode at `t`: activates the input clocks that tick now (FMI 3.0 fmi3SetClock)
+    /// and returns their value references. Default: none (FMI 2.0 has no clocks).
+    fn activate_clocks(&mut self, _t: f64) -> Result<Vec<u32>> {
+        Ok(Vec::new())
+    }
     /// Per derivative, in the order of the state vector: the states (positions) it depends on
     /// as `<ModelStructure>` declares them, `None` when it declares no dependencies (it may then
     /// depend on every state). Default: `None` for each.
@@ -191,6 +199,11 @@ pub trait Environment<M> {
     fn next_input_event(&self, t: f64) -> f64;
     /// Records the outputs at `t`.
     fn record(&mut self, fmu: &mut M, t: f64) -> Result<()>;
+    /// While the input clocks `clocks` are active (Event Mode, before the event iteration):
+    /// the variables they clock can be read now only (FMI 3.0.2 section 2.2.8.3).
+    fn clocks_active(&mut self, _fmu: &mut M, _clocks: &[u32]) -> Result<()> {
+        Ok(())
+    }
 }
 
 /// The grid and tolerance of a run.
@@ -230,6 +243,7 @@ pub fn run<M: ModelExchange, E: Environment<M>>(
 ) -> Result<Ending> {
     let _integration = watch::enter(Call::HostIntegration, Some(s.start));
     let mut time = s.start;
+    activate_clocks(fmu, env, time)?;
     let info = event_iteration(fmu)?;
     if info.terminate_simulation {
         env.record(fmu, time)?;
@@ -310,6 +324,7 @@ pub fn run<M: ModelExchange, E: Environment<M>>(
         if input_event {
             env.apply_discrete_inputs(fmu, time)?;
         }
+        activate_clocks(fmu, env, time)?;
         let info = event_iteration(fmu)?;
         if info.terminate_simulation {
             return Ok(Ending::Terminated(time));
@@ -325,6 +340,20 @@ pub fn run<M: ModelExchange, E: Environment<M>>(
         // The right-hand side may jump at an event: the step size starts anew.
         integrator.reset_step_size();
     }
+}
+
+/// Activates the input clocks ticking at `t` (in Event Mode) and lets the environment read what
+/// they clock.
+fn activate_clocks<M: ModelExchange, E: Environment<M>>(
+    fmu: &mut M,
+    env: &mut E,
+    t: f64,
+) -> Result<()> {
+    let ticking = fmu.activate_clocks(t)?;
+    if ticking.is_empty() {
+        return Ok(());
+    }
+    env.clocks_active(fmu, &ticking)
 }
 
 /// `newDiscreteStates` until no further iteration is needed or the FMU asks to terminate.

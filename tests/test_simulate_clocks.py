@@ -1,0 +1,104 @@
+"""`simulate` runs FMI 3.0 Model Exchange FMUs with periodic input clocks as the standard asks
+the importer to (FMI 3.0.2 section 2.2.8): each tick of a time-based input clock is a time
+event at t_start + shift + k interval, where the clock is set active with fmi3SetClock in
+Event Mode; the variables it clocks are read only while it is active (or in Initialization
+Mode) and hold their value between ticks. Clock kinds the run does not drive are refused with
+the clause that asks more of the importer.
+
+The fixture (tests/fixtures/toy-fmus/sampler.c) counts the ticks of a clock with interval
+0.25 s and shift 0.1 s into its clocked output n and integrates der(x) = n; it announces no
+time event of its own and fails a read of n while its clock is inactive. Reference values are
+the closed forms n(t) = #{k : t_k <= t}, x(t) = sum over t_k <= t of (t - t_k).
+
+(FMPy's `simulate_fmu` never calls fmi3SetClock in Model Exchange: on an FMU like this it
+reads n outside its clock, which the standard does not allow, and never counts a tick.)
+"""
+import csv
+import subprocess
+import sys
+import zipfile
+
+import numpy as np
+import pytest
+
+from conftest import cli_path
+
+pytestmark = pytest.mark.skipif(sys.platform != "linux",
+                                reason="the fixtures are built for linux64")
+
+SHIFT, INTERVAL, STOP = 0.1, 0.25, 2.0
+TICKS = SHIFT + INTERVAL * np.arange(int((STOP - SHIFT) / INTERVAL) + 1)
+
+
+def run(*args):
+    return subprocess.run([cli_path(), *map(str, args)], capture_output=True, text=True,
+                          timeout=120)
+
+
+def read_csv(path):
+    with open(path, newline="") as f:
+        rows = list(csv.reader(f))
+    return rows[0], np.array(rows[1:], dtype=float)
+
+
+def closed_form(t, after=True):
+    """n and x at t: right after the ticks at t (`after`), or right before them."""
+    done = TICKS <= t if after else TICKS < t - 1e-12
+    return done.sum(), np.sum(t - TICKS[done])
+
+
+def test_a_periodic_input_clock_ticks_at_its_shift_and_interval(toy, tmp_path):
+    out = tmp_path / "o.csv"
+    r = run("simulate", toy("Sampler", 3), "--out", out)
+    assert r.returncode == 0, r.stderr
+    header, rows = read_csv(out)
+    assert header == ["time", "x", "n"]
+    t, x, n = rows.T
+    assert t[0] == 0.0 and t[-1] == pytest.approx(STOP)
+    # every tick is an event: a row before it and one after it, at the tick's time
+    for tk in TICKS:
+        at = np.flatnonzero(np.abs(t - tk) <= 1e-12 * max(1.0, tk))
+        assert len(at) == 2, (tk, t[max(0, at[0] - 2) if len(at) else 0:][:6])
+        assert (n[at[0]], n[at[1]]) == (closed_form(tk, False)[0], closed_form(tk)[0])
+    for k in range(len(t)):
+        # the last row at a time is the value after its events
+        last = k + 1 == len(t) or t[k + 1] != t[k]
+        want_n, want_x = closed_form(t[k], after=last)
+        assert n[k] == want_n, (t[k], n[k], want_n)
+        assert x[k] == pytest.approx(want_x, abs=1e-9), (t[k], x[k], want_x)
+    # before the first tick n is the value of Initialization Mode (an <InitialUnknown>)
+    assert n[0] == 0 and n[t < SHIFT].max() == 0
+
+
+def with_clock(src, dst, old, new):
+    """Copy of the FMU `src` with `old` replaced by `new` in its description."""
+    with zipfile.ZipFile(src) as zin, zipfile.ZipFile(dst, "w", zipfile.ZIP_DEFLATED) as zout:
+        for item in zin.infolist():
+            data = zin.read(item.filename)
+            if item.filename == "modelDescription.xml":
+                md = data.decode()
+                assert old in md
+                data = md.replace(old, new).encode()
+            zout.writestr(item, data)
+    return dst
+
+
+CLOCK = ('<Clock name="tick" valueReference="5" causality="input" variability="discrete" '
+         'intervalVariability="constant" intervalDecimal="0.25" shiftDecimal="0.1"/>')
+
+
+@pytest.mark.parametrize("clock, clause", [
+    ('<Clock name="tick" valueReference="5" causality="input" variability="discrete" '
+     'intervalVariability="countdown"/>', "fmi3GetIntervalDecimal in the Event Mode"),
+    ('<Clock name="tick" valueReference="5" causality="output" variability="discrete" '
+     'intervalVariability="triggered"/>', "fmi3GetClock in Event Mode"),
+])
+def test_a_clock_the_run_does_not_drive_is_refused_citing_the_clause(clock, clause, toy,
+                                                                     tmp_path):
+    fmu = with_clock(toy("Sampler", 3), tmp_path / "Sampler.fmu", CLOCK, clock)
+    out = tmp_path / "o.csv"
+    r = run("simulate", fmu, "--out", out)
+    assert r.returncode == 2, r.stderr
+    assert "clock 'tick' is not supported in Model Exchange" in r.stderr, r.stderr
+    assert clause in r.stderr and "FMI 3.0.2 section 2.2.8.2" in r.stderr, r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1 and not out.exists()
