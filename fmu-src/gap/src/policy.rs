@@ -226,3 +226,18 @@ pub const SHRINK_STEPS: usize = 7;
 pub const PERIODS: [f64; 2] = [0.125, 1.0 / 3.0];
 /// Share of the duration the input rests at its start value before the experiment begins.
 pub const REST: f64 = 0.05;
+
+// --- Effects inert where their refit would start.
+
+/// A setting that changes the outputs by less than this chi-square (the weighted sum of squares
+/// of the change over the training part) is inert: the data cannot tell it from the effect off,
+/// and the sum of squares is flat in the effect's parameters there (a saturation above the
+/// signal's peak, a dead zone of zero width), so a local refit started there stays there.
+pub const INERT_CHI2: f64 = 1.0;
+/// Values tried along each parameter's range when the scan's best setting is inert: a factor
+/// under 1.6 between neighbours on a range of two decades, so a level acting between two of
+/// them starts its refit within its basin.
+pub const RANGE_SEARCH_POINTS: usize = 12;
+/// Where the search of a range that begins at 0 starts, as a share of its upper end: a level
+/// or width acts from above 0, and on a scale no linear grid of the range resolves.
+pub const RANGE_SEARCH_FLOOR: f64 = 1e-3;

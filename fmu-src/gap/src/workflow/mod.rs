@@ -35,6 +35,7 @@ mod ends;
 mod evidence;
 mod finish;
 mod fit;
+mod inert;
 pub(crate) mod noise;
 mod offsets;
 mod refit;
