@@ -241,3 +241,15 @@ pub const RANGE_SEARCH_POINTS: usize = 12;
 /// Where the search of a range that begins at 0 starts, as a share of its upper end: a level
 /// or width acts from above 0, and on a scale no linear grid of the range resolves.
 pub const RANGE_SEARCH_FLOOR: f64 = 1e-3;
+
+// --- What an explanation must explain.
+
+/// Share of the way from the current model's misfit to the data's white noise level (in log
+/// sum of squares, `Σ_k ln(RSS_k / RSS'_k) / Σ_k ln(RSS_k / (N w_k²))`, `w_k` the white level of
+/// output k's second differences) that an effect must cover to be named as an explanation when
+/// the current model is far from the data (an output beyond [`FAR_FROM_NOISE`]). On a model
+/// that far from its data the ΔBIC threshold is passed by any effect that bends a little of
+/// a large misfit away (a delay or a position-dependent friction in place of a missing Coulomb
+/// friction): ΔBIC says the effect helps, not that it is what is missing. An effect that covers
+/// under a tenth of the way leaves the disagreement standing and is not named.
+pub const MIN_EXPLAINED_SHARE: f64 = 0.1;

@@ -33,6 +33,7 @@ mod diagnose;
 mod disagreement;
 mod ends;
 mod evidence;
+mod explain;
 mod finish;
 mod fit;
 mod inert;
