@@ -246,8 +246,8 @@ pub const RANGE_SEARCH_FLOOR: f64 = 1e-3;
 
 /// Share of the way from the current model's misfit to the data's white noise level (in log
 /// sum of squares, `Σ_k ln(RSS_k / RSS'_k) / Σ_k ln(RSS_k / (N w_k²))`, `w_k` the white level of
-/// output k's second differences) that an effect must cover to be named as an explanation when
-/// the current model is far from the data (an output beyond [`FAR_FROM_NOISE`]). On a model
+/// output k's second differences) that the first effect must cover to be named as the
+/// explanation when the base model is far from the data (an output beyond [`FAR_FROM_NOISE`]). On a model
 /// that far from its data the ΔBIC threshold is passed by any effect that bends a little of
 /// a large misfit away (a delay or a position-dependent friction in place of a missing Coulomb
 /// friction): ΔBIC says the effect helps, not that it is what is missing. An effect that covers

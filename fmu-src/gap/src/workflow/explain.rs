@@ -56,7 +56,10 @@ mod tests {
         let s = share(&at(100.0), &at(10.0), &[1.0], n).unwrap();
         assert!((s - 0.5).abs() < 1e-12, "{s}");
         let s = share(&at(100.0), &at(90.0), &[1.0], n).unwrap();
-        assert!((s - libm::log(100.0 / 90.0) / libm::log(100.0)).abs() < 1e-12, "{s}");
+        assert!(
+            (s - libm::log(100.0 / 90.0) / libm::log(100.0)).abs() < 1e-12,
+            "{s}"
+        );
         // A second output already at its white level adds no room; what the effect does to it
         // counts in the gain.
         let before = [at(100.0), at(1.0)].concat();

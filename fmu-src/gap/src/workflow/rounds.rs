@@ -80,9 +80,10 @@ struct Screened {
     order: Vec<(usize, f64)>,
 }
 
-/// The current model a round's candidates are compared with: its fit, and whether some output
-/// misses the data by more than `FAR_FROM_NOISE` noise levels (there ΔBIC says only that an
-/// effect helps, and naming also needs it to explain a share of the misfit).
+/// The current model a round's candidates are compared with: its fit, and whether it is the
+/// base model and some output misses the data by more than `FAR_FROM_NOISE` noise levels (there
+/// ΔBIC says only that an effect helps, and naming the first effect as the explanation also
+/// needs it to explain a share of the misfit).
 #[derive(Clone, Copy)]
 struct Current<'a> {
     fit: &'a FitOut,
@@ -247,7 +248,12 @@ fn one_round<S: GridModel + ?Sized>(
         .into_iter()
         .map(|c| with_visibility(ctx, &sc, cfg.min_delta_bic, c))
         .collect();
-    let current = Current { fit: &st.cur, far };
+    // The first effect named is the explanation the report gives; later ones refine a model
+    // that already explains a share of the misfit and are judged by their evidence.
+    let current = Current {
+        fit: &st.cur,
+        far: far && st.named.is_empty(),
+    };
     match choose(ctx, cfg, &mut ranked, &fits, inp.start_miss, current) {
         Some(i) => {
             let name = ranked[i].effect.clone();
@@ -641,7 +647,7 @@ fn recheck_base<S: GridModel + ?Sized>(
 
 /// Check every refitted candidate in ΔBIC order; the first passing all criteria is named (a
 /// candidate that absorbs part of a different missing effect may top the BIC ranking yet fail on
-/// the held-out part; and on a current model far from the data, one that bends a little of a
+/// the held-out part; and on a base model far from the data, one that bends a little of a
 /// large misfit away passes ΔBIC without being what is missing: it must cover
 /// `MIN_EXPLAINED_SHARE` of the way from the current model to the noise). Writes each checked
 /// candidate's verdict; returns the named one's index.
@@ -668,10 +674,12 @@ fn choose<S: GridModel + ?Sized>(
         if let Some((_, f, _)) = fit {
             c.explained_share = explained_share(ctx, &cur.fit.fit.residuals, &f.fit.residuals);
             match c.explained_share {
-                Some(share) if cur.far && share < MIN_EXPLAINED_SHARE => why.push(Shortfall::ExplainsLittle {
-                    share,
-                    min_share: MIN_EXPLAINED_SHARE,
-                }),
+                Some(share) if cur.far && share < MIN_EXPLAINED_SHARE => {
+                    why.push(Shortfall::ExplainsLittle {
+                        share,
+                        min_share: MIN_EXPLAINED_SHARE,
+                    })
+                }
                 _ => {}
             }
         }

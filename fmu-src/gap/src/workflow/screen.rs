@@ -172,10 +172,9 @@ pub(super) fn scan_starts<S: GridModel + ?Sized>(
             "inert at the scan's best setting: searching {} more settings",
             extra.len()
         ));
-        let more: Vec<(usize, Vec<(usize, f64)>)> = extra;
-        scored.extend(more.par_iter().map(score).collect::<Vec<_>>());
-        given_sse.extend(std::iter::repeat_n(None, more.len()));
-        jobs.extend(more);
+        scored.extend(extra.par_iter().map(score).collect::<Vec<_>>());
+        given_sse.extend(std::iter::repeat_n(None, extra.len()));
+        jobs.extend(extra);
         chosen = lowest(&jobs, &scored);
     }
     // Base start at the chosen point: the current fit or its linearised readjustment.
