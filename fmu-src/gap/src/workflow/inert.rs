@@ -90,7 +90,7 @@ mod tests {
         assert!((v[0] - RANGE_SEARCH_FLOOR * 100.0).abs() < 1e-12);
         assert!((v[v.len() - 1] - 100.0).abs() < 1e-9);
         let r = ratios(&v);
-        let f = (1.0f64 / RANGE_SEARCH_FLOOR).powf(1.0 / (v.len() - 1) as f64);
+        let f = libm::pow(1.0 / RANGE_SEARCH_FLOOR, 1.0 / (v.len() - 1) as f64);
         assert!(r.iter().all(|x| (x - f).abs() < 1e-9), "{r:?}");
         // every value between 2 A and 3 A is within a factor f of a searched one
         assert!(v.iter().any(|x| (2.0..2.0 * f).contains(x)));
