@@ -226,3 +226,30 @@ pub const SHRINK_STEPS: usize = 7;
 pub const PERIODS: [f64; 2] = [0.125, 1.0 / 3.0];
 /// Share of the duration the input rests at its start value before the experiment begins.
 pub const REST: f64 = 0.05;
+
+// --- Effects inert where their refit would start.
+
+/// A setting that changes the outputs by less than this chi-square (the weighted sum of squares
+/// of the change over the training part) is inert: the data cannot tell it from the effect off,
+/// and the sum of squares is flat in the effect's parameters there (a saturation above the
+/// signal's peak, a dead zone of zero width), so a local refit started there stays there.
+pub const INERT_CHI2: f64 = 1.0;
+/// Values tried along each parameter's range when the scan's best setting is inert: a factor
+/// under 1.6 between neighbours on a range of two decades, so a level acting between two of
+/// them starts its refit within its basin.
+pub const RANGE_SEARCH_POINTS: usize = 12;
+/// Where the search of a range that begins at 0 starts, as a share of its upper end: a level
+/// or width acts from above 0, and on a scale no linear grid of the range resolves.
+pub const RANGE_SEARCH_FLOOR: f64 = 1e-3;
+
+// --- What an explanation must explain.
+
+/// Share of the way from the current model's misfit to the data's white noise level (in log
+/// sum of squares, `Σ_k ln(RSS_k / RSS'_k) / Σ_k ln(RSS_k / (N w_k²))`, `w_k` the white level of
+/// output k's second differences) that the first effect must cover to be named as the
+/// explanation when the base model is far from the data (an output beyond [`FAR_FROM_NOISE`]). On a model
+/// that far from its data the ΔBIC threshold is passed by any effect that bends a little of
+/// a large misfit away (a delay or a position-dependent friction in place of a missing Coulomb
+/// friction): ΔBIC says the effect helps, not that it is what is missing. An effect that covers
+/// under a tenth of the way leaves the disagreement standing and is not named.
+pub const MIN_EXPLAINED_SHARE: f64 = 0.1;

@@ -263,6 +263,12 @@ fn shortfalls_text(shortfalls: &[Shortfall]) -> String {
             Shortfall::StartNotReproduced => {
                 "does not explain why the record begins away from the model's initial state".into()
             }
+            Shortfall::ExplainsLittle { share, min_share } => format!(
+                "explains {:.0} % of the misfit beyond the noise (log scale), under the {:.0} % \
+                 an explanation needs",
+                100.0 * share,
+                100.0 * min_share
+            ),
         })
         .collect::<Vec<_>>()
         .join("; ")

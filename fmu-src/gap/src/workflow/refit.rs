@@ -174,6 +174,7 @@ pub(super) fn assess<S: GridModel + ?Sized>(
             visibility_scan: Vec::new(),
             profiled: false,
             inconclusive: false,
+            explained_share: None,
         },
         f,
         r_full,

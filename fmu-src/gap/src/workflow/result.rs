@@ -63,6 +63,10 @@ pub struct Candidate {
     /// Not named, with some evidence short of the threshold (0 < ΔBIC < min ΔBIC, refitted or
     /// linearised): the data neither show the effect nor rule it out at that strength.
     pub inconclusive: bool,
+    /// Share of the way from the current model's misfit to the data's white noise level that
+    /// its refit covers (log sum of squares; see `policy::MIN_EXPLAINED_SHARE`); None when not
+    /// refitted or when the current model is already at that level.
+    pub explained_share: Option<f64>,
 }
 
 /// Whether an effect of visibility `v` (the chi-square drop it brings, linearised) is named
@@ -143,6 +147,7 @@ impl Candidate {
             visibility_scan: Vec::new(),
             profiled: false,
             inconclusive: false,
+            explained_share: None,
         }
     }
 

@@ -6,6 +6,7 @@
 
 use super::diagnose::diagnose;
 use super::evidence::{best_refit_delta_bic, delta_bic, holdout_sse};
+use super::explain::explained_share;
 use super::fit::POLISH_LIMITS;
 use super::refit::{assess, profile_restart, refit};
 use super::screen::{scan_starts, screen, CandidateStart};
@@ -19,7 +20,7 @@ use super::{
 };
 use crate::policy::{
     ALWAYS_REFIT, BASE_RECHECK_ITERATIONS, BASE_RECHECK_REL_TOL, FAR_FROM_NOISE,
-    LATER_ROUND_REFITS, LM_ABS_TOL, REFIT_SCORE_FRACTION,
+    LATER_ROUND_REFITS, LM_ABS_TOL, MIN_EXPLAINED_SHARE, REFIT_SCORE_FRACTION,
 };
 use crate::sim::{GridModel, SimError};
 use rayon::iter::{IndexedParallelIterator, IntoParallelRefIterator, ParallelIterator};
@@ -77,6 +78,16 @@ struct Screened {
     corrected: BTreeMap<usize, f64>,
     /// Candidates by screening score, best first.
     order: Vec<(usize, f64)>,
+}
+
+/// The current model a round's candidates are compared with: its fit, and whether it is the
+/// base model and some output misses the data by more than `FAR_FROM_NOISE` noise levels (there
+/// ΔBIC says only that an effect helps, and naming the first effect as the explanation also
+/// needs it to explain a share of the misfit).
+#[derive(Clone, Copy)]
+struct Current<'a> {
+    fit: &'a FitOut,
+    far: bool,
 }
 
 /// A refitted candidate's fit: (effect name, fit, weighted residual over the whole trace).
@@ -237,7 +248,13 @@ fn one_round<S: GridModel + ?Sized>(
         .into_iter()
         .map(|c| with_visibility(ctx, &sc, cfg.min_delta_bic, c))
         .collect();
-    match choose(ctx, cfg, &mut ranked, &fits, inp.start_miss) {
+    // The first effect named is the explanation the report gives; later ones refine a model
+    // that already explains a share of the misfit and are judged by their evidence.
+    let current = Current {
+        fit: &st.cur,
+        far: far && st.named.is_empty(),
+    };
+    match choose(ctx, cfg, &mut ranked, &fits, inp.start_miss, current) {
         Some(i) => {
             let name = ranked[i].effect.clone();
             let pos = fits
@@ -630,13 +647,17 @@ fn recheck_base<S: GridModel + ?Sized>(
 
 /// Check every refitted candidate in ΔBIC order; the first passing all criteria is named (a
 /// candidate that absorbs part of a different missing effect may top the BIC ranking yet fail on
-/// the held-out part). Writes each checked candidate's verdict; returns the named one's index.
+/// the held-out part; and on a base model far from the data, one that bends a little of a
+/// large misfit away passes ΔBIC without being what is missing: it must cover
+/// `MIN_EXPLAINED_SHARE` of the way from the current model to the noise). Writes each checked
+/// candidate's verdict; returns the named one's index.
 fn choose<S: GridModel + ?Sized>(
     ctx: &Ctx<'_, S>,
     cfg: &Config,
     ranked: &mut [Candidate],
     fits: &[Fitted],
     start_miss: Option<&StartMiss>,
+    cur: Current<'_>,
 ) -> Option<usize> {
     let mut chosen = None;
     for (i, c) in ranked.iter_mut().enumerate() {
@@ -644,9 +665,22 @@ fn choose<S: GridModel + ?Sized>(
             continue;
         }
         let mut why = shortfalls(c, cfg.min_delta_bic, ctx.n_train >= ctx.n);
-        if let (Some(miss), Some((_, _, r))) = (start_miss, fits.iter().find(|x| x.0 == c.effect)) {
+        let fit = fits.iter().find(|x| x.0 == c.effect);
+        if let (Some(miss), Some((_, _, r))) = (start_miss, fit) {
             if !reproduces_start(ctx, miss, r, true) {
                 why.push(Shortfall::StartNotReproduced);
+            }
+        }
+        if let Some((_, f, _)) = fit {
+            c.explained_share = explained_share(ctx, &cur.fit.fit.residuals, &f.fit.residuals);
+            match c.explained_share {
+                Some(share) if cur.far && share < MIN_EXPLAINED_SHARE => {
+                    why.push(Shortfall::ExplainsLittle {
+                        share,
+                        min_share: MIN_EXPLAINED_SHARE,
+                    })
+                }
+                _ => {}
             }
         }
         if why.is_empty() {
@@ -711,9 +745,11 @@ fn adopt<S: GridModel + ?Sized>(
 fn none_named(cfg: &Config, ranked: &[Candidate], named: &[String], no_holdout: bool) -> Verdict {
     let closest = &ranked[0];
     let why = if closest.refit {
-        ClosestShortfall::Refitted {
-            shortfalls: shortfalls(closest, cfg.min_delta_bic, no_holdout),
-        }
+        let shortfalls = match &closest.verdict {
+            CandidateVerdict::NotNamed { shortfalls, .. } => shortfalls.clone(),
+            _ => shortfalls(closest, cfg.min_delta_bic, no_holdout),
+        };
+        ClosestShortfall::Refitted { shortfalls }
     } else {
         ClosestShortfall::NotRefitted {
             delta_bic: closest.delta_bic,

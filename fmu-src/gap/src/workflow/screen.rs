@@ -6,9 +6,9 @@
 //! parameters there; the statistic is the linearised ΔBIC of the augmented regression.
 
 use super::evidence::{delta_bic, delta_bic_naive, row_weights};
-use super::{regress, Ctx, FitOut, ModelState, VisibilityPoint};
+use super::{inert, regress, Ctx, FitOut, ModelState, VisibilityPoint};
 use crate::lm::{self, Bounded};
-use crate::policy::{SCAN_FRACTIONS, SENSITIVITY_STEP};
+use crate::policy::{INERT_CHI2, SCAN_FRACTIONS, SENSITIVITY_STEP};
 use crate::sim::GridModel;
 use nalgebra::{DMatrix, DVector};
 use rayon::iter::{IndexedParallelIterator, IntoParallelRefIterator, ParallelIterator};
@@ -101,30 +101,34 @@ pub(super) fn scan_starts<S: GridModel + ?Sized>(
         }
         pts
     };
-    let jobs: Vec<(usize, Vec<(usize, f64)>)> = cand
+    let mut jobs: Vec<(usize, Vec<(usize, f64)>)> = cand
         .iter()
         .flat_map(|&e| points(e).into_iter().map(move |p| (e, p)))
         .collect();
-    // (sum at fixed base, sum after the linearised readjustment, readjustment in z, visibility)
-    type Scored = (f64, f64, DVector<f64>, Option<f64>);
-    let scored: Vec<Option<Scored>> = jobs
-        .par_iter()
-        .map(|(e, pt)| {
-            let set = ctx.settings(&cur.state, Some(*e), pt);
-            let r = ctx
-                .measured_outputs(&set, n)
-                .map(|y| ctx.residual(&y, n))
-                .ok()?;
-            ctx.pb.tick();
-            let fixed = lm::sse(&r);
-            let (res, beta) = regress(&cur.fit.jac, &r);
-            let lin = lm::sse(&res);
-            let vis = visibility(&cur.fit.jac, &cur.fit.residuals, &r, &ctx.sample_weights());
-            (fixed.is_finite() && lin.is_finite()).then_some((fixed, lin, -beta, vis))
-        })
-        .collect();
+    // (sum at fixed base, sum after the linearised readjustment, readjustment in z, visibility,
+    // chi-square of the change from the current fit)
+    type Scored = (f64, f64, DVector<f64>, Option<f64>, f64);
+    let score = |(e, pt): &(usize, Vec<(usize, f64)>)| -> Option<Scored> {
+        let set = ctx.settings(&cur.state, Some(*e), pt);
+        let r = ctx
+            .measured_outputs(&set, n)
+            .map(|y| ctx.residual(&y, n))
+            .ok()?;
+        ctx.pb.tick();
+        let fixed = lm::sse(&r);
+        let (res, beta) = regress(&cur.fit.jac, &r);
+        let lin = lm::sse(&res);
+        let vis = visibility(&cur.fit.jac, &cur.fit.residuals, &r, &ctx.sample_weights());
+        let change: f64 = r
+            .iter()
+            .zip(&cur.fit.residuals)
+            .map(|(a, b)| (a - b) * (a - b))
+            .sum();
+        (fixed.is_finite() && lin.is_finite()).then_some((fixed, lin, -beta, vis, change))
+    };
+    let mut scored: Vec<Option<Scored>> = jobs.par_iter().map(score).collect();
     // Sum of squares at every point with the base values as given instead of fitted.
-    let given_sse: Vec<Option<f64>> = jobs
+    let mut given_sse: Vec<Option<f64>> = jobs
         .par_iter()
         .map(|(e, pt)| {
             let st = given?;
@@ -137,16 +141,42 @@ pub(super) fn scan_starts<S: GridModel + ?Sized>(
         })
         .collect();
     // Per candidate, the scored point with the lowest readjusted sum.
-    let chosen: Vec<Option<usize>> = cand
+    let lowest = |jobs: &[(usize, Vec<(usize, f64)>)], scored: &[Option<Scored>]| {
+        cand.iter()
+            .map(|&e| {
+                (0..jobs.len())
+                    .filter(|&k| jobs[k].0 == e)
+                    .filter_map(|k| scored[k].as_ref().map(|x| (k, x.1)))
+                    .min_by(|a, b| a.1.total_cmp(&b.1))
+                    .map(|(k, _)| k)
+            })
+            .collect::<Vec<Option<usize>>>()
+    };
+    let mut chosen = lowest(&jobs, &scored);
+    // A best setting that is inert (the effect changes nothing there) gives its refit no
+    // gradient: search that candidate's range more finely, then choose again.
+    let extra: Vec<(usize, Vec<(usize, f64)>)> = cand
         .iter()
-        .map(|&e| {
-            (0..jobs.len())
-                .filter(|&k| jobs[k].0 == e)
-                .filter_map(|k| scored[k].as_ref().map(|x| (k, x.1)))
-                .min_by(|a, b| a.1.total_cmp(&b.1))
-                .map(|(k, _)| k)
+        .zip(&chosen)
+        .filter_map(|(&e, k)| {
+            let k = (*k)?;
+            let inert = scored[k].as_ref()?.4 < INERT_CHI2;
+            inert
+                .then(|| inert::search_points(ctx, e, &jobs[k].1))
+                .map(|pts| pts.into_iter().map(move |p| (e, p)))
         })
+        .flatten()
         .collect();
+    if !extra.is_empty() {
+        ctx.stage(format!(
+            "inert at the scan's best setting: searching {} more settings",
+            extra.len()
+        ));
+        scored.extend(extra.par_iter().map(score).collect::<Vec<_>>());
+        given_sse.extend(std::iter::repeat_n(None, extra.len()));
+        jobs.extend(extra);
+        chosen = lowest(&jobs, &scored);
+    }
     // Base start at the chosen point: the current fit or its linearised readjustment.
     chosen
         .par_iter()
@@ -185,7 +215,7 @@ pub(super) fn scan_starts<S: GridModel + ?Sized>(
                     screen_effect: Vec::new(),
                 };
             };
-            let (fixed, _, step, _) = scored[k].as_ref().expect("chosen points are scored");
+            let (fixed, _, step, _, _) = scored[k].as_ref().expect("chosen points are scored");
             let pt = jobs[k].1.clone();
             let moved: Vec<f64> = cur
                 .bounds

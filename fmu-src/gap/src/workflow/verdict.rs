@@ -44,6 +44,9 @@ pub enum Shortfall {
     HoldoutNotLower,
     /// The record begins away from the model's initial state and its fit does not explain why.
     StartNotReproduced,
+    /// It covers only `share` of the way from the current misfit to the data's white noise level
+    /// (in log sum of squares), less than `min_share`: it helps, but the disagreement stands.
+    ExplainsLittle { share: f64, min_share: f64 },
 }
 
 /// Why a candidate of one round was or was not named.
