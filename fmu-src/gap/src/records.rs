@@ -240,9 +240,10 @@ impl<'a, S: GridModel + ?Sized> Joined<'a, S> {
                     .map(|(m, d)| m - d)
                     .sum::<f64>()
                     / o.measured.len().max(1) as f64;
-                e.unexplained_rms = (e.rmse_after.powi(2) - e.noise_white.powi(2))
-                    .max(0.0)
-                    .sqrt();
+                e.unexplained_rms = (crate::stats::sq(e.rmse_after)
+                    - crate::stats::sq(e.noise_white))
+                .max(0.0)
+                .sqrt();
             }
         }
     }
