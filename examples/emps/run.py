@@ -116,18 +116,17 @@ def main() -> int:
     subprocess.run([sys.executable, str(ROOT / "scripts" / "emps_csv.py"), "--data-dir",
                     str(a.data_dir), "--out-dir", str(csv)], check=True)
     out = a.work / "report"
-    est, pul = csv / "emps_estimation.csv", csv / "emps_pulses.csv"
-    cmd = [str(a.cli), "gap", str(a.fmu), "--data", str(est), "--validate", str(pul),
-           "--out", str(out), "--quiet"]
-    subprocess.run(cmd, check=True)
+    # Run in the records' folder so that the report and its figures name them by file name.
+    est, pul = "emps_estimation.csv", "emps_pulses.csv"
+    cmd = [str(a.cli.resolve()), "gap", str(a.fmu.resolve()), "--data", est, "--validate", pul,
+           "--out", str(out.resolve()), "--quiet"]
+    subprocess.run(cmd, check=True, cwd=csv)
     rep = json.loads((out / "report.json").read_text())
     for f in COMMITTED_FIGURES:
         shutil.copy(out / f, HERE / f)
     # report.md with the paths of this repository, not of the machine that ran it.
     md = (out / "report.md").read_text()
-    for p, rel in ((est, "emps_estimation.csv"), (pul, "emps_pulses.csv"),
-                   (a.fmu, "dist/EMPS.fmu")):
-        md = md.replace(str(p), rel)
+    md = md.replace(str(a.fmu.resolve()), "dist/EMPS.fmu")
     (HERE / "report.md").write_text(md)
     results = table(rep)
     (HERE / "results.md").write_text("# EMPS: gap's fit beside the published values\n\n"
