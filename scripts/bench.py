@@ -361,6 +361,8 @@ BENCHES = {
     "fmi3-cs": lambda: [bench_fmi3_cs(m) for m in MODELS],
     "me-fixtures": lambda: [bench_me(*f) for f in ME_FIXTURES],
     "gap": bench_gap,
+    "gap-emps": lambda: subprocess.run(
+        [sys.executable, str(REPO / "scripts" / "bench_gap.py"), "--emps"], check=True),
 }
 
 

@@ -5,7 +5,12 @@ a Python workflow in the same run that does the workflow's first steps on the sa
 FMPy and SciPy (calibrate, screen every candidate, refit the best, held-out check; see
 PythonWorkflow). gap goes on with a second round, the base re-check and the final fit for the
 intervals, so a second line compares the wall time per simulation of the two.
---quick: a 2 s trace; --smoke (the tests): 0.5 s, to check that every part runs and prints."""
+--quick: a 2 s trace; --smoke (the tests): 0.5 s, to check that every part runs and prints.
+
+A further line times gap on a real record, the EMPS estimation record (24 841 samples at 1 kHz,
+24.8 s; converted by scripts/emps_csv.py from ../shared/data/emps/, skipped without it), default
+candidates, as examples/emps/run.py runs it; the target is 60 s on 2 cores. --emps: that line
+(scripts/bench runs it as `gap-emps`)."""
 import json
 import subprocess
 import sys
@@ -131,5 +136,38 @@ def main():
           f"actuator-fmu gap {gap_ms:.0f} ms)", flush=True)
 
 
+EMPS_DATA = REPO.parent / "shared" / "data" / "emps"
+EMPS_TARGET_S = 60.0
+
+
+def emps():
+    """gap on the whole EMPS estimation record: wall time, its split and what it named."""
+    if not (EMPS_DATA / "DATA_EMPS.mat").exists():
+        print(f"gap EMPS: {EMPS_DATA}/DATA_EMPS.mat not found (EMPS.zip of "
+              "nonlinearbenchmark.org), line skipped", flush=True)
+        return
+    with tempfile.TemporaryDirectory() as d:
+        subprocess.run([sys.executable, str(REPO / "scripts" / "emps_csv.py"), "--data-dir",
+                        str(EMPS_DATA), "--out-dir", d], check=True, stdout=subprocess.DEVNULL)
+        out = Path(d) / "report"
+        t0 = time.perf_counter()
+        subprocess.run([str(REPO / "target/release/actuator-fmu"), "gap",
+                        str(REPO / "dist/EMPS.fmu"), "--data", str(Path(d) / "emps_estimation.csv"),
+                        "--out", str(out), "--quiet"], check=True, stdout=subprocess.DEVNULL,
+                       stderr=subprocess.DEVNULL)
+        wall = time.perf_counter() - t0
+        report = json.loads((out / "report.json").read_text())
+    timing = report["timing"]
+    verdict = "within" if wall <= EMPS_TARGET_S else "ABOVE"
+    print(f"gap EMPS time {wall:.1f} s wall for the estimation record (24.8 s at 1 kHz, "
+          f"{report['samples']} samples; named {report['named']}); split: simulate "
+          f"{timing['simulate_s']:.1f} s, fit {timing['fit_s']:.1f} s, {timing['simulations']} "
+          f"simulations on {timing['threads']} threads; {verdict} the {EMPS_TARGET_S:g} s target",
+          flush=True)
+
+
 if __name__ == "__main__":
-    main()
+    if "--emps" in sys.argv:
+        emps()
+    else:
+        main()

@@ -1,9 +1,13 @@
-//! `actuator-fmu gap FMU --data measured.csv --out DIR [--fit NAME,...] [--effects a,b]
-//! [--rounds N] [--set NAME=VALUE ...]`: the gap workflow (crate `gap`).
+//! `actuator-fmu gap FMU --data measured.csv [--data more.csv ...] [--validate other.csv ...]
+//! --out DIR [--fit NAME,...] [--effects a,b] [--rounds N] [--set NAME=VALUE ...]`: the gap
+//! workflow (crate `gap`); several `--data` are fitted with one parameter set (`gap::records`),
+//! `--validate` records are not fitted but reported (`gap::validation`).
 
 use crate::common::{numeric_sets, CliError, CliResult};
 use crate::open::AnyFmu;
-use gap::{Config, Data, GapError};
+use gap::records::Joined;
+use gap::records_report::Extras;
+use gap::{Config, Data, GapError, GapResult, GridModel};
 use host::csv::{read_csv, CsvError};
 use std::path::{Path, PathBuf};
 
@@ -13,9 +17,15 @@ pub struct Args {
     /// The FMU (.fmu file or extracted directory).
     pub fmu: PathBuf,
     /// Measured CSV: `time` first, input columns named as FMU inputs (missing inputs keep their
-    /// start value), output columns named as FMU outputs (any subset), SI units.
-    #[arg(long)]
-    pub data: PathBuf,
+    /// start value), output columns named as FMU outputs (any subset), SI units. Repeatable:
+    /// several records (the same output columns) are fitted with one parameter set, each
+    /// beginning in its own state and weighted by its own noise levels.
+    #[arg(long, required = true)]
+    pub data: Vec<PathBuf>,
+    /// A record not fitted: the report gives the error of the base and final models on it
+    /// (repeatable; same columns as --data).
+    #[arg(long, value_name = "CSV")]
+    pub validate: Vec<PathBuf>,
     /// Directory for report.json, report.md, traces.csv and the PNG plots.
     #[arg(long)]
     pub out: PathBuf,
@@ -71,7 +81,10 @@ pub struct Args {
 /// The report directory must not be an input, nor hold an input under a name the report writes
 /// (report.json, report.md, traces.csv, *.png).
 fn refuse_writing_over_inputs(a: &Args) -> Result<(), CliError> {
-    let inputs = [a.fmu.as_path(), a.data.as_path()];
+    let inputs: Vec<&Path> = std::iter::once(a.fmu.as_path())
+        .chain(a.data.iter().map(PathBuf::as_path))
+        .chain(a.validate.iter().map(PathBuf::as_path))
+        .collect();
     crate::common::refuse_overwriting(&a.out, &inputs)?;
     let Ok(out) = a.out.canonicalize() else {
         return Ok(());
@@ -82,7 +95,8 @@ fn refuse_writing_over_inputs(a: &Args) -> Result<(), CliError> {
         };
         let name = real.file_name().unwrap_or_default().to_string_lossy();
         let written = ["report.json", "report.md", "traces.csv"].contains(&name.as_ref())
-            || name.ends_with(".png");
+            || name.ends_with(".png")
+            || (name.starts_with("validation-") && name.ends_with(".csv"));
         if written && real.parent() == Some(out.as_path()) {
             return Err(CliError::input(format!(
                 "--out {}: the report would overwrite the input {}",
@@ -134,6 +148,87 @@ pub fn load_data(md: &host::ModelView, path: &Path) -> Result<Data, CliError> {
     })
 }
 
+/// The gap workflow on one record, or on several joined (`gap::records`): the result with
+/// its scale taken off, and the report's record map.
+fn run_records(
+    fmu: &AnyFmu,
+    data: &[Data],
+    names: &[String],
+    cfg: &Config,
+) -> Result<(GapResult, Extras), CliError> {
+    let fail = |e: GapError| match e {
+        GapError::Input(e) => CliError::input(e),
+        GapError::Simulation(m) => CliError::failure(format!("simulation failed: {m}")),
+    };
+    let sims = data
+        .iter()
+        .map(|d| fmu.simulator(d))
+        .collect::<Result<Vec<_>, GapError>>()
+        .map_err(CliError::input)?;
+    if let [sim] = sims.as_slice() {
+        let res = gap::run(sim, &data[0], cfg).map_err(fail)?;
+        return Ok((res, Extras::default()));
+    }
+    let (joined, jdata, train) =
+        Joined::new(sims.iter().collect(), data, names, cfg.holdout).map_err(CliError::input)?;
+    let cfg = Config {
+        train_samples: Some(train),
+        ..cfg.clone()
+    };
+    let mut res = gap::run(&joined, &jdata, &cfg).map_err(fail)?;
+    joined.unscale(&mut res);
+    let trace_origin = joined
+        .sample_origin()
+        .into_iter()
+        .map(|(r, i)| (r + 1, data[r].time[i]))
+        .collect();
+    let extras = Extras {
+        records: joined.spans().to_vec(),
+        trace_origin,
+        ..Extras::default()
+    };
+    Ok((res, extras))
+}
+
+/// The base and final models of `res` on each record not fitted.
+fn validate_records(
+    fmu: &AnyFmu,
+    paths: &[PathBuf],
+    res: &GapResult,
+) -> Result<Vec<gap::validation::Validation>, CliError> {
+    let md = fmu.view();
+    paths
+        .iter()
+        .map(|p| {
+            let data = load_data(md, p)?;
+            let sim = fmu.simulator(&data).map_err(CliError::input)?;
+            check_columns(&sim, &data, p)?;
+            gap::validation::validate(&sim, &data, &p.display().to_string(), res).map_err(|e| {
+                match e {
+                    GapError::Input(e) => CliError::input(e),
+                    GapError::Simulation(m) => CliError::failure(format!(
+                        "--validate {}: simulation failed: {m}",
+                        p.display()
+                    )),
+                }
+            })
+        })
+        .collect()
+}
+
+/// Every output column of a record not fitted is an output of the model.
+fn check_columns(sim: &impl GridModel, data: &Data, path: &Path) -> Result<(), CliError> {
+    for (name, _) in &data.outputs {
+        if !sim.output_names().contains(name) {
+            return Err(CliError::input(format!(
+                "--validate {}: '{name}' is not an output of the FMU",
+                path.display()
+            )));
+        }
+    }
+    Ok(())
+}
+
 /// Runs `gap`.
 pub fn run(a: Args) -> CliResult {
     refuse_writing_over_inputs(&a)?;
@@ -144,7 +239,12 @@ pub fn run(a: Args) -> CliResult {
     let fmu = AnyFmu::open(&a.fmu, &opts)?;
     let md = fmu.view();
     let fixed = numeric_sets(md, &a.set, "gap")?;
-    let data = load_data(md, &a.data)?;
+    let data = a
+        .data
+        .iter()
+        .map(|p| load_data(md, p))
+        .collect::<Result<Vec<Data>, CliError>>()?;
+    let names: Vec<String> = a.data.iter().map(|p| p.display().to_string()).collect();
     // The held-out end decides whether an effect generalises; without it nothing can be named.
     if !(a.holdout > 0.0 && a.holdout < 0.9) {
         return Err(CliError::input(format!(
@@ -165,18 +265,16 @@ pub fn run(a: Args) -> CliResult {
         offsets: a.offsets.clone(),
         ..Config::default()
     };
-    let sim = fmu.simulator(&data).map_err(CliError::input)?;
-    let res = gap::run(&sim, &data, &cfg).map_err(|e| match e {
-        GapError::Input(e) => CliError::input(e),
-        GapError::Simulation(m) => CliError::failure(format!("simulation failed: {m}")),
-    })?;
+    let (res, mut extras) = run_records(&fmu, &data, &names, &cfg)?;
+    extras.validation = validate_records(&fmu, &a.validate, &res)?;
     std::fs::create_dir_all(&a.out)
         .map_err(|e| CliError::failure(format!("{}: {e}", a.out.display())))?;
-    let plots = gap::plots::write(&res, &a.out);
-    let (fmu_s, data_s) = (a.fmu.display().to_string(), a.data.display().to_string());
-    gap::report::write(&res, &a.out, &fmu_s, &data_s, &plots)
+    let mut plots = gap::plots::write(&res, &a.out);
+    plots.extend(gap::plots::write_validation(&extras.validation, &a.out));
+    let fmu_s = a.fmu.display().to_string();
+    gap::report::write(&res, &a.out, &fmu_s, &names[0], &plots, &extras)
         .map_err(|e| CliError::failure(format!("{}: {e}", a.out.display())))?;
-    out!("{}: {}", a.data.display(), gap::report::verdict_text(&res));
+    out!("{}: {}", names.join(" + "), gap::report::verdict_text(&res));
     for w in res.warnings.iter().chain(&res.convention_warnings) {
         out!("warning: {w}");
     }
@@ -205,6 +303,18 @@ pub fn run(a: Args) -> CliResult {
             o.max_before,
             o.max_after
         );
+    }
+    for v in &extras.validation {
+        for (name, e) in &v.outputs {
+            out!(
+                "  {} (not fitted) {name}: RMSE base fit {:.4e}, final {:.4e}; max final {:.4e} at t = {} s",
+                v.data,
+                e.rmse_base,
+                e.rmse_final,
+                e.max_final,
+                e.max_final_at_s
+            );
+        }
     }
     out!(
         "time {:.1} s (simulation {:.1} s, fitting {:.1} s, {} simulations); report: {}",

@@ -32,10 +32,13 @@ pub mod lm;
 pub mod method {}
 pub mod plots;
 pub mod policy;
+pub mod records;
+pub mod records_report;
 pub mod report;
 pub mod sim;
 pub mod spec;
 pub mod stats;
+pub mod validation;
 pub mod workflow;
 
 pub use sim::GridModel;

@@ -1,6 +1,7 @@
 //! PNG plots (plotters): measured vs model before/after, residuals over time, residual against
 //! the variable that reveals the effect.
 
+use crate::validation::Validation;
 use crate::workflow::GapResult;
 use plotters::prelude::*;
 use plotters::style::register_font;
@@ -232,6 +233,65 @@ pub fn write(res: &GapResult, dir: &Path) -> Vec<String> {
         go(format!("residual_vs_{}.png", file_safe(var)), &|p| {
             revealing_png(res, p)
         });
+    }
+    names
+}
+
+/// Measured vs the base fit and the final model per output on a record not fitted.
+fn validation_png(v: &Validation, path: &Path) -> Result<(), DynErr> {
+    let k = v.traces.len().max(1);
+    let root = BitMapBackend::new(path, (1100, 260 * k as u32)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let areas = root.split_evenly((k, 1));
+    let (t0, t1) = (v.time[0], *v.time.last().unwrap_or(&1.0));
+    for (area, o) in areas.iter().zip(&v.traces) {
+        let (lo, hi) = bounds(&[&o.measured, &o.base, &o.final_model]);
+        let mut ch = ChartBuilder::on(area)
+            .caption(
+                format!("{}: record not fitted, {}", o.name, v.data),
+                ("sans-serif", 16),
+            )
+            .margin(8)
+            .x_label_area_size(28)
+            .y_label_area_size(70)
+            .build_cartesian_2d(t0..t1, lo..hi)?;
+        ch.configure_mesh()
+            .x_desc("time [s]")
+            .max_light_lines(2)
+            .draw()?;
+        labelled_line(
+            &mut ch,
+            &v.time,
+            &o.measured,
+            RGBColor(150, 150, 150),
+            "measured",
+        )?;
+        labelled_line(&mut ch, &v.time, &o.base, RGBColor(230, 140, 0), "base fit")?;
+        labelled_line(&mut ch, &v.time, &o.final_model, RED, "final")?;
+        ch.configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()?;
+    }
+    root.present()?;
+    Ok(())
+}
+
+/// Draw `validation-<i>.png` (i from 1) for each record not fitted; returns the names written.
+pub fn write_validation(validation: &[Validation], dir: &Path) -> Vec<String> {
+    let mut names = Vec::new();
+    if embedded_font().is_err() {
+        return names;
+    }
+    for (i, v) in validation.iter().enumerate() {
+        if v.time.len() < 2 {
+            continue;
+        }
+        let name = format!("validation-{}.png", i + 1);
+        match validation_png(v, &dir.join(&name)) {
+            Ok(()) => names.push(name),
+            Err(e) => eprintln!("warning: plot {name} not written: {e}"),
+        }
     }
     names
 }

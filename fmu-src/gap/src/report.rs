@@ -1,6 +1,7 @@
 //! `report.json` (for scripts and CI) and `report.md` (for the engineer) of one gap run.
 
 use crate::policy::NOISE_RMS_RATIO;
+use crate::records_report::Extras;
 use crate::workflow::{
     Candidate, CandidateVerdict, ClosestShortfall, Disagreement, GapResult, LeftOpen, Shortfall,
     Verdict,
@@ -380,8 +381,8 @@ pub fn design_commands(
 /// The JSON document: `named`, `candidates` (per round, ranked), `parameters`, `offsets` (the
 /// outputs' estimated offsets, measured − model, when asked for), `outputs`,
 /// `timing`, plus the diagnosis and settings.
-pub fn to_json(res: &GapResult, fmu: &str, data: &str) -> Value {
-    json!({
+pub fn to_json(res: &GapResult, fmu: &str, data: &str, extras: &Extras) -> Value {
+    let mut doc = json!({
         "fmu": fmu,
         "data": data,
         "in_short": in_short(res),
@@ -405,7 +406,9 @@ pub fn to_json(res: &GapResult, fmu: &str, data: &str) -> Value {
         "samples": res.samples,
         "train_samples": res.train_samples,
         "holdout_fraction": res.holdout_fraction,
-    })
+    });
+    extras.add_json(&mut doc);
+    doc
 }
 
 fn g(x: f64) -> String {
@@ -419,9 +422,19 @@ fn g(x: f64) -> String {
 }
 
 /// The human-readable report.
-pub fn to_markdown(res: &GapResult, fmu: &str, data: &str, plots: &[String]) -> String {
+pub fn to_markdown(
+    res: &GapResult,
+    fmu: &str,
+    data: &str,
+    plots: &[String],
+    extras: &Extras,
+) -> String {
     let mut s = String::new();
-    let _ = writeln!(s, "# Gap report\n\nFMU `{fmu}`, data `{data}` ({} samples; fits on the first {}, the last {:.0} % held out).\n", res.samples, res.train_samples, 100.0 * res.holdout_fraction);
+    if extras.records.len() > 1 {
+        let _ = writeln!(s, "# Gap report\n\nFMU `{fmu}`, {} records fitted together, the first `{data}` ({} samples in all; fits on the first {} of the joined records, the last {:.0} % of each held out).\n", extras.records.len(), res.samples, res.train_samples, 100.0 * res.holdout_fraction);
+    } else {
+        let _ = writeln!(s, "# Gap report\n\nFMU `{fmu}`, data `{data}` ({} samples; fits on the first {}, the last {:.0} % held out).\n", res.samples, res.train_samples, 100.0 * res.holdout_fraction);
+    }
     let _ = writeln!(s, "**In short:** {}\n", in_short(res));
     let _ = writeln!(s, "**Verdict:** {}\n", verdict_text(res));
     for w in res.warnings.iter().chain(&res.convention_warnings) {
@@ -568,6 +581,7 @@ pub fn to_markdown(res: &GapResult, fmu: &str, data: &str, plots: &[String]) -> 
         );
     }
     let _ = writeln!(s, "\n\"noise σ\" is the noise model's level (the marginal one for correlated noise), \"white noise\" the level of the data's second differences that no model explains, \"unexplained beyond white\" √(RMSE after² − white²): where noise σ is far above the white level, the correlated part is noise or a misfit no candidate explains, and these two columns bound it. \"before\" is the model as given (start values, `--set` applied, effects off); \"base fit\" the calibrated model without effects; \"after\" the final model with the named effects (after the rounds, with the named effects chosen, its parameters are refitted on the whole trace; errors over the whole trace).\n");
+    s.push_str(&extras.markdown());
     let t = &res.timing;
     let _ = writeln!(s, "## Timing\n\ntotal {:.2} s: simulation {:.2} s, fitting {:.2} s; {} simulations on {} threads.\n", t.total_s, t.simulate_s, t.fit_s, t.simulations, t.threads);
     if !plots.is_empty() {
@@ -587,18 +601,26 @@ pub fn write(
     fmu: &str,
     data: &str,
     plots: &[String],
+    extras: &Extras,
 ) -> std::io::Result<()> {
     std::fs::create_dir_all(dir)?;
-    let j = to_json(res, fmu, data);
+    let j = to_json(res, fmu, data, extras);
     let json = serde_json::to_string_pretty(&j).unwrap_or_default();
-    let md = to_markdown(res, fmu, data, plots);
+    let md = to_markdown(res, fmu, data, plots, extras);
     for (name, text) in [("report.json", json), ("report.md", md)] {
         host::csv::write_atomically(&dir.join(name), |mut f| {
             std::io::Write::write_all(&mut f, text.as_bytes())
         })?;
     }
+    extras.write_traces(dir)?;
     host::csv::write_atomically(&dir.join("traces.csv"), |f| {
-        let (names, columns) = trace_columns(res);
+        let (mut names, mut columns) = trace_columns(res);
+        if !extras.trace_origin.is_empty() {
+            names.insert(0, "record".into());
+            columns.insert(0, extras.trace_origin.iter().map(|o| o.0 as f64).collect());
+            names.insert(1, "record_time".into());
+            columns.insert(1, extras.trace_origin.iter().map(|o| o.1).collect());
+        }
         host::csv::write_csv_to(
             std::io::BufWriter::new(f),
             &res.traces.time,

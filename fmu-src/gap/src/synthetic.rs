@@ -350,7 +350,15 @@ fn report_and_plots_are_written() {
         std::fs::create_dir_all(&dir).unwrap();
         dir.clone()
     });
-    crate::report::write(&r, &dir, "synthetic", "synthetic", &plots).unwrap();
+    crate::report::write(
+        &r,
+        &dir,
+        "synthetic",
+        "synthetic",
+        &plots,
+        &Default::default(),
+    )
+    .unwrap();
     let j: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).unwrap()).unwrap();
     assert_eq!(j["named"][0], "friction");

@@ -107,6 +107,9 @@ pub struct Config {
     /// Measured outputs whose constant offset (a sensor zero error: measured − model) is
     /// estimated with the parameters (`--offset`).
     pub offsets: Vec<String>,
+    /// Samples of the training part, when the data are several records joined with their
+    /// training parts first ([`crate::records`]); `None`: the first `1 − holdout` of the trace.
+    pub train_samples: Option<usize>,
 }
 
 impl Default for Config {
@@ -124,6 +127,7 @@ impl Default for Config {
             profile_restart: true,
             trace: false,
             offsets: Vec::new(),
+            train_samples: None,
         }
     }
 }
@@ -144,6 +148,12 @@ pub enum GapError {
 pub enum InputError {
     #[error("the data need at least two rows")]
     NoSampleInterval,
+    /// Records fitted together must measure the same outputs.
+    #[error("records fitted together must have the same output columns: the first has [{}], another [{}]", .first.join(", "), .other.join(", "))]
+    RecordOutputs {
+        first: Vec<String>,
+        other: Vec<String>,
+    },
     #[error("need at least {need} samples, got {got}")]
     TooFewSamples { got: usize, need: usize },
     #[error("the data hold no output column to compare with")]
@@ -255,6 +265,14 @@ pub fn run<S: GridModel + ?Sized>(
     let nominal = measured_part(&ctx, &simulate_all(&ctx, &st0)?);
     // 1. Calibrate the base model, with the record's initial state and noise model.
     let (ctx, base) = calibrate_base_model(ctx, st0, &model.initial_idx)?;
+    let base_values = base
+        .fit
+        .state
+        .idx
+        .iter()
+        .zip(&base.fit.state.val)
+        .map(|(&i, &v)| (ctx.params[i].name.clone(), v))
+        .collect();
     // 2. Locate the disagreement.
     let diagnosis0 = diagnose(&ctx, data, &base.all, &model.names);
     let revealing = revealing_variable(&diagnosis0, data, &model.names, &base.all, ctx.n);
@@ -309,6 +327,7 @@ pub fn run<S: GridModel + ?Sized>(
         candidates: rounds.candidates,
         redone_rounds: rounds.redone,
         calibration: base.calibration,
+        base_values,
         parameters,
         offsets,
         outputs,
@@ -512,9 +531,14 @@ fn context<'a, S: GridModel + ?Sized>(
     let meas: Vec<Vec<f64>> = data.outputs.iter().map(|(_, v)| v.clone()).collect();
     let sigma = noise_levels(&meas);
     let holdout = ctx_holdout(cfg);
-    let n_train = ((n as f64) * (1.0 - holdout))
-        .round()
-        .clamp(MIN_TRAIN_SAMPLES, n as f64) as usize;
+    let n_train = cfg.train_samples.map_or_else(
+        || {
+            ((n as f64) * (1.0 - holdout))
+                .round()
+                .clamp(MIN_TRAIN_SAMPLES, n as f64) as usize
+        },
+        |t| t.clamp(1, n),
+    );
     let ctx = Ctx {
         sim: Counted::new(sim),
         params,

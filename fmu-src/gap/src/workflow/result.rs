@@ -251,6 +251,8 @@ pub struct GapResult {
     pub redone_rounds: Vec<(usize, f64)>,
     /// How the base model was calibrated (direct or over growing horizons).
     pub calibration: Calibration,
+    /// The calibrated base model's parameter values (initial state included when estimated).
+    pub base_values: BTreeMap<String, f64>,
     pub parameters: BTreeMap<String, Estimate>,
     /// Estimated offsets (measured − model, in the output's SI unit) of the outputs given by
     /// `Config::offsets`.
