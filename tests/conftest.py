@@ -60,3 +60,15 @@ def toy(tmp_path_factory):
             built[name, version] = toy_fmus.build(directory, name, version)
         return built[name, version]
     return get
+
+
+# Under pytest-xdist (scripts/test: -n auto --dist loadgroup) a test file runs whole on one worker,
+# so that its module fixtures are made once; the files below hold long tests that share nothing
+# (no module fixture, no state), so their tests are spread over the workers one by one.
+SPREAD_OVER_WORKERS = {"test_gap.py", "test_gap_records.py", "test_eval_scripts.py"}
+
+
+def pytest_collection_modifyitems(items):
+    for item in items:
+        if item.path.name not in SPREAD_OVER_WORKERS:
+            item.add_marker(pytest.mark.xdist_group(item.path.name))
