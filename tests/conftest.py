@@ -44,6 +44,21 @@ def cli_path() -> str:
     return str(CLI)
 
 
+def run_cli(*args, timeout=120):
+    """`actuator-fmu ARGS` (each turned into a string), its output captured as text."""
+    return subprocess.run([cli_path(), *map(str, args)], capture_output=True, text=True,
+                          timeout=timeout)
+
+
+def read_csv_floats(path):
+    """(header, rows as a float array) of a CSV file `simulate` wrote."""
+    import csv
+    import numpy as np
+    with open(path, newline="") as f:
+        rows = list(csv.reader(f))
+    return rows[0], np.array(rows[1:], dtype=float)
+
+
 os.environ.setdefault("ACTUATOR_FMU_REPO", str(REPO))
 
 

@@ -13,32 +13,20 @@ the closed forms n(t) = #{k : t_k <= t}, x(t) = sum over t_k <= t of (t - t_k).
 (FMPy's `simulate_fmu` never calls fmi3SetClock in Model Exchange: on an FMU like this it
 reads n outside its clock, which the standard does not allow, and never counts a tick.)
 """
-import csv
-import subprocess
 import sys
 import zipfile
 
 import numpy as np
 import pytest
 
-from conftest import cli_path
+from conftest import read_csv_floats as read_csv
+from conftest import run_cli as run
 
 pytestmark = pytest.mark.skipif(sys.platform != "linux",
                                 reason="the fixtures are built for linux64")
 
 SHIFT, INTERVAL, STOP = 0.1, 0.25, 2.0
 TICKS = SHIFT + INTERVAL * np.arange(int((STOP - SHIFT) / INTERVAL) + 1)
-
-
-def run(*args):
-    return subprocess.run([cli_path(), *map(str, args)], capture_output=True, text=True,
-                          timeout=120)
-
-
-def read_csv(path):
-    with open(path, newline="") as f:
-        rows = list(csv.reader(f))
-    return rows[0], np.array(rows[1:], dtype=float)
 
 
 def closed_form(t, after=True):

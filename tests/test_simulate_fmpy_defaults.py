@@ -10,33 +10,21 @@ built the way third-party exporters build them (our toy FMUs, tests/fixtures/toy
 
 Reference values come from FMPy on the same FMU and from the models' closed forms.
 """
-import csv
 import re
-import subprocess
 import sys
 import zipfile
 
 import numpy as np
 import pytest
 
-from conftest import cli_path
+from conftest import read_csv_floats as read_csv
+from conftest import run_cli as run
 from test_toy_fmus import bouncing_ball
 
 fmpy = pytest.importorskip("fmpy")
 
 pytestmark = pytest.mark.skipif(sys.platform != "linux",
                                 reason="the fixtures are built for linux64")
-
-
-def run(*args):
-    return subprocess.run([cli_path(), *map(str, args)], capture_output=True, text=True,
-                          timeout=120)
-
-
-def read_csv(path):
-    with open(path, newline="") as f:
-        rows = list(csv.reader(f))
-    return rows[0], np.array(rows[1:], dtype=float)
 
 
 def without_outputs(src, dst):

@@ -3,6 +3,7 @@
 //! single record without `--validate`, which leaves the report as it was.
 
 use crate::records::RecordSpan;
+use crate::report::g;
 use crate::validation::Validation;
 use serde_json::{json, Value};
 use std::fmt::Write;
@@ -73,16 +74,6 @@ impl Extras {
             names.push(name);
         }
         Ok(names)
-    }
-}
-
-fn g(x: f64) -> String {
-    if x == 0.0 || !x.is_finite() {
-        format!("{x}")
-    } else if x.abs() >= 1e4 || x.abs() < 1e-3 {
-        format!("{x:.4e}")
-    } else {
-        format!("{x:.5}")
     }
 }
 

@@ -411,7 +411,9 @@ pub fn to_json(res: &GapResult, fmu: &str, data: &str, extras: &Extras) -> Value
     doc
 }
 
-fn g(x: f64) -> String {
+/// A number for the report: plain when zero or not finite, 5 decimals in [1e-3, 1e4), else
+/// scientific with 4.
+pub(crate) fn g(x: f64) -> String {
     if x == 0.0 || !x.is_finite() {
         format!("{x}")
     } else if x.abs() >= 1e4 || x.abs() < 1e-3 {
