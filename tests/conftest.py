@@ -2,8 +2,12 @@
 
 Import as `from conftest import fmu_path, REPO` (pytest puts tests/ on sys.path).
 """
+import atexit
 import os
+import shutil
 import subprocess
+import tempfile
+import time
 from pathlib import Path
 
 import pytest
@@ -37,11 +41,26 @@ def fmu3_path(name: str) -> str:
     return str(path)
 
 
+_CLI_COPY = []
+
+
 def cli_path() -> str:
-    """Path of the release `actuator-fmu` binary (built by scripts/build)."""
-    if not CLI.exists():
+    """Path of this test process's own copy of the release `actuator-fmu` binary (built by
+    scripts/build). A copy, because tests running beside this one relink target/release (the
+    wheel's maturin build removes and relinks the binary), and a test must not see it vanish."""
+    if _CLI_COPY:
+        return _CLI_COPY[0]
+    for _ in range(120):
+        if CLI.exists():
+            break
+        time.sleep(0.5)  # another process is relinking it
+    else:
         subprocess.run([str(REPO / "scripts" / "build")], check=True)
-    return str(CLI)
+    directory = Path(tempfile.mkdtemp(prefix="actuator-fmu-cli-"))
+    atexit.register(shutil.rmtree, directory, ignore_errors=True)
+    shutil.copy2(CLI, directory / CLI.name)
+    _CLI_COPY.append(str(directory / CLI.name))
+    return _CLI_COPY[0]
 
 
 def run_cli(*args, timeout=120):
