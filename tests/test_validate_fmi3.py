@@ -209,6 +209,17 @@ def test_a_broken_binary_rule_is_found(toy, case, tmp_path):
     assert all(f["clause"].startswith("FMI 3.0.2 §") for f in found), found
 
 
+def test_a_library_not_named_after_an_invalid_model_identifier_is_reported_missing(toy, tmp_path):
+    """FMI 3.0.2 section 2.5: the library is binaries/<platformTuple>/<modelIdentifier>.so. An
+    identifier that is not a C identifier is a finding of its own, and still names the file an
+    importer looks for: the library named otherwise is missing too."""
+    invalid = replace('modelIdentifier="VanDerPol"', 'modelIdentifier="van-der-pol"')
+    found = findings(toy, tmp_path, md=invalid)
+    checks = {f["check"] for f in found}
+    assert "model-identifier" in checks, found
+    assert any(f["check"] == "binary" and "no van-der-pol.so" in f["message"] for f in found), found
+
+
 def test_an_exact_continuous_input_is_no_finding(toy, tmp_path):
     """FMI 3.0.2 section 2.4.7.5 gives an input initial="exact" (its default and only value),
     where FMI 2.0.4 gives an input no initial attribute: no finding in FMI 3.0."""

@@ -183,12 +183,9 @@ impl Extracted {
 
     /// [`Self::model_identifier`] of the element of `interface`.
     pub fn model_identifier_for(&self, interface: Interface) -> Result<&str> {
-        let md = &self.model_description;
-        let id = match interface {
-            Interface::CoSimulation => md.co_simulation.as_ref().map(|c| &c.model_identifier),
-            Interface::ModelExchange => md.model_exchange.as_ref(),
-        };
-        let id = id.map(String::as_str).ok_or_else(|| HostError::Archive {
+        let id =
+            self.declared_model_identifier(interface).ok_or_else(|| {
+                HostError::Archive {
             path: self.path.clone(),
             message: match interface {
                 Interface::CoSimulation => {
@@ -200,9 +197,21 @@ impl Extracted {
                 }
             }
             .into(),
-        })?;
+        }
+            })?;
         check_c_identifier(id, &self.path, "FMI 2.0.4 section 2.2.1")?;
         Ok(id)
+    }
+
+    /// The `modelIdentifier` of the element of `interface` as the description writes it, not
+    /// checked to be a C identifier (for reports on what the archive holds under that name).
+    pub fn declared_model_identifier(&self, interface: Interface) -> Option<&str> {
+        let md = &self.model_description;
+        match interface {
+            Interface::CoSimulation => md.co_simulation.as_ref().map(|c| &c.model_identifier),
+            Interface::ModelExchange => md.model_exchange.as_ref(),
+        }
+        .map(String::as_str)
     }
 
     /// Path of the binary for this platform: `binaries/linux64/<modelIdentifier>.so`.

@@ -2,6 +2,7 @@
 //! FMI function (FMI 2.0.4 sections 2.1, 2.3 and 4.2).
 
 use super::layout::Survey;
+use super::rules::names_one_file;
 use super::Finding;
 use host::binary::Slice;
 use host::ffi::{COMMON_AND_CO_SIMULATION_ONLY, FMI2_ME_FUNCTIONS};
@@ -19,17 +20,19 @@ use std::path::Path;
 pub fn check_files(fmu: &Extracted) -> Vec<Finding> {
     let survey = Survey::of(&fmu.dir);
     let mut f: Vec<Finding> = survey.backslash_finding().into_iter().collect();
-    let interface = fmu.default_interface();
-    let (Ok(bin), Ok(id)) = (
-        fmu.binary_path_for(interface),
-        fmu.model_identifier_for(interface),
-    ) else {
+    let Some(id) = fmu
+        .declared_model_identifier(fmu.default_interface())
+        .filter(|id| names_one_file(id))
+    else {
         return f;
     };
-    if bin.is_file() {
+    let lib = format!("{id}.{LIB_SUFFIX}");
+    if survey
+        .folder(PLATFORM)
+        .is_some_and(|h| h.files.contains(&lib))
+    {
         return f;
     }
-    let lib = format!("{id}.{LIB_SUFFIX}");
     let loc = format!("binaries/{PLATFORM}/");
     let folders = survey.folder_list();
     if survey.folder(PLATFORM).is_some_and(|h| !h.files.is_empty()) {
@@ -56,7 +59,8 @@ pub fn check_platform_binaries(fmu: &Extracted) -> (Vec<Finding>, Vec<PlatformBi
     let (mut findings, mut binaries) = (Vec::new(), Vec::new());
     let mut ids: Vec<&str> = [Interface::CoSimulation, Interface::ModelExchange]
         .into_iter()
-        .filter_map(|i| fmu.model_identifier_for(i).ok())
+        .filter_map(|i| fmu.declared_model_identifier(i))
+        .filter(|id| names_one_file(id))
         .collect();
     ids.dedup();
     for platform in platform_dirs(&fmu.dir, false) {

@@ -5,7 +5,7 @@
 use super::binary::{library_extension, missing_exports};
 use super::layout::Survey;
 use super::rules::{
-    apply, approx_or_calculated, defined_again, identifier_problem, is_c_identifier, name_problems,
+    apply, approx_or_calculated, defined_again, identifier_problem, name_problems, names_one_file,
     start_problem, Rule,
 };
 use super::Finding;
@@ -766,7 +766,7 @@ pub fn check_platform_binaries3(
     let mut ids: Vec<&str> = interfaces(md)
         .iter()
         .map(|(_, i)| i.model_identifier.as_str())
-        .filter(|id| is_c_identifier(id))
+        .filter(|id| names_one_file(id))
         .collect();
     ids.sort_unstable();
     ids.dedup();

@@ -14,6 +14,14 @@ pub(crate) fn is_c_identifier(s: &str) -> bool {
         && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
 }
 
+/// Whether a `modelIdentifier` names one file in a platform folder (`<id>.so` with no path
+/// separator, NUL or dot segment), so that the archive can be searched for its library even when
+/// it is not a C identifier: an FMU naming its model `watertank-c` is told both that the name is
+/// invalid and whether `binaries/<platform>/watertank-c.so` is there.
+pub(crate) fn names_one_file(id: &str) -> bool {
+    !id.is_empty() && id.len() <= 255 && id != "." && id != ".." && !id.contains(['/', '\\', '\0'])
+}
+
 /// Whether an effective `initial` is approx or calculated: what makes an output or a state an
 /// initial unknown (FMI 2.0.4 section 2.2.8, FMI 3.0.2 section 2.4.8).
 pub(crate) fn approx_or_calculated(initial: Option<Initial>) -> bool {

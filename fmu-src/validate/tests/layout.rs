@@ -15,12 +15,17 @@ use validate::{check_files, Finding};
 /// An FMU zipped from the fixture's description and `entries` (name, bytes; a name ending in
 /// `/` is a folder entry).
 fn zipped(entries: &[(&str, &[u8])]) -> (tempfile::TempDir, PathBuf) {
+    zipped_with(&common::fixture_md(), entries)
+}
+
+/// An FMU zipped from the description `md` and `entries`, as [`zipped`].
+fn zipped_with(md: &str, entries: &[(&str, &[u8])]) -> (tempfile::TempDir, PathBuf) {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("M.fmu");
     let mut z = zip::ZipWriter::new(std::fs::File::create(&path).unwrap());
     let opts = zip::write::SimpleFileOptions::default();
     z.start_file("modelDescription.xml", opts).unwrap();
-    z.write_all(common::fixture_md().as_bytes()).unwrap();
+    z.write_all(md.as_bytes()).unwrap();
     for (name, bytes) in entries {
         if let Some(folder) = name.strip_suffix('/') {
             z.add_directory(folder, opts).unwrap();
@@ -112,4 +117,24 @@ fn backslash_path_separators_are_a_finding_of_their_own() {
         found.iter().all(|f| f.check != "binary"),
         "no second finding on the binary: {found:#?}"
     );
+}
+
+/// FMI 2.0.4 section 2.3: the binary is `binaries/linux64/<modelIdentifier>.so`. A model
+/// identifier that is not a C identifier (its own finding) still names the file an importer looks
+/// for, so a library named otherwise is reported missing rather than passed over.
+#[test]
+fn a_library_not_named_after_an_invalid_model_identifier_is_reported_missing() {
+    let md = common::fixture_md().replace(
+        "modelIdentifier=\"Dummy\"",
+        "modelIdentifier=\"water-tank\"",
+    );
+    let files = |name: &str| {
+        let (_dir, path) = zipped_with(&md, &[(name, b"\x7fELF")]);
+        check_files(&host::Extracted::open(&path).unwrap())
+    };
+    let found = files("binaries/linux64/watertank.so");
+    assert_eq!(found.len(), 1, "{found:#?}");
+    assert_eq!(found[0].check, "binary", "{found:#?}");
+    assert_says(&found[0], "no binary water-tank.so");
+    assert_eq!(files("binaries/linux64/water-tank.so"), vec![]);
 }
