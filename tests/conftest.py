@@ -102,7 +102,25 @@ def toy(tmp_path_factory):
 SPREAD_OVER_WORKERS = {"test_gap.py", "test_gap_records.py", "test_eval_scripts.py"}
 
 
-def pytest_collection_modifyitems(items):
+# Regression tests of a minute or more each (marked `long`) run in scripts/test-long, which passes
+# --long; scripts/test skips them to stay within its time budget.
+LONG_SKIPPED = pytest.mark.skip(reason="a long regression test: scripts/test-long runs it")
+
+
+def pytest_addoption(parser):
+    parser.addoption("--long", action="store_true",
+                     help="run the tests marked long (scripts/test-long)")
+
+
+def pytest_configure(config):
+    config.addinivalue_line("markers", "long: a regression test of a minute or more, "
+                            "run by scripts/test-long")
+
+
+def pytest_collection_modifyitems(config, items):
+    run_long = config.getoption("--long")
     for item in items:
         if item.path.name not in SPREAD_OVER_WORKERS:
             item.add_marker(pytest.mark.xdist_group(item.path.name))
+        if "long" in item.keywords and not run_long:
+            item.add_marker(LONG_SKIPPED)

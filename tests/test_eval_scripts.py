@@ -126,3 +126,19 @@ def test_bench_prints_the_interface_lines():
         assert m and float(m.group(1)) > 0, p.stdout
         # the same model code under both layers
         assert float(m.group(2)) < 1e-9, m.group(0)
+
+
+def test_test_long_collects_the_long_tests_that_scripts_test_skips():
+    """scripts/test-long runs every test marked `long` (collected, not skipped), and the suite
+    scripts/test runs skips them."""
+    env = {k: v for k, v in os.environ.items() if not k.startswith("PYTEST_XDIST")}
+    p = subprocess.run([str(REPO / "scripts" / "test-long"), "--collect-only", "-n", "0"],
+                       capture_output=True, text=True, timeout=600, cwd=REPO, env=env)
+    assert p.returncode == 0, p.stdout[-2000:] + p.stderr[-2000:]
+    collected = set(re.findall(r"^tests/\S+::\S+", p.stdout, flags=re.M))
+    assert len(collected) >= 8 and all("test_gap.py::" in t for t in collected), collected
+    assert any("1_and_16_threads" in t for t in collected), collected
+    p = subprocess.run([sys.executable, "-m", "pytest", "tests/test_gap.py", "-q", "-n", "0",
+                        "-p", "no:cacheprovider", "-k", "1_and_16_threads", "-rs"],
+                       capture_output=True, text=True, timeout=600, cwd=REPO, env=env)
+    assert "1 skipped" in p.stdout and "scripts/test-long runs it" in p.stdout, p.stdout[-2000:]

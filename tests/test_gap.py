@@ -274,6 +274,7 @@ def test_hidden_effect_is_named(tmp_path, model, effect, seed):
             assert rm[n] == pytest.approx(o["rmse_after"], rel=1e-3), n
 
 
+@pytest.mark.long
 def test_same_report_with_1_and_16_threads(tmp_path):
     """The same data give the same report.json whatever the number of worker threads: the
     parallel simulations and finite-difference columns are collected in index order and reduced
@@ -344,6 +345,7 @@ def eval_dataset(tmp_path, model, seed, hidden, duration=4.0):
     return ds, path
 
 
+@pytest.mark.long
 def test_named_model_is_refitted_on_the_whole_trace(tmp_path):
     """Seal friction (five parameters) fits the first 70 % of this trace to the noise with
     coulomb 66 N against a true 11 N, which the held-out end contradicts (pressures 3-4x the
@@ -364,6 +366,7 @@ def test_named_model_is_refitted_on_the_whole_trace(tmp_path):
         assert rm[n] == pytest.approx(o["rmse_after"], rel=1e-3), n
 
 
+@pytest.mark.long
 def test_an_oscillating_loop_is_calibrated_over_growing_horizons(tmp_path):
     """A base-parameter draw (valve flow x1.24, bulk modulus x0.81) that puts the 40 Hz loop near
     its stability limit: by t = 10 s the joint swings +-0.6 rad about its set point. A direct fit
@@ -428,6 +431,7 @@ def test_a_growth_the_base_fit_imitates_with_a_stiffer_spring_is_still_named(tmp
         assert o["rmse_after"] <= 1.2 * ds["noise_sigma"][n], (n, o)
 
 
+@pytest.mark.long
 def test_the_growth_record_moved_by_1e_8_of_its_range_gives_the_same_answer(tmp_path):
     """The record of the test above, and the same with every output sample moved by 1e-8 of
     the output's range (random signs; the noise is 1 %). The radius_growth refit stops where a
@@ -457,6 +461,7 @@ def test_the_growth_record_moved_by_1e_8_of_its_range_gives_the_same_answer(tmp_
         assert abs(b["parameters"][k]["value"] - e["value"]) < 0.2 * half, (k, e, b["parameters"][k])
 
 
+@pytest.mark.long
 def test_intervals_of_a_rough_fit_hold_the_truth(tmp_path):
     """TwistedString closes its position loop on the encoder count, so a 0.1 % parameter change
     flips counts and moves the sum of squares by jumps no slope explains. On this trace
@@ -495,6 +500,7 @@ def test_an_interval_in_a_flat_bent_valley_holds_the_truth(tmp_path):
         assert holds(e, ds["truth"][k]), (k, e, ds["truth"][k])
 
 
+@pytest.mark.long
 def test_a_final_fit_stuck_where_the_spring_wandered_is_restarted(tmp_path):
     """string_compliance and motor_friction hidden (scripts/gap-eval seed 985513): both are
     named, but the final fit ended with the return spring at 2389 N/m against a true 104, its
@@ -542,6 +548,7 @@ def follow_design(tmp_path, model, seed, hidden, ds, cmd, tag):
     return run_ok(model, csv2, tmp_path / f"{tag}-out")
 
 
+@pytest.mark.long
 @pytest.mark.parametrize("seed,hidden", [
     (965531, ("motor_friction", "twist_hysteresis")),
 ])
@@ -612,6 +619,7 @@ def large_strokes(model, rng, t, family="reaches"):
             "F_load": gapgen.steps(rng, t, 0.0, 40.0, (1.0, 2.5))}
 
 
+@pytest.mark.long
 def test_an_unrevealable_effect_is_named_on_the_experiment_design_proposes(tmp_path,
                                                                           monkeypatch):
     """The loop an engineer follows: gap says the data cannot show gear_backlash (large strokes
