@@ -4,7 +4,9 @@
 //! elements row-major separated by spaces, or one column per element `u[1]`; Binary as hex).
 
 use crate::common::{parse_sets, refuse_overwriting, run_error, set_target, CliError, CliResult};
-use host::csv::{format_number, read_csv_for, read_csv_with_text, sample_interval, write_csv_text};
+use host::csv::{
+    format_number, read_csv_for, read_csv_with_text, sample_interval, write_csv_text, TimeAxis,
+};
 use host::fmi3::{simulate3_then, Causality3, Fmu3, Inputs3, ModelDescription3, Request3};
 use host::md::DefaultExperiment;
 use host::view::ModelView;
@@ -21,6 +23,8 @@ pub struct Args {
     /// CSV with `time` first and columns named as FMU inputs or outputs (ignored here).
     /// Continuous Real inputs are interpolated linearly; discrete ones (Integer, Boolean,
     /// Enumeration, String, Real with variability="discrete") are held from row to row.
+    /// A time on two rows is a jump (as FMPy reads it): the first row holds the values just
+    /// before, the second those from then on (an input event in Model Exchange).
     /// Inputs without a column keep their start value.
     #[arg(long)]
     pub data: Option<PathBuf>,
@@ -349,7 +353,7 @@ fn parse_sets3(md: &ModelDescription3, sets: &[String]) -> Result<Vec<(String, S
 /// number.
 fn read_inputs3(path: &Path, md: &ModelDescription3) -> Result<Inputs3, CliError> {
     let text: Vec<String> = md.variables.iter().map(|v| v.name.clone()).collect();
-    let table = read_csv_with_text(path, &text).map_err(CliError::input)?;
+    let table = read_csv_with_text(path, &text, TimeAxis::JumpsAllowed).map_err(CliError::input)?;
     let mut columns: Vec<(String, Vec<String>)> = table
         .names
         .iter()

@@ -42,7 +42,7 @@ impl fmt::Display for CsvError {
 pub struct Table {
     /// File name used in messages.
     pub file: String,
-    /// The `time` column (strictly increasing).
+    /// The `time` column (increasing; strictly unless read with [`TimeAxis::JumpsAllowed`]).
     pub time: Vec<f64>,
     /// Header names of the other columns, in file order.
     pub names: Vec<String>,
@@ -138,6 +138,9 @@ impl Table {
 /// rounding noise of one difference); otherwise the median interval. None with fewer than
 /// 2 rows.
 pub fn sample_interval(time: &[f64]) -> Option<f64> {
+    // A time repeated for a jump of the inputs is one sample instant.
+    let mut time = time.to_vec();
+    time.dedup();
     let n = time.len();
     if n < 2 {
         return None;
@@ -165,24 +168,40 @@ pub const MAX_CSV_BYTES: u64 = 1 << 30;
 /// Longest line read (bytes): a row of a thousand numbers is 25 kB.
 pub const MAX_LINE_BYTES: usize = 1 << 20;
 
-/// Reads and parses the CSV at `path`, bounded by [`MAX_CSV_BYTES`] and [`MAX_LINE_BYTES`]
-/// while reading (`/dev/zero` or a file of one endless line is refused after 1 MiB).
-pub fn read_csv(path: &Path) -> Result<Table, CsvError> {
-    read_csv_with_text(path, &[])
+/// What the `time` column may do from row to row.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TimeAxis {
+    /// Time increases strictly: a measured record, a reference result.
+    Strict,
+    /// Time increases, or repeats once: two rows at one time are the values just before and
+    /// just after a jump of the inputs (FMPy's input convention, `Input.findEvents`).
+    JumpsAllowed,
 }
 
-/// [`read_csv`] for an FMU: the columns of its String variables are read as text.
+/// Reads and parses the CSV at `path`, bounded by [`MAX_CSV_BYTES`] and [`MAX_LINE_BYTES`]
+/// while reading (`/dev/zero` or a file of one endless line is refused after 1 MiB); time
+/// must increase strictly.
+pub fn read_csv(path: &Path) -> Result<Table, CsvError> {
+    read_csv_with_text(path, &[], TimeAxis::Strict)
+}
+
+/// The input CSV of a run of an FMU: the columns of its String variables are read as text, and
+/// a time may repeat once (a jump).
 pub fn read_csv_for(path: &Path, md: &ModelView) -> Result<Table, CsvError> {
     let text: Vec<String> = md
         .scalars()
         .filter(|v| v.scalar_kind() == Some(VarKind::String))
         .map(|v| v.name.clone())
         .collect();
-    read_csv_with_text(path, &text)
+    read_csv_with_text(path, &text, TimeAxis::JumpsAllowed)
 }
 
-/// [`read_csv`] with the columns named in `text_columns` kept as text.
-pub fn read_csv_with_text(path: &Path, text_columns: &[String]) -> Result<Table, CsvError> {
+/// [`read_csv`] with the columns named in `text_columns` kept as text and the time axis `time`.
+pub fn read_csv_with_text(
+    path: &Path,
+    text_columns: &[String],
+    time: TimeAxis,
+) -> Result<Table, CsvError> {
     let file = path.display().to_string();
     let err = |line: usize, column: usize, message: String| CsvError {
         file: file.clone(),
@@ -211,7 +230,7 @@ pub fn read_csv_with_text(path: &Path, text_columns: &[String]) -> Result<Table,
             ));
         }
     };
-    parse_csv_with_text(&text, &file, text_columns)
+    parse_table(&text, &file, text_columns, time)
 }
 
 /// The file's bytes, or (line, message) when it cannot be read or exceeds a bound.
@@ -321,6 +340,23 @@ pub fn parse_csv(text: &str, file: &str) -> Result<Table, CsvError> {
     parse_csv_with_text(text, file, &[])
 }
 
+/// Why the time `x` may not follow the time `prev` of line `prev_line`.
+fn time_error(axis: TimeAxis, x: f64, prev: f64, prev_line: usize) -> String {
+    match axis {
+        TimeAxis::Strict => format!(
+            "time {x} is not greater than {prev} on line {prev_line}: time must increase strictly"
+        ),
+        TimeAxis::JumpsAllowed if x == prev => format!(
+            "time {x} is on line {prev_line} and the line before already: a jump of the inputs \
+             takes two rows at one time (the values before and after it), not three"
+        ),
+        TimeAxis::JumpsAllowed => format!(
+            "time {x} is less than {prev} on line {prev_line}: time must increase (a time \
+             repeated once is a jump of the inputs)"
+        ),
+    }
+}
+
 /// Largest magnitude accepted in a numeric cell. Physical data in SI units stay far below it,
 /// and beyond it the squares summed by fits and error measures overflow (1e300² is infinite),
 /// so such a value is almost surely a unit or format error: refused with its location.
@@ -331,6 +367,16 @@ pub fn parse_csv_with_text(
     text: &str,
     file: &str,
     text_columns: &[String],
+) -> Result<Table, CsvError> {
+    parse_table(text, file, text_columns, TimeAxis::Strict)
+}
+
+/// [`parse_csv_with_text`] with the time axis `time`.
+pub fn parse_table(
+    text: &str,
+    file: &str,
+    text_columns: &[String],
+    time: TimeAxis,
 ) -> Result<Table, CsvError> {
     let err = |line: usize, column: usize, message: String| CsvError {
         file: file.to_string(),
@@ -400,7 +446,8 @@ pub fn parse_csv_with_text(
         .collect();
     let mut cols: Vec<Vec<f64>> = vec![Vec::new(); ncol];
     let mut texts: Vec<Vec<String>> = vec![Vec::new(); ncol];
-    let mut last_time: Option<(f64, usize)> = None;
+    // (time, its line, whether the row before had the same time)
+    let mut last_time: Option<(f64, usize, bool)> = None;
     for (lno, line) in lines {
         let cells: Vec<String> =
             split_fields(line, false).map_err(|j| err(lno, j, "unterminated quote".into()))?;
@@ -467,16 +514,13 @@ pub fn parse_csv_with_text(
                 ));
             }
             if j == 0 {
-                if let Some((prev, pl)) = last_time {
-                    if x <= prev {
-                        return Err(err(
-                            lno,
-                            1,
-                            format!("time {x} is not greater than {prev} on line {pl}: time must increase strictly"),
-                        ));
-                    }
+                let jump = last_time.is_some_and(|(prev, _, repeated)| {
+                    time == TimeAxis::JumpsAllowed && x == prev && !repeated
+                });
+                if let Some((prev, pl, _)) = last_time.filter(|l| x <= l.0 && !jump) {
+                    return Err(err(lno, 1, time_error(time, x, prev, pl)));
                 }
-                last_time = Some((x, lno));
+                last_time = Some((x, lno, jump));
             }
             cols[j].push(x);
         }
@@ -612,8 +656,8 @@ pub fn write_atomically(
 #[cfg(test)]
 mod tests {
     use super::{
-        parse_csv, parse_csv_with_text, read_csv, write_csv_text_to, write_csv_to, CsvError, Table,
-        MAX_LINE_BYTES,
+        parse_csv, parse_csv_with_text, parse_table, read_csv, write_csv_text_to, write_csv_to,
+        CsvError, Table, TimeAxis, MAX_LINE_BYTES,
     };
 
     fn e(text: &str) -> CsvError {
@@ -626,6 +670,22 @@ mod tests {
         assert_eq!((x.line, x.column), at, "{x}");
         assert!(x.message.contains(part), "{x}");
         x
+    }
+
+    #[test]
+    fn a_time_repeated_once_is_a_jump_where_jumps_are_allowed() {
+        let text = "time,u\n0,0\n0.5,0.5\n0.5,2.5\n1,3\n";
+        refused(text, (4, 1), "time must increase strictly");
+        let t = parse_table(text, "d.csv", &[], TimeAxis::JumpsAllowed).unwrap();
+        assert_eq!(t.time, [0.0, 0.5, 0.5, 1.0]);
+        assert_eq!(t.columns[0], [0.0, 0.5, 2.5, 3.0]);
+        let three = "time,u\n0,0\n0.5,0.5\n0.5,2.5\n0.5,9\n";
+        let x = parse_table(three, "d.csv", &[], TimeAxis::JumpsAllowed).unwrap_err();
+        assert_eq!((x.line, x.column), (5, 1), "{x}");
+        assert!(x.message.contains("not three"), "{x}");
+        let back = "time,u\n0,0\n0.5,0.5\n0.4,2.5\n";
+        let x = parse_table(back, "d.csv", &[], TimeAxis::JumpsAllowed).unwrap_err();
+        assert!(x.message.contains("less than 0.5 on line 3"), "{x}");
     }
 
     #[test]

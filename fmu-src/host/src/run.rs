@@ -33,6 +33,17 @@ pub(crate) trait Inputs<I> {
     fn apply(&mut self, inst: &mut I, t: f64) -> Result<()> {
         self.apply_some(inst, t, true, true)
     }
+
+    /// From now on the inputs at `t` take their values after a jump at `t` (two rows at one
+    /// time: the second), as FMPy's `Input.apply(after_event=True)` after an event and at each
+    /// communication point; before, the value at `t` is the one before the jump.
+    fn pass_jump(&mut self, t: f64);
+
+    /// Sets every input to its value just after `t`.
+    fn apply_after(&mut self, inst: &mut I, t: f64) -> Result<()> {
+        self.pass_jump(t);
+        self.apply(inst, t)
+    }
 }
 
 /// The recorder of a run, reading an instance `I`.
@@ -71,7 +82,7 @@ pub(crate) fn step_through<I: CoSimulationStep>(
     for k in 0..times.len().saturating_sub(1) {
         let (t, t1) = (times[k], times[k + 1]);
         if k > 0 {
-            inputs.apply(inst, t)?;
+            inputs.apply_after(inst, t)?;
         }
         if let Some(last) = inst.co_simulation_step(t, t1 - t)? {
             if last > t && last.is_finite() {
@@ -172,8 +183,8 @@ where
         self.inputs.apply_some(fmu.instance(), t, true, false)
     }
 
-    fn apply_discrete_inputs(&mut self, fmu: &mut M, t: f64) -> Result<()> {
-        self.inputs.apply_some(fmu.instance(), t, false, true)
+    fn apply_inputs_after_event(&mut self, fmu: &mut M, t: f64) -> Result<()> {
+        self.inputs.apply_after(fmu.instance(), t)
     }
 
     fn next_input_event(&self, t: f64) -> f64 {

@@ -238,6 +238,27 @@ pub fn interpolate(xs: &[f64], ys: &[f64], x: f64, cursor: &mut usize) -> f64 {
     w0 * ys[i] + w1 * ys[j]
 }
 
+/// The value of the column `ys` at `x` once a jump at `x` has been passed (`after`): the last
+/// row at `x` (`row`, from [`hold_index`]) where two rows hold that time; else [`interpolate`].
+pub(crate) fn interpolate_at(
+    (xs, ys): (&[f64], &[f64]),
+    x: f64,
+    (row, after): (usize, bool),
+    cursor: &mut usize,
+) -> f64 {
+    let on_row = |r: f64| (r - x).abs() <= 1e-9 * r.abs().max(x.abs());
+    if after && row > 0 && xs[row - 1] == xs[row] && on_row(xs[row]) {
+        ys[row]
+    } else {
+        interpolate(xs, ys, x, cursor)
+    }
+}
+
+/// Whether `t` is the time of the jump passed last (`passed`), within 1e-9 relative.
+pub(crate) fn jump_passed(passed: f64, t: f64) -> bool {
+    passed.is_finite() && (passed - t).abs() <= 1e-9 * passed.abs().max(t.abs())
+}
+
 /// Index of the row held at `x` (zero-order hold): the largest `i` with `xs[i] <= x`, a row
 /// within 1e-9 relative of `x` counting as reached (FMPy's `isclose`); 0 before the first row.
 /// `cursor` speeds up monotone queries (start it at 0).
@@ -575,6 +596,8 @@ pub(crate) struct InputPlan<'r> {
     hold_cursor: usize,
     /// Times at which a discrete input changes or the time axis repeats (a jump), ascending.
     input_events: Vec<f64>,
+    /// The time of the last jump passed ([`Inputs::pass_jump`]); -inf: none.
+    jump_passed: f64,
 }
 
 /// The input events of `series` as FMPy's `Input.findEvents` finds them: the time of a repeated
@@ -631,6 +654,7 @@ impl<'r> InputPlan<'r> {
             interp_cursor: 0,
             hold_cursor: 0,
             input_events: Vec::new(),
+            jump_passed: f64::NEG_INFINITY,
         };
         let names = series.columns.iter().map(|(n, c)| (n, c.len()));
         let text_names = series.text.iter().map(|(n, c)| (n, c.len()));
@@ -684,6 +708,10 @@ impl Inputs<Instance<'_>> for InputPlan<'_> {
         first_event_after(&self.input_events, t)
     }
 
+    fn pass_jump(&mut self, t: f64) {
+        self.jump_passed = t;
+    }
+
     /// Sets the continuous Real inputs (`continuous`) and the discrete ones (`discrete`) to
     /// their values at `t`: Model Exchange sets the discrete inputs in Event Mode only.
     fn apply_some(
@@ -698,13 +726,15 @@ impl Inputs<Instance<'_>> for InputPlan<'_> {
             return Ok(());
         }
         let row = hold_index(&s.time, t, &mut self.hold_cursor);
+        let after = jump_passed(self.jump_passed, t);
         // All columns share one time axis, so one cursor serves them all.
         let mut next = self.interp_cursor;
         for (x, &(_, col, how)) in self.real_buf.iter_mut().zip(&self.reals) {
             *x = match how {
                 Apply::Interpolate => {
                     next = self.interp_cursor;
-                    interpolate(&s.time, &s.columns[col].1, t, &mut next)
+                    let ys = &s.columns[col].1;
+                    interpolate_at((&s.time, ys), t, (row, after), &mut next)
                 }
                 Apply::Hold => s.columns[col].1[row],
             };

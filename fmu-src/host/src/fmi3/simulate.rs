@@ -24,8 +24,8 @@ use crate::kind::Interface;
 use crate::me::clocks::ClockSchedule;
 use crate::run::{fmu_tolerance, step_through, CoSimulationStep, Inputs, Outputs};
 use crate::simulate::{
-    communication_points, first_event_after, hold_index, interpolate, Recorded, SimulationResult,
-    Simulator,
+    communication_points, first_event_after, hold_index, interpolate_at, jump_passed, Recorded,
+    SimulationResult, Simulator,
 };
 use fmi_types::Variability;
 
@@ -304,6 +304,8 @@ pub(crate) struct InputPlan3<'r> {
     /// The input events in time order (see [`InputPlan3::next_event`]), found once: Model
     /// Exchange asks for the next one at every integration segment.
     events: Vec<f64>,
+    /// The time of the last jump passed ([`Inputs::pass_jump`]); -inf: none.
+    jump_passed: f64,
 }
 
 impl<'r> InputPlan3<'r> {
@@ -360,6 +362,7 @@ impl<'r> InputPlan3<'r> {
             inputs,
             interp_cursor: 0,
             hold_cursor: 0,
+            jump_passed: f64::NEG_INFINITY,
         })
     }
 }
@@ -369,6 +372,10 @@ impl Inputs<Instance3<'_>> for InputPlan3<'_> {
     /// repeated row time, or a row at which a held input changes (FMPy's `Input.findEvents`).
     fn next_event(&self, t: f64) -> f64 {
         first_event_after(&self.events, t)
+    }
+
+    fn pass_jump(&mut self, t: f64) {
+        self.jump_passed = t;
     }
 
     fn apply_some(
@@ -382,6 +389,7 @@ impl Inputs<Instance3<'_>> for InputPlan3<'_> {
             return Ok(());
         }
         let row = hold_index(self.time, t, &mut self.hold_cursor);
+        let after = jump_passed(self.jump_passed, t);
         let mut next = self.interp_cursor;
         for (vr, samples) in &self.inputs {
             let interpolated = matches!(samples, Samples::Interpolated { .. });
@@ -394,7 +402,7 @@ impl Inputs<Instance3<'_>> for InputPlan3<'_> {
                         .iter()
                         .map(|ys| {
                             next = self.interp_cursor;
-                            interpolate(self.time, ys, t, &mut next)
+                            interpolate_at((self.time, ys), t, (row, after), &mut next)
                         })
                         .collect();
                     match ty {

@@ -193,8 +193,8 @@ impl ColumnGroups {
 pub trait Environment<M> {
     /// Sets the continuous inputs at `t` (allowed in Continuous-Time Mode).
     fn apply_continuous_inputs(&mut self, fmu: &mut M, t: f64) -> Result<()>;
-    /// Sets the discrete inputs at `t` (in Event Mode).
-    fn apply_discrete_inputs(&mut self, fmu: &mut M, t: f64) -> Result<()>;
+    /// Sets every input to its value just after `t`, a jump there taken (in Event Mode).
+    fn apply_inputs_after_event(&mut self, fmu: &mut M, t: f64) -> Result<()>;
     /// The first time after `t` at which a discrete input changes (infinite: none).
     fn next_input_event(&self, t: f64) -> f64;
     /// Records the outputs at `t`.
@@ -322,7 +322,7 @@ pub fn run<M: ModelExchange, E: Environment<M>>(
         }
         fmu.enter_event_mode()?;
         if input_event {
-            env.apply_discrete_inputs(fmu, time)?;
+            env.apply_inputs_after_event(fmu, time)?;
         }
         activate_clocks(fmu, env, time)?;
         let info = event_iteration(fmu)?;
