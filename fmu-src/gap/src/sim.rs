@@ -153,38 +153,14 @@ impl<'a, S: GridModel + ?Sized> Counted<'a, S> {
     }
 
     /// Simulate and return the outputs `out_idx` (indices into `output_names()`), first `n`
-    /// samples each; an error names a missing output, a short column or the first non-finite
-    /// sample.
+    /// samples each: see [`select_outputs`].
     pub fn measured(
         &self,
         set: &[(usize, f64)],
         n: usize,
         out_idx: &[usize],
     ) -> Result<Vec<Vec<f64>>, SimError> {
-        let all = self.simulate(set, n)?;
-        out_idx
-            .iter()
-            .map(|&k| {
-                let v = all.get(k).ok_or(SimError::Short {
-                    what: "outputs",
-                    got: all.len(),
-                    want: k + 1,
-                })?;
-                if v.len() < n {
-                    let (got, want) = (v.len(), n);
-                    return Err(SimError::Short {
-                        what: "samples",
-                        got,
-                        want,
-                    });
-                }
-                if let Some(sample) = v[..n].iter().position(|x| !x.is_finite()) {
-                    let output = self.inner.output_names()[k].clone();
-                    return Err(SimError::NonFinite { output, sample });
-                }
-                Ok(v[..n].to_vec())
-            })
-            .collect()
+        select_outputs(self.inner, self.simulate(set, n)?, n, out_idx)
     }
 
     /// Number of simulations run (a recalled result is not counted).
@@ -196,6 +172,40 @@ impl<'a, S: GridModel + ?Sized> Counted<'a, S> {
     pub fn busy_s(&self) -> f64 {
         self.busy_ns.load(Ordering::SeqCst) as f64 * 1e-9
     }
+}
+
+/// The outputs `out_idx` (indices into `model.output_names()`) of the simulation `all`, first
+/// `n` samples each; an error names a missing output, a short column or the first non-finite
+/// sample (a simulation that produced one is no evidence to fit).
+pub fn select_outputs<S: GridModel + ?Sized>(
+    model: &S,
+    all: Vec<Vec<f64>>,
+    n: usize,
+    out_idx: &[usize],
+) -> Result<Vec<Vec<f64>>, SimError> {
+    out_idx
+        .iter()
+        .map(|&k| {
+            let v = all.get(k).ok_or(SimError::Short {
+                what: "outputs",
+                got: all.len(),
+                want: k + 1,
+            })?;
+            if v.len() < n {
+                let (got, want) = (v.len(), n);
+                return Err(SimError::Short {
+                    what: "samples",
+                    got,
+                    want,
+                });
+            }
+            if let Some(sample) = v[..n].iter().position(|x| !x.is_finite()) {
+                let output = model.output_names()[k].clone();
+                return Err(SimError::NonFinite { output, sample });
+            }
+            Ok(v[..n].to_vec())
+        })
+        .collect()
 }
 
 #[cfg(test)]

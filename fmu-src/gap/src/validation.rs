@@ -9,7 +9,7 @@
 //! data's second differences), as the gap run estimates each fitted record's.
 
 use crate::lm::{self, Bounded, LmOptions, Problem};
-use crate::sim::{GridModel, SimError};
+use crate::sim::{select_outputs, GridModel, SimError};
 use crate::spec;
 use crate::workflow::noise::difference_level;
 use crate::workflow::{Data, GapError, GapResult, InputError};
@@ -99,22 +99,7 @@ impl<S: GridModel + ?Sized> InitialState<'_, S> {
         let mut set = self.settings.to_vec();
         set.extend(self.initial.iter().copied().zip(p.iter().copied()));
         let n = self.meas.first().map_or(0, Vec::len);
-        let all = self.sim.simulate(&set, n)?;
-        self.out_idx
-            .iter()
-            .map(|&k| {
-                let v = all.get(k).ok_or(SimError::Short {
-                    what: "outputs",
-                    got: all.len(),
-                    want: k + 1,
-                })?;
-                v.get(..n).map(<[f64]>::to_vec).ok_or(SimError::Short {
-                    what: "samples",
-                    got: v.len(),
-                    want: n,
-                })
-            })
-            .collect()
+        select_outputs(self.sim, self.sim.simulate(&set, n)?, n, self.out_idx)
     }
 }
 
