@@ -186,7 +186,8 @@ impl StartValues3 {
             }
             if v.ty == Type3::Clock {
                 return Err(HostError::Request(format!(
-                    "'{name}' is a Clock: clocks are not supported"
+                    "'{name}' is a Clock: the run sets input clocks active at their ticks \
+                     (FMI 3.0.2 section 2.2.8.2), a clock takes no start value"
                 )));
             }
             let x = Values::parse(v.ty, text)
@@ -593,7 +594,8 @@ impl Recorder3 {
             let v = lookup(md, name)?;
             if v.ty == Type3::Clock {
                 return Err(HostError::Request(format!(
-                    "'{name}' is a Clock: clocks are not supported"
+                    "'{name}' is a Clock: a clock has no value between its ticks to record \
+                     (FMI 3.0.2 section 2.2.8.2); record the variables it clocks"
                 )));
             }
             let (shape, n) = element_count(md, v, sizes)?;
