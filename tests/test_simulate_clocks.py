@@ -137,7 +137,48 @@ def test_an_output_clock_is_no_recorded_output(toy, tmp_path):
     out = tmp_path / "o.csv"
     r = run("simulate", toy("Ticker", 3), "--interface", "me", "--out", out)
     assert r.returncode == 0, r.stderr
-    assert read_csv(out)[0] == ["time", "x", "n", "m"]
+    assert read_csv(out)[0] == ["time", "x", "n", "m", "c", "h"]
     r = run("simulate", toy("Ticker", 3), "--interface", "me", "--outputs", "even",
             "--out", tmp_path / "e.csv")
     assert r.returncode == 2 and "'even' is a Clock" in r.stderr, r.stderr
+
+
+def announced_ticks(first, interval_after, stop=STOP):
+    """Ticks of an aperiodic clock: the first at `first`, the one after the j-th tick (j = 1,
+    2, ...) `interval_after(j)` later (its interval relative to the Event Mode of that tick)."""
+    ticks = [first]
+    while ticks[-1] + interval_after(len(ticks)) < stop:
+        ticks.append(ticks[-1] + interval_after(len(ticks)))
+    return np.array(ticks)
+
+
+# cd (countdown): 0.3 s from the start, then 0.2 j s after its j-th tick; ch (changing): 0.15 s,
+# then 0.2 + 0.1 j s after its j-th tick (FMI 3.0.2 section 2.2.8.2: t_0 = t_start +
+# T_interval,0, t_i = t_event + T_interval,i for countdown, t_(i-1) + T_interval,i for changing)
+COUNTDOWN_TICKS = announced_ticks(0.3, lambda j: 0.2 * j)      # 0.3, 0.5, 0.9, 1.5
+CHANGING_TICKS = announced_ticks(0.15, lambda j: 0.2 + 0.1 * j)  # 0.15, 0.45, 0.85, 1.35, 1.95
+
+
+def check_aperiodic(t, cols):
+    """c and h of Ticker against the ticks its aperiodic clocks announce."""
+    last = last_at_its_time(t)
+    for k in range(len(t)):
+        for name, ticks in (("c", COUNTDOWN_TICKS), ("h", CHANGING_TICKS)):
+            want = ticks_done(ticks, t[k], after=last[k])
+            assert cols[name][k] == want, (name, t[k], cols[name][k], want)
+
+
+def test_aperiodic_input_clocks_tick_where_the_fmu_announces(toy, tmp_path):
+    out = tmp_path / "o.csv"
+    r = run("simulate", toy("Ticker", 3), "--interface", "me", "--out", out)
+    assert r.returncode == 0, r.stderr
+    header, rows = read_csv(out)
+    assert header == ["time", "x", "n", "m", "c", "h"]
+    t = rows[:, 0]
+    cols = dict(zip(header, rows.T))
+    check_ticker(t, cols)
+    check_aperiodic(t, cols)
+    # each tick is an event: a row before it and one after it at its time
+    for tk in np.concatenate([COUNTDOWN_TICKS, CHANGING_TICKS]):
+        assert np.sum(np.abs(t - tk) <= 1e-9) == 2, tk
+    assert (cols["c"][-1], cols["h"][-1]) == (4, 5)
