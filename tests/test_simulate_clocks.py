@@ -182,3 +182,34 @@ def test_aperiodic_input_clocks_tick_where_the_fmu_announces(toy, tmp_path):
     for tk in np.concatenate([COUNTDOWN_TICKS, CHANGING_TICKS]):
         assert np.sum(np.abs(t - tk) <= 1e-9) == 2, tk
     assert (cols["c"][-1], cols["h"][-1]) == (4, 5)
+
+
+# Co-Simulation: Ticker declares hasEventMode; its clocks are driven in Event Mode at their
+# ticks, each communication step ending at the next tick (FMI 3.0.2 sections 2.3.1, 4.2).
+def test_clocks_tick_in_co_simulation_with_event_mode(toy, tmp_path):
+    out = tmp_path / "o.csv"
+    r = run("simulate", toy("Ticker", 3), "--interface", "cs", "--outputs", "x,n,m,l,c,h",
+            "--out", out)
+    assert r.returncode == 0, r.stderr
+    header, rows = read_csv(out)
+    assert header == ["time", "x", "n", "m", "l", "c", "h"]
+    t = rows[:, 0]
+    # rows at the output points (DefaultExperiment stepSize 0.05), after the events there
+    assert np.allclose(t, 0.05 * np.arange(41), atol=1e-12, rtol=0)
+    cols = dict(zip(header, rows.T))
+    check_ticker(t, cols)
+    check_aperiodic(t, cols)
+    assert (cols["n"][-1], cols["m"][-1], cols["c"][-1], cols["h"][-1]) == (8, 4, 4, 5)
+
+
+def test_clocks_without_event_mode_run_with_a_note(toy, tmp_path):
+    # hasEventMode must be true for an FMU with clocks (FMI 3.0.2 section 4.4); without it the
+    # run uses no Event Mode, the FMU ignores its clocks, and the run says so
+    fmu = with_clock(toy("Ticker", 3), tmp_path / "Ticker.fmu", 'hasEventMode="true" ', "")
+    out = tmp_path / "o.csv"
+    r = run("simulate", fmu, "--interface", "cs", "--outputs", "x,n", "--out", out)
+    assert r.returncode == 0, r.stderr
+    assert "note: the FMU has clocks but no hasEventMode" in r.stderr, r.stderr
+    header, rows = read_csv(out)
+    # no tick: n keeps its Initialization Mode value, x its start
+    assert header == ["time", "x", "n"] and (rows[:, 1:] == 0).all()
