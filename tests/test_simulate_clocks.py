@@ -138,7 +138,8 @@ def test_an_output_clock_is_no_recorded_output(toy, tmp_path):
     out = tmp_path / "o.csv"
     r = run("simulate", toy("Ticker", 3), "--interface", "me", "--out", out)
     assert r.returncode == 0, r.stderr
-    assert read_csv(out)[0] == ["time", "x", "n", "m", "c", "h", "alarms", "t_alarm"]
+    assert read_csv(out)[0] == ["time", "x", "n", "m", "c", "h", "alarms", "t_alarm",
+                                    "y", "u_at"]
     r = run("simulate", toy("Ticker", 3), "--interface", "me", "--outputs", "even",
             "--out", tmp_path / "e.csv")
     assert r.returncode == 2 and "'even' is a Clock" in r.stderr, r.stderr
@@ -174,7 +175,8 @@ def test_aperiodic_input_clocks_tick_where_the_fmu_announces(toy, tmp_path):
     r = run("simulate", toy("Ticker", 3), "--interface", "me", "--out", out)
     assert r.returncode == 0, r.stderr
     header, rows = read_csv(out)
-    assert header == ["time", "x", "n", "m", "c", "h", "alarms", "t_alarm"]
+    assert header == ["time", "x", "n", "m", "c", "h", "alarms", "t_alarm",
+                                    "y", "u_at"]
     t = rows[:, 0]
     cols = dict(zip(header, rows.T))
     check_ticker(t, cols)
@@ -282,3 +284,24 @@ def test_without_early_return_an_event_is_handled_at_the_end_of_its_step(toy, tm
     handled = np.array([ends[np.searchsorted(ends, tc - 1e-12)] for tc in crossings()])
     assert not np.allclose(handled, crossings())
     check_alarms(rows[:, 0], dict(zip(header, rows.T)), handled)
+
+
+@pytest.mark.parametrize("interface", ["me", "cs"])
+def test_a_held_input_changes_in_event_mode(interface, toy, tmp_path):
+    # Co-Simulation with Event Mode: the step ends at the input event and the new value is set
+    # in Event Mode ("the importer plans discrete changes to inputs", FMI 3.0.2 section 4.2);
+    # Model Exchange: an input event, as before
+    data = tmp_path / "u.csv"
+    data.write_text("time,u\n0,0\n0.52,3\n2,3\n")
+    out = tmp_path / "o.csv"
+    r = run("simulate", toy("Ticker", 3), "--interface", interface, "--data", data,
+            "--stop", "2", "--step", "0.05", "--outputs", "n,y,u_at", "--out", out)
+    assert r.returncode == 0, r.stderr
+    header, rows = read_csv(out)
+    assert header == ["time", "n", "y", "u_at"]
+    t, n, y, u_at = rows.T
+    after = t > 0.52 + 1e-9
+    assert (y[after] == 3).all() and (y[t < 0.52 - 1e-9] == 0).all(), (t, y)
+    assert np.allclose(u_at[after], 0.52, rtol=0, atol=1e-12) and (u_at[t < 0.52] == -1).all()
+    # the ticks go on as without the input
+    assert n[-1] == 8

@@ -8,9 +8,11 @@
 //! each call (output and local clocks inquired with fmi3GetClock), asks the aperiodic clocks'
 //! next intervals (see [`crate::me::clocks`]) and returns to Step Mode with fmi3EnterStepMode.
 //!
-//! A communication step ends at the next output point, the next clock tick or the FMU's
-//! `nextEventTime`, whichever comes first (section 4.2.1, fmi3EnterEventMode: the importer
-//! enters Event Mode when "time has reached nextEventTime" or "an input Clock needs to be set").
+//! A communication step ends at the next output point, the next clock tick, the FMU's
+//! `nextEventTime` or the next input event (a held input changing), whichever comes first
+//! (section 4.2.1, fmi3EnterEventMode: the importer enters Event Mode when "time has reached
+//! nextEventTime", "the importer plans discrete changes to inputs" or "an input Clock needs to
+//! be set"); the held inputs are set in that Event Mode, the interpolated ones before each step.
 //! After a step the run enters Event Mode there and when fmi3DoStep returned
 //! `eventHandlingNeeded`, at the time reached: `lastSuccessfulTime` after an early return,
 //! which the run allows when the FMU declares `mightReturnEarlyFromDoStep`, the step's end
@@ -169,7 +171,7 @@ impl EventContext<'_> {
 
 /// `math.isclose` with relative tolerance 1e-9, as the Model Exchange loop compares times.
 fn isclose(a: f64, b: f64) -> bool {
-    a == b || (a - b).abs() <= 1e-9 * a.abs().max(b.abs())
+    a == b || (a.is_finite() && b.is_finite() && (a - b).abs() <= 1e-9 * a.abs().max(b.abs()))
 }
 
 /// Steps `inst` (initialized with Event Mode, in Event Mode) through the output points `times`
@@ -198,17 +200,20 @@ pub(crate) fn run(
     let mut stalls = 0usize;
     while k + 1 < times.len() {
         let next_regular = times[k + 1];
+        let input_event = inputs.next_event(time);
         let mut target = next_regular;
         for te in [update.next_event_time, ctx.clocks.next_tick()]
             .into_iter()
             .flatten()
+            .chain([input_event])
         {
             if te < target && !isclose(te, target) && te > time {
                 target = te;
             }
         }
         if time > start {
-            inputs.apply(inst, time)?;
+            // held inputs change at input events only, in Event Mode
+            inputs.apply_some(inst, time, true, false)?;
         }
         let out = inst.do_step(time, target - time, true)?;
         let last = out.last_successful_time;
@@ -231,7 +236,9 @@ pub(crate) fn run(
             )));
         }
         let reached = |te: Option<f64>| te.is_some_and(|te| te <= time || isclose(te, time));
+        let at_input_event = reached(Some(input_event));
         if out.event_handling_needed
+            || at_input_event
             || reached(update.next_event_time)
             || reached(ctx.clocks.next_tick())
         {
@@ -247,6 +254,9 @@ pub(crate) fn run(
                 )));
             }
             inst.enter_event_mode(time)?;
+            if at_input_event {
+                inputs.apply(inst, time)?;
+            }
             update = ctx.event_mode(inst, time)?;
             if update.terminate {
                 ctx.rec.record(inst)?;

@@ -52,7 +52,8 @@ pub struct Fmu3 {
 
 impl Fmu3 {
     /// Opens an FMI 3.0 `.fmu` (or extracted directory) for Co-Simulation: parses the
-    /// description, refuses what the host does not run (no `<CoSimulation>`, clocks), loads
+    /// description, refuses what the host does not run (no `<CoSimulation>`, a clock of no
+    /// kind the standard defines), loads
     /// `binaries/<platform tuple>/<modelIdentifier>.so` and resolves the functions.
     pub fn open(path: impl AsRef<Path>) -> Result<Fmu3> {
         Fmu3::open_with(path, Some(Interface::CoSimulation))
