@@ -361,7 +361,39 @@ fn interval_of(
 
 #[cfg(test)]
 mod tests {
-    use super::{Aperiodic, ClockSchedule, Periodic};
+    use super::{refusal, Aperiodic, ClockSchedule, Periodic};
+    use crate::fmi3::md::ModelDescription3;
+
+    fn with_clock(causality: &str, kind: &str) -> ModelDescription3 {
+        let xml = format!(
+            "<fmiModelDescription fmiVersion=\"3.0\" instantiationToken=\"t\">\
+             <ModelExchange modelIdentifier=\"M\"/><ModelVariables>\
+             <Clock name=\"k\" valueReference=\"1\" causality=\"{causality}\" \
+             intervalVariability=\"{kind}\"/></ModelVariables></fmiModelDescription>"
+        );
+        ModelDescription3::parse(&xml, "").expect("a valid description")
+    }
+
+    #[test]
+    fn every_clock_kind_of_the_table_runs_and_no_other() {
+        for kind in [
+            "constant",
+            "fixed",
+            "tunable",
+            "changing",
+            "countdown",
+            "triggered",
+        ] {
+            assert_eq!(refusal(&with_clock("input", kind)), None, "{kind}");
+        }
+        assert_eq!(refusal(&with_clock("output", "triggered")), None);
+        assert_eq!(refusal(&with_clock("local", "triggered")), None);
+        let why = refusal(&with_clock("output", "constant")).expect("refused");
+        assert!(
+            why.contains("clock 'k'") && why.contains("section 2.2.8.2"),
+            "{why}"
+        );
+    }
 
     #[test]
     fn ticks_come_from_the_start_and_shift_without_accumulated_rounding() {
