@@ -4,7 +4,7 @@
 //! Exit status: 0 success (validate: no finding), 1 failure (validate: findings; simulate, gap:
 //! the FMU failed after initialization), 2 bad input: usage, unreadable or bad data, an FMU that
 //! cannot be opened, instantiated or initialized (refused parameters, GUID), what a command does
-//! not run (clocks, Scheduled Execution), an output
+//! not run (Scheduled Execution, a clock of no kind the standard defines), an output
 //! path that is an input, an FMU that crashed or did not return within --timeout; 3 simulate:
 //! the results were written, then the FMU crashed (freeing its instance); 130 interrupted
 //! (Ctrl-C, SIGTERM, SIGHUP).

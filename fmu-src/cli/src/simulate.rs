@@ -299,6 +299,16 @@ fn run3(a: &Args, save: impl FnOnce(SimulationResult, &str) -> CliResult) -> Cli
     let fmu = Fmu3::open_with(&a.fmu, interface).map_err(CliError::input)?;
     let described = fmu.model_description().with_aliases();
     let md: &ModelDescription3 = &described;
+    if fmu.interface() == Interface::CoSimulation
+        && host::fmi3::clocks_in_co_simulation(md) == host::fmi3::ClocksInCs::Ignored
+    {
+        eprintln!(
+            "{}: note: the FMU has clocks but no hasEventMode=\"true\" (FMI 3.0.2 section 4.4: \
+             \"If the FMU has clocks, then hasEventMode must be true\"): Co-Simulation runs \
+             without Event Mode and the FMU ignores its clocks",
+            a.fmu.display()
+        );
+    }
     let start_values = parse_sets3(md, &a.set)?;
     let experiment = md.default_experiment.clone().unwrap_or_default();
     let inputs = match &a.data {

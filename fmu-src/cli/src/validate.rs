@@ -215,8 +215,9 @@ fn validate_fmi3(path: &Path, timeout: Duration, effects: bool) -> Result<Checke
     }
     let (binary_findings, binaries) = check_platform_binaries3(&unpacked.dir, &md);
     findings.extend(binary_findings);
-    // The runtime probes: FMUs with a binary for this platform, run unless the host refuses
-    // them (clocks, Scheduled Execution only), which a note says.
+    // The runtime probes: FMUs with a binary for this platform, run unless the probes leave
+    // them to simulate (clocks) or the host refuses them (Scheduled Execution only), which a
+    // note says.
     let runnable = [
         &md.co_simulation,
         &md.model_exchange,

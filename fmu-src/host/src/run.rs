@@ -52,7 +52,7 @@ pub(crate) trait Outputs<I> {
     fn width(&self) -> usize;
     /// Appends the outputs' current values as a row.
     fn record(&mut self, inst: &mut I) -> Result<()>;
-    /// Reads what the active input clocks `clocks` clock (Model Exchange, in Event Mode).
+    /// Reads what the active clocks `clocks` clock (in Event Mode).
     fn clocks_active(&mut self, _inst: &mut I, _clocks: &[u32]) -> Result<()> {
         Ok(())
     }

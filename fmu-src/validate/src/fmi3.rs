@@ -37,7 +37,7 @@ pub fn classify3(check: &str) -> &'static str {
         "unit-declared" | "unique-units" => "FMI 3.0.2 §2.4.3: UnitDefinitions",
         "clocks" => "FMI 3.0.2 §2.4.7.4: Clocks and clocked variables",
         "probe-not-run" => {
-            "FMI 3.0.2 §2.2.8 (clocks), §5 (Scheduled Execution): not run by this host"
+            "FMI 3.0.2 §2.2.8 (clocks), §5 (Scheduled Execution): not run by the probes"
         }
         "display-unit" => {
             "FMI 3.0.2 §2.4.3: <DisplayUnit> names unique per unit, inverse only with offset 0"

@@ -31,7 +31,7 @@ impl Stage {
             }
             Stage::Probe => {
                 "not run: no binary for this platform, an unreadable description, or a kind of \
-                 FMU this host does not run (clocks, Scheduled Execution only)"
+                 FMU the probes do not run (clocks, Scheduled Execution only)"
             }
         }
     }

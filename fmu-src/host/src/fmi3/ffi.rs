@@ -139,6 +139,28 @@ pub struct Functions3 {
     pub instantiate_model_exchange: Option<InstantiateModelExchange>,
     /// The Model Exchange functions, when the binary exports all of them.
     pub me: Option<crate::me::fmi3::MeFunctions3>,
+    /// The clock functions, when the binary exports them.
+    pub clocks: Option<crate::me::clocks::ClockFunctions3>,
+    /// The Event Mode functions of both interfaces, when the binary exports them.
+    pub events: Option<Events3>,
+}
+
+/// The calls that enter, iterate and leave Event Mode (FMI 3.0.2 section 2.3.5; fmi3EnterStepMode
+/// is Co-Simulation's way out, section 4.2).
+#[derive(Clone, Copy)]
+#[allow(missing_docs)]
+pub struct Events3 {
+    pub enter_event_mode: unsafe extern "C" fn(I) -> RawStatus3,
+    pub update_discrete_states: unsafe extern "C" fn(
+        I,
+        *mut Bool3,
+        *mut Bool3,
+        *mut Bool3,
+        *mut Bool3,
+        *mut Bool3,
+        *mut f64,
+    ) -> RawStatus3,
+    pub enter_step_mode: Option<unsafe extern "C" fn(I) -> RawStatus3>,
 }
 
 /// Names of the functions every FMI 3.0 binary must export whatever its interfaces (FMI 3.0.2
@@ -241,6 +263,20 @@ pub unsafe fn resolve(lib: &Library) -> Result<Functions3, crate::ffi::LoadError
         do_step: sym(lib, "fmi3DoStep"),
         instantiate_model_exchange: sym(lib, "fmi3InstantiateModelExchange"),
         me: crate::me::fmi3::resolve(lib),
+        clocks: crate::me::clocks::resolve(lib),
+        events: events(lib),
+    })
+}
+
+/// The Event Mode functions, when the binary exports them.
+///
+/// # Safety
+/// As [`resolve`].
+unsafe fn events(lib: &Library) -> Option<Events3> {
+    Some(Events3 {
+        enter_event_mode: sym(lib, "fmi3EnterEventMode")?,
+        update_discrete_states: sym(lib, "fmi3UpdateDiscreteStates")?,
+        enter_step_mode: sym(lib, "fmi3EnterStepMode"),
     })
 }
 

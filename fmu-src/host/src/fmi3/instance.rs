@@ -40,6 +40,9 @@ pub struct Fmu3 {
     pub(crate) functions: Functions3,
     /// The interface its instances are made for.
     interface: Interface,
+    /// Co-Simulation instances are made with `eventModeUsed = true` (see
+    /// [`clocks_in_co_simulation`]).
+    event_mode: bool,
     live_instances: AtomicUsize,
     model_description: ModelDescription3,
     // Field order matters: the library is unloaded before the extracted files are removed.
@@ -49,7 +52,8 @@ pub struct Fmu3 {
 
 impl Fmu3 {
     /// Opens an FMI 3.0 `.fmu` (or extracted directory) for Co-Simulation: parses the
-    /// description, refuses what the host does not run (no `<CoSimulation>`, clocks), loads
+    /// description, refuses what the host does not run (no `<CoSimulation>`, a clock of no
+    /// kind the standard defines), loads
     /// `binaries/<platform tuple>/<modelIdentifier>.so` and resolves the functions.
     pub fn open(path: impl AsRef<Path>) -> Result<Fmu3> {
         Fmu3::open_with(path, Some(Interface::CoSimulation))
@@ -68,12 +72,7 @@ impl Fmu3 {
                 Interface::CoSimulation
             },
         );
-        let refused = match interface {
-            Interface::CoSimulation => unsupported(&md),
-            Interface::ModelExchange => {
-                no_interface(&md).or_else(|| crate::me::clocks::refusal(&md))
-            }
-        };
+        let refused = no_interface(&md).or_else(|| crate::me::clocks::refusal(&md));
         if let Some(reason) = refused {
             return Err(HostError::Unsupported {
                 path: fmu,
@@ -126,9 +125,15 @@ impl Fmu3 {
                     .into(),
             ));
         }
+        let event_mode = interface == Interface::CoSimulation
+            && clocks_in_co_simulation(&md) == ClocksInCs::EventMode
+            && functions
+                .events
+                .is_some_and(|e| e.enter_step_mode.is_some());
         Ok(Fmu3 {
             functions,
             interface,
+            event_mode,
             live_instances: AtomicUsize::new(0),
             model_description: md,
             _library: library,
@@ -139,6 +144,24 @@ impl Fmu3 {
     /// The interface its instances are made for.
     pub fn interface(&self) -> Interface {
         self.interface
+    }
+
+    /// Whether its Co-Simulation instances use Event Mode (`eventModeUsed = true`): when it has
+    /// clocks and `hasEventMode` (FMI 3.0.2 section 2.3.1: "For FMUs that have clocks,
+    /// eventModeUsed = fmi3True is required").
+    pub fn event_mode_used(&self) -> bool {
+        self.event_mode
+    }
+
+    /// `earlyReturnAllowed`: with Event Mode, when the FMU declares `mightReturnEarlyFromDoStep`
+    /// (the run then continues from `lastSuccessfulTime`, FMI 3.0.2 section 4.2.1).
+    pub fn early_return_allowed(&self) -> bool {
+        self.event_mode
+            && self
+                .model_description
+                .co_simulation
+                .as_ref()
+                .is_some_and(|c| c.flag("mightReturnEarlyFromDoStep"))
     }
 
     /// The parsed description.
@@ -161,8 +184,9 @@ impl Fmu3 {
         s
     }
 
-    /// Instantiates for Co-Simulation (`eventModeUsed` and `earlyReturnAllowed` false, no
-    /// intermediate variables, logging off).
+    /// Instantiates (Co-Simulation: `eventModeUsed` and `earlyReturnAllowed` as
+    /// [`Fmu3::event_mode_used`] and [`Fmu3::early_return_allowed`] say, no intermediate
+    /// variables; logging off).
     pub fn instantiate(&self, name: &str) -> Result<Instance3<'_>> {
         let element = match self.interface {
             Interface::CoSimulation => &self.model_description.co_simulation,
@@ -228,8 +252,8 @@ impl Fmu3 {
                 resources.as_ptr(),
                 0,
                 0,
-                0,
-                0,
+                Bool3::from(self.event_mode_used()),
+                Bool3::from(self.early_return_allowed()),
                 std::ptr::null(),
                 0,
                 &*env as *const Env3 as *mut c_void,
@@ -261,7 +285,37 @@ impl Fmu3 {
     }
 }
 
-/// Why the host does not run an FMU as Co-Simulation, naming what it lacks; None if it can.
+/// What a Co-Simulation run does with the clocks of `md`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ClocksInCs {
+    /// No clocks.
+    None,
+    /// Clocks and `hasEventMode`: the run uses Event Mode and drives them.
+    EventMode,
+    /// Clocks without `hasEventMode`, which FMI 3.0.2 section 4.4 asks for ("If the FMU has
+    /// clocks, then hasEventMode must be true"): the instance runs without Event Mode and the
+    /// FMU ignores its clocks.
+    Ignored,
+}
+
+/// What a Co-Simulation run does with the clocks of `md`.
+pub fn clocks_in_co_simulation(md: &ModelDescription3) -> ClocksInCs {
+    if !md.variables.iter().any(|v| v.ty == Type3::Clock) {
+        ClocksInCs::None
+    } else if md
+        .co_simulation
+        .as_ref()
+        .is_some_and(|c| c.flag("hasEventMode"))
+    {
+        ClocksInCs::EventMode
+    } else {
+        ClocksInCs::Ignored
+    }
+}
+
+/// Why `validate`'s runtime probes do not run an FMU, naming what they lack; None if they can.
+/// The probes call the functions of each state without Event Mode in Co-Simulation and set no
+/// clock: an FMU with clocks is left to `simulate`.
 pub fn unsupported(md: &ModelDescription3) -> Option<String> {
     if let Some(reason) = no_interface(md) {
         return Some(reason);
@@ -274,14 +328,9 @@ pub fn unsupported(md: &ModelDescription3) -> Option<String> {
         .take(3)
         .collect();
     if !clocks.is_empty() {
-        let me = if md.model_exchange.is_some() {
-            "; its Model Exchange interface runs periodic input clocks: simulate --interface me"
-        } else {
-            ""
-        };
         return Some(format!(
-            "FMI 3.0 clocks are not supported (the FMU declares Clock variables such as '{}', \
-             which need event mode; this host runs Co-Simulation without event mode{me})",
+            "the probes do not drive FMI 3.0 clocks (the FMU declares Clock variables such as \
+             '{}'); simulate runs them",
             clocks.join("', '")
         ));
     }
@@ -314,6 +363,8 @@ fn no_interface(md: &ModelDescription3) -> Option<String> {
 pub struct StepOutcome {
     /// `terminateSimulation`: the FMU asks to end the run.
     pub terminate: bool,
+    /// `eventHandlingNeeded`: the FMU met an event at `lastSuccessfulTime` (Event Mode only).
+    pub event_handling_needed: bool,
     /// `lastSuccessfulTime`: how far the step got.
     pub last_successful_time: f64,
     /// `earlyReturn`
@@ -445,6 +496,7 @@ impl<'a> Instance3<'a> {
         if status == Status::Discard && terminate != 0 {
             return Ok(StepOutcome {
                 terminate: true,
+                event_handling_needed: event != 0,
                 last_successful_time: last,
                 early_return: early != 0,
                 status,
@@ -453,6 +505,7 @@ impl<'a> Instance3<'a> {
         let status = self.check("fmi3DoStep", raw)?;
         Ok(StepOutcome {
             terminate: terminate != 0,
+            event_handling_needed: event != 0,
             last_successful_time: last,
             early_return: early != 0,
             status,

@@ -356,6 +356,8 @@ impl ModelDescription3 {
     pub fn recorded_by_default(&self) -> Vec<String> {
         let outputs: Vec<String> = self
             .with_causality(Causality3::Output)
+            // an output clock has no value between events (FMI 3.0.2 section 2.2.8.2)
+            .filter(|v| v.ty != Type3::Clock)
             .map(|v| v.name.clone())
             .collect();
         if !outputs.is_empty() {

@@ -5,9 +5,10 @@
 //! - [`ffi`]: the C types and the function table of a binary.
 //! - [`Fmu3`] / [`Instance3`]: an opened FMU (binary of this platform tuple loaded) and one
 //!   Co-Simulation instance with typed get/set of every type, arrays included.
-//! - [`simulate3`] / [`Simulator3`]: a whole Co-Simulation run from start values and input
-//!   columns.
+//! - [`simulate3`] / [`Simulator3`]: a whole run from start values and input columns; `events`:
+//!   Co-Simulation with Event Mode, which drives the FMU's clocks.
 
+pub(crate) mod events;
 pub mod ffi;
 pub(crate) mod instance;
 pub mod md;
@@ -15,7 +16,9 @@ pub(crate) mod simulate;
 pub mod value;
 
 pub use crate::simulate::{simulate as simulate3, simulate_then as simulate3_then};
-pub use instance::{unsupported, Fmu3, Instance3, StepOutcome, PLATFORM_TUPLE};
+pub use instance::{
+    clocks_in_co_simulation, unsupported, ClocksInCs, Fmu3, Instance3, StepOutcome, PLATFORM_TUPLE,
+};
 pub use md::{Causality3, ModelDescription3, Variable3};
 pub use simulate::{element_index, Inputs3, Request3, Simulator3};
 pub use value::{Type3, ValueError, Values};

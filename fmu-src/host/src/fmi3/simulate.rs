@@ -2,7 +2,8 @@
 //! communication grid, every output recorded.
 //!
 //! The steps follow the FMI 3.0.2 Co-Simulation state machine without event mode
-//! (`eventModeUsed = false`): instantiate; structural parameters in Configuration Mode; other
+//! (`eventModeUsed = false`; an FMU with clocks and `hasEventMode` runs with it, see
+//! [`super::events`]): instantiate; structural parameters in Configuration Mode; other
 //! start values and the inputs at the start time in the Instantiated state;
 //! fmi3EnterInitializationMode(tolerance, start, stop); fmi3ExitInitializationMode (to Step
 //! Mode); then fmi3DoStep from point to point, inputs set before each step. When fmi3DoStep
@@ -115,17 +116,23 @@ pub(crate) fn run_on(inst: &mut Instance3<'_>, req: &Request3) -> Result<Simulat
         md.default_experiment.as_ref().and_then(|d| d.tolerance),
     );
     inst.enter_initialization_mode(tolerance, req.start_time, Some(req.stop_time))?;
-    let clocks = match inst.fmu().interface() {
-        Interface::ModelExchange => ClockSchedule::initialize(inst, req.start_time)?,
-        Interface::CoSimulation => ClockSchedule::default(),
+    let (me, event_mode) = (
+        inst.fmu().interface() == Interface::ModelExchange,
+        inst.fmu().event_mode_used(),
+    );
+    let clocks = if me || event_mode {
+        ClockSchedule::initialize(inst, req.start_time)?
+    } else {
+        ClockSchedule::default()
     };
     rec.initial_clocked(inst)?;
     inst.exit_initialization_mode()?;
-    let (time, ended_by_fmu) = match inst.fmu().interface() {
-        Interface::ModelExchange => {
-            crate::me::fmi3::run(inst, req, (&mut inputs, clocks), &mut rec)?
-        }
-        Interface::CoSimulation => step_through(inst, &times, &mut inputs, &mut rec)?,
+    let (time, ended_by_fmu) = if me {
+        crate::me::fmi3::run(inst, req, (&mut inputs, clocks), &mut rec)?
+    } else if event_mode {
+        super::events::run(inst, &times, &mut inputs, &mut rec, clocks)?
+    } else {
+        step_through(inst, &times, &mut inputs, &mut rec)?
     };
     let _ = inst.terminate();
     Ok(SimulationResult::of_rows(time, rec.finish(), ended_by_fmu))
@@ -186,7 +193,8 @@ impl StartValues3 {
             }
             if v.ty == Type3::Clock {
                 return Err(HostError::Request(format!(
-                    "'{name}' is a Clock: clocks are not supported"
+                    "'{name}' is a Clock: the run sets input clocks active at their ticks \
+                     (FMI 3.0.2 section 2.2.8.2), a clock takes no start value"
                 )));
             }
             let x = Values::parse(v.ty, text)
@@ -601,7 +609,8 @@ impl Recorder3 {
             let v = lookup(md, name)?;
             if v.ty == Type3::Clock {
                 return Err(HostError::Request(format!(
-                    "'{name}' is a Clock: clocks are not supported"
+                    "'{name}' is a Clock: a clock has no value between its ticks to record \
+                     (FMI 3.0.2 section 2.2.8.2); record the variables it clocks"
                 )));
             }
             let (shape, n) = element_count(md, v, sizes)?;

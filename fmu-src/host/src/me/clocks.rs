@@ -1,8 +1,10 @@
-//! The input clocks of an FMI 3.0 Model Exchange run (FMI 3.0.2 section 2.2.8, Clocks).
+//! The clocks of an FMI 3.0 run in Model Exchange and in Co-Simulation with Event Mode (FMI
+//! 3.0.2 section 2.2.8, Clocks; table "Overview of Clock types").
 //!
 //! "In Model Exchange and Co-Simulation, when input Clocks tick, the importer will activate the
 //! input Clocks using fmi3SetClock" (section 2.2.8.2), and fmi3EnterEventMode is called when "an
-//! input Clock needs to be set" (section 3.2.1). The run drives the periodic input clocks:
+//! input Clock needs to be set" (sections 3.2.1, 4.2). The run drives the time-based input
+//! clocks:
 //!
 //! - `constant`: interval and shift from `intervalDecimal` and `shiftDecimal` (0 when absent);
 //!   without `intervalDecimal`, fmi3GetIntervalDecimal and fmi3GetShiftDecimal in
@@ -10,20 +12,35 @@
 //! - `fixed`, `tunable` with `intervalDecimal`: fmi3SetIntervalDecimal with it in
 //!   Initialization Mode ("One of these functions must be called for all fixed periodic Clocks
 //!   and tunable periodic Clocks", section 2.3.3); without it, fmi3GetIntervalDecimal and
-//!   fmi3GetShiftDecimal there ("the importer must use fmi3GetInterval and fmi3GetShift").
+//!   fmi3GetShiftDecimal there ("the importer must use fmi3GetInterval and fmi3GetShift");
+//! - `changing`, `countdown` (aperiodic): the first interval `T_interval,0 >= 0` from
+//!   fmi3GetIntervalDecimal in Initialization Mode, `t_0 = t_start + T_interval,0`; then
+//!   fmi3GetIntervalDecimal after the event iteration of every Event Mode where a `changing`
+//!   clock ticked ("if and only if this Clock ticked") and of every Event Mode for a `countdown`
+//!   clock ("in every Event Mode"; section 2.3.5: "these functions should be called after
+//!   fmi3UpdateDiscreteStates"). Its qualifier says what the interval means: `Changed`, the next
+//!   tick is at `t_event + interval` ("The new Clock interval is relative to the time of the
+//!   current Event Mode"); `Unchanged`, the tick announced before stands; `NotYetKnown`, no tick
+//!   is scheduled yet.
 //!
 //! A periodic clock ticks at `t_0 = t_start + T_shift`, `t_i = t_(i-1) + T_interval`
 //! (section 2.2.8.2, Periodic Clock), computed as `t_0 + i T_interval` so that no rounding
 //! accumulates. Ticks are time events: the run enters Event Mode there and sets the clocks due
 //! before the event iteration; the FMU deactivates them in fmi3UpdateDiscreteStates ("Any Clock
 //! active during fmi3UpdateDiscreteStates must be deactivated by the FMU itself", section 2.3.5).
+//! An aperiodic clock whose next interval is 0 ticks again in the same Event Mode (section
+//! 2.3.5 allows aperiodic clocks more than one fmi3UpdateDiscreteStates per Event Mode).
+//!
+//! Output and local clocks are activated by the FMU; "the importer must call fmi3GetClock in
+//! Event Mode" (section 2.2.8.2, triggered output and local Clocks): the run inquires them before
+//! each fmi3UpdateDiscreteStates of an event iteration, while the clocks that activated them are
+//! still active, and once after it, and reads the variables of the active ones.
 //!
 //! Triggered input clocks tick when the importer decides (section 2.2.8.2: "For triggered input
 //! clocks, the timing is determined by the importer"); a `simulate` run has no source of
-//! triggers, so they stay inactive. The clock kinds the run does not drive are refused by
-//! [`refusal`] with the clause that asks the importer for more.
+//! triggers, so they stay inactive. [`refusal`] refuses a clock of no kind the standard defines.
 
-use crate::error::Result;
+use crate::error::{HostError, Result};
 use crate::fmi3::ffi::{sym, Bool3, RawStatus3};
 use crate::fmi3::instance::Instance3;
 use crate::fmi3::md::{Causality3, ModelDescription3};
@@ -34,11 +51,19 @@ use std::ffi::{c_int, c_void};
 
 type I = *mut c_void;
 
-/// The clock functions a Model Exchange run calls (FMI 3.0.2 section 2.2.8.4).
+/// `fmi3IntervalQualifier` (FMI 3.0.2 section 2.2.8.4): `fmi3IntervalNotYetKnown`.
+const NOT_YET_KNOWN: c_int = 0;
+/// `fmi3IntervalUnchanged`
+const UNCHANGED: c_int = 1;
+/// `fmi3IntervalChanged`
+const CHANGED: c_int = 2;
+
+/// The clock functions a run calls (FMI 3.0.2 section 2.2.8.4).
 #[derive(Clone, Copy)]
 #[allow(missing_docs)]
 pub struct ClockFunctions3 {
     pub set_clock: unsafe extern "C" fn(I, *const u32, usize, *const Bool3) -> RawStatus3,
+    pub get_clock: unsafe extern "C" fn(I, *const u32, usize, *mut Bool3) -> RawStatus3,
     /// `(instance, vrs, n, intervals, qualifiers)`; `fmi3IntervalQualifier` is a C enum.
     pub get_interval_decimal:
         unsafe extern "C" fn(I, *const u32, usize, *mut f64, *mut c_int) -> RawStatus3,
@@ -54,36 +79,36 @@ pub struct ClockFunctions3 {
 pub(crate) unsafe fn resolve(lib: &Library) -> Option<ClockFunctions3> {
     Some(ClockFunctions3 {
         set_clock: sym(lib, "fmi3SetClock")?,
+        get_clock: sym(lib, "fmi3GetClock")?,
         get_interval_decimal: sym(lib, "fmi3GetIntervalDecimal")?,
         get_shift_decimal: sym(lib, "fmi3GetShiftDecimal")?,
         set_interval_decimal: sym(lib, "fmi3SetIntervalDecimal")?,
     })
 }
 
-/// Why a Model Exchange run cannot drive the clocks of `md`, citing the clause that asks the
-/// importer for what it does not do; None when it can.
+/// Why a run cannot drive the clocks of `md`: a Clock whose `intervalVariability` is none of
+/// the kinds of FMI 3.0.2 section 2.4.7.6 (or not `triggered` for an output or local clock,
+/// section 2.2.8.2: "The attribute intervalVariability must be triggered for output Clocks");
+/// None when it can.
 pub fn refusal(md: &ModelDescription3) -> Option<String> {
     for v in md.variables.iter().filter(|v| v.ty == Type3::Clock) {
         let kind = v.interval_variability.as_deref().unwrap_or("");
-        let why = match (v.causality, kind) {
-            (Causality3::Input, "constant" | "fixed" | "tunable" | "triggered") => continue,
-            (Causality3::Input, "changing" | "countdown") => {
-                "an aperiodic input clock, whose next interval the importer must ask for with \
-                 fmi3GetIntervalDecimal in the Event Mode of its ticks (changing) or in every \
-                 Event Mode (countdown; FMI 3.0.2 section 2.2.8.2, table \"Overview of Clock \
-                 types\", and section 2.3.5); this host runs periodic and triggered input clocks"
-            }
-            (Causality3::Output | Causality3::Local, _) => {
-                "an output or local clock, whose activation the importer must inquire with \
-                 fmi3GetClock in Event Mode (FMI 3.0.2 section 2.2.8.2, table \"Overview of \
-                 Clock types\"); this host runs periodic and triggered input clocks"
-            }
-            _ => "a clock without a known intervalVariability (FMI 3.0.2 section 2.4.7.6)",
+        let known = match v.causality {
+            Causality3::Input => matches!(
+                kind,
+                "constant" | "fixed" | "tunable" | "changing" | "countdown" | "triggered"
+            ),
+            Causality3::Output | Causality3::Local => kind == "triggered",
+            _ => false,
         };
-        return Some(format!(
-            "FMI 3.0 clock '{}' is not supported in Model Exchange: it is {why}",
-            v.name
-        ));
+        if !known {
+            return Some(format!(
+                "FMI 3.0 clock '{}' ({} with intervalVariability \"{kind}\") is of no kind \
+                 the standard defines (FMI 3.0.2 section 2.2.8.2, table \"Overview of Clock \
+                 types\"): the run cannot tell when it ticks",
+                v.name, v.causality
+            ));
+        }
     }
     None
 }
@@ -104,79 +129,95 @@ impl Periodic {
     }
 }
 
-/// The periodic input clocks of a run and their next ticks.
+/// One aperiodic input clock and its next tick (None: not known yet).
+#[derive(Clone, Debug, PartialEq)]
+struct Aperiodic {
+    vr: u32,
+    /// `countdown` (asked in every Event Mode), else `changing` (asked when it ticked).
+    countdown: bool,
+    next: Option<f64>,
+}
+
+/// The time-based input clocks of a run and their next ticks, and the output and local clocks
+/// the run inquires.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ClockSchedule {
     clocks: Vec<Periodic>,
+    aperiodic: Vec<Aperiodic>,
+    /// Output and local clocks: fmi3GetClock in Event Mode.
+    inquired: Vec<u32>,
 }
 
 impl ClockSchedule {
     /// The clocks of the instance's description, their intervals and shifts settled in
     /// Initialization Mode (where `inst` must be) for a run from `start`.
     pub fn initialize(inst: &mut Instance3<'_>, start: f64) -> Result<Self> {
-        let periodic: Vec<(u32, String, Option<f64>, Option<f64>)> = inst
-            .fmu()
-            .model_description()
+        let md = inst.fmu().model_description();
+        let clocks: Vec<_> = md
             .variables
             .iter()
-            .filter(|v| v.ty == Type3::Clock && v.causality == Causality3::Input)
-            .filter_map(|v| {
-                let kind = v.interval_variability.clone()?;
-                matches!(kind.as_str(), "constant" | "fixed" | "tunable").then(|| {
-                    let shift = v.shift_decimal;
-                    (v.value_reference, kind, v.interval_decimal, shift)
-                })
-            })
+            .filter(|v| v.ty == Type3::Clock)
             .collect();
-        if periodic.is_empty() {
+        if clocks.is_empty() {
             return Ok(ClockSchedule::default());
         }
         let f = clock_functions(inst)?;
-        let mut clocks = Vec::with_capacity(periodic.len());
-        for (vr, kind, interval, shift) in periodic {
-            let (interval, shift) = match interval {
-                Some(t) => {
-                    if kind != "constant" {
-                        let _w = watch::enter3(Call::Other, Some(start));
-                        // SAFETY: one value reference, one interval.
-                        let raw = unsafe { (f.set_interval_decimal)(inst.instance, &vr, 1, &t) };
-                        inst.check("fmi3SetIntervalDecimal", raw)?;
-                    }
-                    (t, shift.unwrap_or(0.0))
+        let mut s = ClockSchedule::default();
+        for v in clocks {
+            let vr = v.value_reference;
+            let kind = v.interval_variability.as_deref().unwrap_or("");
+            match (v.causality, kind) {
+                (Causality3::Output | Causality3::Local, _) => s.inquired.push(vr),
+                (Causality3::Input, "constant" | "fixed" | "tunable") => {
+                    let given = (v.interval_decimal, v.shift_decimal, kind != "constant");
+                    s.clocks.push(periodic(inst, &f, vr, given, start)?);
                 }
-                None => asked(inst, &f, vr, start)?,
-            };
-            if !(interval > 0.0 && interval.is_finite() && shift.is_finite()) {
-                return Err(crate::error::HostError::Request(format!(
-                    "clock (value reference {vr}): interval {interval} and shift {shift}; FMI \
-                     3.0.2 section 2.2.8.2 asks for an interval > 0"
-                )));
+                (Causality3::Input, "changing" | "countdown") => {
+                    let (interval, q) = interval_of(inst, &f, vr, start)?;
+                    // no earlier answer in Initialization Mode: Unchanged is taken as known
+                    let next = (q != NOT_YET_KNOWN).then_some(start + interval);
+                    let countdown = kind == "countdown";
+                    s.aperiodic.push(Aperiodic {
+                        vr,
+                        countdown,
+                        next,
+                    });
+                }
+                _ => {}
             }
-            clocks.push(Periodic {
-                vr,
-                t0: start + shift,
-                interval,
-                k: 0,
-            });
         }
-        Ok(ClockSchedule { clocks })
+        Ok(s)
+    }
+
+    /// Whether the run inquires output or local clocks.
+    pub fn inquires(&self) -> bool {
+        !self.inquired.is_empty()
     }
 
     /// The earliest next tick, if any clock ticks.
     pub fn next_tick(&self) -> Option<f64> {
-        self.clocks.iter().map(Periodic::next).reduce(f64::min)
+        let periodic = self.clocks.iter().map(Periodic::next);
+        let aperiodic = self.aperiodic.iter().filter_map(|c| c.next);
+        periodic.chain(aperiodic).reduce(f64::min)
     }
 
     /// The clocks whose tick is due at `t` (within `isclose` of it, or passed), each advanced
-    /// to its next tick.
+    /// to its next tick (an aperiodic one to none until the FMU tells it).
     pub fn due(&mut self, t: f64) -> Vec<u32> {
+        let reached = |tk: f64| tk <= t || super::isclose(tk, t);
         let mut due = Vec::new();
         for c in &mut self.clocks {
-            if c.next() <= t || super::isclose(c.next(), t) {
+            if reached(c.next()) {
                 due.push(c.vr);
-                while c.next() <= t || super::isclose(c.next(), t) {
+                while reached(c.next()) {
                     c.k += 1;
                 }
+            }
+        }
+        for c in &mut self.aperiodic {
+            if c.next.is_some_and(reached) {
+                due.push(c.vr);
+                c.next = None;
             }
         }
         due
@@ -191,35 +232,168 @@ impl ClockSchedule {
         let raw = unsafe { (f.set_clock)(inst.instance, vrs.as_ptr(), vrs.len(), on.as_ptr()) };
         inst.check("fmi3SetClock", raw).map(drop)
     }
+
+    /// The output and local clocks active now (fmi3GetClock, in Event Mode).
+    pub fn inquire(&self, inst: &mut Instance3<'_>, t: f64) -> Result<Vec<u32>> {
+        if self.inquired.is_empty() {
+            return Ok(Vec::new());
+        }
+        let f = clock_functions(inst)?;
+        let mut on = vec![0 as Bool3; self.inquired.len()];
+        let _w = watch::enter3(Call::Get, Some(t));
+        let (vrs, n) = (self.inquired.as_ptr(), self.inquired.len());
+        // SAFETY: `on` has one value per value reference.
+        let raw = unsafe { (f.get_clock)(inst.instance, vrs, n, on.as_mut_ptr()) };
+        inst.check("fmi3GetClock", raw)?;
+        Ok(self
+            .inquired
+            .iter()
+            .zip(on)
+            .filter(|(_, a)| *a != 0)
+            .map(|(vr, _)| *vr)
+            .collect())
+    }
+
+    /// After the event iteration at `t` in which the input clocks `ticked` ticked: the next
+    /// intervals of the aperiodic clocks the table of clock types asks for (a `changing` clock
+    /// that ticked, every `countdown` clock).
+    pub fn after_event(&mut self, inst: &mut Instance3<'_>, t: f64, ticked: &[u32]) -> Result<()> {
+        let asked: Vec<usize> = (0..self.aperiodic.len())
+            .filter(|&i| self.aperiodic[i].countdown || ticked.contains(&self.aperiodic[i].vr))
+            .collect();
+        if asked.is_empty() {
+            return Ok(());
+        }
+        let f = clock_functions(inst)?;
+        for i in asked {
+            let c = &mut self.aperiodic[i];
+            let (interval, q) = interval_of(inst, &f, c.vr, t)?;
+            match q {
+                CHANGED => c.next = Some(t + interval),
+                // a changing clock must announce its next tick now; without it, none follows
+                _ if !c.countdown => c.next = None,
+                _ => {}
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A periodic clock from `(intervalDecimal, shiftDecimal, settable)` of its description, set
+/// or asked in Initialization Mode.
+fn periodic(
+    inst: &mut Instance3<'_>,
+    f: &ClockFunctions3,
+    vr: u32,
+    (interval, shift, settable): (Option<f64>, Option<f64>, bool),
+    start: f64,
+) -> Result<Periodic> {
+    let (interval, shift) = match interval {
+        Some(t) => {
+            if settable {
+                let _w = watch::enter3(Call::Other, Some(start));
+                // SAFETY: one value reference, one interval.
+                let raw = unsafe { (f.set_interval_decimal)(inst.instance, &vr, 1, &t) };
+                inst.check("fmi3SetIntervalDecimal", raw)?;
+            }
+            (t, shift.unwrap_or(0.0))
+        }
+        None => {
+            let (interval, _) = interval_of(inst, f, vr, start)?;
+            let mut shift = 0.0;
+            let _w = watch::enter3(Call::Other, Some(start));
+            // SAFETY: one value reference, one shift.
+            let raw = unsafe { (f.get_shift_decimal)(inst.instance, &vr, 1, &mut shift) };
+            inst.check("fmi3GetShiftDecimal", raw)?;
+            (interval, shift)
+        }
+    };
+    if !(interval > 0.0 && interval.is_finite() && shift.is_finite()) {
+        return Err(HostError::Request(format!(
+            "clock (value reference {vr}): interval {interval} and shift {shift}; FMI 3.0.2 \
+             section 2.2.8.2 asks for an interval > 0"
+        )));
+    }
+    Ok(Periodic {
+        vr,
+        t0: start + shift,
+        interval,
+        k: 0,
+    })
 }
 
 fn clock_functions(inst: &Instance3<'_>) -> Result<ClockFunctions3> {
-    inst.fmu.functions.me.and_then(|m| m.clocks).ok_or_else(|| {
-        crate::error::HostError::Request(
-            "the FMU declares input clocks but its binary does not export fmi3SetClock, \
-                 fmi3GetIntervalDecimal, fmi3GetShiftDecimal and fmi3SetIntervalDecimal"
+    inst.fmu.functions.clocks.ok_or_else(|| {
+        HostError::Request(
+            "the FMU declares clocks but its binary does not export fmi3SetClock, fmi3GetClock, \
+             fmi3GetIntervalDecimal, fmi3GetShiftDecimal and fmi3SetIntervalDecimal"
                 .into(),
         )
     })
 }
 
-/// Interval and shift of clock `vr` from the FMU (Initialization Mode).
-fn asked(inst: &mut Instance3<'_>, f: &ClockFunctions3, vr: u32, t: f64) -> Result<(f64, f64)> {
-    let (mut interval, mut qualifier, mut shift) = (0.0, 0 as c_int, 0.0);
+/// fmi3GetIntervalDecimal of clock `vr` at `t`: the interval and its qualifier, the interval
+/// checked when it is news (`T_interval >= 0`, FMI 3.0.2 section 2.2.8.2, aperiodic clocks).
+fn interval_of(
+    inst: &mut Instance3<'_>,
+    f: &ClockFunctions3,
+    vr: u32,
+    t: f64,
+) -> Result<(f64, c_int)> {
+    let (mut interval, mut qualifier) = (0.0, NOT_YET_KNOWN);
     let _w = watch::enter3(Call::Other, Some(t));
     // SAFETY: one value reference, one interval, one qualifier.
     let raw =
         unsafe { (f.get_interval_decimal)(inst.instance, &vr, 1, &mut interval, &mut qualifier) };
     inst.check("fmi3GetIntervalDecimal", raw)?;
-    // SAFETY: one value reference, one shift.
-    let raw = unsafe { (f.get_shift_decimal)(inst.instance, &vr, 1, &mut shift) };
-    inst.check("fmi3GetShiftDecimal", raw)?;
-    Ok((interval, shift))
+    let news = qualifier != NOT_YET_KNOWN;
+    if !matches!(qualifier, NOT_YET_KNOWN | UNCHANGED | CHANGED)
+        || news && !(interval >= 0.0 && interval.is_finite())
+    {
+        return Err(HostError::Request(format!(
+            "fmi3GetIntervalDecimal at t = {t}: clock (value reference {vr}) has interval \
+             {interval} with qualifier {qualifier}; FMI 3.0.2 section 2.2.8.2 asks for an \
+             interval >= 0 and a qualifier of fmi3IntervalQualifier"
+        )));
+    }
+    Ok((interval, qualifier))
 }
 
 #[cfg(test)]
 mod tests {
-    use super::{ClockSchedule, Periodic};
+    use super::{refusal, Aperiodic, ClockSchedule, Periodic};
+    use crate::fmi3::md::ModelDescription3;
+
+    fn with_clock(causality: &str, kind: &str) -> ModelDescription3 {
+        let xml = format!(
+            "<fmiModelDescription fmiVersion=\"3.0\" instantiationToken=\"t\">\
+             <ModelExchange modelIdentifier=\"M\"/><ModelVariables>\
+             <Clock name=\"k\" valueReference=\"1\" causality=\"{causality}\" \
+             intervalVariability=\"{kind}\"/></ModelVariables></fmiModelDescription>"
+        );
+        ModelDescription3::parse(&xml, "").expect("a valid description")
+    }
+
+    #[test]
+    fn every_clock_kind_of_the_table_runs_and_no_other() {
+        for kind in [
+            "constant",
+            "fixed",
+            "tunable",
+            "changing",
+            "countdown",
+            "triggered",
+        ] {
+            assert_eq!(refusal(&with_clock("input", kind)), None, "{kind}");
+        }
+        assert_eq!(refusal(&with_clock("output", "triggered")), None);
+        assert_eq!(refusal(&with_clock("local", "triggered")), None);
+        let why = refusal(&with_clock("output", "constant")).expect("refused");
+        assert!(
+            why.contains("clock 'k'") && why.contains("section 2.2.8.2"),
+            "{why}"
+        );
+    }
 
     #[test]
     fn ticks_come_from_the_start_and_shift_without_accumulated_rounding() {
@@ -238,6 +412,7 @@ mod tests {
                     k: 0,
                 },
             ],
+            ..ClockSchedule::default()
         };
         assert_eq!(s.next_tick(), Some(0.0));
         assert_eq!(s.due(0.0), vec![2]);
@@ -250,5 +425,22 @@ mod tests {
         }
         // 0.1 * 1000 is the 1000th tick, computed as t0 + 999 * 0.1, not summed
         assert!((s.clocks[0].next() - 100.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn an_aperiodic_clock_ticks_once_and_waits_for_its_next_interval() {
+        let mut s = ClockSchedule {
+            aperiodic: vec![Aperiodic {
+                vr: 7,
+                countdown: true,
+                next: Some(0.3),
+            }],
+            ..ClockSchedule::default()
+        };
+        assert_eq!(s.next_tick(), Some(0.3));
+        assert!(s.due(0.2).is_empty());
+        assert_eq!(s.due(0.3), vec![7]);
+        assert_eq!(s.next_tick(), None);
+        assert!(s.due(0.4).is_empty());
     }
 }

@@ -6,7 +6,7 @@ use crate::error::{HostError, Result, Status};
 use crate::fmi3::ffi::{sym, Bool3, RawStatus3};
 use crate::fmi3::instance::Instance3;
 use crate::fmi3::simulate::{InputPlan3, Recorder3, Request3};
-use crate::me::clocks::{self, ClockFunctions3, ClockSchedule};
+use crate::me::clocks::ClockSchedule;
 use crate::me::{EventInfo, ModelExchange, StepOutcome};
 use crate::run::{self, ModelExchangeOf};
 use crate::watch::{self, Call};
@@ -54,8 +54,6 @@ pub struct MeFunctions3 {
             usize,
         ) -> RawStatus3,
     >,
-    /// The clock functions (needed by an FMU with periodic input clocks).
-    pub clocks: Option<ClockFunctions3>,
 }
 
 /// The Model Exchange table, when every required function of it is exported.
@@ -77,7 +75,6 @@ pub(crate) unsafe fn resolve(lib: &Library) -> Option<MeFunctions3> {
         get_number_of_event_indicators: sym(lib, "fmi3GetNumberOfEventIndicators")?,
         get_number_of_continuous_states: sym(lib, "fmi3GetNumberOfContinuousStates")?,
         get_directional_derivative: sym(lib, "fmi3GetDirectionalDerivative"),
-        clocks: clocks::resolve(lib),
     })
 }
 
@@ -274,12 +271,7 @@ impl ModelExchange for Fmi3Me<'_, '_> {
             )
         };
         self.call("fmi3UpdateDiscreteStates", raw)?;
-        // the next tick of an input clock is a time event too (FMI 3.0.2 section 2.3.5: time
-        // events are announced "through the arguments of fmi3GetShift and fmi3GetInterval")
-        let next_event_time = [(defined != 0).then_some(next), self.clocks.next_tick()]
-            .into_iter()
-            .flatten()
-            .reduce(f64::min);
+        let next_event_time = (defined != 0).then_some(next);
         Ok(EventInfo {
             new_discrete_states_needed: needed != 0,
             terminate_simulation: terminate != 0,
@@ -320,6 +312,18 @@ impl ModelExchange for Fmi3Me<'_, '_> {
             ClockSchedule::activate(self.inst, &due, t)?;
         }
         Ok(due)
+    }
+
+    fn inquire_clocks(&mut self, t: f64) -> Result<Vec<u32>> {
+        self.clocks.inquire(self.inst, t)
+    }
+
+    fn clocks_after_event(&mut self, t: f64, ticked: &[u32]) -> Result<()> {
+        self.clocks.after_event(self.inst, t, ticked)
+    }
+
+    fn next_clock_tick(&self) -> Option<f64> {
+        self.clocks.next_tick()
     }
 
     fn provides_directional_derivative(&self) -> bool {

@@ -18,8 +18,9 @@
 //!   full error control and needs no change to the integrator's steps.
 //! - **Step events**: `completedIntegratorStep` after every accepted step (unless the FMU
 //!   declares it not needed); `enterEventMode` ends the segment there.
-//! - **Input clocks** (FMI 3.0): the ticks of periodic input clocks are time events; at one the
-//!   clocks due are set active in Event Mode before the event iteration ([`clocks`]).
+//! - **Clocks** (FMI 3.0, [`clocks`]): the ticks of time-based input clocks are time events; at
+//!   one the clocks due are set active in Event Mode before the event iteration; output and
+//!   local clocks are inquired during it; aperiodic clocks' next intervals asked after it.
 //! - **Event iteration**: `newDiscreteStates` until no new discrete states are needed; a
 //!   terminate request ends the run (its rows up to then are kept).
 //! - **Jacobian**: from `fmi2GetDirectionalDerivative` when the FMU provides directional
@@ -119,6 +120,21 @@ pub trait ModelExchange {
     fn activate_clocks(&mut self, _t: f64) -> Result<Vec<u32>> {
         Ok(Vec::new())
     }
+    /// In Event Mode at `t`: the output and local clocks active now (FMI 3.0 fmi3GetClock).
+    /// Default: none.
+    fn inquire_clocks(&mut self, _t: f64) -> Result<Vec<u32>> {
+        Ok(Vec::new())
+    }
+    /// After the event iteration at `t` in which the input clocks `ticked` ticked: asks the
+    /// FMU for the next intervals of its aperiodic clocks (FMI 3.0 fmi3GetIntervalDecimal).
+    /// Default: nothing to ask.
+    fn clocks_after_event(&mut self, _t: f64, _ticked: &[u32]) -> Result<()> {
+        Ok(())
+    }
+    /// The next tick of an input clock, if any. Default: none.
+    fn next_clock_tick(&self) -> Option<f64> {
+        None
+    }
     /// Per derivative, in the order of the state vector: the states (positions) it depends on
     /// as `<ModelStructure>` declares them, `None` when it declares no dependencies (it may then
     /// depend on every state). Default: `None` for each.
@@ -199,8 +215,8 @@ pub trait Environment<M> {
     fn next_input_event(&self, t: f64) -> f64;
     /// Records the outputs at `t`.
     fn record(&mut self, fmu: &mut M, t: f64) -> Result<()>;
-    /// While the input clocks `clocks` are active (Event Mode, before the event iteration):
-    /// the variables they clock can be read now only (FMI 3.0.2 section 2.2.8.3).
+    /// While the clocks `clocks` are active (Event Mode, before an update of the event
+    /// iteration): the variables they clock can be read now only (FMI 3.0.2 section 2.2.8.3).
     fn clocks_active(&mut self, _fmu: &mut M, _clocks: &[u32]) -> Result<()> {
         Ok(())
     }
@@ -243,8 +259,7 @@ pub fn run<M: ModelExchange, E: Environment<M>>(
 ) -> Result<Ending> {
     let _integration = watch::enter(Call::HostIntegration, Some(s.start));
     let mut time = s.start;
-    activate_clocks(fmu, env, time)?;
-    let info = event_iteration(fmu)?;
+    let info = event_mode(fmu, env, time)?;
     if info.terminate_simulation {
         env.record(fmu, time)?;
         return Ok(Ending::Terminated(time));
@@ -324,8 +339,7 @@ pub fn run<M: ModelExchange, E: Environment<M>>(
         if input_event {
             env.apply_inputs_after_event(fmu, time)?;
         }
-        activate_clocks(fmu, env, time)?;
-        let info = event_iteration(fmu)?;
+        let info = event_mode(fmu, env, time)?;
         if info.terminate_simulation {
             return Ok(Ending::Terminated(time));
         }
@@ -342,32 +356,87 @@ pub fn run<M: ModelExchange, E: Environment<M>>(
     }
 }
 
-/// Activates the input clocks ticking at `t` (in Event Mode) and lets the environment read what
-/// they clock.
-fn activate_clocks<M: ModelExchange, E: Environment<M>>(
+/// The Event Mode at `t` once entered: the input clocks due set active, the event iteration,
+/// the next intervals of aperiodic clocks; again while an aperiodic clock ticks at `t` once more
+/// (its next interval 0, FMI 3.0.2 section 2.3.5). The next time event is the FMU's or the next
+/// clock tick, whichever comes first (section 2.3.5: time events are announced "through the
+/// arguments of fmi3GetShift and fmi3GetInterval" too).
+fn event_mode<M: ModelExchange, E: Environment<M>>(
     fmu: &mut M,
     env: &mut E,
     t: f64,
-) -> Result<()> {
-    let ticking = fmu.activate_clocks(t)?;
-    if ticking.is_empty() {
-        return Ok(());
+) -> Result<EventInfo> {
+    let (mut values_changed, mut nominals_changed) = (false, false);
+    let mut ticked = fmu.activate_clocks(t)?;
+    for _ in 0..MAX_EVENTS_AT_ONE_TIME {
+        let info = event_iteration(fmu, env, t, &ticked)?;
+        values_changed |= info.values_changed;
+        nominals_changed |= info.nominals_changed;
+        let merged = EventInfo {
+            values_changed,
+            nominals_changed,
+            ..info
+        };
+        if info.terminate_simulation {
+            return Ok(merged);
+        }
+        fmu.clocks_after_event(t, &ticked)?;
+        ticked = fmu.activate_clocks(t)?;
+        if ticked.is_empty() {
+            let next = [info.next_event_time, fmu.next_clock_tick()];
+            return Ok(EventInfo {
+                next_event_time: next.into_iter().flatten().reduce(f64::min),
+                ..merged
+            });
+        }
     }
-    env.clocks_active(fmu, &ticking)
+    Err(HostError::Request(format!(
+        "Model Exchange: clocks ticked more than {MAX_EVENTS_AT_ONE_TIME} times at t = {t} \
+         (an aperiodic clock whose next interval stays 0)"
+    )))
 }
 
-/// `newDiscreteStates` until no further iteration is needed or the FMU asks to terminate.
+/// Before each `newDiscreteStates` of an event iteration, and once after it: lets the
+/// environment read what the active clocks clock, the input clocks `ticked` (active until the
+/// first call deactivates them) and the output and local clocks active then (FMI 3.0
+/// fmi3GetClock; FMI 3.0.2 section 2.2.8.3: clocked variables "can be queried only when their
+/// Clock is active").
+fn read_clocked<M: ModelExchange, E: Environment<M>>(
+    fmu: &mut M,
+    env: &mut E,
+    t: f64,
+    ticked: &[u32],
+) -> Result<()> {
+    let mut active = fmu.inquire_clocks(t)?;
+    active.extend_from_slice(ticked);
+    if active.is_empty() {
+        return Ok(());
+    }
+    env.clocks_active(fmu, &active)
+}
+
+/// `newDiscreteStates` until no further iteration is needed or the FMU asks to terminate, the
+/// clocked variables read before each call ([`read_clocked`]).
 /// The states' values and nominals changed when any call of the iteration says so (FMI 2.0.4
 /// section 3.2.4's pseudocode: `valuesOfContinuousStatesChanged = valuesOfContinuousStatesChanged
 /// or eventInfo.valuesOfContinuousStatesChanged`, the same for the nominals): an FMU may
 /// re-initialize a state in the first call and report no change in the last.
-fn event_iteration<M: ModelExchange>(fmu: &mut M) -> Result<EventInfo> {
+fn event_iteration<M: ModelExchange, E: Environment<M>>(
+    fmu: &mut M,
+    env: &mut E,
+    t: f64,
+    ticked: &[u32],
+) -> Result<EventInfo> {
     let (mut values_changed, mut nominals_changed) = (false, false);
+    let mut ticked = ticked;
     for _ in 0..MAX_EVENT_ITERATIONS {
+        read_clocked(fmu, env, t, ticked)?;
+        ticked = &[];
         let info = fmu.new_discrete_states()?;
         values_changed |= info.values_changed;
         nominals_changed |= info.nominals_changed;
         if !info.new_discrete_states_needed || info.terminate_simulation {
+            read_clocked(fmu, env, t, &[])?;
             return Ok(EventInfo {
                 values_changed,
                 nominals_changed,

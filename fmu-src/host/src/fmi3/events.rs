@@ -1,0 +1,275 @@
+//! Co-Simulation with Event Mode (`eventModeUsed = true`), which a run uses for an FMU with
+//! clocks (FMI 3.0.2 section 2.3.1: "For FMUs that have clocks, eventModeUsed = fmi3True is
+//! required"; section 4.2).
+//!
+//! After fmi3ExitInitializationMode the FMU is in Event Mode (section 2.3.3). In every Event
+//! Mode the run sets the input clocks due active (fmi3SetClock), calls fmi3UpdateDiscreteStates
+//! until no discrete state needs an update, reading the variables of the active clocks before
+//! each call (output and local clocks inquired with fmi3GetClock), asks the aperiodic clocks'
+//! next intervals (see [`crate::me::clocks`]) and returns to Step Mode with fmi3EnterStepMode.
+//!
+//! A communication step ends at the next output point, the next clock tick, the FMU's
+//! `nextEventTime` or the next input event (a held input changing), whichever comes first
+//! (section 4.2.1, fmi3EnterEventMode: the importer enters Event Mode when "time has reached
+//! nextEventTime", "the importer plans discrete changes to inputs" or "an input Clock needs to
+//! be set"); the held inputs are set in that Event Mode, the interpolated ones before each step.
+//! After a step the run enters Event Mode there and when fmi3DoStep returned
+//! `eventHandlingNeeded`, at the time reached: `lastSuccessfulTime` after an early return,
+//! which the run allows when the FMU declares `mightReturnEarlyFromDoStep`, the step's end
+//! otherwise. Rows are recorded at the output points, after the events there.
+
+use super::ffi::Bool3;
+use super::instance::Instance3;
+use super::simulate::{InputPlan3, Recorder3};
+use crate::error::{HostError, Result};
+use crate::me::clocks::ClockSchedule;
+use crate::run::{Inputs, Outputs};
+use crate::watch::{self, Call};
+
+/// Most fmi3UpdateDiscreteStates calls of one event iteration.
+const MAX_EVENT_ITERATIONS: usize = 10_000;
+/// Most Event Modes at one time (clocks ticking again at once, events at one point).
+const MAX_EVENTS_AT_ONE_TIME: usize = 1_000;
+
+/// What one fmi3UpdateDiscreteStates reported.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct Update {
+    needed: bool,
+    terminate: bool,
+    next_event_time: Option<f64>,
+}
+
+impl Instance3<'_> {
+    fn events(&self) -> Result<crate::fmi3::ffi::Events3> {
+        self.fmu.functions.events.ok_or_else(|| {
+            HostError::Request(
+                "the FMU binary does not export fmi3EnterEventMode and fmi3UpdateDiscreteStates"
+                    .into(),
+            )
+        })
+    }
+
+    /// fmi3EnterEventMode (from Step Mode).
+    fn enter_event_mode(&mut self, t: f64) -> Result<()> {
+        let f = self.events()?.enter_event_mode;
+        let _w = watch::enter3(Call::EnterEventMode, Some(t));
+        // SAFETY: live instance.
+        let raw = unsafe { f(self.instance) };
+        self.check("fmi3EnterEventMode", raw).map(drop)
+    }
+
+    /// fmi3EnterStepMode (from Event Mode).
+    fn enter_step_mode(&mut self, t: f64) -> Result<()> {
+        let f = self.events()?.enter_step_mode.ok_or_else(|| {
+            HostError::Request("the FMU binary does not export fmi3EnterStepMode".into())
+        })?;
+        let _w = watch::enter3(Call::Other, Some(t));
+        // SAFETY: live instance.
+        let raw = unsafe { f(self.instance) };
+        self.check("fmi3EnterStepMode", raw).map(drop)
+    }
+
+    /// fmi3UpdateDiscreteStates.
+    fn update_discrete_states(&mut self, t: f64) -> Result<Update> {
+        let f = self.events()?.update_discrete_states;
+        let (mut needed, mut terminate, mut nominals, mut values, mut defined) =
+            (0 as Bool3, 0 as Bool3, 0 as Bool3, 0 as Bool3, 0 as Bool3);
+        let mut next = 0.0;
+        let _w = watch::enter3(Call::NewDiscreteStates, Some(t));
+        // SAFETY: every out pointer is a valid local.
+        let raw = unsafe {
+            f(
+                self.instance,
+                &mut needed,
+                &mut terminate,
+                &mut nominals,
+                &mut values,
+                &mut defined,
+                &mut next,
+            )
+        };
+        self.check("fmi3UpdateDiscreteStates", raw)?;
+        Ok(Update {
+            needed: needed != 0,
+            terminate: terminate != 0,
+            next_event_time: (defined != 0).then_some(next),
+        })
+    }
+}
+
+/// The clocks and the recorder a run's Event Modes work with.
+struct EventContext<'r> {
+    clocks: ClockSchedule,
+    rec: &'r mut Recorder3,
+}
+
+impl EventContext<'_> {
+    /// One Event Mode at `t` (entered): clocks due set, event iteration, next intervals; again
+    /// while an aperiodic clock ticks at `t` once more. Returns the last update, its next event
+    /// time the FMU's or the next clock tick, whichever comes first.
+    fn event_mode(&mut self, inst: &mut Instance3<'_>, t: f64) -> Result<Update> {
+        let mut ticked = self.activate_due(inst, t)?;
+        for _ in 0..MAX_EVENTS_AT_ONE_TIME {
+            let update = self.iterate(inst, t, &ticked)?;
+            if update.terminate {
+                return Ok(update);
+            }
+            self.clocks.after_event(inst, t, &ticked)?;
+            ticked = self.activate_due(inst, t)?;
+            if ticked.is_empty() {
+                let next = [update.next_event_time, self.clocks.next_tick()];
+                return Ok(Update {
+                    next_event_time: next.into_iter().flatten().reduce(f64::min),
+                    ..update
+                });
+            }
+        }
+        Err(HostError::Request(format!(
+            "Co-Simulation: clocks ticked more than {MAX_EVENTS_AT_ONE_TIME} times at t = {t} \
+             (an aperiodic clock whose next interval stays 0)"
+        )))
+    }
+
+    fn activate_due(&mut self, inst: &mut Instance3<'_>, t: f64) -> Result<Vec<u32>> {
+        let due = self.clocks.due(t);
+        if !due.is_empty() {
+            ClockSchedule::activate(inst, &due, t)?;
+        }
+        Ok(due)
+    }
+
+    /// fmi3UpdateDiscreteStates until no discrete state needs an update, the clocked variables
+    /// read before each call and after the last (FMI 3.0.2 section 2.2.8.3: they "can be
+    /// queried only when their Clock is active"; section 2.3.5: the FMU deactivates its clocks
+    /// in fmi3UpdateDiscreteStates).
+    fn iterate(&mut self, inst: &mut Instance3<'_>, t: f64, ticked: &[u32]) -> Result<Update> {
+        let mut ticked = ticked;
+        for _ in 0..MAX_EVENT_ITERATIONS {
+            self.read_clocked(inst, t, ticked)?;
+            ticked = &[];
+            let update = inst.update_discrete_states(t)?;
+            if !update.needed || update.terminate {
+                self.read_clocked(inst, t, &[])?;
+                return Ok(update);
+            }
+        }
+        Err(HostError::Request(format!(
+            "Co-Simulation: the event iteration at t = {t} did not converge in \
+             {MAX_EVENT_ITERATIONS} calls of fmi3UpdateDiscreteStates"
+        )))
+    }
+
+    fn read_clocked(&mut self, inst: &mut Instance3<'_>, t: f64, ticked: &[u32]) -> Result<()> {
+        let mut active = self.clocks.inquire(inst, t)?;
+        active.extend_from_slice(ticked);
+        if active.is_empty() {
+            return Ok(());
+        }
+        self.rec.clocks_active(inst, &active)
+    }
+}
+
+/// `math.isclose` with relative tolerance 1e-9, as the Model Exchange loop compares times.
+fn isclose(a: f64, b: f64) -> bool {
+    a == b || (a.is_finite() && b.is_finite() && (a - b).abs() <= 1e-9 * a.abs().max(b.abs()))
+}
+
+/// Steps `inst` (initialized with Event Mode, in Event Mode) through the output points `times`
+/// with the clocks of `clocks`, recording at each: the recorded times and, when the FMU ended
+/// the run, the last of them.
+pub(crate) fn run(
+    inst: &mut Instance3<'_>,
+    times: &[f64],
+    inputs: &mut InputPlan3<'_>,
+    rec: &mut Recorder3,
+    clocks: ClockSchedule,
+) -> Result<(Vec<f64>, Option<f64>)> {
+    let mut ctx = EventContext { clocks, rec };
+    let mut rows = Vec::with_capacity(times.len());
+    let start = times[0];
+    let mut update = ctx.event_mode(inst, start)?;
+    ctx.rec.record(inst)?;
+    rows.push(start);
+    if update.terminate {
+        return Ok((rows, Some(start)));
+    }
+    inst.enter_step_mode(start)?;
+    let early_allowed = inst.fmu().early_return_allowed();
+    let (mut time, mut k) = (start, 0);
+    let mut events_here = (start, 0usize);
+    let mut stalls = 0usize;
+    while k + 1 < times.len() {
+        let next_regular = times[k + 1];
+        let input_event = inputs.next_event(time);
+        let mut target = next_regular;
+        for te in [update.next_event_time, ctx.clocks.next_tick()]
+            .into_iter()
+            .flatten()
+            .chain([input_event])
+        {
+            if te < target && !isclose(te, target) && te > time {
+                target = te;
+            }
+        }
+        if time > start {
+            // held inputs change at input events only, in Event Mode
+            inputs.apply_some(inst, time, true, false)?;
+        }
+        let out = inst.do_step(time, target - time, true)?;
+        let last = out.last_successful_time;
+        let early = early_allowed && out.early_return && last >= time && last < target;
+        if out.terminate {
+            if last > time && last.is_finite() {
+                ctx.rec.record(inst)?;
+                rows.push(last.min(target));
+            }
+            let ended = *rows.last().unwrap_or(&time);
+            return Ok((rows, Some(ended)));
+        }
+        let before = time;
+        time = if early { last } else { target };
+        stalls = if time == before { stalls + 1 } else { 0 };
+        if stalls > MAX_EVENTS_AT_ONE_TIME {
+            return Err(HostError::Request(format!(
+                "Co-Simulation: fmi3DoStep returned early at t = {time} more than \
+                 {MAX_EVENTS_AT_ONE_TIME} times without advancing"
+            )));
+        }
+        let reached = |te: Option<f64>| te.is_some_and(|te| te <= time || isclose(te, time));
+        let at_input_event = reached(Some(input_event));
+        if out.event_handling_needed
+            || at_input_event
+            || reached(update.next_event_time)
+            || reached(ctx.clocks.next_tick())
+        {
+            events_here = if events_here.0 == time {
+                (time, events_here.1 + 1)
+            } else {
+                (time, 1)
+            };
+            if events_here.1 > MAX_EVENTS_AT_ONE_TIME {
+                return Err(HostError::Request(format!(
+                    "Co-Simulation: more than {MAX_EVENTS_AT_ONE_TIME} events at t = {time} \
+                     (an event that triggers itself again)"
+                )));
+            }
+            inst.enter_event_mode(time)?;
+            if at_input_event {
+                inputs.apply(inst, time)?;
+            }
+            update = ctx.event_mode(inst, time)?;
+            if update.terminate {
+                ctx.rec.record(inst)?;
+                rows.push(time);
+                return Ok((rows, Some(time)));
+            }
+            inst.enter_step_mode(time)?;
+        }
+        if isclose(time, next_regular) {
+            ctx.rec.record(inst)?;
+            rows.push(next_regular);
+            k += 1;
+        }
+    }
+    Ok((rows, None))
+}
