@@ -175,7 +175,7 @@ fn isclose(a: f64, b: f64) -> bool {
 }
 
 /// Steps `inst` (initialized with Event Mode, in Event Mode) through the output points `times`
-/// with the clocks of `clocks`, recording at each: the recorded times and, when the FMU ended
+/// with the clocks of `clocks`, recording at each as the step reaches it (before the events there): the recorded times and, when the FMU ended
 /// the run, the last of them.
 pub(crate) fn run(
     inst: &mut Instance3<'_>,
@@ -235,6 +235,15 @@ pub(crate) fn run(
                  {MAX_EVENTS_AT_ONE_TIME} times without advancing"
             )));
         }
+        // An output point is recorded as the step reached it, before the events there are
+        // handled, as FMPy's simulate_fmu records (after fmi3DoStep, before
+        // fmi3EnterEventMode): a clock ticking at an output point shows in the next row.
+        let regular = isclose(time, next_regular);
+        if regular {
+            ctx.rec.record(inst)?;
+            rows.push(next_regular);
+            k += 1;
+        }
         let reached = |te: Option<f64>| te.is_some_and(|te| te <= time || isclose(te, time));
         let at_input_event = reached(Some(input_event));
         if out.event_handling_needed
@@ -255,20 +264,17 @@ pub(crate) fn run(
             }
             inst.enter_event_mode(time)?;
             if at_input_event {
-                inputs.apply(inst, time)?;
+                inputs.apply_after(inst, time)?;
             }
             update = ctx.event_mode(inst, time)?;
             if update.terminate {
-                ctx.rec.record(inst)?;
-                rows.push(time);
+                if !regular {
+                    ctx.rec.record(inst)?;
+                    rows.push(time);
+                }
                 return Ok((rows, Some(time)));
             }
             inst.enter_step_mode(time)?;
-        }
-        if isclose(time, next_regular) {
-            ctx.rec.record(inst)?;
-            rows.push(next_regular);
-            k += 1;
         }
     }
     Ok((rows, None))
