@@ -175,8 +175,8 @@ fn isclose(a: f64, b: f64) -> bool {
 }
 
 /// Steps `inst` (initialized with Event Mode, in Event Mode) through the output points `times`
-/// with the clocks of `clocks`, recording at each as the step reaches it (before the events there): the recorded times and, when the FMU ended
-/// the run, the last of them.
+/// with the clocks of `clocks`, recording at each as the step reaches it (before the events
+/// there): the recorded times and, when the FMU ended the run, the last of them.
 pub(crate) fn run(
     inst: &mut Instance3<'_>,
     times: &[f64],
