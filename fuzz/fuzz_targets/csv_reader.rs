@@ -1,18 +1,37 @@
 //! The host's CSV reader (`host::csv::parse_csv`, what `read_csv` calls after UTF-8 decoding):
 //! any text gives a table or a located error, never a panic or a hang. A parsed table must keep
 //! the reader's promises (rectangular, finite values, strictly increasing time) and read back
-//! bit-identically after `write_csv_to`.
+//! bit-identically after `write_csv_to`. Read as `simulate --data` reads it (a time may repeat
+//! once, a jump): time increases, no time on three rows, and a table the strict reader takes
+//! comes out the same.
 #![no_main]
 
+use host::csv::{parse_table, TimeAxis};
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
     let Ok(text) = std::str::from_utf8(data) else {
         return;
     };
+    let jumps = parse_table(text, "fuzz.csv", &[], TimeAxis::JumpsAllowed);
+    if let Ok(t) = &jumps {
+        assert!(t.time.windows(2).all(|w| w[1] >= w[0]), "time decreasing");
+        assert!(
+            t.time.windows(3).all(|w| w[2] > w[0]),
+            "a time on three rows"
+        );
+        if let Some(dt) = t.sample_interval() {
+            assert!(dt > 0.0, "sample interval {dt} with jumps");
+        }
+    }
     let Ok(table) = host::csv::parse_csv(text, "fuzz.csv") else {
         return;
     };
+    assert_eq!(
+        jumps.as_ref().ok(),
+        Some(&table),
+        "the strict table read otherwise with jumps"
+    );
     assert!(!table.time.is_empty(), "table without rows");
     assert_eq!(table.names.len(), table.columns.len());
     assert!(

@@ -18,26 +18,17 @@
 //! which the run allows when the FMU declares `mightReturnEarlyFromDoStep`, the step's end
 //! otherwise. Rows are recorded at the output points, after the events there.
 
-use super::ffi::Bool3;
+use super::ffi::{update_discrete_states, DiscreteUpdate3};
 use super::instance::Instance3;
 use super::simulate::{InputPlan3, Recorder3};
 use crate::error::{HostError, Result};
 use crate::me::clocks::ClockSchedule;
+use crate::me::{EventsAtOneTime, MAX_EVENTS_AT_ONE_TIME};
 use crate::run::{Inputs, Outputs};
 use crate::watch::{self, Call};
 
 /// Most fmi3UpdateDiscreteStates calls of one event iteration.
 const MAX_EVENT_ITERATIONS: usize = 10_000;
-/// Most Event Modes at one time (clocks ticking again at once, events at one point).
-const MAX_EVENTS_AT_ONE_TIME: usize = 1_000;
-
-/// What one fmi3UpdateDiscreteStates reported.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-struct Update {
-    needed: bool,
-    terminate: bool,
-    next_event_time: Option<f64>,
-}
 
 impl Instance3<'_> {
     fn events(&self) -> Result<crate::fmi3::ffi::Events3> {
@@ -70,30 +61,11 @@ impl Instance3<'_> {
     }
 
     /// fmi3UpdateDiscreteStates.
-    fn update_discrete_states(&mut self, t: f64) -> Result<Update> {
+    fn update_discrete_states(&mut self, t: f64) -> Result<DiscreteUpdate3> {
         let f = self.events()?.update_discrete_states;
-        let (mut needed, mut terminate, mut nominals, mut values, mut defined) =
-            (0 as Bool3, 0 as Bool3, 0 as Bool3, 0 as Bool3, 0 as Bool3);
-        let mut next = 0.0;
-        let _w = watch::enter3(Call::NewDiscreteStates, Some(t));
-        // SAFETY: every out pointer is a valid local.
-        let raw = unsafe {
-            f(
-                self.instance,
-                &mut needed,
-                &mut terminate,
-                &mut nominals,
-                &mut values,
-                &mut defined,
-                &mut next,
-            )
-        };
+        let (raw, update) = update_discrete_states(f, self.instance, t);
         self.check("fmi3UpdateDiscreteStates", raw)?;
-        Ok(Update {
-            needed: needed != 0,
-            terminate: terminate != 0,
-            next_event_time: (defined != 0).then_some(next),
-        })
+        Ok(update)
     }
 }
 
@@ -107,7 +79,7 @@ impl EventContext<'_> {
     /// One Event Mode at `t` (entered): clocks due set, event iteration, next intervals; again
     /// while an aperiodic clock ticks at `t` once more. Returns the last update, its next event
     /// time the FMU's or the next clock tick, whichever comes first.
-    fn event_mode(&mut self, inst: &mut Instance3<'_>, t: f64) -> Result<Update> {
+    fn event_mode(&mut self, inst: &mut Instance3<'_>, t: f64) -> Result<DiscreteUpdate3> {
         let mut ticked = self.activate_due(inst, t)?;
         for _ in 0..MAX_EVENTS_AT_ONE_TIME {
             let update = self.iterate(inst, t, &ticked)?;
@@ -118,7 +90,7 @@ impl EventContext<'_> {
             ticked = self.activate_due(inst, t)?;
             if ticked.is_empty() {
                 let next = [update.next_event_time, self.clocks.next_tick()];
-                return Ok(Update {
+                return Ok(DiscreteUpdate3 {
                     next_event_time: next.into_iter().flatten().reduce(f64::min),
                     ..update
                 });
@@ -142,7 +114,12 @@ impl EventContext<'_> {
     /// read before each call and after the last (FMI 3.0.2 section 2.2.8.3: they "can be
     /// queried only when their Clock is active"; section 2.3.5: the FMU deactivates its clocks
     /// in fmi3UpdateDiscreteStates).
-    fn iterate(&mut self, inst: &mut Instance3<'_>, t: f64, ticked: &[u32]) -> Result<Update> {
+    fn iterate(
+        &mut self,
+        inst: &mut Instance3<'_>,
+        t: f64,
+        ticked: &[u32],
+    ) -> Result<DiscreteUpdate3> {
         let mut ticked = ticked;
         for _ in 0..MAX_EVENT_ITERATIONS {
             self.read_clocked(inst, t, ticked)?;
@@ -196,7 +173,7 @@ pub(crate) fn run(
     inst.enter_step_mode(start)?;
     let early_allowed = inst.fmu().early_return_allowed();
     let (mut time, mut k) = (start, 0);
-    let mut events_here = (start, 0usize);
+    let mut events_here = EventsAtOneTime::new(start);
     let mut stalls = 0usize;
     while k + 1 < times.len() {
         let next_regular = times[k + 1];
@@ -251,17 +228,7 @@ pub(crate) fn run(
             || reached(update.next_event_time)
             || reached(ctx.clocks.next_tick())
         {
-            events_here = if events_here.0 == time {
-                (time, events_here.1 + 1)
-            } else {
-                (time, 1)
-            };
-            if events_here.1 > MAX_EVENTS_AT_ONE_TIME {
-                return Err(HostError::Request(format!(
-                    "Co-Simulation: more than {MAX_EVENTS_AT_ONE_TIME} events at t = {time} \
-                     (an event that triggers itself again)"
-                )));
-            }
+            events_here.count(time, "Co-Simulation")?;
             inst.enter_event_mode(time)?;
             if at_input_event {
                 inputs.apply_after(inst, time)?;

@@ -151,16 +151,64 @@ pub struct Functions3 {
 #[allow(missing_docs)]
 pub struct Events3 {
     pub enter_event_mode: unsafe extern "C" fn(I) -> RawStatus3,
-    pub update_discrete_states: unsafe extern "C" fn(
-        I,
-        *mut Bool3,
-        *mut Bool3,
-        *mut Bool3,
-        *mut Bool3,
-        *mut Bool3,
-        *mut f64,
-    ) -> RawStatus3,
+    pub update_discrete_states: UpdateDiscreteStates3,
     pub enter_step_mode: Option<unsafe extern "C" fn(I) -> RawStatus3>,
+}
+
+/// `fmi3UpdateDiscreteStates(instance, discreteStatesNeedUpdate, terminateSimulation,
+/// nominalsOfContinuousStatesChanged, valuesOfContinuousStatesChanged, nextEventTimeDefined,
+/// nextEventTime)` (FMI 3.0.2 section 2.3.5).
+pub type UpdateDiscreteStates3 = unsafe extern "C" fn(
+    I,
+    *mut Bool3,
+    *mut Bool3,
+    *mut Bool3,
+    *mut Bool3,
+    *mut Bool3,
+    *mut f64,
+) -> RawStatus3;
+
+/// What one call of fmi3UpdateDiscreteStates reports.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct DiscreteUpdate3 {
+    pub needed: bool,
+    pub terminate: bool,
+    pub nominals_changed: bool,
+    pub values_changed: bool,
+    pub next_event_time: Option<f64>,
+}
+
+/// Calls fmi3UpdateDiscreteStates `f` of `instance` (watched at time `t`): its status and what
+/// it reports.
+pub(crate) fn update_discrete_states(
+    f: UpdateDiscreteStates3,
+    instance: I,
+    t: f64,
+) -> (RawStatus3, DiscreteUpdate3) {
+    let (mut needed, mut terminate, mut nominals, mut values, mut defined) =
+        (0 as Bool3, 0 as Bool3, 0 as Bool3, 0 as Bool3, 0 as Bool3);
+    let mut next = 0.0;
+    let _w = crate::watch::enter3(crate::watch::Call::NewDiscreteStates, Some(t));
+    // SAFETY: `instance` is live (the caller's) and every out pointer is a valid local.
+    let raw = unsafe {
+        f(
+            instance,
+            &mut needed,
+            &mut terminate,
+            &mut nominals,
+            &mut values,
+            &mut defined,
+            &mut next,
+        )
+    };
+    let update = DiscreteUpdate3 {
+        needed: needed != 0,
+        terminate: terminate != 0,
+        nominals_changed: nominals != 0,
+        values_changed: values != 0,
+        next_event_time: (defined != 0).then_some(next),
+    };
+    (raw, update)
 }
 
 /// Names of the functions every FMI 3.0 binary must export whatever its interfaces (FMI 3.0.2

@@ -3,7 +3,7 @@
 //! after initialization with the inputs and recorder of [`crate::fmi3`]'s runs.
 
 use crate::error::{HostError, Result, Status};
-use crate::fmi3::ffi::{sym, Bool3, RawStatus3};
+use crate::fmi3::ffi::{sym, update_discrete_states, Bool3, RawStatus3, UpdateDiscreteStates3};
 use crate::fmi3::instance::Instance3;
 use crate::fmi3::simulate::{InputPlan3, Recorder3, Request3};
 use crate::me::clocks::ClockSchedule;
@@ -20,15 +20,7 @@ type I = *mut c_void;
 #[allow(missing_docs)]
 pub struct MeFunctions3 {
     pub enter_event_mode: unsafe extern "C" fn(I) -> RawStatus3,
-    pub update_discrete_states: unsafe extern "C" fn(
-        I,
-        *mut Bool3,
-        *mut Bool3,
-        *mut Bool3,
-        *mut Bool3,
-        *mut Bool3,
-        *mut f64,
-    ) -> RawStatus3,
+    pub update_discrete_states: UpdateDiscreteStates3,
     pub enter_continuous_time_mode: unsafe extern "C" fn(I) -> RawStatus3,
     pub completed_integrator_step:
         unsafe extern "C" fn(I, Bool3, *mut Bool3, *mut Bool3) -> RawStatus3,
@@ -254,30 +246,15 @@ impl ModelExchange for Fmi3Me<'_, '_> {
     }
 
     fn new_discrete_states(&mut self) -> Result<EventInfo> {
-        let (mut needed, mut terminate, mut nominals, mut values, mut defined) =
-            (0 as Bool3, 0 as Bool3, 0 as Bool3, 0 as Bool3, 0 as Bool3);
-        let mut next = 0.0;
-        let _w = watch::enter3(Call::NewDiscreteStates, Some(self.time));
-        // SAFETY: every out pointer is a valid local.
-        let raw = unsafe {
-            (self.f.update_discrete_states)(
-                self.inst.instance,
-                &mut needed,
-                &mut terminate,
-                &mut nominals,
-                &mut values,
-                &mut defined,
-                &mut next,
-            )
-        };
+        let f = self.f.update_discrete_states;
+        let (raw, u) = update_discrete_states(f, self.inst.instance, self.time);
         self.call("fmi3UpdateDiscreteStates", raw)?;
-        let next_event_time = (defined != 0).then_some(next);
         Ok(EventInfo {
-            new_discrete_states_needed: needed != 0,
-            terminate_simulation: terminate != 0,
-            nominals_changed: nominals != 0,
-            values_changed: values != 0,
-            next_event_time,
+            new_discrete_states_needed: u.needed,
+            terminate_simulation: u.terminate,
+            nominals_changed: u.nominals_changed,
+            values_changed: u.values_changed,
+            next_event_time: u.next_event_time,
         })
     }
 

@@ -48,7 +48,42 @@ const MAX_ROOT_ITERATIONS: usize = 200;
 /// loop without end.
 const MAX_EVENT_ITERATIONS: usize = 10_000;
 /// Most events at one time instant in a row (an event that re-triggers itself).
-const MAX_EVENTS_AT_ONE_TIME: usize = 1_000;
+pub(crate) const MAX_EVENTS_AT_ONE_TIME: usize = 1_000;
+
+/// The events at one time so far, so that an event that triggers itself again ends the run
+/// with an error rather than looping (both interfaces' event loops count with it).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct EventsAtOneTime {
+    time: f64,
+    count: usize,
+}
+
+impl EventsAtOneTime {
+    /// None counted yet, at `t`.
+    pub(crate) fn new(t: f64) -> Self {
+        EventsAtOneTime { time: t, count: 0 }
+    }
+
+    /// Counts an event at `t`; more than [`MAX_EVENTS_AT_ONE_TIME`] there is an error naming
+    /// the `interface`'s run.
+    pub(crate) fn count(&mut self, t: f64, interface: &str) -> Result<()> {
+        *self = if self.time == t {
+            EventsAtOneTime {
+                time: t,
+                count: self.count + 1,
+            }
+        } else {
+            EventsAtOneTime { time: t, count: 1 }
+        };
+        if self.count > MAX_EVENTS_AT_ONE_TIME {
+            return Err(HostError::Request(format!(
+                "{interface}: more than {MAX_EVENTS_AT_ONE_TIME} events at t = {t} \
+                 (an event that triggers itself again)"
+            )));
+        }
+        Ok(())
+    }
+}
 
 /// What `newDiscreteStates` reports (`fmi2EventInfo`).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -277,7 +312,7 @@ pub fn run<M: ModelExchange, E: Environment<M>>(
     integrator.set_max_step((s.stop - s.start) / 50.0);
     let mut n_steps: u64 = 0;
     let mut next_regular = time;
-    let mut events_here = (time, 0usize);
+    let mut events_here = EventsAtOneTime::new(time);
     loop {
         if s.record_events || isclose(time, next_regular) {
             env.record(fmu, time)?;
@@ -321,17 +356,7 @@ pub fn run<M: ModelExchange, E: Environment<M>>(
         if !(input_event || time_event || seg.state_event || seg.step_event) {
             continue;
         }
-        events_here = if events_here.0 == time {
-            (time, events_here.1 + 1)
-        } else {
-            (time, 1)
-        };
-        if events_here.1 > MAX_EVENTS_AT_ONE_TIME {
-            return Err(HostError::Request(format!(
-                "Model Exchange: more than {MAX_EVENTS_AT_ONE_TIME} events at t = {time} \
-                 (an event that triggers itself again)"
-            )));
-        }
+        events_here.count(time, "Model Exchange")?;
         if s.record_events {
             env.record(fmu, time)?;
         }
