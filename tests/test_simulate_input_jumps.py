@@ -55,6 +55,34 @@ def test_a_repeated_time_is_a_jump_of_the_inputs_as_in_fmpy(toy, tmp_path, inter
 
 
 @pytest.mark.parametrize("interface", ["cs", "me"])
+def test_input_events_between_output_points_as_in_fmpy(toy, tmp_path, interface):
+    """A jump at 0.55 s and a held (discrete) input changing at 0.25 s, both between the 0.1 s
+    output points: FMPy ends a Co-Simulation step at each (the FMU handles a variable step
+    size) and records a row there; Model Exchange makes them input events. Same rows, same
+    values as FMPy."""
+    fmu = toy("Feedthrough")
+    rows = [(0.0, 0.0, 1.0), (0.25, 0.25, 1.0), (0.25, 0.25, 4.0), (0.55, 0.55, 4.0),
+            (0.55, 2.55, 4.0), (1.0, 3.0, 4.0)]
+    names = ("Float64_continuous_input", "Float64_discrete_input")
+    data = tmp_path / "in.csv"
+    data.write_text(f"time,{','.join(names)}\n" + "".join(f"{t!r},{u!r},{d!r}\n"
+                                                          for t, u, d in rows))
+    outputs = ("Float64_continuous_output", "Float64_discrete_output")
+    r = run_cli("simulate", fmu, "--interface", interface, "--data", data, "--stop", 1.0,
+                "--step", 0.1, "--outputs", ",".join(outputs), "--out", tmp_path / "out.csv")
+    assert r.returncode == 0, r.stderr
+    header, ours = read_csv_floats(tmp_path / "out.csv")
+    signals = np.array(rows, dtype=[("time", float), (names[0], float), (names[1], float)])
+    fmi_type = "CoSimulation" if interface == "cs" else "ModelExchange"
+    ref = fmpy.simulate_fmu(str(fmu), fmi_type=fmi_type, stop_time=1.0, output_interval=0.1,
+                            input=signals, output=list(outputs))
+    np.testing.assert_allclose(ours[:, 0], ref["time"], atol=1e-12)
+    assert 0.55 in list(np.round(ours[:, 0], 12)) and 0.25 in list(np.round(ours[:, 0], 12))
+    for j, name in enumerate(outputs, start=1):
+        np.testing.assert_allclose(ours[:, j], ref[name], atol=1e-12, err_msg=name)
+
+
+@pytest.mark.parametrize("interface", ["cs", "me"])
 def test_a_step_of_an_fmi3_input_written_as_a_repeated_time(toy, tmp_path, interface):
     """FMI 3.0 Alias, der(x) = u - x from x(0) = 0, with u stepping from 0 to 1 at t = 0.5 (the
     time repeated): x = 0 up to 0.5, then x = 1 - exp(-(t - 0.5)), the closed form (Model

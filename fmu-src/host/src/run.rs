@@ -66,6 +66,27 @@ pub(crate) trait ModelExchangeOf: ModelExchange {
     fn instance(&mut self) -> &mut Self::Instance;
 }
 
+/// The communication points `times` with the input events between them added: FMPy's
+/// `simulate_fmu` ends a Co-Simulation step at an input event (a jump, a held input changing)
+/// when the FMU can handle a variable communication step size, and records a row there.
+pub(crate) fn with_input_events<I>(times: &[f64], inputs: &impl Inputs<I>) -> Vec<f64> {
+    let mut points = Vec::with_capacity(times.len());
+    for w in times.windows(2) {
+        points.push(w[0]);
+        let mut t = w[0];
+        loop {
+            let event = inputs.next_event(t);
+            if event >= w[1] || crate::me::isclose(event, w[1]) {
+                break;
+            }
+            points.push(event);
+            t = event;
+        }
+    }
+    points.extend(times.last());
+    points
+}
+
 /// Steps a Co-Simulation instance through the communication points `times`, recording at each:
 /// the inputs are set at every point before its step (those at the start are set before
 /// initialization). An FMU that ends the simulation keeps the rows up to its last successful

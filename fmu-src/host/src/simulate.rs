@@ -6,7 +6,9 @@ use crate::fmu::Fmu;
 use crate::instance::Instance;
 use crate::kind::Interface;
 use crate::md::{Causality, ModelDescription, ScalarVariable, VarKind, Variability};
-use crate::run::{fmu_tolerance, me_settings, step_through, CoSimulationStep, Inputs, Outputs};
+use crate::run::{
+    fmu_tolerance, me_settings, step_through, with_input_events, CoSimulationStep, Inputs, Outputs,
+};
 
 /// Columns of text: (variable name, one value per row).
 pub type TextColumns = Vec<(String, Vec<String>)>;
@@ -441,6 +443,14 @@ fn run_on(inst: &mut Instance<'_>, req: &SimulationRequest) -> Result<Simulation
     let times = communication_points(req.start_time, req.stop_time, req.step)?;
     let starts = StartValues::resolve(md, &req.start_values)?;
     let mut inputs = InputPlan::new(md, &req.inputs)?;
+    let variable_step = md
+        .co_simulation
+        .as_ref()
+        .is_some_and(|c| c.can_handle_variable_communication_step_size);
+    let times = match model_exchange || !variable_step {
+        true => times,
+        false => with_input_events(&times, &inputs),
+    };
     let out_names: Vec<String> = if req.outputs.is_empty() {
         md.recorded_by_default()
     } else {

@@ -23,7 +23,7 @@ use super::instance::Instance3;
 use super::simulate::{InputPlan3, Recorder3};
 use crate::error::{HostError, Result};
 use crate::me::clocks::ClockSchedule;
-use crate::me::{EventsAtOneTime, MAX_EVENTS_AT_ONE_TIME};
+use crate::me::{isclose, EventsAtOneTime, MAX_EVENTS_AT_ONE_TIME};
 use crate::run::{Inputs, Outputs};
 use crate::watch::{self, Call};
 
@@ -144,11 +144,6 @@ impl EventContext<'_> {
         }
         self.rec.clocks_active(inst, &active)
     }
-}
-
-/// `math.isclose` with relative tolerance 1e-9, as the Model Exchange loop compares times.
-fn isclose(a: f64, b: f64) -> bool {
-    a == b || (a.is_finite() && b.is_finite() && (a - b).abs() <= 1e-9 * a.abs().max(b.abs()))
 }
 
 /// Steps `inst` (initialized with Event Mode, in Event Mode) through the output points `times`

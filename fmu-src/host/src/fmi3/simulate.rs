@@ -23,7 +23,9 @@ use super::value::{Type3, ValueError, Values};
 use crate::error::{HostError, Result};
 use crate::kind::Interface;
 use crate::me::clocks::ClockSchedule;
-use crate::run::{fmu_tolerance, step_through, CoSimulationStep, Inputs, Outputs};
+use crate::run::{
+    fmu_tolerance, step_through, with_input_events, CoSimulationStep, Inputs, Outputs,
+};
 use crate::simulate::{
     communication_points, first_event_after, hold_index, interpolate_at, jump_passed, Recorded,
     SimulationResult, Simulator,
@@ -93,6 +95,17 @@ pub(crate) fn run_on(inst: &mut Instance3<'_>, req: &Request3) -> Result<Simulat
     let starts = StartValues3::resolve(md, &req.start_values)?;
     let sizes = |vr: u32| starts.size_of(md, vr);
     let mut inputs = InputPlan3::new(md, &req.inputs, &sizes)?;
+    let fmu = inst.fmu();
+    let variable_step = fmu.interface() == Interface::CoSimulation
+        && !fmu.event_mode_used()
+        && md
+            .co_simulation
+            .as_ref()
+            .is_some_and(|c| c.flag("canHandleVariableCommunicationStepSize"));
+    let times = match variable_step {
+        true => with_input_events(&times, &inputs),
+        false => times,
+    };
     let names: Vec<String> = if req.outputs.is_empty() {
         md.recorded_by_default()
     } else {

@@ -282,7 +282,7 @@ pub enum Ending {
 }
 
 /// `math.isclose` with its default relative tolerance 1e-9, as FMPy compares times.
-fn isclose(a: f64, b: f64) -> bool {
+pub(crate) fn isclose(a: f64, b: f64) -> bool {
     a == b || (a.is_finite() && b.is_finite() && (a - b).abs() <= 1e-9 * a.abs().max(b.abs()))
 }
 
