@@ -102,6 +102,21 @@ impl EventContext<'_> {
         )))
     }
 
+    /// Enters Event Mode at `t` for the events there; the inputs after their jump at `t` when
+    /// it is an input event (`inputs`), then [`Self::event_mode`].
+    fn events_at(
+        &mut self,
+        inst: &mut Instance3<'_>,
+        t: f64,
+        inputs: Option<&mut InputPlan3<'_>>,
+    ) -> Result<DiscreteUpdate3> {
+        inst.enter_event_mode(t)?;
+        if let Some(inputs) = inputs {
+            inputs.apply_after(inst, t)?;
+        }
+        self.event_mode(inst, t)
+    }
+
     fn activate_due(&mut self, inst: &mut Instance3<'_>, t: f64) -> Result<Vec<u32>> {
         let due = self.clocks.due(t);
         if !due.is_empty() {
@@ -146,6 +161,37 @@ impl EventContext<'_> {
     }
 }
 
+/// Steps in a row that returned early without advancing.
+struct Stalls(usize);
+
+impl Stalls {
+    /// Counts a step from `from` that reached `to`; more than [`MAX_EVENTS_AT_ONE_TIME`] in a
+    /// row without advancing is an error (an FMU that keeps returning early where it is).
+    fn count(&mut self, from: f64, to: f64) -> Result<()> {
+        self.0 = if to == from { self.0 + 1 } else { 0 };
+        if self.0 > MAX_EVENTS_AT_ONE_TIME {
+            return Err(HostError::Request(format!(
+                "Co-Simulation: fmi3DoStep returned early at t = {to} more than \
+                 {MAX_EVENTS_AT_ONE_TIME} times without advancing"
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// The end of the step from `time`: the next output point `next_regular`, else the first of
+/// the events the run knows of (`known`: the FMU's next event time, a clock tick, an input
+/// event) after `time` and before it.
+fn step_end(time: f64, next_regular: f64, known: [Option<f64>; 3]) -> f64 {
+    let mut target = next_regular;
+    for te in known.into_iter().flatten() {
+        if te < target && !isclose(te, target) && te > time {
+            target = te;
+        }
+    }
+    target
+}
+
 /// Steps `inst` (initialized with Event Mode, in Event Mode) through the output points `times`
 /// with the clocks of `clocks`, recording at each as the step reaches it (before the events
 /// there): the recorded times and, when the FMU ended the run, the last of them.
@@ -169,27 +215,22 @@ pub(crate) fn run(
     let early_allowed = inst.fmu().early_return_allowed();
     let (mut time, mut k) = (start, 0);
     let mut events_here = EventsAtOneTime::new(start);
-    let mut stalls = 0usize;
+    let mut stalls = Stalls(0);
     while k + 1 < times.len() {
         let next_regular = times[k + 1];
         let input_event = inputs.next_event(time);
-        let mut target = next_regular;
-        for te in [update.next_event_time, ctx.clocks.next_tick()]
-            .into_iter()
-            .flatten()
-            .chain([input_event])
-        {
-            if te < target && !isclose(te, target) && te > time {
-                target = te;
-            }
-        }
+        let known = [
+            update.next_event_time,
+            ctx.clocks.next_tick(),
+            Some(input_event),
+        ];
+        let target = step_end(time, next_regular, known);
         if time > start {
             // held inputs change at input events only, in Event Mode
             inputs.apply_some(inst, time, true, false)?;
         }
         let out = inst.do_step(time, target - time, true)?;
         let last = out.last_successful_time;
-        let early = early_allowed && out.early_return && last >= time && last < target;
         if out.terminate {
             if last > time && last.is_finite() {
                 ctx.rec.record(inst)?;
@@ -198,15 +239,10 @@ pub(crate) fn run(
             let ended = *rows.last().unwrap_or(&time);
             return Ok((rows, Some(ended)));
         }
-        let before = time;
-        time = if early { last } else { target };
-        stalls = if time == before { stalls + 1 } else { 0 };
-        if stalls > MAX_EVENTS_AT_ONE_TIME {
-            return Err(HostError::Request(format!(
-                "Co-Simulation: fmi3DoStep returned early at t = {time} more than \
-                 {MAX_EVENTS_AT_ONE_TIME} times without advancing"
-            )));
-        }
+        let early = early_allowed && out.early_return && last >= time && last < target;
+        let reached = if early { last } else { target };
+        stalls.count(time, reached)?;
+        time = reached;
         // An output point is recorded as the step reached it, before the events there are
         // handled, as FMPy's simulate_fmu records (after fmi3DoStep, before
         // fmi3EnterEventMode): a clock ticking at an output point shows in the next row.
@@ -224,11 +260,7 @@ pub(crate) fn run(
             || reached(ctx.clocks.next_tick())
         {
             events_here.count(time, "Co-Simulation")?;
-            inst.enter_event_mode(time)?;
-            if at_input_event {
-                inputs.apply_after(inst, time)?;
-            }
-            update = ctx.event_mode(inst, time)?;
+            update = ctx.events_at(inst, time, at_input_event.then_some(&mut *inputs))?;
             if update.terminate {
                 if !regular {
                     ctx.rec.record(inst)?;
