@@ -129,13 +129,13 @@ pub(crate) fn time_grid(
 }
 
 /// A run on the `--data` CSV at `path`: from its first row to `--stop`, else its last row, by
-/// `--step`, else its sample interval (a single row has none).
+/// `--step`, else its sample interval (rows at one time have none).
 fn grid_of_data(a: &Args, path: &Path, time: &[f64]) -> Result<TimeGrid, CliError> {
     let start = time[0];
     let stop = a.stop.unwrap_or(*time.last().unwrap_or(&start));
     let step = a.step.or(sample_interval(time)).ok_or_else(|| {
         CliError::input(format!(
-            "{}: a single row has no sample interval: give --step",
+            "{}: the rows are at one time, so there is no sample interval: give --step",
             path.display()
         ))
     })?;

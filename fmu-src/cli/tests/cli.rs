@@ -206,7 +206,8 @@ fn simulate_reports_bad_data_and_bad_arguments_with_exit_2() {
     let out = dir.path().join("out.csv");
     let cases: &[(&str, &str)] = &[
         ("tim,u\n0,1\n", ":1:1: no 'time' column"),
-        ("time,u\n0,1\n0,2\n", ":3:1: time 0 is not greater than 0"),
+        ("time,u\n0,1\n-1,2\n", ":3:1: time -1 is less than 0"),
+        ("time,u\n0,1\n0,2\n0,3\n", ":4:1: time 0 is on line 3"),
         (
             "time,u,foo\n0,1,2\n",
             ":1:3: column 'foo' is not a variable of the FMU",
