@@ -178,3 +178,24 @@ def test_alpha_manifest_of_the_default_experiment_passes(toy, tmp_path, version)
     assert len(notes) == 1 and notes[0]["message"].startswith("passed: 2 signal(s)"), notes
     assert "DefaultExperiment (VanDerPol_out.csv)" in notes[0]["location"]
     assert f"over [0, {float(de.stopTime):g}] s" in notes[0]["message"]
+
+
+def test_a_reference_with_event_rows_is_read_and_passes(toy, tmp_path):
+    """A reference recorded from Model Exchange writes the rows before and after each event at
+    the same time (as fmusim makes the Reference-FMUs' references, and FMPy records): the toy
+    BouncingBall's bounces, made by FMPy at rtol 1e-10, are read as events and our run stays in
+    the tube."""
+    src = toy("BouncingBall")
+    res = simulate_fmu(str(src), fmi_type="ModelExchange", stop_time=3.0, output_interval=0.01,
+                       relative_tolerance=1e-10, output=["h", "v"])
+    assert np.any(np.diff(res["time"]) == 0), "FMPy recorded no event rows"
+    rows = "\n".join(",".join(repr(float(r[k])) for k in ("time", "h", "v")) for r in res)
+    fmu = tmp_path / "BouncingBall.fmu"
+    shutil.copy(src, fmu)
+    with zipfile.ZipFile(fmu, "a", zipfile.ZIP_DEFLATED) as z:
+        z.writestr(f"{LS}/fmi-ls-manifest.xml", ALPHA.replace("VanDerPol", "BouncingBall"))
+        z.writestr(f"{LS}/BouncingBall_out.csv", "time,h,v\n" + rows + "\n")
+    code, report = validate(fmu, "--reference")
+    findings, notes = reference_results(report)
+    assert findings == [], findings
+    assert len(notes) == 1 and notes[0]["message"].startswith("passed: 2 signal(s)"), notes

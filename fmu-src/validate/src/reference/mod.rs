@@ -12,7 +12,7 @@ pub mod manifest;
 pub mod tube;
 
 use crate::{Finding, Severity};
-use host::csv::{read_csv, sample_interval, Table};
+use host::csv::{read_csv_with_text, sample_interval, CsvError, Table, TimeAxis};
 use host::fmi3::Fmu3;
 use host::md::DefaultExperiment;
 use host::view::Causality;
@@ -132,8 +132,8 @@ pub fn check_reference(path: &Path, req: &Request) -> Result<Vec<Finding>, Refer
 /// The user's reference `file` (and stimuli `inputs`) as an experiment over the reference's
 /// span, stepped at the stimuli's (else the reference's) sample interval.
 fn user_experiment(file: &Path, inputs: Option<&Path>) -> Result<Experiment, ReferenceError> {
-    let reference = read_csv(file)?;
-    let stimuli = inputs.map(read_csv).transpose()?;
+    let reference = read_trace(file)?;
+    let stimuli = inputs.map(read_trace).transpose()?;
     let step = stimuli
         .as_ref()
         .and_then(Table::sample_interval)
@@ -177,6 +177,12 @@ fn open(path: &Path) -> Result<Opened, ReferenceError> {
     })
 }
 
+/// A reference result or its stimuli: a time on two rows is an event, the values before and
+/// after it (as an importer records a Model Exchange run, and as FMPy reads inputs).
+fn read_trace(path: &Path) -> Result<Table, CsvError> {
+    read_csv_with_text(path, &[], TimeAxis::JumpsAllowed)
+}
+
 /// Reads a CSV of the experiment: a user's file that cannot be read is an error of the
 /// command, one the FMU carries a finding (`Ok(Err(finding))`).
 fn read_table(
@@ -184,7 +190,7 @@ fn read_table(
     user: bool,
     loc: &str,
 ) -> Result<Result<Table, Finding>, ReferenceError> {
-    match read_csv(path) {
+    match read_trace(path) {
         Ok(t) => Ok(Ok(t)),
         Err(e) if user => Err(e.into()),
         Err(e) => Ok(Err(result(
