@@ -6,6 +6,7 @@ use crate::fmu::Fmu;
 use crate::instance::Instance;
 use crate::kind::Interface;
 use crate::md::{Causality, ModelDescription, ScalarVariable, VarKind, Variability};
+use crate::me::isclose;
 use crate::run::{
     fmu_tolerance, me_settings, step_through, with_input_events, CoSimulationStep, Inputs, Outputs,
 };
@@ -248,24 +249,18 @@ pub(crate) fn interpolate_at(
     (row, after): (usize, bool),
     cursor: &mut usize,
 ) -> f64 {
-    let on_row = |r: f64| (r - x).abs() <= 1e-9 * r.abs().max(x.abs());
-    if after && row > 0 && xs[row - 1] == xs[row] && on_row(xs[row]) {
+    if after && row > 0 && xs[row - 1] == xs[row] && isclose(xs[row], x) {
         ys[row]
     } else {
         interpolate(xs, ys, x, cursor)
     }
 }
 
-/// Whether `t` is the time of the jump passed last (`passed`), within 1e-9 relative.
-pub(crate) fn jump_passed(passed: f64, t: f64) -> bool {
-    passed.is_finite() && (passed - t).abs() <= 1e-9 * passed.abs().max(t.abs())
-}
-
 /// Index of the row held at `x` (zero-order hold): the largest `i` with `xs[i] <= x`, a row
 /// within 1e-9 relative of `x` counting as reached (FMPy's `isclose`); 0 before the first row.
 /// `cursor` speeds up monotone queries (start it at 0).
 pub fn hold_index(xs: &[f64], x: f64, cursor: &mut usize) -> usize {
-    let reached = |r: f64| r < x || (r - x).abs() <= 1e-9 * r.abs().max(x.abs());
+    let reached = |r: f64| r < x || isclose(r, x);
     if *cursor >= xs.len() || !reached(xs[*cursor]) {
         *cursor = 0;
     }
@@ -642,12 +637,11 @@ fn input_events(plan: &InputPlan<'_>, series: &InputSeries) -> Vec<f64> {
 /// (an event at `t` itself has been handled); infinite: none. FMI 2.0 and FMI 3.0 input plans
 /// find their events in their own way and look up the next one with this.
 pub(crate) fn first_event_after(events: &[f64], t: f64) -> f64 {
-    let close = |e: f64| (e - t).abs() <= 1e-9 * e.abs().max(t.abs());
     let from = events.partition_point(|&e| e <= t);
     events[from..]
         .iter()
         .copied()
-        .find(|&e| !close(e))
+        .find(|&e| !isclose(e, t))
         .unwrap_or(f64::INFINITY)
 }
 
@@ -736,7 +730,7 @@ impl Inputs<Instance<'_>> for InputPlan<'_> {
             return Ok(());
         }
         let row = hold_index(&s.time, t, &mut self.hold_cursor);
-        let after = jump_passed(self.jump_passed, t);
+        let after = isclose(self.jump_passed, t);
         // All columns share one time axis, so one cursor serves them all.
         let mut next = self.interp_cursor;
         for (x, &(_, col, how)) in self.real_buf.iter_mut().zip(&self.reals) {

@@ -23,11 +23,12 @@ use super::value::{Type3, ValueError, Values};
 use crate::error::{HostError, Result};
 use crate::kind::Interface;
 use crate::me::clocks::ClockSchedule;
+use crate::me::isclose;
 use crate::run::{
     fmu_tolerance, step_through, with_input_events, CoSimulationStep, Inputs, Outputs,
 };
 use crate::simulate::{
-    communication_points, first_event_after, hold_index, interpolate_at, jump_passed, Recorded,
+    communication_points, first_event_after, hold_index, interpolate_at, Recorded,
     SimulationResult, Simulator,
 };
 use fmi_types::Variability;
@@ -410,7 +411,7 @@ impl Inputs<Instance3<'_>> for InputPlan3<'_> {
             return Ok(());
         }
         let row = hold_index(self.time, t, &mut self.hold_cursor);
-        let after = jump_passed(self.jump_passed, t);
+        let after = isclose(self.jump_passed, t);
         let mut next = self.interp_cursor;
         for (vr, samples) in &self.inputs {
             let interpolated = matches!(samples, Samples::Interpolated { .. });
