@@ -271,12 +271,53 @@ fn shown(cell: &str) -> String {
     crate::error::shown(cell, 40)
 }
 
+/// How a file separates its fields and writes its decimals.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Dialect {
+    /// `,` (RFC 4180, FMPy), else `;` or a tab.
+    separator: char,
+    /// Whether a number may carry a decimal comma (`0,25`).
+    decimal_comma: bool,
+}
+
+impl Dialect {
+    /// The dialect of a file, read from its header line. A header with no comma outside quotes
+    /// but a semicolon or a tab is a spreadsheet's export in a locale whose decimal mark is the
+    /// comma (Excel in German or French writes `time;x` and `0,25;1,5`): such a file's numbers
+    /// may carry a decimal comma, which cannot be mistaken for a separator there.
+    fn of_header(header: &str) -> Dialect {
+        let unquoted: String = header.split('"').step_by(2).collect();
+        let separator = if unquoted.contains(',') {
+            ','
+        } else if unquoted.contains(';') {
+            ';'
+        } else if unquoted.contains('\t') {
+            '\t'
+        } else {
+            ','
+        };
+        Dialect {
+            separator,
+            decimal_comma: separator != ',',
+        }
+    }
+
+    /// The number a trimmed numeric cell holds.
+    fn number(self, cell: &str) -> Option<f64> {
+        if self.decimal_comma && cell.contains(',') {
+            cell.replace(',', ".").parse().ok()
+        } else {
+            cell.parse().ok()
+        }
+    }
+}
+
 /// Splits one CSV line into its fields (RFC 4180): a field in double quotes may hold commas and
 /// doubled quotes (`""` for `"`), so FMI names such as `x[1,2]` survive. Unquoted fields are
 /// trimmed when `trim_unquoted` (header names), else kept as written (RFC 4180: spaces are part
 /// of a field, which text cells keep; numeric cells are trimmed when parsed).
 /// Err(column) for a quote left open.
-fn split_fields(line: &str, trim_unquoted: bool) -> Result<Vec<String>, usize> {
+fn split_fields(line: &str, separator: char, trim_unquoted: bool) -> Result<Vec<String>, usize> {
     let mut fields = Vec::new();
     let mut cur = String::new();
     // Length of the quoted text of the current field once its closing quote is seen.
@@ -299,7 +340,7 @@ fn split_fields(line: &str, trim_unquoted: bool) -> Result<Vec<String>, usize> {
         } else if c == '"' && quoted_len.is_none() && cur.trim().is_empty() {
             cur.clear();
             in_quotes = true;
-        } else if c == ',' {
+        } else if c == separator {
             fields.push(finish_field(&cur, quoted_len, trim_unquoted));
             cur.clear();
             quoted_len = None;
@@ -397,10 +438,12 @@ pub fn parse_table(
             "empty file: expected a header line starting with 'time'".into(),
         ));
     };
-    let names: Vec<String> = split_fields(header, true)
+    let dialect = Dialect::of_header(header);
+    let mut names: Vec<String> = split_fields(header, dialect.separator, true)
         .map_err(|j| err(hline, j, "unterminated quote in the header".into()))?;
-    match names.iter().position(|n| n == "time") {
-        Some(0) => {}
+    match names.iter().position(|n| n.eq_ignore_ascii_case("time")) {
+        // `Time`, `TIME`: the time column whatever its case (spreadsheets and Simulink capitalise it).
+        Some(0) => names[0] = "time".to_string(),
         Some(j) => {
             return Err(err(
                 hline,
@@ -449,8 +492,8 @@ pub fn parse_table(
     // (time, its line, whether the row before had the same time)
     let mut last_time: Option<(f64, usize, bool)> = None;
     for (lno, line) in lines {
-        let cells: Vec<String> =
-            split_fields(line, false).map_err(|j| err(lno, j, "unterminated quote".into()))?;
+        let cells: Vec<String> = split_fields(line, dialect.separator, false)
+            .map_err(|j| err(lno, j, "unterminated quote".into()))?;
         if cells.len() != ncol {
             return Err(err(
                 lno,
@@ -464,7 +507,7 @@ pub fn parse_table(
                 continue;
             }
             let c = cell.trim();
-            let x: f64 = c.parse().map_err(|_| {
+            let x: f64 = dialect.number(c).ok_or_else(|| {
                 if c.is_empty() {
                     err(
                         lno,
@@ -742,6 +785,28 @@ mod tests {
         assert_eq!((e.line, e.column), (3, 2), "{e}");
         assert!(e.message.contains("beyond ±1e100"), "{e}");
         assert!(parse_csv("time,y\n0,1e99\n", "d.csv").is_ok());
+    }
+
+    #[test]
+    fn spreadsheet_exports_with_semicolons_tabs_and_decimal_commas_are_read() {
+        let semicolons = parse_csv(
+            "Time;u;\"y;1\"\r\n0;1,5;2\r\n0,5;-2,5e-3;3.25\r\n",
+            "de.csv",
+        );
+        let t = semicolons.unwrap();
+        assert_eq!(t.time, vec![0.0, 0.5]);
+        assert_eq!(t.names, vec!["u", "y;1"]);
+        assert_eq!(t.column("u").unwrap(), &[1.5, -2.5e-3]);
+        assert_eq!(t.column("y;1").unwrap(), &[2.0, 3.25]);
+        let tabs = parse_csv("time\tu\n0\t0,25\n1\t1e3\n", "t.tsv").unwrap();
+        assert_eq!(tabs.column("u").unwrap(), &[0.25, 1000.0]);
+        // With the comma as separator a decimal comma is a cell too many.
+        let e = e("time,u\n0,1,5\n");
+        assert_eq!((e.line, e.column), (2, 3), "{e}");
+        assert!(
+            e.message.contains("row has 3 cells, the header has 2"),
+            "{e}"
+        );
     }
 
     #[test]
