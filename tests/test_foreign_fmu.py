@@ -216,3 +216,51 @@ def test_an_initial_state_given_with_set_is_not_estimated(fmus, tmp_path):
     assert not any(n in rep["parameters"] for n in gm.INITIAL)
     for n, o in rep["outputs"].items():
         assert o["rmse_after"] <= 1.2 * ds["noise_sigma"][n], (n, o)
+
+
+def with_missing_samples(csv, every, cells=("", "NaN")):
+    """Blanks an output cell of every `every`-th data row of `csv` (an empty cell or `NaN` by
+    turns, as loggers write a dropped sample); returns how many rows lost one."""
+    lines = csv.read_text().splitlines()
+    head = next(i for i, l in enumerate(lines) if not l.startswith("#"))
+    last = len(lines[head].split(",")) - 1
+    holed = 0
+    for k, i in enumerate(range(head + 1 + 3, len(lines), every)):
+        cells_of_row = lines[i].split(",")
+        cells_of_row[last] = cells[k % len(cells)]
+        lines[i] = ",".join(cells_of_row)
+        holed += 1
+    csv.write_text("\n".join(lines) + "\n")
+    return holed, lines[head].split(",")[last]
+
+
+def test_rows_missing_a_sample_are_left_out_and_the_effect_still_named(fmus, tmp_path):
+    ds = gm.make(fmus["initial"], 21, ("coulomb_friction",))
+    csv = tmp_path / "holes.csv"
+    gapgen.write_csv(ds, csv)
+    holed, column = with_missing_samples(csv, 40)
+    rows = len(ds["time"])
+    out = tmp_path / "holes"
+    p = subprocess.run([cli_path(), "gap", str(fmus["initial"]), "--data", str(csv), "--out",
+                        str(out), "--quiet"], capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr
+    rep = json.loads((out / "report.json").read_text())
+    assert rep["named"] == ["coulomb_friction"], rep["verdict"]
+    for name in gm.EFFECTS["coulomb_friction"]:
+        e = rep["parameters"][name]
+        assert e["ci_low"] <= ds["truth"][name] <= e["ci_high"], (name, e, ds["truth"][name])
+    said = [w for w in rep["warnings"] if "miss a sample" in w]
+    assert len(said) == 1 and f"{holed} of {rows} rows" in said[0] and f"{column}: {holed}" in said[0], said
+
+
+def test_a_record_missing_many_samples_is_refused_naming_the_column(fmus, tmp_path):
+    ds = gm.make(fmus["initial"], 21, ("coulomb_friction",))
+    csv = tmp_path / "sieve.csv"
+    gapgen.write_csv(ds, csv)
+    holed, column = with_missing_samples(csv, 5)
+    p = subprocess.run([cli_path(), "gap", str(fmus["initial"]), "--data", str(csv), "--out",
+                        str(tmp_path / "sieve"), "--quiet"], capture_output=True, text=True,
+                       timeout=300)
+    assert p.returncode == 2, p.stderr
+    assert p.stderr.count("\n") == 1 and f"most in column '{column}': {holed}" in p.stderr, p.stderr
+    assert not (tmp_path / "sieve" / "report.json").exists()

@@ -3,7 +3,8 @@
 //! the reader's promises (rectangular, finite values, strictly increasing time) and read back
 //! bit-identically after `write_csv_to`. Read as `simulate --data` reads it (a time may repeat
 //! once, a jump): time increases, no time on three rows, and a table the strict reader takes
-//! comes out the same.
+//! comes out the same. Read as a measured record (`gap --data`: missing samples as NaN): time
+//! increases strictly and a table the strict reader takes comes out the same.
 #![no_main]
 
 use host::csv::{parse_table, TimeAxis};
@@ -24,9 +25,31 @@ fuzz_target!(|data: &[u8]| {
             assert!(dt > 0.0, "sample interval {dt} with jumps");
         }
     }
+    let measured = host::csv::parse_measured_csv(text, "fuzz.csv");
+    if let Ok(t) = &measured {
+        assert!(
+            t.time.windows(2).all(|w| w[1] > w[0]),
+            "measured time not increasing"
+        );
+        assert!(
+            t.time.iter().all(|x| x.is_finite()),
+            "measured time not finite"
+        );
+        for col in &t.columns {
+            assert!(
+                col.iter().all(|x| x.is_finite() || x.is_nan()),
+                "infinite sample"
+            );
+        }
+    }
     let Ok(table) = host::csv::parse_csv(text, "fuzz.csv") else {
         return;
     };
+    assert_eq!(
+        measured.as_ref().ok(),
+        Some(&table),
+        "a complete table read otherwise as a measured record"
+    );
     assert_eq!(
         jumps.as_ref().ok(),
         Some(&table),

@@ -439,7 +439,9 @@ impl<M: Model> Driver<M> {
                     self.time = t + h;
                     let mut out = vec![0.0; n_vars];
                     let vrs: Vec<u32> = (0..n_vars as u32)
-                        .filter(|&i| M::variables()[i as usize].vtype == fmi2_export::fmu_core::VarType::Real)
+                        .filter(|&i| {
+                            M::variables()[i as usize].vtype == fmi2_export::fmu_core::VarType::Real
+                        })
                         .collect();
                     let s2 = ffi::get_real::<M>(c, vrs.as_ptr(), vrs.len(), out.as_mut_ptr());
                     assert_eq!(

@@ -136,7 +136,10 @@ fn experiment(a: &Args, md: &ModelView) -> Result<DesignConfig, CliError> {
         )));
     }
     if let Some(path) = &a.data {
-        let data = load_data(md, path)?;
+        let (data, left_out) = load_data(md, path)?;
+        if let Some(w) = left_out {
+            out!("warning: {w}");
+        }
         cfg.noise = Noise::Measured(data.outputs.iter().map(|(_, y)| y.clone()).collect());
         cfg.outputs = data.outputs.into_iter().map(|(n, _)| n).collect();
         cfg.time = data.time;

@@ -5,10 +5,11 @@
 
 use crate::common::{numeric_sets, CliError, CliResult};
 use crate::open::AnyFmu;
+use gap::missing::leave_out_missing;
 use gap::records::Joined;
 use gap::records_report::Extras;
 use gap::{Config, Data, GapError, GapResult, GridModel};
-use host::csv::{read_csv, CsvError};
+use host::csv::{read_measured_csv, CsvError};
 use std::path::{Path, PathBuf};
 
 /// Arguments of `gap`.
@@ -109,9 +110,10 @@ fn refuse_writing_over_inputs(a: &Args) -> Result<(), CliError> {
 }
 
 /// The measured data of `path` checked against the FMU: inputs and outputs it has, at least
-/// one output to compare and 20 rows.
-pub fn load_data(md: &host::ModelView, path: &Path) -> Result<Data, CliError> {
-    let table = read_csv(path).map_err(CliError::input)?;
+/// one output to compare and 20 rows; the rows missing a sample left out, and the warning that
+/// says so.
+pub fn load_data(md: &host::ModelView, path: &Path) -> Result<(Data, Option<String>), CliError> {
+    let table = read_measured_csv(path).map_err(CliError::input)?;
     table.check_against(md).map_err(CliError::input)?;
     let col = |n: &String| (n.clone(), table.column(n).unwrap_or_default().to_vec());
     let outputs: Vec<(String, Vec<f64>)> = table.output_columns(md).iter().map(col).collect();
@@ -133,19 +135,23 @@ pub fn load_data(md: &host::ModelView, path: &Path) -> Result<Data, CliError> {
             ),
         ));
     }
-    if table.time.len() < 20 {
-        let n = table.time.len();
+    let data = Data {
+        time: table.time.clone(),
+        inputs: table.input_columns(md).iter().map(col).collect(),
+        outputs,
+    };
+    let (data, left_out) =
+        leave_out_missing(data).map_err(|e| CliError::input(format!("{}: {e}", path.display())))?;
+    if data.time.len() < 20 {
+        let n = data.time.len();
         return Err(bad(
             n + 1,
             1,
             format!("{n} rows: the gap workflow needs at least 20"),
         ));
     }
-    Ok(Data {
-        time: table.time.clone(),
-        inputs: table.input_columns(md).iter().map(col).collect(),
-        outputs,
-    })
+    let warning = left_out.map(|l| gap::report::left_out_text(&path.display().to_string(), &l));
+    Ok((data, warning))
 }
 
 /// The gap workflow on one record, or on several joined (`gap::records`): the result with
@@ -200,7 +206,10 @@ fn validate_records(
     paths
         .iter()
         .map(|p| {
-            let data = load_data(md, p)?;
+            let (data, left_out) = load_data(md, p)?;
+            if let Some(w) = left_out {
+                out!("warning: {w}");
+            }
             let sim = fmu.simulator(&data).map_err(CliError::input)?;
             check_columns(&sim, &data, p)?;
             gap::validation::validate(&sim, &data, &p.display().to_string(), res).map_err(|e| {
@@ -239,11 +248,13 @@ pub fn run(a: Args) -> CliResult {
     let fmu = AnyFmu::open(&a.fmu, &opts)?;
     let md = fmu.view();
     let fixed = numeric_sets(md, &a.set, "gap")?;
-    let data = a
+    let (data, left_out): (Vec<Data>, Vec<Option<String>>) = a
         .data
         .iter()
         .map(|p| load_data(md, p))
-        .collect::<Result<Vec<Data>, CliError>>()?;
+        .collect::<Result<Vec<_>, CliError>>()?
+        .into_iter()
+        .unzip();
     let names: Vec<String> = a.data.iter().map(|p| p.display().to_string()).collect();
     // The held-out end decides whether an effect generalises; without it nothing can be named.
     if !(a.holdout > 0.0 && a.holdout < 0.9) {
@@ -265,7 +276,8 @@ pub fn run(a: Args) -> CliResult {
         offsets: a.offsets.clone(),
         ..Config::default()
     };
-    let (res, mut extras) = run_records(&fmu, &data, &names, &cfg)?;
+    let (mut res, mut extras) = run_records(&fmu, &data, &names, &cfg)?;
+    res.warnings.splice(0..0, left_out.into_iter().flatten());
     extras.validation = validate_records(&fmu, &a.validate, &res)?;
     std::fs::create_dir_all(&a.out)
         .map_err(|e| CliError::failure(format!("{}: {e}", a.out.display())))?;

@@ -30,6 +30,7 @@ pub mod fmu;
 pub mod lm;
 #[doc = include_str!("method.md")]
 pub mod method {}
+pub mod missing;
 pub mod plots;
 pub mod policy;
 pub mod records;

@@ -21,6 +21,10 @@ pub const HOLDOUT: f64 = 0.3;
 pub const MAX_HOLDOUT: f64 = 0.9;
 /// Fewest samples a record may have: the noise and whiteness statistics need that many.
 pub const MIN_SAMPLES: usize = 20;
+/// Largest share of a record's rows that may be left out for a missing sample: a few dropped
+/// samples are bridged by the inputs' interpolation; beyond it the fit would rest on inputs
+/// nobody measured.
+pub const MAX_LEFT_OUT_SHARE: f64 = 0.1;
 /// Fewest training samples a fit uses, whatever the holdout.
 pub const MIN_TRAIN_SAMPLES: f64 = 10.0;
 /// Effects named at most (rounds of screening and refitting).

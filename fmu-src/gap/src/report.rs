@@ -100,6 +100,23 @@ pub fn in_short(res: &GapResult) -> String {
     s
 }
 
+/// The warning that the rows `left` of record `file` were left out for a missing sample.
+pub fn left_out_text(file: &str, left: &crate::missing::LeftOut) -> String {
+    let columns: Vec<String> = left
+        .by_column
+        .iter()
+        .map(|(name, count)| format!("{name}: {count}"))
+        .collect();
+    format!(
+        "{file}: {} of {} rows miss a sample and are left out ({}; the first at t = {} s); the \
+         inputs are interpolated over them",
+        left.rows,
+        left.of,
+        columns.join(", "),
+        left.first_time
+    )
+}
+
 /// The verdict line: the rounds' conclusion and, while the final model still disagrees with
 /// the data, that a disagreement remains that no candidate explains (never that nothing is
 /// missing or that the residuals are noise).

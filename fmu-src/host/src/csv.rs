@@ -202,6 +202,29 @@ pub fn read_csv_with_text(
     text_columns: &[String],
     time: TimeAxis,
 ) -> Result<Table, CsvError> {
+    let (text, file) = read_text(path)?;
+    parse_table(&text, &file, text_columns, time)
+}
+
+/// A measured record: [`read_csv`], but an empty numeric cell or one reading `NaN` (any case) is
+/// a missing sample, read as NaN, where any other file refuses it. Time may not miss.
+pub fn read_measured_csv(path: &Path) -> Result<Table, CsvError> {
+    let (text, file) = read_text(path)?;
+    parse_measured_csv(&text, &file)
+}
+
+/// The text of a measured record: [`parse_csv`], with missing samples read as NaN
+/// ([`read_measured_csv`]).
+pub fn parse_measured_csv(text: &str, file: &str) -> Result<Table, CsvError> {
+    let rules = Rules {
+        time: TimeAxis::Strict,
+        missing_allowed: true,
+    };
+    parse_with(text, file, &[], rules)
+}
+
+/// The UTF-8 text of the file at `path` and its name for messages, read within the bounds.
+fn read_text(path: &Path) -> Result<(String, String), CsvError> {
     let file = path.display().to_string();
     let err = |line: usize, column: usize, message: String| CsvError {
         file: file.clone(),
@@ -210,8 +233,8 @@ pub fn read_csv_with_text(
         message,
     };
     let bytes = read_bounded(path).map_err(|(line, message)| err(line, 0, message))?;
-    let text = match String::from_utf8(bytes) {
-        Ok(t) => t,
+    match String::from_utf8(bytes) {
+        Ok(t) => Ok((t, file)),
         Err(e) => {
             let bytes = e.as_bytes();
             let bad = e.utf8_error().valid_up_to();
@@ -223,14 +246,13 @@ pub fn read_csv_with_text(
             let column = 1 + String::from_utf8_lossy(&bytes[line_start..bad])
                 .chars()
                 .count();
-            return Err(err(
+            Err(err(
                 line,
                 column,
                 "not UTF-8 text (invalid byte sequence)".into(),
-            ));
+            ))
         }
-    };
-    parse_table(&text, &file, text_columns, time)
+    }
 }
 
 /// The file's bytes, or (line, message) when it cannot be read or exceeds a bound.
@@ -419,6 +441,116 @@ pub fn parse_table(
     text_columns: &[String],
     time: TimeAxis,
 ) -> Result<Table, CsvError> {
+    let rules = Rules {
+        time,
+        missing_allowed: false,
+    };
+    parse_with(text, file, text_columns, rules)
+}
+
+/// What a file may hold besides complete rows of numbers on a rising time axis.
+#[derive(Clone, Copy, Debug)]
+struct Rules {
+    /// What the time column may do from row to row.
+    time: TimeAxis,
+    /// Whether an empty or `NaN` numeric cell (not time) is a missing sample, read as NaN.
+    missing_allowed: bool,
+}
+
+/// The header's column names (`time` first), checked.
+fn header_names(
+    header: &str,
+    line: usize,
+    dialect: Dialect,
+) -> Result<Vec<String>, (usize, usize, String)> {
+    let mut names: Vec<String> = split_fields(header, dialect.separator, true)
+        .map_err(|j| (line, j, "unterminated quote in the header".to_string()))?;
+    match names.iter().position(|n| n.eq_ignore_ascii_case("time")) {
+        // `Time`, `TIME`: the time column whatever its case (spreadsheets and Simulink capitalise it).
+        Some(0) => names[0] = "time".to_string(),
+        Some(j) => {
+            let message = format!(
+                "'time' must be the first column, found it in column {}",
+                j + 1
+            );
+            return Err((line, j + 1, message));
+        }
+        None => {
+            let message = format!(
+                "no 'time' column: the header must start with 'time' (found '{}')",
+                shown(&names[0])
+            );
+            return Err((line, 1, message));
+        }
+    }
+    for (j, n) in names.iter().enumerate() {
+        if n.is_empty() {
+            return Err((line, j + 1, "empty column name in the header".into()));
+        }
+        if let Some(k) = names[..j].iter().position(|m| m == n) {
+            let message = format!(
+                "column '{}' appears twice (also column {})",
+                shown(n),
+                k + 1
+            );
+            return Err((line, j + 1, message));
+        }
+    }
+    Ok(names)
+}
+
+/// The number of the numeric cell `cell` of column `name`; NaN for a missing sample where
+/// `missing_allowed`. Err: why the cell is refused.
+fn numeric_cell(
+    cell: &str,
+    name: &str,
+    dialect: Dialect,
+    missing_allowed: bool,
+) -> Result<f64, String> {
+    let c = cell.trim();
+    let missing = c.is_empty() || c.eq_ignore_ascii_case("nan");
+    if missing && missing_allowed {
+        return Ok(f64::NAN);
+    }
+    let Some(x) = dialect.number(c) else {
+        return Err(if c.is_empty() {
+            format!("empty cell in column '{}'", shown(name))
+        } else {
+            format!(
+                "non-numeric cell '{}' in column '{}'",
+                shown(c),
+                shown(name)
+            )
+        });
+    };
+    if x.is_nan() {
+        return Err(format!("NaN in column '{}'", shown(name)));
+    }
+    if !x.is_finite() {
+        return Err(format!(
+            "infinite value '{}' in column '{}'",
+            shown(c),
+            shown(name)
+        ));
+    }
+    if x.abs() > MAX_MAGNITUDE {
+        return Err(format!(
+            "value '{}' in column '{}' is beyond ±{MAX_MAGNITUDE:e}: too large to compute with \
+             (its square overflows); check the units",
+            shown(c),
+            shown(name)
+        ));
+    }
+    Ok(x)
+}
+
+/// [`parse_table`] under `rules`.
+fn parse_with(
+    text: &str,
+    file: &str,
+    text_columns: &[String],
+    rules: Rules,
+) -> Result<Table, CsvError> {
     let err = |line: usize, column: usize, message: String| CsvError {
         file: file.to_string(),
         line,
@@ -439,48 +571,7 @@ pub fn parse_table(
         ));
     };
     let dialect = Dialect::of_header(header);
-    let mut names: Vec<String> = split_fields(header, dialect.separator, true)
-        .map_err(|j| err(hline, j, "unterminated quote in the header".into()))?;
-    match names.iter().position(|n| n.eq_ignore_ascii_case("time")) {
-        // `Time`, `TIME`: the time column whatever its case (spreadsheets and Simulink capitalise it).
-        Some(0) => names[0] = "time".to_string(),
-        Some(j) => {
-            return Err(err(
-                hline,
-                j + 1,
-                format!(
-                    "'time' must be the first column, found it in column {}",
-                    j + 1
-                ),
-            ))
-        }
-        None => {
-            return Err(err(
-                hline,
-                1,
-                format!(
-                    "no 'time' column: the header must start with 'time' (found '{}')",
-                    shown(&names[0])
-                ),
-            ))
-        }
-    }
-    for (j, n) in names.iter().enumerate() {
-        if n.is_empty() {
-            return Err(err(hline, j + 1, "empty column name in the header".into()));
-        }
-        if let Some(k) = names[..j].iter().position(|m| m == n) {
-            return Err(err(
-                hline,
-                j + 1,
-                format!(
-                    "column '{}' appears twice (also column {})",
-                    shown(n),
-                    k + 1
-                ),
-            ));
-        }
-    }
+    let names = header_names(header, hline, dialect).map_err(|(l, c, m)| err(l, c, m))?;
     let ncol = names.len();
     let is_text: Vec<bool> = names
         .iter()
@@ -506,62 +597,15 @@ pub fn parse_table(
                 texts[j].push(cell);
                 continue;
             }
-            let c = cell.trim();
-            let x: f64 = dialect.number(c).ok_or_else(|| {
-                if c.is_empty() {
-                    err(
-                        lno,
-                        j + 1,
-                        format!("empty cell in column '{}'", shown(&names[j])),
-                    )
-                } else {
-                    err(
-                        lno,
-                        j + 1,
-                        format!(
-                            "non-numeric cell '{}' in column '{}'",
-                            shown(c),
-                            shown(&names[j])
-                        ),
-                    )
-                }
-            })?;
-            if x.is_nan() {
-                return Err(err(
-                    lno,
-                    j + 1,
-                    format!("NaN in column '{}'", shown(&names[j])),
-                ));
-            }
-            if !x.is_finite() {
-                return Err(err(
-                    lno,
-                    j + 1,
-                    format!(
-                        "infinite value '{}' in column '{}'",
-                        shown(c),
-                        shown(&names[j])
-                    ),
-                ));
-            }
-            if x.abs() > MAX_MAGNITUDE {
-                return Err(err(
-                    lno,
-                    j + 1,
-                    format!(
-                        "value '{}' in column '{}' is beyond ±{MAX_MAGNITUDE:e}: too large to \
-                         compute with (its square overflows); check the units",
-                        shown(c),
-                        shown(&names[j])
-                    ),
-                ));
-            }
+            let missing_allowed = rules.missing_allowed && j > 0;
+            let x = numeric_cell(&cell, &names[j], dialect, missing_allowed)
+                .map_err(|m| err(lno, j + 1, m))?;
             if j == 0 {
                 let jump = last_time.is_some_and(|(prev, _, repeated)| {
-                    time == TimeAxis::JumpsAllowed && x == prev && !repeated
+                    rules.time == TimeAxis::JumpsAllowed && x == prev && !repeated
                 });
                 if let Some((prev, pl, _)) = last_time.filter(|l| x <= l.0 && !jump) {
-                    return Err(err(lno, 1, time_error(time, x, prev, pl)));
+                    return Err(err(lno, 1, time_error(rules.time, x, prev, pl)));
                 }
                 last_time = Some((x, lno, jump));
             }
@@ -699,8 +743,8 @@ pub fn write_atomically(
 #[cfg(test)]
 mod tests {
     use super::{
-        parse_csv, parse_csv_with_text, parse_table, read_csv, write_csv_text_to, write_csv_to,
-        CsvError, Table, TimeAxis, MAX_LINE_BYTES,
+        parse_csv, parse_csv_with_text, parse_table, parse_with, read_csv, write_csv_text_to,
+        write_csv_to, CsvError, Rules, Table, TimeAxis, MAX_LINE_BYTES,
     };
 
     fn e(text: &str) -> CsvError {
@@ -807,6 +851,28 @@ mod tests {
             e.message.contains("row has 3 cells, the header has 2"),
             "{e}"
         );
+    }
+
+    #[test]
+    fn a_measured_record_may_miss_samples_but_not_times() {
+        let rules = Rules {
+            time: TimeAxis::Strict,
+            missing_allowed: true,
+        };
+        let t = parse_with("time,u,y\n0,1,\n0.5,nan,2\n1,NaN,3\n", "m.csv", &[], rules).unwrap();
+        assert_eq!(t.time, vec![0.0, 0.5, 1.0]);
+        let (u, y) = (t.column("u").unwrap(), t.column("y").unwrap());
+        assert!(u[0] == 1.0 && u[1].is_nan() && u[2].is_nan(), "{u:?}");
+        assert!(y[0].is_nan() && y[1] == 2.0, "{y:?}");
+        let no_time = parse_with("time,y\n0,1\n,2\n", "m.csv", &[], rules).unwrap_err();
+        assert_eq!((no_time.line, no_time.column), (3, 1), "{no_time}");
+        assert!(
+            no_time.message.contains("empty cell in column 'time'"),
+            "{no_time}"
+        );
+        // Any other file refuses a missing sample.
+        let e = e("time,y\n0,1\n1,\n");
+        assert!(e.message.contains("empty cell in column 'y'"), "{e}");
     }
 
     #[test]

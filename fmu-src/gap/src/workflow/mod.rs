@@ -148,6 +148,18 @@ pub enum GapError {
 pub enum InputError {
     #[error("the data need at least two rows")]
     NoSampleInterval,
+    /// More rows miss a sample than [`crate::policy::MAX_LEFT_OUT_SHARE`] allows.
+    #[error(
+        "{rows} of {of} rows miss a sample (an empty or NaN cell; most in column '{column}': \
+         {in_column}): more than {:.0} % of a record cannot be left out",
+        crate::policy::MAX_LEFT_OUT_SHARE * 100.0
+    )]
+    TooManyMissing {
+        rows: usize,
+        of: usize,
+        column: String,
+        in_column: usize,
+    },
     /// Records fitted together must measure the same outputs.
     #[error("records fitted together must have the same output columns: the first has [{}], another [{}]", .first.join(", "), .other.join(", "))]
     RecordOutputs {
