@@ -147,67 +147,137 @@ pub use fmi_types::c::{
     COMMON_AND_CO_SIMULATION_ONLY, CO_SIMULATION_FUNCTIONS as FMI2_CS_FUNCTIONS,
 };
 
+/// Declares a table of a binary's C functions once: each field with the symbol it is looked up
+/// by, whether the binary must export it (`required`: no table without it; `optional`: `None`
+/// when absent) and its C signature. Generates the struct, `SYMBOLS` (the symbols in field
+/// order) and `resolve_table`, which takes the values of the fields listed under `given` (made
+/// by the caller: fallbacks and sub-tables).
+macro_rules! function_table {
+    (
+        $(#[$meta:meta])*
+        pub struct $table:ident {
+            $($field:ident: $need:ident $symbol:literal $sig:ty,)*
+        }
+        given {
+            $($(#[$given_meta:meta])* $given:ident: $given_ty:ty,)*
+        }
+    ) => {
+        $(#[$meta])*
+        #[derive(Clone, Copy)]
+        #[allow(missing_docs, clippy::type_complexity)]
+        pub struct $table {
+            $(pub $field: function_table!(@type $need $sig),)*
+            $($(#[$given_meta])* pub $given: $given_ty,)*
+        }
+
+        impl $table {
+            /// The symbols of the table's functions, in field order.
+            pub const SYMBOLS: &'static [&'static str] = &[$($symbol),*];
+
+            /// The table of `lib`; Err names the first required function it does not export.
+            ///
+            /// # Safety
+            /// `lib`'s exports must have the standard signatures.
+            #[allow(clippy::too_many_arguments)]
+            pub(crate) unsafe fn resolve_table(
+                lib: &libloading::Library,
+                $($given: $given_ty,)*
+            ) -> Result<Self, $crate::ffi::LoadError> {
+                Ok($table {
+                    $($field: function_table!(@get lib $need $symbol),)*
+                    $($given,)*
+                })
+            }
+        }
+    };
+    (@type required $sig:ty) => { $sig };
+    (@type optional $sig:ty) => { Option<$sig> };
+    (@get $lib:ident required $symbol:literal) => { $crate::ffi::required($lib, $symbol)? };
+    (@get $lib:ident optional $symbol:literal) => { $crate::ffi::sym($lib, $symbol) };
+}
+pub(crate) use function_table;
+
 type C = Component;
 type Vr = *const ValueReference;
 
-/// Function pointers of one loaded binary. Required ones are plain, the rest optional (the host
-/// works without them; `validate` reports every missing one).
-#[derive(Clone, Copy)]
-#[allow(missing_docs)]
-pub struct Functions {
-    pub get_types_platform: Option<unsafe extern "C" fn() -> *const c_char>,
-    pub get_version: Option<unsafe extern "C" fn() -> *const c_char>,
-    pub set_debug_logging:
-        Option<unsafe extern "C" fn(C, Fmi2Boolean, usize, *const *const c_char) -> RawStatus>,
-    pub instantiate: unsafe extern "C" fn(
-        *const c_char,
-        c_int,
-        *const c_char,
-        *const c_char,
-        *const CallbackFunctions,
-        Fmi2Boolean,
-        Fmi2Boolean,
-    ) -> C,
-    pub free_instance: unsafe extern "C" fn(C),
-    pub setup_experiment:
-        unsafe extern "C" fn(C, Fmi2Boolean, f64, f64, Fmi2Boolean, f64) -> RawStatus,
-    pub enter_initialization_mode: unsafe extern "C" fn(C) -> RawStatus,
-    pub exit_initialization_mode: unsafe extern "C" fn(C) -> RawStatus,
-    pub terminate: unsafe extern "C" fn(C) -> RawStatus,
-    pub reset: unsafe extern "C" fn(C) -> RawStatus,
-    pub get_real: unsafe extern "C" fn(C, Vr, usize, *mut f64) -> RawStatus,
-    pub get_integer: unsafe extern "C" fn(C, Vr, usize, *mut c_int) -> RawStatus,
-    pub get_boolean: unsafe extern "C" fn(C, Vr, usize, *mut Fmi2Boolean) -> RawStatus,
-    pub get_string: Option<unsafe extern "C" fn(C, Vr, usize, *mut *const c_char) -> RawStatus>,
-    pub set_real: unsafe extern "C" fn(C, Vr, usize, *const f64) -> RawStatus,
-    pub set_integer: unsafe extern "C" fn(C, Vr, usize, *const c_int) -> RawStatus,
-    pub set_boolean: unsafe extern "C" fn(C, Vr, usize, *const Fmi2Boolean) -> RawStatus,
-    pub set_string: Option<unsafe extern "C" fn(C, Vr, usize, *const *const c_char) -> RawStatus>,
-    pub get_fmu_state: Option<unsafe extern "C" fn(C, *mut FmuState) -> RawStatus>,
-    pub set_fmu_state: Option<unsafe extern "C" fn(C, FmuState) -> RawStatus>,
-    pub free_fmu_state: Option<unsafe extern "C" fn(C, *mut FmuState) -> RawStatus>,
-    pub serialized_fmu_state_size:
-        Option<unsafe extern "C" fn(C, FmuState, *mut usize) -> RawStatus>,
-    pub serialize_fmu_state:
-        Option<unsafe extern "C" fn(C, FmuState, *mut c_char, usize) -> RawStatus>,
-    pub deserialize_fmu_state:
-        Option<unsafe extern "C" fn(C, *const c_char, usize, *mut FmuState) -> RawStatus>,
-    pub do_step: unsafe extern "C" fn(C, f64, f64, Fmi2Boolean) -> RawStatus,
-    pub cancel_step: Option<unsafe extern "C" fn(C) -> RawStatus>,
-    pub get_status: Option<unsafe extern "C" fn(C, c_int, *mut RawStatus) -> RawStatus>,
-    pub get_real_status: Option<unsafe extern "C" fn(C, c_int, *mut f64) -> RawStatus>,
-    pub get_integer_status: Option<unsafe extern "C" fn(C, c_int, *mut c_int) -> RawStatus>,
-    pub get_boolean_status: Option<unsafe extern "C" fn(C, c_int, *mut Fmi2Boolean) -> RawStatus>,
-    pub get_string_status: Option<unsafe extern "C" fn(C, c_int, *mut *const c_char) -> RawStatus>,
-    pub get_directional_derivative:
-        Option<unsafe extern "C" fn(C, Vr, usize, Vr, usize, *const f64, *mut f64) -> RawStatus>,
-    pub set_real_input_derivatives:
-        Option<unsafe extern "C" fn(C, Vr, usize, *const c_int, *const f64) -> RawStatus>,
-    pub get_real_output_derivatives:
-        Option<unsafe extern "C" fn(C, Vr, usize, *const c_int, *mut f64) -> RawStatus>,
-    /// The Model Exchange functions, when the binary exports all of them.
-    pub me: Option<MeFunctions>,
+function_table! {
+    /// Function pointers of one loaded binary. Required ones are plain, the rest optional (the
+    /// host works without them; `validate` reports every missing one).
+    pub struct Functions {
+        get_types_platform: optional "fmi2GetTypesPlatform" unsafe extern "C" fn() -> *const c_char,
+        get_version: optional "fmi2GetVersion" unsafe extern "C" fn() -> *const c_char,
+        set_debug_logging: optional "fmi2SetDebugLogging"
+            unsafe extern "C" fn(C, Fmi2Boolean, usize, *const *const c_char) -> RawStatus,
+        instantiate: required "fmi2Instantiate"
+            unsafe extern "C" fn(
+                *const c_char,
+                c_int,
+                *const c_char,
+                *const c_char,
+                *const CallbackFunctions,
+                Fmi2Boolean,
+                Fmi2Boolean,
+            ) -> C,
+        free_instance: required "fmi2FreeInstance" unsafe extern "C" fn(C),
+        setup_experiment: required "fmi2SetupExperiment"
+            unsafe extern "C" fn(C, Fmi2Boolean, f64, f64, Fmi2Boolean, f64) -> RawStatus,
+        enter_initialization_mode: required "fmi2EnterInitializationMode"
+            unsafe extern "C" fn(C) -> RawStatus,
+        exit_initialization_mode: required "fmi2ExitInitializationMode"
+            unsafe extern "C" fn(C) -> RawStatus,
+        terminate: required "fmi2Terminate" unsafe extern "C" fn(C) -> RawStatus,
+        reset: required "fmi2Reset" unsafe extern "C" fn(C) -> RawStatus,
+        get_real: required "fmi2GetReal" unsafe extern "C" fn(C, Vr, usize, *mut f64) -> RawStatus,
+        get_integer: required "fmi2GetInteger"
+            unsafe extern "C" fn(C, Vr, usize, *mut c_int) -> RawStatus,
+        get_boolean: required "fmi2GetBoolean"
+            unsafe extern "C" fn(C, Vr, usize, *mut Fmi2Boolean) -> RawStatus,
+        get_string: optional "fmi2GetString"
+            unsafe extern "C" fn(C, Vr, usize, *mut *const c_char) -> RawStatus,
+        set_real: required "fmi2SetReal" unsafe extern "C" fn(C, Vr, usize, *const f64) -> RawStatus,
+        set_integer: required "fmi2SetInteger"
+            unsafe extern "C" fn(C, Vr, usize, *const c_int) -> RawStatus,
+        set_boolean: required "fmi2SetBoolean"
+            unsafe extern "C" fn(C, Vr, usize, *const Fmi2Boolean) -> RawStatus,
+        set_string: optional "fmi2SetString"
+            unsafe extern "C" fn(C, Vr, usize, *const *const c_char) -> RawStatus,
+        get_fmu_state: optional "fmi2GetFMUstate" unsafe extern "C" fn(C, *mut FmuState) -> RawStatus,
+        set_fmu_state: optional "fmi2SetFMUstate" unsafe extern "C" fn(C, FmuState) -> RawStatus,
+        free_fmu_state: optional "fmi2FreeFMUstate"
+            unsafe extern "C" fn(C, *mut FmuState) -> RawStatus,
+        serialized_fmu_state_size: optional "fmi2SerializedFMUstateSize"
+            unsafe extern "C" fn(C, FmuState, *mut usize) -> RawStatus,
+        serialize_fmu_state: optional "fmi2SerializeFMUstate"
+            unsafe extern "C" fn(C, FmuState, *mut c_char, usize) -> RawStatus,
+        deserialize_fmu_state: optional "fmi2DeSerializeFMUstate"
+            unsafe extern "C" fn(C, *const c_char, usize, *mut FmuState) -> RawStatus,
+        cancel_step: optional "fmi2CancelStep" unsafe extern "C" fn(C) -> RawStatus,
+        get_status: optional "fmi2GetStatus" unsafe extern "C" fn(C, c_int, *mut RawStatus) -> RawStatus,
+        get_real_status: optional "fmi2GetRealStatus"
+            unsafe extern "C" fn(C, c_int, *mut f64) -> RawStatus,
+        get_integer_status: optional "fmi2GetIntegerStatus"
+            unsafe extern "C" fn(C, c_int, *mut c_int) -> RawStatus,
+        get_boolean_status: optional "fmi2GetBooleanStatus"
+            unsafe extern "C" fn(C, c_int, *mut Fmi2Boolean) -> RawStatus,
+        get_string_status: optional "fmi2GetStringStatus"
+            unsafe extern "C" fn(C, c_int, *mut *const c_char) -> RawStatus,
+        get_directional_derivative: optional "fmi2GetDirectionalDerivative"
+            unsafe extern "C" fn(C, Vr, usize, Vr, usize, *const f64, *mut f64) -> RawStatus,
+        set_real_input_derivatives: optional "fmi2SetRealInputDerivatives"
+            unsafe extern "C" fn(C, Vr, usize, *const c_int, *const f64) -> RawStatus,
+        get_real_output_derivatives: optional "fmi2GetRealOutputDerivatives"
+            unsafe extern "C" fn(C, Vr, usize, *const c_int, *mut f64) -> RawStatus,
+    }
+    given {
+        /// `fmi2DoStep`, or for a Model Exchange run of a binary without it a stand-in.
+        do_step: DoStep,
+        /// The Model Exchange functions, when the binary exports all of them.
+        me: Option<MeFunctions>,
+    }
 }
+
+/// `fmi2DoStep(c, currentCommunicationPoint, communicationStepSize, noSetFMUStatePriorToCurrentPoint)`.
+type DoStep = unsafe extern "C" fn(C, f64, f64, Fmi2Boolean) -> RawStatus;
 
 /// `fmi2EventInfo` (fmi2FunctionTypes.h), filled by `fmi2NewDiscreteStates`.
 #[repr(C)]
@@ -222,60 +292,38 @@ pub struct EventInfo {
     pub next_event_time: f64,
 }
 
-/// The FMI 2.0 Model Exchange functions (FMI 2.0.4 section 3.2).
-#[derive(Clone, Copy)]
-#[allow(missing_docs)]
-pub struct MeFunctions {
-    pub enter_event_mode: unsafe extern "C" fn(C) -> RawStatus,
-    pub new_discrete_states: unsafe extern "C" fn(C, *mut EventInfo) -> RawStatus,
-    pub enter_continuous_time_mode: unsafe extern "C" fn(C) -> RawStatus,
-    pub completed_integrator_step:
-        unsafe extern "C" fn(C, Fmi2Boolean, *mut Fmi2Boolean, *mut Fmi2Boolean) -> RawStatus,
-    pub set_time: unsafe extern "C" fn(C, f64) -> RawStatus,
-    pub set_continuous_states: unsafe extern "C" fn(C, *const f64, usize) -> RawStatus,
-    pub get_derivatives: unsafe extern "C" fn(C, *mut f64, usize) -> RawStatus,
-    pub get_event_indicators: unsafe extern "C" fn(C, *mut f64, usize) -> RawStatus,
-    pub get_continuous_states: unsafe extern "C" fn(C, *mut f64, usize) -> RawStatus,
-    pub get_nominals_of_continuous_states: unsafe extern "C" fn(C, *mut f64, usize) -> RawStatus,
+function_table! {
+    /// The FMI 2.0 Model Exchange functions (FMI 2.0.4 section 3.2).
+    pub struct MeFunctions {
+        enter_event_mode: required "fmi2EnterEventMode" unsafe extern "C" fn(C) -> RawStatus,
+        new_discrete_states: required "fmi2NewDiscreteStates"
+            unsafe extern "C" fn(C, *mut EventInfo) -> RawStatus,
+        enter_continuous_time_mode: required "fmi2EnterContinuousTimeMode"
+            unsafe extern "C" fn(C) -> RawStatus,
+        completed_integrator_step: required "fmi2CompletedIntegratorStep"
+            unsafe extern "C" fn(C, Fmi2Boolean, *mut Fmi2Boolean, *mut Fmi2Boolean) -> RawStatus,
+        set_time: required "fmi2SetTime" unsafe extern "C" fn(C, f64) -> RawStatus,
+        set_continuous_states: required "fmi2SetContinuousStates"
+            unsafe extern "C" fn(C, *const f64, usize) -> RawStatus,
+        get_derivatives: required "fmi2GetDerivatives"
+            unsafe extern "C" fn(C, *mut f64, usize) -> RawStatus,
+        get_event_indicators: required "fmi2GetEventIndicators"
+            unsafe extern "C" fn(C, *mut f64, usize) -> RawStatus,
+        get_continuous_states: required "fmi2GetContinuousStates"
+            unsafe extern "C" fn(C, *mut f64, usize) -> RawStatus,
+        get_nominals_of_continuous_states: required "fmi2GetNominalsOfContinuousStates"
+            unsafe extern "C" fn(C, *mut f64, usize) -> RawStatus,
+    }
+    given {}
 }
 
 /// The functions only the Model Exchange interface has (FMI 2.0.4 section 3.2).
-pub const FMI2_ME_FUNCTIONS: &[&str] = &[
-    "fmi2EnterEventMode",
-    "fmi2NewDiscreteStates",
-    "fmi2EnterContinuousTimeMode",
-    "fmi2CompletedIntegratorStep",
-    "fmi2SetTime",
-    "fmi2SetContinuousStates",
-    "fmi2GetDerivatives",
-    "fmi2GetEventIndicators",
-    "fmi2GetContinuousStates",
-    "fmi2GetNominalsOfContinuousStates",
-];
+pub const FMI2_ME_FUNCTIONS: &[&str] = MeFunctions::SYMBOLS;
 
 /// Stands in for `fmi2DoStep` in a binary without it (Model Exchange only): never called on a
 /// Model Exchange instance; returns fmi2Error should anything call it.
 unsafe extern "C" fn absent_do_step(_: C, _: f64, _: f64, _: Fmi2Boolean) -> RawStatus {
     fmi_types::c::ERROR
-}
-
-/// The Model Exchange table, when every function of it is exported.
-///
-/// # Safety
-/// `lib` must be an FMI 2.0 binary whose exports have the standard signatures.
-unsafe fn resolve_me(lib: &Library) -> Option<MeFunctions> {
-    Some(MeFunctions {
-        enter_event_mode: sym(lib, "fmi2EnterEventMode")?,
-        new_discrete_states: sym(lib, "fmi2NewDiscreteStates")?,
-        enter_continuous_time_mode: sym(lib, "fmi2EnterContinuousTimeMode")?,
-        completed_integrator_step: sym(lib, "fmi2CompletedIntegratorStep")?,
-        set_time: sym(lib, "fmi2SetTime")?,
-        set_continuous_states: sym(lib, "fmi2SetContinuousStates")?,
-        get_derivatives: sym(lib, "fmi2GetDerivatives")?,
-        get_event_indicators: sym(lib, "fmi2GetEventIndicators")?,
-        get_continuous_states: sym(lib, "fmi2GetContinuousStates")?,
-        get_nominals_of_continuous_states: sym(lib, "fmi2GetNominalsOfContinuousStates")?,
-    })
 }
 
 /// Looks up `name` in `lib` as a function pointer of type `T`.
@@ -345,57 +393,14 @@ pub unsafe fn resolve(lib: &Library) -> Result<Functions, LoadError> {
 /// # Safety
 /// `lib` must be an FMI 2.0 binary whose exports have the standard signatures.
 pub unsafe fn resolve_for(lib: &Library, model_exchange: bool) -> Result<Functions, LoadError> {
-    let me = resolve_me(lib);
-    if model_exchange && me.is_none() {
-        let absent = FMI2_ME_FUNCTIONS
-            .iter()
-            // SAFETY: only the address is looked up, never called.
-            .find(|n| sym::<*const c_void>(lib, n).is_none());
-        return Err(LoadError::MissingFunction(
-            absent.copied().unwrap_or("fmi2SetTime"),
-        ));
-    }
-    type DoStep = unsafe extern "C" fn(C, f64, f64, Fmi2Boolean) -> RawStatus;
+    let me = MeFunctions::resolve_table(lib);
     let do_step = match sym::<DoStep>(lib, "fmi2DoStep") {
         Some(f) => f,
         None if model_exchange => absent_do_step as DoStep,
         None => return Err(LoadError::MissingFunction("fmi2DoStep")),
     };
-    Ok(Functions {
-        get_types_platform: sym(lib, "fmi2GetTypesPlatform"),
-        get_version: sym(lib, "fmi2GetVersion"),
-        set_debug_logging: sym(lib, "fmi2SetDebugLogging"),
-        instantiate: required(lib, "fmi2Instantiate")?,
-        free_instance: required(lib, "fmi2FreeInstance")?,
-        setup_experiment: required(lib, "fmi2SetupExperiment")?,
-        enter_initialization_mode: required(lib, "fmi2EnterInitializationMode")?,
-        exit_initialization_mode: required(lib, "fmi2ExitInitializationMode")?,
-        terminate: required(lib, "fmi2Terminate")?,
-        reset: required(lib, "fmi2Reset")?,
-        get_real: required(lib, "fmi2GetReal")?,
-        get_integer: required(lib, "fmi2GetInteger")?,
-        get_boolean: required(lib, "fmi2GetBoolean")?,
-        get_string: sym(lib, "fmi2GetString"),
-        set_real: required(lib, "fmi2SetReal")?,
-        set_integer: required(lib, "fmi2SetInteger")?,
-        set_boolean: required(lib, "fmi2SetBoolean")?,
-        set_string: sym(lib, "fmi2SetString"),
-        get_fmu_state: sym(lib, "fmi2GetFMUstate"),
-        set_fmu_state: sym(lib, "fmi2SetFMUstate"),
-        free_fmu_state: sym(lib, "fmi2FreeFMUstate"),
-        serialized_fmu_state_size: sym(lib, "fmi2SerializedFMUstateSize"),
-        serialize_fmu_state: sym(lib, "fmi2SerializeFMUstate"),
-        deserialize_fmu_state: sym(lib, "fmi2DeSerializeFMUstate"),
-        do_step,
-        cancel_step: sym(lib, "fmi2CancelStep"),
-        get_status: sym(lib, "fmi2GetStatus"),
-        get_real_status: sym(lib, "fmi2GetRealStatus"),
-        get_integer_status: sym(lib, "fmi2GetIntegerStatus"),
-        get_boolean_status: sym(lib, "fmi2GetBooleanStatus"),
-        get_string_status: sym(lib, "fmi2GetStringStatus"),
-        get_directional_derivative: sym(lib, "fmi2GetDirectionalDerivative"),
-        set_real_input_derivatives: sym(lib, "fmi2SetRealInputDerivatives"),
-        get_real_output_derivatives: sym(lib, "fmi2GetRealOutputDerivatives"),
-        me,
-    })
+    if let (true, Err(absent)) = (model_exchange, &me) {
+        return Err(absent.clone());
+    }
+    Functions::resolve_table(lib, do_step, me.ok())
 }

@@ -11,8 +11,7 @@
 //! behaviour.
 
 use crate::error::{LogRecord, Status};
-pub(crate) use crate::ffi::sym;
-use crate::ffi::{bounded, cstr_lossy, required, LogSink};
+use crate::ffi::{bounded, cstr_lossy, function_table, LogSink};
 use libloading::Library;
 use std::ffi::{c_char, c_int, c_void};
 
@@ -81,78 +80,87 @@ pub type DoStep = unsafe extern "C" fn(
     *mut f64,
 ) -> RawStatus3;
 
-/// Function pointers of one loaded FMI 3.0 binary: what a Co-Simulation run needs is required,
-/// the rest optional.
-#[derive(Clone, Copy)]
-#[allow(missing_docs)]
-pub struct Functions3 {
-    pub get_version: Option<unsafe extern "C" fn() -> *const c_char>,
-    pub set_debug_logging:
-        Option<unsafe extern "C" fn(I, Bool3, usize, *const *const c_char) -> RawStatus3>,
-    pub instantiate_co_simulation: Option<InstantiateCoSimulation>,
-    pub free_instance: unsafe extern "C" fn(I),
-    pub enter_initialization_mode:
-        unsafe extern "C" fn(I, Bool3, f64, f64, Bool3, f64) -> RawStatus3,
-    pub exit_initialization_mode: unsafe extern "C" fn(I) -> RawStatus3,
-    pub enter_configuration_mode: Option<unsafe extern "C" fn(I) -> RawStatus3>,
-    pub exit_configuration_mode: Option<unsafe extern "C" fn(I) -> RawStatus3>,
-    pub terminate: unsafe extern "C" fn(I) -> RawStatus3,
-    pub reset: unsafe extern "C" fn(I) -> RawStatus3,
-    pub get_float32: Get<f32>,
-    pub get_float64: Get<f64>,
-    pub get_int8: Get<i8>,
-    pub get_uint8: Get<u8>,
-    pub get_int16: Get<i16>,
-    pub get_uint16: Get<u16>,
-    pub get_int32: Get<i32>,
-    pub get_uint32: Get<u32>,
-    pub get_int64: Get<i64>,
-    pub get_uint64: Get<u64>,
-    pub get_boolean: Get<Bool3>,
-    pub get_string: Get<*const c_char>,
-    pub get_binary:
-        unsafe extern "C" fn(I, Vrs, usize, *mut usize, *mut *const u8, usize) -> RawStatus3,
-    pub set_float32: Set<f32>,
-    pub set_float64: Set<f64>,
-    pub set_int8: Set<i8>,
-    pub set_uint8: Set<u8>,
-    pub set_int16: Set<i16>,
-    pub set_uint16: Set<u16>,
-    pub set_int32: Set<i32>,
-    pub set_uint32: Set<u32>,
-    pub set_int64: Set<i64>,
-    pub set_uint64: Set<u64>,
-    pub set_boolean: Set<Bool3>,
-    pub set_string: Set<*const c_char>,
-    pub set_binary:
-        unsafe extern "C" fn(I, Vrs, usize, *const usize, *const *const u8, usize) -> RawStatus3,
-    pub get_fmu_state: Option<unsafe extern "C" fn(I, *mut FmuState3) -> RawStatus3>,
-    pub set_fmu_state: Option<unsafe extern "C" fn(I, FmuState3) -> RawStatus3>,
-    pub free_fmu_state: Option<unsafe extern "C" fn(I, *mut FmuState3) -> RawStatus3>,
-    pub serialized_fmu_state_size:
-        Option<unsafe extern "C" fn(I, FmuState3, *mut usize) -> RawStatus3>,
-    pub serialize_fmu_state:
-        Option<unsafe extern "C" fn(I, FmuState3, *mut u8, usize) -> RawStatus3>,
-    pub deserialize_fmu_state:
-        Option<unsafe extern "C" fn(I, *const u8, usize, *mut FmuState3) -> RawStatus3>,
-    pub do_step: Option<DoStep>,
-    pub instantiate_model_exchange: Option<InstantiateModelExchange>,
-    /// The Model Exchange functions, when the binary exports all of them.
-    pub me: Option<crate::me::fmi3::MeFunctions3>,
-    /// The clock functions, when the binary exports them.
-    pub clocks: Option<crate::me::clocks::ClockFunctions3>,
-    /// The Event Mode functions of both interfaces, when the binary exports them.
-    pub events: Option<Events3>,
+function_table! {
+    /// Function pointers of one loaded FMI 3.0 binary: what a Co-Simulation run needs is
+    /// required, the rest optional.
+    pub struct Functions3 {
+        get_version: optional "fmi3GetVersion" unsafe extern "C" fn() -> *const c_char,
+        set_debug_logging: optional "fmi3SetDebugLogging"
+            unsafe extern "C" fn(I, Bool3, usize, *const *const c_char) -> RawStatus3,
+        instantiate_co_simulation: optional "fmi3InstantiateCoSimulation" InstantiateCoSimulation,
+        free_instance: required "fmi3FreeInstance" unsafe extern "C" fn(I),
+        enter_initialization_mode: required "fmi3EnterInitializationMode"
+            unsafe extern "C" fn(I, Bool3, f64, f64, Bool3, f64) -> RawStatus3,
+        exit_initialization_mode: required "fmi3ExitInitializationMode"
+            unsafe extern "C" fn(I) -> RawStatus3,
+        enter_configuration_mode: optional "fmi3EnterConfigurationMode"
+            unsafe extern "C" fn(I) -> RawStatus3,
+        exit_configuration_mode: optional "fmi3ExitConfigurationMode"
+            unsafe extern "C" fn(I) -> RawStatus3,
+        terminate: required "fmi3Terminate" unsafe extern "C" fn(I) -> RawStatus3,
+        reset: required "fmi3Reset" unsafe extern "C" fn(I) -> RawStatus3,
+        get_float32: required "fmi3GetFloat32" Get<f32>,
+        get_float64: required "fmi3GetFloat64" Get<f64>,
+        get_int8: required "fmi3GetInt8" Get<i8>,
+        get_uint8: required "fmi3GetUInt8" Get<u8>,
+        get_int16: required "fmi3GetInt16" Get<i16>,
+        get_uint16: required "fmi3GetUInt16" Get<u16>,
+        get_int32: required "fmi3GetInt32" Get<i32>,
+        get_uint32: required "fmi3GetUInt32" Get<u32>,
+        get_int64: required "fmi3GetInt64" Get<i64>,
+        get_uint64: required "fmi3GetUInt64" Get<u64>,
+        get_boolean: required "fmi3GetBoolean" Get<Bool3>,
+        get_string: required "fmi3GetString" Get<*const c_char>,
+        get_binary: required "fmi3GetBinary"
+            unsafe extern "C" fn(I, Vrs, usize, *mut usize, *mut *const u8, usize) -> RawStatus3,
+        set_float32: required "fmi3SetFloat32" Set<f32>,
+        set_float64: required "fmi3SetFloat64" Set<f64>,
+        set_int8: required "fmi3SetInt8" Set<i8>,
+        set_uint8: required "fmi3SetUInt8" Set<u8>,
+        set_int16: required "fmi3SetInt16" Set<i16>,
+        set_uint16: required "fmi3SetUInt16" Set<u16>,
+        set_int32: required "fmi3SetInt32" Set<i32>,
+        set_uint32: required "fmi3SetUInt32" Set<u32>,
+        set_int64: required "fmi3SetInt64" Set<i64>,
+        set_uint64: required "fmi3SetUInt64" Set<u64>,
+        set_boolean: required "fmi3SetBoolean" Set<Bool3>,
+        set_string: required "fmi3SetString" Set<*const c_char>,
+        set_binary: required "fmi3SetBinary"
+            unsafe extern "C" fn(I, Vrs, usize, *const usize, *const *const u8, usize) -> RawStatus3,
+        get_fmu_state: optional "fmi3GetFMUState"
+            unsafe extern "C" fn(I, *mut FmuState3) -> RawStatus3,
+        set_fmu_state: optional "fmi3SetFMUState" unsafe extern "C" fn(I, FmuState3) -> RawStatus3,
+        free_fmu_state: optional "fmi3FreeFMUState"
+            unsafe extern "C" fn(I, *mut FmuState3) -> RawStatus3,
+        serialized_fmu_state_size: optional "fmi3SerializedFMUStateSize"
+            unsafe extern "C" fn(I, FmuState3, *mut usize) -> RawStatus3,
+        serialize_fmu_state: optional "fmi3SerializeFMUState"
+            unsafe extern "C" fn(I, FmuState3, *mut u8, usize) -> RawStatus3,
+        deserialize_fmu_state: optional "fmi3DeserializeFMUState"
+            unsafe extern "C" fn(I, *const u8, usize, *mut FmuState3) -> RawStatus3,
+        do_step: optional "fmi3DoStep" DoStep,
+        instantiate_model_exchange: optional "fmi3InstantiateModelExchange"
+            InstantiateModelExchange,
+    }
+    given {
+        /// The Model Exchange functions, when the binary exports all of them.
+        me: Option<crate::me::fmi3::MeFunctions3>,
+        /// The clock functions, when the binary exports them.
+        clocks: Option<crate::me::clocks::ClockFunctions3>,
+        /// The Event Mode functions of both interfaces, when the binary exports them.
+        events: Option<Events3>,
+    }
 }
 
-/// The calls that enter, iterate and leave Event Mode (FMI 3.0.2 section 2.3.5; fmi3EnterStepMode
-/// is Co-Simulation's way out, section 4.2).
-#[derive(Clone, Copy)]
-#[allow(missing_docs)]
-pub struct Events3 {
-    pub enter_event_mode: unsafe extern "C" fn(I) -> RawStatus3,
-    pub update_discrete_states: UpdateDiscreteStates3,
-    pub enter_step_mode: Option<unsafe extern "C" fn(I) -> RawStatus3>,
+function_table! {
+    /// The calls that enter, iterate and leave Event Mode (FMI 3.0.2 section 2.3.5;
+    /// fmi3EnterStepMode is Co-Simulation's way out, section 4.2).
+    pub struct Events3 {
+        enter_event_mode: required "fmi3EnterEventMode" unsafe extern "C" fn(I) -> RawStatus3,
+        update_discrete_states: required "fmi3UpdateDiscreteStates" UpdateDiscreteStates3,
+        enter_step_mode: optional "fmi3EnterStepMode" unsafe extern "C" fn(I) -> RawStatus3,
+    }
+    given {}
 }
 
 /// `fmi3UpdateDiscreteStates(instance, discreteStatesNeedUpdate, terminateSimulation,
@@ -265,67 +273,10 @@ pub const FMI3_COMMON_FUNCTIONS: [&str; 44] = [
 /// # Safety
 /// `lib` must be an FMI 3.0 binary whose exports have the standard signatures.
 pub unsafe fn resolve(lib: &Library) -> Result<Functions3, crate::ffi::LoadError> {
-    Ok(Functions3 {
-        get_version: sym(lib, "fmi3GetVersion"),
-        set_debug_logging: sym(lib, "fmi3SetDebugLogging"),
-        instantiate_co_simulation: sym(lib, "fmi3InstantiateCoSimulation"),
-        free_instance: required(lib, "fmi3FreeInstance")?,
-        enter_initialization_mode: required(lib, "fmi3EnterInitializationMode")?,
-        exit_initialization_mode: required(lib, "fmi3ExitInitializationMode")?,
-        enter_configuration_mode: sym(lib, "fmi3EnterConfigurationMode"),
-        exit_configuration_mode: sym(lib, "fmi3ExitConfigurationMode"),
-        terminate: required(lib, "fmi3Terminate")?,
-        reset: required(lib, "fmi3Reset")?,
-        get_float32: required(lib, "fmi3GetFloat32")?,
-        get_float64: required(lib, "fmi3GetFloat64")?,
-        get_int8: required(lib, "fmi3GetInt8")?,
-        get_uint8: required(lib, "fmi3GetUInt8")?,
-        get_int16: required(lib, "fmi3GetInt16")?,
-        get_uint16: required(lib, "fmi3GetUInt16")?,
-        get_int32: required(lib, "fmi3GetInt32")?,
-        get_uint32: required(lib, "fmi3GetUInt32")?,
-        get_int64: required(lib, "fmi3GetInt64")?,
-        get_uint64: required(lib, "fmi3GetUInt64")?,
-        get_boolean: required(lib, "fmi3GetBoolean")?,
-        get_string: required(lib, "fmi3GetString")?,
-        get_binary: required(lib, "fmi3GetBinary")?,
-        set_float32: required(lib, "fmi3SetFloat32")?,
-        set_float64: required(lib, "fmi3SetFloat64")?,
-        set_int8: required(lib, "fmi3SetInt8")?,
-        set_uint8: required(lib, "fmi3SetUInt8")?,
-        set_int16: required(lib, "fmi3SetInt16")?,
-        set_uint16: required(lib, "fmi3SetUInt16")?,
-        set_int32: required(lib, "fmi3SetInt32")?,
-        set_uint32: required(lib, "fmi3SetUInt32")?,
-        set_int64: required(lib, "fmi3SetInt64")?,
-        set_uint64: required(lib, "fmi3SetUInt64")?,
-        set_boolean: required(lib, "fmi3SetBoolean")?,
-        set_string: required(lib, "fmi3SetString")?,
-        set_binary: required(lib, "fmi3SetBinary")?,
-        get_fmu_state: sym(lib, "fmi3GetFMUState"),
-        set_fmu_state: sym(lib, "fmi3SetFMUState"),
-        free_fmu_state: sym(lib, "fmi3FreeFMUState"),
-        serialized_fmu_state_size: sym(lib, "fmi3SerializedFMUStateSize"),
-        serialize_fmu_state: sym(lib, "fmi3SerializeFMUState"),
-        deserialize_fmu_state: sym(lib, "fmi3DeserializeFMUState"),
-        do_step: sym(lib, "fmi3DoStep"),
-        instantiate_model_exchange: sym(lib, "fmi3InstantiateModelExchange"),
-        me: crate::me::fmi3::resolve(lib),
-        clocks: crate::me::clocks::resolve(lib),
-        events: events(lib),
-    })
-}
-
-/// The Event Mode functions, when the binary exports them.
-///
-/// # Safety
-/// As [`resolve`].
-unsafe fn events(lib: &Library) -> Option<Events3> {
-    Some(Events3 {
-        enter_event_mode: sym(lib, "fmi3EnterEventMode")?,
-        update_discrete_states: sym(lib, "fmi3UpdateDiscreteStates")?,
-        enter_step_mode: sym(lib, "fmi3EnterStepMode"),
-    })
+    let me = crate::me::fmi3::MeFunctions3::resolve_table(lib).ok();
+    let clocks = crate::me::clocks::ClockFunctions3::resolve_table(lib).ok();
+    let events = Events3::resolve_table(lib).ok();
+    Functions3::resolve_table(lib, me, clocks, events)
 }
 
 /// What `instanceEnvironment` points to: the instance's log sink and its name (the FMI 3.0

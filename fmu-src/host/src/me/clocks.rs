@@ -41,12 +41,12 @@
 //! triggers, so they stay inactive. [`refusal`] refuses a clock of no kind the standard defines.
 
 use crate::error::{HostError, Result};
-use crate::fmi3::ffi::{sym, Bool3, RawStatus3};
+use crate::ffi::function_table;
+use crate::fmi3::ffi::{Bool3, RawStatus3};
 use crate::fmi3::instance::Instance3;
 use crate::fmi3::md::{Causality3, ModelDescription3};
 use crate::fmi3::value::Type3;
 use crate::watch::{self, Call};
-use libloading::Library;
 use std::ffi::{c_int, c_void};
 
 type I = *mut c_void;
@@ -58,32 +58,24 @@ const UNCHANGED: c_int = 1;
 /// `fmi3IntervalChanged`
 const CHANGED: c_int = 2;
 
-/// The clock functions a run calls (FMI 3.0.2 section 2.2.8.4).
-#[derive(Clone, Copy)]
-#[allow(missing_docs)]
-pub struct ClockFunctions3 {
-    pub set_clock: unsafe extern "C" fn(I, *const u32, usize, *const Bool3) -> RawStatus3,
-    pub get_clock: unsafe extern "C" fn(I, *const u32, usize, *mut Bool3) -> RawStatus3,
-    /// `(instance, vrs, n, intervals, qualifiers)`; `fmi3IntervalQualifier` is a C enum.
-    pub get_interval_decimal:
-        unsafe extern "C" fn(I, *const u32, usize, *mut f64, *mut c_int) -> RawStatus3,
-    pub get_shift_decimal: unsafe extern "C" fn(I, *const u32, usize, *mut f64) -> RawStatus3,
-    pub set_interval_decimal: unsafe extern "C" fn(I, *const u32, usize, *const f64) -> RawStatus3,
-}
-
-/// The clock functions, when the binary exports them (FMI 3.0.2 section 2.5: "The FMU must
-/// implement all API functions declared in fmi3Functions.h").
-///
-/// # Safety
-/// `lib` must be an FMI 3.0 binary whose exports have the standard signatures.
-pub(crate) unsafe fn resolve(lib: &Library) -> Option<ClockFunctions3> {
-    Some(ClockFunctions3 {
-        set_clock: sym(lib, "fmi3SetClock")?,
-        get_clock: sym(lib, "fmi3GetClock")?,
-        get_interval_decimal: sym(lib, "fmi3GetIntervalDecimal")?,
-        get_shift_decimal: sym(lib, "fmi3GetShiftDecimal")?,
-        set_interval_decimal: sym(lib, "fmi3SetIntervalDecimal")?,
-    })
+function_table! {
+    /// The clock functions a run calls (FMI 3.0.2 section 2.2.8.4); a binary exports all of them
+    /// or none (section 2.5: "The FMU must implement all API functions declared in
+    /// fmi3Functions.h").
+    pub struct ClockFunctions3 {
+        set_clock: required "fmi3SetClock"
+            unsafe extern "C" fn(I, *const u32, usize, *const Bool3) -> RawStatus3,
+        get_clock: required "fmi3GetClock"
+            unsafe extern "C" fn(I, *const u32, usize, *mut Bool3) -> RawStatus3,
+        // `(instance, vrs, n, intervals, qualifiers)`; `fmi3IntervalQualifier` is a C enum.
+        get_interval_decimal: required "fmi3GetIntervalDecimal"
+            unsafe extern "C" fn(I, *const u32, usize, *mut f64, *mut c_int) -> RawStatus3,
+        get_shift_decimal: required "fmi3GetShiftDecimal"
+            unsafe extern "C" fn(I, *const u32, usize, *mut f64) -> RawStatus3,
+        set_interval_decimal: required "fmi3SetIntervalDecimal"
+            unsafe extern "C" fn(I, *const u32, usize, *const f64) -> RawStatus3,
+    }
+    given {}
 }
 
 /// Why a run cannot drive the clocks of `md`: a Clock whose `intervalVariability` is none of

@@ -3,71 +3,56 @@
 //! after initialization with the inputs and recorder of [`crate::fmi3`]'s runs.
 
 use crate::error::{HostError, Result, Status};
-use crate::fmi3::ffi::{sym, update_discrete_states, Bool3, RawStatus3, UpdateDiscreteStates3};
+use crate::ffi::function_table;
+use crate::fmi3::ffi::{update_discrete_states, Bool3, RawStatus3, UpdateDiscreteStates3};
 use crate::fmi3::instance::Instance3;
 use crate::fmi3::simulate::{InputPlan3, Recorder3, Request3};
 use crate::me::clocks::ClockSchedule;
 use crate::me::{EventInfo, ModelExchange, StepOutcome};
 use crate::run::{self, ModelExchangeOf};
 use crate::watch::{self, Call};
-use libloading::Library;
 use std::ffi::c_void;
 
 type I = *mut c_void;
 
-/// The FMI 3.0 Model Exchange functions (FMI 3.0.2 section 3.2).
-#[derive(Clone, Copy)]
-#[allow(missing_docs)]
-pub struct MeFunctions3 {
-    pub enter_event_mode: unsafe extern "C" fn(I) -> RawStatus3,
-    pub update_discrete_states: UpdateDiscreteStates3,
-    pub enter_continuous_time_mode: unsafe extern "C" fn(I) -> RawStatus3,
-    pub completed_integrator_step:
-        unsafe extern "C" fn(I, Bool3, *mut Bool3, *mut Bool3) -> RawStatus3,
-    pub set_time: unsafe extern "C" fn(I, f64) -> RawStatus3,
-    pub set_continuous_states: unsafe extern "C" fn(I, *const f64, usize) -> RawStatus3,
-    pub get_continuous_state_derivatives: unsafe extern "C" fn(I, *mut f64, usize) -> RawStatus3,
-    pub get_event_indicators: unsafe extern "C" fn(I, *mut f64, usize) -> RawStatus3,
-    pub get_continuous_states: unsafe extern "C" fn(I, *mut f64, usize) -> RawStatus3,
-    pub get_nominals_of_continuous_states: unsafe extern "C" fn(I, *mut f64, usize) -> RawStatus3,
-    pub get_number_of_event_indicators: unsafe extern "C" fn(I, *mut usize) -> RawStatus3,
-    pub get_number_of_continuous_states: unsafe extern "C" fn(I, *mut usize) -> RawStatus3,
-    #[allow(clippy::type_complexity)]
-    pub get_directional_derivative: Option<
-        unsafe extern "C" fn(
-            I,
-            *const u32,
-            usize,
-            *const u32,
-            usize,
-            *const f64,
-            usize,
-            *mut f64,
-            usize,
-        ) -> RawStatus3,
-    >,
-}
-
-/// The Model Exchange table, when every required function of it is exported.
-///
-/// # Safety
-/// `lib` must be an FMI 3.0 binary whose exports have the standard signatures.
-pub(crate) unsafe fn resolve(lib: &Library) -> Option<MeFunctions3> {
-    Some(MeFunctions3 {
-        enter_event_mode: sym(lib, "fmi3EnterEventMode")?,
-        update_discrete_states: sym(lib, "fmi3UpdateDiscreteStates")?,
-        enter_continuous_time_mode: sym(lib, "fmi3EnterContinuousTimeMode")?,
-        completed_integrator_step: sym(lib, "fmi3CompletedIntegratorStep")?,
-        set_time: sym(lib, "fmi3SetTime")?,
-        set_continuous_states: sym(lib, "fmi3SetContinuousStates")?,
-        get_continuous_state_derivatives: sym(lib, "fmi3GetContinuousStateDerivatives")?,
-        get_event_indicators: sym(lib, "fmi3GetEventIndicators")?,
-        get_continuous_states: sym(lib, "fmi3GetContinuousStates")?,
-        get_nominals_of_continuous_states: sym(lib, "fmi3GetNominalsOfContinuousStates")?,
-        get_number_of_event_indicators: sym(lib, "fmi3GetNumberOfEventIndicators")?,
-        get_number_of_continuous_states: sym(lib, "fmi3GetNumberOfContinuousStates")?,
-        get_directional_derivative: sym(lib, "fmi3GetDirectionalDerivative"),
-    })
+function_table! {
+    /// The FMI 3.0 Model Exchange functions (FMI 3.0.2 section 3.2).
+    pub struct MeFunctions3 {
+        enter_event_mode: required "fmi3EnterEventMode" unsafe extern "C" fn(I) -> RawStatus3,
+        update_discrete_states: required "fmi3UpdateDiscreteStates" UpdateDiscreteStates3,
+        enter_continuous_time_mode: required "fmi3EnterContinuousTimeMode"
+            unsafe extern "C" fn(I) -> RawStatus3,
+        completed_integrator_step: required "fmi3CompletedIntegratorStep"
+            unsafe extern "C" fn(I, Bool3, *mut Bool3, *mut Bool3) -> RawStatus3,
+        set_time: required "fmi3SetTime" unsafe extern "C" fn(I, f64) -> RawStatus3,
+        set_continuous_states: required "fmi3SetContinuousStates"
+            unsafe extern "C" fn(I, *const f64, usize) -> RawStatus3,
+        get_continuous_state_derivatives: required "fmi3GetContinuousStateDerivatives"
+            unsafe extern "C" fn(I, *mut f64, usize) -> RawStatus3,
+        get_event_indicators: required "fmi3GetEventIndicators"
+            unsafe extern "C" fn(I, *mut f64, usize) -> RawStatus3,
+        get_continuous_states: required "fmi3GetContinuousStates"
+            unsafe extern "C" fn(I, *mut f64, usize) -> RawStatus3,
+        get_nominals_of_continuous_states: required "fmi3GetNominalsOfContinuousStates"
+            unsafe extern "C" fn(I, *mut f64, usize) -> RawStatus3,
+        get_number_of_event_indicators: required "fmi3GetNumberOfEventIndicators"
+            unsafe extern "C" fn(I, *mut usize) -> RawStatus3,
+        get_number_of_continuous_states: required "fmi3GetNumberOfContinuousStates"
+            unsafe extern "C" fn(I, *mut usize) -> RawStatus3,
+        get_directional_derivative: optional "fmi3GetDirectionalDerivative"
+            unsafe extern "C" fn(
+                I,
+                *const u32,
+                usize,
+                *const u32,
+                usize,
+                *const f64,
+                usize,
+                *mut f64,
+                usize,
+            ) -> RawStatus3,
+    }
+    given {}
 }
 
 /// An FMI 3.0 Model Exchange instance with its state and derivative value references.
