@@ -228,6 +228,18 @@ def test_clocks_without_event_mode_run_with_a_note(toy, tmp_path):
     assert header == ["time", "x", "n"] and (rows[:, 1:] == 0).all()
 
 
+def test_clocks_of_a_binary_without_fmi3EnterStepMode_run_with_a_note_naming_it(toy, tmp_path):
+    # every function of fmi3Functions.h must be exported (FMI 3.0.2 section 2.5); a binary
+    # without fmi3EnterStepMode cannot leave Event Mode, so the run uses none and says why
+    out = tmp_path / "o.csv"
+    r = run("simulate", toy("TickerNoStepMode", 3), "--interface", "cs", "--outputs", "x,n",
+            "--out", out)
+    assert r.returncode == 0, r.stderr
+    assert "does not export fmi3EnterStepMode" in r.stderr, r.stderr
+    header, rows = read_csv(out)
+    assert header == ["time", "x", "n"] and (rows[:, 1:] == 0).all()
+
+
 def x_closed(t):
     """Ticker's x at t: the integral of the tick count."""
     return np.sum(np.maximum(t - TICKER_TICKS, 0.0))

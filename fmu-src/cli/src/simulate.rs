@@ -309,6 +309,15 @@ fn run3(a: &Args, save: impl FnOnce(SimulationResult, &str) -> CliResult) -> Cli
             a.fmu.display()
         );
     }
+    if let Some(missing) = fmu.event_mode_function_missing() {
+        eprintln!(
+            "{}: note: the FMU has clocks and hasEventMode=\"true\" but its binary does not \
+             export {missing} (FMI 3.0.2 section 2.5: \"The FMU must implement all API functions \
+             declared in fmi3Functions.h\"): Co-Simulation runs without Event Mode and the FMU \
+             ignores its clocks",
+            a.fmu.display()
+        );
+    }
     let start_values = parse_sets3(md, &a.set)?;
     let experiment = md.default_experiment.clone().unwrap_or_default();
     let inputs = match &a.data {

@@ -46,7 +46,7 @@ pub struct Fmu3 {
     live_instances: AtomicUsize,
     model_description: ModelDescription3,
     // Field order matters: the library is unloaded before the extracted files are removed.
-    _library: Library,
+    library: Library,
     unpacked: Unpacked,
 }
 
@@ -136,7 +136,7 @@ impl Fmu3 {
             event_mode,
             live_instances: AtomicUsize::new(0),
             model_description: md,
-            _library: library,
+            library,
             unpacked,
         })
     }
@@ -151,6 +151,22 @@ impl Fmu3 {
     /// eventModeUsed = fmi3True is required").
     pub fn event_mode_used(&self) -> bool {
         self.event_mode
+    }
+
+    /// The Event Mode function a Co-Simulation binary does not export although its description
+    /// asks for Event Mode (clocks and `hasEventMode`): its instances then run without it.
+    /// None when nothing is missing or Event Mode is not asked for.
+    pub fn event_mode_function_missing(&self) -> Option<&'static str> {
+        let asked = self.interface == Interface::CoSimulation
+            && clocks_in_co_simulation(&self.model_description) == ClocksInCs::EventMode;
+        match self.functions.events {
+            _ if !asked => None,
+            None => ["fmi3EnterEventMode", "fmi3UpdateDiscreteStates"]
+                .into_iter()
+                // SAFETY: only the address is looked up, never called.
+                .find(|n| unsafe { crate::ffi::sym::<*const c_void>(&self.library, n) }.is_none()),
+            Some(e) => e.enter_step_mode.is_none().then_some("fmi3EnterStepMode"),
+        }
     }
 
     /// `earlyReturnAllowed`: with Event Mode, when the FMU declares `mightReturnEarlyFromDoStep`
