@@ -313,12 +313,18 @@ fn check_start(v: &ScalarVariable, loc: &str, f: &mut Vec<Finding>) {
     }
 }
 
-/// min <= max, start within them and finite, nominal > 0.
+/// min <= max, start within them and finite, nominal > 0: the FMI 2.0 schema's documentation
+/// of these attributes says "max >= min required", "max >= start >= min required" and "nominal >
+/// 0.0 required" (fmi2AttributeGroups.xsd, fmi2ScalarVariable.xsd); the FMI 3.0 schema states none.
 fn check_range(md: &ModelDescription, v: &ScalarVariable, loc: &str, f: &mut Vec<Finding>) {
     let (min, max) = effective_range(md, v);
     if let (Some(a), Some(b)) = (min, max) {
         if a > b {
-            f.push(Finding::new("min-max", loc, format!("min {a} > max {b}")));
+            f.push(Finding::new(
+                "min-max",
+                loc,
+                format!("min {a} > max {b} (the schema: \"max >= min required\")"),
+            ));
         }
     }
     if let Some(s) = v.start.as_ref().and_then(StartValue::as_f64) {
@@ -327,7 +333,12 @@ fn check_range(md: &ModelDescription, v: &ScalarVariable, loc: &str, f: &mut Vec
                 f.push(Finding::new(
                     "start-range",
                     loc,
-                    format!("start {s} is outside [{}, {}]", fmt_opt(min), fmt_opt(max)),
+                    format!(
+                        "start {s} is outside [{}, {}] (the schema: \"max >= start >= min \
+                         required\")",
+                        fmt_opt(min),
+                        fmt_opt(max)
+                    ),
                 ));
             }
             if !s.is_finite() {
@@ -343,7 +354,10 @@ fn check_range(md: &ModelDescription, v: &ScalarVariable, loc: &str, f: &mut Vec
         f.push(Finding::new(
             "nominal",
             loc,
-            format!("nominal {} must be > 0", v.nominal.unwrap()),
+            format!(
+                "nominal {} must be > 0 (the schema: \"nominal > 0.0 required\")",
+                v.nominal.unwrap()
+            ),
         ));
     }
 }

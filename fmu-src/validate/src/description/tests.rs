@@ -219,7 +219,10 @@ fn ranges() {
         ),
         "start-range",
     );
-    assert_eq!(f.message, "start 3 is outside [0, 2]");
+    assert_eq!(
+        f.message,
+        "start 3 is outside [0, 2] (the schema: \"max >= start >= min required\")"
+    );
     assert!(checks(&replaced(
         "start=\"1\" min=\"0\" max=\"2\"",
         "start=\"1\" min=\"2\" max=\"0\""
