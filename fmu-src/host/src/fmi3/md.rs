@@ -168,6 +168,17 @@ const INTERFACE_FLAGS: [&str; 14] = [
     "canReturnEarlyAfterIntermediateUpdate",
 ];
 
+/// The values of a Clock's `intervalVariability` (FMI 3.0.2 section 2.4.7.6, table "Overview of
+/// Clock types"), which the schema also lists.
+pub const INTERVAL_VARIABILITIES: &[&str] = &[
+    "constant",
+    "fixed",
+    "tunable",
+    "changing",
+    "countdown",
+    "triggered",
+];
+
 /// A type definition (`<Float64Type>`, `<EnumerationType>`, ...).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct TypeDefinition3 {

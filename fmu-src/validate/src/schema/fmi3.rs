@@ -272,14 +272,7 @@ const CLOCK: &[Attr] = &[
     opt_attr("priority", UINT),
     req_attr(
         "intervalVariability",
-        Ty::Enum(&[
-            "constant",
-            "fixed",
-            "tunable",
-            "changing",
-            "countdown",
-            "triggered",
-        ]),
+        Ty::Enum(host::fmi3::md::INTERVAL_VARIABILITIES),
     ),
     opt_attr("intervalDecimal", F),
     opt_attr("shiftDecimal", F),
