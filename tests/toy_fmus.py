@@ -33,10 +33,11 @@ MODELS = {  # name -> (C source, {FMI version: flags}, resources)
     "BouncingBallTwoPass": ("bouncing_ball.c", {2: ["-DTWO_PASS_EVENTS"]}, {}),
     "CrashInFree": ("dahlquist.c", {2: ["-DABORT_IN_FREE"]}, {}),
     "ForeignLogEnv": ("dahlquist.c", {2: ["-DFOREIGN_LOG_ENV"]}, {}),
+    "Dahlquist-c": ("dahlquist.c", {2: [], 3: []}, {}),
 }
 # variant -> the model whose modelDescription.xml it uses (modelIdentifier renamed)
 XML_OF = {"BouncingBallTwoPass": "BouncingBall", "CrashInFree": "Dahlquist",
-          "ForeignLogEnv": "Dahlquist"}
+          "ForeignLogEnv": "Dahlquist", "Dahlquist-c": "Dahlquist"}
 PLATFORM = {2: "linux64", 3: "x86_64-linux"}
 
 
