@@ -115,6 +115,28 @@ def test_bouncing_ball_bounces_at_the_closed_form_times(toy, tmp_path):
     np.testing.assert_allclose(got, want, rtol=1e-5)
 
 
+def test_state_events_of_an_fmu_without_states_are_located(toy, tmp_path):
+    """Relay has no continuous state and one event indicator z = cos(2 pi t): z crosses 0 at
+    t = 0.25 + 0.5 k, where the relay output y flips (it changes in the event iteration only).
+    Nothing is integrated, yet each crossing is an event, as FMPy's CVode run finds them."""
+    fmu = toy("Relay")
+    r = run("simulate", fmu, "--interface", "me", "--out", tmp_path / "o.csv")
+    assert r.returncode == 0, r.stderr
+    header, rows = read_csv(tmp_path / "o.csv")
+    ours = {name: np.array([float(row[j]) for row in rows]) for j, name in enumerate(header)}
+    want = 0.25 + 0.5 * np.arange(4)  # the crossings in [0, 2]
+    np.testing.assert_allclose(event_times(ours["time"]), want, rtol=1e-9)
+    assert ours["n"][-1] == 4 and abs(ours["t_event"][-1] - 1.75) < 1e-9, (ours["n"][-1], ours["t_event"][-1])
+    # between the events the relay follows the sign of cos(2 pi t)
+    regular = np.abs(np.cos(2 * np.pi * ours["time"])) > 1e-6
+    np.testing.assert_array_equal(ours["y"][regular], np.sign(np.cos(2 * np.pi * ours["time"][regular])))
+    ref = fmpy.simulate_fmu(str(fmu), fmi_type="ModelExchange", relative_tolerance=1e-10)
+    assert len(rows) == len(ref), (len(rows), len(ref))
+    np.testing.assert_allclose(ours["time"], ref["time"], rtol=1e-9, atol=0)
+    for name in ("y", "n"):
+        assert np.array_equal(ours[name], np.asarray(ref[name], dtype=float)), name
+
+
 def test_interface_cs_is_the_default_and_me_is_refused_without_model_exchange(toy, tmp_path):
     r = run("simulate", toy("Dahlquist"), "--stop", 1, "--step", 0.5, "--out",
             tmp_path / "cs.csv")

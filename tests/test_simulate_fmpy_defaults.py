@@ -4,6 +4,10 @@ built the way third-party exporters build them (our toy FMUs, tests/fixtures/toy
 - an FMU without outputs: both record its continuous states (FMPy's `_get_output_variables`);
 - an FMU that crashes in fmi2FreeInstance after a complete run: the results are written, a
   warning names the crash, exit status 3 (FMPy is not run: the abort would end its process);
+- an FMU that calls the logger with a componentEnvironment it was not given (FMI 2.0.4 section
+  2.1.5 requires the one it was given): the run completes, as FMPy's (whose logger ignores it);
+- an FMU whose modelIdentifier is not a C identifier (`Dahlquist-c`) but names its library
+  inside the FMU: it runs (as in FMPy), and `validate` reports the identifier;
 - an FMU that asks for a second call of its event iteration after re-initializing a state and
   reports no change in that call: the ball still bounces (FMI 2.0.4 section 3.2.4, pseudocode:
   the "values changed" flags of all calls are or-ed).
@@ -73,6 +77,34 @@ def test_a_crash_in_free_instance_after_the_run_keeps_the_results(interface, toy
     assert header == ["time", "x"]
     assert rows[0, 0] == 0.0 and rows[-1, 0] == 2.0
     np.testing.assert_allclose(rows[:, 1], np.exp(-rows[:, 0]), rtol=0, atol=1e-4)
+
+
+def test_a_logger_call_with_a_foreign_component_environment_does_not_stop_the_run(toy, tmp_path):
+    """ForeignLogEnv (Dahlquist, x' = -x from 1) logs at every fmi2DoStep with
+    componentEnvironment (void*)1: the logger must not follow that pointer."""
+    fmu = toy("ForeignLogEnv")
+    r = run("simulate", fmu, "--out", tmp_path / "o.csv")
+    assert r.returncode == 0, r.stderr
+    header, ours = read_csv(tmp_path / "o.csv")
+    ref = fmpy.simulate_fmu(str(fmu))
+    assert header == ["time", "x"] and len(ours) == len(ref)
+    np.testing.assert_allclose(ours[:, 0], ref["time"], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(ours[:, 1], ref["x"], rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(ours[:, 1], np.exp(-ours[:, 0]), rtol=0, atol=1e-8)
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_a_model_identifier_that_is_no_c_identifier_still_loads_its_library(version, toy, tmp_path):
+    fmu = toy("Dahlquist-c", version)
+    r = run("simulate", fmu, "--out", tmp_path / "o.csv")
+    assert r.returncode == 0, r.stderr
+    header, ours = read_csv(tmp_path / "o.csv")
+    ref = fmpy.simulate_fmu(str(fmu))
+    assert header == ["time", "x"] and len(ours) == len(ref)
+    np.testing.assert_allclose(ours[:, 1], ref["x"], rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(ours[:, 1], np.exp(-ours[:, 0]), rtol=0, atol=1e-8)
+    v = run("validate", fmu)
+    assert v.returncode == 1 and "not a valid C identifier" in v.stdout, v.stdout + v.stderr
 
 
 def test_the_ball_bounces_when_its_event_iteration_takes_two_calls(toy, tmp_path):

@@ -28,14 +28,17 @@ MODELS = {  # name -> (C source, {FMI version: flags}, resources)
     "Alias": ("alias.c", {2: [], 3: []}, {}),
     "Sampler": ("sampler.c", {3: []}, {}),
     "Ticker": ("ticker.c", {3: []}, {}),
+    "Relay": ("relay.c", {2: []}, {}),
     # variants: another build of a model above, with its description (XML_OF) renamed
     "BouncingBallTwoPass": ("bouncing_ball.c", {2: ["-DTWO_PASS_EVENTS"]}, {}),
     "CrashInFree": ("dahlquist.c", {2: ["-DABORT_IN_FREE"]}, {}),
     "TickerNoStepMode": ("ticker.c", {3: ["-DNO_ENTER_STEP_MODE"]}, {}),
+    "ForeignLogEnv": ("dahlquist.c", {2: ["-DFOREIGN_LOG_ENV"]}, {}),
+    "Dahlquist-c": ("dahlquist.c", {2: [], 3: []}, {}),
 }
 # variant -> the model whose modelDescription.xml it uses (modelIdentifier renamed)
 XML_OF = {"BouncingBallTwoPass": "BouncingBall", "CrashInFree": "Dahlquist",
-          "TickerNoStepMode": "Ticker"}
+          "TickerNoStepMode": "Ticker", "ForeignLogEnv": "Dahlquist", "Dahlquist-c": "Dahlquist"}
 PLATFORM = {2: "linux64", 3: "x86_64-linux"}
 
 

@@ -21,6 +21,11 @@ extern "C" {
         message: *const c_char,
         ...
     );
+    /// csrc/logger.c: records `env` as a live instance's `componentEnvironment` (the logger
+    /// follows no other pointer); 0 when out of memory.
+    pub fn fmi2host_env_register(env: *mut c_void) -> c_int;
+    /// csrc/logger.c: `env` is no longer a live instance's.
+    pub fn fmi2host_env_withdraw(env: *mut c_void);
     /// csrc/logger.c: calloc
     pub fn fmi2host_calloc(nobj: usize, size: usize) -> *mut c_void;
     /// csrc/logger.c: free

@@ -97,19 +97,26 @@ impl Unpacked {
     }
 }
 
-/// Checks that `id`, a `modelIdentifier`, is a C identifier (`clause` cites the standard's
-/// rule): it names the library and prefixes the functions, and anything else, such as `../x` or
-/// an absolute path, could name a library outside the FMU.
-pub(crate) fn check_c_identifier(id: &str, fmu: &Path, clause: &str) -> Result<()> {
-    let mut chars = id.chars();
-    let first_ok = chars
-        .next()
-        .is_some_and(|c| c.is_ascii_alphabetic() || c == '_');
-    if !first_ok || !chars.all(|c| c.is_ascii_alphanumeric() || c == '_') {
+/// Checks that `id`, a `modelIdentifier`, can name a library inside the FMU: not empty, not `.`
+/// or `..`, no path separator or NUL. An identifier that is not a C identifier (`clause`) but
+/// passes, such as `watertank-c`, is the FMU's defect that `validate` reports; for a shared
+/// library it only names the file (functions are not prefixed, FMI 2.0.4 section 2.2.1), so the
+/// run goes on. Anything else, such as `../x` or an absolute path, could name a library outside
+/// the FMU and is refused.
+pub(crate) fn check_library_name(id: &str, fmu: &Path, clause: &str) -> Result<()> {
+    let names_a_path = id.is_empty()
+        || id == "."
+        || id == ".."
+        || id.contains(['/', '\\', '\0'])
+        || Path::new(id).is_absolute();
+    if names_a_path {
         let shown: String = id.chars().take(60).flat_map(char::escape_debug).collect();
         return Err(HostError::Archive {
             path: fmu.to_path_buf(),
-            message: format!("modelIdentifier \"{shown}\" is not a C identifier ({clause})"),
+            message: format!(
+                "modelIdentifier \"{shown}\" is not a C identifier and does not name a file in \
+                 binaries/<platform>/ ({clause})"
+            ),
         });
     }
     Ok(())
@@ -199,7 +206,7 @@ impl Extracted {
             .into(),
         }
             })?;
-        check_c_identifier(id, &self.path, "FMI 2.0.4 section 2.2.1")?;
+        check_library_name(id, &self.path, "FMI 2.0.4 section 2.2.1")?;
         Ok(id)
     }
 

@@ -107,6 +107,13 @@ impl Fmu {
             step_finished: None,
             component_environment: &mut *env as *mut LogEnv as *mut c_void,
         });
+        let env_ptr = callbacks.component_environment;
+        // SAFETY: env_ptr is the boxed LogEnv, withdrawn before the box is dropped.
+        if unsafe { ffi::fmi2host_env_register(env_ptr) } == 0 {
+            return Err(HostError::Request(
+                "out of memory registering the logger".into(),
+            ));
+        }
         let _watch = watch::enter(Call::Instantiate, None);
         // SAFETY: all pointers are valid NUL-terminated strings / boxed structs that outlive
         // the instance (they are owned by it).
@@ -125,6 +132,8 @@ impl Fmu {
             )
         };
         if component.is_null() {
+            // SAFETY: registered above; the FMU made no instance that could log later.
+            unsafe { ffi::fmi2host_env_withdraw(env_ptr) };
             let messages = log.take();
             return Err(HostError::Instantiate { messages });
         }
@@ -519,6 +528,8 @@ impl Drop for Instance<'_> {
         let _watch = watch::enter(Call::FreeInstance, None);
         // SAFETY: component is live; freed exactly once here.
         unsafe { (self.fmu.functions.free_instance)(self.component) };
+        // SAFETY: registered at instantiation; the instance is gone, its env box still alive.
+        unsafe { ffi::fmi2host_env_withdraw(&mut *self._env as *mut LogEnv as *mut c_void) };
         self.fmu.live_instances.fetch_sub(1, Ordering::SeqCst);
     }
 }

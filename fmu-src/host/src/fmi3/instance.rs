@@ -6,7 +6,7 @@ use super::md::ModelDescription3;
 use super::value::{Type3, Values};
 use crate::error::{HostError, LogRecord, Result, Status};
 use crate::ffi::LogSink;
-use crate::fmu::{binary_under, check_c_identifier, Unpacked};
+use crate::fmu::{binary_under, check_library_name, Unpacked};
 use crate::instance::{exported, given, instance_call, missing};
 use crate::kind::Interface;
 use crate::watch::{self, Call};
@@ -87,7 +87,7 @@ impl Fmu3 {
             path: fmu.clone(),
             message: format!("the FMU has no <{name}> element"),
         })?;
-        check_c_identifier(&cs.model_identifier, &fmu, IDENTIFIER_CLAUSE)?;
+        check_library_name(&cs.model_identifier, &fmu, IDENTIFIER_CLAUSE)?;
         let bin = binary_under(&unpacked.dir, &fmu, PLATFORM_TUPLE, &cs.model_identifier)?;
         let rel = format!(
             "binaries/{PLATFORM_TUPLE}/{}",

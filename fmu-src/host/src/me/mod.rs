@@ -699,7 +699,7 @@ fn integrate_segment<M: ModelExchange, E: Environment<M>>(
     let (mut ta, mut ya, mut za) = (t0, x.to_vec(), z.clone());
     let mut bracket = None;
     let mut step = StepOutcome::default();
-    let observed = integrator.integrate_observed(&sys, t0, t1, x, |t, y| {
+    let mut observe = |t: f64, y: &[f64]| {
         if sys.failed() {
             return true;
         }
@@ -734,7 +734,16 @@ fn integrate_segment<M: ModelExchange, E: Environment<M>>(
             sys.keep(e);
             true
         })
-    });
+    };
+    let observed = if n == 0 {
+        // Without continuous states the integrator takes no step, yet the event indicators move
+        // with time (FMI 2.0.4 section 3.1: a state event is a change of an indicator's domain
+        // between two points of the integration): the segment's end is observed once.
+        observe(t1, x);
+        Ok(t1)
+    } else {
+        integrator.integrate_observed(&sys, t0, t1, x, observe)
+    };
     if let Some(e) = sys.error.borrow_mut().take() {
         return Err(e);
     }
