@@ -79,10 +79,13 @@ def test_a_crash_in_free_instance_after_the_run_keeps_the_results(interface, toy
     np.testing.assert_allclose(rows[:, 1], np.exp(-rows[:, 0]), rtol=0, atol=1e-4)
 
 
-def test_a_logger_call_with_a_foreign_component_environment_does_not_stop_the_run(toy, tmp_path):
-    """ForeignLogEnv (Dahlquist, x' = -x from 1) logs at every fmi2DoStep with
-    componentEnvironment (void*)1: the logger must not follow that pointer."""
-    fmu = toy("ForeignLogEnv")
+@pytest.mark.parametrize("version", [2, 3])
+def test_a_logger_call_with_a_foreign_component_environment_does_not_stop_the_run(version, toy,
+                                                                                   tmp_path):
+    """ForeignLogEnv (Dahlquist, x' = -x from 1) logs at every fmi2DoStep / fmi3DoStep with
+    componentEnvironment / instanceEnvironment (void*)1: the logger must not follow that
+    pointer."""
+    fmu = toy("ForeignLogEnv", version)
     r = run("simulate", fmu, "--out", tmp_path / "o.csv")
     assert r.returncode == 0, r.stderr
     header, ours = read_csv(tmp_path / "o.csv")

@@ -33,7 +33,7 @@ MODELS = {  # name -> (C source, {FMI version: flags}, resources)
     "BouncingBallTwoPass": ("bouncing_ball.c", {2: ["-DTWO_PASS_EVENTS"]}, {}),
     "CrashInFree": ("dahlquist.c", {2: ["-DABORT_IN_FREE"]}, {}),
     "TickerNoStepMode": ("ticker.c", {3: ["-DNO_ENTER_STEP_MODE"]}, {}),
-    "ForeignLogEnv": ("dahlquist.c", {2: ["-DFOREIGN_LOG_ENV"]}, {}),
+    "ForeignLogEnv": ("dahlquist.c", {2: ["-DFOREIGN_LOG_ENV"], 3: ["-DFOREIGN_LOG_ENV"]}, {}),
     "Dahlquist-c": ("dahlquist.c", {2: [], 3: []}, {}),
 }
 # variant -> the model whose modelDescription.xml it uses (modelIdentifier renamed)

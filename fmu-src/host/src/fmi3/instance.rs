@@ -5,7 +5,6 @@ use super::ffi::{self, Bool3, Env3, Functions3, RawStatus3};
 use super::md::ModelDescription3;
 use super::value::{Type3, Values};
 use crate::error::{HostError, LogRecord, Result, Status};
-use crate::ffi::LogSink;
 use crate::fmu::{binary_under, check_library_name, Unpacked};
 use crate::instance::{exported, given, instance_call, missing};
 use crate::kind::Interface;
@@ -232,10 +231,7 @@ impl Fmu3 {
         let token = CString::new(self.model_description.instantiation_token.clone())
             .map_err(|_| nul("instantiationToken"))?;
         let resources = CString::new(self.resource_path()).map_err(|_| nul("resource path"))?;
-        let env = Box::new(Env3 {
-            sink: LogSink::default(),
-            name: name.to_string(),
-        });
+        let env = Env3::boxed(name);
         if self.interface == Interface::ModelExchange {
             let Some(f) = self.functions.instantiate_model_exchange else {
                 return Err(missing("fmi3InstantiateModelExchange"));
