@@ -335,6 +335,7 @@ def _sha(path):
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
+@pytest.mark.long
 def test_packaging_is_reproducible():
     """Relinking and repackaging one product for every platform of both versions gives the same
     bytes (every model takes the same path through scripts/build; one keeps the test short)."""
