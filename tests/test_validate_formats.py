@@ -399,3 +399,38 @@ def test_junit_skips_the_probe_rules_when_there_is_no_binary_to_run(fmus, tmp_pa
     probe = [c for c in outcome if c.startswith("probe-")]
     assert probe and all(outcome[c] == {Skipped} for c in probe)
     assert all(outcome[c] == set() for c in outcome if c != "binary" and c not in probe)
+
+
+FMI1_DESCRIPTION = """<?xml version="1.0" encoding="UTF-8"?>
+<fmiModelDescription fmiVersion="1.0" modelName="Decay" modelIdentifier="Decay"
+    guid="{8c4e810f-3df3-4a00-8276-176fa3c9f001}" numberOfContinuousStates="1"
+    numberOfEventIndicators="0">
+  <ModelVariables>
+    <ScalarVariable name="x" valueReference="0"><Real start="1"/></ScalarVariable>
+  </ModelVariables>
+</fmiModelDescription>
+"""
+
+
+def test_an_fmi_1_0_fmu_is_a_note_and_the_others_are_still_checked(fmus, tmp_path):
+    """A repository may hold FMI 1.0 FMUs: a gate over all its FMUs says that such an FMU is not
+    checked (a note; its rules skipped in JUnit) and goes on with the others, whose findings
+    decide the exit status."""
+    from junitparser import JUnitXml, Skipped
+    d, rel, _ = fmus
+    old = tmp_path / "Decay.fmu"
+    with zipfile.ZipFile(old, "w") as z:
+        z.writestr("modelDescription.xml", FMI1_DESCRIPTION)
+    shutil.copy(d / rel["broken"], tmp_path / "broken.fmu")
+    r = validate(tmp_path, "Decay.fmu", "broken.fmu")
+    assert r.returncode == 1, r.stdout + r.stderr  # the broken FMU's finding
+    assert "Decay.fmu: OK (no findings, 1 note(s))" in r.stdout, r.stdout
+    assert "[fmi-version-not-checked]" in r.stdout and "[start]" in r.stdout, r.stdout
+    r = validate(tmp_path, "--format", "junit", "Decay.fmu")
+    assert r.returncode == 0, r.stdout + r.stderr
+    [suite] = JUnitXml.fromstring(r.stdout.encode())
+    skipped = [c for c in suite if any(isinstance(x, Skipped) for x in c.result)]
+    assert skipped and all("FMI 1.0" in c.result[0].message for c in skipped)
+    s = subprocess.run([cli_path(), "simulate", str(old), "--out", str(tmp_path / "o.csv")],
+                       capture_output=True, text=True, timeout=60)
+    assert s.returncode == 2 and 'fmiVersion "1.0" is not supported' in s.stderr, s.stderr

@@ -154,8 +154,8 @@ impl Extracted {
                     "FMI 3.0 is not supported by this command (FMI 2.0 only)".into()
                 } else {
                     format!(
-                        "fmiVersion \"{}\" is not supported (FMI 2.0 only)",
-                        major.escape_debug()
+                        "fmiVersion \"{}\" is not supported (FMI 2.0 and 3.0 are)",
+                        crate::error::shown(v, 20)
                     )
                 },
             });

@@ -65,6 +65,12 @@ pub fn fmi_version_of(path: &Path) -> Result<FmiVersion> {
     }
 }
 
+/// The `fmiVersion` the FMU at `path` declares, as written; None when it cannot be read.
+pub fn declared_fmi_version(path: &Path) -> Option<String> {
+    let xml = read_description(path).ok()?;
+    crate::fmu::fmi_version(&xml).map(str::to_string)
+}
+
 /// The text of `modelDescription.xml` of the FMU at `path` (an `.fmu` or an extracted
 /// directory), without extracting anything else: at most [`MAX_DESCRIPTION_BYTES`], lossy UTF-8
 /// (the description parser reports text that is not UTF-8).

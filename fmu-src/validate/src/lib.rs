@@ -138,6 +138,10 @@ pub fn classify(check: &str) -> (Severity, &'static str) {
             "FMI 2.0.4 §2.3 and FMI 3.0.2 §2.5: the ZIP format of APPNOTE.TXT, whose section \
              4.4.17 allows only '/' as path separator",
         ),
+        "fmi-version-not-checked" => (
+            N,
+            "FMI 2.0.4 §2.2.1 and FMI 3.0.2 §2.4.1: fmiVersion; an FMI 1.0 FMU follows neither",
+        ),
         "binary-not-probed" => (
             N,
             "FMI 2.0.4 §2.3: at least one implementation, sources or a binary for one platform; \

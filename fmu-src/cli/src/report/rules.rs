@@ -138,6 +138,11 @@ pub fn checked(r: &Report) -> Vec<Checked<'_>> {
         (Some(only), Some(v)) => only == v,
         (None, Some(_)) => true,
     };
+    let fmi1 = r.results().any(|f| f.check == "fmi-version-not-checked");
+    let not_run = |stage: Stage| match fmi1 {
+        true => "not checked: an FMI 1.0 FMU",
+        false => stage.not_run(),
+    };
     let mut out: Vec<Checked> = RULES
         .iter()
         .filter(|rule| applies(rule))
@@ -145,7 +150,7 @@ pub fn checked(r: &Report) -> Vec<Checked<'_>> {
         .map(|rule| {
             let ran = r.checked.contains(&rule.stage);
             let mut c = of_results(r, rule.id, rule.title.to_string());
-            c.skipped = (!ran && c.results.is_empty()).then(|| rule.stage.not_run());
+            c.skipped = (!ran && c.results.is_empty()).then(|| not_run(rule.stage));
             c
         })
         .collect();
