@@ -17,6 +17,7 @@ import csv
 import json
 import subprocess
 import sys
+import zipfile
 
 import numpy as np
 import pytest
@@ -62,6 +63,35 @@ def test_probe_results_the_standard_permits_are_notes_with_their_clause(toy):
     assert any("§4.2.4" in n["clause"] for n in notes), notes
     r = run("validate", toy("BouncingBall"))
     assert r.returncode == 0 and "OK (no findings, 2 note(s))" in r.stdout, r.stdout
+
+
+@linux_only
+def test_a_model_exchange_library_linking_a_library_this_host_lacks_is_a_note(tmp_path):
+    """An FMI 2.0 Model Exchange FMU whose library links libnotthere.so (built for the link,
+    then deleted): "Shared libraries should be statically linked against their dependencies"
+    (FMI 2.0.4 section 2.3) is a "should", so the FMU is not defective; this host lacks the
+    library and does not probe it: a note, exit 0."""
+    import toy_fmus
+    (tmp_path / "notthere.c").write_text("int notthere_answer(void) { return 42; }\n")
+    subprocess.run(["gcc", "-shared", "-fPIC", "-o", str(tmp_path / "libnotthere.so"),
+                    str(tmp_path / "notthere.c")], check=True)
+    lib = tmp_path / "Dahlquist.so"
+    subprocess.run(["gcc", "-std=c99", "-shared", "-fPIC", "-o", str(lib),
+                    str(toy_fmus.SOURCE / "dahlquist.c"), "-lm", "-Wl,--no-as-needed",
+                    f"-L{tmp_path}", "-lnotthere"], check=True)
+    (tmp_path / "libnotthere.so").unlink()
+    md = (toy_fmus.SOURCE / "Dahlquist.fmi2.xml").read_text()
+    start = md.index("<CoSimulation")
+    md = md[:start] + md[md.index("/>", start) + 2:]  # Model Exchange only
+    fmu = tmp_path / "Dahlquist.fmu"
+    with zipfile.ZipFile(fmu, "w") as z:
+        z.writestr("modelDescription.xml", md)
+        z.write(lib, "binaries/linux64/Dahlquist.so")
+    r = run("validate", "--json", fmu)
+    report = json.loads(r.stdout)[0]
+    assert r.returncode == 0 and report["findings"] == [], r.stdout + r.stderr
+    [note] = [n for n in report["notes"] if n["check"] == "binary-not-probed"]
+    assert "lacks libnotthere.so" in note["message"], note
 
 
 def feedthrough_inputs(t):

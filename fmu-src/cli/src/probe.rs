@@ -121,13 +121,15 @@ fn probe_interfaces(a: &Args, cs: bool, me: bool) -> Vec<Finding> {
             ..OpenOptions::default()
         };
         match Fmu::open_with(&a.fmu, &opts) {
-            Err(e) => vec![Finding::new(
-                "binary",
-                a.fmu.display().to_string(),
-                match interface {
+            // check_symbols loads only the Co-Simulation library: a Model Exchange library
+            // this host cannot load for a dependency it lacks is a note here too
+            Err(e) => vec![validate::load_refused(
+                &a.fmu.display().to_string(),
+                &match interface {
                     Interface::CoSimulation => e.to_string(),
                     Interface::ModelExchange => format!("{interface}: {e}"),
                 },
+                None,
             )],
             Ok(fmu) => match interface {
                 Interface::CoSimulation => probe(&fmu, step),

@@ -134,6 +134,17 @@ pub enum HostError {
         /// Messages the FMU logged during the call.
         messages: Vec<LogRecord>,
     },
+    /// A call that must give an FMU state (fmi2GetFMUstate, fmi2DeSerializeFMUstate and their
+    /// FMI 3.0 counterparts) returned a success status but left the state NULL: FMI 2.0.4
+    /// section 2.1.8 "makes a copy of the internal FMU state and returns a pointer to this copy",
+    /// FMI 3.0.2 section 2.2.7.4 "copies the internal FMU state and returns a pointer to this copy".
+    #[error("{function} returned {} but gave no FMU state (the state pointer is still NULL)", status_name(function, *status))]
+    NoFmuState {
+        /// The function, e.g. `fmi2GetFMUstate`.
+        function: &'static str,
+        /// The success status it returned (OK or Warning).
+        status: Status,
+    },
     /// A variable name not in the model description.
     #[error("unknown variable '{0}'")]
     UnknownVariable(String),
@@ -167,6 +178,16 @@ impl HostError {
             | HostError::InstantiateNull { messages, .. } => messages,
             _ => &[],
         }
+    }
+}
+
+/// `Ok` when a call that must give an FMU state gave one (`null` false), else
+/// [`HostError::NoFmuState`] with the success `status` it returned.
+pub(crate) fn fmu_state_given(function: &'static str, status: Status, null: bool) -> Result<()> {
+    if null {
+        Err(HostError::NoFmuState { function, status })
+    } else {
+        Ok(())
     }
 }
 

@@ -1,7 +1,7 @@
 //! FMU states of an FMI 3.0 instance (FMI 3.0.2 section 2.2.7.4): save, restore, serialize and
 //! deserialize, free. The calls the FMU does not export are a [`HostError::Request`].
 
-use crate::error::{HostError, Result, Status};
+use crate::error::{fmu_state_given, HostError, Result, Status};
 use crate::fmi3::ffi::{FmuState3, RawStatus3};
 use crate::fmi3::Instance3;
 
@@ -29,7 +29,8 @@ impl Instance3<'_> {
         // SAFETY: live instance; a NULL state asks the FMU for a new one (FMI 3.0.2 section
         // 2.2.7.4).
         let raw = unsafe { f(self.instance, &mut state) };
-        self.check("fmi3GetFMUState", raw)?;
+        let status = self.check("fmi3GetFMUState", raw)?;
+        fmu_state_given("fmi3GetFMUState", status, state.is_null())?;
         Ok(FmuStateHandle3(state))
     }
 
@@ -83,7 +84,8 @@ impl Instance3<'_> {
         let mut state: FmuState3 = std::ptr::null_mut();
         // SAFETY: bytes the FMU serialized, of their length; a NULL state asks it for a new one.
         let raw = unsafe { deserialize(self.instance, bytes.as_ptr(), bytes.len(), &mut state) };
-        self.check("fmi3DeserializeFMUState", raw)?;
+        let status = self.check("fmi3DeserializeFMUState", raw)?;
+        fmu_state_given("fmi3DeserializeFMUState", status, state.is_null())?;
         Ok(FmuStateHandle3(state))
     }
 

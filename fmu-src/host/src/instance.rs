@@ -1,6 +1,6 @@
 //! One FMI 2.0 Co-Simulation instance (RAII: dropping it calls fmi2FreeInstance).
 
-use crate::error::{HostError, LogRecord, Result, Status};
+use crate::error::{fmu_state_given, HostError, LogRecord, Result, Status};
 use crate::ffi::{self, CallbackFunctions, Component, FmuState, LogEnv, LogSink, RawStatus};
 use crate::fmu::Fmu;
 use crate::kind::Interface;
@@ -415,10 +415,9 @@ impl<'a> Instance<'a> {
         let _watch = watch::enter(Call::FmuState, None);
         // SAFETY: state is a valid out pointer (NULL asks the FMU to allocate).
         let raw = unsafe { f(self.component, &mut state) };
-        self.check("fmi2GetFMUstate", raw)?;
-        if !state.is_null() {
-            self.states.push(state);
-        }
+        let status = self.check("fmi2GetFMUstate", raw)?;
+        fmu_state_given("fmi2GetFMUstate", status, state.is_null())?;
+        self.states.push(state);
         Ok(FmuStateHandle { raw: state })
     }
 
@@ -487,10 +486,9 @@ impl<'a> Instance<'a> {
                 &mut state,
             )
         };
-        self.check("fmi2DeSerializeFMUstate", raw)?;
-        if !state.is_null() {
-            self.states.push(state);
-        }
+        let status = self.check("fmi2DeSerializeFMUstate", raw)?;
+        fmu_state_given("fmi2DeSerializeFMUstate", status, state.is_null())?;
+        self.states.push(state);
         Ok(FmuStateHandle { raw: state })
     }
 

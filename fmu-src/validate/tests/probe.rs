@@ -144,6 +144,19 @@ fn check_files_reports_a_missing_binary() {
 }
 
 #[test]
+fn probe_reports_a_get_fmu_state_that_gives_no_state() {
+    // fmi2GetFMUstate "makes a copy of the internal FMU state and returns a pointer to this
+    // copy" (FMI 2.0.4 section 2.1.8); this one returns fmi2OK and leaves the pointer NULL.
+    let f = probed("NoStateGiven", &["-DNO_STATE_GIVEN"]);
+    assert_eq!(f.len(), 1, "{f:#?}");
+    assert_eq!(f[0].location, "probe fmu-state");
+    assert!(f[0].is_required(), "{f:#?}");
+    let m = &f[0].message;
+    assert!(m.starts_with("fmi2GetFMUstate returned fmi2OK"), "{m}");
+    assert!(m.contains("no FMU state"), "{m}");
+}
+
+#[test]
 fn probe_catches_a_state_that_is_not_fully_restored() {
     let f = probed("BrokenState", &["-DBROKEN_STATE"]);
     assert_eq!(f.len(), 1, "{f:#?}");
