@@ -325,6 +325,26 @@ enum ProbeOutcome {
     },
 }
 
+/// A finding as the probe child reported it, unless its check id is not one (bytes outside
+/// `[a-z0-9-]`): an FMU that writes into memory it does not own (after `fmi2FreeInstance`, say)
+/// can garble the child's report, which then becomes a note saying so.
+fn trusted(f: Finding) -> Finding {
+    let well_formed = !f.check.is_empty()
+        && f.check.len() <= 64
+        && f.check
+            .bytes()
+            .all(|b| b.is_ascii_lowercase() || b.is_ascii_digit() || b == b'-');
+    if well_formed {
+        return f;
+    }
+    Finding::new(
+        "probe-report-garbled",
+        "probe",
+        "the probe's report came back garbled: the FMU wrote into memory it does not own (a \
+         memory checker such as valgrind locates it)",
+    )
+}
+
 /// Runs `__probe` once in a child process and turns its output, crash or hang into findings.
 fn run_probe_once(
     path: &Path,
@@ -393,7 +413,9 @@ fn run_probe_once(
     if let Some(json) = stdout.lines().find_map(|l| l.strip_prefix(FINDINGS_MARK)) {
         if status.success() {
             return serde_json::from_str(json)
-                .map(ProbeOutcome::Done)
+                .map(|found: Vec<Finding>| {
+                    ProbeOutcome::Done(found.into_iter().map(trusted).collect())
+                })
                 .map_err(|e| CliError::input(format!("probe output unreadable: {e}")));
         }
     }
@@ -411,4 +433,29 @@ fn run_probe_once(
         finding,
         what,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::trusted;
+    use validate::{Finding, Severity};
+
+    #[test]
+    fn a_garbled_check_id_from_the_probe_child_becomes_a_note_saying_so() {
+        let sound = Finding::new("probe-fmu-state", "probe fmu-state", "not restored");
+        assert_eq!(trusted(sound.clone()), sound);
+        let garbled = Finding {
+            check: "pr\u{1}\u{fffd}be".into(),
+            ..sound
+        };
+        let kept = trusted(garbled);
+        assert_eq!(
+            (kept.check.as_str(), kept.severity),
+            ("probe-report-garbled", Severity::Note)
+        );
+        assert!(
+            kept.message.contains("wrote into memory it does not own"),
+            "{kept}"
+        );
+    }
 }

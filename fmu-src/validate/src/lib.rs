@@ -174,6 +174,10 @@ pub fn classify(check: &str) -> (Severity, &'static str) {
             "FMI 2.0.4 §2.1.3: any call may return fmi2Error (\"the FMU encountered an error\")",
         ),
         "probe-log" => (N, "FMI 2.0.4 §2.1.5: logging is the FMU's choice"),
+        "probe-report-garbled" => (
+            N,
+            "no rule of the standard: the probe's own report was overwritten by the FMU's binary",
+        ),
         "unique-value-references" => (
             F,
             "FMI 2.0.4 §2.2.7: alias variables (two settable variables, or a settable one and the \
