@@ -18,7 +18,8 @@ pub struct Args {
     /// The FMU (.fmu file or extracted directory).
     pub fmu: PathBuf,
     /// Measured CSV: `time` first, input columns named as FMU inputs (missing inputs keep their
-    /// start value), output columns named as FMU outputs (any subset), SI units. Repeatable:
+    /// start value), output columns named as FMU outputs (any subset), SI units; a row missing
+    /// a sample (an empty or NaN cell) is left out, at most 10 % of the rows. Repeatable:
     /// several records (the same output columns) are fitted with one parameter set, each
     /// beginning in its own state and weighted by its own noise levels.
     #[arg(long, required = true)]
