@@ -147,17 +147,12 @@ impl Extracted {
         let unpacked = Unpacked::open(path)?;
         let path = unpacked.path.clone();
         if let Some(v) = unpacked.fmi_version().filter(|v| !v.starts_with("2.")) {
-            let major = v.split('.').next().unwrap_or(v);
+            if v.split('.').next() != Some("3") {
+                return Err(crate::kind::unsupported_version(&path, v));
+            }
             return Err(HostError::Unsupported {
                 path: path.clone(),
-                message: if major == "3" {
-                    "FMI 3.0 is not supported by this command (FMI 2.0 only)".into()
-                } else {
-                    format!(
-                        "fmiVersion \"{}\" is not supported (FMI 2.0 and 3.0 are)",
-                        crate::error::shown(v, 20)
-                    )
-                },
+                message: "FMI 3.0 is not supported by this command (FMI 2.0 only)".into(),
             });
         }
         let model_description =

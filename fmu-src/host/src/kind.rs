@@ -55,13 +55,18 @@ pub fn fmi_version_of(path: &Path) -> Result<FmiVersion> {
     match v.split('.').next() {
         Some("2") => Ok(FmiVersion::Fmi2),
         Some("3") => Ok(FmiVersion::Fmi3),
-        _ => Err(HostError::Unsupported {
-            path: path.to_path_buf(),
-            message: format!(
-                "fmiVersion \"{}\" is not supported (FMI 2.0 and 3.0 are)",
-                crate::error::shown(v, 20)
-            ),
-        }),
+        _ => Err(unsupported_version(path, v)),
+    }
+}
+
+/// The refusal of an FMU at `path` declaring `fmiVersion` `version`, which is neither 2.x nor 3.x.
+pub(crate) fn unsupported_version(path: &Path, version: &str) -> HostError {
+    HostError::Unsupported {
+        path: path.to_path_buf(),
+        message: format!(
+            "fmiVersion \"{}\" is not supported (FMI 2.0 and 3.0 are)",
+            crate::error::shown(version, 20)
+        ),
     }
 }
 

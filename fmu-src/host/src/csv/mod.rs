@@ -458,13 +458,10 @@ struct Rules {
 }
 
 /// The header's column names (`time` first), checked.
-fn header_names(
-    header: &str,
-    line: usize,
-    dialect: Dialect,
-) -> Result<Vec<String>, (usize, usize, String)> {
+/// Err: the 1-based column and what is wrong there.
+fn header_names(header: &str, dialect: Dialect) -> Result<Vec<String>, (usize, String)> {
     let mut names: Vec<String> = split_fields(header, dialect.separator, true)
-        .map_err(|j| (line, j, "unterminated quote in the header".to_string()))?;
+        .map_err(|j| (j, "unterminated quote in the header".to_string()))?;
     match names.iter().position(|n| n.eq_ignore_ascii_case("time")) {
         // `Time`, `TIME`: the time column whatever its case (spreadsheets and Simulink capitalise it).
         Some(0) => names[0] = "time".to_string(),
@@ -473,19 +470,19 @@ fn header_names(
                 "'time' must be the first column, found it in column {}",
                 j + 1
             );
-            return Err((line, j + 1, message));
+            return Err((j + 1, message));
         }
         None => {
             let message = format!(
                 "no 'time' column: the header must start with 'time' (found '{}')",
                 shown(&names[0])
             );
-            return Err((line, 1, message));
+            return Err((1, message));
         }
     }
     for (j, n) in names.iter().enumerate() {
         if n.is_empty() {
-            return Err((line, j + 1, "empty column name in the header".into()));
+            return Err((j + 1, "empty column name in the header".into()));
         }
         if let Some(k) = names[..j].iter().position(|m| m == n) {
             let message = format!(
@@ -493,7 +490,7 @@ fn header_names(
                 shown(n),
                 k + 1
             );
-            return Err((line, j + 1, message));
+            return Err((j + 1, message));
         }
     }
     Ok(names)
@@ -568,7 +565,7 @@ fn parse_with(
         ));
     };
     let dialect = Dialect::of_header(header);
-    let names = header_names(header, hline, dialect).map_err(|(l, c, m)| err(l, c, m))?;
+    let names = header_names(header, dialect).map_err(|(c, m)| err(hline, c, m))?;
     let ncol = names.len();
     let is_text: Vec<bool> = names
         .iter()
