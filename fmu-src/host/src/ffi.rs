@@ -204,6 +204,18 @@ pub(crate) use function_table;
 
 type C = Component;
 type Vr = *const ValueReference;
+/// A call that takes only the instance (`fmi2Terminate`, `fmi2EnterEventMode`, ...).
+type Call = unsafe extern "C" fn(C) -> RawStatus;
+/// `fmi2Get<Type>(c, vr[], nvr, value[])`.
+pub(crate) type Get<T> = unsafe extern "C" fn(C, Vr, usize, *mut T) -> RawStatus;
+/// `fmi2Set<Type>(c, vr[], nvr, value[])`.
+pub(crate) type Set<T> = unsafe extern "C" fn(C, Vr, usize, *const T) -> RawStatus;
+/// `fmi2Get<Type>Status(c, kind, value)`.
+pub(crate) type GetStatus<T> = unsafe extern "C" fn(C, c_int, *mut T) -> RawStatus;
+/// A call that fills or reads a vector of the continuous states' size (`fmi2GetDerivatives`, ...).
+pub(crate) type StateVector<T> = unsafe extern "C" fn(C, T, usize) -> RawStatus;
+/// `fmi2GetFMUstate` and `fmi2FreeFMUstate`.
+type StateCall = unsafe extern "C" fn(C, *mut FmuState) -> RawStatus;
 
 function_table! {
     /// Function pointers of one loaded binary. Required ones are plain, the rest optional (the
@@ -226,46 +238,33 @@ function_table! {
         free_instance: required "fmi2FreeInstance" unsafe extern "C" fn(C),
         setup_experiment: required "fmi2SetupExperiment"
             unsafe extern "C" fn(C, Fmi2Boolean, f64, f64, Fmi2Boolean, f64) -> RawStatus,
-        enter_initialization_mode: required "fmi2EnterInitializationMode"
-            unsafe extern "C" fn(C) -> RawStatus,
-        exit_initialization_mode: required "fmi2ExitInitializationMode"
-            unsafe extern "C" fn(C) -> RawStatus,
-        terminate: required "fmi2Terminate" unsafe extern "C" fn(C) -> RawStatus,
-        reset: required "fmi2Reset" unsafe extern "C" fn(C) -> RawStatus,
-        get_real: required "fmi2GetReal" unsafe extern "C" fn(C, Vr, usize, *mut f64) -> RawStatus,
-        get_integer: required "fmi2GetInteger"
-            unsafe extern "C" fn(C, Vr, usize, *mut c_int) -> RawStatus,
-        get_boolean: required "fmi2GetBoolean"
-            unsafe extern "C" fn(C, Vr, usize, *mut Fmi2Boolean) -> RawStatus,
-        get_string: optional "fmi2GetString"
-            unsafe extern "C" fn(C, Vr, usize, *mut *const c_char) -> RawStatus,
-        set_real: required "fmi2SetReal" unsafe extern "C" fn(C, Vr, usize, *const f64) -> RawStatus,
-        set_integer: required "fmi2SetInteger"
-            unsafe extern "C" fn(C, Vr, usize, *const c_int) -> RawStatus,
-        set_boolean: required "fmi2SetBoolean"
-            unsafe extern "C" fn(C, Vr, usize, *const Fmi2Boolean) -> RawStatus,
-        set_string: optional "fmi2SetString"
-            unsafe extern "C" fn(C, Vr, usize, *const *const c_char) -> RawStatus,
-        get_fmu_state: optional "fmi2GetFMUstate" unsafe extern "C" fn(C, *mut FmuState) -> RawStatus,
+        enter_initialization_mode: required "fmi2EnterInitializationMode" Call,
+        exit_initialization_mode: required "fmi2ExitInitializationMode" Call,
+        terminate: required "fmi2Terminate" Call,
+        reset: required "fmi2Reset" Call,
+        get_real: required "fmi2GetReal" Get<f64>,
+        get_integer: required "fmi2GetInteger" Get<c_int>,
+        get_boolean: required "fmi2GetBoolean" Get<Fmi2Boolean>,
+        get_string: optional "fmi2GetString" Get<*const c_char>,
+        set_real: required "fmi2SetReal" Set<f64>,
+        set_integer: required "fmi2SetInteger" Set<c_int>,
+        set_boolean: required "fmi2SetBoolean" Set<Fmi2Boolean>,
+        set_string: optional "fmi2SetString" Set<*const c_char>,
+        get_fmu_state: optional "fmi2GetFMUstate" StateCall,
         set_fmu_state: optional "fmi2SetFMUstate" unsafe extern "C" fn(C, FmuState) -> RawStatus,
-        free_fmu_state: optional "fmi2FreeFMUstate"
-            unsafe extern "C" fn(C, *mut FmuState) -> RawStatus,
+        free_fmu_state: optional "fmi2FreeFMUstate" StateCall,
         serialized_fmu_state_size: optional "fmi2SerializedFMUstateSize"
             unsafe extern "C" fn(C, FmuState, *mut usize) -> RawStatus,
         serialize_fmu_state: optional "fmi2SerializeFMUstate"
             unsafe extern "C" fn(C, FmuState, *mut c_char, usize) -> RawStatus,
         deserialize_fmu_state: optional "fmi2DeSerializeFMUstate"
             unsafe extern "C" fn(C, *const c_char, usize, *mut FmuState) -> RawStatus,
-        cancel_step: optional "fmi2CancelStep" unsafe extern "C" fn(C) -> RawStatus,
-        get_status: optional "fmi2GetStatus" unsafe extern "C" fn(C, c_int, *mut RawStatus) -> RawStatus,
-        get_real_status: optional "fmi2GetRealStatus"
-            unsafe extern "C" fn(C, c_int, *mut f64) -> RawStatus,
-        get_integer_status: optional "fmi2GetIntegerStatus"
-            unsafe extern "C" fn(C, c_int, *mut c_int) -> RawStatus,
-        get_boolean_status: optional "fmi2GetBooleanStatus"
-            unsafe extern "C" fn(C, c_int, *mut Fmi2Boolean) -> RawStatus,
-        get_string_status: optional "fmi2GetStringStatus"
-            unsafe extern "C" fn(C, c_int, *mut *const c_char) -> RawStatus,
+        cancel_step: optional "fmi2CancelStep" Call,
+        get_status: optional "fmi2GetStatus" GetStatus<RawStatus>,
+        get_real_status: optional "fmi2GetRealStatus" GetStatus<f64>,
+        get_integer_status: optional "fmi2GetIntegerStatus" GetStatus<c_int>,
+        get_boolean_status: optional "fmi2GetBooleanStatus" GetStatus<Fmi2Boolean>,
+        get_string_status: optional "fmi2GetStringStatus" GetStatus<*const c_char>,
         get_directional_derivative: optional "fmi2GetDirectionalDerivative"
             unsafe extern "C" fn(C, Vr, usize, Vr, usize, *const f64, *mut f64) -> RawStatus,
         set_real_input_derivatives: optional "fmi2SetRealInputDerivatives"
@@ -300,24 +299,19 @@ pub struct EventInfo {
 function_table! {
     /// The FMI 2.0 Model Exchange functions (FMI 2.0.4 section 3.2).
     pub struct MeFunctions {
-        enter_event_mode: required "fmi2EnterEventMode" unsafe extern "C" fn(C) -> RawStatus,
+        enter_event_mode: required "fmi2EnterEventMode" Call,
         new_discrete_states: required "fmi2NewDiscreteStates"
             unsafe extern "C" fn(C, *mut EventInfo) -> RawStatus,
-        enter_continuous_time_mode: required "fmi2EnterContinuousTimeMode"
-            unsafe extern "C" fn(C) -> RawStatus,
+        enter_continuous_time_mode: required "fmi2EnterContinuousTimeMode" Call,
         completed_integrator_step: required "fmi2CompletedIntegratorStep"
             unsafe extern "C" fn(C, Fmi2Boolean, *mut Fmi2Boolean, *mut Fmi2Boolean) -> RawStatus,
         set_time: required "fmi2SetTime" unsafe extern "C" fn(C, f64) -> RawStatus,
-        set_continuous_states: required "fmi2SetContinuousStates"
-            unsafe extern "C" fn(C, *const f64, usize) -> RawStatus,
-        get_derivatives: required "fmi2GetDerivatives"
-            unsafe extern "C" fn(C, *mut f64, usize) -> RawStatus,
-        get_event_indicators: required "fmi2GetEventIndicators"
-            unsafe extern "C" fn(C, *mut f64, usize) -> RawStatus,
-        get_continuous_states: required "fmi2GetContinuousStates"
-            unsafe extern "C" fn(C, *mut f64, usize) -> RawStatus,
+        set_continuous_states: required "fmi2SetContinuousStates" StateVector<*const f64>,
+        get_derivatives: required "fmi2GetDerivatives" StateVector<*mut f64>,
+        get_event_indicators: required "fmi2GetEventIndicators" StateVector<*mut f64>,
+        get_continuous_states: required "fmi2GetContinuousStates" StateVector<*mut f64>,
         get_nominals_of_continuous_states: required "fmi2GetNominalsOfContinuousStates"
-            unsafe extern "C" fn(C, *mut f64, usize) -> RawStatus,
+            StateVector<*mut f64>,
     }
     given {}
 }

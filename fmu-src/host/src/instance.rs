@@ -9,13 +9,6 @@ use ffi::Fmi2Boolean;
 use std::ffi::{c_char, c_int, c_void, CString};
 use std::sync::atomic::Ordering;
 
-/// An fmi2Get function of one type (fmi2GetReal, ...).
-type GetFn<T> = unsafe extern "C" fn(Component, *const u32, usize, *mut T) -> RawStatus;
-/// An fmi2Set function of one type.
-type SetFn<T> = unsafe extern "C" fn(Component, *const u32, usize, *const T) -> RawStatus;
-/// An fmi2GetXStatus function of one type.
-type StatusFn<T> = unsafe extern "C" fn(Component, c_int, *mut T) -> RawStatus;
-
 /// `fmi2CoSimulation` for fmi2Instantiate's fmuType.
 const FMI2_COSIMULATION: c_int = 1;
 /// `fmi2ModelExchange` for fmi2Instantiate's fmuType.
@@ -149,22 +142,47 @@ impl Fmu {
     }
 }
 
-/// A method of an instance type that calls the FMI function in field `$method` of its binary's
-/// function table with the instance (field `$handle`) alone: marked as `$call` for the
+/// Methods of an instance type, each calling the FMI function in its field of the binary's
+/// function table with the instance (field `$handle`) alone: marked as `Call::$call` for the
 /// supervisor (`$watch`: [`watch::enter`] or [`watch::enter3`]), its status checked as
-/// `$function`. FMI 2.0 and FMI 3.0 share these calls' shape.
-macro_rules! instance_call {
-    ($(#[$doc:meta])* $method:ident, $handle:ident, $watch:path, $call:expr, $function:literal) => {
+/// `$function`. An `optional` function the binary lacks is an error naming it. FMI 2.0 and
+/// FMI 3.0 share these calls' shape.
+macro_rules! instance_calls {
+    (
+        $handle:ident, $watch:path;
+        $($(#[$doc:meta])* $method:ident: $call:ident $function:literal $($need:ident)?;)*
+    ) => {$(
         $(#[$doc])*
         pub fn $method(&mut self) -> Result<Status> {
-            let _watch = $watch($call, None);
+            let f = instance_calls!(@fn self.fmu.functions.$method, $function, $($need)?);
+            let _watch = $watch(Call::$call, None);
             // SAFETY: the instance is live (it is freed only when dropped).
-            let raw = unsafe { (self.fmu.functions.$method)(self.$handle) };
+            let raw = unsafe { f(self.$handle) };
             self.check($function, raw)
         }
-    };
+    )*};
+    (@fn $f:expr, $function:literal, optional) => { $crate::instance::exported($f, $function)? };
+    (@fn $f:expr, $function:literal, ) => { $f };
 }
-pub(crate) use instance_call;
+pub(crate) use instance_calls;
+
+/// Methods of an FMI 2.0 instance getting and setting the values of one type with the
+/// function table's field of the same name.
+macro_rules! typed_values {
+    ($($t:ty: $get:ident $get_name:literal, $set:ident $set_name:literal;)*) => {$(
+        #[doc = concat!($get_name, " into `out` (same length as `vrs`).")]
+        pub fn $get(&mut self, vrs: &[u32], out: &mut [$t]) -> Result<Status> {
+            let f = self.fmu.functions.$get;
+            self.get_values(($get_name, f), vrs, out)
+        }
+
+        #[doc = concat!($set_name, " with `values` (same length as `vrs`).")]
+        pub fn $set(&mut self, vrs: &[u32], values: &[$t]) -> Result<Status> {
+            let f = self.fmu.functions.$set;
+            self.set_values(($set_name, f), vrs, values)
+        }
+    )*};
+}
 
 impl<'a> Instance<'a> {
     /// The FMU this instance belongs to.
@@ -206,40 +224,15 @@ impl<'a> Instance<'a> {
         self.check("fmi2SetupExperiment", raw)
     }
 
-    instance_call!(
+    instance_calls!(component, watch::enter;
         /// fmi2EnterInitializationMode
-        enter_initialization_mode,
-        component,
-        watch::enter,
-        Call::EnterInitializationMode,
-        "fmi2EnterInitializationMode"
-    );
-
-    instance_call!(
+        enter_initialization_mode: EnterInitializationMode "fmi2EnterInitializationMode";
         /// fmi2ExitInitializationMode
-        exit_initialization_mode,
-        component,
-        watch::enter,
-        Call::ExitInitializationMode,
-        "fmi2ExitInitializationMode"
-    );
-
-    instance_call!(
+        exit_initialization_mode: ExitInitializationMode "fmi2ExitInitializationMode";
         /// fmi2Terminate
-        terminate,
-        component,
-        watch::enter,
-        Call::Terminate,
-        "fmi2Terminate"
-    );
-
-    instance_call!(
+        terminate: Terminate "fmi2Terminate";
         /// fmi2Reset: back to the state after fmi2Instantiate (start values restored).
-        reset,
-        component,
-        watch::enter,
-        Call::Reset,
-        "fmi2Reset"
+        reset: Reset "fmi2Reset";
     );
 
     /// fmi2DoStep(currentCommunicationPoint, communicationStepSize, noSetFMUStatePriorToCurrentPoint)
@@ -251,28 +244,10 @@ impl<'a> Instance<'a> {
         self.check("fmi2DoStep", raw)
     }
 
-    /// fmi2GetReal into `out` (same length as `vrs`).
-    pub fn get_real(&mut self, vrs: &[u32], out: &mut [f64]) -> Result<Status> {
-        let f = self.fmu.functions.get_real;
-        self.get_values(("fmi2GetReal", f), vrs, out)
-    }
-
-    /// fmi2SetReal
-    pub fn set_real(&mut self, vrs: &[u32], values: &[f64]) -> Result<Status> {
-        let f = self.fmu.functions.set_real;
-        self.set_values(("fmi2SetReal", f), vrs, values)
-    }
-
-    /// fmi2GetInteger (c_int is i32 on this platform)
-    pub fn get_integer(&mut self, vrs: &[u32], out: &mut [i32]) -> Result<Status> {
-        let f = self.fmu.functions.get_integer;
-        self.get_values(("fmi2GetInteger", f), vrs, out)
-    }
-
-    /// fmi2SetInteger
-    pub fn set_integer(&mut self, vrs: &[u32], values: &[i32]) -> Result<Status> {
-        let f = self.fmu.functions.set_integer;
-        self.set_values(("fmi2SetInteger", f), vrs, values)
+    typed_values! {
+        f64: get_real "fmi2GetReal", set_real "fmi2SetReal";
+        // c_int is i32 on every platform FMUs are built for
+        i32: get_integer "fmi2GetInteger", set_integer "fmi2SetInteger";
     }
 
     /// fmi2GetBoolean
@@ -297,7 +272,7 @@ impl<'a> Instance<'a> {
     /// The getter `name` of one type into `out` (same length as `vrs`).
     fn get_values<T>(
         &mut self,
-        (name, f): (&'static str, GetFn<T>),
+        (name, f): (&'static str, ffi::Get<T>),
         vrs: &[u32],
         out: &mut [T],
     ) -> Result<Status> {
@@ -311,7 +286,7 @@ impl<'a> Instance<'a> {
     /// The setter `name` of one type with `values` (same length as `vrs`).
     fn set_values<T>(
         &mut self,
-        (name, f): (&'static str, SetFn<T>),
+        (name, f): (&'static str, ffi::Set<T>),
         vrs: &[u32],
         values: &[T],
     ) -> Result<Status> {
@@ -396,7 +371,7 @@ impl<'a> Instance<'a> {
     /// The status query `name` of one type for `kind` (FMI 2.0.4 section 4.2.3).
     fn status_value<T: Default>(
         &mut self,
-        (name, f): (&'static str, Option<StatusFn<T>>),
+        (name, f): (&'static str, Option<ffi::GetStatus<T>>),
         kind: c_int,
     ) -> Result<T> {
         let f = exported(f, name)?;

@@ -41,6 +41,12 @@ type Vrs = *const Vr;
 pub type Get<T> = unsafe extern "C" fn(I, Vrs, usize, *mut T, usize) -> RawStatus3;
 /// A typed setter: `(instance, vrs, nvrs, values, nValues)`.
 pub type Set<T> = unsafe extern "C" fn(I, Vrs, usize, *const T, usize) -> RawStatus3;
+/// A call that takes only the instance (`fmi3Terminate`, `fmi3EnterEventMode`, ...).
+pub type Call3 = unsafe extern "C" fn(I) -> RawStatus3;
+/// A call that fills or reads a vector of the continuous states' size (`fmi3GetContinuousStates`, ...).
+pub type StateVector3<T> = unsafe extern "C" fn(I, T, usize) -> RawStatus3;
+/// `fmi3GetFMUState` and `fmi3FreeFMUState`.
+type StateCall3 = unsafe extern "C" fn(I, *mut FmuState3) -> RawStatus3;
 
 /// `fmi3InstantiateCoSimulationTYPE`
 pub type InstantiateCoSimulation = unsafe extern "C" fn(
@@ -92,14 +98,11 @@ function_table! {
         free_instance: required "fmi3FreeInstance" unsafe extern "C" fn(I),
         enter_initialization_mode: required "fmi3EnterInitializationMode"
             unsafe extern "C" fn(I, Bool3, f64, f64, Bool3, f64) -> RawStatus3,
-        exit_initialization_mode: required "fmi3ExitInitializationMode"
-            unsafe extern "C" fn(I) -> RawStatus3,
-        enter_configuration_mode: optional "fmi3EnterConfigurationMode"
-            unsafe extern "C" fn(I) -> RawStatus3,
-        exit_configuration_mode: optional "fmi3ExitConfigurationMode"
-            unsafe extern "C" fn(I) -> RawStatus3,
-        terminate: required "fmi3Terminate" unsafe extern "C" fn(I) -> RawStatus3,
-        reset: required "fmi3Reset" unsafe extern "C" fn(I) -> RawStatus3,
+        exit_initialization_mode: required "fmi3ExitInitializationMode" Call3,
+        enter_configuration_mode: optional "fmi3EnterConfigurationMode" Call3,
+        exit_configuration_mode: optional "fmi3ExitConfigurationMode" Call3,
+        terminate: required "fmi3Terminate" Call3,
+        reset: required "fmi3Reset" Call3,
         get_float32: required "fmi3GetFloat32" Get<f32>,
         get_float64: required "fmi3GetFloat64" Get<f64>,
         get_int8: required "fmi3GetInt8" Get<i8>,
@@ -128,11 +131,9 @@ function_table! {
         set_string: required "fmi3SetString" Set<*const c_char>,
         set_binary: required "fmi3SetBinary"
             unsafe extern "C" fn(I, Vrs, usize, *const usize, *const *const u8, usize) -> RawStatus3,
-        get_fmu_state: optional "fmi3GetFMUState"
-            unsafe extern "C" fn(I, *mut FmuState3) -> RawStatus3,
+        get_fmu_state: optional "fmi3GetFMUState" StateCall3,
         set_fmu_state: optional "fmi3SetFMUState" unsafe extern "C" fn(I, FmuState3) -> RawStatus3,
-        free_fmu_state: optional "fmi3FreeFMUState"
-            unsafe extern "C" fn(I, *mut FmuState3) -> RawStatus3,
+        free_fmu_state: optional "fmi3FreeFMUState" StateCall3,
         serialized_fmu_state_size: optional "fmi3SerializedFMUStateSize"
             unsafe extern "C" fn(I, FmuState3, *mut usize) -> RawStatus3,
         serialize_fmu_state: optional "fmi3SerializeFMUState"
@@ -157,9 +158,9 @@ function_table! {
     /// The calls that enter, iterate and leave Event Mode (FMI 3.0.2 section 2.3.5;
     /// fmi3EnterStepMode is Co-Simulation's way out, section 4.2).
     pub struct Events3 {
-        enter_event_mode: required "fmi3EnterEventMode" unsafe extern "C" fn(I) -> RawStatus3,
+        enter_event_mode: required "fmi3EnterEventMode" Call3,
         update_discrete_states: required "fmi3UpdateDiscreteStates" UpdateDiscreteStates3,
-        enter_step_mode: optional "fmi3EnterStepMode" unsafe extern "C" fn(I) -> RawStatus3,
+        enter_step_mode: optional "fmi3EnterStepMode" Call3,
     }
     given {}
 }

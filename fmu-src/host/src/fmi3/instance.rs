@@ -6,7 +6,7 @@ use super::md::ModelDescription3;
 use super::value::{Type3, Values};
 use crate::error::{HostError, LogRecord, Result, Status};
 use crate::fmu::{binary_under, check_library_name, Unpacked};
-use crate::instance::{exported, given, instance_call, missing};
+use crate::instance::{exported, given, instance_calls, missing};
 use crate::kind::Interface;
 use crate::watch::{self, Call};
 use libloading::Library;
@@ -431,55 +431,17 @@ impl<'a> Instance3<'a> {
         self.check("fmi3EnterInitializationMode", raw)
     }
 
-    instance_call!(
+    instance_calls!(instance, watch::enter3;
         /// fmi3ExitInitializationMode (to Step Mode, event mode not being used)
-        exit_initialization_mode,
-        instance,
-        watch::enter3,
-        Call::ExitInitializationMode,
-        "fmi3ExitInitializationMode"
-    );
-
-    /// fmi3EnterConfigurationMode (structural parameters may then be set)
-    pub fn enter_configuration_mode(&mut self) -> Result<Status> {
-        let f = exported(
-            self.fmu.functions.enter_configuration_mode,
-            "fmi3EnterConfigurationMode",
-        )?;
-        let _watch = watch::enter3(Call::Other, None);
-        // SAFETY: instance is live.
-        let raw = unsafe { f(self.instance) };
-        self.check("fmi3EnterConfigurationMode", raw)
-    }
-
-    /// fmi3ExitConfigurationMode
-    pub fn exit_configuration_mode(&mut self) -> Result<Status> {
-        let f = exported(
-            self.fmu.functions.exit_configuration_mode,
-            "fmi3ExitConfigurationMode",
-        )?;
-        let _watch = watch::enter3(Call::Other, None);
-        // SAFETY: instance is live.
-        let raw = unsafe { f(self.instance) };
-        self.check("fmi3ExitConfigurationMode", raw)
-    }
-
-    instance_call!(
+        exit_initialization_mode: ExitInitializationMode "fmi3ExitInitializationMode";
+        /// fmi3EnterConfigurationMode (structural parameters may then be set)
+        enter_configuration_mode: Other "fmi3EnterConfigurationMode" optional;
+        /// fmi3ExitConfigurationMode
+        exit_configuration_mode: Other "fmi3ExitConfigurationMode" optional;
         /// fmi3Terminate
-        terminate,
-        instance,
-        watch::enter3,
-        Call::Terminate,
-        "fmi3Terminate"
-    );
-
-    instance_call!(
+        terminate: Terminate "fmi3Terminate";
         /// fmi3Reset: back to the state after instantiation.
-        reset,
-        instance,
-        watch::enter3,
-        Call::Reset,
-        "fmi3Reset"
+        reset: Reset "fmi3Reset";
     );
 
     /// fmi3DoStep(currentCommunicationPoint, communicationStepSize,

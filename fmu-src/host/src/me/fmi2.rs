@@ -2,10 +2,10 @@
 //! [`Instance`] made with `fmi2ModelExchange`.
 
 use crate::error::{HostError, Result, Status};
-use crate::ffi::{EventInfo as RawEventInfo, Fmi2Boolean, MeFunctions};
+use crate::ffi::{EventInfo as RawEventInfo, Fmi2Boolean, MeFunctions, RawStatus, StateVector};
 use crate::instance::{missing, Instance};
 use crate::md::ModelDescription;
-use crate::me::{EventInfo, ModelExchange, Settings, StepOutcome};
+use crate::me::{derivatives_taken, EventInfo, ModelExchange, Settings, StateSlice, StepOutcome};
 use crate::run::{self, ModelExchangeOf};
 use crate::simulate::{InputPlan, Recorder};
 use crate::watch::{self, Call};
@@ -59,8 +59,16 @@ impl<'i, 'a> Fmi2Me<'i, 'a> {
         })
     }
 
-    fn call(&mut self, name: &'static str, raw: crate::ffi::RawStatus) -> Result<Status> {
+    fn call(&mut self, name: &'static str, raw: RawStatus) -> Result<Status> {
         self.inst.check(name, raw)
+    }
+
+    /// Calls `f`, a function taking a vector of the states' size, on `x` (watched as `call`).
+    fn vector<S: StateSlice>(&mut self, call: Call, f: StateVector<S::Ptr>, x: S) -> RawStatus {
+        let _w = watch::enter(call, Some(self.time));
+        let (ptr, len) = x.raw();
+        // SAFETY: ptr points to len elements (StateSlice); live Model Exchange instance.
+        unsafe { f(self.inst.component, ptr, len) }
     }
 }
 
@@ -139,49 +147,31 @@ impl ModelExchange for Fmi2Me<'_, '_> {
     }
 
     fn set_states(&mut self, x: &[f64]) -> Result<()> {
-        let _w = watch::enter(Call::SetContinuousStates, Some(self.time));
-        // SAFETY: x has x.len() elements.
-        let raw =
-            unsafe { (self.f.set_continuous_states)(self.inst.component, x.as_ptr(), x.len()) };
+        let raw = self.vector(Call::SetContinuousStates, self.f.set_continuous_states, x);
         self.call("fmi2SetContinuousStates", raw).map(drop)
     }
 
     fn get_states(&mut self, x: &mut [f64]) -> Result<()> {
-        let _w = watch::enter(Call::GetContinuousStates, Some(self.time));
-        // SAFETY: x has x.len() elements.
-        let raw =
-            unsafe { (self.f.get_continuous_states)(self.inst.component, x.as_mut_ptr(), x.len()) };
+        let raw = self.vector(Call::GetContinuousStates, self.f.get_continuous_states, x);
         self.call("fmi2GetContinuousStates", raw).map(drop)
     }
 
     fn get_derivatives(&mut self, dx: &mut [f64]) -> Result<bool> {
-        let _w = watch::enter(Call::GetDerivatives, Some(self.time));
-        // SAFETY: dx has dx.len() elements.
-        let raw =
-            unsafe { (self.f.get_derivatives)(self.inst.component, dx.as_mut_ptr(), dx.len()) };
-        match self.call("fmi2GetDerivatives", raw) {
-            Ok(_) => Ok(true),
-            // FMI 2.0.4 section 3.2.2: fmi2Discard from a derivative evaluation asks the
-            // integrator for a smaller step.
-            Err(e) if e.status() == Some(Status::Discard) => Ok(false),
-            Err(e) => Err(e),
-        }
+        let raw = self.vector(Call::GetDerivatives, self.f.get_derivatives, dx);
+        derivatives_taken(self.call("fmi2GetDerivatives", raw))
     }
 
     fn get_event_indicators(&mut self, z: &mut [f64]) -> Result<()> {
-        let _w = watch::enter(Call::GetEventIndicators, Some(self.time));
-        // SAFETY: z has z.len() elements.
-        let raw =
-            unsafe { (self.f.get_event_indicators)(self.inst.component, z.as_mut_ptr(), z.len()) };
+        let raw = self.vector(Call::GetEventIndicators, self.f.get_event_indicators, z);
         self.call("fmi2GetEventIndicators", raw).map(drop)
     }
 
     fn get_nominals(&mut self, x: &mut [f64]) -> Result<()> {
-        let _w = watch::enter(Call::GetNominals, Some(self.time));
-        // SAFETY: x has x.len() elements.
-        let raw = unsafe {
-            (self.f.get_nominals_of_continuous_states)(self.inst.component, x.as_mut_ptr(), x.len())
-        };
+        let raw = self.vector(
+            Call::GetNominals,
+            self.f.get_nominals_of_continuous_states,
+            x,
+        );
         self.call("fmi2GetNominalsOfContinuousStates", raw)
             .map(drop)
     }

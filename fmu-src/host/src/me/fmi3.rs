@@ -2,13 +2,15 @@
 //! section 3) on an [`Instance3`] made with `fmi3InstantiateModelExchange`, and the loop run
 //! after initialization with the inputs and recorder of [`crate::fmi3`]'s runs.
 
-use crate::error::{HostError, Result, Status};
+use crate::error::{HostError, Result};
 use crate::ffi::function_table;
-use crate::fmi3::ffi::{update_discrete_states, Bool3, RawStatus3, UpdateDiscreteStates3};
+use crate::fmi3::ffi::{
+    update_discrete_states, Bool3, Call3, RawStatus3, StateVector3, UpdateDiscreteStates3,
+};
 use crate::fmi3::instance::Instance3;
 use crate::fmi3::simulate::{InputPlan3, Recorder3, Request3};
 use crate::me::clocks::ClockSchedule;
-use crate::me::{EventInfo, ModelExchange, StepOutcome};
+use crate::me::{derivatives_taken, EventInfo, ModelExchange, StateSlice, StepOutcome};
 use crate::run::{self, ModelExchangeOf};
 use crate::watch::{self, Call};
 use std::ffi::c_void;
@@ -18,23 +20,19 @@ type I = *mut c_void;
 function_table! {
     /// The FMI 3.0 Model Exchange functions (FMI 3.0.2 section 3.2).
     pub struct MeFunctions3 {
-        enter_event_mode: required "fmi3EnterEventMode" unsafe extern "C" fn(I) -> RawStatus3,
+        enter_event_mode: required "fmi3EnterEventMode" Call3,
         update_discrete_states: required "fmi3UpdateDiscreteStates" UpdateDiscreteStates3,
-        enter_continuous_time_mode: required "fmi3EnterContinuousTimeMode"
-            unsafe extern "C" fn(I) -> RawStatus3,
+        enter_continuous_time_mode: required "fmi3EnterContinuousTimeMode" Call3,
         completed_integrator_step: required "fmi3CompletedIntegratorStep"
             unsafe extern "C" fn(I, Bool3, *mut Bool3, *mut Bool3) -> RawStatus3,
         set_time: required "fmi3SetTime" unsafe extern "C" fn(I, f64) -> RawStatus3,
-        set_continuous_states: required "fmi3SetContinuousStates"
-            unsafe extern "C" fn(I, *const f64, usize) -> RawStatus3,
+        set_continuous_states: required "fmi3SetContinuousStates" StateVector3<*const f64>,
         get_continuous_state_derivatives: required "fmi3GetContinuousStateDerivatives"
-            unsafe extern "C" fn(I, *mut f64, usize) -> RawStatus3,
-        get_event_indicators: required "fmi3GetEventIndicators"
-            unsafe extern "C" fn(I, *mut f64, usize) -> RawStatus3,
-        get_continuous_states: required "fmi3GetContinuousStates"
-            unsafe extern "C" fn(I, *mut f64, usize) -> RawStatus3,
+            StateVector3<*mut f64>,
+        get_event_indicators: required "fmi3GetEventIndicators" StateVector3<*mut f64>,
+        get_continuous_states: required "fmi3GetContinuousStates" StateVector3<*mut f64>,
         get_nominals_of_continuous_states: required "fmi3GetNominalsOfContinuousStates"
-            unsafe extern "C" fn(I, *mut f64, usize) -> RawStatus3,
+            StateVector3<*mut f64>,
         get_number_of_event_indicators: required "fmi3GetNumberOfEventIndicators"
             unsafe extern "C" fn(I, *mut usize) -> RawStatus3,
         get_number_of_continuous_states: required "fmi3GetNumberOfContinuousStates"
@@ -157,6 +155,14 @@ impl<'i, 'a> Fmi3Me<'i, 'a> {
     fn call(&mut self, name: &'static str, raw: RawStatus3) -> Result<()> {
         self.inst.check(name, raw).map(drop)
     }
+
+    /// Calls `f`, a function taking a vector of the states' size, on `x` (watched as `call`).
+    fn vector<S: StateSlice>(&mut self, call: Call, f: StateVector3<S::Ptr>, x: S) -> RawStatus3 {
+        let _w = watch::enter3(call, Some(self.time));
+        let (ptr, len) = x.raw();
+        // SAFETY: ptr points to len elements (StateSlice); live Model Exchange instance.
+        unsafe { f(self.inst.instance, ptr, len) }
+    }
 }
 
 impl ModelExchange for Fmi3Me<'_, '_> {
@@ -177,49 +183,35 @@ impl ModelExchange for Fmi3Me<'_, '_> {
     }
 
     fn set_states(&mut self, x: &[f64]) -> Result<()> {
-        let _w = watch::enter3(Call::SetContinuousStates, Some(self.time));
-        // SAFETY: x has x.len() elements.
-        let raw =
-            unsafe { (self.f.set_continuous_states)(self.inst.instance, x.as_ptr(), x.len()) };
+        let raw = self.vector(Call::SetContinuousStates, self.f.set_continuous_states, x);
         self.call("fmi3SetContinuousStates", raw)
     }
 
     fn get_states(&mut self, x: &mut [f64]) -> Result<()> {
-        let _w = watch::enter3(Call::GetContinuousStates, Some(self.time));
-        // SAFETY: x has x.len() elements.
-        let raw =
-            unsafe { (self.f.get_continuous_states)(self.inst.instance, x.as_mut_ptr(), x.len()) };
+        let raw = self.vector(Call::GetContinuousStates, self.f.get_continuous_states, x);
         self.call("fmi3GetContinuousStates", raw)
     }
 
     fn get_derivatives(&mut self, dx: &mut [f64]) -> Result<bool> {
-        let _w = watch::enter3(Call::GetDerivatives, Some(self.time));
-        // SAFETY: dx has dx.len() elements.
-        let raw = unsafe {
-            (self.f.get_continuous_state_derivatives)(self.inst.instance, dx.as_mut_ptr(), dx.len())
-        };
-        match self.inst.check("fmi3GetContinuousStateDerivatives", raw) {
-            Ok(_) => Ok(true),
-            // FMI 3.0.2 section 3.2.1: fmi3Discard asks the integrator for a smaller step.
-            Err(e) if e.status() == Some(Status::Discard) => Ok(false),
-            Err(e) => Err(e),
-        }
+        let raw = self.vector(
+            Call::GetDerivatives,
+            self.f.get_continuous_state_derivatives,
+            dx,
+        );
+        derivatives_taken(self.inst.check("fmi3GetContinuousStateDerivatives", raw))
     }
 
     fn get_event_indicators(&mut self, z: &mut [f64]) -> Result<()> {
-        let _w = watch::enter3(Call::GetEventIndicators, Some(self.time));
-        // SAFETY: z has z.len() elements.
-        let raw =
-            unsafe { (self.f.get_event_indicators)(self.inst.instance, z.as_mut_ptr(), z.len()) };
+        let raw = self.vector(Call::GetEventIndicators, self.f.get_event_indicators, z);
         self.call("fmi3GetEventIndicators", raw)
     }
 
     fn get_nominals(&mut self, x: &mut [f64]) -> Result<()> {
-        let _w = watch::enter3(Call::GetNominals, Some(self.time));
-        // SAFETY: x has x.len() elements.
-        let raw = unsafe {
-            (self.f.get_nominals_of_continuous_states)(self.inst.instance, x.as_mut_ptr(), x.len())
-        };
+        let raw = self.vector(
+            Call::GetNominals,
+            self.f.get_nominals_of_continuous_states,
+            x,
+        );
         self.call("fmi3GetNominalsOfContinuousStates", raw)
     }
 

@@ -34,7 +34,7 @@ pub mod clocks;
 pub mod fmi2;
 pub mod fmi3;
 
-use crate::error::{HostError, Result};
+use crate::error::{HostError, Result, Status};
 use crate::watch::{self, Call};
 use nalgebra::DMatrix;
 use ode::{Integrator, OdeSystem};
@@ -98,6 +98,39 @@ pub struct EventInfo {
     pub values_changed: bool,
     /// The next time event, if any.
     pub next_event_time: Option<f64>,
+}
+
+/// A vector of the continuous states' size handed to an FMU: its pointer and length.
+pub(crate) trait StateSlice {
+    /// `*const f64` for a vector the FMU reads, `*mut f64` for one it fills.
+    type Ptr;
+    /// The pointer to the first element and the number of elements.
+    fn raw(self) -> (Self::Ptr, usize);
+}
+
+impl StateSlice for &[f64] {
+    type Ptr = *const f64;
+    fn raw(self) -> (*const f64, usize) {
+        (self.as_ptr(), self.len())
+    }
+}
+
+impl StateSlice for &mut [f64] {
+    type Ptr = *mut f64;
+    fn raw(self) -> (*mut f64, usize) {
+        (self.as_mut_ptr(), self.len())
+    }
+}
+
+/// The result of a derivative evaluation as the integrator takes it: `Ok(false)` where the FMU
+/// answered Discard, which asks the integrator for a smaller step (FMI 2.0.4 section 3.2.2,
+/// FMI 3.0.2 section 3.2.1).
+pub(crate) fn derivatives_taken(result: Result<Status>) -> Result<bool> {
+    match result {
+        Ok(_) => Ok(true),
+        Err(e) if e.status() == Some(Status::Discard) => Ok(false),
+        Err(e) => Err(e),
+    }
 }
 
 /// What `completedIntegratorStep` reports.
