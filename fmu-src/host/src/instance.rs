@@ -7,7 +7,7 @@ use crate::kind::Interface;
 use crate::watch::{self, Call};
 use ffi::Fmi2Boolean;
 use std::ffi::{c_char, c_int, c_void, CString};
-use std::sync::atomic::Ordering;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// `fmi2CoSimulation` for fmi2Instantiate's fmuType.
 const FMI2_COSIMULATION: c_int = 1;
@@ -61,20 +61,9 @@ impl Fmu {
             .co_simulation
             .as_ref()
             .is_some_and(|c| c.can_be_instantiated_only_once_per_process);
-        // Reserve the slot first so that two threads cannot both pass the check.
-        let before = self.live_instances.fetch_add(1, Ordering::SeqCst);
-        let result = if once && before > 0 {
-            Err(HostError::Request(
-                "the FMU declares canBeInstantiatedOnlyOncePerProcess and an instance is alive"
-                    .into(),
-            ))
-        } else {
+        in_instance_slot(&self.live_instances, once, || {
             self.instantiate_inner(name, opts)
-        };
-        if result.is_err() {
-            self.live_instances.fetch_sub(1, Ordering::SeqCst);
-        }
-        result
+        })
     }
 
     fn instantiate_inner(&self, name: &str, opts: &InstanceOptions) -> Result<Instance<'_>> {
@@ -166,6 +155,31 @@ macro_rules! instance_calls {
 }
 pub(crate) use instance_calls;
 
+/// The method of an instance type that hands the experiment (tolerance, start and stop time)
+/// to the FMU with the function in field `$method`: fmi2SetupExperiment and
+/// fmi3EnterInitializationMode take the same arguments. Marked and checked as in
+/// [`instance_calls`].
+macro_rules! experiment_call {
+    ($(#[$doc:meta])* $method:ident, $handle:ident, $watch:path, $call:ident, $function:literal) => {
+        $(#[$doc])*
+        pub fn $method(
+            &mut self,
+            tolerance: Option<f64>,
+            start_time: f64,
+            stop_time: Option<f64>,
+        ) -> Result<Status> {
+            let f = self.fmu.functions.$method;
+            let given = $crate::instance::given;
+            let ((tol_given, tol), (stop_given, stop)) = (given(tolerance), given(stop_time));
+            let _watch = $watch(Call::$call, Some(start_time));
+            // SAFETY: the instance is live (it is freed only when dropped).
+            let raw = unsafe { f(self.$handle, tol_given, tol, start_time, stop_given, stop) };
+            self.check($function, raw)
+        }
+    };
+}
+pub(crate) use experiment_call;
+
 /// Methods of an FMI 2.0 instance getting and setting the values of one type with the
 /// function table's field of the same name.
 macro_rules! typed_values {
@@ -209,20 +223,10 @@ impl<'a> Instance<'a> {
         Status::from_raw(f(&self.fmu.functions, self.component))
     }
 
-    /// fmi2SetupExperiment
-    pub fn setup_experiment(
-        &mut self,
-        tolerance: Option<f64>,
-        start_time: f64,
-        stop_time: Option<f64>,
-    ) -> Result<Status> {
-        let f = self.fmu.functions.setup_experiment;
-        let ((tol_given, tol), (stop_given, stop)) = (given(tolerance), given(stop_time));
-        let _watch = watch::enter(Call::SetupExperiment, Some(start_time));
-        // SAFETY: component is a live instance of this binary.
-        let raw = unsafe { f(self.component, tol_given, tol, start_time, stop_given, stop) };
-        self.check("fmi2SetupExperiment", raw)
-    }
+    experiment_call!(
+        /// fmi2SetupExperiment
+        setup_experiment, component, watch::enter, SetupExperiment, "fmi2SetupExperiment"
+    );
 
     instance_calls!(component, watch::enter;
         /// fmi2EnterInitializationMode
@@ -524,6 +528,29 @@ fn c_strings(texts: &[&str], what: &str) -> Result<Vec<CString>> {
         .map(|v| CString::new(*v))
         .collect::<std::result::Result<_, _>>()
         .map_err(|_| HostError::Request(format!("{what} contains a NUL byte")))
+}
+
+/// Runs `instantiate` in a slot reserved in `live` (the FMU's live instances) first, so that two
+/// threads cannot both pass the check: refused when the FMU declares
+/// canBeInstantiatedOnlyOncePerProcess (`once`) and an instance is alive; the slot is given back
+/// when instantiation fails.
+pub(crate) fn in_instance_slot<T>(
+    live: &AtomicUsize,
+    once: bool,
+    instantiate: impl FnOnce() -> Result<T>,
+) -> Result<T> {
+    let before = live.fetch_add(1, Ordering::SeqCst);
+    let result = if once && before > 0 {
+        Err(HostError::Request(
+            "the FMU declares canBeInstantiatedOnlyOncePerProcess and an instance is alive".into(),
+        ))
+    } else {
+        instantiate()
+    };
+    if result.is_err() {
+        live.fetch_sub(1, Ordering::SeqCst);
+    }
+    result
 }
 
 /// An optional argument as the C calls take it: (whether it is given, its value or 0).

@@ -10,8 +10,8 @@
 //! [`step_through`] is the Co-Simulation loop and [`integrate`] the Model Exchange one.
 
 use crate::error::{HostError, Result};
-use crate::me::{self, Ending, Environment, ModelExchange, Settings};
-use crate::simulate::MAX_RECORDED_VALUES;
+use crate::me::{self, isclose, Ending, Environment, ModelExchange, Settings};
+use crate::simulate::{hold_index, interpolate_at, MAX_RECORDED_VALUES};
 
 /// The Co-Simulation step of an instance.
 pub trait CoSimulationStep {
@@ -44,6 +44,115 @@ pub(crate) trait Inputs<I> {
         self.pass_jump(t);
         self.apply(inst, t)
     }
+}
+
+/// Where a run stands on its inputs' time axis: the row times, the input events and the
+/// cursors that speed up monotone lookups.
+pub(crate) struct InputAxis<'r> {
+    time: &'r [f64],
+    /// The input events in time order, found once (Model Exchange asks for the next one at every
+    /// integration segment): a repeated row time, or a row at which a held input changes
+    /// (FMPy's `Input.findEvents`).
+    events: Vec<f64>,
+    /// The time of the last jump passed ([`Inputs::pass_jump`]); -inf: none.
+    jump_passed: f64,
+    interp_cursor: usize,
+    hold_cursor: usize,
+}
+
+/// A time on the input axis as the inputs are set there: the row held at `t`, whether a jump
+/// at `t` has been passed (the second of two rows at one time then holds) and which inputs are
+/// set (Model Exchange sets the discrete ones in Event Mode only).
+pub(crate) struct InputPoint<'x> {
+    axis: &'x InputAxis<'x>,
+    pub t: f64,
+    pub row: usize,
+    after: bool,
+    /// Set the continuous (interpolated) inputs.
+    pub continuous: bool,
+    /// Set the held inputs.
+    pub discrete: bool,
+    /// The interpolation cursor after the lookups: all columns share one time axis, so one
+    /// cursor serves them all.
+    next: usize,
+}
+
+impl InputPoint<'_> {
+    /// Column `ys` here: linear between rows, the row's own value just after a jump.
+    pub(crate) fn interpolate(&mut self, ys: &[f64]) -> f64 {
+        self.next = self.axis.interp_cursor;
+        let at = (self.row, self.after);
+        interpolate_at((self.axis.time, ys), self.t, at, &mut self.next)
+    }
+}
+
+impl<'r> InputAxis<'r> {
+    /// The axis of row times `time` with its input events `events` (ascending).
+    pub(crate) fn new(time: &'r [f64], events: Vec<f64>) -> Self {
+        let (jump_passed, interp_cursor, hold_cursor) = (f64::NEG_INFINITY, 0, 0);
+        InputAxis {
+            time,
+            events,
+            jump_passed,
+            interp_cursor,
+            hold_cursor,
+        }
+    }
+}
+
+/// The inputs of one FMI version, set on an instance `I`.
+pub(crate) trait InputValues<I> {
+    /// Sets the inputs `at` asks for to their values there.
+    fn set_at(&mut self, inst: &mut I, at: &mut InputPoint<'_>) -> Result<()>;
+}
+
+/// A run's input plan: the time axis and the inputs of one version.
+pub(crate) struct InputPlanOf<'r, V> {
+    pub(crate) axis: InputAxis<'r>,
+    pub(crate) values: V,
+}
+
+impl<I, V: InputValues<I>> Inputs<I> for InputPlanOf<'_, V> {
+    fn next_event(&self, t: f64) -> f64 {
+        first_event_after(&self.axis.events, t)
+    }
+
+    fn pass_jump(&mut self, t: f64) {
+        self.axis.jump_passed = t;
+    }
+
+    fn apply_some(&mut self, inst: &mut I, t: f64, continuous: bool, discrete: bool) -> Result<()> {
+        if self.axis.time.is_empty() {
+            return Ok(());
+        }
+        let row = hold_index(self.axis.time, t, &mut self.axis.hold_cursor);
+        let after = isclose(self.axis.jump_passed, t);
+        let next = self.axis.interp_cursor;
+        let axis = &self.axis;
+        let mut at = InputPoint {
+            axis,
+            t,
+            row,
+            after,
+            continuous,
+            discrete,
+            next,
+        };
+        let result = self.values.set_at(inst, &mut at);
+        self.axis.interp_cursor = at.next;
+        result
+    }
+}
+
+/// The first of the ascending event times `events` after `t`, not within 1e-9 relative of it
+/// (an event at `t` itself has been handled); infinite: none.
+fn first_event_after(events: &[f64], t: f64) -> f64 {
+    let from = events.partition_point(|&e| e <= t);
+    events[from..]
+        .iter()
+        .copied()
+        .find(|&e| !isclose(e, t))
+        .unwrap_or(f64::INFINITY)
 }
 
 /// The recorder of a run, reading an instance `I`.

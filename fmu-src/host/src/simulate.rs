@@ -8,7 +8,8 @@ use crate::kind::Interface;
 use crate::md::{Causality, ModelDescription, ScalarVariable, VarKind, Variability};
 use crate::me::isclose;
 use crate::run::{
-    fmu_tolerance, me_settings, step_through, with_input_events, CoSimulationStep, Inputs, Outputs,
+    fmu_tolerance, me_settings, step_through, with_input_events, CoSimulationStep, InputAxis,
+    InputPlanOf, InputPoint, InputValues, Inputs, Outputs,
 };
 
 /// Columns of text: (variable name, one value per row).
@@ -52,19 +53,28 @@ impl Value {
                         v.name
                     )));
                 }
-                if matches!(v.min, Some(lo) if x < lo) || matches!(v.max, Some(hi) if x > hi) {
-                    return Err(HostError::Request(format!(
-                        "'{}' = {x} is outside its range [{}, {}]",
-                        v.name,
-                        v.min.unwrap_or(f64::NEG_INFINITY),
-                        v.max.unwrap_or(f64::INFINITY)
-                    )));
-                }
+                within_range(&v.name, (x, &x), (v.min, v.max))?;
                 Ok(Value::Real(x))
             }
             VarKind::String => Ok(Value::Text(text.to_string())),
         }
     }
+}
+
+/// Refuses the value `x` (written as `shown`) of variable `name` outside `[min, max]`.
+pub(crate) fn within_range(
+    name: &str,
+    (x, shown): (f64, &dyn std::fmt::Display),
+    (min, max): (Option<f64>, Option<f64>),
+) -> Result<()> {
+    if matches!(min, Some(lo) if x < lo) || matches!(max, Some(hi) if x > hi) {
+        return Err(HostError::Request(format!(
+            "'{name}' = {shown} is outside its range [{}, {}]",
+            min.unwrap_or(f64::NEG_INFINITY),
+            max.unwrap_or(f64::INFINITY)
+        )));
+    }
+    Ok(())
 }
 
 /// Input time series: `time` strictly increasing, each column as long as `time`.
@@ -587,7 +597,10 @@ enum Apply {
 }
 
 /// The inputs of a run: value references by type, one set call per type per point.
-pub(crate) struct InputPlan<'r> {
+pub(crate) type InputPlan<'r> = InputPlanOf<'r, Inputs2<'r>>;
+
+/// The FMI 2.0 inputs of a run: their columns of the series, by type.
+pub(crate) struct Inputs2<'r> {
     series: &'r InputSeries,
     /// (vr, column, how) of Real inputs, set together.
     reals: Vec<(u32, usize, Apply)>,
@@ -597,17 +610,11 @@ pub(crate) struct InputPlan<'r> {
     strings: Vec<(u32, usize)>,
     real_vrs: Vec<u32>,
     real_buf: Vec<f64>,
-    interp_cursor: usize,
-    hold_cursor: usize,
-    /// Times at which a discrete input changes or the time axis repeats (a jump), ascending.
-    input_events: Vec<f64>,
-    /// The time of the last jump passed ([`Inputs::pass_jump`]); -inf: none.
-    jump_passed: f64,
 }
 
 /// The input events of `series` as FMPy's `Input.findEvents` finds them: the time of a repeated
 /// row time, and the row time at which a held (discrete) input changes its value.
-fn input_events(plan: &InputPlan<'_>, series: &InputSeries) -> Vec<f64> {
+fn input_events(plan: &Inputs2<'_>, series: &InputSeries) -> Vec<f64> {
     let t = &series.time;
     let mut events: Vec<f64> = t
         .windows(2)
@@ -633,21 +640,9 @@ fn input_events(plan: &InputPlan<'_>, series: &InputSeries) -> Vec<f64> {
     events
 }
 
-/// The first of the ascending event times `events` after `t`, not within 1e-9 relative of it
-/// (an event at `t` itself has been handled); infinite: none. FMI 2.0 and FMI 3.0 input plans
-/// find their events in their own way and look up the next one with this.
-pub(crate) fn first_event_after(events: &[f64], t: f64) -> f64 {
-    let from = events.partition_point(|&e| e <= t);
-    events[from..]
-        .iter()
-        .copied()
-        .find(|&e| !isclose(e, t))
-        .unwrap_or(f64::INFINITY)
-}
-
 impl<'r> InputPlan<'r> {
     pub(crate) fn new(md: &ModelDescription, series: &'r InputSeries) -> Result<Self> {
-        let mut plan = InputPlan {
+        let mut plan = Inputs2 {
             series,
             reals: Vec::new(),
             ints: Vec::new(),
@@ -655,10 +650,6 @@ impl<'r> InputPlan<'r> {
             strings: Vec::new(),
             real_vrs: Vec::new(),
             real_buf: Vec::new(),
-            interp_cursor: 0,
-            hold_cursor: 0,
-            input_events: Vec::new(),
-            jump_passed: f64::NEG_INFINITY,
         };
         let names = series.columns.iter().map(|(n, c)| (n, c.len()));
         let text_names = series.text.iter().map(|(n, c)| (n, c.len()));
@@ -699,51 +690,25 @@ impl<'r> InputPlan<'r> {
         if !(series.columns.is_empty() && series.text.is_empty()) && series.time.is_empty() {
             return Err(HostError::Request("input series has no samples".into()));
         }
-        plan.input_events = input_events(&plan, series);
         plan.real_vrs = plan.reals.iter().map(|r| r.0).collect();
         plan.real_buf = vec![0.0; plan.reals.len()];
-        Ok(plan)
+        let axis = InputAxis::new(&series.time, input_events(&plan, series));
+        Ok(InputPlanOf { axis, values: plan })
     }
 }
 
-impl Inputs<Instance<'_>> for InputPlan<'_> {
-    /// The first input event after `t` (not within 1e-9 relative of it); infinite: none.
-    fn next_event(&self, t: f64) -> f64 {
-        first_event_after(&self.input_events, t)
-    }
-
-    fn pass_jump(&mut self, t: f64) {
-        self.jump_passed = t;
-    }
-
+impl InputValues<Instance<'_>> for Inputs2<'_> {
     /// Sets the continuous Real inputs (`continuous`) and the discrete ones (`discrete`) to
-    /// their values at `t`: Model Exchange sets the discrete inputs in Event Mode only.
-    fn apply_some(
-        &mut self,
-        inst: &mut Instance<'_>,
-        t: f64,
-        continuous: bool,
-        discrete: bool,
-    ) -> Result<()> {
-        let s = self.series;
-        if s.time.is_empty() {
-            return Ok(());
-        }
-        let row = hold_index(&s.time, t, &mut self.hold_cursor);
-        let after = isclose(self.jump_passed, t);
-        // All columns share one time axis, so one cursor serves them all.
-        let mut next = self.interp_cursor;
+    /// their values at `at`: Model Exchange sets the discrete inputs in Event Mode only.
+    fn set_at(&mut self, inst: &mut Instance<'_>, at: &mut InputPoint<'_>) -> Result<()> {
+        let (s, row) = (self.series, at.row);
+        let (continuous, discrete) = (at.continuous, at.discrete);
         for (x, &(_, col, how)) in self.real_buf.iter_mut().zip(&self.reals) {
             *x = match how {
-                Apply::Interpolate => {
-                    next = self.interp_cursor;
-                    let ys = &s.columns[col].1;
-                    interpolate_at((&s.time, ys), t, (row, after), &mut next)
-                }
+                Apply::Interpolate => at.interpolate(&s.columns[col].1),
                 Apply::Hold => s.columns[col].1[row],
             };
         }
-        self.interp_cursor = next;
         if continuous && discrete {
             if !self.reals.is_empty() {
                 inst.set_real(&self.real_vrs, &self.real_buf)?;

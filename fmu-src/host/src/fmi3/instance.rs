@@ -6,12 +6,13 @@ use super::md::ModelDescription3;
 use super::value::{Type3, Values};
 use crate::error::{HostError, LogRecord, Result, Status};
 use crate::fmu::{binary_under, check_library_name, Unpacked};
-use crate::instance::{exported, given, instance_calls, missing};
+use crate::instance::{experiment_call, exported, in_instance_slot, instance_calls};
 use crate::kind::Interface;
 use crate::watch::{self, Call};
 use libloading::Library;
 use std::ffi::{c_char, c_void, CStr, CString};
 use std::path::Path;
+use std::ptr::null;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// The platform tuple folder of this machine's binaries (FMI 3.0.2 section 2.5.1.4:
@@ -210,19 +211,7 @@ impl Fmu3 {
         let once = element
             .as_ref()
             .is_some_and(|c| c.flag("canBeInstantiatedOnlyOncePerProcess"));
-        let before = self.live_instances.fetch_add(1, Ordering::SeqCst);
-        let result = if once && before > 0 {
-            Err(HostError::Request(
-                "the FMU declares canBeInstantiatedOnlyOncePerProcess and an instance is alive"
-                    .into(),
-            ))
-        } else {
-            self.instantiate_inner(name)
-        };
-        if result.is_err() {
-            self.live_instances.fetch_sub(1, Ordering::SeqCst);
-        }
-        result
+        in_instance_slot(&self.live_instances, once, || self.instantiate_inner(name))
     }
 
     fn instantiate_inner(&self, name: &str) -> Result<Instance3<'_>> {
@@ -232,48 +221,44 @@ impl Fmu3 {
             .map_err(|_| nul("instantiationToken"))?;
         let resources = CString::new(self.resource_path()).map_err(|_| nul("resource path"))?;
         let env = Env3::boxed(name);
-        if self.interface == Interface::ModelExchange {
-            let Some(f) = self.functions.instantiate_model_exchange else {
-                return Err(missing("fmi3InstantiateModelExchange"));
-            };
+        let (n, t, r) = (cname.as_ptr(), token.as_ptr(), resources.as_ptr());
+        let (env_ptr, log) = (
+            &*env as *const Env3 as *mut c_void,
+            Some(ffi::log_message as _),
+        );
+        // SAFETY (both calls): every pointer is a valid NUL-terminated string or the boxed
+        // environment, all owned by the instance and alive as long as it is; no intermediate
+        // variables (NULL, 0).
+        let (function, instance) = if self.interface == Interface::ModelExchange {
+            let function = "fmi3InstantiateModelExchange";
+            let f = exported(self.functions.instantiate_model_exchange, function)?;
             let _watch = watch::enter3(Call::Instantiate, None);
-            // SAFETY: as below: valid strings and the boxed environment owned by the instance.
+            (function, unsafe { f(n, t, r, 0, 0, env_ptr, log) })
+        } else {
+            let function = "fmi3InstantiateCoSimulation";
+            let f = exported(self.functions.instantiate_co_simulation, function)?;
+            let event_mode = Bool3::from(self.event_mode_used());
+            let early_return = Bool3::from(self.early_return_allowed());
+            let _watch = watch::enter3(Call::Instantiate, None);
             let instance = unsafe {
                 f(
-                    cname.as_ptr(),
-                    token.as_ptr(),
-                    resources.as_ptr(),
+                    n,
+                    t,
+                    r,
                     0,
                     0,
-                    &*env as *const Env3 as *mut c_void,
-                    Some(ffi::log_message),
+                    event_mode,
+                    early_return,
+                    null(),
+                    0,
+                    env_ptr,
+                    log,
+                    None,
                 )
             };
-            return self.instantiated(instance, env, cname, "fmi3InstantiateModelExchange");
-        }
-        let Some(f) = self.functions.instantiate_co_simulation else {
-            return Err(missing("fmi3InstantiateCoSimulation"));
+            (function, instance)
         };
-        let _watch = watch::enter3(Call::Instantiate, None);
-        // SAFETY: every pointer is a valid NUL-terminated string or the boxed environment, all
-        // owned by the instance and alive as long as it is; no intermediate variables (NULL, 0).
-        let instance = unsafe {
-            f(
-                cname.as_ptr(),
-                token.as_ptr(),
-                resources.as_ptr(),
-                0,
-                0,
-                Bool3::from(self.event_mode_used()),
-                Bool3::from(self.early_return_allowed()),
-                std::ptr::null(),
-                0,
-                &*env as *const Env3 as *mut c_void,
-                Some(ffi::log_message),
-                None,
-            )
-        };
-        self.instantiated(instance, env, cname, "fmi3InstantiateCoSimulation")
+        self.instantiated(instance, env, cname, function)
     }
 
     /// The instance `fmi3Instantiate*` returned, or its error when it returned NULL.
@@ -416,20 +401,14 @@ impl<'a> Instance3<'a> {
         self.env.sink.check(function, raw)
     }
 
-    /// fmi3EnterInitializationMode(tolerance, startTime, stopTime)
-    pub fn enter_initialization_mode(
-        &mut self,
-        tolerance: Option<f64>,
-        start_time: f64,
-        stop_time: Option<f64>,
-    ) -> Result<Status> {
-        let f = self.fmu.functions.enter_initialization_mode;
-        let ((tol_given, tol), (stop_given, stop)) = (given(tolerance), given(stop_time));
-        let _watch = watch::enter3(Call::EnterInitializationMode, Some(start_time));
-        // SAFETY: instance is live.
-        let raw = unsafe { f(self.instance, tol_given, tol, start_time, stop_given, stop) };
-        self.check("fmi3EnterInitializationMode", raw)
-    }
+    experiment_call!(
+        /// fmi3EnterInitializationMode(tolerance, startTime, stopTime)
+        enter_initialization_mode,
+        instance,
+        watch::enter3,
+        EnterInitializationMode,
+        "fmi3EnterInitializationMode"
+    );
 
     instance_calls!(instance, watch::enter3;
         /// fmi3ExitInitializationMode (to Step Mode, event mode not being used)

@@ -23,14 +23,11 @@ use super::value::{Type3, ValueError, Values};
 use crate::error::{HostError, Result};
 use crate::kind::Interface;
 use crate::me::clocks::ClockSchedule;
-use crate::me::isclose;
 use crate::run::{
-    fmu_tolerance, step_through, with_input_events, CoSimulationStep, Inputs, Outputs,
+    fmu_tolerance, step_through, with_input_events, CoSimulationStep, InputAxis, InputPlanOf,
+    InputPoint, InputValues, Inputs, Outputs,
 };
-use crate::simulate::{
-    communication_points, first_event_after, hold_index, interpolate_at, Recorded,
-    SimulationResult, Simulator,
-};
+use crate::simulate::{communication_points, within_range, Recorded, SimulationResult, Simulator};
 use fmi_types::Variability;
 
 /// Input columns of an FMI 3.0 run: a time axis and text cells (see [`super::value`]).
@@ -296,15 +293,7 @@ fn check_range(v: &Variable3, x: &Values) -> Result<()> {
                 v.name
             )));
         }
-        if matches!(v.min, Some(lo) if n < lo) || matches!(v.max, Some(hi) if n > hi) {
-            return Err(HostError::Request(format!(
-                "'{}' = {} is outside its range [{}, {}]",
-                v.name,
-                x.text(i),
-                v.min.unwrap_or(f64::NEG_INFINITY),
-                v.max.unwrap_or(f64::INFINITY)
-            )));
-        }
+        within_range(&v.name, (n, &x.text(i)), (v.min, v.max))?;
     }
     Ok(())
 }
@@ -317,18 +306,11 @@ enum Samples {
     Held(Vec<Values>),
 }
 
-/// The inputs of a run, each set with one call per communication point.
-pub(crate) struct InputPlan3<'r> {
-    time: &'r [f64],
-    inputs: Vec<(u32, Samples)>,
-    interp_cursor: usize,
-    hold_cursor: usize,
-    /// The input events in time order (see [`InputPlan3::next_event`]), found once: Model
-    /// Exchange asks for the next one at every integration segment.
-    events: Vec<f64>,
-    /// The time of the last jump passed ([`Inputs::pass_jump`]); -inf: none.
-    jump_passed: f64,
-}
+/// The FMI 3.0 inputs of a run, each set with one call per communication point.
+pub(crate) struct Inputs3Plan(Vec<(u32, Samples)>);
+
+/// The input plan of an FMI 3.0 run.
+pub(crate) type InputPlan3<'r> = InputPlanOf<'r, Inputs3Plan>;
 
 impl<'r> InputPlan3<'r> {
     fn new(
@@ -378,84 +360,50 @@ impl<'r> InputPlan3<'r> {
         if !inputs.is_empty() && series.time.is_empty() {
             return Err(HostError::Request("input series has no samples".into()));
         }
-        Ok(InputPlan3 {
-            time: &series.time,
-            events: InputPlan3::events(&series.time, &inputs),
-            inputs,
-            interp_cursor: 0,
-            hold_cursor: 0,
-            jump_passed: f64::NEG_INFINITY,
+        let axis = InputAxis::new(&series.time, input_events(&series.time, &inputs));
+        Ok(InputPlanOf {
+            axis,
+            values: Inputs3Plan(inputs),
         })
     }
 }
 
-impl Inputs<Instance3<'_>> for InputPlan3<'_> {
-    /// The first input event after `t` (not within 1e-9 relative of it; infinite: none): a
-    /// repeated row time, or a row at which a held input changes (FMPy's `Input.findEvents`).
-    fn next_event(&self, t: f64) -> f64 {
-        first_event_after(&self.events, t)
-    }
-
-    fn pass_jump(&mut self, t: f64) {
-        self.jump_passed = t;
-    }
-
-    fn apply_some(
-        &mut self,
-        inst: &mut Instance3<'_>,
-        t: f64,
-        continuous: bool,
-        discrete: bool,
-    ) -> Result<()> {
-        if self.time.is_empty() {
-            return Ok(());
-        }
-        let row = hold_index(self.time, t, &mut self.hold_cursor);
-        let after = isclose(self.jump_passed, t);
-        let mut next = self.interp_cursor;
-        for (vr, samples) in &self.inputs {
+impl InputValues<Instance3<'_>> for Inputs3Plan {
+    fn set_at(&mut self, inst: &mut Instance3<'_>, at: &mut InputPoint<'_>) -> Result<()> {
+        for (vr, samples) in &self.0 {
             let interpolated = matches!(samples, Samples::Interpolated { .. });
-            if !(interpolated && continuous || !interpolated && discrete) {
+            if !(interpolated && at.continuous || !interpolated && at.discrete) {
                 continue;
             }
             let values = match samples {
                 Samples::Interpolated { ty, elements } => {
-                    let x: Vec<f64> = elements
-                        .iter()
-                        .map(|ys| {
-                            next = self.interp_cursor;
-                            interpolate_at((self.time, ys), t, (row, after), &mut next)
-                        })
-                        .collect();
+                    let x: Vec<f64> = elements.iter().map(|ys| at.interpolate(ys)).collect();
                     match ty {
                         Type3::Float32 => Values::Float32(x.iter().map(|&v| v as f32).collect()),
                         _ => Values::Float64(x),
                     }
                 }
-                Samples::Held(rows) => rows[row].clone(),
+                Samples::Held(rows) => rows[at.row].clone(),
             };
             inst.set(&[*vr], &values)?;
         }
-        self.interp_cursor = next;
         Ok(())
     }
 }
 
-impl InputPlan3<'_> {
-    /// The row times at which an input event happens, in time order: a repeated row time, or a
-    /// row at which a held input changes.
-    fn events(time: &[f64], inputs: &[(u32, Samples)]) -> Vec<f64> {
-        (1..time.len())
-            .filter(|&k| {
-                time[k - 1] == time[k]
-                    || inputs.iter().any(|(_, s)| match s {
-                        Samples::Held(rows) => rows[k] != rows[k - 1],
-                        Samples::Interpolated { .. } => false,
-                    })
-            })
-            .map(|k| time[k])
-            .collect()
-    }
+/// The row times at which an input event happens, in time order: a repeated row time, or a row
+/// at which a held input changes (FMPy's `Input.findEvents`).
+fn input_events(time: &[f64], inputs: &[(u32, Samples)]) -> Vec<f64> {
+    (1..time.len())
+        .filter(|&k| {
+            time[k - 1] == time[k]
+                || inputs.iter().any(|(_, s)| match s {
+                    Samples::Held(rows) => rows[k] != rows[k - 1],
+                    Samples::Interpolated { .. } => false,
+                })
+        })
+        .map(|k| time[k])
+        .collect()
 }
 
 fn names_of(md: &ModelDescription3, c: Causality3) -> String {
