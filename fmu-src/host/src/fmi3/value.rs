@@ -147,22 +147,96 @@ pub enum Values {
 /// Applies `$body` to the vector inside any [`Values`].
 macro_rules! each {
     ($v:expr, $x:ident => $body:expr) => {
+        each!(@ $v, $x => $body; Float32 Float64 Int8 UInt8 Int16 UInt16 Int32 UInt32 Int64
+            UInt64 Boolean String Binary)
+    };
+    (@ $v:expr, $x:ident => $body:expr; $($variant:ident)*) => {
         match $v {
-            Values::Float32($x) => $body,
-            Values::Float64($x) => $body,
-            Values::Int8($x) => $body,
-            Values::UInt8($x) => $body,
-            Values::Int16($x) => $body,
-            Values::UInt16($x) => $body,
-            Values::Int32($x) => $body,
-            Values::UInt32($x) => $body,
-            Values::Int64($x) => $body,
-            Values::UInt64($x) => $body,
-            Values::Boolean($x) => $body,
-            Values::String($x) => $body,
-            Values::Binary($x) => $body,
+            $(Values::$variant($x) => $body,)*
         }
     };
+}
+
+/// An element of a [`Values`] buffer: its number (Booleans 0/1; None for String and Binary)
+/// and its text (see the module documentation).
+trait Element {
+    fn number(&self) -> Option<f64>;
+    fn text(&self) -> String;
+}
+
+/// [`Element`] for types whose `f64::from` is exact and whose text is their `Display`.
+macro_rules! exact_element {
+    ($($t:ty),*) => {$(
+        impl Element for $t {
+            fn number(&self) -> Option<f64> {
+                Some(f64::from(*self))
+            }
+            fn text(&self) -> String {
+                self.to_string()
+            }
+        }
+    )*};
+}
+exact_element!(i8, u8, i16, u16, i32, u32);
+
+impl Element for f32 {
+    fn number(&self) -> Option<f64> {
+        Some(f64::from(*self))
+    }
+    fn text(&self) -> String {
+        format_f32(*self)
+    }
+}
+
+impl Element for f64 {
+    fn number(&self) -> Option<f64> {
+        Some(*self)
+    }
+    fn text(&self) -> String {
+        format_number(*self)
+    }
+}
+
+/// 64-bit integers: the nearest f64 (exact up to 2^53).
+macro_rules! wide_element {
+    ($($t:ty),*) => {$(
+        impl Element for $t {
+            fn number(&self) -> Option<f64> {
+                Some(*self as f64)
+            }
+            fn text(&self) -> String {
+                self.to_string()
+            }
+        }
+    )*};
+}
+wide_element!(i64, u64);
+
+impl Element for bool {
+    fn number(&self) -> Option<f64> {
+        Some(f64::from(u8::from(*self)))
+    }
+    fn text(&self) -> String {
+        self.to_string()
+    }
+}
+
+impl Element for String {
+    fn number(&self) -> Option<f64> {
+        None
+    }
+    fn text(&self) -> String {
+        self.clone()
+    }
+}
+
+impl Element for Vec<u8> {
+    fn number(&self) -> Option<f64> {
+        None
+    }
+    fn text(&self) -> String {
+        hex(self)
+    }
 }
 
 impl Values {
@@ -197,42 +271,12 @@ impl Values {
 
     /// Value `i` as a number (Booleans 0/1); None for String and Binary or out of range.
     pub fn number(&self, i: usize) -> Option<f64> {
-        Some(match self {
-            Values::Float32(x) => f64::from(*x.get(i)?),
-            Values::Float64(x) => *x.get(i)?,
-            Values::Int8(x) => f64::from(*x.get(i)?),
-            Values::UInt8(x) => f64::from(*x.get(i)?),
-            Values::Int16(x) => f64::from(*x.get(i)?),
-            Values::UInt16(x) => f64::from(*x.get(i)?),
-            Values::Int32(x) => f64::from(*x.get(i)?),
-            Values::UInt32(x) => f64::from(*x.get(i)?),
-            Values::Int64(x) => *x.get(i)? as f64,
-            Values::UInt64(x) => *x.get(i)? as f64,
-            Values::Boolean(x) => f64::from(u8::from(*x.get(i)?)),
-            Values::String(_) | Values::Binary(_) => return None,
-        })
+        each!(self, x => x.get(i)?.number())
     }
 
     /// Text of value `i` (see the module documentation); empty when out of range.
     pub fn text(&self, i: usize) -> String {
-        fn t<T: ToString>(x: &[T], i: usize) -> String {
-            x.get(i).map(ToString::to_string).unwrap_or_default()
-        }
-        match self {
-            Values::Float32(x) => x.get(i).map_or(String::new(), |v| format_f32(*v)),
-            Values::Float64(x) => x.get(i).map_or(String::new(), |v| format_number(*v)),
-            Values::Int8(x) => t(x, i),
-            Values::UInt8(x) => t(x, i),
-            Values::Int16(x) => t(x, i),
-            Values::UInt16(x) => t(x, i),
-            Values::Int32(x) => t(x, i),
-            Values::UInt32(x) => t(x, i),
-            Values::Int64(x) => t(x, i),
-            Values::UInt64(x) => t(x, i),
-            Values::Boolean(x) => t(x, i),
-            Values::String(x) => t(x, i),
-            Values::Binary(x) => x.get(i).map(|b| hex(b)).unwrap_or_default(),
-        }
+        each!(self, x => x.get(i).map(Element::text).unwrap_or_default())
     }
 
     /// Values `range` joined by spaces (an array's cell).
