@@ -12,6 +12,7 @@ macro_rules! out {
 
 use host::view::{Causality, ModelView};
 use host::{Interface, Value};
+use std::path::PathBuf;
 
 /// `--interface`: which FMI interface of the FMU runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -29,6 +30,33 @@ impl InterfaceArg {
             InterfaceArg::Cs => Interface::CoSimulation,
             InterfaceArg::Me => Interface::ModelExchange,
         })
+    }
+}
+
+/// The options of every command that runs the FMU.
+#[derive(clap::Args, Clone, Debug)]
+pub struct RunArgs {
+    /// FMI interface to run: cs (Co-Simulation) or me (Model Exchange, integrated by the host
+    /// with its stiff Rosenbrock solver, events located). Default: cs where the FMU offers it,
+    /// else me.
+    #[arg(long, value_enum, value_name = "cs|me")]
+    pub interface: Option<InterfaceArg>,
+    /// Longest one FMU call may take [s] before the run is stopped as hung (0: no limit).
+    #[arg(long, default_value_t = 60.0, value_name = "SECONDS")]
+    pub timeout: f64,
+    /// Python interpreter whose runtime an FMU needing one (made by PythonFMU) gets
+    /// (default: python3 on PATH).
+    #[arg(long, value_name = "PATH")]
+    pub python: Option<PathBuf>,
+}
+
+impl RunArgs {
+    /// The host's options for opening the FMU.
+    pub fn open_options(&self) -> host::OpenOptions {
+        host::OpenOptions {
+            python: self.python.clone(),
+            interface: InterfaceArg::host(self.interface),
+        }
     }
 }
 

@@ -56,17 +56,9 @@ pub struct Args {
     /// No progress display (accepted for symmetry with gap; design prints only its summary).
     #[arg(long)]
     pub quiet: bool,
-    /// FMI interface to run: cs (Co-Simulation) or me (Model Exchange, integrated by the host
-    /// with its stiff Rosenbrock solver, events located). Default: cs where the FMU offers it,
-    /// else me.
-    #[arg(long, value_enum, value_name = "cs|me")]
-    pub interface: Option<crate::common::InterfaceArg>,
-    /// Longest one FMU call may take [s] before the run is stopped as hung (0: no limit).
-    #[arg(long, default_value_t = 60.0, value_name = "SECONDS")]
-    pub timeout: f64,
-    /// Python interpreter whose runtime an FMU needing one gets (default: python3 on PATH).
-    #[arg(long, value_name = "PATH")]
-    pub python: Option<PathBuf>,
+    /// How the FMU runs: its interface, the hang limit, the Python runtime.
+    #[command(flatten)]
+    pub run: crate::common::RunArgs,
 }
 
 /// Most samples an experiment may have (it is simulated a few hundred times).
@@ -235,10 +227,7 @@ pub fn run(a: Args) -> CliResult {
     let mut inputs: Vec<&std::path::Path> = vec![a.fmu.as_path()];
     inputs.extend(a.data.as_deref());
     crate::common::refuse_overwriting(&a.out, &inputs)?;
-    let opts = host::OpenOptions {
-        python: a.python.clone(),
-        interface: crate::common::InterfaceArg::host(a.interface),
-    };
+    let opts = a.run.open_options();
     let fmu = AnyFmu::open(&a.fmu, &opts)?;
     let md = fmu.view();
     let cfg = experiment(&a, md)?;

@@ -66,18 +66,9 @@ pub struct Args {
     /// Print every stage (elapsed time, simulation count) and every fit iteration on stderr.
     #[arg(long)]
     pub trace: bool,
-    /// FMI interface to run: cs (Co-Simulation) or me (Model Exchange, integrated by the host
-    /// with its stiff Rosenbrock solver, events located). Default: cs where the FMU offers it,
-    /// else me.
-    #[arg(long, value_enum, value_name = "cs|me")]
-    pub interface: Option<crate::common::InterfaceArg>,
-    /// Longest one FMU call may take [s] before the run is stopped as hung (0: no limit).
-    #[arg(long, default_value_t = 60.0, value_name = "SECONDS")]
-    pub timeout: f64,
-    /// Python interpreter whose runtime an FMU needing one (made by PythonFMU) gets
-    /// (default: python3 on PATH).
-    #[arg(long, value_name = "PATH")]
-    pub python: Option<PathBuf>,
+    /// How the FMU runs: its interface, the hang limit, the Python runtime.
+    #[command(flatten)]
+    pub run: crate::common::RunArgs,
 }
 
 /// The report directory must not be an input, nor hold an input under a name the report writes
@@ -242,10 +233,7 @@ fn check_columns(sim: &impl GridModel, data: &Data, path: &Path) -> Result<(), C
 /// Runs `gap`.
 pub fn run(a: Args) -> CliResult {
     refuse_writing_over_inputs(&a)?;
-    let opts = host::OpenOptions {
-        python: a.python.clone(),
-        interface: crate::common::InterfaceArg::host(a.interface),
-    };
+    let opts = a.run.open_options();
     let fmu = AnyFmu::open(&a.fmu, &opts)?;
     let md = fmu.view();
     let fixed = numeric_sets(md, &a.set, "gap")?;

@@ -57,9 +57,9 @@ impl Command {
     fn supervision(&self) -> Option<supervise::Supervision> {
         let secs = |t: f64| (t > 0.0).then(|| std::time::Duration::from_secs_f64(t));
         let (fmu, call_timeout) = match self {
-            Command::Simulate(a) => (a.fmu.display().to_string(), secs(a.timeout)),
-            Command::Gap(a) => (a.fmu.display().to_string(), secs(a.timeout)),
-            Command::Design(a) => (a.fmu.display().to_string(), secs(a.timeout)),
+            Command::Simulate(a) => (a.fmu.display().to_string(), secs(a.run.timeout)),
+            Command::Gap(a) => (a.fmu.display().to_string(), secs(a.run.timeout)),
+            Command::Design(a) => (a.fmu.display().to_string(), secs(a.run.timeout)),
             Command::Validate(a) => (a.fmus[0].display().to_string(), None),
             Command::Probe(_) => return None,
         };

@@ -58,18 +58,9 @@ pub struct Args {
     /// as FMPy's simulate_fmu.
     #[arg(long, value_name = "RTOL")]
     pub tolerance: Option<f64>,
-    /// FMI interface to run: cs (Co-Simulation) or me (Model Exchange, integrated by the host
-    /// with its stiff Rosenbrock solver, events located). Default: cs where the FMU offers it,
-    /// else me.
-    #[arg(long, value_enum, value_name = "cs|me")]
-    pub interface: Option<crate::common::InterfaceArg>,
-    /// Longest one FMU call may take [s] before the run is stopped as hung (0: no limit).
-    #[arg(long, default_value_t = 60.0, value_name = "SECONDS")]
-    pub timeout: f64,
-    /// Python interpreter whose runtime an FMU needing one (made by PythonFMU) gets
-    /// (default: python3 on PATH).
-    #[arg(long, value_name = "PATH")]
-    pub python: Option<PathBuf>,
+    /// How the FMU runs: its interface, the hang limit, the Python runtime.
+    #[command(flatten)]
+    pub run: crate::common::RunArgs,
 }
 
 /// A round step that divides `span` into 500 to 1000 steps (FMPy's `auto_interval`, so both
@@ -263,10 +254,7 @@ fn save(a: &Args, res: &SimulationResult, ended_how: &str) -> CliResult {
 
 /// An FMI 2.0 run, its result handed to `save` before the instance is freed.
 fn run2(a: &Args, save: impl FnOnce(SimulationResult, &str) -> CliResult) -> CliResult {
-    let opts = host::OpenOptions {
-        python: a.python.clone(),
-        interface: crate::common::InterfaceArg::host(a.interface),
-    };
+    let opts = a.run.open_options();
     let fmu = Fmu::open_with(&a.fmu, &opts).map_err(CliError::input)?;
     let md = ModelView::from(fmu.model_description());
     let start_values = parse_sets(&md, &a.set)?;
@@ -295,7 +283,7 @@ fn run2(a: &Args, save: impl FnOnce(SimulationResult, &str) -> CliResult) -> Cli
 
 /// An FMI 3.0 run, its result handed to `save` before the instance is freed.
 fn run3(a: &Args, save: impl FnOnce(SimulationResult, &str) -> CliResult) -> CliResult {
-    let interface = crate::common::InterfaceArg::host(a.interface);
+    let interface = crate::common::InterfaceArg::host(a.run.interface);
     let fmu = Fmu3::open_with(&a.fmu, interface).map_err(CliError::input)?;
     let described = fmu.model_description().with_aliases();
     let md: &ModelDescription3 = &described;
