@@ -4,15 +4,17 @@ use crate::error::{HostError, LogRecord, Result, Status};
 use libloading::Library;
 use std::collections::VecDeque;
 use std::ffi::{c_char, c_int, c_void, CStr};
+use std::marker::PhantomData;
 use std::path::Path;
-use std::sync::Mutex;
+use std::sync::{Mutex, MutexGuard, PoisonError};
 
 pub use fmi_types::c::{
     Boolean as Fmi2Boolean, CallbackFunctions, Component, FmuState, RawStatus, ValueReference,
 };
 
 extern "C" {
-    /// csrc/logger.c: formats with vsnprintf, then calls `LogEnv::sink`.
+    /// csrc/logger.c: formats with vsnprintf, then hands the message to the route set with
+    /// `fmi2host_set_route`.
     pub fn fmi2host_logger(
         env: *mut c_void,
         instance: *const c_char,
@@ -21,25 +23,94 @@ extern "C" {
         message: *const c_char,
         ...
     );
-    /// csrc/logger.c: records `env` as a live instance's `componentEnvironment` (the logger
-    /// follows no other pointer); 0 when out of memory.
-    pub fn fmi2host_env_register(env: *mut c_void) -> c_int;
-    /// csrc/logger.c: `env` is no longer a live instance's.
-    pub fn fmi2host_env_withdraw(env: *mut c_void);
+    /// csrc/logger.c: where `fmi2host_logger` delivers formatted messages.
+    fn fmi2host_set_route(route: LogRoute);
     /// csrc/logger.c: calloc
     pub fn fmi2host_calloc(nobj: usize, size: usize) -> *mut c_void;
     /// csrc/logger.c: free
     pub fn fmi2host_free(obj: *mut c_void);
 }
 
-/// Where an instance's log messages go (behind `componentEnvironment`). Layout shared with
-/// `fmi2host_env` in csrc/logger.c.
-#[repr(C)]
-pub struct LogEnv {
-    /// Called by the C shim with the formatted message.
-    pub sink: extern "C" fn(*mut c_void, *const c_char, RawStatus, *const c_char, *const c_char),
-    /// Points to the instance's [`LogSink`].
-    pub data: *mut c_void,
+/// `(componentEnvironment, instanceName, status, category, message)`, the message formatted.
+type LogRoute = extern "C" fn(*mut c_void, *const c_char, RawStatus, *const c_char, *const c_char);
+
+/// The addresses of the logger environments of type `T` that live instances were given, the
+/// only environment pointers a logger follows. An FMU must pass back the pointer it was given
+/// (FMI 2.0.4 section 2.1.5, FMI 3.0.2 section 2.3.1); some pass a constant such as `(void*)1`.
+/// A message with a pointer not listed goes to the only live instance, or is dropped when
+/// several are live, instead of the run crashing on it. The lock also keeps an environment from
+/// being dropped while a message is delivered to it.
+pub(crate) struct LiveEnvs<T>(Mutex<Vec<usize>>, PhantomData<fn(&T)>);
+
+impl<T> LiveEnvs<T> {
+    /// No environment listed.
+    pub(crate) const fn new() -> Self {
+        LiveEnvs(Mutex::new(Vec::new()), PhantomData)
+    }
+
+    fn listed(&self) -> MutexGuard<'_, Vec<usize>> {
+        self.0.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    /// Calls `deliver` with the live environment `env` names (see [`LiveEnvs`]).
+    pub(crate) fn deliver(&self, env: *mut c_void, deliver: impl FnOnce(&T)) {
+        let live = self.listed();
+        let target = match live.iter().find(|&&p| p == env as usize) {
+            Some(&p) => p,
+            None if live.len() == 1 => live[0],
+            None => return,
+        };
+        // SAFETY: only `LiveEnv::new` lists addresses, each of a `Box<T>` it owns; its drop
+        // withdraws the address under this lock (held until `deliver` returns) before the box
+        // is freed.
+        deliver(unsafe { &*(target as *const T) });
+    }
+}
+
+/// A boxed logger environment, listed in its registry while it lives.
+pub(crate) struct LiveEnv<T: 'static> {
+    env: Box<T>,
+    registry: &'static LiveEnvs<T>,
+}
+
+impl<T> LiveEnv<T> {
+    /// Boxes `env` and lists it in `registry`.
+    pub(crate) fn new(env: T, registry: &'static LiveEnvs<T>) -> Self {
+        let env = Box::new(env);
+        registry.listed().push(&*env as *const T as usize);
+        LiveEnv { env, registry }
+    }
+
+    /// The pointer handed to the FMU as its environment.
+    pub(crate) fn as_ptr(&self) -> *mut c_void {
+        &*self.env as *const T as *mut c_void
+    }
+}
+
+impl<T> std::ops::Deref for LiveEnv<T> {
+    type Target = T;
+    fn deref(&self) -> &T {
+        &self.env
+    }
+}
+
+impl<T> Drop for LiveEnv<T> {
+    fn drop(&mut self) {
+        let me = self.as_ptr() as usize;
+        self.registry.listed().retain(|&p| p != me);
+    }
+}
+
+/// The sinks of live FMI 2.0 instances.
+static LIVE_SINKS: LiveEnvs<LogSink> = LiveEnvs::new();
+
+/// The log sink of an FMI 2.0 instance, listed for the logger while it lives.
+pub(crate) fn live_sink(sink: LogSink) -> LiveEnv<LogSink> {
+    static ROUTE: std::sync::Once = std::sync::Once::new();
+    // SAFETY: sets a function pointer the C shim reads; `Once` orders it before any instance
+    // (and so any logger call) made after this returns.
+    ROUTE.call_once(|| unsafe { fmi2host_set_route(log_sink) });
+    LiveEnv::new(sink, &LIVE_SINKS)
 }
 
 /// Most messages an instance's sink keeps: the newest, since an error's own message comes
@@ -122,28 +193,26 @@ pub(crate) fn bounded(mut s: String) -> String {
     s
 }
 
-/// Sink called from C: stores the record. Never unwinds across the C boundary.
-pub extern "C" fn log_sink(
-    data: *mut c_void,
+/// The route of the C shim's formatted messages: stores the record in the sink of the live
+/// instance `env` names (see [`LiveEnvs`]). Never unwinds across the C boundary.
+extern "C" fn log_sink(
+    env: *mut c_void,
     instance: *const c_char,
     status: RawStatus,
     category: *const c_char,
     message: *const c_char,
 ) {
     let _ = std::panic::catch_unwind(|| {
-        if data.is_null() {
-            return;
-        }
-        // SAFETY: data is the `LogSink` boxed by the instance, alive while the instance lives.
-        let sink = unsafe { &*(data as *const LogSink) };
-        let record = LogRecord {
-            instance: cstr_lossy(instance),
-            status: Status::from_raw(status),
-            category: cstr_lossy(category),
-            message: bounded(cstr_lossy(message)),
-        };
-        let status = record.status.to_string();
-        sink.keep(record, &status);
+        LIVE_SINKS.deliver(env, |sink| {
+            let record = LogRecord {
+                instance: cstr_lossy(instance),
+                status: Status::from_raw(status),
+                category: cstr_lossy(category),
+                message: bounded(cstr_lossy(message)),
+            };
+            let status = record.status.to_string();
+            sink.keep(record, &status);
+        })
     });
 }
 

@@ -1,12 +1,12 @@
 //! One FMI 2.0 Co-Simulation instance (RAII: dropping it calls fmi2FreeInstance).
 
 use crate::error::{fmu_state_given, HostError, LogRecord, Result, Status};
-use crate::ffi::{self, CallbackFunctions, Component, FmuState, LogEnv, LogSink, RawStatus};
+use crate::ffi::{self, CallbackFunctions, Component, FmuState, LiveEnv, LogSink, RawStatus};
 use crate::fmu::Fmu;
 use crate::kind::Interface;
 use crate::watch::{self, Call};
 use ffi::Fmi2Boolean;
-use std::ffi::{c_char, c_int, c_void, CString};
+use std::ffi::{c_char, c_int, CString};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// `fmi2CoSimulation` for fmi2Instantiate's fmuType.
@@ -38,8 +38,8 @@ pub struct Instance<'a> {
     pub(crate) component: Component,
     // Boxed so their addresses stay fixed while the FMU holds pointers to them.
     _callbacks: Box<CallbackFunctions>,
-    _env: Box<LogEnv>,
-    log: Box<LogSink>,
+    /// The instance's `componentEnvironment`.
+    log: LiveEnv<LogSink>,
     _name: CString,
     states: Vec<FmuState>,
 }
@@ -74,28 +74,17 @@ impl Fmu {
             .map_err(|_| HostError::Request("GUID contains a NUL byte".into()))?;
         let uri = CString::new(self.extracted().resource_uri())
             .map_err(|_| HostError::Request("resource path contains a NUL byte".into()))?;
-        let log = Box::new(LogSink {
+        let log = ffi::live_sink(LogSink {
             records: Default::default(),
             echo: opts.echo_log,
-        });
-        let mut env = Box::new(LogEnv {
-            sink: ffi::log_sink,
-            data: &*log as *const LogSink as *mut c_void,
         });
         let callbacks = Box::new(CallbackFunctions {
             logger: Some(ffi::fmi2host_logger),
             allocate_memory: Some(ffi::fmi2host_calloc),
             free_memory: Some(ffi::fmi2host_free),
             step_finished: None,
-            component_environment: &mut *env as *mut LogEnv as *mut c_void,
+            component_environment: log.as_ptr(),
         });
-        let env_ptr = callbacks.component_environment;
-        // SAFETY: env_ptr is the boxed LogEnv, withdrawn before the box is dropped.
-        if unsafe { ffi::fmi2host_env_register(env_ptr) } == 0 {
-            return Err(HostError::Request(
-                "out of memory registering the logger".into(),
-            ));
-        }
         let _watch = watch::enter(Call::Instantiate, None);
         // SAFETY: all pointers are valid NUL-terminated strings / boxed structs that outlive
         // the instance (they are owned by it).
@@ -114,8 +103,6 @@ impl Fmu {
             )
         };
         if component.is_null() {
-            // SAFETY: registered above; the FMU made no instance that could log later.
-            unsafe { ffi::fmi2host_env_withdraw(env_ptr) };
             let messages = log.take();
             return Err(HostError::Instantiate { messages });
         }
@@ -123,7 +110,6 @@ impl Fmu {
             fmu: self,
             component,
             _callbacks: callbacks,
-            _env: env,
             log,
             _name: cname,
             states: Vec::new(),
@@ -505,8 +491,6 @@ impl Drop for Instance<'_> {
         let _watch = watch::enter(Call::FreeInstance, None);
         // SAFETY: component is live; freed exactly once here.
         unsafe { (self.fmu.functions.free_instance)(self.component) };
-        // SAFETY: registered at instantiation; the instance is gone, its env box still alive.
-        unsafe { ffi::fmi2host_env_withdraw(&mut *self._env as *mut LogEnv as *mut c_void) };
         self.fmu.live_instances.fetch_sub(1, Ordering::SeqCst);
     }
 }

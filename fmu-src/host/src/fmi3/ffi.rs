@@ -11,10 +11,9 @@
 //! behaviour.
 
 use crate::error::{LogRecord, Status};
-use crate::ffi::{bounded, cstr_lossy, function_table, LogSink};
+use crate::ffi::{bounded, cstr_lossy, function_table, LiveEnv, LiveEnvs, LogSink};
 use libloading::Library;
 use std::ffi::{c_char, c_int, c_void};
-use std::sync::{Mutex, MutexGuard, PoisonError};
 
 /// `fmi3Instance`
 pub type Instance3 = *mut c_void;
@@ -290,33 +289,17 @@ pub struct Env3 {
     pub name: String,
 }
 
-/// The addresses of the `Env3` of live instances, the only `instanceEnvironment` pointers the
-/// logger follows. An FMU must pass back the pointer it was given (FMI 3.0.2 section 2.3.1); a
-/// message with another goes to the only live instance, or is dropped when several are live,
-/// instead of the run crashing on it. The lock also keeps an environment from being dropped
-/// while a message is delivered to it.
-static LIVE_ENVS: Mutex<Vec<usize>> = Mutex::new(Vec::new());
-
-fn live_envs() -> MutexGuard<'static, Vec<usize>> {
-    LIVE_ENVS.lock().unwrap_or_else(PoisonError::into_inner)
-}
+/// The environments of live FMI 3.0 instances.
+static LIVE_ENVS: LiveEnvs<Env3> = LiveEnvs::new();
 
 impl Env3 {
-    /// The boxed environment of instance `name`, live until it is dropped.
-    pub fn boxed(name: &str) -> Box<Env3> {
-        let env = Box::new(Env3 {
+    /// The environment of instance `name`, listed for the logger while it lives.
+    pub(crate) fn boxed(name: &str) -> LiveEnv<Env3> {
+        let env = Env3 {
             sink: LogSink::default(),
             name: name.to_string(),
-        });
-        live_envs().push(&*env as *const Env3 as usize);
-        env
-    }
-}
-
-impl Drop for Env3 {
-    fn drop(&mut self) {
-        let me = self as *const Env3 as usize;
-        live_envs().retain(|&p| p != me);
+        };
+        LiveEnv::new(env, &LIVE_ENVS)
     }
 }
 
@@ -333,22 +316,15 @@ pub unsafe extern "C" fn log_message(
     message: *const c_char,
 ) {
     let _ = std::panic::catch_unwind(|| {
-        let live = live_envs();
-        let target = match live.iter().find(|&&p| p == env as usize) {
-            Some(&p) => p,
-            None if live.len() == 1 => live[0],
-            None => return,
-        };
-        // SAFETY: target is the address of a boxed `Env3` not yet dropped (it withdraws itself
-        // under this lock, which is held until the record is kept).
-        let env = unsafe { &*(target as *const Env3) };
-        let record = LogRecord {
-            instance: env.name.clone(),
-            status: Status::from_raw(status),
-            category: cstr_lossy(category),
-            message: bounded(cstr_lossy(message)),
-        };
-        let status = record.status.to_string().replacen("fmi2", "fmi3", 1);
-        env.sink.keep(record, &status);
+        LIVE_ENVS.deliver(env, |env| {
+            let record = LogRecord {
+                instance: env.name.clone(),
+                status: Status::from_raw(status),
+                category: cstr_lossy(category),
+                message: bounded(cstr_lossy(message)),
+            };
+            let status = record.status.to_string().replacen("fmi2", "fmi3", 1);
+            env.sink.keep(record, &status);
+        })
     });
 }

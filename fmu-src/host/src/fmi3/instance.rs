@@ -5,6 +5,7 @@ use super::ffi::{self, Bool3, Env3, Functions3, RawStatus3};
 use super::md::ModelDescription3;
 use super::value::{Type3, Values};
 use crate::error::{HostError, LogRecord, Result, Status};
+use crate::ffi::LiveEnv;
 use crate::fmu::{binary_under, check_library_name, Unpacked};
 use crate::instance::{experiment_call, exported, in_instance_slot, instance_calls};
 use crate::kind::Interface;
@@ -222,10 +223,7 @@ impl Fmu3 {
         let resources = CString::new(self.resource_path()).map_err(|_| nul("resource path"))?;
         let env = Env3::boxed(name);
         let (n, t, r) = (cname.as_ptr(), token.as_ptr(), resources.as_ptr());
-        let (env_ptr, log) = (
-            &*env as *const Env3 as *mut c_void,
-            Some(ffi::log_message as _),
-        );
+        let (env_ptr, log) = (env.as_ptr(), Some(ffi::log_message as _));
         // SAFETY (both calls): every pointer is a valid NUL-terminated string or the boxed
         // environment, all owned by the instance and alive as long as it is; no intermediate
         // variables (NULL, 0).
@@ -265,7 +263,7 @@ impl Fmu3 {
     fn instantiated(
         &self,
         instance: ffi::Instance3,
-        env: Box<Env3>,
+        env: LiveEnv<Env3>,
         cname: CString,
         function: &'static str,
     ) -> Result<Instance3<'_>> {
@@ -376,7 +374,7 @@ pub struct Instance3<'a> {
     pub(crate) fmu: &'a Fmu3,
     pub(crate) instance: ffi::Instance3,
     // Boxed so its address stays fixed while the FMU holds it.
-    env: Box<Env3>,
+    env: LiveEnv<Env3>,
     _name: CString,
 }
 
