@@ -72,6 +72,8 @@ pub(crate) const DOUBLE_RANGE: &[Attr] =
     &[opt_attr("min", D), opt_attr("max", D), opt_attr("nominal", D)];
 
 pub(crate) const DECLARED_TYPE: &[Attr] = &[opt_attr("declaredType", N)];
+/// An enumeration variable must name its type.
+pub(crate) const TYPED: &[Attr] = &[req_attr("declaredType", N)];
 
 /// The name, value reference and description of every variable.
 #[rustfmt::skip]

@@ -8,7 +8,7 @@
 use super::common::{
     B, BASE_UNIT_ATTRS, CAUSALITIES, D, DECLARED_TYPE, DEFAULT_EXPERIMENT_ATTRS, DEPENDENCIES,
     DISPLAY_UNIT_ATTRS, DOUBLE_RANGE, INITIAL, INTERFACE_BASE, INT_RANGE, N, NAME, NAMED, QUANTITY,
-    REAL_UNITS, ROOT_INFO, S, VARIABILITY, VARIABLE_ID,
+    REAL_UNITS, ROOT_INFO, S, TYPED, VARIABILITY, VARIABLE_ID,
 };
 use super::model::{
     any, at_most, choice, elem, empty, list, many, one, opt, opt_attr, parent, req_attr, seq,
@@ -126,7 +126,7 @@ static SIMPLE_TYPE: Elem = elem(
     ])),
 );
 
-// the attributes a Real (Integer) type and a Real (Integer) variable share: fmi2AttributeGroups.xsd
+// the attributes a type and a variable share: fmi2AttributeGroups.xsd
 static TYPE_REAL: Elem = empty("Real", TYPE, &[REAL_UNITS, DOUBLE_RANGE]);
 static TYPE_INTEGER: Elem = empty("Integer", TYPE, &[QUANTITY, INT_RANGE]);
 // declared without a type: xs:anyType
@@ -181,11 +181,10 @@ static VAR_INTEGER: Elem = empty(
 );
 static VAR_BOOLEAN: Elem = empty("Boolean", SV, &[DECLARED_TYPE, &[opt_attr("start", B)]]);
 static VAR_STRING: Elem = empty("String", SV, &[DECLARED_TYPE, &[opt_attr("start", S)]]);
-const ENUMERATION_TYPE: &[Attr] = &[req_attr("declaredType", N)];
 static VAR_ENUMERATION: Elem = empty(
     "Enumeration",
     SV,
-    &[ENUMERATION_TYPE, QUANTITY, INT_RANGE, INTEGER_START],
+    &[TYPED, QUANTITY, INT_RANGE, INTEGER_START],
 );
 
 // --- LogCategories (2.2.4), DefaultExperiment (2.2.5), VendorAnnotations (2.2.6) ------------

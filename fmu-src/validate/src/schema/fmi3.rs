@@ -10,7 +10,7 @@
 use super::common::{
     B, BASE_UNIT_ATTRS, CAUSALITIES, D, DECLARED_TYPE, DEFAULT_EXPERIMENT_ATTRS, DEPENDENCIES,
     DISPLAY_UNIT_ATTRS, DOUBLE_RANGE, INITIAL, INTERFACE_BASE, INT_RANGE, N, NAME, NAMED, QUANTITY,
-    REAL_UNITS, ROOT_INFO, S, VARIABILITY, VARIABLE_ID,
+    REAL_UNITS, ROOT_INFO, S, TYPED, VARIABILITY, VARIABLE_ID,
 };
 use super::model::{
     any, choice, column, elem, empty, list, many, one, opt, opt_attr, parent, req_attr, seq,
@@ -80,6 +80,7 @@ static ROOT: Elem = parent(
         opt(one(&TYPE_DEFINITIONS)),
         opt(one(&LOG_CATEGORIES)),
         opt(one(&DEFAULT_EXPERIMENT)),
+        // the model: its variables and their structure
         seq(&[one(&MODEL_VARIABLES), one(&MODEL_STRUCTURE)]),
         opt(one(&ANNOTATIONS)),
     ],
@@ -132,13 +133,13 @@ const CO_SIMULATION_ATTRS: &[Attr] = &[
     opt_attr("providesEvaluateDiscreteStates", B),
 ];
 
-/// An interface element: the common attributes and `own`, further ones allowed
+/// An interface element with the attribute groups `attrs`, further ones allowed
 /// (`xs:anyAttribute`).
-const fn interface(name: &'static str, own: &'static [&'static [Attr]]) -> Elem {
+const fn interface(name: &'static str, attrs: &'static [&'static [Attr]]) -> Elem {
     let any_attribute = true;
     Elem {
         any_attribute,
-        ..elem(name, IFACE, own, ANNOTATED)
+        ..elem(name, IFACE, attrs, ANNOTATED)
     }
 }
 
@@ -203,13 +204,9 @@ const CLOCK: &[Attr] = &[
 const TYPE: &str = "fmi3Type.xsd";
 
 /// Each type with its type definition and its variable element, in the schemas' order.
-static TYPE_CHOICE: [Particle; 15] = column(&TYPES, 0);
-static VARIABLE_CHOICE: [Particle; 15] = column(&TYPES, 1);
 const TYPES: [[&Elem; 2]; 15] = [
-    // floating point
     [&FLOAT32_TYPE, &FLOAT32_VAR],
     [&FLOAT64_TYPE, &FLOAT64_VAR],
-    // integers
     [&INT8_TYPE, &INT8_VAR],
     [&UINT8_TYPE, &UINT8_VAR],
     [&INT16_TYPE, &INT16_VAR],
@@ -218,13 +215,14 @@ const TYPES: [[&Elem; 2]; 15] = [
     [&UINT32_TYPE, &UINT32_VAR],
     [&INT64_TYPE, &INT64_VAR],
     [&UINT64_TYPE, &UINT64_VAR],
-    // the others
     [&BOOLEAN_TYPE, &BOOLEAN_VAR],
     [&STRING_TYPE, &STRING_VAR],
     [&BINARY_TYPE, &BINARY_VAR],
     [&ENUMERATION_TYPE, &ENUMERATION_VAR],
     [&CLOCK_TYPE, &CLOCK_VAR],
 ];
+static TYPE_CHOICE: [Particle; 15] = column(&TYPES, 0);
+static VARIABLE_CHOICE: [Particle; 15] = column(&TYPES, 1);
 
 static TYPE_DEFINITIONS: Elem = elem(
     "TypeDefinitions",
@@ -381,7 +379,7 @@ static ENUMERATION_VAR: Elem = elem(
         VARIABLE_ID,
         VARIABLE,
         ARRAYABLE,
-        &[req_attr("declaredType", N)],
+        TYPED,
         INITIAL_ATTR,
         QUANTITY,
         INT64,
