@@ -8,6 +8,7 @@ use super::instance::{Probed, ProbedFmu};
 use super::Finding;
 use host::me::ModelExchange;
 use host::{HostError, Status};
+use std::fmt::Display;
 
 /// A probe's callback that says whether to run a case (by name), and its findings so far.
 pub(crate) type Progress<'p> = (&'p mut dyn FnMut(&str) -> bool, &'p mut Vec<Finding>);
@@ -103,6 +104,34 @@ impl CaseRules {
         }
         let outcome = set_up(fmu, case.init_at).map(|mut inst| call(&mut inst));
         f.extend(self.settle(case, outcome));
+    }
+
+    /// The normal run a Co-Simulation probe starts with, case `name`, when `step` lets it run:
+    /// `run` answers `Some(message)` when the FMU cannot reset. Whether the probe goes on: the
+    /// other cases assume a working FMU, and an FMU that cannot reset may lack a runtime on this
+    /// host, so the cases would fail for the same reason.
+    pub fn normal_run<E: Display>(
+        &self,
+        name: &str,
+        (step, f): Progress<'_>,
+        run: impl FnOnce() -> Result<Option<String>, E>,
+    ) -> bool {
+        if !step(name) {
+            return false;
+        }
+        let (check, m) = match run() {
+            Ok(None) => return true,
+            Ok(Some(m)) => ("probe-reset", m),
+            Err(e) => (
+                "probe-normal-run",
+                format!(
+                    "instantiate, initialize, 10 steps, terminate, reset, re-initialize, step \
+                     failed: {e}"
+                ),
+            ),
+        };
+        f.push((self.finding)(check, format!("probe {name}"), m));
+        false
     }
 
     /// [`Self::run`] for a call on the instance bound as Model Exchange.
@@ -207,6 +236,27 @@ pub(crate) fn probe_step(step_size: Option<f64>) -> f64 {
         .filter(|h| *h > 0.0 && h.is_finite())
         .unwrap_or(1e-3)
         .min(1e-2)
+}
+
+/// The answer of `fmi2Reset` / `fmi3Reset` (`version`: `fmi2`, `fmi3`) after terminate in a
+/// normal run: the error status, which any call may return, as the message that ends the run
+/// (`Ok(Some)`); another failure as itself.
+pub(crate) fn reset_answer<T>(
+    version: &str,
+    answer: Result<T, HostError>,
+) -> Result<Option<String>, HostError> {
+    match answer {
+        Err(
+            e @ HostError::Fmi {
+                status: Status::Error,
+                ..
+            },
+        ) => Ok(Some(format!(
+            "{version}Reset after {version}Terminate: {e}; re-initialization and the other \
+             cases not probed"
+        ))),
+        other => other.map(|_| None),
+    }
 }
 
 /// A value reference no variable has: 1000 above the largest (0 without variables).

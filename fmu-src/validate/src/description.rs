@@ -2,8 +2,8 @@
 //! convention of the gap workflow.
 
 use super::rules::{
-    apply, approx_or_calculated, defined_again, identifier_problem, name_problems, start_problem,
-    Rule,
+    apply, approx_or_calculated, defined_again, identifier_problem, name_problems, root_problems,
+    start_problem, Rule,
 };
 use super::{var_loc, Finding};
 
@@ -14,40 +14,26 @@ use std::collections::{BTreeSet, HashMap};
 
 pub use fmi_types::schema::{combination_allowed, initial_allowed};
 
+/// The rules of an FMI 2.0 description, in the order of their findings.
+#[rustfmt::skip]
+const RULES: &[Rule<ModelDescription>] = &[check_root, check_interfaces, check_default_experiment,
+    check_units, check_variables, check_model_structure];
+
 /// Checks of `modelDescription.xml` for a Co-Simulation FMU.
 pub fn check_model_description(md: &ModelDescription) -> Vec<Finding> {
-    let mut f = Vec::new();
-    let rules: [Rule<ModelDescription>; 6] = [
-        check_root,
-        check_interfaces,
-        check_default_experiment,
-        check_units,
-        check_variables,
-        check_model_structure,
-    ];
-    apply(md, &rules, &mut f);
-    f
+    apply(md, RULES)
 }
 
 /// The attributes of `<fmiModelDescription>` (FMI 2.0.4 section 2.2.1).
 fn check_root(md: &ModelDescription, f: &mut Vec<Finding>) {
     let root = "modelDescription.xml:<fmiModelDescription>";
-    if md.fmi_version != "2.0" {
-        f.push(Finding::new(
-            "fmi-version",
-            root,
-            format!("fmiVersion is \"{}\", expected \"2.0\"", md.fmi_version),
-        ));
-    }
-    if md.model_name.trim().is_empty() {
-        f.push(Finding::new(
-            "model-name",
-            root,
-            "modelName is missing or empty",
-        ));
-    }
-    if md.guid.trim().is_empty() {
-        f.push(Finding::new("guid", root, "guid is missing or empty"));
+    let version = (md.fmi_version.as_str(), md.fmi_version == "2.0", "2.0");
+    let required = [
+        ("model-name", "modelName", md.model_name.as_str()),
+        ("guid", "guid", md.guid.as_str()),
+    ];
+    for (check, m) in root_problems(version, required) {
+        f.push(Finding::new(check, root, m));
     }
     if let Some(c) = &md.variable_naming_convention {
         if c != "flat" && c != "structured" {
@@ -621,11 +607,6 @@ fn check_initial_unknowns(md: &ModelDescription, f: &mut Vec<Finding>) {
         .filter_map(|u| variable(md, u.index))
         .filter_map(|v| v.derivative)
         .collect();
-    let named_states: BTreeSet<usize> = md
-        .model_variables
-        .iter()
-        .filter_map(|v| v.derivative)
-        .collect();
     let approx_or_calc = |v: &ScalarVariable| approx_or_calculated(v.effective_initial());
     let mut required = BTreeSet::new();
     for (i, v) in md.model_variables.iter().enumerate() {
@@ -649,6 +630,12 @@ fn check_initial_unknowns(md: &ModelDescription, f: &mut Vec<Finding>) {
             ),
         ));
     }
+    // a variable some `derivative` names, listed though not demanded, is tolerated
+    let named_states: BTreeSet<usize> = md
+        .model_variables
+        .iter()
+        .filter_map(|v| v.derivative)
+        .collect();
     for u in &ms.initial_unknowns {
         let tolerated =
             named_states.contains(&u.index) && variable(md, u.index).is_some_and(&approx_or_calc);

@@ -6,7 +6,7 @@ use super::binary::{library_extension, missing_exports};
 use super::layout::Survey;
 use super::rules::{
     apply, approx_or_calculated, defined_again, identifier_problem, name_problems, names_one_file,
-    start_problem, Rule,
+    root_problems, start_problem, Rule,
 };
 use super::Finding;
 use fmi_types::schema::{combination_allowed, initial_allowed, Causality};
@@ -91,20 +91,36 @@ fn interfaces(md: &ModelDescription3) -> Vec<(&'static str, &Interface3)> {
     .collect()
 }
 
+/// The rules of an FMI 3.0 description, in the order of their findings.
+#[rustfmt::skip]
+const RULES: &[Rule<ModelDescription3>] = &[check_root, check_units_and_types,
+    check_display_units, check_variables, check_clocks, check_model_structure,
+    check_initial_unknowns];
+
 /// Checks of an FMI 3.0 `modelDescription.xml`, one finding per departure from the standard.
 pub fn check_model_description3(md: &ModelDescription3) -> Vec<Finding> {
-    let mut f = Vec::new();
+    apply(md, RULES)
+}
+
+/// The attributes of `<fmiModelDescription>` and the interface elements (FMI 3.0.2 section
+/// 2.4.1): at least one interface, each with a C identifier.
+fn check_root(md: &ModelDescription3, f: &mut Vec<Finding>) {
     let root = "modelDescription.xml:<fmiModelDescription>";
-    if !md.fmi_version.starts_with("3.") {
-        let m = format!("fmiVersion is \"{}\", expected \"3.x\"", md.fmi_version);
-        f.push(finding("fmi-version", root, m));
-    }
-    if md.model_name.trim().is_empty() {
-        f.push(finding("model-name", root, "modelName is missing or empty"));
-    }
-    if md.instantiation_token.trim().is_empty() {
-        let m = "instantiationToken is missing or empty";
-        f.push(finding("instantiation-token", root, m));
+    let version = (
+        md.fmi_version.as_str(),
+        md.fmi_version.starts_with("3."),
+        "3.x",
+    );
+    let required = [
+        ("model-name", "modelName", md.model_name.as_str()),
+        (
+            "instantiation-token",
+            "instantiationToken",
+            md.instantiation_token.as_str(),
+        ),
+    ];
+    for (check, m) in root_problems(version, required) {
+        f.push(finding(check, root, m));
     }
     let declared = interfaces(md);
     if declared.is_empty() {
@@ -117,16 +133,6 @@ pub fn check_model_description3(md: &ModelDescription3) -> Vec<Finding> {
             f.push(finding("model-identifier", loc, m));
         }
     }
-    let rules: [Rule<ModelDescription3>; 6] = [
-        check_units_and_types,
-        check_display_units,
-        check_variables,
-        check_clocks,
-        check_model_structure,
-        check_initial_unknowns,
-    ];
-    apply(md, &rules, &mut f);
-    f
 }
 
 /// Units and type definitions: unique names; a `unit` names a `<Unit>` (FMI 3.0.2 section

@@ -28,25 +28,8 @@ pub fn probe(fmu: &Fmu, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding> {
     let mut f = Vec::new();
     let experiment = fmu.experiment();
     let (t0, h) = (experiment.start, cases::probe_step(experiment.step_size));
-    if !step("normal-run") {
+    if !CS_RULES.normal_run("normal-run", (step, &mut f), || normal_run(fmu, t0, h)) {
         return f;
-    }
-    match normal_run(fmu, t0, h) {
-        Err(e) => {
-            let m = format!(
-                "instantiate, initialize, 10 steps, terminate, reset, re-initialize, step \
-                 failed: {e}"
-            );
-            f.push(Finding::new("probe-normal-run", "probe normal-run", m));
-            return f; // the wrong-call cases below assume a working FMU
-        }
-        Ok(Some(m)) => {
-            // An FMU that cannot reset may lack a runtime on this host: the cases below would
-            // fail for the same reason, so they are not run.
-            f.push(Finding::new("probe-reset", "probe normal-run", m));
-            return f;
-        }
-        Ok(None) => {}
     }
     // Capability flags kept: a restored (and a deserialized) FMU state continues bit-identically.
     let cs = md.co_simulation.clone().unwrap_or_default();
@@ -108,21 +91,10 @@ fn normal_run(fmu: &Fmu, t0: f64, h: f64) -> Result<Option<String>, ProbeError> 
         }
     }
     inst.terminate()?;
-    match inst.reset() {
-        Err(
-            e @ HostError::Fmi {
-                status: Status::Error,
-                ..
-            },
-        ) => {
-            let m = format!(
-                "fmi2Reset after fmi2Terminate: {e}; re-initialization and the other cases not \
-                 probed"
-            );
-            return Ok(Some(m));
-        }
-        other => other.map_err(at(Stage::AfterTerminate))?,
-    };
+    let reset = cases::reset_answer("fmi2", inst.reset());
+    if let Some(m) = reset.map_err(at(Stage::AfterTerminate))? {
+        return Ok(Some(m));
+    }
     inst.initialize(t0).map_err(at(Stage::AfterReset))?;
     inst.do_step(t0, h, true).map_err(at(Stage::AfterReset))?;
     Ok(None)

@@ -66,37 +66,12 @@ pub fn probe3(fmu: &Fmu3, step: &mut dyn FnMut(&str) -> bool) -> Vec<Finding> {
     let experiment = fmu.experiment();
     let (t0, h) = (experiment.start, cases::probe_step(experiment.step_size));
     let mut f = Vec::new();
-    if !step("fmi3-normal-run") {
+    if !CS_RULES.normal_run("fmi3-normal-run", (step, &mut f), || normal_run(fmu, t0, h)) {
         return f;
     }
-    match normal_run(fmu, t0, h) {
-        Err(e) => {
-            let m = format!(
-                "instantiate, initialize, 10 steps, terminate, reset, re-initialize, step \
-                 failed: {e}"
-            );
-            f.push(finding3(
-                "probe-normal-run",
-                "probe fmi3-normal-run".into(),
-                m,
-            ));
-            return f;
-        }
-        Ok(Some(m)) => {
-            // As in FMI 2.0: an FMU that cannot reset may lack a runtime on this host, and the
-            // cases below would fail for the same reason.
-            f.push(finding3("probe-reset", "probe fmi3-normal-run".into(), m));
-            return f;
-        }
-        Ok(None) => {}
-    }
-    if declares(fmu, false, "canGetAndSetFMUState") && step("fmi3-fmu-state") {
-        let loc = || "probe fmi3-fmu-state".to_string();
-        match check_fmu_state(fmu, t0, h) {
-            Ok(None) => {}
-            Ok(Some(m)) => f.push(finding3("probe-fmu-state", loc(), m)),
-            Err(e) => f.push(finding3("probe-normal-run", loc(), e.to_string())),
-        }
+    if declares(fmu, false, "canGetAndSetFMUState") {
+        let case = ("fmi3-fmu-state", "probe-fmu-state");
+        me_checks::check_case(case, step, &mut f, finding3, || check_fmu_state(fmu, t0, h));
     }
     wrong_calls(fmu, (t0, h), (step, &mut f));
     f
@@ -116,20 +91,9 @@ fn normal_run(fmu: &Fmu3, t0: f64, h: f64) -> Result<Option<String>, HostError> 
         }
     }
     inst.terminate()?;
-    match inst.reset() {
-        Err(
-            e @ HostError::Fmi {
-                status: Status::Error,
-                ..
-            },
-        ) => {
-            return Ok(Some(format!(
-                "fmi3Reset after fmi3Terminate: {e}; re-initialization and the other cases not \
-                 probed"
-            )))
-        }
-        other => other?,
-    };
+    if let Some(m) = cases::reset_answer("fmi3", inst.reset())? {
+        return Ok(Some(m));
+    }
     inst.initialize(t0)?;
     inst.do_step(t0, h, true)?;
     Ok(None)

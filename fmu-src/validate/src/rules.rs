@@ -82,12 +82,35 @@ pub(crate) fn start_problem(
     }
 }
 
+/// What is wrong with the attributes of `<fmiModelDescription>` both versions require (FMI
+/// 2.0.4 section 2.2.1, FMI 3.0.2 section 2.4.1), as (check, message): `fmiVersion` not the
+/// version's (`accepted`; `expected` says which), and each of `required` (check, attribute,
+/// value) missing or empty.
+pub(crate) fn root_problems(
+    (version, accepted, expected): (&str, bool, &str),
+    required: [(&'static str, &str, &str); 2],
+) -> Vec<(&'static str, String)> {
+    let mut problems = Vec::new();
+    if !accepted {
+        let m = format!("fmiVersion is \"{version}\", expected \"{expected}\"");
+        problems.push(("fmi-version", m));
+    }
+    for (check, attribute, value) in required {
+        if value.trim().is_empty() {
+            problems.push((check, format!("{attribute} is missing or empty")));
+        }
+    }
+    problems
+}
+
 /// A group of rules on a description of type `M`: appends a finding for each departure.
 pub(crate) type Rule<M> = fn(&M, &mut Vec<Finding>);
 
-/// Appends the findings of each group of `rules` on `md` to `f`, in their order.
-pub(crate) fn apply<M>(md: &M, rules: &[Rule<M>], f: &mut Vec<Finding>) {
+/// The findings of each group of `rules` on `md`, in their order.
+pub(crate) fn apply<M>(md: &M, rules: &[Rule<M>]) -> Vec<Finding> {
+    let mut f = Vec::new();
     for rule in rules {
-        rule(md, f);
+        rule(md, &mut f);
     }
+    f
 }

@@ -7,18 +7,18 @@
 //! verdicts). `terminalsAndIcons.xml` and `buildDescription.xml` are other files, not checked
 //! here.
 
+use super::common::{
+    B, BASE_UNIT_ATTRS, CAUSALITIES, D, DECLARED_TYPE, DEFAULT_EXPERIMENT_ATTRS, DEPENDENCIES,
+    DISPLAY_UNIT_ATTRS, DOUBLE_RANGE, INITIAL, INTERFACE_BASE, INT_RANGE, N, NAME, NAMED, QUANTITY,
+    REAL_UNITS, ROOT_INFO, S, TYPED, VARIABILITY, VARIABLE_ID,
+};
 use super::model::{
-    any, choice, many, one, opt, opt_attr, req_attr, seq, unbounded, Attr, Content, Elem, Particle,
-    Schema, Ty, BYTE, INT, LONG, SHORT, UBYTE, UINT, ULONG, USHORT,
+    any, choice, column, elem, empty, list, many, one, opt, opt_attr, parent, req_attr, seq,
+    unbounded, Attr, Content, Elem, Particle, Schema, Ty, BYTE, INT, LONG, SHORT, UBYTE, UINT,
+    ULONG, USHORT,
 };
 
 const MD: &str = "fmi3ModelDescription.xsd";
-const ANN: &str = "fmi3Annotation.xsd";
-const IFACE: &str = "fmi3InterfaceType.xsd";
-const UNIT_XSD: &str = "fmi3Unit.xsd";
-const TYPE: &str = "fmi3Type.xsd";
-const VAR: &str = "fmi3Variable.xsd";
-const DEP: &str = "fmi3VariableDependency.xsd";
 
 /// The FMI 3.0 schema.
 pub(crate) static SCHEMA: Schema = Schema {
@@ -27,29 +27,10 @@ pub(crate) static SCHEMA: Schema = Schema {
     globals: &[&ROOT, &ANNOTATIONS],
 };
 
-const fn elem(
-    name: &'static str,
-    xsd: &'static str,
-    attrs: &'static [&'static [Attr]],
-    content: Content,
-) -> Elem {
-    Elem {
-        name,
-        xsd,
-        attrs,
-        any_attribute: false,
-        content,
-    }
-}
-
 /// Content of at most one `<Annotations>`, the child most FMI 3.0 elements may have.
 const ANNOTATED: Content = Content::Elements(opt(one(&ANNOTATIONS)));
 
-const B: Ty = Ty::Boolean;
-const D: Ty = Ty::Double;
 const F: Ty = Ty::Float;
-const N: Ty = Ty::Normalized;
-const S: Ty = Ty::String;
 
 /// `fmiVersion`: "3[.](0|[1-9][0-9]*)([.](0|[1-9][0-9]*))?(-.+)?" (major 3, a minor, an optional
 /// patch, an optional suffix after `-`), as fmi3ModelDescription.xsd restricts it.
@@ -77,196 +58,132 @@ fn is_fmi3_version(v: &str) -> bool {
 
 // --- fmiModelDescription (section 2.4.1) -----------------------------------------------------
 
-static ROOT: Elem = elem(
+const ROOT_ID: &[Attr] = &[
+    req_attr(
+        "fmiVersion",
+        Ty::Pattern(
+            is_fmi3_version,
+            "3[.](0|[1-9][0-9]*)([.](0|[1-9][0-9]*))?(-.+)?",
+        ),
+    ),
+    req_attr("modelName", S),
+    req_attr("instantiationToken", N),
+];
+
+static ROOT: Elem = parent(
     "fmiModelDescription",
     MD,
-    &[&[
-        req_attr(
-            "fmiVersion",
-            Ty::Pattern(
-                is_fmi3_version,
-                "3[.](0|[1-9][0-9]*)([.](0|[1-9][0-9]*))?(-.+)?",
-            ),
-        ),
-        req_attr("modelName", S),
-        req_attr("instantiationToken", N),
-        opt_attr("description", S),
-        opt_attr("author", S),
-        opt_attr("version", N),
-        opt_attr("copyright", S),
-        opt_attr("license", S),
-        opt_attr("generationTool", N),
-        opt_attr("generationDateAndTime", Ty::DateTime),
-        opt_attr(
-            "variableNamingConvention",
-            Ty::Enum(&["flat", "structured"]),
-        ),
-    ]],
-    Content::Elements(seq(&[
-        opt(one(&MODEL_EXCHANGE)),
-        opt(one(&CO_SIMULATION)),
-        opt(one(&SCHEDULED_EXECUTION)),
+    &[ROOT_ID, ROOT_INFO],
+    &[
+        seq(&INTERFACES),
         opt(one(&UNIT_DEFINITIONS)),
         opt(one(&TYPE_DEFINITIONS)),
         opt(one(&LOG_CATEGORIES)),
         opt(one(&DEFAULT_EXPERIMENT)),
-        one(&MODEL_VARIABLES),
-        one(&MODEL_STRUCTURE),
+        // the model: its variables and their structure
+        seq(&[one(&MODEL_VARIABLES), one(&MODEL_STRUCTURE)]),
         opt(one(&ANNOTATIONS)),
-    ])),
+    ],
 );
+
+/// The interfaces, each optional. A sequence within a sequence reads as its particles in place
+/// (`content.rs` builds the same automaton), so children may be grouped by what they are.
+static INTERFACES: [Particle; 3] = [
+    opt(one(&MODEL_EXCHANGE)),
+    opt(one(&CO_SIMULATION)),
+    opt(one(&SCHEDULED_EXECUTION)),
+];
 
 // --- Annotations (section 2.4.1): the content of an <Annotation> is free ---------------------
 
-static ANNOTATIONS: Elem = elem(
-    "Annotations",
-    ANN,
-    &[],
-    Content::Elements(unbounded(one(&ANNOTATION))),
-);
-
+const ANN: &str = "fmi3Annotation.xsd";
+static ANNOTATIONS: Elem = list("Annotations", ANN, &ANNOTATION);
+const ANNOTATION_ATTRS: &[Attr] = &[req_attr("type", N)];
 static ANNOTATION: Elem = elem(
     "Annotation",
     ANN,
-    &[&[req_attr("type", N)]],
+    &[ANNOTATION_ATTRS],
     Content::Mixed(unbounded(opt(any()))),
 );
 
 // --- ModelExchange, CoSimulation, ScheduledExecution (sections 2.4.2, 3.4, 4.4, 5.4) ---------
 
+const IFACE: &str = "fmi3InterfaceType.xsd";
+
 const INTERFACE: &[Attr] = &[
-    req_attr("modelIdentifier", N),
-    opt_attr("needsExecutionTool", B),
-    opt_attr("canBeInstantiatedOnlyOncePerProcess", B),
     opt_attr("canGetAndSetFMUState", B),
     opt_attr("canSerializeFMUState", B),
     opt_attr("providesDirectionalDerivatives", B),
     opt_attr("providesAdjointDerivatives", B),
     opt_attr("providesPerElementDependencies", B),
 ];
+const ME_ATTRS: &[Attr] = &[
+    opt_attr("needsCompletedIntegratorStep", B),
+    opt_attr("providesEvaluateDiscreteStates", B),
+];
+const CO_SIMULATION_ATTRS: &[Attr] = &[
+    opt_attr("canHandleVariableCommunicationStepSize", B),
+    opt_attr("fixedInternalStepSize", D),
+    opt_attr("maxOutputDerivativeOrder", UINT),
+    opt_attr("recommendedIntermediateInputSmoothness", INT),
+    opt_attr("providesIntermediateUpdate", B),
+    opt_attr("mightReturnEarlyFromDoStep", B),
+    opt_attr("canReturnEarlyAfterIntermediateUpdate", B),
+    opt_attr("hasEventMode", B),
+    opt_attr("providesEvaluateDiscreteStates", B),
+];
 
-/// An interface element: the common attributes, further ones allowed (`xs:anyAttribute`).
-const fn interface(name: &'static str, own: &'static [&'static [Attr]]) -> Elem {
+/// An interface element with the attribute groups `attrs`, further ones allowed
+/// (`xs:anyAttribute`).
+const fn interface(name: &'static str, attrs: &'static [&'static [Attr]]) -> Elem {
+    let any_attribute = true;
     Elem {
-        name,
-        xsd: IFACE,
-        attrs: own,
-        any_attribute: true,
-        content: ANNOTATED,
+        any_attribute,
+        ..elem(name, IFACE, attrs, ANNOTATED)
     }
 }
 
-static MODEL_EXCHANGE: Elem = interface(
-    "ModelExchange",
-    &[
-        INTERFACE,
-        &[
-            opt_attr("needsCompletedIntegratorStep", B),
-            opt_attr("providesEvaluateDiscreteStates", B),
-        ],
-    ],
-);
-
+static MODEL_EXCHANGE: Elem = interface("ModelExchange", &[INTERFACE_BASE, INTERFACE, ME_ATTRS]);
 static CO_SIMULATION: Elem = interface(
     "CoSimulation",
-    &[
-        INTERFACE,
-        &[
-            opt_attr("canHandleVariableCommunicationStepSize", B),
-            opt_attr("fixedInternalStepSize", D),
-            opt_attr("maxOutputDerivativeOrder", UINT),
-            opt_attr("recommendedIntermediateInputSmoothness", INT),
-            opt_attr("providesIntermediateUpdate", B),
-            opt_attr("mightReturnEarlyFromDoStep", B),
-            opt_attr("canReturnEarlyAfterIntermediateUpdate", B),
-            opt_attr("hasEventMode", B),
-            opt_attr("providesEvaluateDiscreteStates", B),
-        ],
-    ],
+    &[INTERFACE_BASE, INTERFACE, CO_SIMULATION_ATTRS],
 );
-
-static SCHEDULED_EXECUTION: Elem = interface("ScheduledExecution", &[INTERFACE]);
+static SCHEDULED_EXECUTION: Elem = interface("ScheduledExecution", &[INTERFACE_BASE, INTERFACE]);
 
 // --- UnitDefinitions (section 2.4.3) ---------------------------------------------------------
 
-static UNIT_DEFINITIONS: Elem = elem(
-    "UnitDefinitions",
-    MD,
-    &[],
-    Content::Elements(unbounded(one(&UNIT))),
-);
-
-static UNIT: Elem = elem(
-    "Unit",
-    UNIT_XSD,
-    &[&[req_attr("name", N)]],
-    Content::Elements(seq(&[
-        opt(one(&BASE_UNIT)),
-        many(&DISPLAY_UNIT),
-        opt(one(&ANNOTATIONS)),
-    ])),
-);
-
-static BASE_UNIT: Elem = elem(
-    "BaseUnit",
-    UNIT_XSD,
-    &[&[
-        opt_attr("kg", INT),
-        opt_attr("m", INT),
-        opt_attr("s", INT),
-        opt_attr("A", INT),
-        opt_attr("K", INT),
-        opt_attr("mol", INT),
-        opt_attr("cd", INT),
-        opt_attr("rad", INT),
-        opt_attr("factor", D),
-        opt_attr("offset", D),
-    ]],
-    Content::Empty,
-);
-
+const UNIT_XSD: &str = "fmi3Unit.xsd";
+static UNIT_DEFINITIONS: Elem = list("UnitDefinitions", MD, &UNIT);
+static UNIT_CHILDREN: [Particle; 3] = [
+    opt(one(&BASE_UNIT)),
+    many(&DISPLAY_UNIT),
+    opt(one(&ANNOTATIONS)),
+];
+static UNIT: Elem = parent("Unit", UNIT_XSD, &[NAME], &UNIT_CHILDREN);
+static BASE_UNIT: Elem = empty("BaseUnit", UNIT_XSD, &[BASE_UNIT_ATTRS]);
+const INVERSE: &[Attr] = &[opt_attr("inverse", B)];
 static DISPLAY_UNIT: Elem = elem(
     "DisplayUnit",
     UNIT_XSD,
-    &[&[
-        req_attr("name", N),
-        opt_attr("factor", D),
-        opt_attr("offset", D),
-        opt_attr("inverse", B),
-    ]],
+    &[DISPLAY_UNIT_ATTRS, INVERSE],
     ANNOTATED,
 );
 
 // --- attribute groups shared by types and variables (fmi3AttributeGroups.xsd) ----------------
 
-const REAL_BASE: &[Attr] = &[
-    opt_attr("quantity", N),
-    opt_attr("unit", N),
-    opt_attr("displayUnit", N),
-    opt_attr("relativeQuantity", B),
-    opt_attr("unbounded", B),
-];
-const FLOAT64: &[Attr] = &[
-    opt_attr("min", D),
-    opt_attr("max", D),
-    opt_attr("nominal", D),
-];
 const FLOAT32: &[Attr] = &[
     opt_attr("min", F),
     opt_attr("max", F),
     opt_attr("nominal", F),
 ];
-const INT_BASE: &[Attr] = &[opt_attr("quantity", N)];
 const INT8: &[Attr] = &[opt_attr("min", BYTE), opt_attr("max", BYTE)];
 const UINT8: &[Attr] = &[opt_attr("min", UBYTE), opt_attr("max", UBYTE)];
 const INT16: &[Attr] = &[opt_attr("min", SHORT), opt_attr("max", SHORT)];
 const UINT16: &[Attr] = &[opt_attr("min", USHORT), opt_attr("max", USHORT)];
-const INT32: &[Attr] = &[opt_attr("min", INT), opt_attr("max", INT)];
 const UINT32: &[Attr] = &[opt_attr("min", UINT), opt_attr("max", UINT)];
 const INT64: &[Attr] = &[opt_attr("min", LONG), opt_attr("max", LONG)];
 const UINT64: &[Attr] = &[opt_attr("min", ULONG), opt_attr("max", ULONG)];
 const REAL_VARIABLE: &[Attr] = &[opt_attr("derivative", UINT), opt_attr("reinit", B)];
-const ENUMERATION: &[Attr] = &[opt_attr("min", LONG), opt_attr("max", LONG)];
 const CLOCK: &[Attr] = &[
     opt_attr("canBeDeactivated", B),
     opt_attr("priority", UINT),
@@ -284,60 +201,65 @@ const CLOCK: &[Attr] = &[
 
 // --- TypeDefinitions (section 2.4.4) ---------------------------------------------------------
 
+const TYPE: &str = "fmi3Type.xsd";
+
+/// Each type with its type definition and its variable element, in the schemas' order.
+const TYPES: [[&Elem; 2]; 15] = [
+    [&FLOAT32_TYPE, &FLOAT32_VAR],
+    [&FLOAT64_TYPE, &FLOAT64_VAR],
+    [&INT8_TYPE, &INT8_VAR],
+    [&UINT8_TYPE, &UINT8_VAR],
+    [&INT16_TYPE, &INT16_VAR],
+    [&UINT16_TYPE, &UINT16_VAR],
+    [&INT32_TYPE, &INT32_VAR],
+    [&UINT32_TYPE, &UINT32_VAR],
+    [&INT64_TYPE, &INT64_VAR],
+    [&UINT64_TYPE, &UINT64_VAR],
+    [&BOOLEAN_TYPE, &BOOLEAN_VAR],
+    [&STRING_TYPE, &STRING_VAR],
+    [&BINARY_TYPE, &BINARY_VAR],
+    [&ENUMERATION_TYPE, &ENUMERATION_VAR],
+    [&CLOCK_TYPE, &CLOCK_VAR],
+];
+static TYPE_CHOICE: [Particle; 15] = column(&TYPES, 0);
+static VARIABLE_CHOICE: [Particle; 15] = column(&TYPES, 1);
+
 static TYPE_DEFINITIONS: Elem = elem(
     "TypeDefinitions",
     MD,
     &[],
-    Content::Elements(unbounded(choice(&[
-        one(&FLOAT32_TYPE),
-        one(&FLOAT64_TYPE),
-        one(&INT8_TYPE),
-        one(&UINT8_TYPE),
-        one(&INT16_TYPE),
-        one(&UINT16_TYPE),
-        one(&INT32_TYPE),
-        one(&UINT32_TYPE),
-        one(&INT64_TYPE),
-        one(&UINT64_TYPE),
-        one(&BOOLEAN_TYPE),
-        one(&STRING_TYPE),
-        one(&BINARY_TYPE),
-        one(&ENUMERATION_TYPE),
-        one(&CLOCK_TYPE),
-    ]))),
+    Content::Elements(unbounded(choice(&TYPE_CHOICE))),
 );
-
-const TYPE_BASE: &[Attr] = &[req_attr("name", N), opt_attr("description", S)];
 
 const fn type_def(name: &'static str, attrs: &'static [&'static [Attr]]) -> Elem {
     elem(name, TYPE, attrs, ANNOTATED)
 }
 
-static FLOAT32_TYPE: Elem = type_def("Float32Type", &[TYPE_BASE, REAL_BASE, FLOAT32]);
-static FLOAT64_TYPE: Elem = type_def("Float64Type", &[TYPE_BASE, REAL_BASE, FLOAT64]);
-static INT8_TYPE: Elem = type_def("Int8Type", &[TYPE_BASE, INT_BASE, INT8]);
-static UINT8_TYPE: Elem = type_def("UInt8Type", &[TYPE_BASE, INT_BASE, UINT8]);
-static INT16_TYPE: Elem = type_def("Int16Type", &[TYPE_BASE, INT_BASE, INT16]);
-static UINT16_TYPE: Elem = type_def("UInt16Type", &[TYPE_BASE, INT_BASE, UINT16]);
-static INT32_TYPE: Elem = type_def("Int32Type", &[TYPE_BASE, INT_BASE, INT32]);
-static UINT32_TYPE: Elem = type_def("UInt32Type", &[TYPE_BASE, INT_BASE, UINT32]);
-static INT64_TYPE: Elem = type_def("Int64Type", &[TYPE_BASE, INT_BASE, INT64]);
-static UINT64_TYPE: Elem = type_def("UInt64Type", &[TYPE_BASE, INT_BASE, UINT64]);
-static BOOLEAN_TYPE: Elem = type_def("BooleanType", &[TYPE_BASE]);
-static STRING_TYPE: Elem = type_def("StringType", &[TYPE_BASE]);
-static CLOCK_TYPE: Elem = type_def("ClockType", &[TYPE_BASE, CLOCK]);
+static FLOAT32_TYPE: Elem = type_def("Float32Type", &[NAMED, REAL_UNITS, FLOAT32]);
+static FLOAT64_TYPE: Elem = type_def("Float64Type", &[NAMED, REAL_UNITS, DOUBLE_RANGE]);
+static INT8_TYPE: Elem = type_def("Int8Type", &[NAMED, QUANTITY, INT8]);
+static UINT8_TYPE: Elem = type_def("UInt8Type", &[NAMED, QUANTITY, UINT8]);
+static INT16_TYPE: Elem = type_def("Int16Type", &[NAMED, QUANTITY, INT16]);
+static UINT16_TYPE: Elem = type_def("UInt16Type", &[NAMED, QUANTITY, UINT16]);
+static INT32_TYPE: Elem = type_def("Int32Type", &[NAMED, QUANTITY, INT_RANGE]);
+static UINT32_TYPE: Elem = type_def("UInt32Type", &[NAMED, QUANTITY, UINT32]);
+static INT64_TYPE: Elem = type_def("Int64Type", &[NAMED, QUANTITY, INT64]);
+static UINT64_TYPE: Elem = type_def("UInt64Type", &[NAMED, QUANTITY, UINT64]);
+static BOOLEAN_TYPE: Elem = type_def("BooleanType", &[NAMED]);
+static STRING_TYPE: Elem = type_def("StringType", &[NAMED]);
+static CLOCK_TYPE: Elem = type_def("ClockType", &[NAMED, CLOCK]);
 
 const BINARY: &[Attr] = &[
     opt_attr("mimeType", N),
     opt_attr("maxSize", Ty::NonNegativeInteger),
 ];
 
-static BINARY_TYPE: Elem = type_def("BinaryType", &[TYPE_BASE, BINARY]);
+static BINARY_TYPE: Elem = type_def("BinaryType", &[NAMED, BINARY]);
 
 static ENUMERATION_TYPE: Elem = elem(
     "EnumerationType",
     TYPE,
-    &[TYPE_BASE, INT_BASE, ENUMERATION],
+    &[NAMED, QUANTITY, INT64],
     Content::Elements(seq(&[opt(one(&ANNOTATIONS)), unbounded(one(&ITEM))])),
 );
 
@@ -354,78 +276,30 @@ static ITEM: Elem = elem(
 
 // --- LogCategories (2.4.5) and DefaultExperiment (2.4.6) -------------------------------------
 
-static LOG_CATEGORIES: Elem = elem(
-    "LogCategories",
-    MD,
-    &[],
-    Content::Elements(unbounded(one(&CATEGORY))),
-);
-
-static CATEGORY: Elem = elem(
-    "Category",
-    MD,
-    &[&[req_attr("name", N), opt_attr("description", S)]],
-    ANNOTATED,
-);
-
+static LOG_CATEGORIES: Elem = list("LogCategories", MD, &CATEGORY);
+static CATEGORY: Elem = elem("Category", MD, &[NAMED], ANNOTATED);
 static DEFAULT_EXPERIMENT: Elem = elem(
     "DefaultExperiment",
     MD,
-    &[&[
-        opt_attr("startTime", D),
-        opt_attr("stopTime", D),
-        opt_attr("tolerance", D),
-        opt_attr("stepSize", D),
-    ]],
+    &[DEFAULT_EXPERIMENT_ATTRS],
     ANNOTATED,
 );
 
 // --- ModelVariables (section 2.4.7) ----------------------------------------------------------
 
+const VAR: &str = "fmi3Variable.xsd";
+
 static MODEL_VARIABLES: Elem = elem(
     "ModelVariables",
     MD,
     &[],
-    Content::Elements(unbounded(choice(&[
-        one(&FLOAT32_VAR),
-        one(&FLOAT64_VAR),
-        one(&INT8_VAR),
-        one(&UINT8_VAR),
-        one(&INT16_VAR),
-        one(&UINT16_VAR),
-        one(&INT32_VAR),
-        one(&UINT32_VAR),
-        one(&INT64_VAR),
-        one(&UINT64_VAR),
-        one(&BOOLEAN_VAR),
-        one(&STRING_VAR),
-        one(&BINARY_VAR),
-        one(&ENUMERATION_VAR),
-        one(&CLOCK_VAR),
-    ]))),
+    Content::Elements(unbounded(choice(&VARIABLE_CHOICE))),
 );
 
-/// The attributes of every variable (fmi3AbstractVariable).
+/// The attributes of every variable after [`VARIABLE_ID`] (fmi3AbstractVariable).
 const VARIABLE: &[Attr] = &[
-    req_attr("name", N),
-    req_attr("valueReference", UINT),
-    opt_attr("description", S),
-    opt_attr(
-        "causality",
-        Ty::Enum(&[
-            "parameter",
-            "calculatedParameter",
-            "input",
-            "output",
-            "local",
-            "independent",
-            "structuralParameter",
-        ]),
-    ),
-    opt_attr(
-        "variability",
-        Ty::Enum(&["constant", "fixed", "tunable", "discrete", "continuous"]),
-    ),
+    opt_attr("causality", Ty::Enum(&CAUSALITIES)),
+    opt_attr("variability", VARIABILITY),
     opt_attr("canHandleMultipleSetPerTimeInstant", B),
     opt_attr("clocks", Ty::List(&UINT)),
 ];
@@ -434,167 +308,106 @@ const ARRAYABLE: &[Attr] = &[
     opt_attr("intermediateUpdate", B),
     opt_attr("previous", UINT),
 ];
-const DECLARED_TYPE: &[Attr] = &[opt_attr("declaredType", N)];
-const INITIAL: &[Attr] = &[opt_attr(
-    "initial",
-    Ty::Enum(&["exact", "approx", "calculated"]),
-)];
+const INITIAL_ATTR: &[Attr] = &[opt_attr("initial", INITIAL)];
 
 /// The children of an array-capable variable: annotations, dimensions, aliases.
 static ARRAY_CHILDREN: [Particle; 3] = [opt(one(&ANNOTATIONS)), many(&DIMENSION), many(&ALIAS)];
-
 /// The children of a Float32 or Float64 variable: its aliases may have a display unit.
 static FLOAT_CHILDREN: [Particle; 3] =
     [opt(one(&ANNOTATIONS)), many(&DIMENSION), many(&FLOAT_ALIAS)];
-
-const fn variable(name: &'static str, attrs: &'static [&'static [Attr]]) -> Elem {
-    elem(name, VAR, attrs, Content::Elements(seq(&ARRAY_CHILDREN)))
+/// The children of a String or Binary variable: its start values are `<Start>` elements.
+const fn start_children(start: &'static Elem) -> [Particle; 4] {
+    [
+        opt(one(&ANNOTATIONS)),
+        many(&DIMENSION),
+        many(start),
+        many(&ALIAS),
+    ]
 }
+static STRING_CHILDREN: [Particle; 4] = start_children(&STRING_START);
+static BINARY_CHILDREN: [Particle; 4] = start_children(&BINARY_START);
 
-const fn float_variable(name: &'static str, attrs: &'static [&'static [Attr]]) -> Elem {
-    elem(name, VAR, attrs, Content::Elements(seq(&FLOAT_CHILDREN)))
-}
-
-static FLOAT32_VAR: Elem = float_variable(
-    "Float32",
-    &[
-        VARIABLE,
-        ARRAYABLE,
-        DECLARED_TYPE,
-        INITIAL,
-        REAL_BASE,
-        FLOAT32,
-        &[opt_attr("start", Ty::List(&F))],
-        REAL_VARIABLE,
-    ],
-);
-static FLOAT64_VAR: Elem = float_variable(
-    "Float64",
-    &[
-        VARIABLE,
-        ARRAYABLE,
-        DECLARED_TYPE,
-        INITIAL,
-        REAL_BASE,
-        FLOAT64,
-        &[opt_attr("start", Ty::List(&D))],
-        REAL_VARIABLE,
-    ],
-);
-
-/// An integer variable whose range attributes are `$range` and whose `start` (one value per
-/// array element) has items of type `$item`.
-macro_rules! integer_variable {
-    ($name:literal, $range:expr, $item:expr) => {
-        variable(
+/// A typed array-capable variable (fmi3ArrayableVariable): the attributes of every variable,
+/// of an array, `declaredType` and `initial`, then the groups `$own`; the children `$children`.
+macro_rules! arrayable {
+    ($name:literal, [$($own:expr),*], $children:expr) => {
+        elem(
             $name,
-            &[
-                VARIABLE,
-                ARRAYABLE,
-                DECLARED_TYPE,
-                INITIAL,
-                INT_BASE,
-                $range,
-                &[opt_attr("start", Ty::List(&$item))],
-            ],
+            VAR,
+            &[VARIABLE_ID, VARIABLE, ARRAYABLE, DECLARED_TYPE, INITIAL_ATTR, $($own),*],
+            Content::Elements(seq(&$children)),
         )
     };
 }
 
-static INT8_VAR: Elem = integer_variable!("Int8", INT8, BYTE);
-static UINT8_VAR: Elem = integer_variable!("UInt8", UINT8, UBYTE);
-static INT16_VAR: Elem = integer_variable!("Int16", INT16, SHORT);
-static UINT16_VAR: Elem = integer_variable!("UInt16", UINT16, USHORT);
-static INT32_VAR: Elem = integer_variable!("Int32", INT32, INT);
-static UINT32_VAR: Elem = integer_variable!("UInt32", UINT32, UINT);
-static INT64_VAR: Elem = integer_variable!("Int64", INT64, LONG);
-static UINT64_VAR: Elem = integer_variable!("UInt64", UINT64, ULONG);
+/// `start`: one value of type `$item` per array element.
+macro_rules! start {
+    ($item:expr) => {
+        &[opt_attr("start", Ty::List(&$item))]
+    };
+}
 
-static BOOLEAN_VAR: Elem = variable(
-    "Boolean",
-    &[
-        VARIABLE,
-        ARRAYABLE,
-        DECLARED_TYPE,
-        INITIAL,
-        &[opt_attr("start", Ty::List(&B))],
-    ],
+static FLOAT32_VAR: Elem = arrayable!(
+    "Float32",
+    [REAL_UNITS, FLOAT32, start!(F), REAL_VARIABLE],
+    FLOAT_CHILDREN
 );
-
-/// A String or Binary variable: its start values are `<Start>` elements before the aliases.
-static STRING_VAR: Elem = elem(
-    "String",
-    VAR,
-    &[VARIABLE, ARRAYABLE, DECLARED_TYPE, INITIAL],
-    Content::Elements(seq(&STRING_CHILDREN)),
+static FLOAT64_VAR: Elem = arrayable!(
+    "Float64",
+    [REAL_UNITS, DOUBLE_RANGE, start!(D), REAL_VARIABLE],
+    FLOAT_CHILDREN
 );
-static STRING_CHILDREN: [Particle; 4] = [
-    opt(one(&ANNOTATIONS)),
-    many(&DIMENSION),
-    many(&STRING_START),
-    many(&ALIAS),
-];
-static STRING_START: Elem = elem("Start", VAR, &[&[opt_attr("value", S)]], Content::Empty);
-
-static BINARY_VAR: Elem = elem(
-    "Binary",
-    VAR,
-    &[VARIABLE, ARRAYABLE, DECLARED_TYPE, INITIAL, BINARY],
-    Content::Elements(seq(&BINARY_CHILDREN)),
-);
-static BINARY_CHILDREN: [Particle; 4] = [
-    opt(one(&ANNOTATIONS)),
-    many(&DIMENSION),
-    many(&BINARY_START),
-    many(&ALIAS),
-];
-static BINARY_START: Elem = elem(
-    "Start",
-    VAR,
-    &[&[opt_attr("value", Ty::HexBinary)]],
-    Content::Empty,
-);
+static INT8_VAR: Elem = arrayable!("Int8", [QUANTITY, INT8, start!(BYTE)], ARRAY_CHILDREN);
+static UINT8_VAR: Elem = arrayable!("UInt8", [QUANTITY, UINT8, start!(UBYTE)], ARRAY_CHILDREN);
+static INT16_VAR: Elem = arrayable!("Int16", [QUANTITY, INT16, start!(SHORT)], ARRAY_CHILDREN);
+static UINT16_VAR: Elem = arrayable!("UInt16", [QUANTITY, UINT16, start!(USHORT)], ARRAY_CHILDREN);
+static INT32_VAR: Elem = arrayable!("Int32", [QUANTITY, INT_RANGE, start!(INT)], ARRAY_CHILDREN);
+static UINT32_VAR: Elem = arrayable!("UInt32", [QUANTITY, UINT32, start!(UINT)], ARRAY_CHILDREN);
+static INT64_VAR: Elem = arrayable!("Int64", [QUANTITY, INT64, start!(LONG)], ARRAY_CHILDREN);
+static UINT64_VAR: Elem = arrayable!("UInt64", [QUANTITY, UINT64, start!(ULONG)], ARRAY_CHILDREN);
+static BOOLEAN_VAR: Elem = arrayable!("Boolean", [start!(B)], ARRAY_CHILDREN);
+static STRING_VAR: Elem = arrayable!("String", [], STRING_CHILDREN);
+static STRING_START: Elem = empty("Start", VAR, &[&[opt_attr("value", S)]]);
+static BINARY_VAR: Elem = arrayable!("Binary", [BINARY], BINARY_CHILDREN);
+static BINARY_START: Elem = empty("Start", VAR, &[&[opt_attr("value", Ty::HexBinary)]]);
 
 /// An enumeration variable must name its type (fmi3MandatorilyTypedArrayableVariable).
-static ENUMERATION_VAR: Elem = variable(
+static ENUMERATION_VAR: Elem = elem(
     "Enumeration",
+    VAR,
     &[
+        VARIABLE_ID,
         VARIABLE,
         ARRAYABLE,
-        &[req_attr("declaredType", N)],
-        INITIAL,
-        INT_BASE,
-        ENUMERATION,
-        &[opt_attr("start", Ty::List(&LONG))],
+        TYPED,
+        INITIAL_ATTR,
+        QUANTITY,
+        INT64,
+        start!(LONG),
     ],
+    Content::Elements(seq(&ARRAY_CHILDREN)),
 );
 
 /// A clock: typed, not an array, no `initial` (fmi3TypedVariable).
 static CLOCK_VAR: Elem = elem(
     "Clock",
     VAR,
-    &[VARIABLE, DECLARED_TYPE, CLOCK],
+    &[VARIABLE_ID, VARIABLE, DECLARED_TYPE, CLOCK],
     Content::Elements(seq(&[opt(one(&ANNOTATIONS)), many(&ALIAS)])),
 );
 
-static DIMENSION: Elem = elem(
+static DIMENSION: Elem = empty(
     "Dimension",
     VAR,
     &[&[opt_attr("start", ULONG), opt_attr("valueReference", UINT)]],
-    Content::Empty,
 );
 
-const ALIAS_ATTRS: &[Attr] = &[req_attr("name", N), opt_attr("description", S)];
-
-static ALIAS: Elem = elem("Alias", VAR, &[ALIAS_ATTRS], Content::Empty);
-static FLOAT_ALIAS: Elem = elem(
-    "Alias",
-    VAR,
-    &[ALIAS_ATTRS, &[opt_attr("displayUnit", N)]],
-    Content::Empty,
-);
+static ALIAS: Elem = empty("Alias", VAR, &[NAMED]);
+static FLOAT_ALIAS: Elem = empty("Alias", VAR, &[NAMED, &[opt_attr("displayUnit", N)]]);
 
 // --- ModelStructure (section 2.4.8) ----------------------------------------------------------
+
+const DEP: &str = "fmi3VariableDependency.xsd";
 
 static MODEL_STRUCTURE: Elem = elem(
     "ModelStructure",
@@ -609,23 +422,10 @@ static MODEL_STRUCTURE: Elem = elem(
     ])),
 );
 
-/// `dependenciesKind` values (section 2.4.8).
-const KIND: Ty = Ty::Enum(&["dependent", "constant", "fixed", "tunable", "discrete"]);
-
-const UNKNOWN: &[Attr] = &[
-    req_attr("valueReference", UINT),
-    opt_attr("dependencies", Ty::List(&UINT)),
-    opt_attr("dependenciesKind", Ty::List(&KIND)),
-];
+const UNKNOWN: &[&[Attr]] = &[&[req_attr("valueReference", UINT)], DEPENDENCIES];
 
 const fn unknown(name: &'static str) -> Elem {
-    Elem {
-        name,
-        xsd: DEP,
-        attrs: &[UNKNOWN],
-        any_attribute: false,
-        content: ANNOTATED,
-    }
+    elem(name, DEP, UNKNOWN, ANNOTATED)
 }
 
 static OUTPUT: Elem = unknown("Output");

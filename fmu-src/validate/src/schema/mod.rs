@@ -11,6 +11,7 @@
 //! `<Annotation>`; `xs:anyAttribute` on the FMI 3.0 interface elements) nothing is checked
 //! except an element the schema declares globally.
 
+mod common;
 mod content;
 mod fmi2;
 mod fmi3;

@@ -114,6 +114,47 @@ pub(crate) struct Elem {
     pub(crate) content: Content,
 }
 
+/// An element with these attributes and content (no undeclared attributes).
+pub(crate) const fn elem(
+    name: &'static str,
+    xsd: &'static str,
+    attrs: &'static [&'static [Attr]],
+    content: Content,
+) -> Elem {
+    Elem {
+        name,
+        xsd,
+        attrs,
+        any_attribute: false,
+        content,
+    }
+}
+
+/// An element with attributes and no content.
+pub(crate) const fn empty(
+    name: &'static str,
+    xsd: &'static str,
+    attrs: &'static [&'static [Attr]],
+) -> Elem {
+    elem(name, xsd, attrs, Content::Empty)
+}
+
+/// An element whose children follow the sequence `children`.
+pub(crate) const fn parent(
+    name: &'static str,
+    xsd: &'static str,
+    attrs: &'static [&'static [Attr]],
+    children: &'static [Particle],
+) -> Elem {
+    elem(name, xsd, attrs, Content::Elements(seq(children)))
+}
+
+/// An element without attributes that lists one or more `item`s: the containers
+/// (`<UnitDefinitions>`, `<ModelVariables>`, `<Outputs>`, ...).
+pub(crate) const fn list(name: &'static str, xsd: &'static str, item: &'static Elem) -> Elem {
+    elem(name, xsd, &[], Content::Elements(unbounded(one(item))))
+}
+
 impl Elem {
     /// The declaration of attribute `name`, if the element has one.
     pub(crate) fn attr(&self, name: &str) -> Option<&'static Attr> {
@@ -210,6 +251,21 @@ pub(crate) const fn choice(ps: &'static [Particle]) -> Particle {
         min: 1,
         max: Some(1),
     }
+}
+
+/// Column `col` of `rows` as particles `one(e)`: a version's types, each with its type
+/// definition (column 0) and its variable element (column 1), for the choices among them.
+pub(crate) const fn column<const K: usize>(
+    rows: &[[&'static Elem; 2]; K],
+    col: usize,
+) -> [Particle; K] {
+    let mut out = [const { any() }; K];
+    let mut i = 0;
+    while i < K {
+        out[i] = one(rows[i][col]);
+        i += 1;
+    }
+    out
 }
 
 /// `xs:any`, once.
