@@ -3,7 +3,9 @@
 //! combinations the standard allows. The exporter writes these spellings, the host parses them,
 //! and the validator and the exporter's table check judge combinations with the same functions.
 
-/// Defines a unit-only enum with its XML attribute spelling in both directions.
+/// Defines a unit-only enum with its XML attribute spelling in both directions (also for the
+/// host's FMI 3.0 vocabulary, which extends this one).
+#[macro_export]
 macro_rules! xml_enum {
     ($(#[$doc:meta])* $name:ident { $($(#[$vdoc:meta])* $variant:ident = $xml:literal),* $(,)? }) => {
         $(#[$doc])*
@@ -13,6 +15,9 @@ macro_rules! xml_enum {
         impl $name {
             /// Every value, in the order of the standard's table.
             pub const ALL: &'static [$name] = &[$($name::$variant),*];
+
+            /// Every spelling, in the order of [`Self::ALL`].
+            pub const SPELLINGS: &'static [&'static str] = &[$($xml),*];
 
             /// The spelling in `modelDescription.xml`.
             pub fn as_str(self) -> &'static str {

@@ -44,7 +44,7 @@ use crate::error::{HostError, Result};
 use crate::ffi::function_table;
 use crate::fmi3::ffi::{Bool3, RawStatus3};
 use crate::fmi3::instance::Instance3;
-use crate::fmi3::md::INTERVAL_VARIABILITIES;
+use crate::fmi3::md::IntervalVariability;
 use crate::fmi3::md::{Causality3, ModelDescription3};
 use crate::fmi3::value::Type3;
 use crate::watch::{self, Call};
@@ -87,7 +87,7 @@ pub fn refusal(md: &ModelDescription3) -> Option<String> {
     for v in md.variables.iter().filter(|v| v.ty == Type3::Clock) {
         let kind = v.interval_variability.as_deref().unwrap_or("");
         let known = match v.causality {
-            Causality3::Input => INTERVAL_VARIABILITIES.contains(&kind),
+            Causality3::Input => IntervalVariability::parse(kind).is_some(),
             Causality3::Output | Causality3::Local => kind == "triggered",
             _ => false,
         };
