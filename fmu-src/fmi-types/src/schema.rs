@@ -16,9 +16,6 @@ macro_rules! xml_enum {
             /// Every value, in the order of the standard's table.
             pub const ALL: &'static [$name] = &[$($name::$variant),*];
 
-            /// Every spelling, in the order of [`Self::ALL`].
-            pub const SPELLINGS: &'static [&'static str] = &[$($xml),*];
-
             /// The spelling in `modelDescription.xml`.
             pub fn as_str(self) -> &'static str {
                 match self { $($name::$variant => $xml),* }

@@ -6,8 +6,8 @@
 //! enforced here: the `validate` crate reports them all as findings.
 
 use crate::error::HostError;
-pub use crate::md_common::Var;
-use crate::md_common::{dependencies_kind, list, Dialect};
+use crate::md_common::{dependencies_kind, list, reads_as, Dialect};
+pub use crate::md_common::{Identity, Var};
 use crate::xml::{parse_real, Ancestors, Attrs, Doc, Visitor};
 
 pub use fmi_types::{Causality, Initial, VarKind, Variability};
@@ -242,24 +242,11 @@ pub struct ModelStructure {
 /// The parsed `modelDescription.xml`.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct ModelDescription {
-    /// `fmiVersion`
-    pub fmi_version: String,
-    /// `modelName`
-    pub model_name: String,
+    /// The identity attributes, read as the description's own.
+    #[serde(flatten)]
+    pub identity: Identity,
     /// `guid`
     pub guid: String,
-    /// `description`
-    pub description: Option<String>,
-    /// `author`
-    pub author: Option<String>,
-    /// `version`
-    pub version: Option<String>,
-    /// `generationTool`
-    pub generation_tool: Option<String>,
-    /// `generationDateAndTime`
-    pub generation_date_and_time: Option<String>,
-    /// `variableNamingConvention`
-    pub variable_naming_convention: Option<String>,
     /// `numberOfEventIndicators`
     pub number_of_event_indicators: Option<u32>,
     /// `<CoSimulation>` if present.
@@ -287,6 +274,8 @@ pub struct ModelDescription {
     /// `<ModelStructure>`
     pub model_structure: ModelStructure,
 }
+
+reads_as!(ModelDescription => identity: Identity);
 
 impl ModelDescription {
     /// Parses the text of a `modelDescription.xml`; `file` names it in errors.
@@ -472,15 +461,8 @@ impl Parser {
 
 /// The attributes of `<fmiModelDescription>` (FMI 2.0.4 section 2.2.1).
 fn root(md: &mut ModelDescription, doc: &Doc<'_>, a: &Attrs) -> Result<(), HostError> {
-    md.fmi_version = a.text("fmiVersion").unwrap_or_default();
-    md.model_name = a.text("modelName").unwrap_or_default();
+    md.identity = Identity::read(a);
     md.guid = a.text("guid").unwrap_or_default();
-    md.description = a.text("description");
-    md.author = a.text("author");
-    md.version = a.text("version");
-    md.generation_tool = a.text("generationTool");
-    md.generation_date_and_time = a.text("generationDateAndTime");
-    md.variable_naming_convention = a.text("variableNamingConvention");
     md.number_of_event_indicators =
         doc.parse::<u32>(a, "numberOfEventIndicators", "an unsigned integer")?;
     Ok(())

@@ -1,6 +1,6 @@
 //! What the FMI 2.0 and FMI 3.0 description readers ([`crate::md`], [`crate::fmi3::md`]) read
-//! the same way: the attributes of a variable (FMI 2.0.4 section 2.2.7, FMI 3.0.2 section
-//! 2.4.7) and of its type, and the lists of indices or value references of `<ModelStructure>`
+//! the same way: the identity attributes of `<fmiModelDescription>`, the attributes of a
+//! variable (FMI 2.0.4 section 2.2.7, FMI 3.0.2 section 2.4.7) and of its type, and the lists of indices or value references of `<ModelStructure>`
 //! and of `clocks`. What a version adds to a variable is its [`Dialect`], the `more` part of
 //! [`Var`].
 
@@ -8,8 +8,65 @@ use crate::error::{shown, HostError};
 use crate::xml::{Attrs, Doc};
 use fmi_types::{Initial, Variability};
 use std::fmt::Debug;
-use std::ops::{Deref, DerefMut};
 use std::str::FromStr;
+
+/// `Deref` and `DerefMut` of `$t` to its field `$field`, whose fields then read as `$t`'s own
+/// (with one type parameter `$g`: after `where`).
+macro_rules! reads_as {
+    ($t:ty => $field:ident: $target:ty $(, where $g:ident: $bound:path)?) => {
+        impl$(<$g: $bound>)? std::ops::Deref for $t {
+            type Target = $target;
+            fn deref(&self) -> &$target {
+                &self.$field
+            }
+        }
+        impl$(<$g: $bound>)? std::ops::DerefMut for $t {
+            fn deref_mut(&mut self) -> &mut $target {
+                &mut self.$field
+            }
+        }
+    };
+}
+pub(crate) use reads_as;
+
+/// The attributes of `<fmiModelDescription>` that both versions define alike (FMI 2.0.4
+/// section 2.2.1, FMI 3.0.2 section 2.4.1); each version's description reads them as its own.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct Identity {
+    /// `fmiVersion`
+    pub fmi_version: String,
+    /// `modelName`
+    pub model_name: String,
+    /// `description`
+    pub description: Option<String>,
+    /// `author`
+    pub author: Option<String>,
+    /// `version`
+    pub version: Option<String>,
+    /// `generationTool`
+    pub generation_tool: Option<String>,
+    /// `generationDateAndTime`
+    pub generation_date_and_time: Option<String>,
+    /// `variableNamingConvention`
+    pub variable_naming_convention: Option<String>,
+}
+
+impl Identity {
+    /// The attributes of the root element `a` (absent names and version: empty, which
+    /// `validate` reports).
+    pub(crate) fn read(a: &Attrs) -> Self {
+        Identity {
+            fmi_version: a.text("fmiVersion").unwrap_or_default(),
+            model_name: a.text("modelName").unwrap_or_default(),
+            description: a.text("description"),
+            author: a.text("author"),
+            version: a.text("version"),
+            generation_tool: a.text("generationTool"),
+            generation_date_and_time: a.text("generationDateAndTime"),
+            variable_naming_convention: a.text("variableNamingConvention"),
+        }
+    }
+}
 
 /// What the variables of one FMI version have beyond [`Var`]'s attributes, and the types of the
 /// attributes in which the versions differ.
@@ -76,18 +133,7 @@ pub struct Var<D: Dialect> {
     pub more: D,
 }
 
-impl<D: Dialect> Deref for Var<D> {
-    type Target = D;
-    fn deref(&self) -> &D {
-        &self.more
-    }
-}
-
-impl<D: Dialect> DerefMut for Var<D> {
-    fn deref_mut(&mut self) -> &mut D {
-        &mut self.more
-    }
-}
+reads_as!(Var<D> => more: D, where D: Dialect);
 
 impl<D: Dialect> Var<D> {
     /// The variable element `a` with its name, valueReference, description, causality,
@@ -213,12 +259,9 @@ pub(crate) fn list<T: FromStr>(
     key: &str,
     bad: impl Fn(&str) -> String,
 ) -> Result<Option<Vec<T>>, HostError> {
-    let Some(s) = a.get(key) else { return Ok(None) };
     let entry = |t: &str| t.parse::<T>().map_err(|_| doc.err(a.line, bad(t)));
-    s.split_whitespace()
-        .map(entry)
-        .collect::<Result<_, _>>()
-        .map(Some)
+    let entries = |s: &str| s.split_whitespace().map(entry).collect();
+    a.get(key).map(entries).transpose()
 }
 
 /// The list `dependenciesKind` of a `<ModelStructure>` element (None when absent).

@@ -19,7 +19,7 @@
 
 use super::value::{Type3, Values};
 use crate::error::HostError;
-use crate::md_common::{dependencies_kind, list, Dialect, Var};
+use crate::md_common::{dependencies_kind, list, reads_as, Dialect, Identity, Var};
 use crate::xml::{Ancestors, Attrs, Doc, Visitor};
 use std::borrow::Cow;
 
@@ -152,27 +152,16 @@ const INTERFACE_FLAGS: [&str; 14] = [
     "canReturnEarlyAfterIntermediateUpdate",
 ];
 
-fmi_types::xml_enum! {
-    /// A Clock's `intervalVariability` (FMI 3.0.2 section 2.4.7.6, table "Overview of Clock
-    /// types"), which the schema also lists.
-    IntervalVariability {
-        /// constant
-        Constant = "constant",
-        /// fixed
-        Fixed = "fixed",
-        /// tunable
-        Tunable = "tunable",
-        /// changing
-        Changing = "changing",
-        /// countdown
-        Countdown = "countdown",
-        /// triggered
-        Triggered = "triggered",
-    }
-}
-
-/// The spellings of [`IntervalVariability`].
-pub const INTERVAL_VARIABILITIES: &[&str] = IntervalVariability::SPELLINGS;
+/// The values of a Clock's `intervalVariability` (FMI 3.0.2 section 2.4.7.6, table "Overview of
+/// Clock types"), which the schema also lists.
+pub const INTERVAL_VARIABILITIES: &[&str] = &[
+    "constant",
+    "fixed",
+    "tunable",
+    "changing",
+    "countdown",
+    "triggered",
+];
 
 /// A type definition (`<Float64Type>`, `<EnumerationType>`, ...).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -235,16 +224,11 @@ pub type DefaultExperiment3 = crate::md::DefaultExperiment;
 /// The parsed FMI 3.0 `modelDescription.xml`.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct ModelDescription3 {
-    /// `fmiVersion`
-    pub fmi_version: String,
-    /// `modelName`
-    pub model_name: String,
+    /// The identity attributes, read as the description's own.
+    #[serde(flatten)]
+    pub identity: Identity,
     /// `instantiationToken`
     pub instantiation_token: String,
-    /// `description`
-    pub description: Option<String>,
-    /// `generationTool`
-    pub generation_tool: Option<String>,
     /// `<ModelExchange>`
     pub model_exchange: Option<Interface3>,
     /// `<CoSimulation>`
@@ -301,6 +285,8 @@ pub enum ShapeError {
 /// structural parameters' start values: far above any real model, far below what exhausts
 /// memory when the host allocates the buffers to read it.
 pub const MAX_ARRAY_ELEMENTS: u64 = 1 << 24;
+
+reads_as!(ModelDescription3 => identity: Identity);
 
 impl ModelDescription3 {
     /// Parses the text of an FMI 3.0 `modelDescription.xml`; `file` names it in errors.
@@ -533,12 +519,8 @@ impl Visitor for Parser3 {
 
 impl Parser3 {
     fn root(&mut self, doc: &Doc<'_>, a: &Attrs) -> Result<(), HostError> {
-        let md = &mut self.md;
-        md.fmi_version = a.text("fmiVersion").unwrap_or_default();
-        md.model_name = a.text("modelName").unwrap_or_default();
-        md.instantiation_token = doc.required(a, "instantiationToken")?;
-        md.description = a.text("description");
-        md.generation_tool = a.text("generationTool");
+        self.md.identity = Identity::read(a);
+        self.md.instantiation_token = doc.required(a, "instantiationToken")?;
         Ok(())
     }
 

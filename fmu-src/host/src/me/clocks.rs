@@ -44,7 +44,7 @@ use crate::error::{HostError, Result};
 use crate::ffi::function_table;
 use crate::fmi3::ffi::{Bool3, RawStatus3};
 use crate::fmi3::instance::Instance3;
-use crate::fmi3::md::IntervalVariability;
+use crate::fmi3::md::INTERVAL_VARIABILITIES;
 use crate::fmi3::md::{Causality3, ModelDescription3};
 use crate::fmi3::value::Type3;
 use crate::watch::{self, Call};
@@ -87,7 +87,7 @@ pub fn refusal(md: &ModelDescription3) -> Option<String> {
     for v in md.variables.iter().filter(|v| v.ty == Type3::Clock) {
         let kind = v.interval_variability.as_deref().unwrap_or("");
         let known = match v.causality {
-            Causality3::Input => IntervalVariability::parse(kind).is_some(),
+            Causality3::Input => INTERVAL_VARIABILITIES.contains(&kind),
             Causality3::Output | Causality3::Local => kind == "triggered",
             _ => false,
         };
@@ -366,14 +366,8 @@ mod tests {
 
     #[test]
     fn every_clock_kind_of_the_table_runs_and_no_other() {
-        for kind in [
-            "constant",
-            "fixed",
-            "tunable",
-            "changing",
-            "countdown",
-            "triggered",
-        ] {
+        // the intervalVariability of every input clock of FMI 3.0.2 table "Overview of Clock types"
+        for kind in "constant fixed tunable changing countdown triggered".split(' ') {
             assert_eq!(refusal(&with_clock("input", kind)), None, "{kind}");
         }
         assert_eq!(refusal(&with_clock("output", "triggered")), None);
