@@ -6,8 +6,8 @@
 //! enforced here: the `validate` crate reports them all as findings.
 
 use crate::error::HostError;
-use crate::md_common::{dependencies_kind, list, reads_as, Dialect};
-pub use crate::md_common::{Identity, Var};
+use crate::md_common::{self, dependencies_kind, list, reads_as, Dialect};
+pub use crate::md_common::{Identity, Var, MAX_FALLBACK_RECORDED};
 use crate::xml::{parse_real, Ancestors, Attrs, Doc, Visitor};
 
 pub use fmi_types::{Causality, Initial, VarKind, Variability};
@@ -280,12 +280,7 @@ reads_as!(ModelDescription => identity: Identity);
 impl ModelDescription {
     /// Parses the text of a `modelDescription.xml`; `file` names it in errors.
     pub fn parse(xml: &str, file: &str) -> Result<Self, HostError> {
-        let mut p = Parser {
-            md: ModelDescription::default(),
-            current_var: None,
-        };
-        Doc::new(xml, file).walk(&mut p)?;
-        Ok(p.md)
+        Ok(crate::xml::read(xml, file, Parser::default())?.md)
     }
 
     /// The variable called `name`.
@@ -325,23 +320,11 @@ impl ModelDescription {
     /// [`MAX_FALLBACK_RECORDED`]; without those the first five variables but `time`. (FMPy's
     /// third rule, variability "local", matches no variable FMI 2.0 allows.)
     pub fn recorded_by_default(&self) -> Vec<String> {
-        let outputs = self.output_names();
-        if !outputs.is_empty() {
-            return outputs;
-        }
-        let states: Vec<String> = self
-            .model_structure
-            .derivatives
-            .iter()
-            .filter_map(|u| self.model_variables.get(u.index.checked_sub(1)?))
-            .filter_map(|d| self.model_variables.get(d.derivative?.checked_sub(1)?))
-            .map(|x| x.name.clone())
-            .take(MAX_FALLBACK_RECORDED)
-            .collect();
-        if !states.is_empty() {
-            return states;
-        }
-        fallback_names(self.model_variables.iter().map(|v| v.name.as_str()))
+        let vars = &self.model_variables;
+        let nth = |i: usize| vars.get(i.checked_sub(1)?);
+        let derivatives = self.model_structure.derivatives.iter();
+        let states = derivatives.filter_map(|u| nth(nth(u.index)?.derivative?));
+        md_common::recorded_by_default(self.output_names(), states, vars)
     }
 
     /// Names of the inputs in file order.
@@ -372,6 +355,7 @@ impl ModelDescription {
     }
 }
 
+#[derive(Default)]
 struct Parser {
     md: ModelDescription,
     /// The open `<ScalarVariable>`, completed by its type element.
@@ -635,19 +619,6 @@ fn same_base(a: VarKind, b: VarKind) -> bool {
         k => k,
     };
     base(a) == base(b)
-}
-
-/// How many states, or variables, FMPy records at most for an FMU without outputs.
-pub const MAX_FALLBACK_RECORDED: usize = 5;
-
-/// FMPy's last resort for an FMU with neither outputs nor states: its first five variables,
-/// without `time` (the name of the time column).
-pub(crate) fn fallback_names<'a>(names: impl Iterator<Item = &'a str>) -> Vec<String> {
-    names
-        .take(MAX_FALLBACK_RECORDED)
-        .filter(|n| *n != "time")
-        .map(str::to_string)
-        .collect()
 }
 
 #[cfg(test)]

@@ -244,11 +244,8 @@ fn spelled<T>(
     key: &str,
     parse: impl Fn(&str) -> Option<T>,
 ) -> Result<Option<T>, HostError> {
-    let Some(o) = a.get(key) else { return Ok(None) };
-    parse(o).map(Some).ok_or_else(|| {
-        let m = format!("variable '{who}': unknown {key} \"{}\"", shown(o, 40));
-        doc.err(a.line, m)
-    })
+    let bad = |o: &str| format!("variable '{who}': unknown {key} \"{}\"", shown(o, 40));
+    doc.read_with(a, key, parse, bad)
 }
 
 /// The whitespace-separated list `key` (None when absent); `bad` gives the message for an
@@ -262,6 +259,30 @@ pub(crate) fn list<T: FromStr>(
     let entry = |t: &str| t.parse::<T>().map_err(|_| doc.err(a.line, bad(t)));
     let entries = |s: &str| s.split_whitespace().map(entry).collect();
     a.get(key).map(entries).transpose()
+}
+
+/// How many states, or variables, FMPy records at most for an FMU without outputs.
+pub const MAX_FALLBACK_RECORDED: usize = 5;
+
+/// Names recorded when none are asked for, by FMPy's rule (`simulate_fmu`,
+/// `_get_output_variables`): the `outputs`; without outputs the continuous `states` (those
+/// `<ModelStructure>` lists the derivatives of), at most [`MAX_FALLBACK_RECORDED`]; without
+/// those the first five `variables` but `time` (the name of the time column).
+pub(crate) fn recorded_by_default<'a, D: Dialect + 'a>(
+    outputs: Vec<String>,
+    states: impl Iterator<Item = &'a Var<D>>,
+    variables: &'a [Var<D>],
+) -> Vec<String> {
+    if !outputs.is_empty() {
+        return outputs;
+    }
+    let name = |v: &Var<D>| v.name.clone();
+    let states: Vec<String> = states.take(MAX_FALLBACK_RECORDED).map(name).collect();
+    if !states.is_empty() {
+        return states;
+    }
+    let first = variables.iter().take(MAX_FALLBACK_RECORDED);
+    first.filter(|v| v.name != "time").map(name).collect()
 }
 
 /// The list `dependenciesKind` of a `<ModelStructure>` element (None when absent).

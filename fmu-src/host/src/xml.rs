@@ -198,12 +198,23 @@ impl<'a> Doc<'a> {
         what: &str,
         read: impl FnOnce(&str) -> Option<T>,
     ) -> Result<Option<T>, HostError> {
-        let Some(s) = a.get(key) else { return Ok(None) };
-        read(s).map(Some).ok_or_else(|| {
+        self.read_with(a, key, read, |s| {
             let shown = crate::error::shown(s, 60);
-            let m = format!("<{}> attribute {key}=\"{shown}\" is not {what}", a.element);
-            self.err(a.line, m)
+            format!("<{}> attribute {key}=\"{shown}\" is not {what}", a.element)
         })
+    }
+
+    /// `key` read by `read`, None when absent; `bad` gives the message for a text `read`
+    /// refuses.
+    pub(crate) fn read_with<T>(
+        &self,
+        a: &Attrs,
+        key: &str,
+        read: impl FnOnce(&str) -> Option<T>,
+        bad: impl FnOnce(&str) -> String,
+    ) -> Result<Option<T>, HostError> {
+        let Some(s) = a.get(key) else { return Ok(None) };
+        read(s).map(Some).ok_or_else(|| self.err(a.line, bad(s)))
     }
 
     /// A required attribute's text.
@@ -232,6 +243,12 @@ impl<'a> Doc<'a> {
         let m = format!("<{}> lacks the required attribute {key}", a.element);
         self.err(a.line, m)
     }
+}
+
+/// Walks the document `xml` (named `file` in errors) with the parser `p` and returns it.
+pub(crate) fn read<P: Visitor>(xml: &str, file: &str, mut p: P) -> Result<P, HostError> {
+    Doc::new(xml, file).walk(&mut p)?;
+    Ok(p)
 }
 
 /// Parses an xs:double (accepts INF, -INF, NaN as XML Schema writes them).

@@ -19,7 +19,7 @@
 
 use super::value::{Type3, Values};
 use crate::error::HostError;
-use crate::md_common::{dependencies_kind, list, reads_as, Dialect, Identity, Var};
+use crate::md_common::{self, dependencies_kind, list, reads_as, Dialect, Identity, Var};
 use crate::xml::{Ancestors, Attrs, Doc, Visitor};
 use std::borrow::Cow;
 
@@ -291,12 +291,7 @@ reads_as!(ModelDescription3 => identity: Identity);
 impl ModelDescription3 {
     /// Parses the text of an FMI 3.0 `modelDescription.xml`; `file` names it in errors.
     pub fn parse(xml: &str, file: &str) -> Result<Self, HostError> {
-        let mut p = Parser3 {
-            md: ModelDescription3::default(),
-            current: None,
-        };
-        Doc::new(xml, file).walk(&mut p)?;
-        Ok(p.md)
+        Ok(crate::xml::read(xml, file, Parser3::default())?.md)
     }
 
     /// The variable called `name`.
@@ -342,27 +337,15 @@ impl ModelDescription3 {
     /// `<ContinuousStateDerivative>` entries are the derivatives of), else the first five
     /// variables but `time`.
     pub fn recorded_by_default(&self) -> Vec<String> {
-        let outputs: Vec<String> = self
-            .with_causality(Causality3::Output)
-            // an output clock has no value between events (FMI 3.0.2 section 2.2.8.2)
+        let outputs = self.with_causality(Causality3::Output);
+        // an output clock has no value between events (FMI 3.0.2 section 2.2.8.2)
+        let outputs = outputs
             .filter(|v| v.ty != Type3::Clock)
-            .map(|v| v.name.clone())
-            .collect();
-        if !outputs.is_empty() {
-            return outputs;
-        }
-        let states: Vec<String> = self
-            .model_structure
-            .continuous_state_derivatives
-            .iter()
-            .filter_map(|u| self.by_vr(self.by_vr(u.value_reference)?.derivative?))
-            .map(|x| x.name.clone())
-            .take(crate::md::MAX_FALLBACK_RECORDED)
-            .collect();
-        if !states.is_empty() {
-            return states;
-        }
-        crate::md::fallback_names(self.variables.iter().map(|v| v.name.as_str()))
+            .map(|v| v.name.clone());
+        let derivatives = self.model_structure.continuous_state_derivatives.iter();
+        let states =
+            derivatives.filter_map(|u| self.by_vr(self.by_vr(u.value_reference)?.derivative?));
+        md_common::recorded_by_default(outputs.collect(), states, &self.variables)
     }
 
     /// Variables with causality `c`, in file order.
@@ -423,6 +406,7 @@ impl ModelDescription3 {
     }
 }
 
+#[derive(Default)]
 struct Parser3 {
     md: ModelDescription3,
     /// The variable whose element is open (children: Dimension, Start, Alias).
