@@ -452,73 +452,44 @@ fn root(md: &mut ModelDescription, doc: &Doc<'_>, a: &Attrs) -> Result<(), HostE
     Ok(())
 }
 
-/// Sets each capability flag of `slots` that `a` writes (all default false, FMI 2.0.4
-/// sections 3.3.2 and 4.3.1) and returns the names of those written.
-fn set_flags(
-    doc: &Doc<'_>,
-    a: &Attrs,
-    slots: Vec<(&str, &mut bool)>,
-) -> Result<Vec<String>, HostError> {
-    let mut given = Vec::new();
-    for (key, slot) in slots {
-        if let Some(v) = doc.boolean(a, key)? {
-            *slot = v;
-            given.push(key.to_string());
-        }
-    }
-    Ok(given)
+/// The capability flag `key` of the interface element `a` (absent: false, FMI 2.0.4 sections
+/// 3.3.2 and 4.3.1); its name is added to `given` when it is written.
+fn flag(doc: &Doc<'_>, a: &Attrs, key: &str, given: &mut Vec<String>) -> Result<bool, HostError> {
+    let v = doc.boolean(a, key)?;
+    given.extend(v.map(|_| key.to_string()));
+    Ok(v.unwrap_or(false))
 }
 
 fn model_exchange(md: &mut ModelDescription, doc: &Doc<'_>, a: &Attrs) -> Result<(), HostError> {
     md.model_exchange = Some(doc.required(a, "modelIdentifier")?);
-    let slots = vec![
-        (
-            "providesDirectionalDerivative",
-            &mut md.me_provides_directional_derivative,
-        ),
-        (
-            "completedIntegratorStepNotNeeded",
-            &mut md.me_completed_integrator_step_not_needed,
-        ),
-        ("canGetAndSetFMUstate", &mut md.me_can_get_and_set_fmu_state),
-        ("canSerializeFMUstate", &mut md.me_can_serialize_fmu_state),
-    ];
-    set_flags(doc, a, slots).map(drop)
+    let f = |key| flag(doc, a, key, &mut Vec::new());
+    md.me_provides_directional_derivative = f("providesDirectionalDerivative")?;
+    md.me_completed_integrator_step_not_needed = f("completedIntegratorStepNotNeeded")?;
+    md.me_can_get_and_set_fmu_state = f("canGetAndSetFMUstate")?;
+    md.me_can_serialize_fmu_state = f("canSerializeFMUstate")?;
+    Ok(())
 }
 
 fn co_simulation(doc: &Doc<'_>, a: &Attrs) -> Result<CoSimulation, HostError> {
-    let mut cs = CoSimulation {
-        model_identifier: doc.required(a, "modelIdentifier")?,
-        ..Default::default()
-    };
-    let slots = vec![
-        ("needsExecutionTool", &mut cs.needs_execution_tool),
-        (
-            "canHandleVariableCommunicationStepSize",
-            &mut cs.can_handle_variable_communication_step_size,
-        ),
-        ("canInterpolateInputs", &mut cs.can_interpolate_inputs),
-        ("canRunAsynchronuously", &mut cs.can_run_asynchronuously),
-        (
-            "canBeInstantiatedOnlyOncePerProcess",
-            &mut cs.can_be_instantiated_only_once_per_process,
-        ),
-        (
-            "canNotUseMemoryManagementFunctions",
-            &mut cs.can_not_use_memory_management_functions,
-        ),
-        ("canGetAndSetFMUstate", &mut cs.can_get_and_set_fmu_state),
-        ("canSerializeFMUstate", &mut cs.can_serialize_fmu_state),
-        (
-            "providesDirectionalDerivative",
-            &mut cs.provides_directional_derivative,
-        ),
-    ];
-    cs.flags_given = set_flags(doc, a, slots)?;
-    cs.max_output_derivative_order = doc
-        .parse::<u32>(a, "maxOutputDerivativeOrder", "an unsigned integer")?
-        .unwrap_or(0);
-    Ok(cs)
+    let model_identifier = doc.required(a, "modelIdentifier")?;
+    let mut given = Vec::new();
+    let mut f = |key| flag(doc, a, key, &mut given);
+    Ok(CoSimulation {
+        model_identifier,
+        needs_execution_tool: f("needsExecutionTool")?,
+        can_handle_variable_communication_step_size: f("canHandleVariableCommunicationStepSize")?,
+        can_interpolate_inputs: f("canInterpolateInputs")?,
+        can_run_asynchronuously: f("canRunAsynchronuously")?,
+        can_be_instantiated_only_once_per_process: f("canBeInstantiatedOnlyOncePerProcess")?,
+        can_not_use_memory_management_functions: f("canNotUseMemoryManagementFunctions")?,
+        can_get_and_set_fmu_state: f("canGetAndSetFMUstate")?,
+        can_serialize_fmu_state: f("canSerializeFMUstate")?,
+        provides_directional_derivative: f("providesDirectionalDerivative")?,
+        max_output_derivative_order: doc
+            .parse::<u32>(a, "maxOutputDerivativeOrder", "an unsigned integer")?
+            .unwrap_or(0),
+        flags_given: given,
+    })
 }
 
 /// `<BaseUnit>`: the exponents of kg, m, s, A, K, mol, cd, rad, a factor and an offset
