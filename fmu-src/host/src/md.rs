@@ -3,7 +3,8 @@
 //! The parser is strict about syntax (malformed XML, attributes that do not parse as their
 //! schema type) and returns the first such error with its line. Semantic rules (allowed
 //! causality/variability combinations, units declared, model structure complete) are not
-//! enforced here: the `validate` crate reports them all as findings.
+//! enforced here: the `validate` crate reports them all as findings. What FMI 3.0 reads alike
+//! (identity, variable attributes, lists) is in [`crate::md_common`].
 
 use crate::error::HostError;
 use crate::md_common::{self, dependencies_kind, list, reads_as, Dialect};

@@ -1,8 +1,9 @@
 //! What the FMI 2.0 and FMI 3.0 description readers ([`crate::md`], [`crate::fmi3::md`]) read
 //! the same way: the identity attributes of `<fmiModelDescription>`, the attributes of a
-//! variable (FMI 2.0.4 section 2.2.7, FMI 3.0.2 section 2.4.7) and of its type, and the lists of indices or value references of `<ModelStructure>`
-//! and of `clocks`. What a version adds to a variable is its [`Dialect`], the `more` part of
-//! [`Var`].
+//! variable (FMI 2.0.4 section 2.2.7, FMI 3.0.2 section 2.4.7) and of its type, the lists of
+//! indices or value references (`<ModelStructure>`, `clocks`) and FMPy's choice of the
+//! variables recorded by default. What a version adds to a variable is its [`Dialect`], the
+//! `more` part of [`Var`].
 
 use crate::error::{shown, HostError};
 use crate::xml::{Attrs, Doc};

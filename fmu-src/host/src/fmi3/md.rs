@@ -16,6 +16,7 @@
 //! Like the FMI 2.0 parser, this one is strict about syntax (malformed XML, attributes that do
 //! not parse as their type, start values outside their type's range) and leaves the semantic
 //! rules (combinations of causality and variability, complete `<ModelStructure>`) to `validate`.
+//! What it reads as FMI 2.0 does is in [`crate::md_common`].
 
 use super::value::{Type3, Values};
 use crate::error::HostError;
