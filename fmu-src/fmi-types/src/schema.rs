@@ -3,7 +3,9 @@
 //! combinations the standard allows. The exporter writes these spellings, the host parses them,
 //! and the validator and the exporter's table check judge combinations with the same functions.
 
-/// Defines a unit-only enum with its XML attribute spelling in both directions.
+/// Defines a unit-only enum with its XML attribute spelling in both directions (also for the
+/// host's FMI 3.0 vocabulary, which extends this one).
+#[macro_export]
 macro_rules! xml_enum {
     ($(#[$doc:meta])* $name:ident { $($(#[$vdoc:meta])* $variant:ident = $xml:literal),* $(,)? }) => {
         $(#[$doc])*

@@ -27,6 +27,7 @@ mod fmu_state3;
 mod instance;
 pub mod kind;
 pub mod md;
+pub mod md_common;
 pub mod me;
 pub mod python;
 mod run;

@@ -3,9 +3,12 @@
 //! The parser is strict about syntax (malformed XML, attributes that do not parse as their
 //! schema type) and returns the first such error with its line. Semantic rules (allowed
 //! causality/variability combinations, units declared, model structure complete) are not
-//! enforced here: the `validate` crate reports them all as findings.
+//! enforced here: the `validate` crate reports them all as findings. What FMI 3.0 reads alike
+//! (identity, variable attributes, lists) is in [`crate::md_common`].
 
 use crate::error::HostError;
+use crate::md_common::{self, dependencies_kind, list, reads_as, Dialect};
+pub use crate::md_common::{Identity, Var, MAX_FALLBACK_RECORDED};
 use crate::xml::{parse_real, Ancestors, Attrs, Doc, Visitor};
 
 pub use fmi_types::{Causality, Initial, VarKind, Variability};
@@ -35,58 +38,31 @@ impl StartValue {
     }
 }
 
-/// One `<ScalarVariable>`.
+/// One `<ScalarVariable>` (FMI 2.0.4 section 2.2.7).
+pub type ScalarVariable = Var<Fmi2Attrs>;
+
+/// What an FMI 2.0 `<ScalarVariable>` has beyond the attributes of [`Var`].
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
-pub struct ScalarVariable {
-    /// `name`
-    pub name: String,
-    /// `valueReference`
-    pub value_reference: u32,
-    /// `description`
-    pub description: Option<String>,
-    /// `causality` (default local applied)
-    pub causality: Causality,
-    /// True when `causality` was written.
-    pub causality_given: bool,
-    /// `variability` (default continuous applied)
-    pub variability: Variability,
-    /// True when `variability` was written.
-    pub variability_given: bool,
-    /// `initial` as written (None when absent).
-    pub initial: Option<Initial>,
-    /// `canHandleMultipleSetPerTimeInstant`
-    pub can_handle_multiple_set_per_time_instant: Option<bool>,
+pub struct Fmi2Attrs {
     /// Type element.
     pub kind: VarKind,
-    /// `declaredType`
-    pub declared_type: Option<String>,
-    /// `start`
-    pub start: Option<StartValue>,
-    /// `min` (Real, Integer, Enumeration)
-    pub min: Option<f64>,
-    /// `max` (Real, Integer, Enumeration)
-    pub max: Option<f64>,
-    /// `nominal` (Real)
-    pub nominal: Option<f64>,
-    /// `unit` (Real)
-    pub unit: Option<String>,
-    /// `displayUnit` (Real)
-    pub display_unit: Option<String>,
-    /// `quantity`
-    pub quantity: Option<String>,
-    /// `derivative` (Real; 1-based index of the state)
-    pub derivative: Option<usize>,
-    /// Line of the `<ScalarVariable>` tag in the file.
-    pub line: usize,
+    /// True when `causality` was written.
+    pub causality_given: bool,
+    /// `canHandleMultipleSetPerTimeInstant`
+    pub can_handle_multiple_set_per_time_instant: Option<bool>,
 }
 
-impl ScalarVariable {
-    /// The effective `initial`: as written, else the default of FMI 2.0.4 table 2.2.7
-    /// (exact for constants and parameters, calculated for calculatedParameters, outputs and
-    /// locals, none for inputs and the independent variable).
-    pub fn effective_initial(&self) -> Option<Initial> {
-        self.initial
-            .or_else(|| fmi_types::schema::default_initial(self.causality, self.variability))
+impl Dialect for Fmi2Attrs {
+    type Causality = Causality;
+    type Start = StartValue;
+    type Ref = usize;
+    const REF: &'static str = "an index";
+    const LOCAL: Causality = Causality::Local;
+    fn causality(s: &str) -> Option<Causality> {
+        Causality::parse(s)
+    }
+    fn base(c: Causality) -> Causality {
+        c
     }
 }
 
@@ -156,7 +132,7 @@ impl Unit {
 }
 
 /// `<SimpleType>` of `<TypeDefinitions>`.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct SimpleType {
     /// `name`
     pub name: String,
@@ -267,24 +243,11 @@ pub struct ModelStructure {
 /// The parsed `modelDescription.xml`.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct ModelDescription {
-    /// `fmiVersion`
-    pub fmi_version: String,
-    /// `modelName`
-    pub model_name: String,
+    /// The identity attributes, read as the description's own.
+    #[serde(flatten)]
+    pub identity: Identity,
     /// `guid`
     pub guid: String,
-    /// `description`
-    pub description: Option<String>,
-    /// `author`
-    pub author: Option<String>,
-    /// `version`
-    pub version: Option<String>,
-    /// `generationTool`
-    pub generation_tool: Option<String>,
-    /// `generationDateAndTime`
-    pub generation_date_and_time: Option<String>,
-    /// `variableNamingConvention`
-    pub variable_naming_convention: Option<String>,
     /// `numberOfEventIndicators`
     pub number_of_event_indicators: Option<u32>,
     /// `<CoSimulation>` if present.
@@ -313,21 +276,12 @@ pub struct ModelDescription {
     pub model_structure: ModelStructure,
 }
 
+reads_as!(ModelDescription => identity: Identity);
+
 impl ModelDescription {
     /// Parses the text of a `modelDescription.xml`; `file` names it in errors.
     pub fn parse(xml: &str, file: &str) -> Result<Self, HostError> {
-        let doc = Doc::new(xml, file);
-        let mut p = Parser {
-            doc: &doc,
-            md: ModelDescription::default(),
-            current_var: None,
-            saw_root: false,
-        };
-        doc.walk(&mut p)?;
-        if !p.saw_root {
-            return Err(doc.err(1, "no <fmiModelDescription> root element"));
-        }
-        Ok(p.md)
+        Ok(crate::xml::read(xml, file, Parser::default())?.md)
     }
 
     /// The variable called `name`.
@@ -367,23 +321,11 @@ impl ModelDescription {
     /// [`MAX_FALLBACK_RECORDED`]; without those the first five variables but `time`. (FMPy's
     /// third rule, variability "local", matches no variable FMI 2.0 allows.)
     pub fn recorded_by_default(&self) -> Vec<String> {
-        let outputs = self.output_names();
-        if !outputs.is_empty() {
-            return outputs;
-        }
-        let states: Vec<String> = self
-            .model_structure
-            .derivatives
-            .iter()
-            .filter_map(|u| self.model_variables.get(u.index.checked_sub(1)?))
-            .filter_map(|d| self.model_variables.get(d.derivative?.checked_sub(1)?))
-            .map(|x| x.name.clone())
-            .take(MAX_FALLBACK_RECORDED)
-            .collect();
-        if !states.is_empty() {
-            return states;
-        }
-        fallback_names(self.model_variables.iter().map(|v| v.name.as_str()))
+        let vars = &self.model_variables;
+        let nth = |i: usize| vars.get(i.checked_sub(1)?);
+        let derivatives = self.model_structure.derivatives.iter();
+        let states = derivatives.filter_map(|u| nth(nth(u.index)?.derivative?));
+        md_common::recorded_by_default(self.output_names(), states, vars)
     }
 
     /// Names of the inputs in file order.
@@ -414,138 +356,61 @@ impl ModelDescription {
     }
 }
 
-struct Parser<'a> {
-    doc: &'a Doc<'a>,
+#[derive(Default)]
+struct Parser {
     md: ModelDescription,
-    /// Kind of the open ScalarVariable's type element is filled when that element is seen.
+    /// The open `<ScalarVariable>`, completed by its type element.
     current_var: Option<ScalarVariable>,
-    saw_root: bool,
 }
 
-impl Visitor for Parser<'_> {
-    fn element(&mut self, _doc: &Doc<'_>, path: Ancestors<'_>, a: Attrs) -> Result<(), HostError> {
-        self.open_element(path, a)
-    }
-
-    fn end(&mut self, path: Ancestors<'_>, name: &str) {
-        self.close_element(path, name)
-    }
-}
-
-impl Parser<'_> {
-    /// Called when the element `name` (child of `path`) closes.
-    fn close_element(&mut self, path: &[String], name: &str) {
-        if name == "ScalarVariable" && path.last().map(String::as_str) == Some("ModelVariables") {
-            if let Some(v) = self.current_var.take() {
-                self.md.model_variables.push(v);
+impl Visitor for Parser {
+    fn element(&mut self, doc: &Doc<'_>, path: Ancestors<'_>, a: Attrs) -> Result<(), HostError> {
+        let md = &mut self.md;
+        match (
+            path.last().map(String::as_str).unwrap_or(""),
+            a.element.as_str(),
+        ) {
+            ("", _) => root(md, doc, &a)?,
+            ("fmiModelDescription", "CoSimulation") => {
+                md.co_simulation = Some(co_simulation(doc, &a)?)
             }
-        }
-    }
-
-    fn open_element(&mut self, path: &[String], a: Attrs) -> Result<(), HostError> {
-        let parent = path.last().map(String::as_str).unwrap_or("");
-        let name = a.element.clone();
-        match (parent, name.as_str()) {
-            ("", "fmiModelDescription") => self.root(&a)?,
-            ("", other) => {
-                return Err(self.doc.err(
-                    a.line,
-                    format!("root element is <{other}>, expected <fmiModelDescription>"),
-                ))
-            }
-            ("fmiModelDescription", "CoSimulation") => self.co_simulation(&a)?,
-            ("fmiModelDescription", "ModelExchange") => {
-                self.md.model_exchange = Some(self.doc.required(&a, "modelIdentifier")?);
-                self.md.me_provides_directional_derivative = self
-                    .doc
-                    .boolean(&a, "providesDirectionalDerivative")?
-                    .unwrap_or(false);
-                self.md.me_completed_integrator_step_not_needed = self
-                    .doc
-                    .boolean(&a, "completedIntegratorStepNotNeeded")?
-                    .unwrap_or(false);
-                self.md.me_can_get_and_set_fmu_state = self
-                    .doc
-                    .boolean(&a, "canGetAndSetFMUstate")?
-                    .unwrap_or(false);
-                self.md.me_can_serialize_fmu_state = self
-                    .doc
-                    .boolean(&a, "canSerializeFMUstate")?
-                    .unwrap_or(false);
-            }
-            ("UnitDefinitions", "Unit") => {
-                let unit = Unit::read(self.doc, &a)?;
-                self.md.unit_definitions.push(unit);
-            }
+            ("fmiModelDescription", "ModelExchange") => model_exchange(md, doc, &a)?,
+            ("UnitDefinitions", "Unit") => md.unit_definitions.push(Unit::read(doc, &a)?),
             ("Unit", "BaseUnit") => {
-                let mut b = BaseUnit {
-                    factor: self.doc.real(&a, "factor")?.unwrap_or(1.0),
-                    offset: self.doc.real(&a, "offset")?.unwrap_or(0.0),
-                    ..Default::default()
-                };
-                for (i, k) in ["kg", "m", "s", "A", "K", "mol", "cd", "rad"]
-                    .iter()
-                    .enumerate()
-                {
-                    b.exponents[i] = self.doc.parse::<i32>(&a, k, "an integer")?.unwrap_or(0);
-                }
-                if let Some(u) = self.md.unit_definitions.last_mut() {
+                let b = base_unit(doc, &a)?;
+                if let Some(u) = md.unit_definitions.last_mut() {
                     u.base_unit = Some(b);
                 }
             }
             ("Unit", "DisplayUnit") => {
-                let d = DisplayUnit::read(self.doc, &a, false)?;
-                if let Some(u) = self.md.unit_definitions.last_mut() {
+                let d = DisplayUnit::read(doc, &a, false)?;
+                if let Some(u) = md.unit_definitions.last_mut() {
                     u.display_units.push(d);
                 }
             }
-            ("TypeDefinitions", "SimpleType") => {
-                let name = self.doc.required(&a, "name")?;
-                self.md.type_definitions.push(SimpleType {
-                    name,
-                    kind: None,
-                    unit: None,
-                    display_unit: None,
-                    min: None,
-                    max: None,
-                    line: a.line,
-                });
-            }
-            ("SimpleType", kind) => {
-                let kind = var_kind(kind).ok_or_else(|| {
-                    self.doc.err(
-                        a.line,
-                        format!("<SimpleType> has unknown type element <{kind}>"),
-                    )
-                })?;
-                let (min, max) = (self.doc.real(&a, "min")?, self.doc.real(&a, "max")?);
-                if let Some(t) = self.md.type_definitions.last_mut() {
-                    t.kind = Some(kind);
-                    t.unit = a.get("unit").map(str::to_string);
-                    t.display_unit = a.get("displayUnit").map(str::to_string);
-                    t.min = min;
-                    t.max = max;
-                }
-            }
-            ("LogCategories", "Category") => {
-                let name = self.doc.required(&a, "name")?;
-                self.md.log_categories.push(LogCategory {
-                    name,
-                    description: a.get("description").map(str::to_string),
-                });
-            }
+            ("TypeDefinitions", "SimpleType") => md.type_definitions.push(SimpleType {
+                name: doc.required(&a, "name")?,
+                line: a.line,
+                ..SimpleType::default()
+            }),
+            ("SimpleType", kind) => simple_type(md, doc, kind, &a)?,
+            ("LogCategories", "Category") => md.log_categories.push(LogCategory {
+                name: doc.required(&a, "name")?,
+                description: a.text("description"),
+            }),
             ("fmiModelDescription", "DefaultExperiment") => {
-                self.md.default_experiment = Some(DefaultExperiment::read(self.doc, &a)?);
+                md.default_experiment = Some(DefaultExperiment::read(doc, &a)?);
             }
-            ("ModelVariables", "ScalarVariable") => self.scalar_variable(&a)?,
-            (
-                "ScalarVariable",
-                kind @ ("Real" | "Integer" | "Boolean" | "String" | "Enumeration"),
-            ) => self.type_element(kind, &a)?,
-            ("fmiModelDescription", "ModelStructure") => self.md.model_structure.present = true,
+            ("ModelVariables", "ScalarVariable") => {
+                self.current_var = Some(scalar_variable(doc, &a)?)
+            }
+            ("ScalarVariable", kind) if VarKind::parse(kind).is_some() => {
+                self.type_element(doc, &a)?
+            }
+            ("fmiModelDescription", "ModelStructure") => md.model_structure.present = true,
             (list @ ("Outputs" | "Derivatives" | "InitialUnknowns"), "Unknown") => {
-                let u = self.unknown(&a)?;
-                let ms = &mut self.md.model_structure;
+                let u = unknown(doc, &a)?;
+                let ms = &mut md.model_structure;
                 match list {
                     "Outputs" => ms.outputs.push(u),
                     "Derivatives" => ms.derivatives.push(u),
@@ -557,218 +422,166 @@ impl Parser<'_> {
         Ok(())
     }
 
-    fn root(&mut self, a: &Attrs) -> Result<(), HostError> {
-        self.saw_root = true;
-        let md = &mut self.md;
-        md.fmi_version = a.get("fmiVersion").unwrap_or("").to_string();
-        md.model_name = a.get("modelName").unwrap_or("").to_string();
-        md.guid = a.get("guid").unwrap_or("").to_string();
-        md.description = a.get("description").map(str::to_string);
-        md.author = a.get("author").map(str::to_string);
-        md.version = a.get("version").map(str::to_string);
-        md.generation_tool = a.get("generationTool").map(str::to_string);
-        md.generation_date_and_time = a.get("generationDateAndTime").map(str::to_string);
-        md.variable_naming_convention = a.get("variableNamingConvention").map(str::to_string);
-        let n = self
-            .doc
-            .parse::<u32>(a, "numberOfEventIndicators", "an unsigned integer")?;
-        self.md.number_of_event_indicators = n;
-        Ok(())
-    }
-
-    fn co_simulation(&mut self, a: &Attrs) -> Result<(), HostError> {
-        let mut cs = CoSimulation {
-            model_identifier: self.doc.required(a, "modelIdentifier")?,
-            ..Default::default()
-        };
-        let flags: [(&str, &mut bool); 9] = [
-            ("needsExecutionTool", &mut cs.needs_execution_tool),
-            (
-                "canHandleVariableCommunicationStepSize",
-                &mut cs.can_handle_variable_communication_step_size,
-            ),
-            ("canInterpolateInputs", &mut cs.can_interpolate_inputs),
-            ("canRunAsynchronuously", &mut cs.can_run_asynchronuously),
-            (
-                "canBeInstantiatedOnlyOncePerProcess",
-                &mut cs.can_be_instantiated_only_once_per_process,
-            ),
-            (
-                "canNotUseMemoryManagementFunctions",
-                &mut cs.can_not_use_memory_management_functions,
-            ),
-            ("canGetAndSetFMUstate", &mut cs.can_get_and_set_fmu_state),
-            ("canSerializeFMUstate", &mut cs.can_serialize_fmu_state),
-            (
-                "providesDirectionalDerivative",
-                &mut cs.provides_directional_derivative,
-            ),
-        ];
-        let mut given = Vec::new();
-        for (key, slot) in flags {
-            if let Some(v) = self.doc.boolean(a, key)? {
-                *slot = v;
-                given.push(key.to_string());
+    fn end(&mut self, path: Ancestors<'_>, name: &str) {
+        if name == "ScalarVariable" && path.last().map(String::as_str) == Some("ModelVariables") {
+            if let Some(v) = self.current_var.take() {
+                self.md.model_variables.push(v);
             }
         }
-        cs.flags_given = given;
-        cs.max_output_derivative_order = self
-            .doc
-            .parse::<u32>(a, "maxOutputDerivativeOrder", "an unsigned integer")?
-            .unwrap_or(0);
-        self.md.co_simulation = Some(cs);
-        Ok(())
-    }
-
-    fn scalar_variable(&mut self, a: &Attrs) -> Result<(), HostError> {
-        let name = self.doc.required(a, "name")?;
-        let vr = self.doc.required(a, "valueReference")?;
-        let value_reference = vr.trim().parse::<u32>().map_err(|_| {
-            self.doc.err(
-                a.line,
-                format!(
-                    "variable '{name}': valueReference=\"{vr}\" is not an unsigned 32-bit integer"
-                ),
-            )
-        })?;
-        let causality = match a.get("causality") {
-            None => Causality::Local,
-            Some(o) => Causality::parse(o).ok_or_else(|| {
-                self.doc.err(
-                    a.line,
-                    format!("variable '{name}': unknown causality \"{o}\""),
-                )
-            })?,
-        };
-        let variability = match a.get("variability") {
-            None => Variability::Continuous,
-            Some(o) => Variability::parse(o).ok_or_else(|| {
-                self.doc.err(
-                    a.line,
-                    format!("variable '{name}': unknown variability \"{o}\""),
-                )
-            })?,
-        };
-        let initial = match a.get("initial") {
-            None => None,
-            Some(o) => Some(Initial::parse(o).ok_or_else(|| {
-                self.doc.err(
-                    a.line,
-                    format!("variable '{name}': unknown initial \"{o}\""),
-                )
-            })?),
-        };
-        self.current_var = Some(ScalarVariable {
-            name,
-            value_reference,
-            description: a.get("description").map(str::to_string),
-            causality,
-            causality_given: a.get("causality").is_some(),
-            variability,
-            variability_given: a.get("variability").is_some(),
-            initial,
-            can_handle_multiple_set_per_time_instant: self
-                .doc
-                .boolean(a, "canHandleMultipleSetPerTimeInstant")?,
-            kind: VarKind::Real,
-            declared_type: None,
-            start: None,
-            min: None,
-            max: None,
-            nominal: None,
-            unit: None,
-            display_unit: None,
-            quantity: None,
-            derivative: None,
-            line: a.line,
-        });
-        Ok(())
-    }
-
-    fn type_element(&mut self, kind: &str, a: &Attrs) -> Result<(), HostError> {
-        let kind = var_kind(kind).unwrap_or(VarKind::Real);
-        let vname = self
-            .current_var
-            .as_ref()
-            .map(|v| v.name.clone())
-            .unwrap_or_default();
-        let start = match (kind, a.get("start")) {
-            (_, None) => None,
-            (VarKind::Real, Some(s)) => Some(StartValue::Real(parse_real(s).ok_or_else(|| {
-                self.doc.err(
-                    a.line,
-                    format!("variable '{vname}': start=\"{s}\" is not a real number"),
-                )
-            })?)),
-            (VarKind::Integer | VarKind::Enumeration, Some(s)) => Some(StartValue::Integer(
-                s.trim().parse::<i64>().map_err(|_| {
-                    self.doc.err(
-                        a.line,
-                        format!("variable '{vname}': start=\"{s}\" is not an integer"),
-                    )
-                })?,
-            )),
-            (VarKind::Boolean, Some(_)) => Some(StartValue::Boolean(
-                self.doc.boolean(a, "start")?.unwrap_or(false),
-            )),
-            (VarKind::String, Some(s)) => Some(StartValue::String(s.to_string())),
-        };
-        let min = self.doc.real(a, "min")?;
-        let max = self.doc.real(a, "max")?;
-        let nominal = self.doc.real(a, "nominal")?;
-        let derivative = self.doc.parse::<usize>(a, "derivative", "an index")?;
-        if let Some(v) = self.current_var.as_mut() {
-            v.kind = kind;
-            v.declared_type = a.get("declaredType").map(str::to_string);
-            v.start = start;
-            v.min = min;
-            v.max = max;
-            v.nominal = nominal;
-            v.unit = a.get("unit").map(str::to_string);
-            v.display_unit = a.get("displayUnit").map(str::to_string);
-            v.quantity = a.get("quantity").map(str::to_string);
-            v.derivative = derivative;
-        }
-        Ok(())
-    }
-
-    fn unknown(&self, a: &Attrs) -> Result<Unknown, HostError> {
-        let index = self
-            .doc
-            .parse::<usize>(a, "index", "an index")?
-            .ok_or_else(|| {
-                self.doc
-                    .err(a.line, "<Unknown> lacks the required attribute index")
-            })?;
-        let dependencies = match a.get("dependencies") {
-            None => None,
-            Some(s) => Some(
-                s.split_whitespace()
-                    .map(|t| {
-                        t.parse::<usize>().map_err(|_| {
-                            self.doc.err(
-                                a.line,
-                                format!("<Unknown> dependencies entry \"{t}\" is not an index"),
-                            )
-                        })
-                    })
-                    .collect::<Result<Vec<_>, _>>()?,
-            ),
-        };
-        let dependencies_kind = a
-            .get("dependenciesKind")
-            .map(|s| s.split_whitespace().map(str::to_string).collect());
-        Ok(Unknown {
-            index,
-            dependencies,
-            dependencies_kind,
-            line: a.line,
-        })
     }
 }
 
-fn var_kind(name: &str) -> Option<VarKind> {
-    VarKind::parse(name)
+impl Parser {
+    /// The type element (`<Real>`, ...) of the open variable: its kind, start and the
+    /// attributes of [`Var::read_type`].
+    fn type_element(&mut self, doc: &Doc<'_>, a: &Attrs) -> Result<(), HostError> {
+        let Some(v) = self.current_var.as_mut() else {
+            return Ok(());
+        };
+        v.kind = VarKind::parse(&a.element).unwrap_or(VarKind::Real);
+        v.start = start_value(doc, v.kind, &v.name, a)?;
+        v.read_type(doc, a)
+    }
+}
+
+/// The attributes of `<fmiModelDescription>` (FMI 2.0.4 section 2.2.1).
+fn root(md: &mut ModelDescription, doc: &Doc<'_>, a: &Attrs) -> Result<(), HostError> {
+    md.identity = Identity::read(a);
+    md.guid = a.text("guid").unwrap_or_default();
+    md.number_of_event_indicators =
+        doc.parse::<u32>(a, "numberOfEventIndicators", "an unsigned integer")?;
+    Ok(())
+}
+
+/// The capability flag `key` of the interface element `a` (absent: false, FMI 2.0.4 sections
+/// 3.3.2 and 4.3.1); its name is added to `given` when it is written.
+fn flag(doc: &Doc<'_>, a: &Attrs, key: &str, given: &mut Vec<String>) -> Result<bool, HostError> {
+    let v = doc.boolean(a, key)?;
+    given.extend(v.map(|_| key.to_string()));
+    Ok(v.unwrap_or(false))
+}
+
+fn model_exchange(md: &mut ModelDescription, doc: &Doc<'_>, a: &Attrs) -> Result<(), HostError> {
+    md.model_exchange = Some(doc.required(a, "modelIdentifier")?);
+    let f = |key| flag(doc, a, key, &mut Vec::new());
+    md.me_provides_directional_derivative = f("providesDirectionalDerivative")?;
+    md.me_completed_integrator_step_not_needed = f("completedIntegratorStepNotNeeded")?;
+    md.me_can_get_and_set_fmu_state = f("canGetAndSetFMUstate")?;
+    md.me_can_serialize_fmu_state = f("canSerializeFMUstate")?;
+    Ok(())
+}
+
+fn co_simulation(doc: &Doc<'_>, a: &Attrs) -> Result<CoSimulation, HostError> {
+    let model_identifier = doc.required(a, "modelIdentifier")?;
+    let mut given = Vec::new();
+    let mut f = |key| flag(doc, a, key, &mut given);
+    Ok(CoSimulation {
+        model_identifier,
+        needs_execution_tool: f("needsExecutionTool")?,
+        can_handle_variable_communication_step_size: f("canHandleVariableCommunicationStepSize")?,
+        can_interpolate_inputs: f("canInterpolateInputs")?,
+        can_run_asynchronuously: f("canRunAsynchronuously")?,
+        can_be_instantiated_only_once_per_process: f("canBeInstantiatedOnlyOncePerProcess")?,
+        can_not_use_memory_management_functions: f("canNotUseMemoryManagementFunctions")?,
+        can_get_and_set_fmu_state: f("canGetAndSetFMUstate")?,
+        can_serialize_fmu_state: f("canSerializeFMUstate")?,
+        provides_directional_derivative: f("providesDirectionalDerivative")?,
+        max_output_derivative_order: doc
+            .parse::<u32>(a, "maxOutputDerivativeOrder", "an unsigned integer")?
+            .unwrap_or(0),
+        flags_given: given,
+    })
+}
+
+/// `<BaseUnit>`: the exponents of kg, m, s, A, K, mol, cd, rad, a factor and an offset
+/// (FMI 2.0.4 section 2.2.2).
+fn base_unit(doc: &Doc<'_>, a: &Attrs) -> Result<BaseUnit, HostError> {
+    let mut b = BaseUnit {
+        factor: doc.real(a, "factor")?.unwrap_or(1.0),
+        offset: doc.real(a, "offset")?.unwrap_or(0.0),
+        ..Default::default()
+    };
+    for (e, k) in b
+        .exponents
+        .iter_mut()
+        .zip(["kg", "m", "s", "A", "K", "mol", "cd", "rad"])
+    {
+        *e = doc.parse::<i32>(a, k, "an integer")?.unwrap_or(0);
+    }
+    Ok(b)
+}
+
+/// The type element of the open `<SimpleType>` (FMI 2.0.4 section 2.2.3).
+fn simple_type(
+    md: &mut ModelDescription,
+    doc: &Doc<'_>,
+    kind: &str,
+    a: &Attrs,
+) -> Result<(), HostError> {
+    let kind = VarKind::parse(kind).ok_or_else(|| {
+        doc.err(
+            a.line,
+            format!("<SimpleType> has unknown type element <{kind}>"),
+        )
+    })?;
+    let (min, max) = (doc.real(a, "min")?, doc.real(a, "max")?);
+    if let Some(t) = md.type_definitions.last_mut() {
+        t.kind = Some(kind);
+        t.unit = a.text("unit");
+        t.display_unit = a.text("displayUnit");
+        (t.min, t.max) = (min, max);
+    }
+    Ok(())
+}
+
+/// A `<ScalarVariable>` before its type element.
+fn scalar_variable(doc: &Doc<'_>, a: &Attrs) -> Result<ScalarVariable, HostError> {
+    let more = Fmi2Attrs {
+        kind: VarKind::Real,
+        causality_given: a.get("causality").is_some(),
+        can_handle_multiple_set_per_time_instant: None,
+    };
+    let mut v = ScalarVariable::read(doc, a, Variability::Continuous, more)?;
+    v.can_handle_multiple_set_per_time_instant =
+        doc.boolean(a, "canHandleMultipleSetPerTimeInstant")?;
+    Ok(v)
+}
+
+/// The `start` of a type element of `kind` of the variable `who`.
+fn start_value(
+    doc: &Doc<'_>,
+    kind: VarKind,
+    who: &str,
+    a: &Attrs,
+) -> Result<Option<StartValue>, HostError> {
+    let Some(s) = a.get("start") else {
+        return Ok(None);
+    };
+    let bad = |what| {
+        doc.err(
+            a.line,
+            format!("variable '{who}': start=\"{s}\" is not {what}"),
+        )
+    };
+    Ok(Some(match kind {
+        VarKind::Real => StartValue::Real(parse_real(s).ok_or_else(|| bad("a real number"))?),
+        VarKind::Integer | VarKind::Enumeration => {
+            StartValue::Integer(s.trim().parse::<i64>().map_err(|_| bad("an integer"))?)
+        }
+        VarKind::Boolean => StartValue::Boolean(doc.boolean(a, "start")?.unwrap_or(false)),
+        VarKind::String => StartValue::String(s.to_string()),
+    }))
+}
+
+/// An `<Unknown>` of `<ModelStructure>` (FMI 2.0.4 section 2.2.8).
+fn unknown(doc: &Doc<'_>, a: &Attrs) -> Result<Unknown, HostError> {
+    let bad = |t: &str| format!("<Unknown> dependencies entry \"{t}\" is not an index");
+    Ok(Unknown {
+        index: doc.parsed::<usize>(a, "index", "an index")?,
+        dependencies: list(doc, a, "dependencies", bad)?,
+        dependencies_kind: dependencies_kind(a),
+        line: a.line,
+    })
 }
 
 /// One base type for aliasing (FMI 2.0.4 section 2.2.7): an Enumeration's values are Integers.
@@ -778,19 +591,6 @@ fn same_base(a: VarKind, b: VarKind) -> bool {
         k => k,
     };
     base(a) == base(b)
-}
-
-/// How many states, or variables, FMPy records at most for an FMU without outputs.
-pub const MAX_FALLBACK_RECORDED: usize = 5;
-
-/// FMPy's last resort for an FMU with neither outputs nor states: its first five variables,
-/// without `time` (the name of the time column).
-pub(crate) fn fallback_names<'a>(names: impl Iterator<Item = &'a str>) -> Vec<String> {
-    names
-        .take(MAX_FALLBACK_RECORDED)
-        .filter(|n| *n != "time")
-        .map(str::to_string)
-        .collect()
 }
 
 #[cfg(test)]

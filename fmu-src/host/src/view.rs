@@ -9,7 +9,7 @@
 //! Float64, Integer is Int32) and in [`Variable::scalar_kind`] (which variables the FMI 2.0
 //! vocabulary of those commands can name).
 
-use crate::fmi3::md::{Dimension, ModelDescription3, Variable3};
+use crate::fmi3::md::{Fmi3Attrs, Interface3, ModelDescription3, Variable3};
 use crate::fmi3::value::Values;
 use crate::kind::FmiVersion;
 use crate::md::{ModelDescription, ScalarVariable, StartValue};
@@ -19,66 +19,31 @@ pub use crate::md::DefaultExperiment;
 pub use effects::Problem as EffectProblem;
 pub use fmi_types::{Initial, VarKind, Variability};
 
-/// `causality` of a variable (FMI 3.0.2 section 2.4.7.4, which adds `structuralParameter` to
-/// the six of FMI 2.0.4 section 2.2.7; default `local`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
-#[serde(rename_all = "camelCase")]
-#[allow(missing_docs)]
-pub enum Causality {
-    StructuralParameter,
-    Parameter,
-    CalculatedParameter,
-    Input,
-    Output,
-    Local,
-    Independent,
-}
-
-impl Causality {
-    /// Parses the attribute's spelling.
-    pub fn parse(s: &str) -> Option<Causality> {
-        Some(match s {
-            "structuralParameter" => Causality::StructuralParameter,
-            "parameter" => Causality::Parameter,
-            "calculatedParameter" => Causality::CalculatedParameter,
-            "input" => Causality::Input,
-            "output" => Causality::Output,
-            "local" => Causality::Local,
-            "independent" => Causality::Independent,
-            _ => return None,
-        })
-    }
-
-    /// The attribute's spelling.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Causality::StructuralParameter => "structuralParameter",
-            Causality::Parameter => "parameter",
-            Causality::CalculatedParameter => "calculatedParameter",
-            Causality::Input => "input",
-            Causality::Output => "output",
-            Causality::Local => "local",
-            Causality::Independent => "independent",
-        }
-    }
-}
-
-impl std::fmt::Display for Causality {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.as_str())
+fmi_types::xml_enum! {
+    /// `causality` of a variable (FMI 3.0.2 section 2.4.7.4, which adds `structuralParameter` to
+    /// the six of FMI 2.0.4 section 2.2.7; default `local`).
+    Causality {
+        /// structuralParameter
+        StructuralParameter = "structuralParameter",
+        /// parameter
+        Parameter = "parameter",
+        /// calculatedParameter
+        CalculatedParameter = "calculatedParameter",
+        /// input
+        Input = "input",
+        /// output
+        Output = "output",
+        /// local
+        Local = "local",
+        /// independent
+        Independent = "independent",
     }
 }
 
 impl From<fmi_types::Causality> for Causality {
+    /// The same spelling: FMI 3.0 keeps the six causalities of FMI 2.0.
     fn from(c: fmi_types::Causality) -> Self {
-        match c {
-            fmi_types::Causality::Parameter => Causality::Parameter,
-            fmi_types::Causality::CalculatedParameter => Causality::CalculatedParameter,
-            fmi_types::Causality::Input => Causality::Input,
-            fmi_types::Causality::Output => Causality::Output,
-            fmi_types::Causality::Local => Causality::Local,
-            fmi_types::Causality::Independent => Causality::Independent,
-        }
+        Causality::parse(c.as_str()).unwrap_or(Causality::Local)
     }
 }
 
@@ -93,43 +58,12 @@ pub struct Interfaces {
     pub scheduled_execution: Option<String>,
 }
 
-/// One variable of `<ModelVariables>`.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
-pub struct Variable {
-    /// `name`
-    pub name: String,
-    /// `valueReference`
-    pub value_reference: u32,
-    /// `description`
-    pub description: Option<String>,
-    /// The type element (FMI 2.0: Real as Float64, Integer as Int32).
-    pub ty: ValueType,
-    /// `causality` (default local applied)
-    pub causality: Causality,
-    /// `variability` (default applied)
-    pub variability: Variability,
-    /// `initial` as written.
-    pub initial: Option<Initial>,
-    /// `start`, row-major for arrays.
-    pub start: Option<Values>,
-    /// `min`, else that of the declared type.
-    pub min: Option<f64>,
-    /// `max`, else that of the declared type.
-    pub max: Option<f64>,
-    /// `unit`, else that of the declared type.
-    pub unit: Option<String>,
-    /// `<Dimension>`s in order (empty: a scalar; always empty in FMI 2.0).
-    pub dimensions: Vec<Dimension>,
-    /// Line of the variable's tag in the file.
-    pub line: usize,
-}
+/// One variable of `<ModelVariables>` as the FMI 3.0 variable it is or stands for (FMI 2.0:
+/// Real as Float64, Integer as Int32), its `min`, `max` and `unit` those of its declared type
+/// where it gives none.
+pub type Variable = Variable3;
 
-impl Variable {
-    /// True for an array (it has `<Dimension>`s).
-    pub fn is_array(&self) -> bool {
-        !self.dimensions.is_empty()
-    }
-
+impl Variable3 {
     /// The FMI 2.0 kind of a scalar model quantity: what `--set`, the CSV columns, `gap` and
     /// `design` name and range. None for arrays, for the types beyond FMI 2.0 (Int64 and UInt64
     /// exceed its Integer range; Binary, Clock) and for structural parameters (they size arrays,
@@ -270,6 +204,10 @@ impl From<&ModelDescription3> for ModelView {
 
 /// The view of an FMI 2.0 description.
 pub fn from_fmi2(md: &ModelDescription) -> ModelView {
+    let cs = md
+        .co_simulation
+        .as_ref()
+        .map(|c| c.model_identifier.clone());
     ModelView {
         fmi_version: FmiVersion::Fmi2,
         model_name: md.model_name.clone(),
@@ -278,10 +216,7 @@ pub fn from_fmi2(md: &ModelDescription) -> ModelView {
         generation_tool: md.generation_tool.clone(),
         interfaces: Interfaces {
             model_exchange: md.model_exchange.clone(),
-            co_simulation: md
-                .co_simulation
-                .as_ref()
-                .map(|c| c.model_identifier.clone()),
+            co_simulation: cs,
             scheduled_execution: None,
         },
         default_experiment: md.default_experiment.clone(),
@@ -293,29 +228,27 @@ pub fn from_fmi2(md: &ModelDescription) -> ModelView {
     }
 }
 
+/// An FMI 2.0 variable as its FMI 3.0 counterpart; `derivative` becomes the value reference of
+/// the state.
 fn variable_of_fmi2(md: &ModelDescription, v: &ScalarVariable) -> Variable {
+    let ty = match v.kind {
+        VarKind::Real => ValueType::Float64,
+        VarKind::Integer => ValueType::Int32,
+        VarKind::Boolean => ValueType::Boolean,
+        VarKind::String => ValueType::String,
+        VarKind::Enumeration => ValueType::Enumeration,
+    };
+    let state = |i: usize| Some(md.model_variables.get(i.checked_sub(1)?)?.value_reference);
+    let start = v.start.as_ref().map(start_of_fmi2);
+    let view = v.convert(
+        v.causality.into(),
+        start,
+        v.derivative.and_then(state),
+        Fmi3Attrs::new(ty),
+    );
     let declared = v.declared_type.as_deref().and_then(|t| md.simple_type(t));
-    Variable {
-        name: v.name.clone(),
-        value_reference: v.value_reference,
-        description: v.description.clone(),
-        ty: match v.kind {
-            VarKind::Real => ValueType::Float64,
-            VarKind::Integer => ValueType::Int32,
-            VarKind::Boolean => ValueType::Boolean,
-            VarKind::String => ValueType::String,
-            VarKind::Enumeration => ValueType::Enumeration,
-        },
-        causality: v.causality.into(),
-        variability: v.variability,
-        initial: v.initial,
-        start: v.start.as_ref().map(start_of_fmi2),
-        min: v.min.or(declared.and_then(|d| d.min)),
-        max: v.max.or(declared.and_then(|d| d.max)),
-        unit: md.effective_unit(v).map(str::to_string),
-        dimensions: Vec::new(),
-        line: v.line,
-    }
+    let d = declared.map(|d| (d.min, d.max, d.unit.as_ref()));
+    with_declared(view, d.unwrap_or_default())
 }
 
 /// An FMI 2.0 start value as a one-element buffer of its FMI 3.0 type. The FMI 2.0 Integer is
@@ -334,8 +267,19 @@ fn start_of_fmi2(start: &StartValue) -> Values {
 
 /// The view of an FMI 3.0 description.
 pub fn from_fmi3(md: &ModelDescription3) -> ModelView {
-    let identifier =
-        |i: &Option<crate::fmi3::md::Interface3>| i.as_ref().map(|i| i.model_identifier.clone());
+    let identifier = |i: &Option<Interface3>| i.as_ref().map(|i| i.model_identifier.clone());
+    let variable = |v: &Variable3| {
+        let declared = v.declared_type.as_deref();
+        let d = md
+            .type_definitions
+            .iter()
+            .find(|d| Some(d.name.as_str()) == declared);
+        with_declared(
+            v.clone(),
+            d.map(|d| (d.min, d.max, d.unit.as_ref()))
+                .unwrap_or_default(),
+        )
+    };
     ModelView {
         fmi_version: FmiVersion::Fmi3,
         model_name: md.model_name.clone(),
@@ -348,37 +292,20 @@ pub fn from_fmi3(md: &ModelDescription3) -> ModelView {
             scheduled_execution: identifier(&md.scheduled_execution),
         },
         default_experiment: md.default_experiment.clone(),
-        variables: md
-            .variables
-            .iter()
-            .map(|v| variable_of_fmi3(md, v))
-            .collect(),
+        variables: md.variables.iter().map(variable).collect(),
     }
 }
 
-fn variable_of_fmi3(md: &ModelDescription3, v: &Variable3) -> Variable {
-    let declared = v
-        .declared_type
-        .as_deref()
-        .and_then(|t| md.type_definitions.iter().find(|d| d.name == t));
-    Variable {
-        name: v.name.clone(),
-        value_reference: v.value_reference,
-        description: v.description.clone(),
-        ty: v.ty,
-        causality: v.causality,
-        variability: v.variability,
-        initial: v.initial,
-        start: v.start.clone(),
-        min: v.min.or(declared.and_then(|d| d.min)),
-        max: v.max.or(declared.and_then(|d| d.max)),
-        unit: v
-            .unit
-            .clone()
-            .or_else(|| declared.and_then(|d| d.unit.clone())),
-        dimensions: v.dimensions.clone(),
-        line: v.line,
-    }
+/// `v` with the `min`, `max` and `unit` of its declared type where it gives none.
+fn with_declared(
+    mut v: Variable,
+    declared: (Option<f64>, Option<f64>, Option<&String>),
+) -> Variable {
+    let (min, max, unit) = declared;
+    v.min = v.min.or(min);
+    v.max = v.max.or(max);
+    v.unit = v.unit.or_else(|| unit.cloned());
+    v
 }
 
 #[cfg(test)]

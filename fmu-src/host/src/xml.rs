@@ -21,6 +21,11 @@ impl Attrs {
             .find(|(k, _)| k == key)
             .map(|(_, v)| v.as_str())
     }
+
+    /// The text of an optional attribute.
+    pub(crate) fn text(&self, key: &str) -> Option<String> {
+        self.get(key).map(str::to_string)
+    }
 }
 
 /// Where an element is in the document: the names of its ancestors, the root first.
@@ -103,11 +108,13 @@ impl<'a> Doc<'a> {
     }
 
     /// Walks every element in document order; the first syntax error ends the walk with its
-    /// line and column.
+    /// line and column, as does a root element other than `<fmiModelDescription>` (the root of
+    /// both versions' schemas) or a document without one.
     pub(crate) fn walk(&self, v: &mut impl Visitor) -> Result<(), HostError> {
         let mut reader = Reader::from_str(self.xml);
         reader.config_mut().trim_text(true);
         let mut path: Vec<String> = Vec::new();
+        let mut seen_root = false;
         loop {
             let pos = reader.buffer_position() as usize;
             let event = reader.read_event().map_err(|e| {
@@ -122,12 +129,14 @@ impl<'a> Doc<'a> {
             match event {
                 Event::Start(e) => {
                     let a = self.attrs(&e, self.line_at(pos))?;
+                    seen_root |= self.root(&path, &a)?;
                     let name = a.element.clone();
                     v.element(self, &path, a)?;
                     path.push(name);
                 }
                 Event::Empty(e) => {
                     let a = self.attrs(&e, self.line_at(pos))?;
+                    seen_root |= self.root(&path, &a)?;
                     let name = a.element.clone();
                     v.element(self, &path, a)?;
                     v.end(&path, &name);
@@ -137,10 +146,27 @@ impl<'a> Doc<'a> {
                     path.pop();
                     v.end(&path, &name);
                 }
+                Event::Eof if !seen_root => {
+                    return Err(self.err(1, "no <fmiModelDescription> root element"))
+                }
                 Event::Eof => return Ok(()),
                 _ => {}
             }
         }
+    }
+
+    /// True when `a` is the root element (no ancestors); Err when that root is not
+    /// `<fmiModelDescription>`.
+    fn root(&self, path: Ancestors<'_>, a: &Attrs) -> Result<bool, HostError> {
+        if !path.is_empty() {
+            return Ok(false);
+        }
+        if a.element != "fmiModelDescription" {
+            let other = crate::error::shown(&a.element, 40);
+            let m = format!("root element is <{other}>, expected <fmiModelDescription>");
+            return Err(self.err(a.line, m));
+        }
+        Ok(true)
     }
 
     /// `key` parsed as `T` (`what` names the type in the message), None when absent.
@@ -172,23 +198,57 @@ impl<'a> Doc<'a> {
         what: &str,
         read: impl FnOnce(&str) -> Option<T>,
     ) -> Result<Option<T>, HostError> {
-        let Some(s) = a.get(key) else { return Ok(None) };
-        read(s).map(Some).ok_or_else(|| {
+        self.read_with(a, key, read, |s| {
             let shown = crate::error::shown(s, 60);
-            let m = format!("<{}> attribute {key}=\"{shown}\" is not {what}", a.element);
-            self.err(a.line, m)
+            format!("<{}> attribute {key}=\"{shown}\" is not {what}", a.element)
         })
+    }
+
+    /// `key` read by `read`, None when absent; `bad` gives the message for a text `read`
+    /// refuses.
+    pub(crate) fn read_with<T>(
+        &self,
+        a: &Attrs,
+        key: &str,
+        read: impl FnOnce(&str) -> Option<T>,
+        bad: impl FnOnce(&str) -> String,
+    ) -> Result<Option<T>, HostError> {
+        let Some(s) = a.get(key) else { return Ok(None) };
+        read(s).map(Some).ok_or_else(|| self.err(a.line, bad(s)))
     }
 
     /// A required attribute's text.
     pub(crate) fn required(&self, a: &Attrs, key: &str) -> Result<String, HostError> {
-        a.get(key).map(str::to_string).ok_or_else(|| {
-            self.err(
-                a.line,
-                format!("<{}> lacks the required attribute {key}", a.element),
-            )
-        })
+        a.text(key).ok_or_else(|| self.missing(a, key))
     }
+
+    /// A required attribute parsed as `T` (`what` names the type in the message).
+    pub(crate) fn parsed<T: FromStr>(
+        &self,
+        a: &Attrs,
+        key: &str,
+        what: &str,
+    ) -> Result<T, HostError> {
+        self.parse(a, key, what)?
+            .ok_or_else(|| self.missing(a, key))
+    }
+
+    /// The error for an element `a` that `parent` may not contain.
+    pub(crate) fn unknown_child(&self, parent: &str, a: &Attrs) -> HostError {
+        let child = crate::error::shown(&a.element, 40);
+        self.err(a.line, format!("<{parent}> has unknown element <{child}>"))
+    }
+
+    fn missing(&self, a: &Attrs, key: &str) -> HostError {
+        let m = format!("<{}> lacks the required attribute {key}", a.element);
+        self.err(a.line, m)
+    }
+}
+
+/// Walks the document `xml` (named `file` in errors) with the parser `p` and returns it.
+pub(crate) fn read<P: Visitor>(xml: &str, file: &str, mut p: P) -> Result<P, HostError> {
+    Doc::new(xml, file).walk(&mut p)?;
+    Ok(p)
 }
 
 /// Parses an xs:double (accepts INF, -INF, NaN as XML Schema writes them).

@@ -16,9 +16,11 @@
 //! Like the FMI 2.0 parser, this one is strict about syntax (malformed XML, attributes that do
 //! not parse as their type, start values outside their type's range) and leaves the semantic
 //! rules (combinations of causality and variability, complete `<ModelStructure>`) to `validate`.
+//! What it reads as FMI 2.0 does is in [`crate::md_common`].
 
 use super::value::{Type3, Values};
 use crate::error::HostError;
+use crate::md_common::{self, dependencies_kind, list, reads_as, Dialect, Identity, Var};
 use crate::xml::{Ancestors, Attrs, Doc, Visitor};
 use std::borrow::Cow;
 
@@ -38,44 +40,14 @@ pub struct Dimension {
     pub line: usize,
 }
 
-/// One variable of `<ModelVariables>`.
+/// One variable of `<ModelVariables>` (FMI 3.0.2 section 2.4.7).
+pub type Variable3 = Var<Fmi3Attrs>;
+
+/// What an FMI 3.0 variable has beyond the attributes of [`Var`].
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
-pub struct Variable3 {
-    /// `name`
-    pub name: String,
-    /// `valueReference`
-    pub value_reference: u32,
-    /// `description`
-    pub description: Option<String>,
+pub struct Fmi3Attrs {
     /// The type element.
     pub ty: Type3,
-    /// `causality` (default local applied)
-    pub causality: Causality3,
-    /// `variability` (default applied: continuous for Float32/Float64, discrete otherwise)
-    pub variability: Variability,
-    /// True when `variability` was written.
-    pub variability_given: bool,
-    /// `initial` as written.
-    pub initial: Option<Initial>,
-    /// `declaredType`
-    pub declared_type: Option<String>,
-    /// `start` (numbers, Booleans: the attribute's tokens; String, Binary: the `<Start>`
-    /// elements), row-major for arrays.
-    pub start: Option<Values>,
-    /// `min` (numeric types)
-    pub min: Option<f64>,
-    /// `max` (numeric types)
-    pub max: Option<f64>,
-    /// `nominal` (Float types)
-    pub nominal: Option<f64>,
-    /// `unit` (Float types)
-    pub unit: Option<String>,
-    /// `displayUnit` (Float types)
-    pub display_unit: Option<String>,
-    /// `quantity`
-    pub quantity: Option<String>,
-    /// `derivative`: value reference of the state this is the derivative of.
-    pub derivative: Option<u32>,
     /// `clocks`: value references of the clocks this variable belongs to.
     pub clocks: Vec<u32>,
     /// `<Dimension>`s in order (empty: a scalar).
@@ -88,8 +60,36 @@ pub struct Variable3 {
     pub shift_decimal: Option<f64>,
     /// Its `<Alias>` elements: other names of the same value (FMI 3.0.2 section 2.4.7.4).
     pub aliases: Vec<Alias3>,
-    /// Line of the tag.
-    pub line: usize,
+}
+
+impl Fmi3Attrs {
+    /// A scalar of type `ty`, in no clock, without aliases.
+    pub fn new(ty: Type3) -> Self {
+        Fmi3Attrs {
+            ty,
+            clocks: Vec::new(),
+            dimensions: Vec::new(),
+            interval_variability: None,
+            interval_decimal: None,
+            shift_decimal: None,
+            aliases: Vec::new(),
+        }
+    }
+}
+
+impl Dialect for Fmi3Attrs {
+    type Causality = Causality3;
+    type Start = Values;
+    type Ref = u32;
+    const REF: &'static str = "a value reference";
+    const LOCAL: Causality3 = Causality3::Local;
+    fn causality(s: &str) -> Option<Causality3> {
+        Causality3::parse(s)
+    }
+    /// The same spelling; a structural parameter is a parameter.
+    fn base(c: Causality3) -> fmi_types::Causality {
+        fmi_types::Causality::parse(c.as_str()).unwrap_or(fmi_types::Causality::Parameter)
+    }
 }
 
 /// `<Alias>` of a variable (FMI 3.0.2 section 2.4.7.4): a name, unique among variables and
@@ -110,21 +110,6 @@ impl Variable3 {
     /// True for an array (it has `<Dimension>`s).
     pub fn is_array(&self) -> bool {
         !self.dimensions.is_empty()
-    }
-
-    /// The effective `initial`: as written, else the default of FMI 3.0.2 section 2.4.7.5
-    /// (exact for constants and (structural) parameters, calculated for calculated parameters,
-    /// outputs and locals, none for inputs and the independent variable).
-    pub fn effective_initial(&self) -> Option<Initial> {
-        if self.initial.is_some() {
-            return self.initial;
-        }
-        match (self.causality, self.variability) {
-            (Causality3::Independent | Causality3::Input, _) => None,
-            (_, Variability::Constant) => Some(Initial::Exact),
-            (Causality3::Parameter | Causality3::StructuralParameter, _) => Some(Initial::Exact),
-            _ => Some(Initial::Calculated),
-        }
     }
 }
 
@@ -240,16 +225,11 @@ pub type DefaultExperiment3 = crate::md::DefaultExperiment;
 /// The parsed FMI 3.0 `modelDescription.xml`.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct ModelDescription3 {
-    /// `fmiVersion`
-    pub fmi_version: String,
-    /// `modelName`
-    pub model_name: String,
+    /// The identity attributes, read as the description's own.
+    #[serde(flatten)]
+    pub identity: Identity,
     /// `instantiationToken`
     pub instantiation_token: String,
-    /// `description`
-    pub description: Option<String>,
-    /// `generationTool`
-    pub generation_tool: Option<String>,
     /// `<ModelExchange>`
     pub model_exchange: Option<Interface3>,
     /// `<CoSimulation>`
@@ -307,20 +287,12 @@ pub enum ShapeError {
 /// memory when the host allocates the buffers to read it.
 pub const MAX_ARRAY_ELEMENTS: u64 = 1 << 24;
 
+reads_as!(ModelDescription3 => identity: Identity);
+
 impl ModelDescription3 {
     /// Parses the text of an FMI 3.0 `modelDescription.xml`; `file` names it in errors.
     pub fn parse(xml: &str, file: &str) -> Result<Self, HostError> {
-        let doc = Doc::new(xml, file);
-        let mut p = Parser3 {
-            md: ModelDescription3::default(),
-            current: None,
-            saw_root: false,
-        };
-        doc.walk(&mut p)?;
-        if !p.saw_root {
-            return Err(doc.err(1, "no <fmiModelDescription> root element"));
-        }
-        Ok(p.md)
+        Ok(crate::xml::read(xml, file, Parser3::default())?.md)
     }
 
     /// The variable called `name`.
@@ -341,13 +313,14 @@ impl ModelDescription3 {
             .variables
             .iter()
             .flat_map(|v| v.aliases.iter().map(move |a| (v, a)))
-            .map(|(v, a)| Variable3 {
-                name: a.name.clone(),
-                description: a.description.clone().or_else(|| v.description.clone()),
-                display_unit: a.display_unit.clone().or_else(|| v.display_unit.clone()),
-                aliases: Vec::new(),
-                line: a.line,
-                ..v.clone()
+            .map(|(v, a)| {
+                let mut alias = v.clone();
+                alias.name = a.name.clone();
+                alias.description = a.description.clone().or_else(|| v.description.clone());
+                alias.display_unit = a.display_unit.clone().or_else(|| v.display_unit.clone());
+                alias.aliases = Vec::new();
+                alias.line = a.line;
+                alias
             })
             .collect();
         md.variables.extend(aliases);
@@ -365,27 +338,15 @@ impl ModelDescription3 {
     /// `<ContinuousStateDerivative>` entries are the derivatives of), else the first five
     /// variables but `time`.
     pub fn recorded_by_default(&self) -> Vec<String> {
-        let outputs: Vec<String> = self
-            .with_causality(Causality3::Output)
-            // an output clock has no value between events (FMI 3.0.2 section 2.2.8.2)
+        let outputs = self.with_causality(Causality3::Output);
+        // an output clock has no value between events (FMI 3.0.2 section 2.2.8.2)
+        let outputs = outputs
             .filter(|v| v.ty != Type3::Clock)
-            .map(|v| v.name.clone())
-            .collect();
-        if !outputs.is_empty() {
-            return outputs;
-        }
-        let states: Vec<String> = self
-            .model_structure
-            .continuous_state_derivatives
-            .iter()
-            .filter_map(|u| self.by_vr(self.by_vr(u.value_reference)?.derivative?))
-            .map(|x| x.name.clone())
-            .take(crate::md::MAX_FALLBACK_RECORDED)
-            .collect();
-        if !states.is_empty() {
-            return states;
-        }
-        crate::md::fallback_names(self.variables.iter().map(|v| v.name.as_str()))
+            .map(|v| v.name.clone());
+        let derivatives = self.model_structure.continuous_state_derivatives.iter();
+        let states =
+            derivatives.filter_map(|u| self.by_vr(self.by_vr(u.value_reference)?.derivative?));
+        md_common::recorded_by_default(outputs.collect(), states, &self.variables)
     }
 
     /// Variables with causality `c`, in file order.
@@ -446,27 +407,18 @@ impl ModelDescription3 {
     }
 }
 
+#[derive(Default)]
 struct Parser3 {
     md: ModelDescription3,
     /// The variable whose element is open (children: Dimension, Start, Alias).
     current: Option<Variable3>,
-    saw_root: bool,
 }
 
 impl Visitor for Parser3 {
     fn element(&mut self, doc: &Doc<'_>, path: Ancestors<'_>, a: Attrs) -> Result<(), HostError> {
         let parent = path.last().map(String::as_str).unwrap_or("");
         match (parent, a.element.as_str()) {
-            ("", "fmiModelDescription") => self.root(doc, &a)?,
-            ("", other) => {
-                return Err(doc.err(
-                    a.line,
-                    format!(
-                        "root element is <{}>, expected <fmiModelDescription>",
-                        crate::error::shown(other, 40)
-                    ),
-                ))
-            }
+            ("", _) => self.root(doc, &a)?,
             (
                 "fmiModelDescription",
                 kind @ ("ModelExchange" | "CoSimulation" | "ScheduledExecution"),
@@ -489,9 +441,7 @@ impl Visitor for Parser3 {
             ("TypeDefinitions", kind) => self.type_definition(doc, kind, &a)?,
             ("EnumerationType", "Item") => {
                 let name = doc.required(&a, "name")?;
-                let value = doc
-                    .parse::<i64>(&a, "value", "an integer")?
-                    .ok_or_else(|| doc.err(a.line, "<Item> lacks the required attribute value"))?;
+                let value = doc.parsed::<i64>(&a, "value", "an integer")?;
                 if let Some(t) = self.md.type_definitions.last_mut() {
                     t.items.push((name, value));
                 }
@@ -528,8 +478,8 @@ impl Visitor for Parser3 {
             (_, "Alias") if path.len() >= 2 && path[path.len() - 2] == "ModelVariables" => {
                 let alias = Alias3 {
                     name: doc.required(&a, "name")?,
-                    description: a.get("description").map(str::to_string),
-                    display_unit: a.get("displayUnit").map(str::to_string),
+                    description: a.text("description"),
+                    display_unit: a.text("displayUnit"),
                     line: a.line,
                 };
                 if let Some(v) = self.current.as_mut() {
@@ -554,31 +504,20 @@ impl Visitor for Parser3 {
 
 impl Parser3 {
     fn root(&mut self, doc: &Doc<'_>, a: &Attrs) -> Result<(), HostError> {
-        self.saw_root = true;
-        let md = &mut self.md;
-        md.fmi_version = a.get("fmiVersion").unwrap_or("").to_string();
-        md.model_name = a.get("modelName").unwrap_or("").to_string();
-        md.instantiation_token = doc.required(a, "instantiationToken")?;
-        md.description = a.get("description").map(str::to_string);
-        md.generation_tool = a.get("generationTool").map(str::to_string);
+        self.md.identity = Identity::read(a);
+        self.md.instantiation_token = doc.required(a, "instantiationToken")?;
         Ok(())
     }
 
     fn type_definition(&mut self, doc: &Doc<'_>, kind: &str, a: &Attrs) -> Result<(), HostError> {
         let Some(ty) = Type3::parse_definition(kind) else {
-            return Err(doc.err(
-                a.line,
-                format!(
-                    "<TypeDefinitions> has unknown element <{}>",
-                    crate::error::shown(kind, 40)
-                ),
-            ));
+            return Err(doc.unknown_child("TypeDefinitions", a));
         };
         self.md.type_definitions.push(TypeDefinition3 {
             name: doc.required(a, "name")?,
             ty,
-            unit: a.get("unit").map(str::to_string),
-            display_unit: a.get("displayUnit").map(str::to_string),
+            unit: a.text("unit"),
+            display_unit: a.text("displayUnit"),
             min: doc.real(a, "min")?,
             max: doc.real(a, "max")?,
             items: Vec::new(),
@@ -589,149 +528,52 @@ impl Parser3 {
 
     fn variable(&mut self, doc: &Doc<'_>, kind: &str, a: &Attrs) -> Result<(), HostError> {
         let Some(ty) = Type3::parse(kind) else {
-            return Err(doc.err(
-                a.line,
-                format!(
-                    "<ModelVariables> has unknown element <{}>",
-                    crate::error::shown(kind, 40)
-                ),
-            ));
+            return Err(doc.unknown_child("ModelVariables", a));
         };
-        let name = doc.required(a, "name")?;
-        let shown = crate::error::shown(&name, 60);
-        let vr = doc.required(a, "valueReference")?;
-        let value_reference = vr.trim().parse::<u32>().map_err(|_| {
-            doc.err(
-                a.line,
-                format!(
-                    "variable '{shown}': valueReference=\"{}\" is not an unsigned 32-bit integer",
-                    crate::error::shown(&vr, 40)
-                ),
-            )
-        })?;
-        let enum_attr = |key: &str, parse: &dyn Fn(&str) -> bool| -> Result<(), HostError> {
-            match a.get(key) {
-                Some(o) if !parse(o) => Err(doc.err(
-                    a.line,
-                    format!(
-                        "variable '{shown}': unknown {key} \"{}\"",
-                        crate::error::shown(o, 40)
-                    ),
-                )),
-                _ => Ok(()),
-            }
-        };
-        enum_attr("causality", &|s| Causality3::parse(s).is_some())?;
-        enum_attr("variability", &|s| Variability::parse(s).is_some())?;
-        enum_attr("initial", &|s| Initial::parse(s).is_some())?;
-        let default_variability = if ty.is_float() {
+        let variability = if ty.is_float() {
             Variability::Continuous
         } else {
             Variability::Discrete
         };
+        let more = Fmi3Attrs {
+            interval_variability: a.text("intervalVariability"),
+            ..Fmi3Attrs::new(ty)
+        };
+        let mut v = Variable3::read(doc, a, variability, more)?;
+        let who = crate::error::shown(&v.name, 60);
         // Numeric and Boolean starts are an attribute; String and Binary starts are <Start>
         // children, read when they come.
-        let start = match (ty, a.get("start")) {
+        v.start = match (ty, a.get("start")) {
             (Type3::String | Type3::Binary | Type3::Clock, _) | (_, None) => None,
             (_, Some(s)) => Some(
                 Values::parse(ty, s)
-                    .map_err(|e| doc.err(a.line, format!("variable '{shown}': start: {e}")))?,
+                    .map_err(|e| doc.err(a.line, format!("variable '{who}': start: {e}")))?,
             ),
         };
-        let clocks = match a.get("clocks") {
-            None => Vec::new(),
-            Some(s) => s
-                .split_whitespace()
-                .map(|t| t.parse::<u32>())
-                .collect::<Result<_, _>>()
-                .map_err(|_| {
-                    doc.err(
-                        a.line,
-                        format!("variable '{shown}': clocks is not a list of value references"),
-                    )
-                })?,
-        };
-        self.current = Some(Variable3 {
-            value_reference,
-            description: a.get("description").map(str::to_string),
-            ty,
-            causality: a
-                .get("causality")
-                .and_then(Causality3::parse)
-                .unwrap_or(Causality3::Local),
-            variability: a
-                .get("variability")
-                .and_then(Variability::parse)
-                .unwrap_or(default_variability),
-            variability_given: a.get("variability").is_some(),
-            initial: a.get("initial").and_then(Initial::parse),
-            declared_type: a.get("declaredType").map(str::to_string),
-            start,
-            min: doc.real(a, "min")?,
-            max: doc.real(a, "max")?,
-            nominal: doc.real(a, "nominal")?,
-            unit: a.get("unit").map(str::to_string),
-            display_unit: a.get("displayUnit").map(str::to_string),
-            quantity: a.get("quantity").map(str::to_string),
-            derivative: doc.parse::<u32>(a, "derivative", "a value reference")?,
-            clocks,
-            dimensions: Vec::new(),
-            interval_variability: a.get("intervalVariability").map(str::to_string),
-            interval_decimal: doc.real(a, "intervalDecimal")?,
-            shift_decimal: doc.real(a, "shiftDecimal")?,
-            aliases: Vec::new(),
-            line: a.line,
-            name,
-        });
+        let bad = |_: &str| format!("variable '{who}': clocks is not a list of value references");
+        v.clocks = list(doc, a, "clocks", bad)?.unwrap_or_default();
+        v.read_type(doc, a)?;
+        v.interval_decimal = doc.real(a, "intervalDecimal")?;
+        v.shift_decimal = doc.real(a, "shiftDecimal")?;
+        self.current = Some(v);
         Ok(())
     }
 
     fn unknown(&mut self, doc: &Doc<'_>, kind: &str, a: &Attrs) -> Result<(), HostError> {
         let ms = &mut self.md.model_structure;
-        let list = match kind {
+        let to = match kind {
             "Output" => &mut ms.outputs,
             "ContinuousStateDerivative" => &mut ms.continuous_state_derivatives,
             "ClockedState" => &mut ms.clocked_states,
             "InitialUnknown" => &mut ms.initial_unknowns,
             "EventIndicator" => &mut ms.event_indicators,
-            other => {
-                return Err(doc.err(
-                    a.line,
-                    format!(
-                        "<ModelStructure> has unknown element <{}>",
-                        crate::error::shown(other, 40)
-                    ),
-                ))
-            }
+            _ => return Err(doc.unknown_child("ModelStructure", a)),
         };
-        let value_reference = doc
-            .parse::<u32>(a, "valueReference", "a value reference")?
-            .ok_or_else(|| {
-                doc.err(
-                    a.line,
-                    format!("<{kind}> lacks the required attribute valueReference"),
-                )
-            })?;
-        let dependencies = match a.get("dependencies") {
-            None => None,
-            Some(s) => Some(
-                s.split_whitespace()
-                    .map(|t| t.parse::<u32>())
-                    .collect::<Result<Vec<_>, _>>()
-                    .map_err(|_| {
-                        doc.err(
-                            a.line,
-                            format!("<{kind}> dependencies is not a list of value references"),
-                        )
-                    })?,
-            ),
-        };
-        list.push(Unknown3 {
-            value_reference,
-            dependencies,
-            dependencies_kind: a
-                .get("dependenciesKind")
-                .map(|s| s.split_whitespace().map(str::to_string).collect()),
+        let bad = |_: &str| format!("<{kind}> dependencies is not a list of value references");
+        to.push(Unknown3 {
+            value_reference: doc.parsed::<u32>(a, "valueReference", "a value reference")?,
+            dependencies: list(doc, a, "dependencies", bad)?,
+            dependencies_kind: dependencies_kind(a),
             line: a.line,
         });
         Ok(())

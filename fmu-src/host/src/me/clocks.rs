@@ -366,14 +366,8 @@ mod tests {
 
     #[test]
     fn every_clock_kind_of_the_table_runs_and_no_other() {
-        for kind in [
-            "constant",
-            "fixed",
-            "tunable",
-            "changing",
-            "countdown",
-            "triggered",
-        ] {
+        // the intervalVariability of every input clock of FMI 3.0.2 table "Overview of Clock types"
+        for kind in "constant fixed tunable changing countdown triggered".split(' ') {
             assert_eq!(refusal(&with_clock("input", kind)), None, "{kind}");
         }
         assert_eq!(refusal(&with_clock("output", "triggered")), None);
