@@ -326,14 +326,18 @@ enum ProbeOutcome {
 }
 
 /// A finding as the probe child reported it, unless its check id is not one (bytes outside
-/// `[a-z0-9-]`): an FMU that writes into memory it does not own (after `fmi2FreeInstance`, say)
-/// can garble the child's report, which then becomes a note saying so.
+/// `[a-z0-9-]`) or its location or message holds a NUL (no C string an FMU logs, and none of
+/// our texts, can carry one; a pointer's high bytes are NULs): an FMU that writes into memory it
+/// does not own (after `fmi2FreeInstance`, say) can garble the child's report, which then
+/// becomes a note saying so.
 fn trusted(f: Finding) -> Finding {
     let well_formed = !f.check.is_empty()
         && f.check.len() <= 64
         && f.check
             .bytes()
-            .all(|b| b.is_ascii_lowercase() || b.is_ascii_digit() || b == b'-');
+            .all(|b| b.is_ascii_lowercase() || b.is_ascii_digit() || b == b'-')
+        && !f.location.contains('\0')
+        && !f.message.contains('\0');
     if well_formed {
         return f;
     }
@@ -457,5 +461,10 @@ mod tests {
             kept.message.contains("wrote into memory it does not own"),
             "{kept}"
         );
+        let overwritten = Finding {
+            message: "\u{fffd}\u{3}\0\0\u{7f}\0\0 returned fmi2OK".into(),
+            ..Finding::new("unknown-value-reference", "probe", "")
+        };
+        assert_eq!(trusted(overwritten).check, "probe-report-garbled");
     }
 }
