@@ -380,6 +380,7 @@ def estimation_gap(tmp_path_factory):
 
 
 @needs_data
+@pytest.mark.long
 def test_a_named_effect_is_never_called_invisible(estimation_gap):
     """On the estimation record gap names friction effects with a ΔBIC in the hundreds, while
     the scan about a base fit on which an effect is inert called them invisible. A refit

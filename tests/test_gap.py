@@ -411,6 +411,7 @@ def test_valve_dynamics_is_named_whichever_base_calibration_is_used(tmp_path):
     named_at_truth(rep)
 
 
+@pytest.mark.long
 def test_a_growth_the_base_fit_imitates_with_a_stiffer_spring_is_still_named(tmp_path):
     """TwistedString with a string radius that grows 0.91 % per turn: the base fit imitates the
     growth with a spring about three times too stiff, and the radius_growth refit from there
@@ -517,6 +518,7 @@ def test_a_final_fit_stuck_where_the_spring_wandered_is_restarted(tmp_path):
         assert holds(e, ds["truth"][k]), (k, e, ds["truth"][k])
 
 
+@pytest.mark.long
 def test_two_missing_effects_are_not_taken_for_a_record_begun_in_motion(tmp_path):
     """A record from rest with string_compliance and motor_friction both hidden: the base fit
     misses everything by about 20 noise levels, the first samples by 8, which once stopped the

@@ -39,6 +39,7 @@ def gap(model_fmu, datas, out, *args, validate=()):
     return json.loads((out / "report.json").read_text()), p.stdout
 
 
+@pytest.mark.long
 def test_the_designed_experiment_fitted_with_the_record_that_asked_for_it(tmp_path,
                                                                          monkeypatch):
     """The loop with two records: strokes of 800-1100 motor rad never reverse the gearhead's
