@@ -330,3 +330,59 @@ def test_a_held_input_changes_in_event_mode(interface, toy, tmp_path):
     assert np.allclose(u_at[after], 0.52, rtol=0, atol=1e-12) and (u_at[t < 0.52] == -1).all()
     # the ticks go on as without the input
     assert n[-1] == 8
+
+
+# Trigger (tests/fixtures/toy-fmus/trigger.c): a triggered input clock `trig`, counted into its
+# clocked output k; der(x) = k. The data tick it at the rows where its column is true.
+TRIGGERS = np.array([0.3, 0.55, 1.2, 1.25])
+
+
+def trigger_run(interface, toy, tmp_path):
+    """A run of Trigger with ticks at TRIGGERS: its times, x and k."""
+    data = tmp_path / "ticks.csv"
+    rows = [(0.0, 0), (0.3, 1), (0.4, 0), (0.55, 1), (0.9, 0), (1.2, 1), (1.25, 1), (1.6, 0)]
+    data.write_text("time,trig\n" + "".join(f"{t},{on}\n" for t, on in rows))
+    out = tmp_path / "o.csv"
+    r = run("simulate", toy("Trigger", 3), "--data", data, "--out", out, "--interface", interface)
+    assert r.returncode == 0, r.stderr
+    header, values = read_csv(out)
+    assert header == ["time", "x", "k"]
+    return values.T
+
+
+def triggered_closed_form(t, after):
+    """k and x at the times t, after the ticks at t or before them (a tick within 1e-12 of a
+    time happens there: the grid's 0.3 is 0.29999999999999993)."""
+    done = TRIGGERS[None, :] <= t[:, None] + 1e-12
+    done &= after[:, None] | (TRIGGERS[None, :] < t[:, None] - 1e-12)
+    return done.sum(axis=1), np.where(done, t[:, None] - TRIGGERS[None, :], 0.0).sum(axis=1)
+
+
+def test_a_triggered_input_clock_ticks_where_its_column_is_true_in_model_exchange(toy, tmp_path):
+    t, x, k = trigger_run("me", toy, tmp_path)
+    for tj in TRIGGERS:
+        # each tick is an event: a row before it and one after it, at the tick's time
+        at = np.flatnonzero(np.abs(t - tj) <= 1e-12)
+        assert len(at) == 2, (tj, t[(t > tj - 0.1) & (t < tj + 0.1)])
+    # the last row at a time holds the values after its events
+    after = np.append(t[1:] != t[:-1], True)
+    want_k, want_x = triggered_closed_form(t, after)
+    assert np.array_equal(k, want_k), (t, k, want_k)
+    assert np.allclose(x, want_x, atol=1e-9)
+
+
+def test_a_triggered_input_clock_ticks_where_its_column_is_true_in_co_simulation(toy, tmp_path):
+    t, x, k = trigger_run("cs", toy, tmp_path)
+    # rows at the output points, before the events there (as for the periodic clocks)
+    want_k, want_x = triggered_closed_form(t, np.zeros(len(t), dtype=bool))
+    assert np.array_equal(k, want_k), (t, k, want_k)
+    assert np.allclose(x, want_x, atol=1e-9)
+    assert k[-1] == len(TRIGGERS)
+
+
+def test_a_column_for_a_clock_that_ticks_by_its_own_schedule_is_refused_saying_so(toy, tmp_path):
+    data = tmp_path / "ticks.csv"
+    data.write_text("time,tick\n0,1\n1,0\n")
+    r = run("simulate", toy("Sampler", 3), "--data", data, "--out", tmp_path / "o.csv")
+    assert r.returncode == 2
+    assert "ticks by its own schedule" in r.stderr and "triggered" in r.stderr, r.stderr

@@ -132,7 +132,9 @@ pub(crate) fn run_on(inst: &mut Instance3<'_>, req: &Request3) -> Result<Simulat
         inst.fmu().event_mode_used(),
     );
     let clocks = if me || event_mode {
-        ClockSchedule::initialize(inst, req.start_time)?
+        let mut clocks = ClockSchedule::initialize(inst, req.start_time)?;
+        clocks.trigger(&inputs.values.triggered, req.start_time);
+        clocks
     } else {
         ClockSchedule::default()
     };
@@ -306,8 +308,12 @@ enum Samples {
     Held(Vec<Values>),
 }
 
-/// The FMI 3.0 inputs of a run, each set with one call per communication point.
-pub(crate) struct Inputs3Plan(Vec<(u32, Samples)>);
+/// The FMI 3.0 inputs of a run: each set with one call per communication point, and the
+/// triggered input clocks with the times the data tick them.
+pub(crate) struct Inputs3Plan {
+    inputs: Vec<(u32, Samples)>,
+    pub(crate) triggered: Vec<(u32, Vec<f64>)>,
+}
 
 /// The input plan of an FMI 3.0 run.
 pub(crate) type InputPlan3<'r> = InputPlanOf<'r, Inputs3Plan>;
@@ -320,8 +326,14 @@ impl<'r> InputPlan3<'r> {
     ) -> Result<Self> {
         let mut used = vec![false; series.columns.len()];
         let mut inputs = Vec::new();
+        let mut triggered = Vec::new();
         for v in md.with_causality(Causality3::Input) {
             if v.ty == Type3::Clock {
+                if v.interval_variability.as_deref() == Some("triggered") {
+                    if let Some(ticks) = clock_ticks(v, series, &mut used)? {
+                        triggered.push((v.value_reference, ticks));
+                    }
+                }
                 continue;
             }
             let (shape, n) = element_count(md, v, sizes)?;
@@ -349,6 +361,16 @@ impl<'r> InputPlan3<'r> {
             let known = md
                 .variable(base)
                 .is_some_and(|v| v.causality == Causality3::Output);
+            if let Some(clock) = md.variable(base).filter(|v| v.ty == Type3::Clock) {
+                return Err(HostError::Request(format!(
+                    "column '{}': the {} clock ticks by its own schedule \
+                     (intervalVariability \"{}\"); only a triggered input clock takes its \
+                     ticks from the data",
+                    crate::error::shown(name, 60),
+                    clock.causality,
+                    clock.interval_variability.as_deref().unwrap_or("")
+                )));
+            }
             if !known {
                 return Err(HostError::Request(format!(
                     "column '{}' is neither an input nor an output of the FMU (inputs: {})",
@@ -361,16 +383,14 @@ impl<'r> InputPlan3<'r> {
             return Err(HostError::Request("input series has no samples".into()));
         }
         let axis = InputAxis::new(&series.time, input_events(&series.time, &inputs));
-        Ok(InputPlanOf {
-            axis,
-            values: Inputs3Plan(inputs),
-        })
+        let values = Inputs3Plan { inputs, triggered };
+        Ok(InputPlanOf { axis, values })
     }
 }
 
 impl InputValues<Instance3<'_>> for Inputs3Plan {
     fn set_at(&mut self, inst: &mut Instance3<'_>, at: &mut InputPoint<'_>) -> Result<()> {
-        for (vr, samples) in &self.0 {
+        for (vr, samples) in &self.inputs {
             let interpolated = matches!(samples, Samples::Interpolated { .. });
             if !(interpolated && at.continuous || !interpolated && at.discrete) {
                 continue;
@@ -413,6 +433,19 @@ fn names_of(md: &ModelDescription3, c: Causality3) -> String {
     } else {
         n.join(", ")
     }
+}
+
+/// The times at which the data tick the triggered input clock `v`: the rows of its column
+/// (Boolean: `true`/`1` a tick) that hold true (FMI 3.0.2 section 2.2.8.2: the importer
+/// activates a triggered input clock when it chooses); None without a column.
+fn clock_ticks(v: &Variable3, series: &Inputs3, used: &mut [bool]) -> Result<Option<Vec<f64>>> {
+    let Some(rows) = input_rows(v, &[], 1, series, used)? else {
+        return Ok(None);
+    };
+    let ticked = |(row, t): (&Values, &f64)| (row.number(0) == Some(1.0)).then_some(*t);
+    Ok(Some(
+        rows.iter().zip(&series.time).filter_map(ticked).collect(),
+    ))
 }
 
 /// The rows of input `v` from its own column or from one column per element (`u[1]`, ...);

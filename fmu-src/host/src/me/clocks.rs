@@ -128,12 +128,22 @@ struct Aperiodic {
     next: Option<f64>,
 }
 
+/// One triggered input clock and the times the data tick it, ascending.
+#[derive(Clone, Debug, PartialEq)]
+struct Triggered {
+    vr: u32,
+    ticks: Vec<f64>,
+    /// Ticks done.
+    k: usize,
+}
+
 /// The time-based input clocks of a run and their next ticks, and the output and local clocks
 /// the run inquires.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ClockSchedule {
     clocks: Vec<Periodic>,
     aperiodic: Vec<Aperiodic>,
+    triggered: Vec<Triggered>,
     /// Output and local clocks: fmi3GetClock in Event Mode.
     inquired: Vec<u32>,
 }
@@ -179,6 +189,19 @@ impl ClockSchedule {
         Ok(s)
     }
 
+    /// Adds the triggered input clocks `(vr, tick times)` the data tick, their ticks from `start`
+    /// on.
+    pub fn trigger(&mut self, ticks: &[(u32, Vec<f64>)], start: f64) {
+        for (vr, times) in ticks {
+            let ticks = times.iter().copied().filter(|&t| t >= start).collect();
+            self.triggered.push(Triggered {
+                vr: *vr,
+                ticks,
+                k: 0,
+            });
+        }
+    }
+
     /// Whether the run inquires output or local clocks.
     pub fn inquires(&self) -> bool {
         !self.inquired.is_empty()
@@ -188,7 +211,11 @@ impl ClockSchedule {
     pub fn next_tick(&self) -> Option<f64> {
         let periodic = self.clocks.iter().map(Periodic::next);
         let aperiodic = self.aperiodic.iter().filter_map(|c| c.next);
-        periodic.chain(aperiodic).reduce(f64::min)
+        let triggered = self
+            .triggered
+            .iter()
+            .filter_map(|c| c.ticks.get(c.k).copied());
+        periodic.chain(aperiodic).chain(triggered).reduce(f64::min)
     }
 
     /// The clocks whose tick is due at `t` (within `isclose` of it, or passed), each advanced
@@ -208,6 +235,14 @@ impl ClockSchedule {
             if c.next.is_some_and(reached) {
                 due.push(c.vr);
                 c.next = None;
+            }
+        }
+        for c in &mut self.triggered {
+            if c.ticks.get(c.k).is_some_and(|&tk| reached(tk)) {
+                due.push(c.vr);
+                while c.ticks.get(c.k).is_some_and(|&tk| reached(tk)) {
+                    c.k += 1;
+                }
             }
         }
         due
@@ -426,5 +461,18 @@ mod tests {
         assert_eq!(s.due(0.3), vec![7]);
         assert_eq!(s.next_tick(), None);
         assert!(s.due(0.4).is_empty());
+    }
+
+    #[test]
+    fn a_triggered_clock_ticks_at_the_times_of_its_data_from_the_start_on() {
+        let mut s = ClockSchedule::default();
+        s.trigger(&[(4, vec![-1.0, 0.3, 0.3, 0.55])], 0.0);
+        assert_eq!(s.next_tick(), Some(0.3));
+        assert!(s.due(0.2).is_empty());
+        // two rows ticking at one time are one tick
+        assert_eq!(s.due(0.3 - 1e-17), vec![4]);
+        assert_eq!(s.next_tick(), Some(0.55));
+        assert_eq!(s.due(0.6), vec![4]);
+        assert_eq!(s.next_tick(), None);
     }
 }
