@@ -28,7 +28,7 @@ MODELS = {  # name -> (C source, {FMI version: flags}, resources)
     "Alias": ("alias.c", {2: [], 3: []}, {}),
     "Sampler": ("sampler.c", {3: []}, {}),
     "Ticker": ("ticker.c", {3: []}, {}),
-    "Trigger": ("trigger.c", {3: []}, {}),
+    "Trigger": ("sampler.c", {3: ["-DTRIGGERED"]}, {}),
     "Relay": ("relay.c", {2: []}, {}),
     # variants: another build of a model above, with its description (XML_OF) renamed
     "BouncingBallTwoPass": ("bouncing_ball.c", {2: ["-DTWO_PASS_EVENTS"]}, {}),
