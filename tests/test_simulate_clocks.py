@@ -386,3 +386,7 @@ def test_a_column_for_a_clock_that_ticks_by_its_own_schedule_is_refused_saying_s
     r = run("simulate", toy("Sampler", 3), "--data", data, "--out", tmp_path / "o.csv")
     assert r.returncode == 2
     assert "ticks by its own schedule" in r.stderr and "triggered" in r.stderr, r.stderr
+    # a column named as an output clock is, as any output's column, no input and left alone
+    data.write_text("time,even\n0,1\n1,0\n")
+    r = run("simulate", toy("Ticker", 3), "--data", data, "--out", tmp_path / "o.csv")
+    assert r.returncode == 0, r.stderr

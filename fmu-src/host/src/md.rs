@@ -463,7 +463,7 @@ fn flag(doc: &Doc<'_>, a: &Attrs, key: &str, given: &mut Vec<String>) -> Result<
 
 fn model_exchange(md: &mut ModelDescription, doc: &Doc<'_>, a: &Attrs) -> Result<(), HostError> {
     md.model_exchange = Some(doc.required(a, "modelIdentifier")?);
-    let f = |key| flag(doc, a, key, &mut Vec::new());
+    let f = |key| Ok::<_, HostError>(doc.boolean(a, key)?.unwrap_or(false));
     md.me_provides_directional_derivative = f("providesDirectionalDerivative")?;
     md.me_completed_integrator_step_not_needed = f("completedIntegratorStepNotNeeded")?;
     md.me_can_get_and_set_fmu_state = f("canGetAndSetFMUstate")?;

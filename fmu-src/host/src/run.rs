@@ -89,13 +89,12 @@ impl InputPoint<'_> {
 impl<'r> InputAxis<'r> {
     /// The axis of row times `time` with its input events `events` (ascending).
     pub(crate) fn new(time: &'r [f64], events: Vec<f64>) -> Self {
-        let (jump_passed, interp_cursor, hold_cursor) = (f64::NEG_INFINITY, 0, 0);
         InputAxis {
             time,
             events,
-            jump_passed,
-            interp_cursor,
-            hold_cursor,
+            jump_passed: f64::NEG_INFINITY,
+            interp_cursor: 0,
+            hold_cursor: 0,
         }
     }
 }

@@ -361,13 +361,14 @@ impl<'r> InputPlan3<'r> {
             let known = md
                 .variable(base)
                 .is_some_and(|v| v.causality == Causality3::Output);
-            if let Some(clock) = md.variable(base).filter(|v| v.ty == Type3::Clock) {
+            let input_clock =
+                |v: &&Variable3| v.ty == Type3::Clock && v.causality == Causality3::Input;
+            if let Some(clock) = md.variable(base).filter(input_clock) {
                 return Err(HostError::Request(format!(
-                    "column '{}': the {} clock ticks by its own schedule \
+                    "column '{}': the input clock ticks by its own schedule \
                      (intervalVariability \"{}\"); only a triggered input clock takes its \
                      ticks from the data",
                     crate::error::shown(name, 60),
-                    clock.causality,
                     clock.interval_variability.as_deref().unwrap_or("")
                 )));
             }
