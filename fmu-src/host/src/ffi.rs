@@ -223,15 +223,21 @@ pub use fmi_types::c::{
 
 /// Declares a table of a binary's C functions once: each field with the symbol it is looked up
 /// by, whether the binary must export it (`required`: no table without it; `optional`: `None`
-/// when absent) and its C signature. Generates the struct, `SYMBOLS` (the symbols in field
-/// order) and `resolve_table`, which takes the values of the fields listed under `given` (made
-/// by the caller: fallbacks and sub-tables).
+/// when absent) and its C signature. The typed getters and setters, one pair a value type, go
+/// under `values $Get, $Set`: a line `T: need get_x "fmiXGetX", set_x "fmiXSetX";` declares
+/// `get_x` of signature `$Get<T>` and `set_x` of `$Set<T>`, both required or both optional.
+/// Generates the struct, `SYMBOLS` (the symbols in field order: the fields, then the getters,
+/// then the setters) and `resolve_table`, which takes the values of the fields listed under
+/// `given` (made by the caller: fallbacks and sub-tables).
 macro_rules! function_table {
     (
         $(#[$meta:meta])*
         pub struct $table:ident {
             $($field:ident: $need:ident $symbol:literal $sig:ty,)*
         }
+        $(values $get_sig:ident, $set_sig:ident {
+            $($t:ty: $vneed:ident $get:ident $get_symbol:literal, $set:ident $set_symbol:literal;)*
+        })?
         given {
             $($(#[$given_meta:meta])* $given:ident: $given_ty:ty,)*
         }
@@ -241,12 +247,17 @@ macro_rules! function_table {
         #[allow(missing_docs, clippy::type_complexity)]
         pub struct $table {
             $(pub $field: function_table!(@type $need $sig),)*
+            $($(
+                pub $get: function_table!(@type $vneed $get_sig<$t>),
+                pub $set: function_table!(@type $vneed $set_sig<$t>),
+            )*)?
             $($(#[$given_meta])* pub $given: $given_ty,)*
         }
 
         impl $table {
             /// The symbols of the table's functions, in field order.
-            pub const SYMBOLS: &'static [&'static str] = &[$($symbol),*];
+            pub const SYMBOLS: &'static [&'static str] =
+                &[$($symbol,)* $($($get_symbol,)* $($set_symbol,)*)?];
 
             /// The table of `lib`; Err names the first required function it does not export.
             ///
@@ -259,6 +270,8 @@ macro_rules! function_table {
             ) -> Result<Self, $crate::ffi::LoadError> {
                 Ok($table {
                     $($field: function_table!(@get lib $need $symbol),)*
+                    $($($get: function_table!(@get lib $vneed $get_symbol),)*)?
+                    $($($set: function_table!(@get lib $vneed $set_symbol),)*)?
                     $($given,)*
                 })
             }
@@ -311,14 +324,6 @@ function_table! {
         exit_initialization_mode: required "fmi2ExitInitializationMode" Call,
         terminate: required "fmi2Terminate" Call,
         reset: required "fmi2Reset" Call,
-        get_real: required "fmi2GetReal" Get<f64>,
-        get_integer: required "fmi2GetInteger" Get<c_int>,
-        get_boolean: required "fmi2GetBoolean" Get<Fmi2Boolean>,
-        get_string: optional "fmi2GetString" Get<*const c_char>,
-        set_real: required "fmi2SetReal" Set<f64>,
-        set_integer: required "fmi2SetInteger" Set<c_int>,
-        set_boolean: required "fmi2SetBoolean" Set<Fmi2Boolean>,
-        set_string: optional "fmi2SetString" Set<*const c_char>,
         get_fmu_state: optional "fmi2GetFMUstate" StateCall,
         set_fmu_state: optional "fmi2SetFMUstate" unsafe extern "C" fn(C, FmuState) -> RawStatus,
         free_fmu_state: optional "fmi2FreeFMUstate" StateCall,
@@ -340,6 +345,12 @@ function_table! {
             unsafe extern "C" fn(C, Vr, usize, *const c_int, *const f64) -> RawStatus,
         get_real_output_derivatives: optional "fmi2GetRealOutputDerivatives"
             unsafe extern "C" fn(C, Vr, usize, *const c_int, *mut f64) -> RawStatus,
+    }
+    values Get, Set {
+        f64: required get_real "fmi2GetReal", set_real "fmi2SetReal";
+        c_int: required get_integer "fmi2GetInteger", set_integer "fmi2SetInteger";
+        Fmi2Boolean: required get_boolean "fmi2GetBoolean", set_boolean "fmi2SetBoolean";
+        *const c_char: optional get_string "fmi2GetString", set_string "fmi2SetString";
     }
     given {
         /// `fmi2DoStep`, or for a Model Exchange run of a binary without it a stand-in.
