@@ -5,6 +5,7 @@ use libloading::Library;
 use std::collections::VecDeque;
 use std::ffi::{c_char, c_int, c_void, CStr};
 use std::marker::PhantomData;
+use std::panic::AssertUnwindSafe;
 use std::path::Path;
 use std::sync::{Mutex, MutexGuard, PoisonError};
 
@@ -52,18 +53,21 @@ impl<T> LiveEnvs<T> {
         self.0.lock().unwrap_or_else(PoisonError::into_inner)
     }
 
-    /// Calls `deliver` with the live environment `env` names (see [`LiveEnvs`]).
+    /// Calls `deliver` with the live environment `env` names (see [`LiveEnvs`]). Called by the
+    /// loggers the FMU calls, it never unwinds: a panic ends the delivery, not the C caller.
     pub(crate) fn deliver(&self, env: *mut c_void, deliver: impl FnOnce(&T)) {
-        let live = self.listed();
-        let target = match live.iter().find(|&&p| p == env as usize) {
-            Some(&p) => p,
-            None if live.len() == 1 => live[0],
-            None => return,
-        };
-        // SAFETY: only `LiveEnv::new` lists addresses, each of a `Box<T>` it owns; its drop
-        // withdraws the address under this lock (held until `deliver` returns) before the box
-        // is freed.
-        deliver(unsafe { &*(target as *const T) });
+        let _ = std::panic::catch_unwind(AssertUnwindSafe(|| {
+            let live = self.listed();
+            let target = match live.iter().find(|&&p| p == env as usize) {
+                Some(&p) => p,
+                None if live.len() == 1 => live[0],
+                None => return,
+            };
+            // SAFETY: only `LiveEnv::new` lists addresses, each of a `Box<T>` it owns; its drop
+            // withdraws the address under this lock (held until `deliver` returns) before the
+            // box is freed.
+            deliver(unsafe { &*(target as *const T) });
+        }));
     }
 }
 
@@ -167,7 +171,7 @@ impl LogSink {
 }
 
 /// A C string the FMU passed, as text (invalid UTF-8 replaced); empty for NULL.
-pub(crate) fn cstr_lossy(p: *const c_char) -> String {
+fn cstr_lossy(p: *const c_char) -> String {
     if p.is_null() {
         String::new()
     } else {
@@ -181,7 +185,7 @@ pub(crate) fn cstr_lossy(p: *const c_char) -> String {
 const MAX_MESSAGE_BYTES: usize = 4096;
 
 /// `s` cut to [`MAX_MESSAGE_BYTES`] (at a character boundary, marked `...`).
-pub(crate) fn bounded(mut s: String) -> String {
+fn bounded(mut s: String) -> String {
     if s.len() > MAX_MESSAGE_BYTES {
         let mut end = MAX_MESSAGE_BYTES;
         while !s.is_char_boundary(end) {
@@ -193,6 +197,22 @@ pub(crate) fn bounded(mut s: String) -> String {
     s
 }
 
+/// The record of a message an FMU logged with the raw status `status` (both versions' status
+/// values are alike), its category and message as C strings, the message cut by [`bounded`].
+pub(crate) fn log_record(
+    instance: String,
+    status: c_int,
+    category: *const c_char,
+    message: *const c_char,
+) -> LogRecord {
+    LogRecord {
+        instance,
+        status: Status::from_raw(status),
+        category: cstr_lossy(category),
+        message: bounded(cstr_lossy(message)),
+    }
+}
+
 /// The route of the C shim's formatted messages: stores the record in the sink of the live
 /// instance `env` names (see [`LiveEnvs`]). Never unwinds across the C boundary.
 extern "C" fn log_sink(
@@ -202,17 +222,10 @@ extern "C" fn log_sink(
     category: *const c_char,
     message: *const c_char,
 ) {
-    let _ = std::panic::catch_unwind(|| {
-        LIVE_SINKS.deliver(env, |sink| {
-            let record = LogRecord {
-                instance: cstr_lossy(instance),
-                status: Status::from_raw(status),
-                category: cstr_lossy(category),
-                message: bounded(cstr_lossy(message)),
-            };
-            let status = record.status.to_string();
-            sink.keep(record, &status);
-        })
+    LIVE_SINKS.deliver(env, |sink| {
+        let record = log_record(cstr_lossy(instance), status, category, message);
+        let status = record.status.to_string();
+        sink.keep(record, &status);
     });
 }
 

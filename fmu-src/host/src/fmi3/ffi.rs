@@ -10,8 +10,7 @@
 //! non-zero byte true), never as Rust `bool`, so a byte other than 0 or 1 is not undefined
 //! behaviour.
 
-use crate::error::{LogRecord, Status};
-use crate::ffi::{bounded, cstr_lossy, function_table, LiveEnv, LiveEnvs, LogSink};
+use crate::ffi::{function_table, log_record, LiveEnv, LiveEnvs, LogSink};
 use libloading::Library;
 use std::ffi::{c_char, c_int, c_void};
 
@@ -305,16 +304,9 @@ pub unsafe extern "C" fn log_message(
     category: *const c_char,
     message: *const c_char,
 ) {
-    let _ = std::panic::catch_unwind(|| {
-        LIVE_ENVS.deliver(env, |env| {
-            let record = LogRecord {
-                instance: env.name.clone(),
-                status: Status::from_raw(status),
-                category: cstr_lossy(category),
-                message: bounded(cstr_lossy(message)),
-            };
-            let status = record.status.to_string().replacen("fmi2", "fmi3", 1);
-            env.sink.keep(record, &status);
-        })
+    LIVE_ENVS.deliver(env, |env| {
+        let record = log_record(env.name.clone(), status, category, message);
+        let status = record.status.to_string().replacen("fmi2", "fmi3", 1);
+        env.sink.keep(record, &status);
     });
 }
