@@ -188,6 +188,22 @@ pub struct CoSimulation {
     pub flags_given: Vec<String>,
 }
 
+/// `<ModelExchange>` element with the capability flags the host reads (absent: false, FMI 2.0.4
+/// section 3.3.1).
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct ModelExchange {
+    /// `modelIdentifier`
+    pub model_identifier: String,
+    /// `providesDirectionalDerivative`
+    pub provides_directional_derivative: bool,
+    /// `completedIntegratorStepNotNeeded`
+    pub completed_integrator_step_not_needed: bool,
+    /// `canGetAndSetFMUstate`
+    pub can_get_and_set_fmu_state: bool,
+    /// `canSerializeFMUstate`
+    pub can_serialize_fmu_state: bool,
+}
+
 /// `<DefaultExperiment>`.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct DefaultExperiment {
@@ -252,16 +268,8 @@ pub struct ModelDescription {
     pub number_of_event_indicators: Option<u32>,
     /// `<CoSimulation>` if present.
     pub co_simulation: Option<CoSimulation>,
-    /// `modelIdentifier` of `<ModelExchange>` if present.
-    pub model_exchange: Option<String>,
-    /// `providesDirectionalDerivative` of `<ModelExchange>`.
-    pub me_provides_directional_derivative: bool,
-    /// `completedIntegratorStepNotNeeded` of `<ModelExchange>`.
-    pub me_completed_integrator_step_not_needed: bool,
-    /// `canGetAndSetFMUstate` of `<ModelExchange>`.
-    pub me_can_get_and_set_fmu_state: bool,
-    /// `canSerializeFMUstate` of `<ModelExchange>`.
-    pub me_can_serialize_fmu_state: bool,
+    /// `<ModelExchange>` if present.
+    pub model_exchange: Option<ModelExchange>,
     /// `<UnitDefinitions>`
     pub unit_definitions: Vec<Unit>,
     /// `<TypeDefinitions>`
@@ -374,7 +382,9 @@ impl Visitor for Parser {
             ("fmiModelDescription", "CoSimulation") => {
                 md.co_simulation = Some(co_simulation(doc, &a)?)
             }
-            ("fmiModelDescription", "ModelExchange") => model_exchange(md, doc, &a)?,
+            ("fmiModelDescription", "ModelExchange") => {
+                md.model_exchange = Some(model_exchange(doc, &a)?)
+            }
             ("UnitDefinitions", "Unit") => md.unit_definitions.push(Unit::read(doc, &a)?),
             ("Unit", "BaseUnit") => {
                 let b = base_unit(doc, &a)?;
@@ -461,14 +471,16 @@ fn flag(doc: &Doc<'_>, a: &Attrs, key: &str, given: &mut Vec<String>) -> Result<
     Ok(v.unwrap_or(false))
 }
 
-fn model_exchange(md: &mut ModelDescription, doc: &Doc<'_>, a: &Attrs) -> Result<(), HostError> {
-    md.model_exchange = Some(doc.required(a, "modelIdentifier")?);
+fn model_exchange(doc: &Doc<'_>, a: &Attrs) -> Result<ModelExchange, HostError> {
+    let model_identifier = doc.required(a, "modelIdentifier")?;
     let f = |key| Ok::<_, HostError>(doc.boolean(a, key)?.unwrap_or(false));
-    md.me_provides_directional_derivative = f("providesDirectionalDerivative")?;
-    md.me_completed_integrator_step_not_needed = f("completedIntegratorStepNotNeeded")?;
-    md.me_can_get_and_set_fmu_state = f("canGetAndSetFMUstate")?;
-    md.me_can_serialize_fmu_state = f("canSerializeFMUstate")?;
-    Ok(())
+    Ok(ModelExchange {
+        model_identifier,
+        provides_directional_derivative: f("providesDirectionalDerivative")?,
+        completed_integrator_step_not_needed: f("completedIntegratorStepNotNeeded")?,
+        can_get_and_set_fmu_state: f("canGetAndSetFMUstate")?,
+        can_serialize_fmu_state: f("canSerializeFMUstate")?,
+    })
 }
 
 fn co_simulation(doc: &Doc<'_>, a: &Attrs) -> Result<CoSimulation, HostError> {

@@ -41,10 +41,11 @@ impl<'i, 'a> Fmi2Me<'i, 'a> {
             .ok_or_else(|| missing("the Model Exchange functions"))?;
         let md = fmu.model_description();
         let (state_vrs, derivative_vrs) = state_references(md)?;
+        let me = md.model_exchange.as_ref();
         let bound = Bound {
             states: state_vrs.len(),
             indicators: md.number_of_event_indicators.unwrap_or(0) as usize,
-            needs_step: !md.me_completed_integrator_step_not_needed,
+            needs_step: !me.is_some_and(|m| m.completed_integrator_step_not_needed),
             dependencies: state_dependencies(md),
         };
         Ok(Fmi2Me {
@@ -54,7 +55,7 @@ impl<'i, 'a> Fmi2Me<'i, 'a> {
             f,
             state_vrs,
             derivative_vrs,
-            directional: md.me_provides_directional_derivative
+            directional: me.is_some_and(|m| m.provides_directional_derivative)
                 && fmu.functions.get_directional_derivative.is_some(),
             time: 0.0,
             inst,
