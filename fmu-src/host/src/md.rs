@@ -159,7 +159,7 @@ pub struct LogCategory {
     pub description: Option<String>,
 }
 
-/// `<CoSimulation>` element with its capability flags (all default false).
+/// `<CoSimulation>` element with its capability flags (absent: false, FMI 2.0.4 section 4.3.1).
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct CoSimulation {
     /// `modelIdentifier`
@@ -184,8 +184,6 @@ pub struct CoSimulation {
     pub can_serialize_fmu_state: bool,
     /// `providesDirectionalDerivative`
     pub provides_directional_derivative: bool,
-    /// Names of the capability flags written explicitly.
-    pub flags_given: Vec<String>,
 }
 
 /// `<ModelExchange>` element with the capability flags the host reads (absent: false, FMI 2.0.4
@@ -464,16 +462,14 @@ fn root(md: &mut ModelDescription, doc: &Doc<'_>, a: &Attrs) -> Result<(), HostE
 }
 
 /// The capability flag `key` of the interface element `a` (absent: false, FMI 2.0.4 sections
-/// 3.3.2 and 4.3.1); its name is added to `given` when it is written.
-fn flag(doc: &Doc<'_>, a: &Attrs, key: &str, given: &mut Vec<String>) -> Result<bool, HostError> {
-    let v = doc.boolean(a, key)?;
-    given.extend(v.map(|_| key.to_string()));
-    Ok(v.unwrap_or(false))
+/// 3.3.1 and 4.3.1).
+fn flag(doc: &Doc<'_>, a: &Attrs, key: &str) -> Result<bool, HostError> {
+    Ok(doc.boolean(a, key)?.unwrap_or(false))
 }
 
 fn model_exchange(doc: &Doc<'_>, a: &Attrs) -> Result<ModelExchange, HostError> {
     let model_identifier = doc.required(a, "modelIdentifier")?;
-    let f = |key| Ok::<_, HostError>(doc.boolean(a, key)?.unwrap_or(false));
+    let f = |key| flag(doc, a, key);
     Ok(ModelExchange {
         model_identifier,
         provides_directional_derivative: f("providesDirectionalDerivative")?,
@@ -485,8 +481,7 @@ fn model_exchange(doc: &Doc<'_>, a: &Attrs) -> Result<ModelExchange, HostError> 
 
 fn co_simulation(doc: &Doc<'_>, a: &Attrs) -> Result<CoSimulation, HostError> {
     let model_identifier = doc.required(a, "modelIdentifier")?;
-    let mut given = Vec::new();
-    let mut f = |key| flag(doc, a, key, &mut given);
+    let f = |key| flag(doc, a, key);
     Ok(CoSimulation {
         model_identifier,
         needs_execution_tool: f("needsExecutionTool")?,
@@ -501,7 +496,6 @@ fn co_simulation(doc: &Doc<'_>, a: &Attrs) -> Result<CoSimulation, HostError> {
         max_output_derivative_order: doc
             .parse::<u32>(a, "maxOutputDerivativeOrder", "an unsigned integer")?
             .unwrap_or(0),
-        flags_given: given,
     })
 }
 
