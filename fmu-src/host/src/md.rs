@@ -7,7 +7,7 @@
 //! (identity, variable attributes, lists) is in [`crate::md_common`].
 
 use crate::error::HostError;
-use crate::md_common::{self, dependencies_kind, list, reads_as, Dialect};
+use crate::md_common::{self, dependencies_kind, list, reads_as, Dialect, TypeDefinition};
 pub use crate::md_common::{Identity, Var, MAX_FALLBACK_RECORDED};
 use crate::xml::{parse_real, Ancestors, Attrs, Doc, Visitor};
 
@@ -131,24 +131,8 @@ impl Unit {
     }
 }
 
-/// `<SimpleType>` of `<TypeDefinitions>`.
-#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
-pub struct SimpleType {
-    /// `name`
-    pub name: String,
-    /// Type element.
-    pub kind: Option<VarKind>,
-    /// `unit`
-    pub unit: Option<String>,
-    /// `displayUnit`
-    pub display_unit: Option<String>,
-    /// `min`
-    pub min: Option<f64>,
-    /// `max`
-    pub max: Option<f64>,
-    /// Line of the tag.
-    pub line: usize,
-}
+/// `<SimpleType>` of `<TypeDefinitions>`: its type element (None before it is read).
+pub type SimpleType = TypeDefinition<Option<VarKind>>;
 
 /// `<Category>` of `<LogCategories>`.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -532,7 +516,7 @@ fn simple_type(
     })?;
     let (min, max) = (doc.real(a, "min")?, doc.real(a, "max")?);
     if let Some(t) = md.type_definitions.last_mut() {
-        t.kind = Some(kind);
+        t.ty = Some(kind);
         t.unit = a.text("unit");
         t.display_unit = a.text("displayUnit");
         (t.min, t.max) = (min, max);

@@ -357,7 +357,7 @@ fn check_type_and_unit(md: &ModelDescription, v: &ScalarVariable, loc: &str, f: 
             None => Some(format!(
                 "declaredType '{t}' is not defined in <TypeDefinitions>"
             )),
-            Some(st) => st.kind.filter(|k| *k != v.kind).map(|kind| {
+            Some(st) => st.ty.filter(|k| *k != v.kind).map(|kind| {
                 format!(
                     "declaredType '{t}' is {kind:?}, the variable is {:?}",
                     v.kind
