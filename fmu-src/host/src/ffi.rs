@@ -239,8 +239,8 @@ pub use fmi_types::c::{
 /// when absent) and its C signature. The typed getters and setters, one pair a value type, go
 /// under `values $Get, $Set`: a line `T: need get_x "fmiXGetX", set_x "fmiXSetX";` declares
 /// `get_x` of signature `$Get<T>` and `set_x` of `$Set<T>`, both required or both optional.
-/// Generates the struct, `SYMBOLS` (the symbols in field order: the fields, then the getters,
-/// then the setters) and `resolve_table`, which takes the values of the fields listed under
+/// Generates the struct (the fields, then the getters, then the setters), `SYMBOLS` (the symbols
+/// in field order) and `resolve_table`, which takes the values of the fields listed under
 /// `given` (made by the caller: fallbacks and sub-tables).
 macro_rules! function_table {
     (
@@ -260,10 +260,10 @@ macro_rules! function_table {
         #[allow(missing_docs, clippy::type_complexity)]
         pub struct $table {
             $(pub $field: function_table!(@type $need $sig),)*
-            $($(
-                pub $get: function_table!(@type $vneed $get_sig<$t>),
-                pub $set: function_table!(@type $vneed $set_sig<$t>),
-            )*)?
+            $(
+                $(pub $get: function_table!(@type $vneed $get_sig<$t>),)*
+                $(pub $set: function_table!(@type $vneed $set_sig<$t>),)*
+            )?
             $($(#[$given_meta])* pub $given: $given_ty,)*
         }
 
