@@ -143,13 +143,6 @@ pub fn default_initial(c: Causality, v: Variability) -> Option<Initial> {
     }
 }
 
-/// Whether a variable with this causality may be set with `fmi2Set{Real,...}` after
-/// initialization in Step mode (FMI 2.0.4 section 4.2.4, state machine: inputs and tunable
-/// parameters only).
-pub fn settable_in_step_mode(c: Causality, v: Variability) -> bool {
-    c == Causality::Input || (c == Causality::Parameter && v == Variability::Tunable)
-}
-
 #[cfg(test)]
 mod tests {
     use super::{

@@ -60,11 +60,6 @@ impl ParamSpec {
             description: description.to_string(),
         }
     }
-
-    /// True when the description starts with the tag `[calibrate]`.
-    pub fn is_default_calibrated(&self) -> bool {
-        self.kind == ParamKind::Real && effects::is_tagged_calibrate(&self.description)
-    }
 }
 
 /// A candidate effect: its switch and its Real parameters (indices into the parameter list).

@@ -5,6 +5,7 @@ use libloading::Library;
 use std::collections::VecDeque;
 use std::ffi::{c_char, c_int, c_void, CStr};
 use std::marker::PhantomData;
+use std::panic::AssertUnwindSafe;
 use std::path::Path;
 use std::sync::{Mutex, MutexGuard, PoisonError};
 
@@ -52,18 +53,21 @@ impl<T> LiveEnvs<T> {
         self.0.lock().unwrap_or_else(PoisonError::into_inner)
     }
 
-    /// Calls `deliver` with the live environment `env` names (see [`LiveEnvs`]).
+    /// Calls `deliver` with the live environment `env` names (see [`LiveEnvs`]). Called by the
+    /// loggers the FMU calls, it never unwinds: a panic ends the delivery, not the C caller.
     pub(crate) fn deliver(&self, env: *mut c_void, deliver: impl FnOnce(&T)) {
-        let live = self.listed();
-        let target = match live.iter().find(|&&p| p == env as usize) {
-            Some(&p) => p,
-            None if live.len() == 1 => live[0],
-            None => return,
-        };
-        // SAFETY: only `LiveEnv::new` lists addresses, each of a `Box<T>` it owns; its drop
-        // withdraws the address under this lock (held until `deliver` returns) before the box
-        // is freed.
-        deliver(unsafe { &*(target as *const T) });
+        let _ = std::panic::catch_unwind(AssertUnwindSafe(|| {
+            let live = self.listed();
+            let target = match live.iter().find(|&&p| p == env as usize) {
+                Some(&p) => p,
+                None if live.len() == 1 => live[0],
+                None => return,
+            };
+            // SAFETY: only `LiveEnv::new` lists addresses, each of a `Box<T>` it owns; its drop
+            // withdraws the address under this lock (held until `deliver` returns) before the
+            // box is freed.
+            deliver(unsafe { &*(target as *const T) });
+        }));
     }
 }
 
@@ -167,7 +171,7 @@ impl LogSink {
 }
 
 /// A C string the FMU passed, as text (invalid UTF-8 replaced); empty for NULL.
-pub(crate) fn cstr_lossy(p: *const c_char) -> String {
+fn cstr_lossy(p: *const c_char) -> String {
     if p.is_null() {
         String::new()
     } else {
@@ -181,7 +185,7 @@ pub(crate) fn cstr_lossy(p: *const c_char) -> String {
 const MAX_MESSAGE_BYTES: usize = 4096;
 
 /// `s` cut to [`MAX_MESSAGE_BYTES`] (at a character boundary, marked `...`).
-pub(crate) fn bounded(mut s: String) -> String {
+fn bounded(mut s: String) -> String {
     if s.len() > MAX_MESSAGE_BYTES {
         let mut end = MAX_MESSAGE_BYTES;
         while !s.is_char_boundary(end) {
@@ -193,6 +197,22 @@ pub(crate) fn bounded(mut s: String) -> String {
     s
 }
 
+/// The record of a message an FMU logged with the raw status `status` (both versions' status
+/// values are alike), its category and message as C strings, the message cut by [`bounded`].
+pub(crate) fn log_record(
+    instance: String,
+    status: c_int,
+    category: *const c_char,
+    message: *const c_char,
+) -> LogRecord {
+    LogRecord {
+        instance,
+        status: Status::from_raw(status),
+        category: cstr_lossy(category),
+        message: bounded(cstr_lossy(message)),
+    }
+}
+
 /// The route of the C shim's formatted messages: stores the record in the sink of the live
 /// instance `env` names (see [`LiveEnvs`]). Never unwinds across the C boundary.
 extern "C" fn log_sink(
@@ -202,17 +222,10 @@ extern "C" fn log_sink(
     category: *const c_char,
     message: *const c_char,
 ) {
-    let _ = std::panic::catch_unwind(|| {
-        LIVE_SINKS.deliver(env, |sink| {
-            let record = LogRecord {
-                instance: cstr_lossy(instance),
-                status: Status::from_raw(status),
-                category: cstr_lossy(category),
-                message: bounded(cstr_lossy(message)),
-            };
-            let status = record.status.to_string();
-            sink.keep(record, &status);
-        })
+    LIVE_SINKS.deliver(env, |sink| {
+        let record = log_record(cstr_lossy(instance), status, category, message);
+        let status = record.status.to_string();
+        sink.keep(record, &status);
     });
 }
 
@@ -223,15 +236,21 @@ pub use fmi_types::c::{
 
 /// Declares a table of a binary's C functions once: each field with the symbol it is looked up
 /// by, whether the binary must export it (`required`: no table without it; `optional`: `None`
-/// when absent) and its C signature. Generates the struct, `SYMBOLS` (the symbols in field
-/// order) and `resolve_table`, which takes the values of the fields listed under `given` (made
-/// by the caller: fallbacks and sub-tables).
+/// when absent) and its C signature. The typed getters and setters, one pair a value type, go
+/// under `values $Get, $Set`: a line `T: need get_x "fmiXGetX", set_x "fmiXSetX";` declares
+/// `get_x` of signature `$Get<T>` and `set_x` of `$Set<T>`, both required or both optional.
+/// Generates the struct (the fields, then the getters, then the setters), `SYMBOLS` (the symbols
+/// in field order) and `resolve_table`, which takes the values of the fields listed under
+/// `given` (made by the caller: fallbacks and sub-tables).
 macro_rules! function_table {
     (
         $(#[$meta:meta])*
         pub struct $table:ident {
             $($field:ident: $need:ident $symbol:literal $sig:ty,)*
         }
+        $(values $get_sig:ident, $set_sig:ident {
+            $($t:ty: $vneed:ident $get:ident $get_symbol:literal, $set:ident $set_symbol:literal;)*
+        })?
         given {
             $($(#[$given_meta:meta])* $given:ident: $given_ty:ty,)*
         }
@@ -241,12 +260,17 @@ macro_rules! function_table {
         #[allow(missing_docs, clippy::type_complexity)]
         pub struct $table {
             $(pub $field: function_table!(@type $need $sig),)*
+            $(
+                $(pub $get: function_table!(@type $vneed $get_sig<$t>),)*
+                $(pub $set: function_table!(@type $vneed $set_sig<$t>),)*
+            )?
             $($(#[$given_meta])* pub $given: $given_ty,)*
         }
 
         impl $table {
             /// The symbols of the table's functions, in field order.
-            pub const SYMBOLS: &'static [&'static str] = &[$($symbol),*];
+            pub const SYMBOLS: &'static [&'static str] =
+                &[$($symbol,)* $($($get_symbol,)* $($set_symbol,)*)?];
 
             /// The table of `lib`; Err names the first required function it does not export.
             ///
@@ -259,6 +283,8 @@ macro_rules! function_table {
             ) -> Result<Self, $crate::ffi::LoadError> {
                 Ok($table {
                     $($field: function_table!(@get lib $need $symbol),)*
+                    $($($get: function_table!(@get lib $vneed $get_symbol),)*)?
+                    $($($set: function_table!(@get lib $vneed $set_symbol),)*)?
                     $($given,)*
                 })
             }
@@ -311,14 +337,6 @@ function_table! {
         exit_initialization_mode: required "fmi2ExitInitializationMode" Call,
         terminate: required "fmi2Terminate" Call,
         reset: required "fmi2Reset" Call,
-        get_real: required "fmi2GetReal" Get<f64>,
-        get_integer: required "fmi2GetInteger" Get<c_int>,
-        get_boolean: required "fmi2GetBoolean" Get<Fmi2Boolean>,
-        get_string: optional "fmi2GetString" Get<*const c_char>,
-        set_real: required "fmi2SetReal" Set<f64>,
-        set_integer: required "fmi2SetInteger" Set<c_int>,
-        set_boolean: required "fmi2SetBoolean" Set<Fmi2Boolean>,
-        set_string: optional "fmi2SetString" Set<*const c_char>,
         get_fmu_state: optional "fmi2GetFMUstate" StateCall,
         set_fmu_state: optional "fmi2SetFMUstate" unsafe extern "C" fn(C, FmuState) -> RawStatus,
         free_fmu_state: optional "fmi2FreeFMUstate" StateCall,
@@ -340,6 +358,12 @@ function_table! {
             unsafe extern "C" fn(C, Vr, usize, *const c_int, *const f64) -> RawStatus,
         get_real_output_derivatives: optional "fmi2GetRealOutputDerivatives"
             unsafe extern "C" fn(C, Vr, usize, *const c_int, *mut f64) -> RawStatus,
+    }
+    values Get, Set {
+        f64: required get_real "fmi2GetReal", set_real "fmi2SetReal";
+        c_int: required get_integer "fmi2GetInteger", set_integer "fmi2SetInteger";
+        Fmi2Boolean: required get_boolean "fmi2GetBoolean", set_boolean "fmi2SetBoolean";
+        *const c_char: optional get_string "fmi2GetString", set_string "fmi2SetString";
     }
     given {
         /// `fmi2DoStep`, or for a Model Exchange run of a binary without it a stand-in.

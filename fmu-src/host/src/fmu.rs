@@ -211,7 +211,7 @@ impl Extracted {
         let md = &self.model_description;
         match interface {
             Interface::CoSimulation => md.co_simulation.as_ref().map(|c| &c.model_identifier),
-            Interface::ModelExchange => md.model_exchange.as_ref(),
+            Interface::ModelExchange => md.model_exchange.as_ref().map(|m| &m.model_identifier),
         }
         .map(String::as_str)
     }

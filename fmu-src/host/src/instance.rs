@@ -201,14 +201,6 @@ impl<'a> Instance<'a> {
         self.log.check(function, raw)
     }
 
-    /// Calls an FMI function and returns its raw status without interpreting it (for probes).
-    pub fn raw_status(
-        &mut self,
-        f: impl FnOnce(&ffi::Functions, Component) -> RawStatus,
-    ) -> Status {
-        Status::from_raw(f(&self.fmu.functions, self.component))
-    }
-
     experiment_call!(
         /// fmi2SetupExperiment
         setup_experiment, component, watch::enter, SetupExperiment, "fmi2SetupExperiment"
@@ -336,13 +328,6 @@ impl<'a> Instance<'a> {
         // SAFETY: ptrs has ptrs.len() valid C strings (or NULL with 0).
         let raw = unsafe { f(self.component, on as c_int, ptrs.len(), cats) };
         self.check("fmi2SetDebugLogging", raw)
-    }
-
-    /// fmi2GetStatus(fmi2Terminated) for CS: whether the FMU asked to stop.
-    pub fn get_status_raw(&mut self, kind: i32) -> Result<Status> {
-        let f = self.fmu.functions.get_status;
-        self.status_value(("fmi2GetStatus", f), kind)
-            .map(Status::from_raw)
     }
 
     /// fmi2GetBooleanStatus(fmi2Terminated = 3): whether the FMU ended the simulation itself

@@ -7,7 +7,7 @@
 //! (identity, variable attributes, lists) is in [`crate::md_common`].
 
 use crate::error::HostError;
-use crate::md_common::{self, dependencies_kind, list, reads_as, Dialect};
+use crate::md_common::{self, dependencies_kind, list, reads_as, Dialect, TypeDefinition};
 pub use crate::md_common::{Identity, Var, MAX_FALLBACK_RECORDED};
 use crate::xml::{parse_real, Ancestors, Attrs, Doc, Visitor};
 
@@ -131,24 +131,8 @@ impl Unit {
     }
 }
 
-/// `<SimpleType>` of `<TypeDefinitions>`.
-#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
-pub struct SimpleType {
-    /// `name`
-    pub name: String,
-    /// Type element.
-    pub kind: Option<VarKind>,
-    /// `unit`
-    pub unit: Option<String>,
-    /// `displayUnit`
-    pub display_unit: Option<String>,
-    /// `min`
-    pub min: Option<f64>,
-    /// `max`
-    pub max: Option<f64>,
-    /// Line of the tag.
-    pub line: usize,
-}
+/// `<SimpleType>` of `<TypeDefinitions>`: its type element (None before it is read).
+pub type SimpleType = TypeDefinition<Option<VarKind>>;
 
 /// `<Category>` of `<LogCategories>`.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -159,7 +143,7 @@ pub struct LogCategory {
     pub description: Option<String>,
 }
 
-/// `<CoSimulation>` element with its capability flags (all default false).
+/// `<CoSimulation>` element with its capability flags (absent: false, FMI 2.0.4 section 4.3.1).
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct CoSimulation {
     /// `modelIdentifier`
@@ -184,8 +168,22 @@ pub struct CoSimulation {
     pub can_serialize_fmu_state: bool,
     /// `providesDirectionalDerivative`
     pub provides_directional_derivative: bool,
-    /// Names of the capability flags written explicitly.
-    pub flags_given: Vec<String>,
+}
+
+/// `<ModelExchange>` element with the capability flags the host reads (absent: false, FMI 2.0.4
+/// section 3.3.1).
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct ModelExchange {
+    /// `modelIdentifier`
+    pub model_identifier: String,
+    /// `providesDirectionalDerivative`
+    pub provides_directional_derivative: bool,
+    /// `completedIntegratorStepNotNeeded`
+    pub completed_integrator_step_not_needed: bool,
+    /// `canGetAndSetFMUstate`
+    pub can_get_and_set_fmu_state: bool,
+    /// `canSerializeFMUstate`
+    pub can_serialize_fmu_state: bool,
 }
 
 /// `<DefaultExperiment>`.
@@ -252,16 +250,8 @@ pub struct ModelDescription {
     pub number_of_event_indicators: Option<u32>,
     /// `<CoSimulation>` if present.
     pub co_simulation: Option<CoSimulation>,
-    /// `modelIdentifier` of `<ModelExchange>` if present.
-    pub model_exchange: Option<String>,
-    /// `providesDirectionalDerivative` of `<ModelExchange>`.
-    pub me_provides_directional_derivative: bool,
-    /// `completedIntegratorStepNotNeeded` of `<ModelExchange>`.
-    pub me_completed_integrator_step_not_needed: bool,
-    /// `canGetAndSetFMUstate` of `<ModelExchange>`.
-    pub me_can_get_and_set_fmu_state: bool,
-    /// `canSerializeFMUstate` of `<ModelExchange>`.
-    pub me_can_serialize_fmu_state: bool,
+    /// `<ModelExchange>` if present.
+    pub model_exchange: Option<ModelExchange>,
     /// `<UnitDefinitions>`
     pub unit_definitions: Vec<Unit>,
     /// `<TypeDefinitions>`
@@ -374,7 +364,9 @@ impl Visitor for Parser {
             ("fmiModelDescription", "CoSimulation") => {
                 md.co_simulation = Some(co_simulation(doc, &a)?)
             }
-            ("fmiModelDescription", "ModelExchange") => model_exchange(md, doc, &a)?,
+            ("fmiModelDescription", "ModelExchange") => {
+                md.model_exchange = Some(model_exchange(doc, &a)?)
+            }
             ("UnitDefinitions", "Unit") => md.unit_definitions.push(Unit::read(doc, &a)?),
             ("Unit", "BaseUnit") => {
                 let b = base_unit(doc, &a)?;
@@ -454,27 +446,26 @@ fn root(md: &mut ModelDescription, doc: &Doc<'_>, a: &Attrs) -> Result<(), HostE
 }
 
 /// The capability flag `key` of the interface element `a` (absent: false, FMI 2.0.4 sections
-/// 3.3.2 and 4.3.1); its name is added to `given` when it is written.
-fn flag(doc: &Doc<'_>, a: &Attrs, key: &str, given: &mut Vec<String>) -> Result<bool, HostError> {
-    let v = doc.boolean(a, key)?;
-    given.extend(v.map(|_| key.to_string()));
-    Ok(v.unwrap_or(false))
+/// 3.3.1 and 4.3.1).
+fn flag(doc: &Doc<'_>, a: &Attrs, key: &str) -> Result<bool, HostError> {
+    Ok(doc.boolean(a, key)?.unwrap_or(false))
 }
 
-fn model_exchange(md: &mut ModelDescription, doc: &Doc<'_>, a: &Attrs) -> Result<(), HostError> {
-    md.model_exchange = Some(doc.required(a, "modelIdentifier")?);
-    let f = |key| Ok::<_, HostError>(doc.boolean(a, key)?.unwrap_or(false));
-    md.me_provides_directional_derivative = f("providesDirectionalDerivative")?;
-    md.me_completed_integrator_step_not_needed = f("completedIntegratorStepNotNeeded")?;
-    md.me_can_get_and_set_fmu_state = f("canGetAndSetFMUstate")?;
-    md.me_can_serialize_fmu_state = f("canSerializeFMUstate")?;
-    Ok(())
+fn model_exchange(doc: &Doc<'_>, a: &Attrs) -> Result<ModelExchange, HostError> {
+    let model_identifier = doc.required(a, "modelIdentifier")?;
+    let f = |key| flag(doc, a, key);
+    Ok(ModelExchange {
+        model_identifier,
+        provides_directional_derivative: f("providesDirectionalDerivative")?,
+        completed_integrator_step_not_needed: f("completedIntegratorStepNotNeeded")?,
+        can_get_and_set_fmu_state: f("canGetAndSetFMUstate")?,
+        can_serialize_fmu_state: f("canSerializeFMUstate")?,
+    })
 }
 
 fn co_simulation(doc: &Doc<'_>, a: &Attrs) -> Result<CoSimulation, HostError> {
     let model_identifier = doc.required(a, "modelIdentifier")?;
-    let mut given = Vec::new();
-    let mut f = |key| flag(doc, a, key, &mut given);
+    let f = |key| flag(doc, a, key);
     Ok(CoSimulation {
         model_identifier,
         needs_execution_tool: f("needsExecutionTool")?,
@@ -489,7 +480,6 @@ fn co_simulation(doc: &Doc<'_>, a: &Attrs) -> Result<CoSimulation, HostError> {
         max_output_derivative_order: doc
             .parse::<u32>(a, "maxOutputDerivativeOrder", "an unsigned integer")?
             .unwrap_or(0),
-        flags_given: given,
     })
 }
 
@@ -526,7 +516,7 @@ fn simple_type(
     })?;
     let (min, max) = (doc.real(a, "min")?, doc.real(a, "max")?);
     if let Some(t) = md.type_definitions.last_mut() {
-        t.kind = Some(kind);
+        t.ty = Some(kind);
         t.unit = a.text("unit");
         t.display_unit = a.text("displayUnit");
         (t.min, t.max) = (min, max);

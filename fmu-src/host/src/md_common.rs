@@ -69,6 +69,29 @@ impl Identity {
     }
 }
 
+/// A type definition: FMI 2.0's `<SimpleType>` with its type element (FMI 2.0.4 section 2.2.3),
+/// FMI 3.0's `<Float64Type>`, `<EnumerationType>`, ... (FMI 3.0.2 section 2.4.4); `T` is the
+/// base type.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct TypeDefinition<T> {
+    /// `name`
+    pub name: String,
+    /// The base type.
+    pub ty: T,
+    /// `unit`
+    pub unit: Option<String>,
+    /// `displayUnit` (Real, Float types)
+    pub display_unit: Option<String>,
+    /// `min`
+    pub min: Option<f64>,
+    /// `max`
+    pub max: Option<f64>,
+    /// `<Item name value>` of an FMI 3.0 `<EnumerationType>` (not read in FMI 2.0).
+    pub items: Vec<(String, i64)>,
+    /// Line of the tag.
+    pub line: usize,
+}
+
 /// What the variables of one FMI version have beyond [`Var`]'s attributes, and the types of the
 /// attributes in which the versions differ.
 pub trait Dialect: Clone + Debug + PartialEq + serde::Serialize {

@@ -215,7 +215,10 @@ pub fn from_fmi2(md: &ModelDescription) -> ModelView {
         description: md.description.clone(),
         generation_tool: md.generation_tool.clone(),
         interfaces: Interfaces {
-            model_exchange: md.model_exchange.clone(),
+            model_exchange: md
+                .model_exchange
+                .as_ref()
+                .map(|m| m.model_identifier.clone()),
             co_simulation: cs,
             scheduled_execution: None,
         },

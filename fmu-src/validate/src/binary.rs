@@ -125,7 +125,10 @@ fn required_functions(md: &ModelDescription, id: &str) -> Vec<&'static str> {
         .co_simulation
         .as_ref()
         .is_some_and(|c| c.model_identifier == id);
-    let me = md.model_exchange.as_deref() == Some(id);
+    let me = md
+        .model_exchange
+        .as_ref()
+        .is_some_and(|m| m.model_identifier == id);
     let (common, cs_only) = COMMON_AND_CO_SIMULATION_ONLY;
     let mut need: Vec<&'static str> = common.to_vec();
     if cs {

@@ -50,7 +50,8 @@ fn check_root(md: &ModelDescription, f: &mut Vec<Finding>) {
 /// sections 3.3.1 and 4.3.1), and the Co-Simulation capability flags consistent.
 fn check_interfaces(md: &ModelDescription, f: &mut Vec<Finding>) {
     let root = "modelDescription.xml:<fmiModelDescription>";
-    if let Some(m) = md.model_exchange.as_deref().and_then(identifier_problem) {
+    let me = md.model_exchange.as_ref();
+    if let Some(m) = me.and_then(|m| identifier_problem(&m.model_identifier)) {
         let mut finding = Finding::new(
             "model-identifier",
             "modelDescription.xml:<ModelExchange>",
@@ -60,7 +61,7 @@ fn check_interfaces(md: &ModelDescription, f: &mut Vec<Finding>) {
         f.push(finding);
     }
     match &md.co_simulation {
-        None if md.model_exchange.is_some() => {}
+        None if me.is_some() => {}
         None => f.push(Finding::new(
             "co-simulation",
             root,
@@ -356,7 +357,7 @@ fn check_type_and_unit(md: &ModelDescription, v: &ScalarVariable, loc: &str, f: 
             None => Some(format!(
                 "declaredType '{t}' is not defined in <TypeDefinitions>"
             )),
-            Some(st) => st.kind.filter(|k| *k != v.kind).map(|kind| {
+            Some(st) => st.ty.filter(|k| *k != v.kind).map(|kind| {
                 format!(
                     "declaredType '{t}' is {kind:?}, the variable is {:?}",
                     v.kind

@@ -159,10 +159,10 @@ macro_rules! probed_fmu {
 }
 
 probed_fmu!(Fmu, Instance, |fmu| {
-    let md = fmu.model_description();
+    let me = fmu.model_description().model_exchange.as_ref();
     (
-        md.me_can_get_and_set_fmu_state,
-        md.me_can_serialize_fmu_state,
+        me.is_some_and(|m| m.can_get_and_set_fmu_state),
+        me.is_some_and(|m| m.can_serialize_fmu_state),
     )
 });
 

@@ -10,8 +10,7 @@
 //! non-zero byte true), never as Rust `bool`, so a byte other than 0 or 1 is not undefined
 //! behaviour.
 
-use crate::error::{LogRecord, Status};
-use crate::ffi::{bounded, cstr_lossy, function_table, LiveEnv, LiveEnvs, LogSink};
+use crate::ffi::{function_table, log_record, LiveEnv, LiveEnvs, LogSink};
 use libloading::Library;
 use std::ffi::{c_char, c_int, c_void};
 
@@ -102,32 +101,8 @@ function_table! {
         exit_configuration_mode: optional "fmi3ExitConfigurationMode" Call3,
         terminate: required "fmi3Terminate" Call3,
         reset: required "fmi3Reset" Call3,
-        get_float32: required "fmi3GetFloat32" Get<f32>,
-        get_float64: required "fmi3GetFloat64" Get<f64>,
-        get_int8: required "fmi3GetInt8" Get<i8>,
-        get_uint8: required "fmi3GetUInt8" Get<u8>,
-        get_int16: required "fmi3GetInt16" Get<i16>,
-        get_uint16: required "fmi3GetUInt16" Get<u16>,
-        get_int32: required "fmi3GetInt32" Get<i32>,
-        get_uint32: required "fmi3GetUInt32" Get<u32>,
-        get_int64: required "fmi3GetInt64" Get<i64>,
-        get_uint64: required "fmi3GetUInt64" Get<u64>,
-        get_boolean: required "fmi3GetBoolean" Get<Bool3>,
-        get_string: required "fmi3GetString" Get<*const c_char>,
         get_binary: required "fmi3GetBinary"
             unsafe extern "C" fn(I, Vrs, usize, *mut usize, *mut *const u8, usize) -> RawStatus3,
-        set_float32: required "fmi3SetFloat32" Set<f32>,
-        set_float64: required "fmi3SetFloat64" Set<f64>,
-        set_int8: required "fmi3SetInt8" Set<i8>,
-        set_uint8: required "fmi3SetUInt8" Set<u8>,
-        set_int16: required "fmi3SetInt16" Set<i16>,
-        set_uint16: required "fmi3SetUInt16" Set<u16>,
-        set_int32: required "fmi3SetInt32" Set<i32>,
-        set_uint32: required "fmi3SetUInt32" Set<u32>,
-        set_int64: required "fmi3SetInt64" Set<i64>,
-        set_uint64: required "fmi3SetUInt64" Set<u64>,
-        set_boolean: required "fmi3SetBoolean" Set<Bool3>,
-        set_string: required "fmi3SetString" Set<*const c_char>,
         set_binary: required "fmi3SetBinary"
             unsafe extern "C" fn(I, Vrs, usize, *const usize, *const *const u8, usize) -> RawStatus3,
         get_fmu_state: optional "fmi3GetFMUState" StateCall3,
@@ -142,6 +117,20 @@ function_table! {
         do_step: optional "fmi3DoStep" DoStep,
         instantiate_model_exchange: optional "fmi3InstantiateModelExchange"
             InstantiateModelExchange,
+    }
+    values Get, Set {
+        f32: required get_float32 "fmi3GetFloat32", set_float32 "fmi3SetFloat32";
+        f64: required get_float64 "fmi3GetFloat64", set_float64 "fmi3SetFloat64";
+        i8: required get_int8 "fmi3GetInt8", set_int8 "fmi3SetInt8";
+        u8: required get_uint8 "fmi3GetUInt8", set_uint8 "fmi3SetUInt8";
+        i16: required get_int16 "fmi3GetInt16", set_int16 "fmi3SetInt16";
+        u16: required get_uint16 "fmi3GetUInt16", set_uint16 "fmi3SetUInt16";
+        i32: required get_int32 "fmi3GetInt32", set_int32 "fmi3SetInt32";
+        u32: required get_uint32 "fmi3GetUInt32", set_uint32 "fmi3SetUInt32";
+        i64: required get_int64 "fmi3GetInt64", set_int64 "fmi3SetInt64";
+        u64: required get_uint64 "fmi3GetUInt64", set_uint64 "fmi3SetUInt64";
+        Bool3: required get_boolean "fmi3GetBoolean", set_boolean "fmi3SetBoolean";
+        *const c_char: required get_string "fmi3GetString", set_string "fmi3SetString";
     }
     given {
         /// The Model Exchange functions, when the binary exports all of them.
@@ -315,16 +304,9 @@ pub unsafe extern "C" fn log_message(
     category: *const c_char,
     message: *const c_char,
 ) {
-    let _ = std::panic::catch_unwind(|| {
-        LIVE_ENVS.deliver(env, |env| {
-            let record = LogRecord {
-                instance: env.name.clone(),
-                status: Status::from_raw(status),
-                category: cstr_lossy(category),
-                message: bounded(cstr_lossy(message)),
-            };
-            let status = record.status.to_string().replacen("fmi2", "fmi3", 1);
-            env.sink.keep(record, &status);
-        })
+    LIVE_ENVS.deliver(env, |env| {
+        let record = log_record(env.name.clone(), status, category, message);
+        let status = record.status.to_string().replacen("fmi2", "fmi3", 1);
+        env.sink.keep(record, &status);
     });
 }

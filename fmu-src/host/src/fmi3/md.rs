@@ -20,7 +20,9 @@
 
 use super::value::{Type3, Values};
 use crate::error::HostError;
-use crate::md_common::{self, dependencies_kind, list, reads_as, Dialect, Identity, Var};
+use crate::md_common::{
+    self, dependencies_kind, list, reads_as, Dialect, Identity, TypeDefinition, Var,
+};
 use crate::xml::{Ancestors, Attrs, Doc, Visitor};
 use std::borrow::Cow;
 
@@ -165,25 +167,7 @@ pub const INTERVAL_VARIABILITIES: &[&str] = &[
 ];
 
 /// A type definition (`<Float64Type>`, `<EnumerationType>`, ...).
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
-pub struct TypeDefinition3 {
-    /// `name`
-    pub name: String,
-    /// The base type.
-    pub ty: Type3,
-    /// `unit`
-    pub unit: Option<String>,
-    /// `displayUnit` (Float types)
-    pub display_unit: Option<String>,
-    /// `min`
-    pub min: Option<f64>,
-    /// `max`
-    pub max: Option<f64>,
-    /// `<Item name value>` of an EnumerationType.
-    pub items: Vec<(String, i64)>,
-    /// Line of the tag.
-    pub line: usize,
-}
+pub type TypeDefinition3 = TypeDefinition<Type3>;
 
 /// `<Unit>` of `<UnitDefinitions>`: FMI 3.0.2 section 2.4.3 gives it the elements of FMI 2.0.4.
 pub type Unit3 = crate::md::Unit;

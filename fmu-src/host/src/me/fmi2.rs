@@ -5,7 +5,9 @@ use crate::error::{HostError, Result, Status};
 use crate::ffi::{EventInfo as RawEventInfo, Fmi2Boolean, MeFunctions, RawStatus, StateVector};
 use crate::instance::{missing, Instance};
 use crate::md::ModelDescription;
-use crate::me::{derivatives_taken, EventInfo, ModelExchange, Settings, StateSlice, StepOutcome};
+use crate::me::{
+    derivatives_taken, Bound, EventInfo, ModelExchange, Settings, StateSlice, StepOutcome,
+};
 use crate::run::{self, ModelExchangeOf};
 use crate::simulate::{InputPlan, Recorder};
 use crate::watch::{self, Call};
@@ -19,12 +21,9 @@ pub struct Fmi2Me<'i, 'a> {
     state_vrs: Vec<u32>,
     /// Value references of the derivatives, same order.
     derivative_vrs: Vec<u32>,
-    indicators: usize,
-    needs_step: bool,
+    /// The dependencies of each derivative: `<Derivatives>` `dependencies`, inputs left out.
+    bound: Bound,
     directional: bool,
-    /// Per derivative: the states it depends on (`<Derivatives>` `dependencies`, inputs left
-    /// out), `None` where none are declared.
-    dependencies: Vec<Option<Vec<usize>>>,
     /// Scratch of the directional derivative calls: the knowns' value references and seed.
     known: Vec<u32>,
     seed: Vec<f64>,
@@ -42,17 +41,21 @@ impl<'i, 'a> Fmi2Me<'i, 'a> {
             .ok_or_else(|| missing("the Model Exchange functions"))?;
         let md = fmu.model_description();
         let (state_vrs, derivative_vrs) = state_references(md)?;
-        let dependencies = state_dependencies(md);
+        let me = md.model_exchange.as_ref();
+        let bound = Bound {
+            states: state_vrs.len(),
+            indicators: md.number_of_event_indicators.unwrap_or(0) as usize,
+            needs_step: !me.is_some_and(|m| m.completed_integrator_step_not_needed),
+            dependencies: state_dependencies(md),
+        };
         Ok(Fmi2Me {
-            dependencies,
+            bound,
             known: Vec::new(),
             seed: Vec::new(),
             f,
             state_vrs,
             derivative_vrs,
-            indicators: md.number_of_event_indicators.unwrap_or(0) as usize,
-            needs_step: !md.me_completed_integrator_step_not_needed,
-            directional: md.me_provides_directional_derivative
+            directional: me.is_some_and(|m| m.provides_directional_derivative)
                 && fmu.functions.get_directional_derivative.is_some(),
             time: 0.0,
             inst,
@@ -130,12 +133,8 @@ fn flag(b: Fmi2Boolean) -> bool {
 }
 
 impl ModelExchange for Fmi2Me<'_, '_> {
-    fn states(&self) -> usize {
-        self.state_vrs.len()
-    }
-
-    fn indicators(&self) -> usize {
-        self.indicators
+    fn bound(&self) -> &Bound {
+        &self.bound
     }
 
     fn set_time(&mut self, t: f64) -> Result<()> {
@@ -219,10 +218,6 @@ impl ModelExchange for Fmi2Me<'_, '_> {
         })
     }
 
-    fn needs_completed_integrator_step(&self) -> bool {
-        self.needs_step
-    }
-
     fn provides_directional_derivative(&self) -> bool {
         self.directional
     }
@@ -258,10 +253,6 @@ impl ModelExchange for Fmi2Me<'_, '_> {
             )
         };
         self.call("fmi2GetDirectionalDerivative", raw).map(drop)
-    }
-
-    fn state_dependencies(&self) -> Vec<Option<Vec<usize>>> {
-        self.dependencies.clone()
     }
 }
 

@@ -10,7 +10,7 @@ use crate::fmi3::ffi::{
 use crate::fmi3::instance::Instance3;
 use crate::fmi3::simulate::{InputPlan3, Recorder3, Request3};
 use crate::me::clocks::ClockSchedule;
-use crate::me::{derivatives_taken, EventInfo, ModelExchange, StateSlice, StepOutcome};
+use crate::me::{derivatives_taken, Bound, EventInfo, ModelExchange, StateSlice, StepOutcome};
 use crate::run::{self, ModelExchangeOf};
 use crate::watch::{self, Call};
 use std::ffi::c_void;
@@ -57,16 +57,13 @@ function_table! {
 pub struct Fmi3Me<'i, 'a> {
     inst: &'i mut Instance3<'a>,
     f: MeFunctions3,
-    states: usize,
-    indicators: usize,
-    needs_step: bool,
+    /// The dependencies of each derivative: `dependencies` of its `<ContinuousStateDerivative>`,
+    /// inputs left out; empty without directional derivatives.
+    bound: Bound,
     /// (state, derivative) value references when every state is a scalar and the FMU provides
     /// directional derivatives (FMI 3.0.2 section 2.4.8: `<ContinuousStateDerivative>` in the
     /// order of the state vector, each naming its state with `derivative`).
     directional: Option<(Vec<u32>, Vec<u32>)>,
-    /// Per derivative: the states it depends on (`dependencies` of its
-    /// `<ContinuousStateDerivative>`, inputs left out), `None` where none are declared.
-    dependencies: Vec<Option<Vec<usize>>>,
     /// Scratch of the directional derivative calls: the knowns' value references and seed.
     known: Vec<u32>,
     seed: Vec<f64>,
@@ -83,28 +80,25 @@ impl<'i, 'a> Fmi3Me<'i, 'a> {
         })?;
         let mut me = Fmi3Me {
             f,
-            states: 0,
-            indicators: 0,
-            needs_step: false,
+            bound: Bound::default(),
             directional: None,
-            dependencies: Vec::new(),
             known: Vec::new(),
             seed: Vec::new(),
             time: 0.0,
             clocks: ClockSchedule::default(),
             inst,
         };
-        me.states = me.count(
+        me.bound.states = me.count(
             f.get_number_of_continuous_states,
             "fmi3GetNumberOfContinuousStates",
         )?;
-        me.indicators = me.count(
+        me.bound.indicators = me.count(
             f.get_number_of_event_indicators,
             "fmi3GetNumberOfEventIndicators",
         )?;
         let md = me.inst.fmu.model_description();
         let element = md.model_exchange.as_ref();
-        me.needs_step = element.is_some_and(|e| e.flag("needsCompletedIntegratorStep"));
+        me.bound.needs_step = element.is_some_and(|e| e.flag("needsCompletedIntegratorStep"));
         let provides = element.is_some_and(|e| e.flag("providesDirectionalDerivatives"))
             && f.get_directional_derivative.is_some();
         let mut states = Vec::new();
@@ -119,9 +113,9 @@ impl<'i, 'a> Fmi3Me<'i, 'a> {
                 _ => break,
             }
         }
-        if provides && states.len() == me.states {
+        if provides && states.len() == me.bound.states {
             // FMI 3.0.2 section 2.4.8: dependencies by value reference, absent: every known
-            me.dependencies = md
+            me.bound.dependencies = md
                 .model_structure
                 .continuous_state_derivatives
                 .iter()
@@ -166,12 +160,8 @@ impl<'i, 'a> Fmi3Me<'i, 'a> {
 }
 
 impl ModelExchange for Fmi3Me<'_, '_> {
-    fn states(&self) -> usize {
-        self.states
-    }
-
-    fn indicators(&self) -> usize {
-        self.indicators
+    fn bound(&self) -> &Bound {
+        &self.bound
     }
 
     fn set_time(&mut self, t: f64) -> Result<()> {
@@ -256,10 +246,6 @@ impl ModelExchange for Fmi3Me<'_, '_> {
         })
     }
 
-    fn needs_completed_integrator_step(&self) -> bool {
-        self.needs_step
-    }
-
     fn activate_clocks(&mut self, t: f64) -> Result<Vec<u32>> {
         let due = self.clocks.due(t);
         if !due.is_empty() {
@@ -316,10 +302,6 @@ impl ModelExchange for Fmi3Me<'_, '_> {
             )
         };
         self.call("fmi3GetDirectionalDerivative", raw)
-    }
-
-    fn state_dependencies(&self) -> Vec<Option<Vec<usize>>> {
-        self.dependencies.clone()
     }
 }
 

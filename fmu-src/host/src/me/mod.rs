@@ -142,13 +142,34 @@ pub struct StepOutcome {
     pub terminate_simulation: bool,
 }
 
+/// What a binding knows of its FMU once bound, the same at every call.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Bound {
+    /// Number of continuous states.
+    pub states: usize,
+    /// Number of event indicators.
+    pub indicators: usize,
+    /// Whether `completedIntegratorStep` must be called.
+    pub needs_step: bool,
+    /// Per derivative, in the order of the state vector: the states (positions) it depends on
+    /// as `<ModelStructure>` declares them, `None` when it declares no dependencies (it may then
+    /// depend on every state).
+    pub dependencies: Vec<Option<Vec<usize>>>,
+}
+
 /// The calls of a Model Exchange FMU the integration loop makes, whatever the FMI version.
 /// Each marks itself in [`crate::watch`] with the call and time.
 pub trait ModelExchange {
+    /// What the binding knows of its FMU once bound.
+    fn bound(&self) -> &Bound;
     /// Number of continuous states.
-    fn states(&self) -> usize;
+    fn states(&self) -> usize {
+        self.bound().states
+    }
     /// Number of event indicators.
-    fn indicators(&self) -> usize;
+    fn indicators(&self) -> usize {
+        self.bound().indicators
+    }
     /// `setTime`
     fn set_time(&mut self, t: f64) -> Result<()>;
     /// `setContinuousStates`
@@ -171,7 +192,9 @@ pub trait ModelExchange {
     /// `completedIntegratorStep`
     fn completed_integrator_step(&mut self) -> Result<StepOutcome>;
     /// Whether `completedIntegratorStep` must be called.
-    fn needs_completed_integrator_step(&self) -> bool;
+    fn needs_completed_integrator_step(&self) -> bool {
+        self.bound().needs_step
+    }
     /// Whether [`Self::state_derivative_seed`] is available.
     fn provides_directional_derivative(&self) -> bool;
     /// The directional derivative of the derivatives with respect to the states with the seed
@@ -203,11 +226,9 @@ pub trait ModelExchange {
     fn next_clock_tick(&self) -> Option<f64> {
         None
     }
-    /// Per derivative, in the order of the state vector: the states (positions) it depends on
-    /// as `<ModelStructure>` declares them, `None` when it declares no dependencies (it may then
-    /// depend on every state). Default: `None` for each.
-    fn state_dependencies(&self) -> Vec<Option<Vec<usize>>> {
-        vec![None; self.states()]
+    /// The declared dependencies of the derivatives on the states ([`Bound::dependencies`]).
+    fn state_dependencies(&self) -> &[Option<Vec<usize>>] {
+        &self.bound().dependencies
     }
 }
 
@@ -339,7 +360,7 @@ pub fn run<M: ModelExchange, E: Environment<M>>(
     fmu.get_states(&mut x)?;
     let jacobian = fmu
         .provides_directional_derivative()
-        .then(|| ColumnGroups::new(n, &fmu.state_dependencies()));
+        .then(|| ColumnGroups::new(n, fmu.state_dependencies()));
     let mut integrator = Integrator::new(s.rtol, absolute_tolerances(fmu, s.rtol)?);
     // CVode's limit in FMPy's ME run: no step beyond a fiftieth of the interval.
     integrator.set_max_step((s.stop - s.start) / 50.0);

@@ -2,7 +2,7 @@
 
 use super::{check_effect_convention, check_model_description, combination_allowed};
 use crate::Finding;
-use host::md::{Causality, ModelDescription, Variability};
+use host::md::{Causality, ModelDescription, ModelExchange, Variability};
 
 fn md_with_vars(vars: &str, structure: &str) -> ModelDescription {
     let xml = format!(
@@ -96,7 +96,10 @@ fn root_attributes() {
     md.co_simulation.as_mut().unwrap().model_identifier = "9 bad".into();
     assert!(only(&md, "model-identifier").clause.contains("§4.3.1"));
     let mut md = md_with_vars(GOOD_VARS, GOOD_STRUCT);
-    md.model_exchange = Some("9 bad".into());
+    md.model_exchange = Some(ModelExchange {
+        model_identifier: "9 bad".into(),
+        ..Default::default()
+    });
     assert!(only(&md, "model-identifier").clause.contains("§3.3.1"));
     let mut md = md_with_vars(GOOD_VARS, GOOD_STRUCT);
     md.co_simulation.as_mut().unwrap().can_serialize_fmu_state = true;
