@@ -88,6 +88,45 @@ def test_an_fmi2_description_relabelled_fmi3_is_read_as_fmi3(tmp_path):
         assert_one_bounded_message(run(*args), "lacks the required attribute instantiationToken")
 
 
+LONG = 50_000
+
+
+def overlong_description(kind):
+    """An FMI 2.0 description whose error quotes a text of LONG characters the file holds."""
+    head = '<?xml version="1.0"?><fmiModelDescription fmiVersion="2.0" modelName="m" guid="g">'
+    cs = '<CoSimulation modelIdentifier="m"/>'
+    body = {
+        "start": (f'{cs}<ModelVariables><ScalarVariable name="{"n" * LONG}" valueReference="1">'
+                  f'<Real start="{"x" * LONG}"/></ScalarVariable></ModelVariables>'),
+        "type element": (f'{cs}<TypeDefinitions><SimpleType name="t"><{"Q" * LONG}/>'
+                         '</SimpleType></TypeDefinitions>'),
+        "dependency": (f'{cs}<ModelVariables><ScalarVariable name="y" valueReference="1" '
+                       'causality="output"><Real/></ScalarVariable></ModelVariables>'
+                       f'<ModelStructure><Outputs><Unknown index="1" dependencies="{"z" * LONG}"/>'
+                       '</Outputs></ModelStructure>'),
+        "entity": f'<{"E" * LONG} a="&{"e" * LONG};"/>',
+        "end tag": f'<{"b" * LONG}>',
+    }[kind]
+    return head + body + "</fmiModelDescription>"
+
+
+@pytest.mark.parametrize("kind", ["start", "type element", "dependency", "entity", "end tag"])
+def test_a_description_quoting_an_overlong_text_gives_bounded_messages(tmp_path, kind):
+    """Every text of the file a message quotes is shortened: simulate answers one bounded
+    line, validate's findings stay lines of a report, not copies of the file."""
+    fmu = tmp_path / "long.fmu"
+    with zipfile.ZipFile(fmu, "w") as z:
+        z.writestr("modelDescription.xml", overlong_description(kind))
+    data = tmp_path / "d.csv"
+    data.write_text("time\n0\n1\n")
+    assert_one_bounded_message(run("simulate", fmu, "--data", data, "--out", tmp_path / "o.csv"),
+                               "long.fmu!modelDescription.xml:")
+    res = run("validate", fmu)
+    assert res.returncode == 1, (res.returncode, res.stdout[:1000], res.stderr[:1000])
+    assert "[model-description-xml]" in res.stdout, res.stdout[:1000]
+    assert max(map(len, res.stdout.splitlines())) < 1000, res.stdout[:1000]
+
+
 @pytest.mark.parametrize("which", ["data", "fmu"])
 def test_out_equal_to_an_input_is_refused_and_the_input_kept(tmp_path, which):
     fmu = tmp_path / "m.fmu"

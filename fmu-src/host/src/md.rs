@@ -6,7 +6,7 @@
 //! enforced here: the `validate` crate reports them all as findings. What FMI 3.0 reads alike
 //! (identity, variable attributes, lists) is in [`crate::md_common`].
 
-use crate::error::HostError;
+use crate::error::{shown, HostError};
 use crate::md_common::{self, dependencies_kind, list, reads_as, Dialect, TypeDefinition};
 pub use crate::md_common::{Identity, Var, MAX_FALLBACK_RECORDED};
 use crate::xml::{parse_real, Ancestors, Attrs, Doc, Visitor};
@@ -511,7 +511,10 @@ fn simple_type(
     let kind = VarKind::parse(kind).ok_or_else(|| {
         doc.err(
             a.line,
-            format!("<SimpleType> has unknown type element <{kind}>"),
+            format!(
+                "<SimpleType> has unknown type element <{}>",
+                shown(kind, 40)
+            ),
         )
     })?;
     let (min, max) = (doc.real(a, "min")?, doc.real(a, "max")?);
@@ -537,20 +540,22 @@ fn scalar_variable(doc: &Doc<'_>, a: &Attrs) -> Result<ScalarVariable, HostError
     Ok(v)
 }
 
-/// The `start` of a type element of `kind` of the variable `who`.
+/// The `start` of a type element of `kind` of the variable `name` (both quoted in an error
+/// shortened, as every text of the file is).
 fn start_value(
     doc: &Doc<'_>,
     kind: VarKind,
-    who: &str,
+    name: &str,
     a: &Attrs,
 ) -> Result<Option<StartValue>, HostError> {
     let Some(s) = a.get("start") else {
         return Ok(None);
     };
     let bad = |what| {
+        let (who, start) = (shown(name, 60), shown(s, 40));
         doc.err(
             a.line,
-            format!("variable '{who}': start=\"{s}\" is not {what}"),
+            format!("variable '{who}': start=\"{start}\" is not {what}"),
         )
     };
     Ok(Some(match kind {
@@ -565,7 +570,10 @@ fn start_value(
 
 /// An `<Unknown>` of `<ModelStructure>` (FMI 2.0.4 section 2.2.8).
 fn unknown(doc: &Doc<'_>, a: &Attrs) -> Result<Unknown, HostError> {
-    let bad = |t: &str| format!("<Unknown> dependencies entry \"{t}\" is not an index");
+    let bad = |t: &str| {
+        let t = shown(t, 40);
+        format!("<Unknown> dependencies entry \"{t}\" is not an index")
+    };
     Ok(Unknown {
         index: doc.parsed::<usize>(a, "index", "an index")?,
         dependencies: list(doc, a, "dependencies", bad)?,

@@ -89,14 +89,24 @@ impl<'a> Doc<'a> {
 
     fn attrs(&self, e: &BytesStart<'_>, line: usize) -> Result<Attrs, HostError> {
         let element = String::from_utf8_lossy(e.name().as_ref()).into_owned();
+        let quoted = |text: &str| crate::error::shown(text, 40);
         let mut pairs = Vec::new();
         for a in e.attributes() {
-            let a =
-                a.map_err(|err| self.err(line, format!("<{element}>: bad attribute: {err}")))?;
+            let a = a.map_err(|err| {
+                let m = format!(
+                    "<{}>: bad attribute: {}",
+                    quoted(&element),
+                    quoted(&err.to_string())
+                );
+                self.err(line, m)
+            })?;
             let key = String::from_utf8_lossy(a.key.as_ref()).into_owned();
             let value = a
                 .unescape_value()
-                .map_err(|err| self.err(line, format!("<{element}> {key}: {err}")))?
+                .map_err(|err| {
+                    let (element, key, err) = (quoted(&element), quoted(&key), err.to_string());
+                    self.err(line, format!("<{element}> {key}: {}", quoted(&err)))
+                })?
                 .into_owned();
             pairs.push((key, value));
         }
@@ -123,7 +133,10 @@ impl<'a> Doc<'a> {
                     file: self.file.clone(),
                     line,
                     column,
-                    message: format!("malformed XML: {e}"),
+                    message: format!(
+                        "malformed XML: {}",
+                        crate::error::shown(&e.to_string(), 200)
+                    ),
                 }
             })?;
             match event {

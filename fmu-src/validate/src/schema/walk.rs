@@ -124,7 +124,7 @@ impl Walker<'_> {
     fn report(&mut self, line: usize, element: &str, xsd: &'static str, message: String) {
         self.out.problems.push(Problem {
             line,
-            element: format!("<{element}>"),
+            element: format!("<{}>", shown(element)),
             xsd,
             message,
         });
@@ -271,6 +271,7 @@ impl Walker<'_> {
                 if ns.is_some_and(|(_, ns)| ns == XSI) || elem.any_attribute {
                     continue;
                 }
+                let key = shown(key);
                 messages.push(format!("element <{}> has no attribute '{key}'", elem.name));
                 continue;
             }
@@ -282,7 +283,10 @@ impl Walker<'_> {
                     }
                 }
                 None if elem.any_attribute => {}
-                None => messages.push(format!("element <{}> has no attribute '{key}'", elem.name)),
+                None => {
+                    let key = shown(key);
+                    messages.push(format!("element <{}> has no attribute '{key}'", elem.name))
+                }
             }
         }
         for a in elem.required() {
@@ -369,6 +373,7 @@ impl Walker<'_> {
 /// What a child out of place is told: an element its parent never has, or one out of the
 /// schema's order or beyond its number.
 fn misplaced(parent: &Elem, child: &str, known: bool, expected: &[String]) -> String {
+    let child = shown(child);
     let next = match expected {
         [] => format!("no further child element is allowed in <{}>", parent.name),
         names => format!("expected here: {}", names.join(" or ")),
