@@ -21,7 +21,8 @@ pub struct Fmi2Me<'i, 'a> {
     state_vrs: Vec<u32>,
     /// Value references of the derivatives, same order.
     derivative_vrs: Vec<u32>,
-    /// The dependencies of each derivative: `<Derivatives>` `dependencies`, inputs left out.
+    /// The sizes, the step flag and each derivative's states (`<Derivatives>` `dependencies`,
+    /// inputs left out).
     bound: Bound,
     directional: bool,
     /// Scratch of the directional derivative calls: the knowns' value references and seed.

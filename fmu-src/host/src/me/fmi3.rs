@@ -57,8 +57,8 @@ function_table! {
 pub struct Fmi3Me<'i, 'a> {
     inst: &'i mut Instance3<'a>,
     f: MeFunctions3,
-    /// The dependencies of each derivative: `dependencies` of its `<ContinuousStateDerivative>`,
-    /// inputs left out; empty without directional derivatives.
+    /// The sizes, the step flag and each derivative's states (`dependencies` of its
+    /// `<ContinuousStateDerivative>`, inputs left out; none without directional derivatives).
     bound: Bound,
     /// (state, derivative) value references when every state is a scalar and the FMU provides
     /// directional derivatives (FMI 3.0.2 section 2.4.8: `<ContinuousStateDerivative>` in the
