@@ -15,9 +15,14 @@ use std::collections::{BTreeSet, HashMap};
 pub use fmi_types::schema::{combination_allowed, initial_allowed};
 
 /// The rules of an FMI 2.0 description, in the order of their findings.
-#[rustfmt::skip]
-const RULES: &[Rule<ModelDescription>] = &[check_root, check_interfaces, check_default_experiment,
-    check_units, check_variables, check_model_structure];
+const RULES: &[Rule<ModelDescription>] = &[
+    check_root,
+    check_interfaces,
+    check_default_experiment,
+    check_units,
+    check_variables,
+    check_model_structure,
+];
 
 /// Checks of `modelDescription.xml` for a Co-Simulation FMU.
 pub fn check_model_description(md: &ModelDescription) -> Vec<Finding> {

@@ -92,10 +92,15 @@ fn interfaces(md: &ModelDescription3) -> Vec<(&'static str, &Interface3)> {
 }
 
 /// The rules of an FMI 3.0 description, in the order of their findings.
-#[rustfmt::skip]
-const RULES: &[Rule<ModelDescription3>] = &[check_root, check_units_and_types,
-    check_display_units, check_variables, check_clocks, check_model_structure,
-    check_initial_unknowns];
+const RULES: &[Rule<ModelDescription3>] = &[
+    check_root,
+    check_units_and_types,
+    check_display_units,
+    check_variables,
+    check_clocks,
+    check_model_structure,
+    check_initial_unknowns,
+];
 
 /// Checks of an FMI 3.0 `modelDescription.xml`, one finding per departure from the standard.
 pub fn check_model_description3(md: &ModelDescription3) -> Vec<Finding> {

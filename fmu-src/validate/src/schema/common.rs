@@ -11,33 +11,47 @@ pub(crate) const S: Ty = Ty::String;
 
 /// The attributes of `<fmiModelDescription>` that describe the model, after `fmiVersion`,
 /// `modelName` and the version's token.
-#[rustfmt::skip]
 pub(crate) const ROOT_INFO: &[Attr] = &[
-    opt_attr("description", S), opt_attr("author", S), opt_attr("version", N),
-    opt_attr("copyright", S), opt_attr("license", S), opt_attr("generationTool", N),
+    opt_attr("description", S),
+    opt_attr("author", S),
+    opt_attr("version", N),
+    opt_attr("copyright", S),
+    opt_attr("license", S),
+    opt_attr("generationTool", N),
     opt_attr("generationDateAndTime", Ty::DateTime),
-    opt_attr("variableNamingConvention", Ty::Enum(&["flat", "structured"])),
+    opt_attr(
+        "variableNamingConvention",
+        Ty::Enum(&["flat", "structured"]),
+    ),
 ];
 
 /// The first attributes of an interface element (`<ModelExchange>`, `<CoSimulation>`, ...).
-#[rustfmt::skip]
 pub(crate) const INTERFACE_BASE: &[Attr] = &[
-    req_attr("modelIdentifier", N), opt_attr("needsExecutionTool", B),
+    req_attr("modelIdentifier", N),
+    opt_attr("needsExecutionTool", B),
     opt_attr("canBeInstantiatedOnlyOncePerProcess", B),
 ];
 
 /// `<BaseUnit>`: the exponents of the SI base units and of rad, a factor and an offset.
-#[rustfmt::skip]
 pub(crate) const BASE_UNIT_ATTRS: &[Attr] = &[
-    opt_attr("kg", INT), opt_attr("m", INT), opt_attr("s", INT), opt_attr("A", INT),
-    opt_attr("K", INT), opt_attr("mol", INT), opt_attr("cd", INT), opt_attr("rad", INT),
-    opt_attr("factor", D), opt_attr("offset", D),
+    opt_attr("kg", INT),
+    opt_attr("m", INT),
+    opt_attr("s", INT),
+    opt_attr("A", INT),
+    opt_attr("K", INT),
+    opt_attr("mol", INT),
+    opt_attr("cd", INT),
+    opt_attr("rad", INT),
+    opt_attr("factor", D),
+    opt_attr("offset", D),
 ];
 
 /// `<DisplayUnit>`: its name, factor and offset.
-#[rustfmt::skip]
-pub(crate) const DISPLAY_UNIT_ATTRS: &[Attr] =
-    &[req_attr("name", N), opt_attr("factor", D), opt_attr("offset", D)];
+pub(crate) const DISPLAY_UNIT_ATTRS: &[Attr] = &[
+    req_attr("name", N),
+    opt_attr("factor", D),
+    opt_attr("offset", D),
+];
 
 /// A required name (`<Unit>`; FMI 2.0: `<File>`, `<Tool>`).
 pub(crate) const NAME: &[Attr] = &[req_attr("name", N)];
@@ -47,17 +61,20 @@ pub(crate) const NAME: &[Attr] = &[req_attr("name", N)];
 pub(crate) const NAMED: &[Attr] = &[req_attr("name", N), opt_attr("description", S)];
 
 /// `<DefaultExperiment>`.
-#[rustfmt::skip]
 pub(crate) const DEFAULT_EXPERIMENT_ATTRS: &[Attr] = &[
-    opt_attr("startTime", D), opt_attr("stopTime", D), opt_attr("tolerance", D),
+    opt_attr("startTime", D),
+    opt_attr("stopTime", D),
+    opt_attr("tolerance", D),
     opt_attr("stepSize", D),
 ];
 
 /// The quantity and units of a real type or variable (FMI 3.0: Float32 and Float64).
-#[rustfmt::skip]
 pub(crate) const REAL_UNITS: &[Attr] = &[
-    opt_attr("quantity", N), opt_attr("unit", N), opt_attr("displayUnit", N),
-    opt_attr("relativeQuantity", B), opt_attr("unbounded", B),
+    opt_attr("quantity", N),
+    opt_attr("unit", N),
+    opt_attr("displayUnit", N),
+    opt_attr("relativeQuantity", B),
+    opt_attr("unbounded", B),
 ];
 
 /// The quantity of an integer or enumeration type or variable.
@@ -67,23 +84,31 @@ pub(crate) const QUANTITY: &[Attr] = &[opt_attr("quantity", N)];
 pub(crate) const INT_RANGE: &[Attr] = &[opt_attr("min", INT), opt_attr("max", INT)];
 
 /// The range and nominal value of an FMI 2.0 Real or an FMI 3.0 Float64.
-#[rustfmt::skip]
-pub(crate) const DOUBLE_RANGE: &[Attr] =
-    &[opt_attr("min", D), opt_attr("max", D), opt_attr("nominal", D)];
+pub(crate) const DOUBLE_RANGE: &[Attr] = &[
+    opt_attr("min", D),
+    opt_attr("max", D),
+    opt_attr("nominal", D),
+];
 
 pub(crate) const DECLARED_TYPE: &[Attr] = &[opt_attr("declaredType", N)];
 /// An enumeration variable must name its type.
 pub(crate) const TYPED: &[Attr] = &[req_attr("declaredType", N)];
 
 /// The name, value reference and description of every variable.
-#[rustfmt::skip]
-pub(crate) const VARIABLE_ID: &[Attr] =
-    &[req_attr("name", N), req_attr("valueReference", UINT), opt_attr("description", S)];
+pub(crate) const VARIABLE_ID: &[Attr] = &[
+    req_attr("name", N),
+    req_attr("valueReference", UINT),
+    opt_attr("description", S),
+];
 
 /// The values of `causality`: FMI 2.0 has the first six, FMI 3.0 all seven.
-#[rustfmt::skip]
 pub(crate) const CAUSALITIES: [&str; 7] = [
-    "parameter", "calculatedParameter", "input", "output", "local", "independent",
+    "parameter",
+    "calculatedParameter",
+    "input",
+    "output",
+    "local",
+    "independent",
     "structuralParameter",
 ];
 
@@ -96,6 +121,7 @@ pub(crate) const INITIAL: Ty = Ty::Enum(&["exact", "approx", "calculated"]);
 const KIND: Ty = Ty::Enum(&["dependent", "constant", "fixed", "tunable", "discrete"]);
 
 /// The dependencies of an unknown of `<ModelStructure>`, after the attribute naming it.
-#[rustfmt::skip]
-pub(crate) const DEPENDENCIES: &[Attr] =
-    &[opt_attr("dependencies", Ty::List(&UINT)), opt_attr("dependenciesKind", Ty::List(&KIND))];
+pub(crate) const DEPENDENCIES: &[Attr] = &[
+    opt_attr("dependencies", Ty::List(&UINT)),
+    opt_attr("dependenciesKind", Ty::List(&KIND)),
+];
