@@ -13,6 +13,7 @@ use crate::fmi3::md::{Fmi3Attrs, Interface3, ModelDescription3, Variable3};
 use crate::fmi3::value::Values;
 use crate::kind::FmiVersion;
 use crate::md::{ModelDescription, ScalarVariable, StartValue};
+use crate::md_common::TypeDefinition;
 
 pub use crate::fmi3::value::Type3 as ValueType;
 pub use crate::md::DefaultExperiment;
@@ -249,9 +250,7 @@ fn variable_of_fmi2(md: &ModelDescription, v: &ScalarVariable) -> Variable {
         v.derivative.and_then(state),
         Fmi3Attrs::new(ty),
     );
-    let declared = v.declared_type.as_deref().and_then(|t| md.simple_type(t));
-    let d = declared.map(|d| (d.min, d.max, d.unit.as_ref()));
-    with_declared(view, d.unwrap_or_default())
+    with_declared(view, &md.type_definitions)
 }
 
 /// An FMI 2.0 start value as a one-element buffer of its FMI 3.0 type. The FMI 2.0 Integer is
@@ -271,18 +270,7 @@ fn start_of_fmi2(start: &StartValue) -> Values {
 /// The view of an FMI 3.0 description.
 pub fn from_fmi3(md: &ModelDescription3) -> ModelView {
     let identifier = |i: &Option<Interface3>| i.as_ref().map(|i| i.model_identifier.clone());
-    let variable = |v: &Variable3| {
-        let declared = v.declared_type.as_deref();
-        let d = md
-            .type_definitions
-            .iter()
-            .find(|d| Some(d.name.as_str()) == declared);
-        with_declared(
-            v.clone(),
-            d.map(|d| (d.min, d.max, d.unit.as_ref()))
-                .unwrap_or_default(),
-        )
-    };
+    let variable = |v: &Variable3| with_declared(v.clone(), &md.type_definitions);
     ModelView {
         fmi_version: FmiVersion::Fmi3,
         model_name: md.model_name.clone(),
@@ -299,15 +287,15 @@ pub fn from_fmi3(md: &ModelDescription3) -> ModelView {
     }
 }
 
-/// `v` with the `min`, `max` and `unit` of its declared type where it gives none.
-fn with_declared(
-    mut v: Variable,
-    declared: (Option<f64>, Option<f64>, Option<&String>),
-) -> Variable {
-    let (min, max, unit) = declared;
-    v.min = v.min.or(min);
-    v.max = v.max.or(max);
-    v.unit = v.unit.or_else(|| unit.cloned());
+/// `v` with the `min`, `max` and `unit` of its declared type (one of `types`, either version's)
+/// where it gives none.
+fn with_declared<T>(mut v: Variable, types: &[TypeDefinition<T>]) -> Variable {
+    let name = v.declared_type.as_deref();
+    if let Some(d) = types.iter().find(|d| Some(d.name.as_str()) == name) {
+        v.min = v.min.or(d.min);
+        v.max = v.max.or(d.max);
+        v.unit = v.unit.take().or_else(|| d.unit.clone());
+    }
     v
 }
 
@@ -380,5 +368,22 @@ mod tests {
             view.default_experiment.as_ref().unwrap().step_size,
             Some(0.001)
         );
+    }
+
+    #[test]
+    fn an_fmi2_variable_takes_range_and_unit_its_declared_type_gives_and_it_does_not() {
+        let xml = r#"<fmiModelDescription fmiVersion="2.0" modelName="m" guid="g">
+          <TypeDefinitions><SimpleType name="Torque"><Real unit="N.m" min="0" max="5"/></SimpleType></TypeDefinitions>
+          <ModelVariables>
+            <ScalarVariable name="a" valueReference="1" causality="parameter" variability="fixed"><Real declaredType="Torque" start="1"/></ScalarVariable>
+            <ScalarVariable name="b" valueReference="2" causality="parameter" variability="fixed"><Real declaredType="Torque" start="1" max="2" unit="kN.m"/></ScalarVariable>
+          </ModelVariables></fmiModelDescription>"#;
+        let view = ModelView::from(&ModelDescription::parse(xml, "md.xml").unwrap());
+        let range = |name| {
+            let v = view.scalar(name).unwrap();
+            (v.min, v.max, v.unit.clone())
+        };
+        assert_eq!(range("a"), (Some(0.0), Some(5.0), Some("N.m".into())));
+        assert_eq!(range("b"), (Some(0.0), Some(2.0), Some("kN.m".into())));
     }
 }
