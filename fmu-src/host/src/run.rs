@@ -87,11 +87,12 @@ impl InputPoint<'_> {
 }
 
 impl<'r> InputAxis<'r> {
-    /// The axis of row times `time` with its input events `events` (ascending).
-    pub(crate) fn new(time: &'r [f64], events: Vec<f64>) -> Self {
+    /// The axis of row times `time`; `held_changes(k)`: whether a held input's value at row `k`
+    /// differs from its value at row `k - 1`.
+    pub(crate) fn new(time: &'r [f64], held_changes: impl Fn(usize) -> bool) -> Self {
         InputAxis {
             time,
-            events,
+            events: input_events(time, held_changes),
             jump_passed: f64::NEG_INFINITY,
             interp_cursor: 0,
             hold_cursor: 0,
@@ -141,6 +142,18 @@ impl<I, V: InputValues<I>> Inputs<I> for InputPlanOf<'_, V> {
         self.axis.interp_cursor = at.next;
         result
     }
+}
+
+/// The row times at which an input event happens, ascending and each once: a repeated row
+/// time, or a row at which a held input changes (FMPy's `Input.findEvents`).
+fn input_events(time: &[f64], held_changes: impl Fn(usize) -> bool) -> Vec<f64> {
+    let mut events: Vec<f64> = (1..time.len())
+        .filter(|&k| time[k - 1] == time[k] || held_changes(k))
+        .map(|k| time[k])
+        .collect();
+    events.sort_by(f64::total_cmp);
+    events.dedup();
+    events
 }
 
 /// The first of the ascending event times `events` after `t`, not within 1e-9 relative of it

@@ -612,32 +612,20 @@ pub(crate) struct Inputs2<'r> {
     real_buf: Vec<f64>,
 }
 
-/// The input events of `series` as FMPy's `Input.findEvents` finds them: the time of a repeated
-/// row time, and the row time at which a held (discrete) input changes its value.
-fn input_events(plan: &Inputs2<'_>, series: &InputSeries) -> Vec<f64> {
-    let t = &series.time;
-    let mut events: Vec<f64> = t
-        .windows(2)
-        .filter(|w| w[0] == w[1])
-        .map(|w| w[0])
-        .collect();
+/// Whether a held (discrete) input of `plan` changes its value at row `k` of `series`.
+fn held_changes(plan: &Inputs2<'_>, series: &InputSeries, k: usize) -> bool {
+    let changed = |v: &[f64]| k < v.len() && v[k] != v[k - 1];
     let held = plan
         .reals
         .iter()
         .filter(|r| r.2 == Apply::Hold)
-        .map(|r| r.1)
-        .chain(plan.ints.iter().chain(&plan.bools).map(|r| r.1));
-    for col in held {
-        let v = &series.columns[col].1;
-        events.extend((1..v.len()).filter(|&i| v[i] != v[i - 1]).map(|i| t[i]));
-    }
-    for &(_, col) in &plan.strings {
+        .map(|r| r.1);
+    let mut held = held.chain(plan.ints.iter().chain(&plan.bools).map(|r| r.1));
+    let text_changed = |&(_, col): &(u32, usize)| {
         let v = &series.text[col].1;
-        events.extend((1..v.len()).filter(|&i| v[i] != v[i - 1]).map(|i| t[i]));
-    }
-    events.sort_by(f64::total_cmp);
-    events.dedup();
-    events
+        k < v.len() && v[k] != v[k - 1]
+    };
+    held.any(|col| changed(&series.columns[col].1)) || plan.strings.iter().any(text_changed)
 }
 
 impl<'r> InputPlan<'r> {
@@ -692,7 +680,7 @@ impl<'r> InputPlan<'r> {
         }
         plan.real_vrs = plan.reals.iter().map(|r| r.0).collect();
         plan.real_buf = vec![0.0; plan.reals.len()];
-        let axis = InputAxis::new(&series.time, input_events(&plan, series));
+        let axis = InputAxis::new(&series.time, |k| held_changes(&plan, series, k));
         Ok(InputPlanOf { axis, values: plan })
     }
 }

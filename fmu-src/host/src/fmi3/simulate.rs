@@ -383,7 +383,13 @@ impl<'r> InputPlan3<'r> {
         if !inputs.is_empty() && series.time.is_empty() {
             return Err(HostError::Request("input series has no samples".into()));
         }
-        let axis = InputAxis::new(&series.time, input_events(&series.time, &inputs));
+        let held_changes = |k: usize| {
+            inputs.iter().any(|(_, s)| match s {
+                Samples::Held(rows) => rows[k] != rows[k - 1],
+                Samples::Interpolated { .. } => false,
+            })
+        };
+        let axis = InputAxis::new(&series.time, held_changes);
         let values = Inputs3Plan { inputs, triggered };
         Ok(InputPlanOf { axis, values })
     }
@@ -410,21 +416,6 @@ impl InputValues<Instance3<'_>> for Inputs3Plan {
         }
         Ok(())
     }
-}
-
-/// The row times at which an input event happens, in time order: a repeated row time, or a row
-/// at which a held input changes (FMPy's `Input.findEvents`).
-fn input_events(time: &[f64], inputs: &[(u32, Samples)]) -> Vec<f64> {
-    (1..time.len())
-        .filter(|&k| {
-            time[k - 1] == time[k]
-                || inputs.iter().any(|(_, s)| match s {
-                    Samples::Held(rows) => rows[k] != rows[k - 1],
-                    Samples::Interpolated { .. } => false,
-                })
-        })
-        .map(|k| time[k])
-        .collect()
 }
 
 fn names_of(md: &ModelDescription3, c: Causality3) -> String {
