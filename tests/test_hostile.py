@@ -127,6 +127,17 @@ def test_a_description_quoting_an_overlong_text_gives_bounded_messages(tmp_path,
     assert max(map(len, res.stdout.splitlines())) < 1000, res.stdout[:1000]
 
 
+def test_an_archive_entry_escaping_with_an_overlong_name_is_named_shortened(tmp_path):
+    fmu = tmp_path / "esc.fmu"
+    with zipfile.ZipFile(fmu, "w") as z:
+        z.writestr("../" + "a" * LONG, "x")
+        z.writestr("modelDescription.xml", overlong_description("start"))
+    res = run("validate", fmu)
+    assert res.returncode == 1, (res.returncode, res.stdout[:1000], res.stderr[:1000])
+    assert "escapes the archive" in res.stdout, res.stdout[:1000]
+    assert max(map(len, res.stdout.splitlines())) < 1000, res.stdout[:1000]
+
+
 @pytest.mark.parametrize("which", ["data", "fmu"])
 def test_out_equal_to_an_input_is_refused_and_the_input_kept(tmp_path, which):
     fmu = tmp_path / "m.fmu"

@@ -264,11 +264,11 @@ fn extract(archive: &Path, dest: &Path) -> Result<()> {
         let mut entry = zip
             .by_index(i)
             .map_err(|e| bad(format!("entry {i}: {e}")))?;
+        let name = crate::error::shown(entry.name(), 80);
         let Some(rel) = entry.enclosed_name() else {
-            return Err(bad(format!("entry '{}' escapes the archive", entry.name())));
+            return Err(bad(format!("entry '{name}' escapes the archive")));
         };
         let out = dest.join(rel);
-        let name = crate::error::shown(entry.name(), 80);
         // Messages name the entry in the archive, never the temporary directory.
         let io = |e: std::io::Error| bad(format!("entry '{name}' cannot be extracted: {e}"));
         if entry.is_symlink() {

@@ -69,7 +69,8 @@ pub(crate) fn within_range(
 ) -> Result<()> {
     if matches!(min, Some(lo) if x < lo) || matches!(max, Some(hi) if x > hi) {
         return Err(HostError::Request(format!(
-            "'{name}' = {shown} is outside its range [{}, {}]",
+            "'{}' = {shown} is outside its range [{}, {}]",
+            crate::error::shown(name, 60),
             min.unwrap_or(f64::NEG_INFINITY),
             max.unwrap_or(f64::INFINITY)
         )));
